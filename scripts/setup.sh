@@ -1,0 +1,38 @@
+#!/usr/bin/env bash
+# One-shot set-up of a fresh machine: Debian packages flexhrc uses at run time, then a virtual
+# environment in .venv with flexhrc and every optional extra (editable install).
+# Idempotent and quick when nothing changed: it re-installs only when pyproject.toml changes.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+PY=${PYTHON:-python3}
+VENV=${VENV:-.venv}
+DEBIAN_PACKAGES=(graphviz)   # `dot` renders AND/OR graphs and behaviour networks to SVG/PNG
+
+missing=()
+for pkg in "${DEBIAN_PACKAGES[@]}"; do
+    dpkg-query -W -f='${Status}' "$pkg" 2>/dev/null | grep -q "install ok installed" || missing+=("$pkg")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+    if [ "$(id -u)" -eq 0 ]; then SUDO=""; elif command -v sudo >/dev/null; then SUDO="sudo"; else SUDO="none"; fi
+    if [ "$SUDO" = "none" ]; then
+        echo "setup: please install the Debian packages: ${missing[*]} (needs root); continuing without them" >&2
+    else
+        echo "setup: installing Debian packages: ${missing[*]}" >&2
+        $SUDO apt-get update -qq
+        DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq "${missing[@]}" >/dev/null
+    fi
+fi
+
+if [ ! -x "$VENV/bin/python" ]; then
+    echo "setup: creating $VENV" >&2
+    "$PY" -m venv "$VENV"
+fi
+stamp="$VENV/.flexhrc-setup"
+want="$(sha256sum pyproject.toml | cut -d' ' -f1)"
+if [ ! -f "$stamp" ] || [ "$(cat "$stamp")" != "$want" ]; then
+    echo "setup: installing flexhrc and its extras into $VENV (first time: a few minutes)" >&2
+    "$VENV/bin/python" -m pip install -q --upgrade pip
+    "$VENV/bin/python" -m pip install -q -e ".[all,dev]"
+    echo "$want" > "$stamp"
+fi

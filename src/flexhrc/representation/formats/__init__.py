@@ -1,0 +1,1 @@
+"""Readers and writers of AND/OR graph files: ANDOR text, YAML, DOT."""

@@ -1,0 +1,1 @@
+"""Ready-made scenarios: table assembly, IKEA kitchen, table setting, ball in a box."""
