@@ -1,1 +1,34 @@
-"""Task representation: hierarchical first-order AND/OR graphs (paper 000, section IV)."""
+"""Task representation: hierarchical first-order AND/OR graphs (paper 000, section IV).
+
+* :class:`Node`, :class:`Hyperarc`, :class:`AndOrGraph` — graph definitions;
+* :class:`HierarchicalGraph` — definitions nested by transitions (eqs. 12-16);
+* :class:`OnlineGraph` — the online phase: statuses, DP costs, suggestions, event history;
+* :func:`load` / :func:`save` — ANDOR text, YAML and DOT formats (``formats``).
+"""
+
+from flexhrc.representation.formats import load, save
+from flexhrc.representation.graph import AndOrGraph, Hyperarc, Node
+from flexhrc.representation.hierarchy import HierarchicalGraph, qualify, split_qualified
+from flexhrc.representation.online import (
+    Event,
+    InfeasibleUpdateError,
+    OnlineGraph,
+    QueryResult,
+    Suggestion,
+)
+
+__all__ = [
+    "AndOrGraph",
+    "Event",
+    "HierarchicalGraph",
+    "Hyperarc",
+    "InfeasibleUpdateError",
+    "Node",
+    "OnlineGraph",
+    "QueryResult",
+    "Suggestion",
+    "load",
+    "qualify",
+    "save",
+    "split_qualified",
+]

@@ -1,0 +1,231 @@
+"""The ANDOR text format of the FlexHRC+ authors' C++ library (``anchors/andor-graphs``).
+
+::
+
+    <graph name> <number of nodes N> <root node name>
+    <node name> <node weight>                       (N lines)
+    <hyper-arc name> <k children> <parent> <weight> <lower graph file or ->
+    <child 1>                                       (k lines)
+    ...
+
+A lower graph is named by its file name without ``.txt``. It is looked up relative to the folder
+of the including file first, then relative to the folder of the top file (the kitchen files of
+the reference corpus use the latter: ``BaseCabinet/DrawerAssembly.txt`` refers to
+``BaseCabinet/RollerAssembly``). Blank lines and lines starting with ``#`` are ignored, so the
+``*Commented.txt`` files load too. Graph definitions are keyed by their path relative to the top
+file's folder, without extension (``BaseCabinet/RailAssembly``); the top graph's key is its
+file stem.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import replace
+from pathlib import Path
+
+from flexhrc.errors import FormatError
+from flexhrc.representation.graph import AndOrGraph, Hyperarc, Node
+from flexhrc.representation.hierarchy import HierarchicalGraph
+
+SUFFIX = ".txt"
+
+
+def _lines(path: Path) -> list[tuple[int, list[str]]]:
+    try:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError as exc:
+        raise FormatError(f"not a UTF-8 text file ({exc.reason})", path) from None
+    out = []
+    for i, raw in enumerate(text.splitlines(), 1):
+        s = raw.strip()
+        if s and not s.startswith("#"):
+            out.append((i, s.split()))
+    return out
+
+
+def _weight(tok: str, kind: str, name: str, path: Path, line: int) -> float:
+    if tok.isdigit():  # the common case, cheap
+        return float(tok)
+    what = f"{kind} {name!r}"
+    try:
+        w = float(tok)
+    except ValueError:
+        raise FormatError(f"{what}: weight {tok!r} is not a number", path, line) from None
+    if not (w >= 0) or w == float("inf"):
+        raise FormatError(f"{what}: weight must be a finite number >= 0, got {tok}", path, line)
+    return w
+
+
+def _name(tok: str, what: str, path: Path, line: int) -> str:
+    if "/" in tok:
+        raise FormatError(f"{what} name {tok!r} must not contain '/'", path, line)
+    return tok
+
+
+def parse_graph(path: str | Path) -> tuple[AndOrGraph, list[tuple[str, int]]]:
+    """Parse one file. Returns the graph and its lower-graph references (name, line)."""
+    path = Path(path)
+    lines = _lines(path)
+    if not lines:
+        raise FormatError("empty file: expected '<graph name> <number of nodes> <root>'", path, 1)
+    lineno, head = lines[0]
+    if len(head) != 3:
+        raise FormatError(
+            f"header must be '<graph name> <number of nodes> <root node>', got {' '.join(head)!r}",
+            path,
+            lineno,
+        )
+    name, count_tok, root = head
+    try:
+        count = int(count_tok)
+    except ValueError:
+        raise FormatError(
+            f"number of nodes {count_tok!r} is not an integer", path, lineno
+        ) from None
+    if count < 1:
+        raise FormatError(f"number of nodes must be at least 1, got {count}", path, lineno)
+    graph = AndOrGraph(name, root, source=path)
+    graph.root_line = lineno
+    if len(lines) - 1 < count:
+        raise FormatError(
+            f"header announces {count} nodes but the file has only {len(lines) - 1} more lines",
+            path,
+            lineno,
+        )
+    nodes = graph.nodes
+    for i in range(1, count + 1):
+        ln, toks = lines[i]
+        if len(toks) != 2:
+            hint = " (the header announces more nodes than are listed?)" if len(toks) == 5 else ""
+            raise FormatError(
+                f"node line must be '<name> <weight>', got {' '.join(toks)!r}{hint}", path, ln
+            )
+        n = toks[0]
+        if "/" in n or n in nodes:
+            _name(n, "node", path, ln)
+            graph.add_node(Node(n, line=ln))  # raises the duplicate-name error
+        nodes[n] = Node(n, _weight(toks[1], "node", n, path, ln), line=ln)
+    refs: list[tuple[str, int]] = []
+    i = count + 1
+    while i < len(lines):
+        ln, toks = lines[i]
+        if len(toks) != 5:
+            extra = " (a node line after the announced number of nodes?)" if len(toks) == 2 else ""
+            raise FormatError(
+                "hyper-arc line must be '<name> <number of children> <parent> <weight> "
+                f"<lower graph or ->', got {' '.join(toks)!r}{extra}",
+                path,
+                ln,
+            )
+        hname, k_tok, parent, w_tok, lower = toks
+        _name(hname, "hyper-arc", path, ln)
+        try:
+            k = int(k_tok)
+        except ValueError:
+            raise FormatError(
+                f"hyper-arc {hname!r}: number of children {k_tok!r} is not an integer", path, ln
+            ) from None
+        if k < 1:
+            raise FormatError(f"hyper-arc {hname!r}: needs at least one child, got {k}", path, ln)
+        children = []
+        for j in range(1, k + 1):
+            if i + j >= len(lines) or len(lines[i + j][1]) != 1:
+                found = j - 1
+                where = lines[i + j][0] if i + j < len(lines) else ln
+                raise FormatError(
+                    f"hyper-arc {hname!r} declares {k} children but {found} follow", path, where
+                )
+            children.append(lines[i + j][1][0])
+        weight = _weight(w_tok, "hyper-arc", hname, path, ln)
+        lower_ref = None if lower == "-" else lower
+        if lower_ref is not None:
+            refs.append((lower_ref, ln))
+        graph.add_hyperarc(
+            Hyperarc(hname, tuple(children), parent, weight, lower=lower_ref, line=ln)
+        )
+        i += k + 1
+    return graph, refs
+
+
+def resolve_reference(ref: str, including: Path, top_dir: Path) -> Path | None:
+    """Find the file of lower graph ``ref`` (see module docstring for the search order)."""
+    found = _resolve(ref, str(including.parent), str(top_dir))
+    return Path(found) if found else None
+
+
+def _resolve(ref: str, including_dir: str, top_dir: str) -> str | None:
+    for base in (including_dir, top_dir):
+        for cand in (os.path.join(base, ref), os.path.join(base, ref + SUFFIX)):
+            if os.path.isfile(cand):
+                return os.path.normpath(cand)
+    return None
+
+
+def load_andor_text(path: str | Path) -> HierarchicalGraph:
+    """Load a top file and every lower graph it refers to, recursively."""
+    top_file = os.path.normpath(os.path.abspath(path))
+    if not os.path.isfile(top_file):
+        raise FormatError("no such file", path)
+    top_dir = os.path.dirname(top_file)
+    graphs: dict[str, AndOrGraph] = {}
+    key_of: dict[str, str] = {}
+    resolved: dict[tuple[str, str], str | None] = {}
+
+    def key_for(p: str) -> str:
+        rel = os.path.relpath(p, top_dir) if p.startswith(top_dir + os.sep) else os.path.basename(p)
+        rel = rel.replace(os.sep, "/")
+        return rel[: -len(SUFFIX)] if rel.endswith(SUFFIX) else rel
+
+    def load(p: str) -> str:
+        if p in key_of:
+            return key_of[p]
+        key = key_for(p)
+        key_of[p] = key
+        graph, refs = parse_graph(Path(p))
+        graphs[key] = graph
+        here = os.path.dirname(p)
+        remap: dict[str, str] = {}
+        for ref, ln in refs:
+            if ref in remap:
+                continue
+            target = resolved.get((here, ref), "")
+            if target == "":
+                target = resolved[(here, ref)] = _resolve(ref, here, top_dir)
+            if target is None:
+                raise FormatError(
+                    f"lower graph file {ref!r} not found (looked for {ref}{SUFFIX} next to this "
+                    f"file and in {top_dir})",
+                    p,
+                    ln,
+                )
+            remap[ref] = load(target)
+        if any(k != v for k, v in remap.items()):
+            for h in list(graph.hyperarcs.values()):
+                if h.lower is not None and remap[h.lower] != h.lower:
+                    graph.hyperarcs[h.name] = replace(h, lower=remap[h.lower])
+        return key
+
+    top = load(top_file)
+    return HierarchicalGraph(graphs, top)
+
+
+def dump_andor_text(hierarchy: HierarchicalGraph, directory: str | Path) -> Path:
+    """Write every definition as ANDOR text under ``directory``; returns the top file.
+
+    Formulas, processes and actions have no place in this format and are dropped.
+    """
+    directory = Path(directory)
+    for key, g in hierarchy.graphs.items():
+        target = directory / (key + SUFFIX)
+        target.parent.mkdir(parents=True, exist_ok=True)
+        lines = [f"{g.name} {len(g.nodes)} {g.root}"]
+        lines += [f"{n.name} {_fmt(n.weight)}" for n in g.nodes.values()]
+        for h in g.hyperarcs.values():
+            lines.append(f"{h.name} {len(h.children)} {h.parent} {_fmt(h.weight)} {h.lower or '-'}")
+            lines += list(h.children)
+        target.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return directory / (hierarchy.top + SUFFIX)
+
+
+def _fmt(w: float) -> str:
+    return str(int(w)) if float(w).is_integer() else repr(w)

@@ -1,0 +1,298 @@
+"""AND/OR graph definitions: :class:`Node`, :class:`Hyperarc`, :class:`AndOrGraph`.
+
+An AND/OR graph G = <N, H> (paper 000, section IV-A) has nodes — cooperation states — and
+hyper-arcs — transitions. A hyper-arc has an ordered tuple of child nodes (all needed: AND) and
+one parent node; several hyper-arcs into the same parent are alternatives (OR). The root is the
+goal state; nodes that no hyper-arc produces are leaves.
+
+These classes are *definitions*: immutable descriptions loaded from a file or built in code.
+The run-time statuses (met, solved, feasible) live in :class:`flexhrc.representation.OnlineGraph`,
+which can instantiate one definition several times in a hierarchy.
+
+Besides its name and weight w(n), a node may carry a state formula S(n) (a conjunction of
+literals, eq. 2; by default the node's name alone) and an ordered tuple of processes P(n) (robot
+behaviours kept up while in that state, eq. 5). A hyper-arc carries its weight w(h), an ordered
+tuple of actions A(h) (eq. 4) and optionally the key of a lower graph it expands into (eq. 14),
+with the leaf mapping M1 (eq. 15) when it is given explicitly.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from flexhrc.errors import FormatError, UnknownNameError
+from flexhrc.logic import Conjunction
+
+
+@dataclass(slots=True)
+class Node:
+    """A cooperation state n with weight w(n), state formula S(n) and processes P(n).
+
+    Treat it as immutable once it is part of a graph (it is not frozen only because frozen
+    dataclasses are three times slower to create, which shows when loading large files).
+    """
+
+    name: str
+    weight: float = 0.0
+    formula: Conjunction | None = None
+    processes: tuple[str, ...] = ()
+    line: int | None = field(default=None, compare=False, repr=False)
+
+    def __hash__(self) -> int:
+        return hash(self.name)
+
+
+@dataclass(slots=True)
+class Hyperarc:
+    """A transition h from its ordered children N_c(h) to its parent N_p(h).
+
+    ``lower`` names the graph definition (key in the hierarchy) this hyper-arc expands into,
+    ``leaf_map`` is the explicit M1 mapping child -> lower-graph leaves (eq. 15), or None when
+    the file leaves it implicit (ANDOR text: all children together correspond to all leaves).
+    """
+
+    name: str
+    children: tuple[str, ...]
+    parent: str
+    weight: float = 0.0
+    actions: tuple[str, ...] = ()
+    lower: str | None = None
+    leaf_map: Mapping[str, tuple[str, ...]] | None = None
+    line: int | None = field(default=None, compare=False, repr=False)
+
+    def __hash__(self) -> int:
+        return hash((self.name, self.children, self.parent))
+
+
+class AndOrGraph:
+    """One AND/OR graph definition: named nodes, named hyper-arcs and a root.
+
+    Build it with :meth:`add_node` / :meth:`add_hyperarc` (or load it with
+    :func:`flexhrc.representation.load`), then call :meth:`validate`. Errors name the source
+    file and line of the offending element when known.
+    """
+
+    def __init__(self, name: str, root: str | None = None, source: str | Path | None = None):
+        self.name = name
+        self.root = root
+        self.source = str(source) if source is not None else None
+        self.nodes: dict[str, Node] = {}
+        self.hyperarcs: dict[str, Hyperarc] = {}
+        self.root_line: int | None = None
+
+    # -- building -------------------------------------------------------------------------
+    def add_node(self, node: Node | str, weight: float = 0.0, **kw: object) -> Node:
+        if isinstance(node, str):
+            node = Node(node, weight, **kw)  # type: ignore[arg-type]
+        if node.name in self.nodes:
+            first = self.nodes[node.name].line
+            where = f" (first defined at line {first})" if first else ""
+            raise FormatError(f"duplicate node name {node.name!r}{where}", self.source, node.line)
+        _check_weight(node.weight, f"node {node.name!r}", self.source, node.line)
+        self.nodes[node.name] = node
+        return node
+
+    def add_hyperarc(
+        self,
+        hyperarc: Hyperarc | str,
+        children: Iterable[str] = (),
+        parent: str | None = None,
+        weight: float = 0.0,
+        **kw: object,
+    ) -> Hyperarc:
+        if isinstance(hyperarc, str):
+            if parent is None:
+                raise ValueError("parent is required")
+            hyperarc = Hyperarc(hyperarc, tuple(children), parent, weight, **kw)  # type: ignore[arg-type]
+        if hyperarc.name in self.hyperarcs:
+            first = self.hyperarcs[hyperarc.name].line
+            where = f" (first defined at line {first})" if first else ""
+            raise FormatError(
+                f"duplicate hyper-arc name {hyperarc.name!r}{where}", self.source, hyperarc.line
+            )
+        _check_weight(hyperarc.weight, f"hyper-arc {hyperarc.name!r}", self.source, hyperarc.line)
+        if not hyperarc.children:
+            raise FormatError(
+                f"hyper-arc {hyperarc.name!r} has no child node", self.source, hyperarc.line
+            )
+        self.hyperarcs[hyperarc.name] = hyperarc
+        return hyperarc
+
+    # -- queries --------------------------------------------------------------------------
+    def node(self, name: str) -> Node:
+        try:
+            return self.nodes[name]
+        except KeyError:
+            raise UnknownNameError(f"graph {self.name!r} has no node {name!r}") from None
+
+    def hyperarc(self, name: str) -> Hyperarc:
+        try:
+            return self.hyperarcs[name]
+        except KeyError:
+            raise UnknownNameError(f"graph {self.name!r} has no hyper-arc {name!r}") from None
+
+    def incoming(self, node: str) -> list[Hyperarc]:
+        """Hyper-arcs whose parent is ``node`` (its OR alternatives)."""
+        return [h for h in self.hyperarcs.values() if h.parent == node]
+
+    def outgoing(self, node: str) -> list[Hyperarc]:
+        """Hyper-arcs that have ``node`` among their children."""
+        return [h for h in self.hyperarcs.values() if node in h.children]
+
+    def leaves(self) -> list[str]:
+        """Nodes that no hyper-arc produces, in definition order (N_L)."""
+        produced = {h.parent for h in self.hyperarcs.values()}
+        return [n for n in self.nodes if n not in produced]
+
+    def __len__(self) -> int:
+        return len(self.nodes)
+
+    def __repr__(self) -> str:
+        return (
+            f"AndOrGraph({self.name!r}, root={self.root!r}, nodes={len(self.nodes)}, "
+            f"hyperarcs={len(self.hyperarcs)})"
+        )
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, AndOrGraph):
+            return NotImplemented
+        return (
+            self.name == other.name
+            and self.root == other.root
+            and list(self.nodes.values()) == list(other.nodes.values())
+            and list(self.hyperarcs.values()) == list(other.hyperarcs.values())
+        )
+
+    __hash__ = None  # type: ignore[assignment]
+
+    # -- validation -----------------------------------------------------------------------
+    def validate(self) -> None:
+        """Check the structure; raise :class:`FormatError` naming file and line on a fault.
+
+        Checks: a root is declared and exists; every hyper-arc names existing nodes and no
+        child twice; the root is the only node that no hyper-arc consumes (one root); no cycle.
+        """
+        src = self.source
+        if not self.root:
+            raise FormatError(f"graph {self.name!r} declares no root node", src, self.root_line)
+        if self.root not in self.nodes:
+            raise FormatError(
+                f"root node {self.root!r} of graph {self.name!r} is not among its nodes",
+                src,
+                self.root_line,
+            )
+        consumed: set[str] = set()
+        for h in self.hyperarcs.values():
+            if h.parent not in self.nodes:
+                raise FormatError(
+                    f"hyper-arc {h.name!r}: unknown parent node {h.parent!r}", src, h.line
+                )
+            seen: set[str] = set()
+            for c in h.children:
+                if c not in self.nodes:
+                    raise FormatError(
+                        f"hyper-arc {h.name!r}: unknown child node {c!r}", src, h.line
+                    )
+                if c in seen:
+                    raise FormatError(
+                        f"hyper-arc {h.name!r}: child {c!r} listed twice", src, h.line
+                    )
+                seen.add(c)
+            if h.parent in seen:
+                raise FormatError(
+                    f"hyper-arc {h.name!r}: node {h.parent!r} is both child and parent", src, h.line
+                )
+            consumed.update(h.children)
+        if self.root in consumed:
+            h = next(h for h in self.hyperarcs.values() if self.root in h.children)
+            raise FormatError(
+                f"root node {self.root!r} is a child of hyper-arc {h.name!r} (a root has no "
+                "parent)",
+                src,
+                h.line,
+            )
+        produced = {h.parent for h in self.hyperarcs.values()}
+        dangling = [n for n in self.nodes if n != self.root and n not in consumed and n in produced]
+        if dangling:
+            n = self.nodes[dangling[0]]
+            raise FormatError(
+                f"graph {self.name!r} has more than one root: node {n.name!r} is produced by a "
+                f"hyper-arc but used by none, besides the declared root {self.root!r}",
+                src,
+                n.line,
+            )
+        cycle = self._find_cycle()
+        if cycle:
+            h = self.hyperarcs[cycle[1]]
+            raise FormatError(f"cycle: {' -> '.join(cycle)}", src, h.line)
+
+    def _find_cycle(self) -> list[str] | None:
+        """A cycle child -> hyper-arc -> parent -> ... as a list of names, or None."""
+        out: dict[str, list[Hyperarc]] = {n: [] for n in self.nodes}
+        for h in self.hyperarcs.values():
+            for c in h.children:
+                out[c].append(h)
+        WHITE, GREY, BLACK = 0, 1, 2
+        colour = dict.fromkeys(self.nodes, WHITE)
+        for start in self.nodes:
+            if colour[start] != WHITE:
+                continue
+            stack: list[tuple[str, int]] = [(start, 0)]
+            trail: list[str] = [start]
+            colour[start] = GREY
+            while stack:
+                node, i = stack[-1]
+                if i < len(out[node]):
+                    stack[-1] = (node, i + 1)
+                    h = out[node][i]
+                    nxt = h.parent
+                    if colour[nxt] == GREY:
+                        k = trail.index(nxt)
+                        return _with_arcs([*trail[k:], nxt], out)
+                    if colour[nxt] == WHITE:
+                        colour[nxt] = GREY
+                        stack.append((nxt, 0))
+                        trail.append(nxt)
+                else:
+                    colour[node] = BLACK
+                    stack.pop()
+                    trail.pop()
+        return None
+
+    def topological_order(self) -> list[str]:
+        """Nodes ordered children before parents (leaves first)."""
+        indeg = {n: 0 for n in self.nodes}
+        consumers: dict[str, list[str]] = {n: [] for n in self.nodes}
+        for h in self.hyperarcs.values():
+            for c in h.children:
+                consumers[c].append(h.parent)
+                indeg[h.parent] += 1
+        order = [n for n in self.nodes if indeg[n] == 0]
+        i = 0
+        while i < len(order):
+            for p in consumers[order[i]]:
+                indeg[p] -= 1
+                if indeg[p] == 0:
+                    order.append(p)
+            i += 1
+        return order
+
+
+def _with_arcs(nodes: list[str], out: Mapping[str, list[Hyperarc]]) -> list[str]:
+    trail: list[str] = []
+    for a, b in zip(nodes, nodes[1:], strict=False):
+        h = next(h for h in out[a] if h.parent == b)
+        trail += [a, h.name]
+    trail.append(nodes[-1])
+    return trail
+
+
+def _check_weight(weight: object, what: str, source: str | None, line: int | None) -> None:
+    if isinstance(weight, bool) or not isinstance(weight, int | float):
+        raise FormatError(f"{what}: weight {weight!r} is not a number", source, line)
+    if weight != weight or weight < 0 or weight == float("inf"):
+        raise FormatError(
+            f"{what}: weight must be a finite number >= 0, got {weight}", source, line
+        )

@@ -1,0 +1,208 @@
+"""Hierarchical AND/OR graphs H = <Γ, Θ> (paper 000, section IV-B, eqs. 12-16).
+
+A :class:`HierarchicalGraph` holds graph *definitions* keyed by a reference (for ANDOR text
+files: the file path relative to the top file's folder, without ``.txt``) and the key of the top
+graph G0. A transition T: h -> G(l+1) (eq. 14) is a hyper-arc whose ``lower`` names another
+definition; its children map to the lower graph's leaves (M1, eq. 15) and its parent to the lower
+root (M2, eq. 16).
+
+The same definition may be used by several hyper-arcs; at run time every use is its own
+*instance*, named by the path of hyper-arc names from the top graph, e.g. ``h4/h3`` is the
+instance created by hyper-arc ``h3`` inside the instance created by top-level hyper-arc ``h4``.
+Elements inside an instance are named ``<instance path>/<element>``; a bare name is an element
+of the top graph. This is the one naming syntax used by the CLI, JSON and the event history.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass
+
+from flexhrc.errors import FormatError, UnknownNameError
+from flexhrc.representation.graph import AndOrGraph, Hyperarc
+
+SEP = "/"
+
+
+@dataclass(frozen=True)
+class InstanceInfo:
+    """One use of a graph definition in the instantiated hierarchy."""
+
+    path: str  # "" for the top graph, else "h4/h3"
+    key: str  # definition key
+    depth: int
+    upper: str | None  # qualified name of the hyper-arc that created it
+
+
+class HierarchicalGraph:
+    """Graph definitions plus the key of the top graph G0."""
+
+    def __init__(self, graphs: dict[str, AndOrGraph], top: str):
+        if top not in graphs:
+            raise UnknownNameError(f"top graph {top!r} is not among the graph definitions")
+        self.graphs = graphs
+        self.top = top
+
+    @classmethod
+    def single(cls, graph: AndOrGraph) -> HierarchicalGraph:
+        return cls({graph.name: graph}, graph.name)
+
+    @property
+    def top_graph(self) -> AndOrGraph:
+        return self.graphs[self.top]
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, HierarchicalGraph):
+            return NotImplemented
+        return self.top == other.top and self.graphs == other.graphs
+
+    __hash__ = None  # type: ignore[assignment]
+
+    def __repr__(self) -> str:
+        return f"HierarchicalGraph(top={self.top!r}, graphs={len(self.graphs)})"
+
+    # -- structure ------------------------------------------------------------------------
+    def used_keys(self) -> list[str]:
+        """Definition keys reachable from the top graph, top first, in discovery order."""
+        seen: dict[str, None] = {self.top: None}
+        stack = [self.top]
+        while stack:
+            g = self.graphs[stack.pop(0)]
+            for h in g.hyperarcs.values():
+                if h.lower is not None and h.lower not in seen:
+                    seen[h.lower] = None
+                    stack.append(h.lower)
+        return list(seen)
+
+    def instances(self) -> Iterator[InstanceInfo]:
+        """Every graph instance, depth-first from the top, in hyper-arc order."""
+
+        def walk(key: str, path: str, depth: int, upper: str | None) -> Iterator[InstanceInfo]:
+            yield InstanceInfo(path, key, depth, upper)
+            for h in self.graphs[key].hyperarcs.values():
+                if h.lower is not None:
+                    sub = f"{path}{SEP}{h.name}" if path else h.name
+                    yield from walk(h.lower, sub, depth + 1, qualify(path, h.name))
+
+        return walk(self.top, "", 0, None)
+
+    def validate(self) -> None:
+        """Validate every definition and every transition (M1/M2 mappings, recursion)."""
+        for key in self.used_keys():
+            self.graphs[key].validate()
+        self._check_recursion()
+        for key in self.used_keys():
+            g = self.graphs[key]
+            for h in g.hyperarcs.values():
+                if h.lower is not None:
+                    self._check_transition(g, h)
+
+    def _check_recursion(self) -> None:
+        state: dict[str, int] = {}
+
+        def visit(key: str, trail: list[str]) -> None:
+            state[key] = 1
+            g = self.graphs[key]
+            for h in g.hyperarcs.values():
+                if h.lower is None:
+                    continue
+                if h.lower not in self.graphs:
+                    raise FormatError(
+                        f"hyper-arc {h.name!r} refers to unknown lower graph {h.lower!r}",
+                        g.source,
+                        h.line,
+                    )
+                if state.get(h.lower) == 1:
+                    chain = " -> ".join([*trail, key, h.lower])
+                    raise FormatError(
+                        f"hyper-arc {h.name!r}: lower graphs refer to each other in a cycle "
+                        f"({chain})",
+                        g.source,
+                        h.line,
+                    )
+                if h.lower not in state:
+                    visit(h.lower, [*trail, key])
+            state[key] = 2
+
+        visit(self.top, [])
+
+    def _check_transition(self, upper: AndOrGraph, h: Hyperarc) -> None:
+        assert h.lower is not None
+        lower = self.graphs[h.lower]
+        leaves = lower.leaves()
+        src, line = upper.source, h.line
+        if h.leaf_map is None:
+            # Implicit M1 (ANDOR text): the children of h as a whole correspond to the leaves
+            # of the lower graph; each child stands for one or more leaves (eq. 15), so there
+            # cannot be fewer leaves than children.
+            if len(leaves) < len(h.children):
+                raise FormatError(
+                    f"hyper-arc {h.name!r} has {len(h.children)} children but its lower graph "
+                    f"{h.lower!r} has only {len(leaves)} leaves: the mapping M1 of children to "
+                    "leaves cannot hold",
+                    src,
+                    line,
+                )
+            return
+        leaf_set = set(leaves)
+        covered: set[str] = set()
+        for child, mapped in h.leaf_map.items():
+            if child not in h.children:
+                raise FormatError(
+                    f"hyper-arc {h.name!r}: leaf mapping names {child!r}, which is not one of its "
+                    f"children {list(h.children)}",
+                    src,
+                    line,
+                )
+            for leaf in mapped:
+                if leaf not in leaf_set:
+                    raise FormatError(
+                        f"hyper-arc {h.name!r}: leaf mapping sends {child!r} to {leaf!r}, which is "
+                        f"not a leaf of lower graph {h.lower!r} (leaves: {leaves})",
+                        src,
+                        line,
+                    )
+                covered.add(leaf)
+        missing_children = [c for c in h.children if c not in h.leaf_map]
+        if missing_children:
+            raise FormatError(
+                f"hyper-arc {h.name!r}: leaf mapping does not map children {missing_children}",
+                src,
+                line,
+            )
+        missing_leaves = [leaf for leaf in leaves if leaf not in covered]
+        if missing_leaves:
+            raise FormatError(
+                f"hyper-arc {h.name!r}: leaves {missing_leaves} of lower graph {h.lower!r} are "
+                "mapped from no child",
+                src,
+                line,
+            )
+
+    # -- statistics -----------------------------------------------------------------------
+    def stats(self) -> dict[str, object]:
+        """Counts as in the paper: distinct definitions vs instantiated (every use counted)."""
+        used = self.used_keys()
+        inst = list(self.instances())
+        return {
+            "graphs": len(used),
+            "nodes": sum(len(self.graphs[k].nodes) for k in used),
+            "hyperarcs": sum(len(self.graphs[k].hyperarcs) for k in used),
+            "layers": 1 + max(i.depth for i in inst),
+            "instances": len(inst),
+            "instantiated_nodes": sum(len(self.graphs[i.key].nodes) for i in inst),
+            "instantiated_hyperarcs": sum(len(self.graphs[i.key].hyperarcs) for i in inst),
+            "leaves": sum(len(self.graphs[i.key].leaves()) for i in inst),
+            "top": self.top,
+        }
+
+
+def qualify(instance_path: str, name: str) -> str:
+    """Qualified element name: ``name`` in the top graph, ``path/name`` in an instance."""
+    return f"{instance_path}{SEP}{name}" if instance_path else name
+
+
+def split_qualified(qualified: str) -> tuple[str, str]:
+    """``"h4/h3/Node"`` -> ``("h4/h3", "Node")``; ``"Node"`` -> ``("", "Node")``."""
+    path, _, name = qualified.rpartition(SEP)
+    return path, name

@@ -1,0 +1,117 @@
+"""Drive the online phase to the end, like the FlexHRC+ authors' random test client.
+
+Query 0 reports nothing. Every later query reports one element taken from the previous answer's
+feasible nodes and hyper-arcs (any layer): a node is met, a hyper-arc is solved. ``random``
+picks uniformly (seeded); ``cheapest`` picks the lowest cost (ties: definition order). The run
+ends when the graph is solved or has failed.
+"""
+
+from __future__ import annotations
+
+import random
+import statistics
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from flexhrc.errors import FlexhrcError
+from flexhrc.representation.hierarchy import HierarchicalGraph
+from flexhrc.representation.online import OnlineGraph
+
+POLICIES = ("cheapest", "random")
+
+
+@dataclass
+class PlayReport:
+    outcome: str
+    queries: int
+    offline_s: float
+    online_s_total: float
+    online_s_per_query_median: float
+    cost: float
+    reason: str | None = None
+    steps: list[dict[str, Any]] = field(default_factory=list)
+    events: list[dict[str, Any]] = field(default_factory=list, repr=False)
+
+    def to_dict(self) -> dict[str, Any]:
+        d: dict[str, Any] = {
+            "outcome": self.outcome,
+            "queries": self.queries,
+            "offline_s": self.offline_s,
+            "online_s_total": self.online_s_total,
+            "online_s_per_query_median": self.online_s_per_query_median,
+            "cost": int(self.cost) if float(self.cost).is_integer() else self.cost,
+        }
+        if self.reason:
+            d["reason"] = self.reason
+        if self.steps:
+            d["steps"] = self.steps
+        return d
+
+
+def play(
+    source: str | Path | HierarchicalGraph,
+    policy: str = "cheapest",
+    seed: int = 0,
+    *,
+    record_steps: bool = False,
+    max_queries: int = 1_000_000,
+    clock: Callable[[], float] = time.perf_counter,
+) -> PlayReport:
+    """Load (offline phase) and traverse (online phase) a graph; time both."""
+    if policy not in POLICIES:
+        raise FlexhrcError(f"unknown policy {policy!r}; choose one of {', '.join(POLICIES)}")
+    from flexhrc.representation.formats import load
+
+    t0 = clock()
+    hierarchy = source if isinstance(source, HierarchicalGraph) else load(source)
+    online = OnlineGraph(hierarchy, validate=isinstance(source, HierarchicalGraph))
+    offline = clock() - t0
+
+    rng = random.Random(seed)
+    kinds = online._kind
+    weights = online._w
+    times: list[float] = []
+    steps: list[dict[str, Any]] = []
+    cost = 0.0
+    t = clock()
+    answer = online.update()
+    times.append(clock() - t)
+    while answer.outcome == "running":
+        if len(times) >= max_queries:
+            raise FlexhrcError(f"no end after {max_queries} queries")
+        ids = answer.element_ids
+        if policy == "random":
+            e = rng.choice(sorted(ids))
+        else:
+            e = min(ids.items(), key=lambda ec: (ec[1], ec[0]))[0]
+        cost += weights[e]
+        name = online._names[e]
+        if record_steps:
+            steps.append(
+                {
+                    "query": len(times),
+                    "element": name,
+                    "kind": "hyperarc" if kinds[e] else "node",
+                    "cost": ids[e],
+                }
+            )
+        t = clock()
+        if kinds[e]:
+            answer = online.update(solved_hyperarcs=(name,))
+        else:
+            answer = online.update(met_nodes=(name,))
+        times.append(clock() - t)
+    return PlayReport(
+        outcome=answer.outcome,
+        queries=len(times),
+        offline_s=offline,
+        online_s_total=sum(times),
+        online_s_per_query_median=statistics.median(times),
+        cost=cost,
+        reason=answer.reason,
+        steps=steps,
+        events=[ev.to_dict() for ev in online.events] if record_steps else [],
+    )
