@@ -18,6 +18,7 @@ with the leaf mapping M1 (eq. 15) when it is given explicitly.
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -282,7 +283,7 @@ class AndOrGraph:
 
 def _with_arcs(nodes: list[str], out: Mapping[str, list[Hyperarc]]) -> list[str]:
     trail: list[str] = []
-    for a, b in zip(nodes, nodes[1:], strict=False):
+    for a, b in itertools.pairwise(nodes):
         h = next(h for h in out[a] if h.parent == b)
         trail += [a, h.name]
     trail.append(nodes[-1])
