@@ -150,9 +150,8 @@ def cmd_suggest(args: argparse.Namespace) -> int:
         width = max((len(r["element"]) for r in rows), default=7)
         out = [f"{'element':<{width}}  {'kind':<8}  {'cost':>6}  graph"]
         for r in rows:
-            out.append(
-                f"{r['element']:<{width}}  {r['kind']:<8}  {r['cost']!s:>6}  {r['graph'] or '(top)'}"
-            )
+            graph = r["graph"] or "(top)"
+            out.append(f"{r['element']:<{width}}  {r['kind']:<8}  {r['cost']!s:>6}  {graph}")
         return "\n".join(out)
 
     if args.json:
