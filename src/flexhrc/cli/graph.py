@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from typing import Any
 
 from flexhrc.cli.common import add_json_flag, emit
@@ -73,9 +74,11 @@ def cmd_validate(args: argparse.Namespace) -> int:
 
     h = load(args.file)
     st = h.stats()
+    for w in h.warnings:
+        print(f"warning: {w}", file=sys.stderr)
     emit(
         args,
-        {"file": args.file, "valid": True, **st},
+        {"file": args.file, "valid": True, "warnings": [str(w) for w in h.warnings], **st},
         f"{args.file}: valid ({st['graphs']} graph definitions, {st['layers']} layers, "
         f"{st['instantiated_nodes']} nodes and {st['instantiated_hyperarcs']} hyper-arcs "
         "instantiated)",

@@ -82,6 +82,7 @@ class AndOrGraph:
         self.nodes: dict[str, Node] = {}
         self.hyperarcs: dict[str, Hyperarc] = {}
         self.root_line: int | None = None
+        self.load_warnings: list[FormatError] = []  # set by readers (e.g. renamed duplicates)
 
     # -- building -------------------------------------------------------------------------
     def add_node(self, node: Node | str, weight: float = 0.0, **kw: object) -> Node:
@@ -169,21 +170,18 @@ class AndOrGraph:
     __hash__ = None  # type: ignore[assignment]
 
     # -- validation -----------------------------------------------------------------------
-    def validate(self) -> None:
+    def validate(self) -> list[FormatError]:
         """Check the structure; raise :class:`FormatError` naming file and line on a fault.
 
-        Checks: a root is declared and exists; every hyper-arc names existing nodes and no
-        child twice; the root is the only node that no hyper-arc consumes (one root); no cycle.
+        Checks: every hyper-arc names existing nodes and no child twice; a root exists — the
+        declared one, or else the one node that no hyper-arc consumes (none: "missing root",
+        several: "multiple roots"); the root is no hyper-arc's child; no cycle.
+
+        Returns warnings that do not prevent use: nodes that some hyper-arc produces but none
+        consumes ("dead ends": they can never contribute to the root). The authors' own
+        ``PL_BallPlacement.txt`` has one.
         """
         src = self.source
-        if not self.root:
-            raise FormatError(f"graph {self.name!r} declares no root node", src, self.root_line)
-        if self.root not in self.nodes:
-            raise FormatError(
-                f"root node {self.root!r} of graph {self.name!r} is not among its nodes",
-                src,
-                self.root_line,
-            )
         consumed: set[str] = set()
         for h in self.hyperarcs.values():
             if h.parent not in self.nodes:
@@ -206,6 +204,28 @@ class AndOrGraph:
                     f"hyper-arc {h.name!r}: node {h.parent!r} is both child and parent", src, h.line
                 )
             consumed.update(h.children)
+        tops = [n for n in self.nodes if n not in consumed]
+        if not self.root:
+            if not tops:
+                raise FormatError(
+                    f"graph {self.name!r} has no root: every node is a child of some hyper-arc",
+                    src,
+                    self.root_line,
+                )
+            if len(tops) > 1:
+                raise FormatError(
+                    f"graph {self.name!r} has multiple roots ({', '.join(tops)}): declare one "
+                    "with 'root:' or connect the others",
+                    src,
+                    self.root_line,
+                )
+            self.root = tops[0]
+        if self.root not in self.nodes:
+            raise FormatError(
+                f"root node {self.root!r} of graph {self.name!r} is not among its nodes",
+                src,
+                self.root_line,
+            )
         if self.root in consumed:
             h = next(h for h in self.hyperarcs.values() if self.root in h.children)
             raise FormatError(
@@ -214,20 +234,21 @@ class AndOrGraph:
                 src,
                 h.line,
             )
-        produced = {h.parent for h in self.hyperarcs.values()}
-        dangling = [n for n in self.nodes if n != self.root and n not in consumed and n in produced]
-        if dangling:
-            n = self.nodes[dangling[0]]
-            raise FormatError(
-                f"graph {self.name!r} has more than one root: node {n.name!r} is produced by a "
-                f"hyper-arc but used by none, besides the declared root {self.root!r}",
-                src,
-                n.line,
-            )
         cycle = self._find_cycle()
         if cycle:
             h = self.hyperarcs[cycle[1]]
             raise FormatError(f"cycle: {' -> '.join(cycle)}", src, h.line)
+        produced = {h.parent for h in self.hyperarcs.values()}
+        return [*self.load_warnings] + [
+            FormatError(
+                f"node {n!r} is produced by a hyper-arc but used by none: it cannot contribute "
+                f"to the root {self.root!r}",
+                src,
+                self.nodes[n].line,
+            )
+            for n in tops
+            if n != self.root and n in produced
+        ]
 
     def _find_cycle(self) -> list[str] | None:
         """A cycle child -> hyper-arc -> parent -> ... as a list of names, or None."""

@@ -42,6 +42,7 @@ class HierarchicalGraph:
             raise UnknownNameError(f"top graph {top!r} is not among the graph definitions")
         self.graphs = graphs
         self.top = top
+        self.warnings: list[FormatError] = []  # filled by validate(): harmless oddities
 
     @classmethod
     def single(cls, graph: AndOrGraph) -> HierarchicalGraph:
@@ -86,16 +87,22 @@ class HierarchicalGraph:
 
         return walk(self.top, "", 0, None)
 
-    def validate(self) -> None:
-        """Validate every definition and every transition (M1/M2 mappings, recursion)."""
-        for key in self.used_keys():
-            self.graphs[key].validate()
+    def validate(self) -> list[FormatError]:
+        """Validate every definition and every transition (M1/M2 mappings, recursion).
+
+        Raises :class:`FormatError` on the first fault; returns the warnings.
+        """
         self._check_recursion()
+        warnings: list[FormatError] = []
+        for key in self.used_keys():
+            warnings += self.graphs[key].validate()
         for key in self.used_keys():
             g = self.graphs[key]
             for h in g.hyperarcs.values():
                 if h.lower is not None:
                     self._check_transition(g, h)
+        self.warnings = warnings
+        return warnings
 
     def _check_recursion(self) -> None:
         state: dict[str, int] = {}

@@ -331,7 +331,10 @@ class OnlineGraph:
             return self._out_val[e]
         if self._kind[e]:
             p = self._parent[e]
-            val = (0.0 if self._done[p] else self._w[p]) + self._outside(p)
+            if self._blocked[p]:
+                val = INF
+            else:
+                val = (0.0 if self._done[p] else self._w[p]) + self._outside(p)
         else:
             k = self._root_of[e]
             if k >= 0:
@@ -649,7 +652,8 @@ class OnlineGraph:
         return "no incoming hyper-arc is solved"
 
     def _check_failed_instances(self) -> None:
-        """A lower instance with nothing feasible left makes its upper arc infeasible (eq. 17)."""
+        """A lower instance that can no longer be solved — nothing feasible left, or its root
+        unreachable — makes its upper hyper-arc infeasible (eq. 17)."""
         inst = self._inst
         alive: set[int] = set()
         for e in self._feasible:
@@ -657,7 +661,8 @@ class OnlineGraph:
             while k >= 0 and k not in alive:
                 alive.add(k)
                 k = self._i_parent[k]
-        for k in [k for k in self._live if k not in alive]:
+        ins, roots = self._inside, self._i_root
+        for k in [k for k in self._live if k not in alive or ins[roots[k]] == INF]:
             if self._active[k] and not self._closed[k]:
                 u = self._i_upper[k]
                 if not self._blocked[u] and not self._done[u]:

@@ -11,8 +11,10 @@
 A lower graph is named by its file name without ``.txt``. It is looked up relative to the folder
 of the including file first, then relative to the folder of the top file (the kitchen files of
 the reference corpus use the latter: ``BaseCabinet/DrawerAssembly.txt`` refers to
-``BaseCabinet/RollerAssembly``). Blank lines and lines starting with ``#`` are ignored, so the
-``*Commented.txt`` files load too. Graph definitions are keyed by their path relative to the top
+``BaseCabinet/RollerAssembly``). Blank lines and everything after a ``#`` are ignored, so the
+``*Commented.txt`` files load too. A repeated node name is an error; a repeated hyper-arc name
+(harmless for the C++ library, which addresses hyper-arcs by position) is renamed
+``<name>@L<line>`` with a warning. Graph definitions are keyed by their path relative to the top
 file's folder, without extension (``BaseCabinet/RailAssembly``); the top graph's key is its
 file stem.
 """
@@ -37,8 +39,8 @@ def _lines(path: Path) -> list[tuple[int, list[str]]]:
         raise FormatError(f"not a UTF-8 text file ({exc.reason})", path) from None
     out = []
     for i, raw in enumerate(text.splitlines(), 1):
-        s = raw.strip()
-        if s and not s.startswith("#"):
+        s = raw.split("#", 1)[0].strip() if "#" in raw else raw.strip()
+        if s:
             out.append((i, s.split()))
     return out
 
@@ -106,6 +108,7 @@ def parse_graph(path: str | Path) -> tuple[AndOrGraph, list[tuple[str, int]]]:
             graph.add_node(Node(n, line=ln))  # raises the duplicate-name error
         nodes[n] = Node(n, _weight(toks[1], "node", n, path, ln), line=ln)
     refs: list[tuple[str, int]] = []
+    renamed: list[FormatError] = []
     i = count + 1
     while i < len(lines):
         ln, toks = lines[i]
@@ -140,10 +143,26 @@ def parse_graph(path: str | Path) -> tuple[AndOrGraph, list[tuple[str, int]]]:
         lower_ref = None if lower == "-" else lower
         if lower_ref is not None:
             refs.append((lower_ref, ln))
+        if hname in graph.hyperarcs:
+            # The C++ library addresses hyper-arcs by position, so its files may repeat a name
+            # (the authors' 3Leg/TableAssemblyPLCommented.txt does). Names are our addresses:
+            # keep the file loadable, rename the repeat and say so.
+            first = graph.hyperarcs[hname].line
+            new_name = f"{hname}@L{ln}"
+            renamed.append(
+                FormatError(
+                    f"hyper-arc name {hname!r} repeats the one at line {first}; "
+                    f"this one is renamed {new_name!r}",
+                    path,
+                    ln,
+                )
+            )
+            hname = new_name
         graph.add_hyperarc(
             Hyperarc(hname, tuple(children), parent, weight, lower=lower_ref, line=ln)
         )
         i += k + 1
+    graph.load_warnings = renamed
     return graph, refs
 
 

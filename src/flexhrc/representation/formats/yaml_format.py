@@ -8,7 +8,7 @@ relative to this one, in YAML or ANDOR text)::
     graphs:
       table:
         name: TableAssembly          # optional, defaults to the key
-        root: Table_FinalPose
+        root: Table_FinalPose        # optional: the one node that no hyper-arc consumes
         nodes:
           - Plate_initPose           # a bare name: weight 0, state = its name
           - name: Leg1_Plate_connected
@@ -140,13 +140,18 @@ def _name(v: Any, what: str, path: Path, line: int | None) -> str:
     return s
 
 
+def _key(v: Any, path: Path, line: int | None) -> str:
+    if not isinstance(v, str) or not v.strip() or any(c.isspace() for c in v):
+        raise FormatError(f"lower graph key {v!r} must be a non-empty name without spaces", path, line)
+    return v
+
+
 def _graph_from_dict(key: str, d: _LineDict, path: Path) -> AndOrGraph:
     _check_keys(d, {"name", "root", "nodes", "hyperarcs", "description"}, f"graph {key!r}", path)
     name = _name(d.get("name", key), f"graph {key!r}: name", path, _line(d, "name"))
-    if "root" not in d:
-        raise FormatError(f"graph {key!r} declares no root node", path, _line(d))
-    g = AndOrGraph(name, _name(d["root"], "root", path, _line(d, "root")), source=path)
-    g.root_line = _line(d, "root")
+    root = _name(d["root"], "root", path, _line(d, "root")) if "root" in d else None
+    g = AndOrGraph(name, root, source=path)
+    g.root_line = _line(d, "root") if "root" in d else _line(d)
     nodes = _expect(d.get("nodes"), list, f"graph {key!r}: nodes", path, _line(d, "nodes"))
     for i, nd in enumerate(nodes):
         if isinstance(nd, str | int) and not isinstance(nd, bool):
@@ -202,7 +207,7 @@ def _graph_from_dict(key: str, d: _LineDict, path: Path) -> AndOrGraph:
                 _name(hd["parent"], "parent", path, _line(hd, "parent")),
                 _weight(hd.get("weight", 0), f"hyper-arc {hname!r}", path, _line(hd, "weight")),
                 _str_list(hd.get("actions", []), f"hyper-arc {hname!r}: actions", path, ln),
-                None if lower in (None, "-") else _name(lower, "lower", path, _line(hd, "lower")),
+                None if lower in (None, "-") else _key(lower, path, _line(hd, "lower")),
                 leaf_map,
                 line=ln,
             )
