@@ -14,13 +14,15 @@ relative to this one, in YAML or ANDOR text)::
           - name: Leg1_Plate_connected
             weight: 0
             state: connected(?leg, ?plate) & not held(?leg)   # S(n), eq. 2
-            processes: [hold(?plate)]                          # P(n), eq. 5
+            processes: ["hold(?plate)"]                        # P(n), eq. 5
         hyperarcs:
           - name: h1
             children: [Leg1_T, Plate_assemblyPose]
             parent: Leg1_Plate_connected
             weight: 1
-            actions: [approach(?arm, ?leg), grasp(?arm, ?leg), screw(?arm, ?leg, ?plate)]
+            actions:                     # A(h), eq. 4 (quote them in [...] flow lists)
+              - approach(?arm, ?leg)
+              - screw(?arm, ?leg, ?plate)
             lower: connection                                 # transition T (eq. 14)
             leaves: {Leg1_T: [Leg_T], Plate_assemblyPose: [Plate]}   # M1 (eq. 15), optional
       connection: {file: basic_connection.txt}
@@ -142,16 +144,18 @@ def _name(v: Any, what: str, path: Path, line: int | None) -> str:
 
 def _key(v: Any, path: Path, line: int | None) -> str:
     if not isinstance(v, str) or not v.strip() or any(c.isspace() for c in v):
-        raise FormatError(f"lower graph key {v!r} must be a non-empty name without spaces", path, line)
+        raise FormatError(
+            f"lower graph key {v!r} must be a non-empty name without spaces", path, line
+        )
     return v
 
 
-def _graph_from_dict(key: str, d: _LineDict, path: Path) -> AndOrGraph:
+def _graph_from_dict(key: str, d: _LineDict, path: Path, key_line: int | None) -> AndOrGraph:
     _check_keys(d, {"name", "root", "nodes", "hyperarcs", "description"}, f"graph {key!r}", path)
     name = _name(d.get("name", key), f"graph {key!r}: name", path, _line(d, "name"))
     root = _name(d["root"], "root", path, _line(d, "root")) if "root" in d else None
     g = AndOrGraph(name, root, source=path)
-    g.root_line = _line(d, "root") if "root" in d else _line(d)
+    g.root_line = _line(d, "root") if "root" in d else key_line
     nodes = _expect(d.get("nodes"), list, f"graph {key!r}: nodes", path, _line(d, "nodes"))
     for i, nd in enumerate(nodes):
         if isinstance(nd, str | int) and not isinstance(nd, bool):
@@ -240,7 +244,7 @@ def load_yaml(path: str | Path) -> HierarchicalGraph:
             _check_keys(gd, {"file"}, f"graph {key!r}", path)
             graphs.update(_load_external(key, path, gd, graphs_d))
         else:
-            graphs[key] = _graph_from_dict(key, gd, path)
+            graphs[key] = _graph_from_dict(key, gd, path, _line(graphs_d, key))
     if top not in graphs:
         raise FormatError(
             f"top graph {top!r} is not defined under 'graphs'", path, _line(doc, "top")
