@@ -24,3 +24,15 @@ def anchors_dir() -> Path:
     if not ANCHORS.is_dir():
         pytest.skip("../shared/anchors/andor-graphs is not present")
     return ANCHORS
+
+
+SRC = REPO / "src"
+
+
+def subprocess_env() -> dict[str, str]:
+    """Environment for running ``python -m flexhrc`` from the source tree in a subprocess."""
+    import os
+
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join(p for p in (str(SRC), env.get("PYTHONPATH", "")) if p)
+    return env

@@ -4,6 +4,8 @@ import sys
 import flexhrc
 from flexhrc.cli import build_parser, main
 
+from .conftest import subprocess_env
+
 
 def test_version_and_light_import():
     assert flexhrc.__version__
@@ -13,7 +15,13 @@ def test_version_and_light_import():
         "heavy = [m for m in ('matplotlib', 'pinocchio', 'pybullet', 'sklearn', 'zenoh', 'scipy')"
         " if m in sys.modules]; print(','.join(heavy))"
     )
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    out = subprocess.run(
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        check=True,
+        env=subprocess_env(),
+    )
     assert out.stdout.strip() == ""
 
 

@@ -14,7 +14,6 @@ from flexhrc.representation.play import play
 
 from ..conftest import ANCHORS
 
-
 # The authors' commented 5-leg file declares 3 children for h261 but lists 2 (the plain
 # TableAssemblyPL.txt of the same folder, which the C++ reference timings use, declares 2).
 KNOWN_MALFORMED = {

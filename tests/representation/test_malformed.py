@@ -2,17 +2,15 @@
 
 from __future__ import annotations
 
-import os
 import subprocess
 import sys
 import textwrap
-from pathlib import Path
 
 import pytest
 
 from flexhrc.cli import main
 
-SRC = Path(__file__).resolve().parents[2] / "src"
+from ..conftest import subprocess_env
 
 GOOD_LOWER = """\
 Lower 3 r
@@ -158,7 +156,7 @@ def test_malformed_file_gives_one_error_with_file_and_line(case, tmp_path, capsy
 def test_no_traceback_from_the_real_command(tmp_path):
     bad = tmp_path / "bad.txt"
     bad.write_text("G 2 r\na 0\nr 0\nh 1 r 1 -\nzz\n")
-    env = {**os.environ, "PYTHONPATH": str(SRC)}
+    env = subprocess_env()
     proc = subprocess.run(
         [sys.executable, "-m", "flexhrc", "graph", "stats", str(bad)],
         capture_output=True,
