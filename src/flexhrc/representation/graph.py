@@ -19,6 +19,7 @@ with the leaf mapping M1 (eq. 15) when it is given explicitly.
 from __future__ import annotations
 
 import itertools
+import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -83,6 +84,7 @@ class AndOrGraph:
         self.hyperarcs: dict[str, Hyperarc] = {}
         self.root_line: int | None = None
         self.load_warnings: list[FormatError] = []  # set by readers (e.g. renamed duplicates)
+        self._topo: tuple[tuple[int, int], list[str]] | None = None  # cache, keyed by size
 
     # -- building -------------------------------------------------------------------------
     def add_node(self, node: Node | str, weight: float = 0.0, **kw: object) -> Node:
@@ -234,7 +236,10 @@ class AndOrGraph:
                 src,
                 h.line,
             )
-        cycle = self._find_cycle()
+        if len(self.topological_order()) == len(self.nodes):
+            cycle = None
+        else:  # Kahn's order misses nodes only when there is a cycle: find it for the message
+            cycle = self._find_cycle()
         if cycle:
             h = self.hyperarcs[cycle[1]]
             raise FormatError(f"cycle: {' -> '.join(cycle)}", src, h.line)
@@ -284,7 +289,15 @@ class AndOrGraph:
         return None
 
     def topological_order(self) -> list[str]:
-        """Nodes ordered children before parents (leaves first)."""
+        """Nodes ordered children before parents (leaves first); cycles leave nodes out."""
+        key = (len(self.nodes), len(self.hyperarcs))
+        if self._topo is not None and self._topo[0] == key:
+            return self._topo[1]
+        order = self._topological_order()
+        self._topo = (key, order)
+        return order
+
+    def _topological_order(self) -> list[str]:
         indeg = {n: 0 for n in self.nodes}
         consumers: dict[str, list[str]] = {n: [] for n in self.nodes}
         for h in self.hyperarcs.values():
@@ -312,7 +325,9 @@ def _with_arcs(nodes: list[str], out: Mapping[str, list[Hyperarc]]) -> list[str]
 
 
 def _check_weight(weight: object, what: str, source: str | None, line: int | None) -> None:
-    if isinstance(weight, bool) or not isinstance(weight, int | float):
+    if type(weight) is float and 0.0 <= weight < math.inf:  # the common case, cheap
+        return
+    if isinstance(weight, bool) or not isinstance(weight, (int, float)):  # noqa: UP038
         raise FormatError(f"{what}: weight {weight!r} is not a number", source, line)
     if weight != weight or weight < 0 or weight == float("inf"):
         raise FormatError(
