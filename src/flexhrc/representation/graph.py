@@ -236,10 +236,9 @@ class AndOrGraph:
                 src,
                 h.line,
             )
-        if len(self.topological_order()) == len(self.nodes):
-            cycle = None
-        else:  # Kahn's order misses nodes only when there is a cycle: find it for the message
-            cycle = self._find_cycle()
+        # Kahn's order misses nodes only when there is a cycle: then find it for the message
+        acyclic = len(self.topological_order()) == len(self.nodes)
+        cycle = None if acyclic else self._find_cycle()
         if cycle:
             h = self.hyperarcs[cycle[1]]
             raise FormatError(f"cycle: {' -> '.join(cycle)}", src, h.line)
@@ -327,7 +326,7 @@ def _with_arcs(nodes: list[str], out: Mapping[str, list[Hyperarc]]) -> list[str]
 def _check_weight(weight: object, what: str, source: str | None, line: int | None) -> None:
     if type(weight) is float and 0.0 <= weight < math.inf:  # the common case, cheap
         return
-    if isinstance(weight, bool) or not isinstance(weight, (int, float)):  # noqa: UP038
+    if isinstance(weight, bool) or not isinstance(weight, (int, float)):
         raise FormatError(f"{what}: weight {weight!r} is not a number", source, line)
     if weight != weight or weight < 0 or weight == float("inf"):
         raise FormatError(
