@@ -1,1 +1,47 @@
-"""Task Manager: action schemas, Action-State table, decision tree, allocation (paper 000, V)."""
+"""Task Manager: action schemas, Action-State table, decision tree, allocation (paper 000, V).
+
+* :class:`Domain`, :class:`ActionSchema`, :class:`Agent` — eq. (20) and agents(a);
+* :class:`ActionStateTable`, :class:`DecisionTree`, :class:`Branch` — rows and branches;
+* :class:`Simulator`, :class:`AnalyticSimulator` — branch simulation, utility of eq. (21);
+* :class:`TaskManager` — the sans-IO manager (commands, suggestions, adaptation);
+* :class:`CooperationRun` — a whole cooperation with simulated arms and a simulated human.
+"""
+
+from flexhrc.taskmanager.decision import ActionStateTable, Branch, DecisionTree, Row
+from flexhrc.taskmanager.domain import ActionSchema, Agent, AgentSpec, Domain, GroundAction
+from flexhrc.taskmanager.manager import (
+    Ack,
+    Command,
+    HumanAction,
+    Stop,
+    Suggest,
+    TaskManager,
+)
+from flexhrc.taskmanager.runner import PROFILES, CooperationRun, InjectedFailure, RunResult
+from flexhrc.taskmanager.simulator import AnalyticSimulator, SimulationResult, Simulator, Timing
+
+__all__ = [
+    "PROFILES",
+    "Ack",
+    "ActionSchema",
+    "ActionStateTable",
+    "Agent",
+    "AgentSpec",
+    "AnalyticSimulator",
+    "Branch",
+    "Command",
+    "CooperationRun",
+    "DecisionTree",
+    "Domain",
+    "GroundAction",
+    "HumanAction",
+    "InjectedFailure",
+    "Row",
+    "RunResult",
+    "SimulationResult",
+    "Simulator",
+    "Stop",
+    "Suggest",
+    "TaskManager",
+    "Timing",
+]

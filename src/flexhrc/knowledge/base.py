@@ -1,0 +1,243 @@
+"""The knowledge base: typed objects with poses and sizes, and ground facts (paper 000, V-VI).
+
+Objects (``leg1`` of type ``leg`` at a pose, with a size) and facts (``("on_table", "leg1")``)
+are what the Task Manager grounds action parameters against. Queries are closed-world: a fact
+that is not stored is false. Every object contributes the unary fact ``(type, id)``, so
+``leg(?l) & on_table(?l)`` finds the legs lying on the table.
+
+Percepts and action effects update the base. A percept that contradicts what is stored — another
+type for a known id, a size off by more than the tolerance, an object that is fixed in place but
+seen elsewhere — is *not* applied: it is kept as an :class:`Inconsistency` and the base is
+:attr:`~KnowledgeBase.consistent` no more, so the Task Manager waits (paper VI-E) until
+:meth:`~KnowledgeBase.resolve` accepts or rejects it. Nothing is silently overwritten.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from collections.abc import Iterable, Iterator, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+from flexhrc.errors import FlexhrcError, UnknownNameError
+from flexhrc.logic import Conjunction, Literal, Substitution, apply_substitution, satisfy
+
+Vec3 = tuple[float, float, float]
+
+
+@dataclass
+class ObjectRecord:
+    """One object of the workspace."""
+
+    id: str
+    type: str
+    position: Vec3
+    size: dict[str, float] = field(default_factory=dict)
+    attrs: dict[str, Any] = field(default_factory=dict)
+    fixed: bool = False  # e.g. a leg screwed to the tabletop: it cannot be seen elsewhere
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "id": self.id,
+            "type": self.type,
+            "position": list(self.position),
+            "size": dict(self.size),
+            "attrs": dict(self.attrs),
+            "fixed": self.fixed,
+        }
+
+
+@dataclass
+class Inconsistency:
+    """A percept that contradicts the knowledge base, waiting for a decision."""
+
+    object_id: str
+    reason: str
+    percept: dict[str, Any]
+
+
+class KnowledgeBase:
+    """Typed objects and ground facts with closed-world queries and a consistency check."""
+
+    def __init__(self, *, size_tolerance: float = 0.05, position_tolerance: float = 0.02):
+        self.objects: dict[str, ObjectRecord] = {}
+        self._facts: set[tuple[str, ...]] = set()
+        self.size_tolerance = size_tolerance
+        self.position_tolerance = position_tolerance
+        self.inconsistencies: list[Inconsistency] = []
+        self.version = 0  # bumped on every change; lets callers cache query results
+
+    # -- objects ------------------------------------------------------------------------
+    def add_object(
+        self,
+        obj_id: str,
+        type: str,
+        position: Iterable[float],
+        size: Mapping[str, float] | None = None,
+        **attrs: Any,
+    ) -> ObjectRecord:
+        if obj_id in self.objects:
+            raise FlexhrcError(f"object {obj_id!r} already exists")
+        rec = ObjectRecord(obj_id, type, _vec(position), dict(size or {}), dict(attrs))
+        self.objects[obj_id] = rec
+        self._facts.add((type, obj_id))
+        self.version += 1
+        return rec
+
+    def object(self, obj_id: str) -> ObjectRecord:
+        try:
+            return self.objects[obj_id]
+        except KeyError:
+            raise UnknownNameError(f"no object {obj_id!r} in the knowledge base") from None
+
+    def position(self, obj_id: str) -> Vec3:
+        return self.object(obj_id).position
+
+    def move(self, obj_id: str, position: Iterable[float]) -> None:
+        """An action effect: the object is now at ``position`` (not a percept: no check)."""
+        self.object(obj_id).position = _vec(position)
+        self.version += 1
+
+    def set_fixed(self, obj_id: str, fixed: bool = True) -> None:
+        self.object(obj_id).fixed = fixed
+        self.version += 1
+
+    def objects_of_type(self, type: str) -> list[ObjectRecord]:
+        return [o for o in self.objects.values() if o.type == type]
+
+    # -- percepts -----------------------------------------------------------------------
+    @property
+    def consistent(self) -> bool:
+        return not self.inconsistencies
+
+    def update_object(
+        self,
+        obj_id: str,
+        type: str,
+        pose: Iterable[float],
+        size: Mapping[str, float] | None = None,
+        **attrs: Any,
+    ) -> bool:
+        """A percept of one object (the perception modules' ``ObjectSink`` protocol).
+
+        A new id is added; a known one is updated when the percept agrees with the base.
+        Returns False when the percept contradicts the base: it is then kept as an
+        :class:`Inconsistency` and nothing changes until :meth:`resolve`.
+        """
+        position = _vec(list(pose)[:3])
+        percept = {"type": type, "position": position, "size": dict(size or {}), "attrs": attrs}
+        rec = self.objects.get(obj_id)
+        if rec is None:
+            self.add_object(obj_id, type, position, size, **attrs)
+            return True
+        reason = self._contradiction(rec, type, position, size or {})
+        if reason:
+            self.inconsistencies.append(Inconsistency(obj_id, reason, percept))
+            self.version += 1
+            return False
+        rec.position = position
+        if size:
+            rec.size.update(size)
+        rec.attrs.update(attrs)
+        self.version += 1
+        return True
+
+    def _contradiction(
+        self, rec: ObjectRecord, type: str, position: Vec3, size: Mapping[str, float]
+    ) -> str | None:
+        if type != rec.type:
+            return f"{rec.id} is a {rec.type}, perceived as a {type}"
+        for k, v in size.items():
+            known = rec.size.get(k)
+            if known and abs(v - known) > self.size_tolerance * known:
+                return f"{rec.id}: {k} {known:g} known, {v:g} perceived"
+        if rec.fixed and _dist(rec.position, position) > self.position_tolerance:
+            return f"{rec.id} is fixed at {_fmt(rec.position)} but perceived at {_fmt(position)}"
+        return None
+
+    def resolve(self, obj_id: str | None = None, *, accept: bool) -> None:
+        """Decide pending inconsistencies (all, or those of one object): accept the percept
+        (it overwrites the base, the object is no longer fixed) or reject it."""
+        keep: list[Inconsistency] = []
+        for inc in self.inconsistencies:
+            if obj_id is not None and inc.object_id != obj_id:
+                keep.append(inc)
+                continue
+            if accept:
+                rec = self.objects[inc.object_id]
+                self._facts.discard((rec.type, rec.id))
+                rec.type = inc.percept["type"]
+                rec.position = inc.percept["position"]
+                rec.size.update(inc.percept["size"])
+                rec.fixed = False
+                self._facts.add((rec.type, rec.id))
+        self.inconsistencies = keep
+        self.version += 1
+
+    # -- facts --------------------------------------------------------------------------
+    def assert_fact(self, *fact: str) -> None:
+        self._facts.add(tuple(fact))
+        self.version += 1
+
+    def retract_fact(self, *fact: str) -> None:
+        self._facts.discard(tuple(fact))
+        self.version += 1
+
+    def holds(self, *fact: str) -> bool:
+        return tuple(fact) in self._facts
+
+    @property
+    def facts(self) -> frozenset[tuple[str, ...]]:
+        return frozenset(self._facts)
+
+    def query(
+        self, formula: Iterable[Literal], subst: Mapping[str, str] | None = None
+    ) -> list[Substitution]:
+        """Every substitution making the conjunction true (closed world), deterministic order."""
+        return list(satisfy(formula, self._facts, subst))
+
+    def iter_query(
+        self, formula: Iterable[Literal], subst: Mapping[str, str] | None = None
+    ) -> Iterator[Substitution]:
+        return satisfy(formula, self._facts, subst)
+
+    def apply_effects(
+        self, add: Conjunction, delete: Conjunction, subst: Mapping[str, str]
+    ) -> None:
+        """Action effects (eq. 20): delete first, then add, both grounded by ``subst``."""
+        for lit in delete:
+            self._facts.discard(apply_substitution(lit, subst).key())
+        for lit in add:
+            g = apply_substitution(lit, subst)
+            if not g.is_ground:
+                raise FlexhrcError(f"effect {lit} is not ground under {dict(subst)}")
+            self._facts.add(g.key())
+        self.version += 1
+
+    # -- copies -------------------------------------------------------------------------
+    def copy(self) -> KnowledgeBase:
+        """An independent copy (simulations run on copies)."""
+        return copy.deepcopy(self)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "objects": [o.to_dict() for o in self.objects.values()],
+            "facts": sorted(list(f) for f in self._facts),
+            "consistent": self.consistent,
+        }
+
+
+def _vec(p: Iterable[float]) -> Vec3:
+    vals = [float(x) for x in p]
+    if len(vals) != 3 or not all(math.isfinite(v) for v in vals):
+        raise FlexhrcError(f"a position needs three finite numbers, got {vals}")
+    return (vals[0], vals[1], vals[2])
+
+
+def _dist(a: Vec3, b: Vec3) -> float:
+    return math.dist(a, b)
+
+
+def _fmt(p: Vec3) -> str:
+    return "(" + ", ".join(f"{v:.3f}" for v in p) + ")"

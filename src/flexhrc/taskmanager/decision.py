@@ -1,0 +1,226 @@
+"""The Action-State table and the decision tree (paper 000, section V).
+
+:class:`ActionStateTable` has one row per feasible node or hyper-arc: its ordered actions (for a
+hyper-arc, A(h)) or processes (for a node, P(n)), its cost, and the progress of execution — which
+actions are done, and by whom.
+
+:class:`DecisionTree` enumerates, for one element, every consistent grounding of its variables
+against the knowledge base times every admissible agent assignment; each leaf is a
+:class:`Branch` whose ordered ground actions are simulated and scored with the utility of
+eq. (21). The branch with the highest utility wins (ties: enumeration order, deterministic).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+from flexhrc.knowledge import KnowledgeBase
+from flexhrc.logic import Literal, Substitution, apply_substitution, is_variable
+from flexhrc.taskmanager.domain import ActionSchema, Domain, GroundAction
+from flexhrc.taskmanager.simulator import SimulationResult, Simulator
+
+
+@dataclass
+class Row:
+    """One row of the Action-State table."""
+
+    element: str
+    kind: str
+    cost: float
+    actions: tuple[str, ...]
+    done_by: list[str | None] = field(default_factory=list)
+    status: str = "feasible"  # feasible | running | solved | infeasible
+
+    def __post_init__(self) -> None:
+        if not self.done_by:
+            self.done_by = [None] * len(self.actions)
+
+    @property
+    def next_index(self) -> int:
+        for i, who in enumerate(self.done_by):
+            if who is None:
+                return i
+        return len(self.actions)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "element": self.element,
+            "kind": self.kind,
+            "cost": self.cost,
+            "actions": list(self.actions),
+            "done_by": list(self.done_by),
+            "status": self.status,
+        }
+
+
+class ActionStateTable:
+    """Rows for the feasible elements, refreshed after every graph answer."""
+
+    def __init__(self) -> None:
+        self.rows: dict[str, Row] = {}
+
+    def refresh(self, feasible: Mapping[str, float], describe: Any) -> None:
+        """Add rows for new feasible elements, update costs, drop rows no longer feasible
+        (unless running)."""
+        for name, cost in feasible.items():
+            row = self.rows.get(name)
+            if row is None:
+                kind, actions = describe(name)
+                self.rows[name] = Row(name, kind, cost, actions)
+            else:
+                row.cost = cost
+        for name in [
+            n for n, r in self.rows.items() if n not in feasible and r.status != "running"
+        ]:
+            del self.rows[name]
+
+    def __getitem__(self, name: str) -> Row:
+        return self.rows[name]
+
+    def __contains__(self, name: object) -> bool:
+        return name in self.rows
+
+    def running(self) -> list[Row]:
+        return [r for r in self.rows.values() if r.status == "running"]
+
+    def to_list(self) -> list[dict[str, Any]]:
+        return [r.to_dict() for r in sorted(self.rows.values(), key=lambda r: r.cost)]
+
+
+@dataclass
+class Branch:
+    """One leaf of a decision tree: a grounding, the agents, the ground actions, the score."""
+
+    grounding: dict[str, str]
+    steps: list[GroundAction]
+    result: SimulationResult | None = None
+
+    @property
+    def utility(self) -> float:
+        return self.result.utility if self.result else 0.0
+
+    @property
+    def agents(self) -> tuple[str, ...]:
+        seen: dict[str, None] = {}
+        for s in self.steps:
+            for a in s.agents:
+                seen.setdefault(a, None)
+        return tuple(seen)
+
+    def to_dict(self) -> dict[str, Any]:
+        r = self.result
+        return {
+            "grounding": dict(self.grounding),
+            "agents": list(self.agents),
+            "success": bool(r and r.success),
+            "durations": [round(d, 6) for d in (r.durations if r else [])],
+            "utility": self.utility,
+            "reason": r.reason if r else None,
+        }
+
+
+class DecisionTree:
+    """Groundings x agent assignments for one element, simulated and scored (eq. 21)."""
+
+    def __init__(self, element: str, branches: list[Branch]):
+        self.element = element
+        self.branches = branches
+
+    @classmethod
+    def build(
+        cls,
+        element: str,
+        invocations: Sequence[str],
+        constraints: Iterable[Literal],
+        domain: Domain,
+        kb: KnowledgeBase,
+        *,
+        exclude: Iterable[Mapping[str, str]] = (),
+        available_agents: Iterable[str] | None = None,
+        reserved: Iterable[str] = (),
+    ) -> DecisionTree:
+        """Enumerate branches.
+
+        ``constraints`` are the state formulas of the element's children (the objects must be
+        in the state the element starts from); each action's agent parameter ranges over the
+        capable agents in ``available_agents``; objects in ``reserved`` (used by another
+        running element) and groundings in ``exclude`` (failed before) are left out.
+        """
+        parsed = [domain.invocation(text) for text in invocations]
+        variables: dict[str, str] = {}  # variable -> type
+        agent_vars: set[str] = set()
+        for schema, args in parsed:
+            for (pvar, ptype), term in zip(schema.parameters, args, strict=True):
+                if is_variable(term):
+                    variables.setdefault(term, ptype)
+                    if schema.agents.mode == "choice" and schema.agents.variable == pvar:
+                        agent_vars.add(term)
+        available = set(available_agents) if available_agents is not None else set(domain.agents)
+        reserved_set = set(reserved)
+        excluded = [dict(x) for x in exclude]
+        constraint_list = list(constraints)
+        bound_by_constraints = {a for lit in constraint_list for a in lit.args if is_variable(a)}
+
+        # Object variables: ground them from the KB (children's formulas + their types).
+        object_vars = [v for v in variables if v not in agent_vars]
+        type_lits = [
+            Literal(variables[v], (v,)) for v in object_vars if v not in bound_by_constraints
+        ]
+        groundings: list[Substitution] = []
+        seen: set[tuple[tuple[str, str], ...]] = set()
+        for sub in kb.iter_query([*constraint_list, *type_lits]):
+            key = tuple(sorted((k, v) for k, v in sub.items() if k in variables))
+            if key in seen:
+                continue
+            seen.add(key)
+            if any(sub.get(v) in reserved_set for v in object_vars):
+                continue
+            groundings.append({k: v for k, v in key})
+        # Agent variables: every capable, available agent of the parameter's type.
+        agent_choices: list[list[tuple[str, str]]] = []
+        for v in sorted(agent_vars):
+            names = [a.name for a in domain.agents_of_type(variables[v]) if a.name in available]
+            agent_choices.append([(v, n) for n in names])
+        branches: list[Branch] = []
+        for g in groundings:
+            combos: list[dict[str, str]] = [dict(g)]
+            for choices in agent_choices:
+                combos = [{**c, v: n} for c in combos for v, n in choices]
+            for full in combos:
+                if any(all(full.get(k) == v for k, v in ex.items()) for ex in excluded):
+                    continue
+                steps = [_ground(schema, args, full) for schema, args in parsed]
+                if any(a not in available for s in steps for a in s.agents):
+                    continue
+                branches.append(Branch(full, steps))
+        return cls(element, branches)
+
+    def evaluate(self, simulator: Simulator, kb: KnowledgeBase, domain: Domain) -> Branch | None:
+        """Simulate every branch; the best one (utility > 0), or None."""
+        for b in self.branches:
+            b.result = simulator.simulate(b.steps, kb, domain)
+        best = None
+        for b in self.branches:
+            if b.utility > 0 and (best is None or b.utility > best.utility):
+                best = b
+        return best
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"element": self.element, "branches": [b.to_dict() for b in self.branches]}
+
+
+def _ground(schema: ActionSchema, args: Sequence[str], subst: Mapping[str, str]) -> GroundAction:
+    values = tuple(subst.get(a, a) if is_variable(a) else a for a in args)
+    spec = schema.agents
+    if spec.mode == "choice":
+        idx = schema.variables.index(spec.variable)  # type: ignore[arg-type]
+        agents: tuple[str, ...] = (values[idx],)
+    else:
+        agents = spec.names
+    return GroundAction(schema, values, agents)
+
+
+def ground_formula(formula: Iterable[Literal], subst: Mapping[str, str]) -> list[Literal]:
+    return [apply_substitution(lit, subst) for lit in formula]

@@ -1,0 +1,232 @@
+"""Simulating decision-tree branches (paper 000, V-A and eq. 21).
+
+The Task Manager scores each branch of a decision tree by simulating its ordered actions: a
+:class:`Simulator` returns whether every action succeeds and how long each takes. The utility of
+a branch is ``J(b) = success(b) / sum(t_i)`` (eq. 21).
+
+:class:`AnalyticSimulator` is the default: straight-line distances at nominal speeds, fixed times
+for grasping and screwing, a reach sphere per robot arm, and an optional seeded failure model.
+The kinematic simulator of :mod:`flexhrc.action` implements the same :class:`Simulator`
+protocol. Simulations never modify the knowledge base: positions are tracked on the side.
+"""
+
+from __future__ import annotations
+
+import math
+import random
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Protocol
+
+from flexhrc.knowledge import KnowledgeBase
+from flexhrc.taskmanager.domain import Domain, GroundAction
+
+Vec3 = tuple[float, float, float]
+
+
+@dataclass
+class SimulationResult:
+    """Outcome of simulating an ordered list of actions."""
+
+    success: bool
+    durations: list[float]
+    reason: str | None = None
+    details: list[dict[str, object]] = field(default_factory=list)
+
+    @property
+    def total_s(self) -> float:
+        return sum(self.durations)
+
+    @property
+    def utility(self) -> float:
+        """J(b) = success(b) / sum of action times (eq. 21)."""
+        total = self.total_s
+        return (1.0 / total) if self.success and total > 0 else 0.0
+
+
+class Simulator(Protocol):
+    """Anything that can tell success and durations of an action sequence."""
+
+    def simulate(
+        self, steps: Sequence[GroundAction], kb: KnowledgeBase, domain: Domain
+    ) -> SimulationResult: ...
+
+
+@dataclass
+class Timing:
+    """Nominal speeds (m/s) and fixed durations (s). Robot figures follow the paper's robot
+    (max linear end-effector speed 0.4 m/s); human ones are typical assembly motions."""
+
+    robot_speed: float = 0.4
+    approach_overhead: float = 0.5
+    transport_overhead: float = 0.5
+    grasp: float = 1.0
+    ungrasp: float = 0.8
+    robot_screw: float = 4.0
+    human_speed: float = 1.0
+    human_pick_up: float = 2.0
+    human_put_down: float = 1.5
+    human_screw: float = 6.0
+    place_tabletop: float = 6.0
+
+
+class AnalyticSimulator:
+    """Distances over speeds, reach spheres, seeded failures.
+
+    Robot arms are agents with ``base`` (shoulder position), ``reach`` (m) and ``rest``
+    (end-effector rest position) parameters; their current end-effector position is the KB
+    object of the same name. Places and objects are KB objects with positions. A robot action
+    whose target is farther than ``reach`` from the arm's base fails ("unreachable").
+    ``failure_rate`` makes each robot action fail with that probability (seeded).
+    """
+
+    def __init__(
+        self,
+        timing: Timing | None = None,
+        *,
+        failure_rate: float = 0.0,
+        seed: int = 0,
+    ):
+        if not 0.0 <= failure_rate <= 1.0:
+            raise ValueError(f"failure_rate must be in [0, 1], got {failure_rate}")
+        self.timing = timing or Timing()
+        self.failure_rate = failure_rate
+        self._rng = random.Random(seed)
+
+    # -- one action -----------------------------------------------------------------------
+    def step(
+        self,
+        action: GroundAction,
+        positions: dict[str, Vec3],
+        kb: KnowledgeBase,
+        domain: Domain,
+    ) -> tuple[bool, float, str | None]:
+        """Simulate one action from ``positions`` (updated in place): success, time, reason."""
+        t = self.timing
+        kind = action.schema.kind
+        agents = [domain.agent(a) for a in action.agents]
+        if any(a.is_human for a in agents):
+            return self._human_step(kind, action, positions, kb)
+        durations = []
+        for arm in agents:
+            ok, dt, why = self._arm_step(kind, arm.name, arm.params, action, positions, kb)
+            if not ok:
+                return False, dt, why
+            durations.append(dt)
+        if kind == "place_tabletop":
+            return True, t.place_tabletop, None
+        if self.failure_rate and self._rng.random() < self.failure_rate:
+            return False, max(durations, default=0.0), f"{action} failed (simulated fault)"
+        return True, max(durations, default=0.0), None
+
+    def _arm_step(
+        self,
+        kind: str,
+        arm: str,
+        params: Mapping[str, object],
+        action: GroundAction,
+        positions: dict[str, Vec3],
+        kb: KnowledgeBase,
+    ) -> tuple[bool, float, str | None]:
+        t = self.timing
+        base = _v(params.get("base", (0.0, 0.0, 0.0)))
+        reach = float(params.get("reach", 0.85))  # type: ignore[arg-type]
+        rest = _v(params.get("rest", base))
+        speed = float(params.get("speed", t.robot_speed))  # type: ignore[arg-type]
+        ee = positions.get(arm) or (kb.position(arm) if arm in kb.objects else rest)
+
+        def pos(obj: str) -> Vec3:
+            return positions.get(obj) or kb.position(obj)
+
+        def reachable(p: Vec3, what: str) -> str | None:
+            rec = kb.objects.get(what)
+            allowed = rec.attrs.get("reachable_by") if rec is not None else None
+            if allowed is not None and arm not in allowed:
+                return f"{what} cannot be reached by {arm} (blocked)"
+            d = math.dist(base, p)
+            if d > reach:
+                return f"{what} at {_fmt(p)} is out of reach of {arm} ({d:.2f} m > {reach:.2f} m)"
+            return None
+
+        objs = [a for a in action.args if a in kb.objects and a != arm]
+        target_obj = objs[0] if objs else None
+        if kind == "approach":
+            p = pos(target_obj) if target_obj else ee
+            why = reachable(p, target_obj or "target")
+            if why:
+                return False, 0.0, why
+            positions[arm] = p
+            return True, math.dist(ee, p) / speed + t.approach_overhead, None
+        if kind == "grasp":
+            return True, t.grasp, None
+        if kind == "transport":
+            place = objs[-1] if len(objs) >= 2 else None
+            if place is None:
+                return False, 0.0, f"{action}: no destination"
+            p = pos(place)
+            why = reachable(p, place)
+            if why:
+                return False, 0.0, why
+            d = math.dist(ee, p)
+            positions[arm] = p
+            if target_obj:
+                positions[target_obj] = p
+            return True, d / speed + t.transport_overhead, None
+        if kind == "screw":
+            where = objs[-1] if objs else None
+            p = pos(where) if where else ee
+            why = reachable(p, where or "screw point")
+            if why:
+                return False, 0.0, why
+            return True, t.robot_screw, None
+        if kind == "ungrasp":
+            return True, t.ungrasp, None
+        if kind == "rest":
+            d = math.dist(ee, rest)
+            positions[arm] = rest
+            return True, d / speed, None
+        if kind == "place_tabletop":
+            return True, t.place_tabletop, None
+        return True, 1.0, None
+
+    def _human_step(
+        self, kind: str, action: GroundAction, positions: dict[str, Vec3], kb: KnowledgeBase
+    ) -> tuple[bool, float, str | None]:
+        t = self.timing
+        if kind == "pick_up":
+            obj = next((a for a in action.args if a in kb.objects and a != "human"), None)
+            hand = positions.get("human") or (
+                kb.position("human") if "human" in kb.objects else (1.0, 0.0, 0.1)
+            )
+            p = positions.get(obj or "") or (kb.position(obj) if obj else hand)
+            positions["human"] = p
+            return True, t.human_pick_up + math.dist(hand, p) / t.human_speed, None
+        if kind == "put_down":
+            return True, t.human_put_down, None
+        if kind == "screw":
+            return True, t.human_screw, None
+        return True, 2.0, None
+
+    # -- a sequence -----------------------------------------------------------------------
+    def simulate(
+        self, steps: Sequence[GroundAction], kb: KnowledgeBase, domain: Domain
+    ) -> SimulationResult:
+        positions: dict[str, Vec3] = {}
+        durations: list[float] = []
+        details: list[dict[str, object]] = []
+        for action in steps:
+            ok, dt, why = self.step(action, positions, kb, domain)
+            durations.append(dt)
+            details.append({"action": str(action), "agents": list(action.agents), "t": dt})
+            if not ok:
+                return SimulationResult(False, durations, why, details)
+        return SimulationResult(True, durations, None, details)
+
+
+def _v(p: object) -> Vec3:
+    vals = [float(x) for x in p]  # type: ignore[attr-defined]
+    return (vals[0], vals[1], vals[2])
+
+
+def _fmt(p: Vec3) -> str:
+    return "(" + ", ".join(f"{v:.2f}" for v in p) + ")"
