@@ -39,10 +39,21 @@ TABLETOP_CENTRE = (0.50, 0.0, 0.0)
 MIDDLE_POSE = (0.85, 0.0, 0.0)
 HUMAN_HAND = (1.20, 0.0, 0.10)
 
-ROBOT_DIRECT = ("approach(?arm, ?leg)", "grasp(?arm, ?leg)", "transport(?arm, ?leg, {bolt})",
-                "screw(?arm, ?leg, {bolt})", "ungrasp(?arm, ?leg)", "rest(?arm)")
-TO_MIDDLE = ("approach(?arm, ?leg)", "grasp(?arm, ?leg)", "transport(?arm, ?leg, middle)",
-             "ungrasp(?arm, ?leg)", "rest(?arm)")
+ROBOT_DIRECT = (
+    "approach(?arm, ?leg)",
+    "grasp(?arm, ?leg)",
+    "transport(?arm, ?leg, {bolt})",
+    "screw(?arm, ?leg, {bolt})",
+    "ungrasp(?arm, ?leg)",
+    "rest(?arm)",
+)
+TO_MIDDLE = (
+    "approach(?arm, ?leg)",
+    "grasp(?arm, ?leg)",
+    "transport(?arm, ?leg, middle)",
+    "ungrasp(?arm, ?leg)",
+    "rest(?arm)",
+)
 HUMAN = ("pick_up(human, ?leg)", "screw(human, ?leg, {bolt})")
 
 
@@ -60,7 +71,9 @@ def build_graph(legs: int = 4) -> HierarchicalGraph:
         before = "tabletop" if k == 1 else f"connected_{k - 1}"
         bolt = f"bolt_{k}"
         children = [f"leg_{k}", before]
-        mid = [f"middle_{k}", before]
+        # the middle state already includes the previous bolt (to_middle_k consumed it):
+        # a second child "before" would be blocked by Algorithm 2 once to_middle_k is solved
+        mid = [f"middle_{k}"]
         fill = [a.format(bolt=bolt) for a in ROBOT_DIRECT]
         human = [a.format(bolt=bolt) for a in HUMAN]
         g.add_hyperarc(f"robot_{k}", children, f"connected_{k}", 1, actions=tuple(fill))
@@ -127,7 +140,11 @@ class TableScenario:
             sx, sy = corners[k % 4]
             shrink = 1.0 - 0.35 * (k // 4)
             out.append(
-                (round(cx + sx * (w / 2 - 0.05) * shrink, 4), round(cy + sy * (d / 2 - 0.05), 4), 0.0)
+                (
+                    round(cx + sx * (w / 2 - 0.05) * shrink, 4),
+                    round(cy + sy * (d / 2 - 0.05), 4),
+                    0.0,
+                )
             )
         return out
 

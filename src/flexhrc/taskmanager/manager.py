@@ -487,7 +487,10 @@ class TaskManager:
                         self.kb.move(obj, (p[0], p[1], 0.0))
             if "rest" in self.domain.actions:
                 rest = GroundAction(self.domain.actions["rest"], (agent,), (agent,))
-                cmd = Command(next(self._ids), (agent,), rest, None, 0, 0.0)
+                t0 = self._timer()
+                sim = self.simulator.simulate([rest], self.kb, self.domain)
+                self.timing.simulator_s += self._timer() - t0
+                cmd = Command(next(self._ids), (agent,), rest, None, 0, sim.total_s)
                 self.busy[agent] = cmd
                 self._emit("command", **cmd.to_dict())
                 out.append(cmd)

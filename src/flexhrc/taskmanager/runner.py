@@ -11,6 +11,8 @@ its profile, also acts on its own:
 * ``cooperative`` — takes the next leg now and then (seeded; Fig. 11);
 * ``random`` — acts at random moments on random legs (seeded).
 
+``human_takes`` scripts the operator instead: it takes exactly the listed bolts (tests, demos).
+
 Nothing sleeps (unless ``realtime``), so a 4-leg assembly takes milliseconds of wall time. Every
 decision, command, acknowledgement and human action is recorded in :attr:`RunResult.events`
 (JSON-serialisable dicts, written as JSON lines by :meth:`RunResult.save_log`).
@@ -24,8 +26,8 @@ import json
 import math
 import random
 import time
-from collections.abc import Callable
-from dataclasses import dataclass, field
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -104,6 +106,7 @@ class CooperationRun:
         trace: Callable[[dict[str, Any]], None] | None = None,
         realtime: float = 0.0,
         max_time_s: float = 3600.0,
+        human_takes: Iterable[int] | None = None,
     ):
         if human_profile not in PROFILES:
             raise FlexhrcError(
@@ -115,6 +118,8 @@ class CooperationRun:
         self.simulator = simulator or AnalyticSimulator()
         self.execution = execution or AnalyticSimulator()
         self.profile = human_profile
+        # a scripted operator: takes exactly these bolts (1-based), whatever the profile says
+        self.human_takes = set(human_takes) if human_takes is not None else None
         self.rng = random.Random(seed)
         self.failures = list(failures or [])
         self._failure_counts: dict[int, int] = {}
@@ -166,7 +171,10 @@ class CooperationRun:
             if pending.cancelled:
                 continue
             if at > self.max_time_s:
-                self.tm.outcome, self.tm.reason = "failed", f"time budget {self.max_time_s} s exceeded"
+                self.tm.outcome, self.tm.reason = (
+                    "failed",
+                    f"time budget {self.max_time_s} s exceeded",
+                )
                 self._event("outcome", outcome="failed", reason=self.tm.reason)
                 break
             if self.realtime > 0:
@@ -219,8 +227,12 @@ class CooperationRun:
         self._starts[cmd.id] = self.now
         self._push(self.now + duration, pending)
         self._event(
-            "action_start", agents=list(cmd.agents), action=str(cmd.action), command=cmd.id,
-            element=cmd.element, planned_s=round(duration, 6),
+            "action_start",
+            agents=list(cmd.agents),
+            action=str(cmd.action),
+            command=cmd.id,
+            element=cmd.element,
+            planned_s=round(duration, 6),
         )
 
     def _stop(self, stop: Stop) -> None:
@@ -231,8 +243,13 @@ class CooperationRun:
             t0 = self._starts.pop(cmd.id, self.now)
             self.robot_time += self.now - t0
             self._event(
-                "action_end", agents=list(cmd.agents), action=str(cmd.action), command=cmd.id,
-                status="stopped", start=round(t0, 6), reason=stop.reason,
+                "action_end",
+                agents=list(cmd.agents),
+                action=str(cmd.action),
+                command=cmd.id,
+                status="stopped",
+                start=round(t0, 6),
+                reason=stop.reason,
             )
 
     def _robot_done(self, data: dict[str, Any]) -> None:
@@ -253,8 +270,14 @@ class CooperationRun:
                 for a in cmd.agents:
                     self.legs_by_agent[a] = self.legs_by_agent.get(a, 0) + 1
         self._event(
-            "action_end", agents=list(cmd.agents), action=str(cmd.action), command=cmd.id,
-            status=status, start=round(t0, 6), reason=data["reason"], element=cmd.element,
+            "action_end",
+            agents=list(cmd.agents),
+            action=str(cmd.action),
+            command=cmd.id,
+            status=status,
+            start=round(t0, 6),
+            reason=data["reason"],
+            element=cmd.element,
         )
         self._dispatch(self.tm.on_ack(self.now, Ack(cmd.id, status, data["reason"])))
 
@@ -280,17 +303,43 @@ class CooperationRun:
             self.now + duration,
             _Pending("human_done", {"step": step, "start": self.now, "positions": positions}),
         )
-        self._event("action_start", agents=["human"], action=str(step), planned_s=round(duration, 6))
+        self._event(
+            "action_start", agents=["human"], action=str(step), planned_s=round(duration, 6)
+        )
+
+    def _taken_by_robot(self, obj: str) -> str | None:
+        for fact in self.kb.facts:
+            if fact[0] == "holding" and fact[2] == obj:
+                return fact[1]
+        return None
 
     def _human_done(self, data: dict[str, Any]) -> None:
         step: GroundAction = data["step"]
         t0 = data["start"]
+        if step.schema.kind == "pick_up" and (arm := self._taken_by_robot(step.args[1])):
+            # the robot grasped it first: the operator does not pull it out of the gripper
+            self.human_time += self.now - t0
+            self._event(
+                "action_end",
+                agents=["human"],
+                action=str(step),
+                status="failed",
+                start=round(t0, 6),
+                reason=f"{step.args[1]} already in the {arm} gripper",
+            )
+            self._event("human_gives_up", leg=step.args[1], holder=arm)
+            self.human_plan = None
+            return
         self.human_time += self.now - t0
         self.human_actions += 1
-        self._event("action_end", agents=["human"], action=str(step), status="done", start=round(t0, 6))
+        self._event(
+            "action_end", agents=["human"], action=str(step), status="done", start=round(t0, 6)
+        )
         if step.schema.kind == "pick_up":
             obj = step.args[1]
-            self.kb.move(obj, self.kb.position("human") if "human" in self.kb.objects else (1.2, 0, 0.1))
+            self.kb.move(
+                obj, self.kb.position("human") if "human" in self.kb.objects else (1.2, 0, 0.1)
+            )
         if step.schema.kind == "screw":
             leg, bolt = step.args[1], step.args[2]
             self.kb.move(leg, self.kb.position(bolt))
@@ -329,16 +378,29 @@ class CooperationRun:
         return None
 
     def _next_bolt(self) -> str | None:
+        """The bolt the operator can work on now: the first empty one whose predecessor is
+        connected in the cooperation state (the bolts are filled in a fixed order)."""
         k = 1
         while f"bolt_{k}" in self.kb.objects:
             if not self.kb.holds("filled", f"bolt_{k}"):
-                return f"bolt_{k}"
+                before = f"connected_{k - 1}" if k > 1 else None
+                if before is None or self._met(before):
+                    return f"bolt_{k}"
+                return None
             k += 1
         return None
 
+    def _met(self, node: str) -> bool:
+        try:
+            return self.graph.is_met(node)
+        except KeyError:
+            return False
+
     def _human_consider(self) -> None:
         """Profiles that act on their own decide here whether to take the next leg."""
-        if not self._has_human or self.profile == "passive" or self.tm.done:
+        if not self._has_human or self.tm.done:
+            return
+        if self.profile == "passive" and self.human_takes is None:
             return
         if self.human_plan is not None:
             return
@@ -348,8 +410,10 @@ class CooperationRun:
         if bolt is None or bolt in self._human_decided:
             return
         self._human_decided.add(bolt)
-        if self.profile == "takeover":
-            act, delay = True, 0.5
+        if self.human_takes is not None:
+            act, delay = int(bolt.rsplit("_", 1)[1]) in self.human_takes, 0.0
+        elif self.profile == "takeover":
+            act, delay = True, 0.0
         elif self.profile == "cooperative":
             act, delay = self.rng.random() < 0.5, self.rng.uniform(0.5, 2.0)
         else:  # random

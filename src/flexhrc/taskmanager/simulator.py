@@ -64,7 +64,7 @@ class Timing:
     ungrasp: float = 0.8
     robot_screw: float = 4.0
     human_speed: float = 1.0
-    human_pick_up: float = 2.0
+    human_pick_up: float = 1.0
     human_put_down: float = 1.5
     human_screw: float = 6.0
     place_tabletop: float = 6.0

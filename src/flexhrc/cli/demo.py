@@ -1,0 +1,324 @@
+"""``flexhrc demo table``, ``flexhrc run SCENARIO.yaml`` and ``flexhrc replay LOG``."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+from flexhrc.cli.common import add_json_flag, emit
+from flexhrc.errors import FlexhrcError, FormatError
+
+TRACE_TYPES = {
+    "decision",
+    "command",
+    "suggestion",
+    "recognised",
+    "abort",
+    "action_failed",
+    "infeasible",
+    "outcome",
+    "human_decides",
+    "waiting",
+    "human_action_unmatched",
+}
+
+
+def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    p = sub.add_parser("demo", help="run a ready-made simulated human-robot demo")
+    dsub = p.add_subparsers(dest="demo", metavar="DEMO", required=True)
+    t = dsub.add_parser(
+        "table",
+        help="the cooperative table assembly (dual-arm robot + human operator)",
+        description="A dual-arm robot and a simulated human fix legs to a tabletop (FlexHRC+ "
+        "paper, VI-D). Prints a live trace and the paper's Table I.",
+    )
+    _scenario_options(t)
+    t.set_defaults(func=cmd_demo_table)
+
+    r = sub.add_parser("run", help="run a user-written scenario file (YAML)")
+    r.add_argument("scenario", metavar="SCENARIO.yaml")
+    _run_options(r)
+    r.set_defaults(func=cmd_run)
+
+    rp = sub.add_parser("replay", help="print the summary of a saved cooperation log (JSONL)")
+    rp.add_argument("log", metavar="LOG")
+    rp.add_argument("--plot", metavar="FILE", help="draw the timeline PNG from the log")
+    add_json_flag(rp)
+    rp.set_defaults(func=cmd_replay)
+
+
+def _scenario_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--legs", type=int, default=4, help="number of legs (default 4)")
+    p.add_argument("--tabletop", choices=["large", "small"], default="large")
+    p.add_argument("--leg-length", choices=["long", "short"], default="long")
+    p.add_argument(
+        "--unreachable-bolt",
+        type=int,
+        action="append",
+        default=[],
+        metavar="K",
+        help="bolt K cannot be reached by either arm (the robot asks the human, paper Fig. 12)",
+    )
+    p.add_argument("--no-human", action="store_true", help="the robot works alone")
+    _run_options(p)
+
+
+def _run_options(p: argparse.ArgumentParser) -> None:
+    from flexhrc.taskmanager.runner import PROFILES
+
+    p.add_argument("--human", choices=PROFILES, default=None, help="human operator profile")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument(
+        "--human-takes",
+        type=int,
+        action="append",
+        default=None,
+        metavar="K",
+        help="script the operator: it takes bolt K (repeatable), whatever the profile",
+    )
+    p.add_argument(
+        "--fail",
+        action="append",
+        default=[],
+        metavar="ACTION[:N]",
+        help="inject a failure of the N-th robot ACTION (e.g. transport:1)",
+    )
+    p.add_argument("--log", metavar="FILE", help="write the event log (JSON lines)")
+    p.add_argument("--plot", metavar="FILE", help="write the timeline PNG")
+    p.add_argument("--quiet", action="store_true", help="no live trace")
+    p.add_argument(
+        "--realtime",
+        type=float,
+        default=0.0,
+        metavar="SPEED",
+        help="pace the simulated clock (1 = real time, 5 = five times faster)",
+    )
+    add_json_flag(p)
+
+
+def _failures(specs: list[str]) -> list[Any]:
+    from flexhrc.taskmanager.runner import InjectedFailure
+
+    out = []
+    for spec in specs:
+        action, _, n = spec.partition(":")
+        try:
+            out.append(InjectedFailure(action, int(n) if n else 1))
+        except ValueError:
+            raise FlexhrcError(f"--fail {spec!r}: expected ACTION or ACTION:N") from None
+    return out
+
+
+def _trace_printer(args: argparse.Namespace) -> Any:
+    if args.quiet:
+        return None
+    stream = sys.stderr if args.json else sys.stdout
+
+    def trace(ev: dict[str, Any]) -> None:
+        kind = ev["type"]
+        if kind not in TRACE_TYPES:
+            return
+        t = f"{ev['t']:7.2f}s"
+        if kind == "decision":
+            n = len(ev["branches"])
+            best = ev["chosen"]
+            line = f"decide {ev['element']} (cost {ev['cost']}): {n} branches simulated"
+            if best is not None:
+                b = ev["branches"][best]
+                grounding = ", ".join(f"{k}={v}" for k, v in sorted(b["grounding"].items()))
+                line += f", best {grounding} J={b['utility']:.4f}"
+            else:
+                line += ", none succeeds"
+        elif kind == "command":
+            line = f"{'+'.join(ev['agents']):<6} {ev['action']}"
+        elif kind == "suggestion":
+            line = f"ask human: {ev['element']}: {'; '.join(ev['actions'])}"
+        elif kind == "recognised":
+            line = f"human did {ev['action']} -> follows {ev['element']}"
+        elif kind == "abort":
+            line = f"stop {ev['element']}: {ev['reason']}"
+        elif kind == "action_failed":
+            line = f"FAILED {ev['element']} ({ev['status']}): {ev['reason']}"
+        elif kind == "infeasible":
+            line = f"{ev['element']} infeasible: {ev['reason']}"
+        elif kind == "human_decides":
+            line = f"human goes for {ev['leg']} ({ev['bolt']})"
+        elif kind == "human_gives_up":
+            line = f"human leaves {ev['leg']}: the {ev['holder']} arm holds it"
+        elif kind == "waiting":
+            line = f"waiting: {ev['reason']}"
+        elif kind == "outcome":
+            line = f"outcome: {ev['outcome'].upper()}" + (
+                f" ({ev['reason']})" if ev["reason"] else ""
+            )
+        else:
+            line = json.dumps(ev)
+        print(f"{t}  {line}", file=stream, flush=True)
+
+    return trace
+
+
+def cmd_demo_table(args: argparse.Namespace) -> int:
+    from flexhrc.scenarios.table_assembly import TableScenario
+
+    scenario = TableScenario(
+        legs=args.legs,
+        tabletop=args.tabletop,
+        leg_length=args.leg_length,
+        seed=args.seed,
+        human=not args.no_human,
+        unreachable_bolts=tuple(args.unreachable_bolt),
+    )
+    return _run_table(args, scenario, args.human or "passive")
+
+
+def _run_table(args: argparse.Namespace, scenario: Any, profile: str) -> int:
+    from flexhrc.representation import OnlineGraph
+    from flexhrc.taskmanager.runner import CooperationRun, table_i
+
+    if not scenario.human and profile != "passive":
+        raise FlexhrcError("--human needs a human: drop --no-human")
+    run = CooperationRun(
+        OnlineGraph(scenario.graph()),
+        scenario.domain(),
+        scenario.knowledge(),
+        human_profile=profile,
+        seed=args.seed,
+        failures=_failures(args.fail),
+        trace=_trace_printer(args),
+        realtime=args.realtime,
+        human_takes=args.human_takes,
+    )
+    result = run.run()
+    if args.log:
+        result.save_log(args.log)
+    if args.plot:
+        from flexhrc.taskmanager.timeline import plot_timeline
+
+        title = f"table assembly, {scenario.legs} legs, human {profile}, seed {args.seed}"
+        plot_timeline(result.events, args.plot, title)
+    data = dict(result.summary)
+
+    def text() -> str:
+        out = ["", table_i(data), ""]
+        legs = ", ".join(f"{a}: {n}" for a, n in data["legs_by_agent"].items())
+        out.append(
+            f"outcome {data['outcome']}"
+            + (f" ({data['reason']})" if data["reason"] else "")
+            + f"; legs connected by {legs}; {data['decisions']} decision trees, "
+            f"{data['branches_simulated']} branches simulated; "
+            f"{data['robot_actions']} robot and {data['human_actions']} human actions"
+        )
+        if args.log:
+            out.append(f"event log: {args.log}")
+        if args.plot:
+            out.append(f"timeline: {args.plot}")
+        return "\n".join(out)
+
+    emit(args, data, text)
+    return 0 if data["outcome"] == "solved" else 1
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    from flexhrc.representation.formats.yaml_format import read_yaml
+    from flexhrc.scenarios.table_assembly import TableScenario
+
+    path = Path(args.scenario)
+    if not path.is_file():
+        raise FormatError("no such file", path)
+    doc = read_yaml(path)
+    if not isinstance(doc, dict):
+        raise FormatError("a scenario file must be a mapping", path, 1)
+    kind = doc.get("scenario")
+    if kind != "table_assembly":
+        raise FormatError(
+            f"unknown scenario {kind!r}; supported: table_assembly",
+            path,
+            getattr(doc, "lines", {}).get("scenario", 1),
+        )
+    allowed = {
+        "scenario",
+        "legs",
+        "tabletop",
+        "leg_length",
+        "seed",
+        "human",
+        "unreachable_bolts",
+        "leg_positions",
+        "profile",
+        "reachable_only_by",
+    }
+    for key in doc:
+        if key not in allowed:
+            raise FormatError(
+                f"unknown key {key!r} (allowed: {', '.join(sorted(allowed))})",
+                path,
+                doc.lines.get(key) if hasattr(doc, "lines") else None,
+            )
+    try:
+        scenario = TableScenario(
+            legs=int(doc.get("legs", 4)),
+            tabletop=str(doc.get("tabletop", "large")),
+            leg_length=str(doc.get("leg_length", "long")),
+            seed=int(doc.get("seed", args.seed)),
+            human=bool(doc.get("human", True)),
+            unreachable_bolts=tuple(int(b) for b in doc.get("unreachable_bolts", [])),
+            reachable_only_by=dict(doc.get("reachable_only_by", {})),
+            leg_positions=[tuple(map(float, p)) for p in doc["leg_positions"]]
+            if "leg_positions" in doc
+            else None,
+        )
+    except (TypeError, ValueError) as exc:
+        raise FormatError(f"bad value: {exc}", path) from None
+    profile = args.human or str(doc.get("profile", "passive"))
+    return _run_table(args, scenario, profile)
+
+
+def cmd_replay(args: argparse.Namespace) -> int:
+    from flexhrc.taskmanager.replay import summarise_log
+    from flexhrc.taskmanager.runner import table_i
+
+    events = _read_log(Path(args.log))
+    data = summarise_log(events)
+    if args.plot:
+        from flexhrc.taskmanager.timeline import plot_timeline
+
+        plot_timeline(events, args.plot, f"replay of {args.log}")
+
+    def text() -> str:
+        legs = ", ".join(f"{a}: {n}" for a, n in data["legs_by_agent"].items())
+        return "\n".join(
+            [
+                table_i(data),
+                "",
+                f"outcome {data['outcome']}; legs connected by {legs}; "
+                f"{data['decisions']} decision trees, {data['branches_simulated']} branches; "
+                f"{data['robot_actions']} robot and {data['human_actions']} human actions",
+            ]
+        )
+
+    emit(args, data, text)
+    return 0
+
+
+def _read_log(path: Path) -> list[dict[str, Any]]:
+    if not path.is_file():
+        raise FormatError("no such file", path)
+    events = []
+    with open(path, encoding="utf-8") as fh:
+        for i, line in enumerate(fh, 1):
+            if not line.strip():
+                continue
+            try:
+                ev = json.loads(line)
+            except json.JSONDecodeError as exc:
+                raise FormatError(f"not a JSON line ({exc.msg})", path, i) from None
+            if not isinstance(ev, dict) or "type" not in ev or "t" not in ev:
+                raise FormatError("an event needs 't' and 'type'", path, i)
+            events.append(ev)
+    if not events:
+        raise FormatError("empty log", path)
+    return events
