@@ -147,7 +147,8 @@ def _trace_printer(args: argparse.Namespace) -> Any:
         elif kind == "human_decides":
             line = f"human goes for {ev['leg']} ({ev['bolt']})"
         elif kind == "human_gives_up":
-            line = f"human leaves {ev['leg']}: the {ev['holder']} arm holds it"
+            what = ev.get("leg") or ev.get("bolt")
+            line = f"human leaves {what}: the {ev['holder']} got there first"
         elif kind == "waiting":
             line = f"waiting: {ev['reason']}"
         elif kind == "outcome":

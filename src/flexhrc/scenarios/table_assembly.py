@@ -92,11 +92,8 @@ def load_domain(human: bool = True) -> Domain:
 
     text = resources.files("flexhrc.scenarios").joinpath("data/table_assembly/domain.yaml")
     data = yaml.safe_load(text.read_text(encoding="utf-8"))
-    if not human:
+    if not human:  # the human's actions stay in the domain, with nobody to do them
         data["agents"].pop("human")
-        data["actions"] = {
-            k: v for k, v in data["actions"].items() if k not in ("pick_up", "put_down")
-        }
     return Domain.from_dict(data, "table_assembly/domain.yaml")
 
 
@@ -178,7 +175,7 @@ class TableScenario:
         """Legs scattered on the table beside the tabletop, within reach (seeded)."""
         rng = random.Random(self.seed)
         out: list[tuple[float, float, float]] = []
-        w, d = TABLETOPS[self.tabletop]
+        _w, d = TABLETOPS[self.tabletop]
         while len(out) < self.legs:
             x = rng.uniform(0.30, 0.75)
             y = rng.choice((-1, 1)) * rng.uniform(d / 2 + 0.08, 0.55)

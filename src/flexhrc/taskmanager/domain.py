@@ -195,10 +195,7 @@ def _agent_spec(
     source: str | Path | None,
 ) -> AgentSpec:
     if isinstance(v, str):
-        if v.startswith("?"):
-            v = {"choice": v}
-        else:
-            v = {"single": v}
+        v = {"choice": v} if v.startswith("?") else {"single": v}
     if not isinstance(v, Mapping) or len(v) != 1:
         raise FormatError(
             f"action {action!r}: agents must be a name, {{choice: ?var}} or {{joint: [names]}}",

@@ -454,6 +454,12 @@ class TaskManager:
             ex.command = None
             if row:
                 row.status = "solved"
+            self._emit(
+                "solved",
+                element=ex.element,
+                agents=list(ex.branch.agents),
+                grounding=dict(ex.branch.grounding),
+            )
             self._update_graph(solved_hyperarcs=[ex.element])
             self._meet_nodes()
 
@@ -532,6 +538,9 @@ class TaskManager:
             actions = self._describe(name)[1]
             if not actions:
                 continue
+            goal = self._formulas.get(self._parent(name), ())
+            if goal and self.kb.query(goal):
+                continue  # its outcome already holds (e.g. a robot just did it): not this one
             schema, terms = self.domain.invocation(actions[0])
             if schema.name != action.name or len(terms) != len(action.args):
                 continue

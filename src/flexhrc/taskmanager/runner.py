@@ -425,6 +425,10 @@ class CooperationRun:
     def _human_start_own(self, data: dict[str, Any]) -> None:
         if self.human_plan is None or self.human_plan.suggested:
             return
+        if self._next_bolt() != data["bolt"]:  # meanwhile the robot got there first
+            self.human_plan = None
+            self._event("human_gives_up", bolt=data["bolt"], holder="robot")
+            return
         busy_objects = set().union(*(ex.objects for ex in self.tm.executions.values()))
         hand = self.kb.position("human") if "human" in self.kb.objects else (1.2, 0.0, 0.1)
         on_table = [

@@ -1,0 +1,77 @@
+import pytest
+
+from flexhrc.errors import FlexhrcError, UnknownNameError
+from flexhrc.knowledge import KnowledgeBase
+from flexhrc.logic import parse_conjunction
+
+
+def kb() -> KnowledgeBase:
+    k = KnowledgeBase()
+    k.add_object("leg1", "leg", (0.4, 0.3, 0.0), {"length": 0.4})
+    k.add_object("leg2", "leg", (0.5, -0.3, 0.0), {"length": 0.4})
+    k.add_object("top", "tabletop", (0.5, 0.0, 0.0), {"width": 0.5})
+    k.assert_fact("on_table", "leg1")
+    k.assert_fact("on_table", "leg2")
+    return k
+
+
+def test_types_are_facts_and_queries_are_closed_world():
+    k = kb()
+    assert k.query(parse_conjunction("leg(?l) & on_table(?l)")) == [{"?l": "leg1"}, {"?l": "leg2"}]
+    k.retract_fact("on_table", "leg1")
+    assert k.query(parse_conjunction("leg(?l) & not on_table(?l)")) == [{"?l": "leg1"}]
+    assert not k.holds("connected", "leg1", "top")
+
+
+def test_effects_delete_then_add():
+    k = kb()
+    k.apply_effects(
+        parse_conjunction("held(?l)"), parse_conjunction("on_table(?l)"), {"?l": "leg2"}
+    )
+    assert k.holds("held", "leg2") and not k.holds("on_table", "leg2")
+    with pytest.raises(FlexhrcError, match="not ground"):
+        k.apply_effects(parse_conjunction("held(?x)"), (), {})
+
+
+def test_percept_agreeing_updates_pose():
+    k = kb()
+    assert k.update_object("leg1", "leg", (0.41, 0.3, 0.0), {"length": 0.401})
+    assert k.position("leg1") == (0.41, 0.3, 0.0) and k.consistent
+    assert k.update_object("leg9", "leg", (0.1, 0.1, 0.0))  # new objects are simply added
+    assert "leg9" in k.objects
+
+
+@pytest.mark.parametrize(
+    ("percept", "words"),
+    [
+        ({"type": "tabletop", "pose": (0.4, 0.3, 0.0)}, "perceived as a tabletop"),
+        ({"type": "leg", "pose": (0.4, 0.3, 0.0), "size": {"length": 0.3}}, "length 0.4 known"),
+    ],
+)
+def test_contradicting_percept_makes_the_base_inconsistent(percept, words):
+    k = kb()
+    before = k.objects["leg1"].to_dict()
+    assert not k.update_object("leg1", **percept)
+    assert not k.consistent and words in k.inconsistencies[0].reason
+    assert k.objects["leg1"].to_dict() == before  # nothing silently overwritten
+    k.resolve("leg1", accept=False)
+    assert k.consistent and k.objects["leg1"].to_dict() == before
+
+
+def test_fixed_object_seen_elsewhere_and_accepting_the_percept():
+    k = kb()
+    k.set_fixed("leg1")
+    assert not k.update_object("leg1", "leg", (0.9, 0.0, 0.0))
+    assert "is fixed" in k.inconsistencies[0].reason
+    k.resolve(accept=True)
+    assert k.consistent and k.position("leg1") == (0.9, 0.0, 0.0) and not k.objects["leg1"].fixed
+
+
+def test_errors_name_the_problem():
+    k = kb()
+    with pytest.raises(UnknownNameError, match="no object 'nope'"):
+        k.position("nope")
+    with pytest.raises(FlexhrcError, match="already exists"):
+        k.add_object("leg1", "leg", (0, 0, 0))
+    with pytest.raises(FlexhrcError, match="three finite numbers"):
+        k.add_object("x", "leg", (0, 0))
