@@ -18,8 +18,10 @@ class Harness:
             self.bus.subscribe(activation_topic(c), lambda m, c=c: self.received.append((c, m.level)))
         self.tick_no = 0
 
-    def child_state(self, child, state="inactive", potential=0.0, progress=False):
-        self.bus.publish(state_topic(child), StateMsg(child, state, 0.0, potential, progress, 0))
+    def child_state(self, child, state="inactive", potential=0.0, progress=False, engaged=None):
+        if engaged is None:
+            engaged = state in ("active", "running")
+        self.bus.publish(state_topic(child), StateMsg(child, state, 0.0, potential, progress, engaged, 0))
 
     def tick(self, level=1.0):
         """Parent gives `level`, the node runs one update loop, messages are delivered."""
@@ -77,8 +79,15 @@ def test_or_activates_highest_potential_child_and_zeroes_the_previous_one():
     h.child_state("b", potential=3.0)
     h.child_state("c", potential=2.0)
     assert h.tick() == [("b", 1.0)]
+    h.child_state("b", "active", potential=3.0)
     h.child_state("c", potential=5.0)
-    assert h.tick() == [("b", 0.0), ("c", 1.0)]  # explicit zero: only one pathway is active
+    # switching is safe: explicit zero to b, and c gets nothing until b reports it is quiet
+    assert h.tick() == [("b", 0.0)]
+    assert h.tick() == []
+    h.child_state("b", "inactive", potential=3.0)
+    assert h.tick() == []  # ... and not before the zero's round trip (two ticks)
+    assert h.tick() == [("c", 1.0)]
+    assert h.node.chosen == 2
 
 
 def test_or_commits_to_the_alternative_that_has_started():
@@ -86,9 +95,13 @@ def test_or_commits_to_the_alternative_that_has_started():
     h.child_state("a", potential=2.0)
     h.child_state("b", potential=1.0)
     assert h.tick() == [("a", 1.0)]
+    h.child_state("a", "active", potential=9.0)
     h.child_state("b", "running", potential=1.0, progress=True)  # b won a mutex meanwhile
-    h.child_state("a", potential=9.0)
-    assert h.tick() == [("a", 0.0), ("b", 1.0)]
+    assert h.tick() == [("a", 0.0)]  # commit to b: a is silenced first ...
+    h.child_state("a", "inactive", potential=9.0)
+    h.tick()
+    h.tick()
+    assert h.tick() == [("b", 1.0)]  # ... then b is fed, whatever a's potential
     assert h.tick() == [("b", 1.0)]
     h.child_state("b", "done", potential=1.0, progress=True)
     h.tick()
@@ -113,5 +126,7 @@ def test_inactive_goal_does_not_spread_and_level_decays():
     h = Harness(ThenNode, ["a", "b"], falloff=0.5, tau_active=0.1)
     assert h.tick(level=1.0) == [("a", 1.0)]
     assert h.node.level == pytest.approx(0.5)
-    assert h.tick(level=0.05) == []
+    # dropping below τ: no more positive activation, and an explicit zero to the children it fed
+    assert h.tick(level=0.05) == [("a", 0.0), ("b", 0.0)]
     assert h.node.state == "inactive"
+    assert h.tick(level=0.05) == []

@@ -20,7 +20,18 @@ from flexhrc.behavior.network import BehaviorNetwork, Run, RunResult, run_task
 from flexhrc.behavior.node import Node
 from flexhrc.behavior.params import NetworkParams, NodeState
 from flexhrc.behavior.render import to_ascii, to_dot
-from flexhrc.behavior.task import AND, BEHAVIOR, OR, THEN, Task, TaskNode, load_task, parse_prefix, parse_task
+from flexhrc.behavior.task import (
+    AND,
+    BEHAVIOR,
+    OR,
+    THEN,
+    Task,
+    TaskNode,
+    build_task,
+    load_task,
+    parse_prefix,
+    parse_task,
+)
 from flexhrc.behavior.taskfile import TaskDocument, load_task_document
 from flexhrc.behavior.validate import allowed_next, check_nearest_first, check_run
 from flexhrc.behavior.validity import ValidityCheck
@@ -59,6 +70,7 @@ __all__ = [
     "ValidityCheck",
     "WorldObject",
     "allowed_next",
+    "build_task",
     "check_nearest_first",
     "check_run",
     "load_task",

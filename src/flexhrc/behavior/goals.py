@@ -8,8 +8,16 @@ met:
   :class:`~flexhrc.behavior.params.NetworkParams.and_spread`) — they race for the arm mutex;
 * OR (Algorithm 4) sends 1.0 to the child with the highest activation potential and zero to the
   others. Ties are broken by a seeded random choice that then sticks; once a child reports
-  progress (a behaviour of it runs or ran) the OR commits to it, so exactly one alternative is
-  ever carried out.
+  progress (a behaviour of it runs or ran) the OR commits to it.
+
+Exactly one alternative of an OR is ever carried out, even with two arms and message latency,
+because switching is *safe*: when the best alternative changes, the OR first sends zero to the
+old one and only activates the new one once the old one reports it is no longer *engaged* (no
+node in it active or running; a goal counts as engaged for two ticks after it last gave
+activation, the round trip of a message). A goal node that drops below τ_active sends zero to
+its children at once, so a cut-off sub-tree goes quiet in one tick per level instead of waiting
+for the fall-off. If a behaviour of the old alternative started meanwhile, its progress arrives
+first and the OR commits back to it.
 
 Bottom-up, a goal node combines its children's *activation potential*: OR the maximum
 (Algorithm 5), AND and THEN the mean (Algorithms 6 and 7).
@@ -49,6 +57,9 @@ class GoalNode(Node):
         self._child_state = [INACTIVE] * n
         self._child_potential = [0.0] * n
         self._child_progress = [False] * n
+        self._child_engaged = [False] * n
+        self._any_child_engaged = False
+        self._fed_until = -1  # engaged until this tick because activation may still be in flight
         self._done_count = 0
         self._dirty = True
         self._child_topics = [activation_topic(c) for c in self.children]
@@ -64,6 +75,7 @@ class GoalNode(Node):
         self._child_state[i] = msg.state
         self._child_potential[i] = msg.potential
         self._child_progress[i] = msg.progress
+        self._child_engaged[i] = msg.engaged
         self._dirty = True
 
     def update_potential(self) -> None:
@@ -71,6 +83,22 @@ class GoalNode(Node):
             self._dirty = False
             self.potential = self.combine(self._child_potential)
             self.progress = any(self._child_progress)
+            self._any_child_engaged = any(self._child_engaged)
+
+    def engaged(self) -> bool:
+        return self.state == "active" or self._any_child_engaged or self.tick <= self._fed_until
+
+    def send(self, i: int, msg: ActivationMsg) -> None:
+        """Send activation to child ``i``; a positive level keeps this node engaged for the round trip."""
+        if msg.level > 0:
+            self._fed_until = self.tick + 2
+        self._transport.publish(self._child_topics[i], msg)
+
+    def on_deactivate(self) -> None:
+        # Cut-off propagates at once: children this node fed lose their activation explicitly.
+        for i in range(len(self.children)):
+            if self._child_state[i] != DONE:
+                self._transport.publish(self._child_topics[i], self._zero)
 
     def combine(self, potentials: list[float]) -> float:
         """Algorithms 6–7: mean of the children's potentials (OR overrides with the max)."""
@@ -97,7 +125,7 @@ class ThenNode(GoalNode):
         states = self._child_state
         for i in range(len(states)):
             if states[i] != DONE:
-                self._transport.publish(self._child_topics[i], self._full)
+                self.send(i, self._full)
                 return
 
 
@@ -125,6 +153,7 @@ class AndNode(GoalNode):
         publish = self._transport.publish
         topics = self._child_topics
         msg = self._msg
+        self._fed_until = self.tick + 2
         for i in range(len(states)):
             if states[i] != DONE:
                 publish(topics[i], msg)
@@ -141,8 +170,11 @@ class OrNode(GoalNode):
         super().__init__(name, children, transport, params)
         # String seeds are hashed with SHA-512 by `random`, so this is stable across processes.
         self._rng = random.Random(f"{params.seed}:{name}")
-        #: Index of the child currently given activation (None before the first spread).
+        #: Index of the child currently given activation (None before the first spread or while
+        #: switching).
         self.chosen: int | None = None
+        self._leaving: int | None = None  # alternative switched away from, until it is quiet
+        self._left_at = -1
 
     def combine(self, potentials: list[float]) -> float:
         """Algorithm 5: an OR is as good as its best alternative."""
@@ -166,13 +198,22 @@ class OrNode(GoalNode):
         return self._rng.choice(ties)
 
     def spread(self) -> None:
-        i = self.choose()
-        if self.chosen is not None and self.chosen != i:
+        target = self.choose()
+        if self.chosen is not None and target != self.chosen:
+            # Switch safely: silence the old alternative first (see the module docstring).
             self._transport.publish(self._child_topics[self.chosen], self._zero)
-        if self.chosen != i:
-            self.emit("choose", child=self.children[i])
-        self.chosen = i
-        self._transport.publish(self._child_topics[i], self._full)
+            self._leaving, self._left_at = self.chosen, self.tick
+            self.chosen = None
+        if self.chosen is None:
+            leaving = self._leaving
+            if leaving is not None and leaving != target and (
+                self._child_engaged[leaving] or self.tick <= self._left_at + 2
+            ):
+                return  # wait until the old alternative has gone quiet
+            self._leaving = None
+            self.chosen = target
+            self.emit("choose", child=self.children[target])
+        self.send(self.chosen, self._full)
 
 
 GOAL_CLASSES: dict[str, type[GoalNode]] = {"THEN": ThenNode, "AND": AndNode, "OR": OrNode}

@@ -5,7 +5,9 @@
 * :class:`StateMsg` — *state* message, child → parent: the child's state, activation level,
   activation potential (bottom-up, Algorithms 5–8) and whether its sub-task has started
   (``progress``: a behaviour in it is running or done — how an OR learns that "a pathway became
-  active").
+  active") and whether anything in it may still act (``engaged``: the node or a descendant is
+  active or running, or was just given activation — how an OR knows an alternative it switched
+  away from has gone quiet).
 * :class:`MutexRequest` / :class:`MutexRelease` / :class:`MutexReply` — the arm mutex protocol
   (lock request with a bid = activation potential; grant or denial after the bidding window).
 * :class:`LogEvent` — trace records every node publishes on :data:`LOG_TOPIC`.
@@ -30,6 +32,7 @@ class StateMsg(NamedTuple):
     level: float
     potential: float
     progress: bool
+    engaged: bool
     tick: int
 
 

@@ -20,7 +20,7 @@ Two modelling choices, documented here because the paper leaves them implicit:
 * an activation message *sets* the child's level (the last message wins) — so a parent can give
   a child zero activation explicitly (the OR node does when it switches alternative), and a child
   nobody feeds decays as α^k and drops below τ_active after a few ticks;
-* state messages are published when the state, potential or progress *changed* (latched topic
+* state messages are published when the state, potential, progress or engagement *changed* (latched topic
   semantics): a parent keeps the last value it heard. It saves ~all messages of idle nodes and does
   not change what any parent knows.
 """
@@ -64,7 +64,7 @@ class Node:
         self._params = params
         self._state_topic = state_topic(name)
         self._activation_sub = transport.subscribe(activation_topic(name), self._on_activation)
-        self._last_published: tuple[str, float, bool] | None = None
+        self._last_published: tuple[str, float, bool, bool] | None = None
         self.tick = 0
         self.now = 0.0
 
@@ -93,10 +93,10 @@ class Node:
                 self.activate()
             else:
                 self.spread()
-        elif self.state != INACTIVE:
-            self.set_state(INACTIVE)
-            self.deactivated()
         else:
+            if self.state != INACTIVE:
+                self.set_state(INACTIVE)
+                self.on_deactivate()
             self.deactivated()
         if self.state != DONE:
             self.level *= self._alpha
@@ -118,8 +118,15 @@ class Node:
     def run(self) -> None:
         """One tick of a running behaviour."""
 
+    def on_deactivate(self) -> None:
+        """Called once when the node drops below τ_active."""
+
     def deactivated(self) -> None:
         """Called every tick the node is inactive."""
+
+    def engaged(self) -> bool:
+        """Whether this node (or, for goals, its sub-tree) may still act: active or running."""
+        return self.state == ACTIVE or self.state == RUNNING
 
     def idle_done(self) -> None:
         """Called every tick once done."""
@@ -131,12 +138,13 @@ class Node:
         self.emit("state", node_kind=self.kind, frm=old, to=new, **data)
 
     def publish_state(self) -> None:
-        key = (self.state, self.potential, self.progress)
+        engaged = self.engaged()
+        key = (self.state, self.potential, self.progress, engaged)
         if key != self._last_published:
             self._last_published = key
             self._transport.publish(
                 self._state_topic,
-                StateMsg(self.name, self.state, self.level, self.potential, self.progress, self.tick),
+                StateMsg(self.name, self.state, self.level, self.potential, self.progress, engaged, self.tick),
             )
 
     def emit(self, kind: str, **data: Any) -> None:
