@@ -16,7 +16,10 @@ A running behaviour keeps running even if its activation falls (the paper's acti
 
 PickAndPlace's activation potential (Algorithm 8) is ``1 / ||x_obj - x_arm||``, with the nearest
 arm when there are two — so the closest object wins the mutex bidding, and an OR prefers its
-closest alternative.
+closest alternative. ``x_arm`` is where the arm will be when it is next free (its rest pose at
+the end of a pick-and-place, its actual position when idle — e.g. where a reset stopped it):
+that is where the next behaviour would start from, and it keeps potentials (and OR choices) from
+flickering while an arm sweeps across the table.
 """
 
 from __future__ import annotations
@@ -57,6 +60,7 @@ class BehaviorNode(Node):
         self._request_topics = [request_topic(a) for a in self.arms]
         self._release = MutexRelease(name)
         self.bids: dict[str, float] = {a: 0.0 for a in self.arms}
+        self._requests: list[tuple[str, str]] = list(zip(self.arms, self._request_topics, strict=True))
         transport.subscribe(reply_topic(name), self._on_reply)
 
     # -- inbox ---------------------------------------------------------------------------------
@@ -74,6 +78,10 @@ class BehaviorNode(Node):
         self._grants.clear()
 
     # -- action interface (PickAndPlace implements it) -----------------------------------------
+    def current_bids(self) -> dict[str, float]:
+        """The bid for each arm's mutex (the activation potential for that arm)."""
+        return self.bids
+
     def ready(self) -> bool:
         """Non-mutex part of the preconditions (ObjectInView for PickAndPlace)."""
         return True
@@ -95,13 +103,15 @@ class BehaviorNode(Node):
             self._release_stray_grants()
             return False
         if grants:
-            best = max(grants, key=lambda a: (self.bids.get(a, 0.0), -self.arms.index(a)))
+            bids = self.current_bids()
+            best = max(grants, key=lambda a: (bids.get(a, 0.0), -self.arms.index(a)))
             self.arm = best
             self._release_stray_grants()
             return True
         publish = self._transport.publish
-        for arm, topic in zip(self.arms, self._request_topics, strict=True):
-            publish(topic, MutexRequest(self.name, self.bids[arm]))
+        bids = self.current_bids()
+        for arm, topic in self._requests:
+            publish(topic, MutexRequest(self.name, bids[arm]))
         return False
 
     def activate(self) -> None:
@@ -161,23 +171,25 @@ class PickAndPlace(BehaviorNode):
         super().__init__(name, world.arm_names, transport, params)
         self.object = obj
         self._world = world
+        self._index = world.object_index(obj)
         self._version = -1
         self._motion: PickAndPlaceMotion | None = None
         self._check: ValidityCheck | None = None
         self._threshold = params.validity_threshold
 
-    def update_potential(self) -> None:  # Algorithm 8
+    def update_potential(self) -> None:  # Algorithm 8: 1 / ||x_obj - x_arm||
         world = self._world
-        if world.version == self._version or self.state == RUNNING:
+        if world.sensing_version == self._version or self.state == RUNNING:
             return  # sensing is cached per world version; a running node keeps its last bid
-        self._version = world.version
-        best = 0.0
-        for arm in self.arms:
-            bid = 1.0 / max(world.distance(arm, self.object), MIN_DISTANCE)
-            self.bids[arm] = bid
-            if bid > best:
-                best = bid
-        self.potential = best
+        self._version = world.sensing_version
+        self.potential = world.potentials(MIN_DISTANCE)[0][self._index]
+
+    def current_bids(self) -> dict[str, float]:
+        per_arm = self._world.potentials(MIN_DISTANCE)[1]
+        i = self._index
+        for k, arm in enumerate(self.arms):
+            self.bids[arm] = per_arm[k][i]
+        return self.bids
 
     def ready(self) -> bool:
         return self._world.object_in_view(self.object)

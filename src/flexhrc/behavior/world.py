@@ -55,6 +55,12 @@ class Arm:
         if self.position is None:
             self.position = self.home
 
+    @property
+    def free_position(self) -> Vec:
+        """Where the arm will be when it is next free: the end of its current motion (its rest
+        pose), or where it is now when idle. Activation potentials are measured from here."""
+        return self.motion.home if self.motion is not None else self.position
+
 
 @dataclass
 class WorldObject:
@@ -167,8 +173,16 @@ class TabletopWorld:
         self._fired = [False] * len(self.moves)
         self.grasp_time = float(grasp_time)
         self.place_time = float(place_time)
-        #: Incremented whenever an object or an arm moves, so sensing can be cached per version.
+        #: Incremented whenever an object or an arm moves.
         self.version = 0
+        #: Incremented whenever something the activation potentials depend on changes (an object
+        #: position, an arm's free position), so behaviours can cache their sensing.
+        self.sensing_version = 0
+        self._free = self._free_positions()
+        self._index = {name: i for i, name in enumerate(self.objects)}
+        self._pot_version = -1
+        self._pot_best: list[float] = []
+        self._pot_arm: list[list[float]] = []
 
     # -- sensing -------------------------------------------------------------------------------
     @property
@@ -182,7 +196,39 @@ class TabletopWorld:
         return self._arm(arm).position
 
     def distance(self, arm: str, obj: str) -> float:
-        return math.dist(self._arm(arm).position, self._object(obj).position)
+        """Distance from the arm's free position (see :attr:`Arm.free_position`) to the object."""
+        return math.dist(self._arm(arm).free_position, self._object(obj).position)
+
+    def object_index(self, name: str) -> int:
+        """Stable index of an object, for :meth:`potentials`."""
+        self._object(name)
+        return self._index[name]
+
+    def potentials(self, min_distance: float = 1e-3) -> tuple[list[float], list[list[float]]]:
+        """``1 / distance`` arm–object for every object (Algorithm 8), computed once per world
+        version with numpy: ``(best over arms, per arm)``, indexed by :meth:`object_index`.
+
+        Every PickAndPlace node of a large network senses the same world; computing all distances
+        in one vectorised step per change is what keeps a 10 000-node tick cheap.
+        """
+        if self._pot_version != self.sensing_version:
+            import numpy as np
+
+            objs = np.array([o.position for o in self.objects.values()], dtype=float).reshape(-1, 3)
+            arms = np.array(self._free_positions(), dtype=float).reshape(-1, 3)
+            d = np.sqrt(((objs[None, :, :] - arms[:, None, :]) ** 2).sum(axis=2))
+            pot = 1.0 / np.maximum(d, min_distance)
+            self._pot_arm = pot.tolist()
+            self._pot_best = pot.max(axis=0).tolist() if len(self.objects) else []
+            self._pot_version = self.sensing_version
+        return self._pot_best, self._pot_arm
+
+    def _free_positions(self) -> list[Vec]:
+        return [a.free_position for a in self.arms.values()]
+
+    def _sensing_changed(self) -> None:
+        self.sensing_version += 1
+        self._free = self._free_positions()
 
     def object_in_view(self, name: str) -> bool:
         """Algorithm 9's ObjectInView(): the object exists, is visible and nobody holds it."""
@@ -208,6 +254,7 @@ class TabletopWorld:
             arm, obj, now, a.position, o.position, target, a.home, t_reach, t_grasp, t_carry, t_place, t_end
         )
         a.motion = motion
+        self._sensing_changed()
         return motion
 
     def abort(self, arm: str, now: float) -> None:
@@ -220,10 +267,12 @@ class TabletopWorld:
                 o.held_by = None
             a.motion = None
             self.version += 1
+            self._sensing_changed()
 
     def move_object(self, name: str, to: Vec) -> None:
         self._object(name).position = to
         self.version += 1
+        self._sensing_changed()
 
     def step(self, now: float) -> list[dict[str, Any]]:
         """Advance to time ``now``: fire due moves, move arms and held objects. Returns events."""
@@ -256,16 +305,21 @@ class TabletopWorld:
             a.position = m.position_at(now)
             obj = self.objects[m.object]
             phase = m.phase_at(now)
+            moved_object = False
             if phase in ("carry", "place"):
                 obj.held_by = a.name
+                moved_object = obj.position != a.position
                 obj.position = a.position
             elif phase in ("return", "finished"):
                 obj.held_by = None
+                moved_object = obj.position != m.target
                 obj.position = m.target
             if phase == "finished":
                 a.motion = None
                 a.position = a.home
             self.version += 1
+            if moved_object or (phase == "finished" and self._free != self._free_positions()):
+                self._sensing_changed()
         return events
 
     # -- helpers -------------------------------------------------------------------------------
