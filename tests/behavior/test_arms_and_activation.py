@@ -96,3 +96,13 @@ def test_network_runs_unchanged_over_a_serialising_transport():
     wired = BehaviorNetwork(sc2.task, sc2.world, transport=SerialisingBus()).run()
     assert wired.order == plain.order
     assert [r.to_dict() for r in wired.runs] == [r.to_dict() for r in plain.runs]
+
+
+@pytest.mark.parametrize("scenario", ["table-setting", "table-setting-robustness"])
+def test_event_driven_stepping_gives_exactly_the_log_of_updating_every_node(scenario):
+    logs = []
+    for event_driven in (True, False):
+        sc = load_scenario(scenario, arms=2)
+        net = BehaviorNetwork(sc.task, sc.world, event_driven=event_driven)
+        logs.append([e.to_dict() for e in net.run().log])
+    assert logs[0] == logs[1]

@@ -67,6 +67,11 @@ class BehaviorNode(Node):
     def _on_reply(self, msg: MutexReply) -> None:
         if msg.granted:
             self._grants.append(msg.mutex)
+            if self._waker is not None:
+                self._waker(self._slot)
+
+    def busy(self) -> bool:
+        return super().busy() or bool(self._grants)
 
     def _release_arm(self, arm: str) -> None:
         self._transport.publish(release_topic(arm), self._release)

@@ -77,6 +77,8 @@ class GoalNode(Node):
         self._child_progress[i] = msg.progress
         self._child_engaged[i] = msg.engaged
         self._dirty = True
+        if self._waker is not None:
+            self._waker(self._slot)
 
     def update_potential(self) -> None:
         if self._dirty:
@@ -87,6 +89,11 @@ class GoalNode(Node):
 
     def engaged(self) -> bool:
         return self.state == "active" or self._any_child_engaged or self.tick <= self._fed_until
+
+    def busy(self) -> bool:
+        # Stay awake while the round trip of the last activation sent is not over, so the change
+        # of `engaged` is published.
+        return super().busy() or self._dirty or self.tick <= self._fed_until
 
     def send(self, i: int, msg: ActivationMsg) -> None:
         """Send activation to child ``i``; a positive level keeps this node engaged for the round trip."""

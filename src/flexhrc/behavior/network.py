@@ -8,7 +8,9 @@ on a transport. One :meth:`~BehaviorNetwork.tick` is:
 1. advance the world to the tick's time (scheduled object moves, arm motions);
 2. the *driver* — standing in for whoever gives the robot its task — sends activation 1.0 to
    the root;
-3. run every node's update loop (Algorithm 1) and every mutex;
+3. run every node's update loop (Algorithm 1) and every mutex — by default only the nodes that
+   are busy or were woken by a message or a sensing change (a quiescent node's update would do
+   nothing; ``event_driven=False`` runs them all, with identical results);
 4. flush the transport: messages sent in this tick arrive before the next one.
 
 Because of step 4 the order of step 3 does not matter; the whole run is a deterministic function
@@ -134,8 +136,12 @@ class BehaviorNetwork:
         world: TabletopWorld,
         params: NetworkParams | None = None,
         transport: Transport | None = None,
+        event_driven: bool = True,
     ) -> None:
         self.task = task
+        #: Skip quiescent nodes (see :mod:`flexhrc.behavior.node`); ``False`` updates every node
+        #: every tick — same results, for checking and for worst-case benchmarks.
+        self.event_driven = event_driven
         self.world = world
         self.params = params or NetworkParams()
         self.transport: Transport = transport if transport is not None else InProcessBus()
@@ -159,9 +165,23 @@ class BehaviorNetwork:
                 self.nodes[tn.name] = cls(tn.name, [c.name for c in tn.children], self.transport, self.params)
         self.mutexes = [ArmMutex(arm, self.transport, self.params) for arm in world.arm_names]
         self._order = list(self.nodes.values())
+        # Event-driven stepping (see flexhrc.behavior.node): only busy or woken nodes run a tick.
+        self._awake: set[int] = set(range(len(self._order)))
+        self._sensors: dict[str, int] = {}
+        for slot, node in enumerate(self._order):
+            node.set_waker(self._awake.add, slot)
+            if isinstance(node, PickAndPlace):
+                self._sensors[node.object] = slot
+        world.add_sensing_listener(self._on_sensing)
         self._root_topic = activation_topic(task.root.name)
         self._drive_msg = ActivationMsg(DRIVER, 1.0)
         self.transport.subscribe(state_topic(task.root.name), self._on_root_state)
+
+    def _on_sensing(self, objects: set[str] | None) -> None:
+        if objects is None:
+            self._awake.update(self._sensors.values())
+        else:
+            self._awake.update(self._sensors[o] for o in objects if o in self._sensors)
 
     def _on_root_state(self, msg: StateMsg) -> None:
         if msg.state == DONE:
@@ -192,8 +212,14 @@ class BehaviorNetwork:
             self.log.append(LogEvent(tick, now, "world", kind, ev))
         if self.drive and not self.finished:
             self.transport.publish(self._root_topic, self._drive_msg)
-        for node in self._order:
+        order = self._order
+        awake = sorted(self._awake) if self.event_driven else range(len(order))
+        self._awake.clear()
+        for slot in awake:
+            node = order[slot]
             node.update(tick, now)
+            if node.busy():
+                self._awake.add(slot)
         for mutex in self.mutexes:
             mutex.update(tick, now)
         self.transport.flush()

@@ -23,10 +23,18 @@ Two modelling choices, documented here because the paper leaves them implicit:
 * state messages are published when the state, potential, progress or engagement *changed* (latched topic
   semantics): a parent keeps the last value it heard. It saves ~all messages of idle nodes and does
   not change what any parent knows.
+
+A node whose update loop would do nothing — inactive (or done), below τ_active, nothing new in its
+inbox — is *quiescent* (:meth:`Node.busy` is false). Like a node thread blocking on its inbox, an
+executor may then skip it until a message (or, for a behaviour, a change of what it senses) wakes
+it through the *waker* callback (:meth:`Node.set_waker`). Only its sub-threshold activation level
+is not decayed while it sleeps; that has no effect (it is below τ, and the next activation
+message sets it anyway).
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 from flexhrc.behavior.messages import (
@@ -67,10 +75,27 @@ class Node:
         self._last_published: tuple[str, float, bool, bool] | None = None
         self.tick = 0
         self.now = 0.0
+        self._waker: Callable[[int], None] | None = None
+        self._slot = -1
 
     # -- inbox ---------------------------------------------------------------------------------
+    def set_waker(self, waker: Callable[[int], None] | None, slot: int = -1) -> None:
+        """Have ``waker(slot)`` called whenever something arrives in this node's inbox."""
+        self._waker = waker
+        self._slot = slot
+
+    def wake(self) -> None:
+        if self._waker is not None:
+            self._waker(self._slot)
+
     def _on_activation(self, msg: ActivationMsg) -> None:
         self.level = msg.level
+        if self._waker is not None:
+            self._waker(self._slot)
+
+    def busy(self) -> bool:
+        """Must run next tick even with an empty inbox (active, running, or above τ)."""
+        return self.state == ACTIVE or self.state == RUNNING or self.level > self._tau
 
     def disconnect_parent(self) -> None:
         """Stop listening to the parent (a broken link); the level then only decays."""

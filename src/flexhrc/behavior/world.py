@@ -19,7 +19,7 @@ once per tick with the simulated time; nothing here reads a wall clock.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -179,6 +179,7 @@ class TabletopWorld:
         #: position, an arm's free position), so behaviours can cache their sensing.
         self.sensing_version = 0
         self._free = self._free_positions()
+        self._listeners: list[Callable[[set[str] | None], None]] = []
         self._index = {name: i for i, name in enumerate(self.objects)}
         self._pot_version = -1
         self._pot_best: list[float] = []
@@ -226,9 +227,20 @@ class TabletopWorld:
     def _free_positions(self) -> list[Vec]:
         return [a.free_position for a in self.arms.values()]
 
-    def _sensing_changed(self) -> None:
+    def add_sensing_listener(self, callback: Callable[[set[str] | None], None]) -> None:
+        """``callback(objects)`` after a sensing change: the set of objects whose activation
+        potential may have changed, or ``None`` for all (an arm's free position changed). An
+        executor uses it to wake only the behaviours that need to sense again."""
+        self._listeners.append(callback)
+
+    def _sensing_changed(self, objects: set[str] | None = None) -> None:
         self.sensing_version += 1
-        self._free = self._free_positions()
+        free = self._free_positions()
+        if free != self._free:
+            objects = None
+        self._free = free
+        for callback in self._listeners:
+            callback(objects)
 
     def object_in_view(self, name: str) -> bool:
         """Algorithm 9's ObjectInView(): the object exists, is visible and nobody holds it."""
@@ -254,7 +266,8 @@ class TabletopWorld:
             arm, obj, now, a.position, o.position, target, a.home, t_reach, t_grasp, t_carry, t_place, t_end
         )
         a.motion = motion
-        self._sensing_changed()
+        if self._free != self._free_positions():
+            self._sensing_changed()
         return motion
 
     def abort(self, arm: str, now: float) -> None:
@@ -272,7 +285,7 @@ class TabletopWorld:
     def move_object(self, name: str, to: Vec) -> None:
         self._object(name).position = to
         self.version += 1
-        self._sensing_changed()
+        self._sensing_changed({name})
 
     def step(self, now: float) -> list[dict[str, Any]]:
         """Advance to time ``now``: fire due moves, move arms and held objects. Returns events."""
@@ -318,8 +331,10 @@ class TabletopWorld:
                 a.motion = None
                 a.position = a.home
             self.version += 1
-            if moved_object or (phase == "finished" and self._free != self._free_positions()):
+            if phase == "finished" and self._free != self._free_positions():
                 self._sensing_changed()
+            elif moved_object:
+                self._sensing_changed({obj.name})
         return events
 
     # -- helpers -------------------------------------------------------------------------------
