@@ -39,8 +39,9 @@ def test_layouts_reproduce_the_orders_reported_in_the_paper(layout):
 def test_order_comes_from_the_world_not_from_a_list():
     """Swap the fork and the spoon of layout 1: the executed order follows the objects."""
     sc = load_scenario("table-setting", 1)
-    fork, spoon = sc.world.objects["fork"], sc.world.objects["spoon"]
-    fork.position, spoon.position = spoon.position, fork.position
+    fork, spoon = sc.world.object_position("fork"), sc.world.object_position("spoon")
+    sc.world.move_object("fork", spoon)
+    sc.world.move_object("spoon", fork)
     distances = rest_distances(sc.world)
     result = run_task(sc.task, sc.world)
     assert result.order == ["placemat", "plate", "wineglass", "bowl", "fork", "knife", "spoon"]
@@ -49,7 +50,7 @@ def test_order_comes_from_the_world_not_from_a_list():
 
 def test_drink_alternative_follows_the_nearest_drink():
     sc = load_scenario("table-setting", 1)
-    sc.world.objects["soda_can"].position = (0.3, -0.05, 0.75)  # now the nearest object of all
+    sc.world.move_object("soda_can", (0.3, -0.05, 0.75))  # now the nearest object of all
     result = run_task(sc.task, sc.world)
     assert [b for b in result.order if b in DRINKS] == ["soda_can"]
     assert check_run(sc.task, result.runs) == []

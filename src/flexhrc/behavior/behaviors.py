@@ -40,9 +40,6 @@ from flexhrc.behavior.validity import ValidityCheck
 from flexhrc.behavior.world import PickAndPlaceMotion, TabletopWorld
 from flexhrc.transport.base import Transport
 
-#: Distances below this (m) count as this, so 1/distance stays finite.
-MIN_DISTANCE = 1e-3
-
 
 class BehaviorNode(Node):
     """A leaf that needs an arm: mutex bidding, running, done/reset. Subclasses supply the action."""
@@ -187,10 +184,10 @@ class PickAndPlace(BehaviorNode):
         if world.sensing_version == self._version or self.state == RUNNING:
             return  # sensing is cached per world version; a running node keeps its last bid
         self._version = world.sensing_version
-        self.potential = world.potentials(MIN_DISTANCE)[0][self._index]
+        self.potential = world.potentials()[0][self._index]
 
     def current_bids(self) -> dict[str, float]:
-        per_arm = self._world.potentials(MIN_DISTANCE)[1]
+        per_arm = self._world.potentials()[1]
         i = self._index
         for k, arm in enumerate(self.arms):
             self.bids[arm] = per_arm[k][i]

@@ -154,9 +154,10 @@ class BehaviorNetwork:
         for tn in task.walk():
             if tn.kind == BEHAVIOR:
                 if not world.has_object(tn.name):
-                    where = f" (line {tn.line}, column {tn.column})" if tn.line else ""
+                    where = task.source + (f":{tn.line}" if tn.line else "") + ": "
+                    where += f"column {tn.column}: " if tn.column else ""
                     raise UnknownNameError(
-                        f"behaviour {tn.name!r}{where} has no object in the world "
+                        f"{where}behaviour {tn.name!r} has no object in the world "
                         f"(objects: {', '.join(sorted(world.objects))})"
                     )
                 self.nodes[tn.name] = PickAndPlace(tn.name, tn.name, world, self.transport, self.params)

@@ -175,15 +175,18 @@ class TabletopWorld:
         self.place_time = float(place_time)
         #: Incremented whenever an object or an arm moves.
         self.version = 0
-        #: Incremented whenever something the activation potentials depend on changes (an object
-        #: position, an arm's free position), so behaviours can cache their sensing.
+        #: Incremented by :meth:`step` when something the activation potentials depend on changed
+        #: (an object position, an arm's free position), so behaviours can cache their sensing.
         self.sensing_version = 0
         self._free = self._free_positions()
         self._listeners: list[Callable[[set[str] | None], None]] = []
         self._index = {name: i for i, name in enumerate(self.objects)}
-        self._pot_version = -1
+        self.min_distance = 1e-3  # distances below this count as this, so 1/distance stays finite
+        self._pending: set[str] = set()
+        self._pending_all = True  # the first step senses everything (positions may be edited before)
         self._pot_best: list[float] = []
         self._pot_arm: list[list[float]] = []
+        self._refresh_potentials()
 
     # -- sensing -------------------------------------------------------------------------------
     @property
@@ -205,42 +208,55 @@ class TabletopWorld:
         self._object(name)
         return self._index[name]
 
-    def potentials(self, min_distance: float = 1e-3) -> tuple[list[float], list[list[float]]]:
-        """``1 / distance`` arm–object for every object (Algorithm 8), computed once per world
-        version with numpy: ``(best over arms, per arm)``, indexed by :meth:`object_index`.
+    def potentials(self) -> tuple[list[float], list[list[float]]]:
+        """``1 / distance`` arm–object for every object (Algorithm 8) as sensed at the last
+        :meth:`step`: ``(best over arms, per arm)``, indexed by :meth:`object_index`.
 
-        Every PickAndPlace node of a large network senses the same world; computing all distances
-        in one vectorised step per change is what keeps a 10 000-node tick cheap.
+        Sensing is sampled once per tick, at the end of :meth:`step`: a change a behaviour makes
+        during the tick (an arm stopped by a reset) is sensed by every node at the next tick,
+        whatever the order in which nodes run. All distances are computed in one vectorised
+        numpy step per change — what keeps a 10 000-node tick cheap.
         """
-        if self._pot_version != self.sensing_version:
-            import numpy as np
-
-            objs = np.array([o.position for o in self.objects.values()], dtype=float).reshape(-1, 3)
-            arms = np.array(self._free_positions(), dtype=float).reshape(-1, 3)
-            d = np.sqrt(((objs[None, :, :] - arms[:, None, :]) ** 2).sum(axis=2))
-            pot = 1.0 / np.maximum(d, min_distance)
-            self._pot_arm = pot.tolist()
-            self._pot_best = pot.max(axis=0).tolist() if len(self.objects) else []
-            self._pot_version = self.sensing_version
         return self._pot_best, self._pot_arm
+
+    def _refresh_potentials(self) -> None:
+        import numpy as np
+
+        objs = np.array([o.position for o in self.objects.values()], dtype=float).reshape(-1, 3)
+        arms = np.array(self._free_positions(), dtype=float).reshape(-1, 3)
+        d = np.sqrt(((objs[None, :, :] - arms[:, None, :]) ** 2).sum(axis=2))
+        pot = 1.0 / np.maximum(d, self.min_distance)
+        self._pot_arm = pot.tolist()
+        self._pot_best = pot.max(axis=0).tolist() if len(self.objects) else []
 
     def _free_positions(self) -> list[Vec]:
         return [a.free_position for a in self.arms.values()]
 
     def add_sensing_listener(self, callback: Callable[[set[str] | None], None]) -> None:
-        """``callback(objects)`` after a sensing change: the set of objects whose activation
-        potential may have changed, or ``None`` for all (an arm's free position changed). An
-        executor uses it to wake only the behaviours that need to sense again."""
+        """``callback(objects)`` at the end of a :meth:`step` that changed what is sensed: the set
+        of objects whose activation potential may have changed, or ``None`` for all (an arm's
+        free position changed). An executor uses it to wake only the behaviours concerned."""
         self._listeners.append(callback)
 
     def _sensing_changed(self, objects: set[str] | None = None) -> None:
-        self.sensing_version += 1
-        free = self._free_positions()
-        if free != self._free:
+        if self._free != self._free_positions():
             objects = None
-        self._free = free
+            self._free = self._free_positions()
+        if objects is None:
+            self._pending_all = True
+        else:
+            self._pending.update(objects)
+
+    def _publish_sensing(self) -> None:
+        if not self._pending_all and not self._pending:
+            return
+        changed: set[str] | None = None if self._pending_all else set(self._pending)
+        self._pending_all = False
+        self._pending.clear()
+        self._refresh_potentials()
+        self.sensing_version += 1
         for callback in self._listeners:
-            callback(objects)
+            callback(changed)
 
     def object_in_view(self, name: str) -> bool:
         """Algorithm 9's ObjectInView(): the object exists, is visible and nobody holds it."""
@@ -266,8 +282,7 @@ class TabletopWorld:
             arm, obj, now, a.position, o.position, target, a.home, t_reach, t_grasp, t_carry, t_place, t_end
         )
         a.motion = motion
-        if self._free != self._free_positions():
-            self._sensing_changed()
+        self._sensing_changed(set())
         return motion
 
     def abort(self, arm: str, now: float) -> None:
@@ -331,10 +346,9 @@ class TabletopWorld:
                 a.motion = None
                 a.position = a.home
             self.version += 1
-            if phase == "finished" and self._free != self._free_positions():
-                self._sensing_changed()
-            elif moved_object:
-                self._sensing_changed({obj.name})
+            if phase == "finished" or moved_object:
+                self._sensing_changed({obj.name} if moved_object else set())
+        self._publish_sensing()
         return events
 
     # -- helpers -------------------------------------------------------------------------------
