@@ -2,17 +2,30 @@
 
 import json
 import math
+from itertools import pairwise
 
 import pytest
 
-from flexhrc.behavior import BehaviorNetwork, NetworkParams, check_run, parse_prefix, random_world, run_task
+from flexhrc.behavior import (
+    BehaviorNetwork,
+    NetworkParams,
+    check_run,
+    parse_prefix,
+    random_world,
+    run_task,
+)
 from flexhrc.behavior.messages import from_wire, to_wire
 from flexhrc.scenarios.table_setting import LAYOUTS, load_scenario
 from flexhrc.transport import InProcessBus
 
 
 def overlaps(runs):
-    return [(a, b) for i, a in enumerate(runs) for b in runs[i + 1 :] if a.start < b.end and b.start < a.end]
+    return [
+        (a, b)
+        for i, a in enumerate(runs)
+        for b in runs[i + 1 :]
+        if a.start < b.end and b.start < a.end
+    ]
 
 
 @pytest.mark.parametrize("layout", LAYOUTS)
@@ -46,7 +59,7 @@ def test_falling_activation_node_cut_off_from_its_parent_decays_and_stops():
         levels.append(and1.level)
     # geometric fall-off by exactly α per update loop, until below τ_active ...
     k = next(i for i, lv in enumerate(levels) if lv <= params.tau_active)
-    for prev, cur in zip(levels[:k], levels[1 : k + 1], strict=True):
+    for prev, cur in pairwise(levels[: k + 1]):
         assert cur == pytest.approx(prev * params.falloff)
     assert k == math.ceil(math.log(params.tau_active / levels[0]) / math.log(params.falloff))
     assert and1.state == "inactive"

@@ -37,7 +37,9 @@ def test_human_output_has_trace_and_summary_and_plot(capsys, tmp_path):
 
 def test_two_arms_and_seed_and_log_file(capsys, tmp_path):
     log = tmp_path / "log.jsonl"
-    code, out, _ = run_cli(capsys, "table-setting", "--arms", "2", "--seed", "3", "--json", "--log", str(log))
+    code, out, _ = run_cli(
+        capsys, "table-setting", "--arms", "2", "--seed", "3", "--json", "--log", str(log)
+    )
     assert code == 0
     data = json.loads(out)
     assert data["arms"] == ["left", "right"] and data["seed"] == 3
@@ -95,7 +97,11 @@ def test_yaml_errors_name_file_and_line(capsys, tmp_path):
     code, _, err = run_cli(capsys, str(bad))
     assert code == 2 and f"{bad}:4: unknown goal type 'XOR'" in err
     unknown = tmp_path / "unknown.yaml"
-    unknown.write_text("task: {THEN: [a, fork]}\nworld:\n  objects:\n    a: {position: [0.5, 0, 0.75]}\n")
+    unknown.write_text(
+        "task: {THEN: [a, fork]}\nworld:\n  objects:\n    a: {position: [0.5, 0, 0.75]}\n"
+    )
     code, _, err = run_cli(capsys, str(unknown))
     assert code == 2
-    assert f"{unknown}:1: column 18: behaviour 'fork' has no object in the world (objects: a)" in err
+    assert (
+        f"{unknown}:1: column 18: behaviour 'fork' has no object in the world (objects: a)" in err
+    )

@@ -15,13 +15,17 @@ class Harness:
         self.children = children
         self.received: list[tuple[str, float]] = []
         for c in children:
-            self.bus.subscribe(activation_topic(c), lambda m, c=c: self.received.append((c, m.level)))
+            self.bus.subscribe(
+                activation_topic(c), lambda m, c=c: self.received.append((c, m.level))
+            )
         self.tick_no = 0
 
     def child_state(self, child, state="inactive", potential=0.0, progress=False, engaged=None):
         if engaged is None:
             engaged = state in ("active", "running")
-        self.bus.publish(state_topic(child), StateMsg(child, state, 0.0, potential, progress, engaged, 0))
+        self.bus.publish(
+            state_topic(child), StateMsg(child, state, 0.0, potential, progress, engaged, 0)
+        )
 
     def tick(self, level=1.0):
         """Parent gives `level`, the node runs one update loop, messages are delivered."""

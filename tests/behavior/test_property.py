@@ -5,7 +5,14 @@ arms and objects moved during grasps."""
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from flexhrc.behavior import BehaviorNetwork, MoveRule, NetworkParams, build_task, check_run, random_world
+from flexhrc.behavior import (
+    BehaviorNetwork,
+    MoveRule,
+    NetworkParams,
+    build_task,
+    check_run,
+    random_world,
+)
 
 GOALS = ("THEN", "AND", "OR")
 
@@ -32,7 +39,9 @@ def make_network(shape, seed, arms, move, event_driven=True):
     world.grasp_time = world.place_time = 0.5
     if move:
         victim = task.behaviors[seed % len(task.behaviors)]
-        world.moves.append(MoveRule(victim, (0.6, 0.45 - 0.9 * ((seed % 7) / 7), 0.75), during_grasp=0.2))
+        world.moves.append(
+            MoveRule(victim, (0.6, 0.45 - 0.9 * ((seed % 7) / 7), 0.75), during_grasp=0.2)
+        )
         world._fired.append(False)
     return task, BehaviorNetwork(task, world, NetworkParams(seed=seed), event_driven=event_driven)
 

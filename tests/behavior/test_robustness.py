@@ -1,4 +1,5 @@
-"""Acceptance: objects moved while being grasped (Fig. 6) — validity checking resets, the task completes."""
+"""Acceptance: objects moved while being grasped (Fig. 6): validity checking resets the
+behaviour, another one runs, the task completes."""
 
 from flexhrc.behavior import BehaviorNetwork, check_run, run_task
 from flexhrc.scenarios.table_setting import load_scenario
@@ -39,7 +40,9 @@ def test_reset_releases_the_mutex_and_the_node_competes_again():
     assert release.data["by"] == reset.source
     grant = next(e for e in log if e.kind == "grant" and e.t > release.t)
     assert reset.source in grant.data["bids"]  # the reset behaviour bid again at once
-    state_after_reset = next(e for e in log if e.kind == "state" and e.source == reset.source and e.t == reset.t)
+    state_after_reset = next(
+        e for e in log if e.kind == "state" and e.source == reset.source and e.t == reset.t
+    )
     assert state_after_reset.data["frm"] == "running" and state_after_reset.data["to"] == "active"
     assert net.node("fork").snapshot()["resets"] == 1
 

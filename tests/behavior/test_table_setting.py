@@ -4,7 +4,14 @@ import math
 
 import pytest
 
-from flexhrc.behavior import BehaviorNetwork, Task, TabletopWorld, check_nearest_first, check_run, run_task
+from flexhrc.behavior import (
+    BehaviorNetwork,
+    TabletopWorld,
+    Task,
+    check_nearest_first,
+    check_run,
+    run_task,
+)
 from flexhrc.scenarios.table_setting import LAYOUTS, PAPER_ORDERS, load_scenario, table_setting_task
 
 DRINKS = ("wineglass", "cup", "soda_can")

@@ -1,6 +1,16 @@
 import pytest
 
-from flexhrc.behavior import AND, BEHAVIOR, OR, THEN, load_task_document, parse_prefix, parse_task, to_ascii, to_dot
+from flexhrc.behavior import (
+    AND,
+    BEHAVIOR,
+    OR,
+    THEN,
+    load_task_document,
+    parse_prefix,
+    parse_task,
+    to_ascii,
+    to_dot,
+)
 from flexhrc.errors import FormatError
 
 FIG1 = "(THEN a (AND (THEN b c) (OR d e (THEN f g))))"
@@ -33,7 +43,11 @@ def test_paper_comma_form_and_lower_case_operators_are_accepted():
         ("(XOR a b)", 1, "column 2: expected THEN, AND or OR"),
         ("(THEN a a)", 1, "appears twice (first at line 1, column 7)"),
         ("(THEN a (OR))", 1, "column 9: OR goal needs at least one child"),
-        ("(THEN a\n  (AND b\n    (FOO c)))", 3, "column 6: expected THEN, AND or OR after '(', got 'FOO'"),
+        (
+            "(THEN a\n  (AND b\n    (FOO c)))",
+            3,
+            "column 6: expected THEN, AND or OR after '(', got 'FOO'",
+        ),
         ("(THEN a b) c", 1, "column 12: unexpected 'c'"),
         ("", 1, "empty task"),
         ("(THEN a THEN)", 1, "'THEN' is a goal type"),
@@ -81,7 +95,11 @@ world:
         ("name: x\n", 1, "missing 'task'"),
         ("task: [a\n", 2, "invalid YAML"),
         ("task: {AND: [a, b]}\nworld:\n  objects:\n    a: {position: [1, 2]}\n", 4, "3 numbers"),
-        ("task: {AND: [a, b]}\nworld:\n  objects:\n    a: {posit: [1, 2, 3]}\n", 4, "unknown key 'posit'"),
+        (
+            "task: {AND: [a, b]}\nworld:\n  objects:\n    a: {posit: [1, 2, 3]}\n",
+            4,
+            "unknown key 'posit'",
+        ),
         ("task: {AND: [a, b]}\nwrld: {}\n", 2, "unknown key 'wrld'"),
         ("task:\n  AND:\n    - a\n    - {THEN: [b, a]}\n", 4, "appears twice"),
         (

@@ -8,7 +8,10 @@ from flexhrc.errors import FlexhrcError, UnknownNameError
 
 def make_world(moves=()):
     return TabletopWorld(
-        [WorldObject("cup", (0.5, 0.0, 0.75), (1.0, 0.0, 0.75)), WorldObject("fork", (0.5, 0.4, 0.75))],
+        [
+            WorldObject("cup", (0.5, 0.0, 0.75), (1.0, 0.0, 0.75)),
+            WorldObject("fork", (0.5, 0.4, 0.75)),
+        ],
         [Arm("arm", (0.0, 0.0, 0.75), speed=0.5)],
         moves,
         grasp_time=2.0,
@@ -23,7 +26,9 @@ def test_pick_and_place_duration_follows_distance_and_speed():
     assert m.t_reach == pytest.approx(2.0)
     assert m.t_grasp == pytest.approx(4.0)
     assert m.t_end == pytest.approx(1.0 + 1.0 + 2.0 + 1.0 + 1.0 + 2.0)
-    assert m.phase_at(3.0) == "grasp" and m.phase_at(4.5) == "carry" and m.phase_at(8.0) == "finished"
+    assert (
+        m.phase_at(3.0) == "grasp" and m.phase_at(4.5) == "carry" and m.phase_at(8.0) == "finished"
+    )
     w.step(4.5)
     assert w.objects["cup"].held_by == "arm"
     assert not w.object_in_view("cup")
@@ -35,7 +40,10 @@ def test_pick_and_place_duration_follows_distance_and_speed():
 
 def test_moves_at_a_time_and_during_a_grasp():
     w = make_world(
-        [MoveRule("fork", (0.3, 0.3, 0.75), at=5.0), MoveRule("cup", (0.6, 0.2, 0.75), during_grasp=1.0)]
+        [
+            MoveRule("fork", (0.3, 0.3, 0.75), at=5.0),
+            MoveRule("cup", (0.6, 0.2, 0.75), during_grasp=1.0),
+        ]
     )
     assert w.step(4.9) == []
     assert [e["object"] for e in w.step(5.0)] == ["fork"]
@@ -44,7 +52,9 @@ def test_moves_at_a_time_and_during_a_grasp():
     check = ValidityCheck.watch(w, "cup", threshold=0.05)
     assert check.valid(w)
     events = w.step(7.0)
-    assert events == [{"kind": "move", "object": "cup", "from": [0.5, 0.0, 0.75], "to": [0.6, 0.2, 0.75]}]
+    assert events == [
+        {"kind": "move", "object": "cup", "from": [0.5, 0.0, 0.75], "to": [0.6, 0.2, 0.75]}
+    ]
     assert not check.valid(w)
     assert check.displacement(w) == pytest.approx(math.hypot(0.1, 0.2))
     w.abort("arm", 7.0)

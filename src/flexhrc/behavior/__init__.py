@@ -35,7 +35,14 @@ from flexhrc.behavior.task import (
 from flexhrc.behavior.taskfile import TaskDocument, load_task_document
 from flexhrc.behavior.validate import allowed_next, check_nearest_first, check_run
 from flexhrc.behavior.validity import ValidityCheck
-from flexhrc.behavior.world import Arm, MoveRule, PickAndPlaceMotion, TabletopWorld, WorldObject, random_world
+from flexhrc.behavior.world import (
+    Arm,
+    MoveRule,
+    PickAndPlaceMotion,
+    TabletopWorld,
+    WorldObject,
+    random_world,
+)
 
 __all__ = [
     "AND",

@@ -42,7 +42,7 @@ from flexhrc.transport.base import Transport
 
 
 class BehaviorNode(Node):
-    """A leaf that needs an arm: mutex bidding, running, done/reset. Subclasses supply the action."""
+    """A leaf that needs an arm: mutex bidding, running, done/reset; subclasses add the action."""
 
     kind = "BEHAVIOR"
 
@@ -57,7 +57,9 @@ class BehaviorNode(Node):
         self._request_topics = [request_topic(a) for a in self.arms]
         self._release = MutexRelease(name)
         self.bids: dict[str, float] = {a: 0.0 for a in self.arms}
-        self._requests: list[tuple[str, str]] = list(zip(self.arms, self._request_topics, strict=True))
+        self._requests: list[tuple[str, str]] = list(
+            zip(self.arms, self._request_topics, strict=True)
+        )
         transport.subscribe(reply_topic(name), self._on_reply)
 
     # -- inbox ---------------------------------------------------------------------------------

@@ -96,7 +96,8 @@ class GoalNode(Node):
         return super().busy() or self._dirty or self.tick <= self._fed_until
 
     def send(self, i: int, msg: ActivationMsg) -> None:
-        """Send activation to child ``i``; a positive level keeps this node engaged for the round trip."""
+        """Send activation to child ``i``; a positive level keeps this node engaged for the
+        round trip of the message."""
         if msg.level > 0:
             self._fed_until = self.tick + 2
         self._transport.publish(self._child_topics[i], msg)
@@ -147,7 +148,9 @@ class AndNode(GoalNode):
         super().__init__(name, children, transport, params)
         n = len(self.children)
         divided = 1.0 / n
-        if params.and_spread == "fixed" or (params.and_spread == "auto" and divided <= params.tau_active):
+        if params.and_spread == "fixed" or (
+            params.and_spread == "auto" and divided <= params.tau_active
+        ):
             level = params.and_level
         else:
             level = divided
@@ -213,8 +216,10 @@ class OrNode(GoalNode):
             self.chosen = None
         if self.chosen is None:
             leaving = self._leaving
-            if leaving is not None and leaving != target and (
-                self._child_engaged[leaving] or self.tick <= self._left_at + 2
+            if (
+                leaving is not None
+                and leaving != target
+                and (self._child_engaged[leaving] or self.tick <= self._left_at + 2)
             ):
                 return  # wait until the old alternative has gone quiet
             self._leaving = None

@@ -58,11 +58,20 @@ class LogEvent(NamedTuple):
     data: dict[str, Any]
 
     def to_dict(self) -> dict[str, Any]:
-        return {"tick": self.tick, "t": self.t, "source": self.source, "kind": self.kind, **self.data}
+        return {
+            "tick": self.tick,
+            "t": self.t,
+            "source": self.source,
+            "kind": self.kind,
+            **self.data,
+        }
 
 
 LOG_TOPIC = "bn/log"
-_TYPES = {c.__name__: c for c in (ActivationMsg, StateMsg, MutexRequest, MutexRelease, MutexReply, LogEvent)}
+_TYPES = {
+    c.__name__: c
+    for c in (ActivationMsg, StateMsg, MutexRequest, MutexRelease, MutexReply, LogEvent)
+}
 
 
 def activation_topic(node: str) -> str:

@@ -57,7 +57,13 @@ class Run:
     outcome: str  # "done", "reset" or "unfinished"
 
     def to_dict(self) -> dict[str, Any]:
-        return {"behavior": self.behavior, "arm": self.arm, "start": self.start, "end": self.end, "outcome": self.outcome}
+        return {
+            "behavior": self.behavior,
+            "arm": self.arm,
+            "start": self.start,
+            "end": self.end,
+            "outcome": self.outcome,
+        }
 
 
 @dataclass
@@ -160,10 +166,14 @@ class BehaviorNetwork:
                         f"{where}behaviour {tn.name!r} has no object in the world "
                         f"(objects: {', '.join(sorted(world.objects))})"
                     )
-                self.nodes[tn.name] = PickAndPlace(tn.name, tn.name, world, self.transport, self.params)
+                self.nodes[tn.name] = PickAndPlace(
+                    tn.name, tn.name, world, self.transport, self.params
+                )
             else:
                 cls = GOAL_CLASSES[tn.kind]
-                self.nodes[tn.name] = cls(tn.name, [c.name for c in tn.children], self.transport, self.params)
+                self.nodes[tn.name] = cls(
+                    tn.name, [c.name for c in tn.children], self.transport, self.params
+                )
         self.mutexes = [ArmMutex(arm, self.transport, self.params) for arm in world.arm_names]
         self._order = list(self.nodes.values())
         # Event-driven stepping (see flexhrc.behavior.node): only busy or woken nodes run a tick.

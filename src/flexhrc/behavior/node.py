@@ -20,9 +20,9 @@ Two modelling choices, documented here because the paper leaves them implicit:
 * an activation message *sets* the child's level (the last message wins) — so a parent can give
   a child zero activation explicitly (the OR node does when it switches alternative), and a child
   nobody feeds decays as α^k and drops below τ_active after a few ticks;
-* state messages are published when the state, potential, progress or engagement *changed* (latched topic
-  semantics): a parent keeps the last value it heard. It saves ~all messages of idle nodes and does
-  not change what any parent knows.
+* state messages are published when the state, potential, progress or engagement *changed*
+  (latched topic semantics): a parent keeps the last value it heard. It saves almost all
+  messages of idle nodes and does not change what any parent knows.
 
 A node whose update loop would do nothing — inactive (or done), below τ_active, nothing new in its
 inbox — is *quiescent* (:meth:`Node.busy` is false). Like a node thread blocking on its inbox, an
@@ -169,7 +169,15 @@ class Node:
             self._last_published = key
             self._transport.publish(
                 self._state_topic,
-                StateMsg(self.name, self.state, self.level, self.potential, self.progress, engaged, self.tick),
+                StateMsg(
+                    self.name,
+                    self.state,
+                    self.level,
+                    self.potential,
+                    self.progress,
+                    engaged,
+                    self.tick,
+                ),
             )
 
     def emit(self, kind: str, **data: Any) -> None:
@@ -188,4 +196,7 @@ class Node:
         }
 
     def __repr__(self) -> str:
-        return f"<{self.kind} {self.name} {self.state} level={self.level:.3g} pot={self.potential:.3g}>"
+        return (
+            f"<{self.kind} {self.name} {self.state} "
+            f"level={self.level:.3g} potential={self.potential:.3g}>"
+        )

@@ -20,12 +20,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from enum import Enum
+from enum import StrEnum
 
 from flexhrc.errors import FlexhrcError
 
 
-class NodeState(str, Enum):
+class NodeState(StrEnum):
     """Node state; the paper's Fig. 4 plots these four for every behaviour."""
 
     INACTIVE = "inactive"
@@ -59,7 +59,9 @@ class NetworkParams:
         if not self.tick_period > 0:
             raise FlexhrcError("tick_period must be > 0")
         if self.and_spread not in AND_SPREAD_MODES:
-            raise FlexhrcError(f"and_spread must be one of {AND_SPREAD_MODES}, got {self.and_spread!r}")
+            raise FlexhrcError(
+                f"and_spread must be one of {AND_SPREAD_MODES}, got {self.and_spread!r}"
+            )
         if not self.and_level > self.tau_active:
             raise FlexhrcError("and_level must exceed tau_active")
         if self.mutex_window < 0 or self.validity_threshold <= 0:

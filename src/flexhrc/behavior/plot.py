@@ -50,13 +50,17 @@ def gantt(result: RunResult, path: str | Path, title: str | None = None) -> Path
             ax.barh(row, t1 - t0, left=t0, height=0.62, **kwargs)
             if state == "running" and len(arms) > 1 and t1 - t0 > 2.5:
                 arm = run_arm.get((name, t0), "")
-                ax.text((t0 + t1) / 2, row, arm, ha="center", va="center", fontsize=7, color="white")
+                ax.text(
+                    (t0 + t1) / 2, row, arm, ha="center", va="center", fontsize=7, color="white"
+                )
     rows = {name: row for row, name in enumerate(reversed(behaviors))}
     for ev in result.log:
         if ev.kind == "reset" and ev.source in rows:
             ax.plot(ev.t, rows[ev.source], marker="x", color="#cc0000", markersize=10, mew=2.5)
         elif ev.kind == "move" and str(ev.data.get("object")) in rows:
-            ax.plot(ev.t, rows[str(ev.data["object"])] + 0.42, marker="v", color="#cc0000", markersize=7)
+            ax.plot(
+                ev.t, rows[str(ev.data["object"])] + 0.42, marker="v", color="#cc0000", markersize=7
+            )
     ax.set_yticks(range(len(behaviors)))
     ax.set_yticklabels(list(reversed(behaviors)))
     ax.set_xlabel("time (s)")
@@ -66,12 +70,33 @@ def gantt(result: RunResult, path: str | Path, title: str | None = None) -> Path
     ax.set_axisbelow(True)
     handles = [Patch(color=STATE_COLOURS[s], label=s) for s in STATE_ORDER]
     if len(arms) > 1:
-        handles.append(Patch(facecolor=STATE_COLOURS["running"], hatch="///", edgecolor="white", label=f"running ({arms[1]})"))
+        handles.append(
+            Patch(
+                facecolor=STATE_COLOURS["running"],
+                hatch="///",
+                edgecolor="white",
+                label=f"running ({arms[1]})",
+            )
+        )
     if result.resets:
         handles.append(
-            plt.Line2D([], [], marker="x", color="#cc0000", linestyle="none", mew=2.5, label="reset (validity check)")
+            plt.Line2D(
+                [],
+                [],
+                marker="x",
+                color="#cc0000",
+                linestyle="none",
+                mew=2.5,
+                label="reset (validity check)",
+            )
         )
-    ax.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=len(handles), frameon=False)
+    ax.legend(
+        handles=handles,
+        loc="upper center",
+        bbox_to_anchor=(0.5, -0.12),
+        ncol=len(handles),
+        frameon=False,
+    )
     order = ", ".join(result.order)
     ax.set_title(title or f"Behaviour states over time — order: {order}", fontsize=10)
     fig.tight_layout()

@@ -29,7 +29,9 @@ def _label(node: TaskNode, snaps: Mapping[str, Mapping[str, Any]] | None) -> str
     return text
 
 
-def to_ascii(task: Task | TaskNode, snapshots: Mapping[str, Mapping[str, Any]] | None = None) -> str:
+def to_ascii(
+    task: Task | TaskNode, snapshots: Mapping[str, Mapping[str, Any]] | None = None
+) -> str:
     root = task.root if isinstance(task, Task) else task
     lines = [_label(root, snapshots)]
 

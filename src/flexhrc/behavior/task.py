@@ -7,8 +7,8 @@ A task is an N-ary tree. Goal nodes encode the execution constraints:
 * ``OR``   — alternatives: exactly one child is achieved.
 
 Leaves are behaviour nodes (here: pick-and-place of the object with the same name). The same tree
-is both the representation and, once turned into a :class:`~flexhrc.behavior.network.BehaviorNetwork`,
-the controller.
+is both the representation and, once turned into a
+:class:`~flexhrc.behavior.network.BehaviorNetwork`, the controller.
 
 The textual form is the paper's prefix encoding, e.g. Fig. 1::
 
@@ -120,7 +120,9 @@ def build_task(spec: Any, source: str = "<task>") -> Task:
         if item[0] == BEHAVIOR:
             _, name, line, col = item
             if name.upper() in GOAL_KINDS:
-                raise FormatError(_at(f"{name!r} is a goal type, not a behaviour name", col), source, line)
+                raise FormatError(
+                    _at(f"{name!r} is a goal type, not a behaviour name", col), source, line
+                )
             if not _NAME.match(name):
                 raise FormatError(_at(f"invalid behaviour name {name!r}", col), source, line)
             if name in seen:
@@ -145,7 +147,9 @@ def build_task(spec: Any, source: str = "<task>") -> Task:
     if clash:
         name = sorted(clash)[0]
         line, col = seen[name]
-        raise FormatError(_at(f"behaviour name {name!r} clashes with a goal node name", col), source, line)
+        raise FormatError(
+            _at(f"behaviour name {name!r} clashes with a goal node name", col), source, line
+        )
     return Task(root, source)
 
 
@@ -237,10 +241,14 @@ def task_spec_from_yaml_node(node: Any, source: str) -> Any:
         kind = str(key.value).upper()
         if kind not in GOAL_KINDS:
             raise FormatError(
-                f"unknown goal type {key.value!r}; expected THEN, AND or OR", source, key.start_mark.line + 1
+                f"unknown goal type {key.value!r}; expected THEN, AND or OR",
+                source,
+                key.start_mark.line + 1,
             )
         if not isinstance(value, yaml.SequenceNode):
-            raise FormatError(f"{kind} expects a list of children", source, value.start_mark.line + 1)
+            raise FormatError(
+                f"{kind} expects a list of children", source, value.start_mark.line + 1
+            )
         return (kind, [task_spec_from_yaml_node(v, source) for v in value.value], line, col)
     raise FormatError("expected a behaviour name or a {THEN|AND|OR: [...]} mapping", source, line)
 
@@ -253,7 +261,7 @@ def _spec_of(node: TaskNode, line: int) -> Any:
 
 def parse_task(text: str, source: str = "<task>") -> Task:
     """Parse a task given either as prefix text (first significant character ``(``) or as a YAML
-    document (a ``task:`` key, optionally with a ``world:``; see :mod:`flexhrc.behavior.taskfile`)."""
+    document (a ``task:`` key, optionally a ``world:``; see :mod:`flexhrc.behavior.taskfile`)."""
     significant = re.sub(r"#[^\n]*", "", text).strip()
     if significant.startswith("("):
         return parse_prefix(text, source)

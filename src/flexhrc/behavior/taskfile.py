@@ -67,7 +67,9 @@ def _vec(node: Any, what: str, source: str) -> tuple[float, float, float]:
     try:
         x, y, z = (float(v.value) for v in node.value)
     except (TypeError, ValueError):
-        raise FormatError(f"{what} must be a list of 3 numbers [x, y, z]", source, _line(node)) from None
+        raise FormatError(
+            f"{what} must be a list of 3 numbers [x, y, z]", source, _line(node)
+        ) from None
     return (x, y, z)
 
 
@@ -101,7 +103,9 @@ def world_from_yaml_node(node: Any, source: str, arms: int | None = None) -> Tab
         if "position" not in spec:
             raise FormatError(f"object {k!r}: missing 'position'", source, _line(v))
         target = _vec(spec["target"], f"object {k!r} target", source) if "target" in spec else None
-        objects.append(WorldObject(k, _vec(spec["position"], f"object {k!r} position", source), target))
+        objects.append(
+            WorldObject(k, _vec(spec["position"], f"object {k!r} position", source), target)
+        )
     arm_list: list[Arm]
     if "arms" in fields and arms is None:
         import yaml
@@ -117,7 +121,9 @@ def world_from_yaml_node(node: Any, source: str, arms: int | None = None) -> Tab
                 raise FormatError("arm: needs 'name' and 'home'", source, _line(a))
             speed = _number(spec["speed"], "arm speed", source) if "speed" in spec else 0.25
             try:
-                arm_list.append(Arm(str(spec["name"].value), _vec(spec["home"], "arm home", source), speed))
+                arm_list.append(
+                    Arm(str(spec["name"].value), _vec(spec["home"], "arm home", source), speed)
+                )
             except FlexhrcError as exc:
                 raise FormatError(str(exc), source, _line(a)) from None
     else:
@@ -135,9 +141,17 @@ def world_from_yaml_node(node: Any, source: str, arms: int | None = None) -> Tab
             if "object" not in spec or "to" not in spec:
                 raise FormatError("move: needs 'object' and 'to'", source, _line(m))
             at = _number(spec["at"], "move 'at'", source) if "at" in spec else None
-            dg = _number(spec["during_grasp"], "move 'during_grasp'", source) if "during_grasp" in spec else None
+            dg = (
+                _number(spec["during_grasp"], "move 'during_grasp'", source)
+                if "during_grasp" in spec
+                else None
+            )
             try:
-                moves.append(MoveRule(str(spec["object"].value), _vec(spec["to"], "move 'to'", source), at, dg))
+                moves.append(
+                    MoveRule(
+                        str(spec["object"].value), _vec(spec["to"], "move 'to'", source), at, dg
+                    )
+                )
             except FlexhrcError as exc:
                 raise FormatError(str(exc), source, _line(m)) from None
     kwargs = {}

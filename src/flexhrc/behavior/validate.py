@@ -20,6 +20,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
+from itertools import pairwise
 
 from flexhrc.behavior.network import Run
 from flexhrc.behavior.task import AND, BEHAVIOR, OR, THEN, Task, TaskNode
@@ -48,9 +49,11 @@ def check_run(task: Task, runs: Iterable[Run], require_complete: bool = True) ->
         by_arm.setdefault(r.arm, []).append(r)
     for arm, rs in by_arm.items():
         rs.sort(key=lambda r: r.start)
-        for a, b in zip(rs, rs[1:], strict=False):
+        for a, b in pairwise(rs):
             if a.end is None or b.start < a.end:
-                problems.append(f"arm {arm}: {b.behavior} started at {b.start} while {a.behavior} ran")
+                problems.append(
+                    f"arm {arm}: {b.behavior} started at {b.start} while {a.behavior} ran"
+                )
 
     def span(node: TaskNode) -> _Span:
         if node.kind == BEHAVIOR:

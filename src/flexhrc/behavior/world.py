@@ -83,12 +83,14 @@ class MoveRule:
 
     def __post_init__(self) -> None:
         if (self.at is None) == (self.during_grasp is None):
-            raise FlexhrcError(f"move of {self.object!r}: give exactly one of 'at' or 'during_grasp'")
+            raise FlexhrcError(
+                f"move of {self.object!r}: give exactly one of 'at' or 'during_grasp'"
+            )
 
 
 @dataclass(frozen=True)
 class PickAndPlaceMotion:
-    """Time-parametrised straight-line pick-and-place; phases reach → grasp → carry → place → return."""
+    """Time-parametrised straight-line pick-and-place: reach → grasp → carry → place → return."""
 
     arm: str
     object: str
@@ -124,11 +126,15 @@ class PickAndPlaceMotion:
         if t <= self.start:
             return self.start_pos
         if t < self.t_reach:
-            return _lerp(self.start_pos, self.grasp_pos, (t - self.start) / (self.t_reach - self.start))
+            return _lerp(
+                self.start_pos, self.grasp_pos, (t - self.start) / (self.t_reach - self.start)
+            )
         if t < self.t_grasp:
             return self.grasp_pos
         if t < self.t_carry:
-            return _lerp(self.grasp_pos, self.target, (t - self.t_grasp) / (self.t_carry - self.t_grasp))
+            return _lerp(
+                self.grasp_pos, self.target, (t - self.t_grasp) / (self.t_carry - self.t_grasp)
+            )
         if t < self.t_place:
             return self.target
         if t < self.t_end:
@@ -183,7 +189,9 @@ class TabletopWorld:
         self._index = {name: i for i, name in enumerate(self.objects)}
         self.min_distance = 1e-3  # distances below this count as this, so 1/distance stays finite
         self._pending: set[str] = set()
-        self._pending_all = True  # the first step senses everything (positions may be edited before)
+        self._pending_all = (
+            True  # the first step senses everything (positions may be edited before)
+        )
         self._pot_best: list[float] = []
         self._pot_arm: list[list[float]] = []
         self._refresh_potentials()
@@ -279,7 +287,18 @@ class TabletopWorld:
         t_place = t_carry + self.place_time
         t_end = t_place + math.dist(target, a.home) / a.speed
         motion = PickAndPlaceMotion(
-            arm, obj, now, a.position, o.position, target, a.home, t_reach, t_grasp, t_carry, t_place, t_end
+            arm,
+            obj,
+            now,
+            a.position,
+            o.position,
+            target,
+            a.home,
+            t_reach,
+            t_grasp,
+            t_carry,
+            t_place,
+            t_end,
         )
         a.motion = motion
         self._sensing_changed(set())
@@ -323,7 +342,12 @@ class TabletopWorld:
             if due:
                 self._fired[i] = True
                 events.append(
-                    {"kind": "move", "object": rule.object, "from": list(obj.position), "to": list(rule.to)}
+                    {
+                        "kind": "move",
+                        "object": rule.object,
+                        "from": list(obj.position),
+                        "to": list(rule.to),
+                    }
                 )
                 self.move_object(rule.object, rule.to)
         for a in self.arms.values():
@@ -364,7 +388,9 @@ class TabletopWorld:
         try:
             return self.arms[name]
         except KeyError:
-            raise UnknownNameError(f"unknown arm {name!r} (known: {', '.join(self.arms)})") from None
+            raise UnknownNameError(
+                f"unknown arm {name!r} (known: {', '.join(self.arms)})"
+            ) from None
 
     def snapshot(self) -> dict[str, Any]:
         return {
@@ -396,5 +422,7 @@ def random_world(objects: Sequence[str], seed: int = 0, arms: int = 1) -> Tablet
         x = float(rng.uniform(x0, x1))
         y = float(rng.uniform(y0, y1))
         ty = y0 + (y1 - y0) * (i + 0.5) / max(n, 1)
-        objs.append(WorldObject(name, (round(x, 4), round(y, 4), TABLE_Z), (1.0, round(ty, 4), TABLE_Z)))
+        objs.append(
+            WorldObject(name, (round(x, 4), round(y, 4), TABLE_Z), (1.0, round(ty, 4), TABLE_Z))
+        )
     return TabletopWorld(objs, default_arms(arms))

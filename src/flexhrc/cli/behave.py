@@ -22,19 +22,39 @@ TASK_SUFFIXES = (".yaml", ".yml", ".txt")
 def register(subparsers: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
     p = subparsers.add_parser(
         "behave",
-        help="run a THEN/AND/OR behaviour network (activation spreading, arm mutex, validity checks)",
+        help="run a THEN/AND/OR behaviour network (activation spreading, arm mutex, "
+        "validity checks)",
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("target", metavar="TASK_OR_SCENARIO", help="scenario name, task file, or inline '(THEN ...)'")
-    p.add_argument("--layout", type=int, metavar="K", help="object layout 1..3 of the table-setting scenario")
-    p.add_argument("--arms", type=int, choices=(1, 2), help="number of arms, each with its own mutex (default 1)")
-    p.add_argument("--seed", type=int, default=0, help="seed for OR ties and generated worlds (default 0)")
+    p.add_argument(
+        "target",
+        metavar="TASK_OR_SCENARIO",
+        help="scenario name, task file, or inline '(THEN ...)'",
+    )
+    p.add_argument(
+        "--layout", type=int, metavar="K", help="object layout 1..3 of the table-setting scenario"
+    )
+    p.add_argument(
+        "--arms",
+        type=int,
+        choices=(1, 2),
+        help="number of arms, each with its own mutex (default 1)",
+    )
+    p.add_argument(
+        "--seed", type=int, default=0, help="seed for OR ties and generated worlds (default 0)"
+    )
     add_json_flag(p)
-    p.add_argument("--plot", metavar="FILE", help="write a Gantt chart of behaviour states (PNG/SVG/PDF)")
-    p.add_argument("--render", choices=("ascii", "dot"), help="print the network (ascii tree or DOT) and exit")
+    p.add_argument(
+        "--plot", metavar="FILE", help="write a Gantt chart of behaviour states (PNG/SVG/PDF)"
+    )
+    p.add_argument(
+        "--render", choices=("ascii", "dot"), help="print the network (ascii tree or DOT) and exit"
+    )
     p.add_argument("--log", metavar="FILE", help="write the full event log as JSON lines")
-    p.add_argument("--max-ticks", type=int, default=50_000, help="stop after this many ticks (default 50000)")
+    p.add_argument(
+        "--max-ticks", type=int, default=50_000, help="stop after this many ticks (default 50000)"
+    )
     p.set_defaults(func=run)
 
 
@@ -85,9 +105,13 @@ def _trace_line(ev: Any) -> str | None:
     if ev.kind == "done":
         return f"{t}  done   {ev.source:<10} on {d['arm']}"
     if ev.kind == "reset":
-        return f"{t}  RESET  {ev.source:<10} on {d['arm']}: {d.get('reason', '')} {d.get('moved', 0):.2f} m, mutex released"
+        return (
+            f"{t}  RESET  {ev.source:<10} on {d['arm']}: {d.get('reason', '')} "
+            f"{d.get('moved', 0):.2f} m, mutex released"
+        )
     if ev.kind == "move":
-        return f"{t}  move   {d['object']:<10} moved by the experimenter to {[round(x, 3) for x in d['to']]}"
+        to = [round(x, 3) for x in d["to"]]
+        return f"{t}  move   {d['object']:<10} moved by the experimenter to {to}"
     if ev.kind == "choose":
         return f"{t}  choose {ev.source:<10} activates {d['child']}"
     return None
@@ -132,14 +156,18 @@ def run(args: argparse.Namespace) -> int:
         lines += [s for s in (_trace_line(ev) for ev in result.log) if s]
         lines.append("")
         lines.append(
-            f"outcome: {result.outcome} after {result.time:.1f} s ({result.ticks} ticks), resets: {result.resets}"
+            f"outcome: {result.outcome} after {result.time:.1f} s ({result.ticks} ticks), "
+            f"resets: {result.resets}"
         )
         lines.append(f"order: {', '.join(result.order)}")
         if violations:
             lines.append("constraint violations:")
             lines += [f"  - {v}" for v in violations]
         else:
-            lines.append("constraints: respected (THEN order, every AND child, one alternative per OR, one behaviour per arm)")
+            lines.append(
+                "constraints: respected (THEN order, every AND child, one alternative per OR, "
+                "one behaviour per arm)"
+            )
         if plot_path:
             lines.append(f"gantt chart: {plot_path}")
         return "\n".join(lines)

@@ -30,9 +30,21 @@ from flexhrc.behavior.taskfile import load_task_document
 from flexhrc.behavior.world import TabletopWorld, random_world
 from flexhrc.errors import FlexhrcError, UnknownNameError
 
-TABLE_SETTING_TASK = "(THEN placemat (AND (THEN plate bowl) fork spoon knife (OR wineglass cup soda_can)))"
+TABLE_SETTING_TASK = (
+    "(THEN placemat (AND (THEN plate bowl) fork spoon knife (OR wineglass cup soda_can)))"
+)
 ABSTRACT_TASK = "(THEN a (AND (THEN b c) (OR d e (THEN f g))))"
-BEHAVIOR_NAMES = ("placemat", "plate", "bowl", "fork", "spoon", "knife", "wineglass", "cup", "soda_can")
+BEHAVIOR_NAMES = (
+    "placemat",
+    "plate",
+    "bowl",
+    "fork",
+    "spoon",
+    "knife",
+    "wineglass",
+    "cup",
+    "soda_can",
+)
 LAYOUTS = (1, 2, 3)
 
 #: The orders reported in the paper (Sec. IV) for the three layouts.
@@ -78,7 +90,11 @@ def table_setting(layout: int = 1, arms: int = 1) -> Scenario:
         raise FlexhrcError(f"table-setting has layouts 1, 2 and 3; got --layout {layout}")
     task, world = _load(f"layout{layout}.yaml", arms)
     return Scenario(
-        "table-setting", task, world, f"Table setting (Fig. 2), object layout {layout} (Fig. 3)", layout
+        "table-setting",
+        task,
+        world,
+        f"Table setting (Fig. 2), object layout {layout} (Fig. 3)",
+        layout,
     )
 
 
@@ -94,7 +110,9 @@ def table_setting_robustness(arms: int = 1) -> Scenario:
 
 def abstract(seed: int = 0, arms: int = 1) -> Scenario:
     task = parse_prefix(ABSTRACT_TASK, "abstract")
-    return Scenario("abstract", task, random_world(task.behaviors, seed, arms), "Abstract task of Fig. 1")
+    return Scenario(
+        "abstract", task, random_world(task.behaviors, seed, arms), "Abstract task of Fig. 1"
+    )
 
 
 def load_scenario(name: str, layout: int | None = None, arms: int = 1, seed: int = 0) -> Scenario:

@@ -62,7 +62,7 @@ class Transport(ABC):
         """Deliver pending payloads; returns the number of deliveries (0 if asynchronous)."""
         return 0
 
-    def close(self) -> None:
+    def close(self) -> None:  # noqa: B027 - optional hook, a no-op by default
         """Release resources (threads, sockets). The in-process bus has none."""
 
 
