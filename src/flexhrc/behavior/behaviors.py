@@ -181,10 +181,32 @@ class PickAndPlace(BehaviorNode):
         self._check: ValidityCheck | None = None
         self._threshold = params.validity_threshold
 
+    def update(self, tick: int, now: float) -> None:
+        # Fast path, exactly equivalent to Algorithm 1 for an idle behaviour: inactive, below τ,
+        # no grant to hand back, nothing new sensed (so nothing to publish either).
+        world = self._world
+        seen = self._version
+        if (
+            self.state == INACTIVE
+            and self.level <= self._tau
+            and not self._grants
+            and seen >= world.sensing_stamps[self._index]
+            and seen >= world.sensing_stamp_all
+            and self._last_published is not None
+        ):
+            self.tick = tick
+            self.now = now
+            self.level *= self._alpha
+            return
+        super().update(tick, now)
+
     def update_potential(self) -> None:  # Algorithm 8: 1 / ||x_obj - x_arm||
         world = self._world
-        if world.sensing_version == self._version or self.state == RUNNING:
-            return  # sensing is cached per world version; a running node keeps its last bid
+        seen = self._version
+        if self.state == RUNNING or (
+            seen >= world.sensing_stamps[self._index] and seen >= world.sensing_stamp_all
+        ):
+            return  # nothing new sensed for this object; a running node keeps its last bid
         self._version = world.sensing_version
         self.potential = world.potentials()[0][self._index]
 

@@ -90,6 +90,24 @@ class GoalNode(Node):
     def engaged(self) -> bool:
         return self.state == "active" or self._any_child_engaged or self.tick <= self._fed_until
 
+    def update(self, tick: int, now: float) -> None:
+        # Fast path, exactly equivalent to Algorithm 1 for an idle goal: inactive, below τ,
+        # nothing new from the children, no activation in flight, nothing to re-publish.
+        last = self._last_published
+        if (
+            self.state == INACTIVE
+            and self.level <= self._tau
+            and not self._dirty
+            and tick > self._fed_until
+            and last is not None
+            and last[3] == self._any_child_engaged
+        ):
+            self.tick = tick
+            self.now = now
+            self.level *= self._alpha
+            return
+        super().update(tick, now)
+
     def busy(self) -> bool:
         # Stay awake while the round trip of the last activation sent is not over, so the change
         # of `engaged` is published.

@@ -224,13 +224,17 @@ class BehaviorNetwork:
         if self.drive and not self.finished:
             self.transport.publish(self._root_topic, self._drive_msg)
         order = self._order
-        awake = sorted(self._awake) if self.event_driven else range(len(order))
-        self._awake.clear()
-        for slot in awake:
-            node = order[slot]
-            node.update(tick, now)
-            if node.busy():
-                self._awake.add(slot)
+        if self.event_driven:
+            awake = sorted(self._awake)
+            self._awake.clear()
+            for slot in awake:
+                node = order[slot]
+                node.update(tick, now)
+                if node.busy():
+                    self._awake.add(slot)
+        else:
+            for node in order:
+                node.update(tick, now)
         for mutex in self.mutexes:
             mutex.update(tick, now)
         self.transport.flush()

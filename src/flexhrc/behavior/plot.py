@@ -68,7 +68,13 @@ def gantt(result: RunResult, path: str | Path, title: str | None = None) -> Path
     ax.set_ylim(-0.6, len(behaviors) - 0.3)
     ax.grid(axis="x", color="#bbbbbb", linewidth=0.5, alpha=0.7)
     ax.set_axisbelow(True)
-    handles = [Patch(color=STATE_COLOURS[s], label=s) for s in STATE_ORDER]
+    handles = [
+        Patch(
+            color=STATE_COLOURS[s],
+            label=f"running ({arms[0]})" if s == "running" and len(arms) > 1 else s,
+        )
+        for s in STATE_ORDER
+    ]
     if len(arms) > 1:
         handles.append(
             Patch(

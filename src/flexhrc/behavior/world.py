@@ -194,6 +194,11 @@ class TabletopWorld:
         )
         self._pot_best: list[float] = []
         self._pot_arm: list[list[float]] = []
+        #: Per object, the sensing version at which its potential last changed; and the version
+        #: at which every potential changed (an arm's free position). A behaviour whose object
+        #: has not changed since it last looked need not look again.
+        self.sensing_stamps: list[int] = [0] * len(self.objects)
+        self.sensing_stamp_all = 0
         self._refresh_potentials()
 
     # -- sensing -------------------------------------------------------------------------------
@@ -263,6 +268,11 @@ class TabletopWorld:
         self._pending.clear()
         self._refresh_potentials()
         self.sensing_version += 1
+        if changed is None:
+            self.sensing_stamp_all = self.sensing_version
+        else:
+            for name in changed:
+                self.sensing_stamps[self._index[name]] = self.sensing_version
         for callback in self._listeners:
             callback(changed)
 
