@@ -105,3 +105,12 @@ def test_yaml_errors_name_file_and_line(capsys, tmp_path):
     assert (
         f"{unknown}:1: column 18: behaviour 'fork' has no object in the world (objects: a)" in err
     )
+
+
+def test_plot_without_matplotlib_is_a_clear_error(capsys, monkeypatch):
+    import sys
+
+    monkeypatch.setitem(sys.modules, "matplotlib", None)  # makes `import matplotlib` fail
+    code, out, err = run_cli(capsys, "(AND a b)", "--plot", "never.png")
+    assert code == 2
+    assert "needs the optional dependency 'matplotlib'" in err and "flexhrc[viz]" in err

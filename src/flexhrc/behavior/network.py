@@ -119,18 +119,19 @@ def state_intervals(
 
 
 def runs_from_log(log: list[LogEvent]) -> list[Run]:
-    open_runs: dict[str, tuple[str, float]] = {}
-    runs: list[Run] = []
-    for ev in log:
+    """Every run of every behaviour, in the order the runs started (log order for equal times)."""
+    open_runs: dict[str, tuple[str, float, int]] = {}
+    runs: list[tuple[int, Run]] = []
+    for seq, ev in enumerate(log):
         if ev.kind == "start":
-            open_runs[ev.source] = (str(ev.data["arm"]), ev.t)
+            open_runs[ev.source] = (str(ev.data["arm"]), ev.t, seq)
         elif ev.kind in ("done", "reset") and ev.source in open_runs:
-            arm, start = open_runs.pop(ev.source)
-            runs.append(Run(ev.source, arm, start, ev.t, ev.kind))
-    for name, (arm, start) in open_runs.items():
-        runs.append(Run(name, arm, start, None, "unfinished"))
-    runs.sort(key=lambda r: r.start)
-    return runs
+            arm, start, first = open_runs.pop(ev.source)
+            runs.append((first, Run(ev.source, arm, start, ev.t, ev.kind)))
+    for name, (arm, start, first) in open_runs.items():
+        runs.append((first, Run(name, arm, start, None, "unfinished")))
+    runs.sort(key=lambda item: item[0])
+    return [run for _, run in runs]
 
 
 class BehaviorNetwork:
