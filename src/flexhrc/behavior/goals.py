@@ -35,7 +35,7 @@ import random
 from collections.abc import Sequence
 
 from flexhrc.behavior.messages import ActivationMsg, StateMsg, activation_topic, state_topic
-from flexhrc.behavior.node import DONE, INACTIVE, Node
+from flexhrc.behavior.node import ACTIVE, DONE, INACTIVE, Node
 from flexhrc.behavior.params import NetworkParams
 from flexhrc.transport.base import Transport
 
@@ -88,7 +88,7 @@ class GoalNode(Node):
             self._any_child_engaged = any(self._child_engaged)
 
     def engaged(self) -> bool:
-        return self.state == "active" or self._any_child_engaged or self.tick <= self._fed_until
+        return self.state == ACTIVE or self._any_child_engaged or self.tick <= self._fed_until
 
     def update(self, tick: int, now: float) -> None:
         # Fast path, exactly equivalent to Algorithm 1 for an idle goal: inactive, below τ,

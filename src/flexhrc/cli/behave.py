@@ -1,9 +1,9 @@
-"""``flexhrc behave`` — run the activation-spreading behaviour network of paper 002.
+"""flexhrc behave: run the activation-spreading behaviour network of paper 002 (Fraser et al.).
 
-TASK_OR_SCENARIO is a scenario name (``table-setting``, ``table-setting-robustness``,
-``abstract``), a task file (``.yaml``/``.yml`` with an optional world, or ``.txt`` with the prefix
-form), or an inline prefix string such as ``"(THEN a (AND b c))"``. A task without a world runs
-in a generated default world: one object per behaviour at a seeded random position on the table.
+TASK_OR_SCENARIO is a scenario name (table-setting, table-setting-robustness, abstract), a task
+file (.yaml/.yml with an optional world, or .txt with the prefix form), or an inline prefix
+string such as "(THEN a (AND b c))". A task without a world runs in a generated default world:
+one object per behaviour at a random position on the table, drawn with --seed.
 """
 
 from __future__ import annotations
