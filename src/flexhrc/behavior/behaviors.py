@@ -1,0 +1,244 @@
+"""Behaviour (leaf) nodes and the PickAndPlace behaviour (paper 002, Sec. III-E, Algorithms 8–9).
+
+A behaviour node's preconditions (Algorithm 9) are ``ObjectInView()`` and holding an arm mutex.
+Acquiring a mutex is a message exchange, not a function call: while active and waiting, the node
+sends a lock request to every arm's mutex each tick, bidding its activation potential *for that
+arm*. When a grant arrives and the node is still active, it keeps the grant of its best arm,
+releases any other, and starts running (Algorithm 1, "BEHAVIOR NODE: Activate"). A grant that
+arrives too late (the node lost its activation, or is already running/done) is released at once.
+
+While running, the node advances its action; for PickAndPlace a :class:`ValidityCheck` watches
+the object until it is grasped (Sec. III-F). On completion the node is done and releases the
+mutex; on a failed check it aborts the arm, releases the mutex and resets.
+
+A running behaviour keeps running even if its activation falls (the paper's action thread runs
+"unhindered"): stopping a half-done grasp because a parent changed its mind would be worse.
+
+PickAndPlace's activation potential (Algorithm 8) is ``1 / ||x_obj - x_arm||``, with the nearest
+arm when there are two — so the closest object wins the mutex bidding, and an OR prefers its
+closest alternative. ``x_arm`` is where the arm will be when it is next free (its rest pose at
+the end of a pick-and-place, its actual position when idle — e.g. where a reset stopped it):
+that is where the next behaviour would start from, and it keeps potentials (and OR choices) from
+flickering while an arm sweeps across the table.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+from flexhrc.behavior.messages import (
+    MutexRelease,
+    MutexReply,
+    MutexRequest,
+    release_topic,
+    reply_topic,
+    request_topic,
+)
+from flexhrc.behavior.node import ACTIVE, DONE, INACTIVE, RUNNING, Node
+from flexhrc.behavior.params import NetworkParams
+from flexhrc.behavior.validity import ValidityCheck
+from flexhrc.behavior.world import PickAndPlaceMotion, TabletopWorld
+from flexhrc.transport.base import Transport
+
+
+class BehaviorNode(Node):
+    """A leaf that needs an arm: mutex bidding, running, done/reset; subclasses add the action."""
+
+    kind = "BEHAVIOR"
+
+    def __init__(
+        self, name: str, arms: Sequence[str], transport: Transport, params: NetworkParams
+    ) -> None:
+        super().__init__(name, transport, params)
+        self.arms: tuple[str, ...] = tuple(arms)
+        self.arm: str | None = None  # the arm whose mutex this node holds while running
+        self.resets = 0
+        self._grants: list[str] = []
+        self._request_topics = [request_topic(a) for a in self.arms]
+        self._release = MutexRelease(name)
+        self.bids: dict[str, float] = {a: 0.0 for a in self.arms}
+        self._requests: list[tuple[str, str]] = list(
+            zip(self.arms, self._request_topics, strict=True)
+        )
+        transport.subscribe(reply_topic(name), self._on_reply)
+
+    # -- inbox ---------------------------------------------------------------------------------
+    def _on_reply(self, msg: MutexReply) -> None:
+        if msg.granted:
+            self._grants.append(msg.mutex)
+            if self._waker is not None:
+                self._waker(self._slot)
+
+    def busy(self) -> bool:
+        return super().busy() or bool(self._grants)
+
+    def _release_arm(self, arm: str) -> None:
+        self._transport.publish(release_topic(arm), self._release)
+
+    def _release_stray_grants(self) -> None:
+        for arm in self._grants:
+            if arm != self.arm:
+                self._release_arm(arm)
+        self._grants.clear()
+
+    # -- action interface (PickAndPlace implements it) -----------------------------------------
+    def current_bids(self) -> dict[str, float]:
+        """The bid for each arm's mutex (the activation potential for that arm)."""
+        return self.bids
+
+    def ready(self) -> bool:
+        """Non-mutex part of the preconditions (ObjectInView for PickAndPlace)."""
+        return True
+
+    def start_action(self, arm: str) -> dict[str, object]:
+        return {}
+
+    def step_action(self) -> str:
+        """``"running"``, ``"done"`` or ``"invalid"`` (validity check failed)."""
+        return "done"
+
+    def abort_action(self) -> dict[str, object]:
+        return {}
+
+    # -- Algorithm 1 hooks ---------------------------------------------------------------------
+    def preconditions(self) -> bool:  # Algorithm 9
+        grants = self._grants
+        if not self.ready():
+            self._release_stray_grants()
+            return False
+        if grants:
+            bids = self.current_bids()
+            best = max(grants, key=lambda a: (bids.get(a, 0.0), -self.arms.index(a)))
+            self.arm = best
+            self._release_stray_grants()
+            return True
+        publish = self._transport.publish
+        bids = self.current_bids()
+        for arm, topic in self._requests:
+            publish(topic, MutexRequest(self.name, bids[arm]))
+        return False
+
+    def activate(self) -> None:
+        arm = self.arm
+        assert arm is not None
+        info = self.start_action(arm)
+        self.progress = True
+        self.set_state(RUNNING, arm=arm)
+        self.emit("start", arm=arm, **info)
+
+    def run(self) -> None:
+        self._release_stray_grants()
+        status = self.step_action()
+        if status == "running":
+            return
+        arm = self.arm
+        assert arm is not None
+        if status == "done":
+            self.set_state(DONE, arm=arm)
+            self.emit("done", arm=arm)
+        else:
+            info = self.abort_action()
+            self.resets += 1
+            self.progress = False
+            self.set_state(ACTIVE if self.level > self._tau else INACTIVE, arm=arm, reset=True)
+            self.emit("reset", arm=arm, **info)
+        self._release_arm(arm)
+        self.arm = None
+
+    def deactivated(self) -> None:
+        if self._grants:
+            self._release_stray_grants()
+
+    def idle_done(self) -> None:
+        if self._grants:
+            self._release_stray_grants()
+
+    def snapshot(self) -> dict[str, object]:
+        snap = super().snapshot()
+        snap.update(arm=self.arm, resets=self.resets, bids=dict(self.bids))
+        return snap
+
+
+class PickAndPlace(BehaviorNode):
+    """Pick an object from the table and place it at its target (Algorithms 8–9)."""
+
+    kind = "BEHAVIOR"
+
+    def __init__(
+        self,
+        name: str,
+        obj: str,
+        world: TabletopWorld,
+        transport: Transport,
+        params: NetworkParams,
+    ) -> None:
+        super().__init__(name, world.arm_names, transport, params)
+        self.object = obj
+        self._world = world
+        self._index = world.object_index(obj)
+        self._version = -1
+        self._motion: PickAndPlaceMotion | None = None
+        self._check: ValidityCheck | None = None
+        self._threshold = params.validity_threshold
+
+    def update(self, tick: int, now: float) -> None:
+        # Fast path, exactly equivalent to Algorithm 1 for an idle behaviour: inactive, below τ,
+        # no grant to hand back, nothing new sensed (so nothing to publish either).
+        world = self._world
+        seen = self._version
+        if (
+            self.state == INACTIVE
+            and self.level <= self._tau
+            and not self._grants
+            and seen >= world.sensing_stamps[self._index]
+            and seen >= world.sensing_stamp_all
+            and self._last_published is not None
+        ):
+            self.tick = tick
+            self.now = now
+            self.level *= self._alpha
+            return
+        super().update(tick, now)
+
+    def update_potential(self) -> None:  # Algorithm 8: 1 / ||x_obj - x_arm||
+        world = self._world
+        seen = self._version
+        if self.state == RUNNING or (
+            seen >= world.sensing_stamps[self._index] and seen >= world.sensing_stamp_all
+        ):
+            return  # nothing new sensed for this object; a running node keeps its last bid
+        self._version = world.sensing_version
+        self.potential = world.potentials()[0][self._index]
+
+    def current_bids(self) -> dict[str, float]:
+        per_arm = self._world.potentials()[1]
+        i = self._index
+        for k, arm in enumerate(self.arms):
+            self.bids[arm] = per_arm[k][i]
+        return self.bids
+
+    def ready(self) -> bool:
+        return self._world.object_in_view(self.object)
+
+    def start_action(self, arm: str) -> dict[str, object]:
+        self._motion = self._world.start_pick_and_place(arm, self.object, self.now)
+        self._check = ValidityCheck.watch(self._world, self.object, self._threshold)
+        return {"object": self.object, "duration": round(self._motion.duration, 3)}
+
+    def step_action(self) -> str:
+        motion = self._motion
+        assert motion is not None and self._check is not None
+        if not motion.grasped(self.now) and not self._check.valid(self._world):
+            return "invalid"
+        if self.now >= motion.t_end:
+            return "done"
+        return "running"
+
+    def abort_action(self) -> dict[str, object]:
+        assert self._motion is not None and self._check is not None
+        moved = self._check.displacement(self._world)
+        self._world.abort(self._motion.arm, self.now)
+        self._motion = None
+        self._check = None
+        self._version = -1
+        return {"object": self.object, "reason": "object moved", "moved": round(moved, 4)}

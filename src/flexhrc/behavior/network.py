@@ -1,0 +1,270 @@
+"""Build a behaviour network from a task and run it on a simulated clock (paper 002, Sec. III-C/D).
+
+:class:`BehaviorNetwork` turns every :class:`~flexhrc.behavior.task.TaskNode` into a node object
+(THEN/AND/OR goal nodes, :class:`~flexhrc.behavior.behaviors.PickAndPlace` leaves), adds one
+:class:`~flexhrc.behavior.mutex.ArmMutex` per arm of the world, and wires nothing but topics
+on a transport. One :meth:`~BehaviorNetwork.tick` is:
+
+1. advance the world to the tick's time (scheduled object moves, arm motions);
+2. the *driver* — standing in for whoever gives the robot its task — sends activation 1.0 to
+   the root;
+3. run every node's update loop (Algorithm 1) and every mutex — by default only the nodes that
+   are busy or were woken by a message or a sensing change (a quiescent node's update would do
+   nothing; ``event_driven=False`` runs them all, with identical results);
+4. flush the transport: messages sent in this tick arrive before the next one.
+
+Because of step 4 the order of step 3 does not matter; the whole run is a deterministic function
+of the task, the world, the parameters and the seed. The runner itself learns about the network
+only by listening: to the root's state topic (to know when the task is done) and to the log
+topic (for the event log).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+from flexhrc.behavior.behaviors import BehaviorNode, PickAndPlace
+from flexhrc.behavior.goals import GOAL_CLASSES, GoalNode
+from flexhrc.behavior.messages import (
+    LOG_TOPIC,
+    ActivationMsg,
+    LogEvent,
+    StateMsg,
+    activation_topic,
+    state_topic,
+)
+from flexhrc.behavior.mutex import ArmMutex
+from flexhrc.behavior.node import DONE, Node
+from flexhrc.behavior.params import NetworkParams
+from flexhrc.behavior.task import BEHAVIOR, Task
+from flexhrc.behavior.world import TabletopWorld
+from flexhrc.errors import UnknownNameError
+from flexhrc.transport.base import SimClock, Transport
+from flexhrc.transport.inprocess import InProcessBus
+
+DRIVER = "driver"
+
+
+@dataclass(frozen=True)
+class Run:
+    """One execution of a behaviour: started on an arm, ended done or reset."""
+
+    behavior: str
+    arm: str
+    start: float
+    end: float | None
+    outcome: str  # "done", "reset" or "unfinished"
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "behavior": self.behavior,
+            "arm": self.arm,
+            "start": self.start,
+            "end": self.end,
+            "outcome": self.outcome,
+        }
+
+
+@dataclass
+class RunResult:
+    """What happened: outcome, order of the completed behaviours, runs, the full event log."""
+
+    outcome: str  # "done" or "timeout"
+    ticks: int
+    time: float
+    order: list[str]
+    runs: list[Run]
+    resets: int
+    log: list[LogEvent] = field(repr=False)
+    behaviors: list[str] = field(default_factory=list)
+    arms: list[str] = field(default_factory=list)
+
+    def state_intervals(self) -> dict[str, list[tuple[str, float, float]]]:
+        """Per behaviour, the (state, start, end) intervals of the paper's Fig. 4 Gantt chart."""
+        return state_intervals(self.log, self.behaviors, self.time)
+
+    def to_dict(self, with_log: bool = False) -> dict[str, Any]:
+        data: dict[str, Any] = {
+            "outcome": self.outcome,
+            "order": list(self.order),
+            "ticks": self.ticks,
+            "resets": self.resets,
+            "time": self.time,
+            "arms": list(self.arms),
+            "runs": [r.to_dict() for r in self.runs],
+        }
+        if with_log:
+            data["log"] = [e.to_dict() for e in self.log]
+        return data
+
+
+def state_intervals(
+    log: list[LogEvent], behaviors: list[str], end: float
+) -> dict[str, list[tuple[str, float, float]]]:
+    wanted = set(behaviors)
+    current: dict[str, tuple[str, float]] = {b: ("inactive", 0.0) for b in behaviors}
+    out: dict[str, list[tuple[str, float, float]]] = {b: [] for b in behaviors}
+    for ev in log:
+        if ev.kind != "state" or ev.source not in wanted:
+            continue
+        state, since = current[ev.source]
+        if ev.t > since:
+            out[ev.source].append((state, since, ev.t))
+        current[ev.source] = (str(ev.data["to"]), ev.t)
+    for b, (state, since) in current.items():
+        if end > since:
+            out[b].append((state, since, end))
+    return out
+
+
+def runs_from_log(log: list[LogEvent]) -> list[Run]:
+    """Every run of every behaviour, in the order the runs started (log order for equal times)."""
+    open_runs: dict[str, tuple[str, float, int]] = {}
+    runs: list[tuple[int, Run]] = []
+    for seq, ev in enumerate(log):
+        if ev.kind == "start":
+            open_runs[ev.source] = (str(ev.data["arm"]), ev.t, seq)
+        elif ev.kind in ("done", "reset") and ev.source in open_runs:
+            arm, start, first = open_runs.pop(ev.source)
+            runs.append((first, Run(ev.source, arm, start, ev.t, ev.kind)))
+    for name, (arm, start, first) in open_runs.items():
+        runs.append((first, Run(name, arm, start, None, "unfinished")))
+    runs.sort(key=lambda item: item[0])
+    return [run for _, run in runs]
+
+
+class BehaviorNetwork:
+    """A task turned into communicating nodes, plus one mutex per arm, on a simulated clock."""
+
+    def __init__(
+        self,
+        task: Task,
+        world: TabletopWorld,
+        params: NetworkParams | None = None,
+        transport: Transport | None = None,
+        event_driven: bool = True,
+    ) -> None:
+        self.task = task
+        #: Skip quiescent nodes (see :mod:`flexhrc.behavior.node`); ``False`` updates every node
+        #: every tick — same results, for checking and for worst-case benchmarks.
+        self.event_driven = event_driven
+        self.world = world
+        self.params = params or NetworkParams()
+        self.transport: Transport = transport if transport is not None else InProcessBus()
+        self.clock = SimClock(self.params.tick_period)
+        self.log: list[LogEvent] = []
+        self.drive = True
+        self.finished = False
+        self.transport.subscribe(LOG_TOPIC, self.log.append)
+        self.nodes: dict[str, Node] = {}
+        for tn in task.walk():
+            if tn.kind == BEHAVIOR:
+                if not world.has_object(tn.name):
+                    where = task.source + (f":{tn.line}" if tn.line else "") + ": "
+                    where += f"column {tn.column}: " if tn.column else ""
+                    raise UnknownNameError(
+                        f"{where}behaviour {tn.name!r} has no object in the world "
+                        f"(objects: {', '.join(sorted(world.objects))})"
+                    )
+                self.nodes[tn.name] = PickAndPlace(
+                    tn.name, tn.name, world, self.transport, self.params
+                )
+            else:
+                cls = GOAL_CLASSES[tn.kind]
+                self.nodes[tn.name] = cls(
+                    tn.name, [c.name for c in tn.children], self.transport, self.params
+                )
+        self.mutexes = [ArmMutex(arm, self.transport, self.params) for arm in world.arm_names]
+        self._order = list(self.nodes.values())
+        # Event-driven stepping (see flexhrc.behavior.node): only busy or woken nodes run a tick.
+        self._awake: set[int] = set(range(len(self._order)))
+        self._sensors: dict[str, int] = {}
+        for slot, node in enumerate(self._order):
+            node.set_waker(self._awake.add, slot)
+            if isinstance(node, PickAndPlace):
+                self._sensors[node.object] = slot
+        world.add_sensing_listener(self._on_sensing)
+        self._root_topic = activation_topic(task.root.name)
+        self._drive_msg = ActivationMsg(DRIVER, 1.0)
+        self.transport.subscribe(state_topic(task.root.name), self._on_root_state)
+
+    def _on_sensing(self, objects: set[str] | None) -> None:
+        if objects is None:
+            self._awake.update(self._sensors.values())
+        else:
+            self._awake.update(self._sensors[o] for o in objects if o in self._sensors)
+
+    def _on_root_state(self, msg: StateMsg) -> None:
+        if msg.state == DONE:
+            self.finished = True
+
+    @property
+    def tick_count(self) -> int:
+        return self.clock.tick
+
+    def node(self, name: str) -> Node:
+        try:
+            return self.nodes[name]
+        except KeyError:
+            raise UnknownNameError(f"no node named {name!r}") from None
+
+    def goals(self) -> list[GoalNode]:
+        return [n for n in self.nodes.values() if isinstance(n, GoalNode)]
+
+    def behaviors(self) -> list[BehaviorNode]:
+        return [n for n in self.nodes.values() if isinstance(n, BehaviorNode)]
+
+    def tick(self) -> None:
+        """One update loop of the whole network (see the module docstring)."""
+        tick = self.clock.tick
+        now = self.clock.now()
+        for ev in self.world.step(now):
+            kind = ev.pop("kind")
+            self.log.append(LogEvent(tick, now, "world", kind, ev))
+        if self.drive and not self.finished:
+            self.transport.publish(self._root_topic, self._drive_msg)
+        order = self._order
+        if self.event_driven:
+            awake = sorted(self._awake)
+            self._awake.clear()
+            for slot in awake:
+                node = order[slot]
+                node.update(tick, now)
+                if node.busy():
+                    self._awake.add(slot)
+        else:
+            for node in order:
+                node.update(tick, now)
+        for mutex in self.mutexes:
+            mutex.update(tick, now)
+        self.transport.flush()
+        self.clock.advance()
+
+    def run(self, max_ticks: int = 50_000) -> RunResult:
+        """Tick until the root reports done or ``max_ticks`` ticks have run."""
+        while not self.finished and self.clock.tick < max_ticks:
+            self.tick()
+        return self.result()
+
+    def result(self) -> RunResult:
+        runs = runs_from_log(self.log)
+        done_runs = [r for r in runs if r.outcome == "done"]
+        return RunResult(
+            outcome="done" if self.finished else "timeout",
+            ticks=self.clock.tick,
+            time=self.clock.now(),
+            order=[r.behavior for r in done_runs],
+            runs=runs,
+            resets=sum(1 for r in runs if r.outcome == "reset"),
+            log=list(self.log),
+            behaviors=self.task.behaviors,
+            arms=self.world.arm_names,
+        )
+
+
+def run_task(
+    task: Task, world: TabletopWorld, params: NetworkParams | None = None, max_ticks: int = 50_000
+) -> RunResult:
+    """Build a network for ``task`` in ``world`` and run it to completion (or ``max_ticks``)."""
+    return BehaviorNetwork(task, world, params).run(max_ticks)

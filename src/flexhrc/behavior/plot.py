@@ -1,0 +1,112 @@
+"""Gantt chart of behaviour states over time, like the paper's Fig. 4 and Fig. 6.
+
+One row per behaviour (in task order); coloured bars show when it was inactive, active, running
+and done. With two arms, running bars of the second arm are hatched and labelled. Resets by
+validity checking are marked with a red cross, object moves with a triangle.
+
+matplotlib is optional (``pip install 'flexhrc[viz]'``) and imported only here, lazily.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from flexhrc.behavior.network import RunResult
+from flexhrc.behavior.render import STATE_COLOURS
+from flexhrc.errors import OptionalDependencyError
+
+STATE_ORDER = ("inactive", "active", "running", "done")
+
+
+def _pyplot():  # type: ignore[no-untyped-def]
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        raise OptionalDependencyError("the Gantt chart (--plot)", "viz", "matplotlib") from None
+    return plt
+
+
+def gantt(result: RunResult, path: str | Path, title: str | None = None) -> Path:
+    """Draw the behaviour-state Gantt chart of ``result`` into ``path`` (PNG, SVG or PDF)."""
+    plt = _pyplot()
+    from matplotlib.patches import Patch
+
+    behaviors = list(result.behaviors)
+    intervals = result.state_intervals()
+    arms = list(result.arms)
+    run_arm: dict[tuple[str, float], str] = {(r.behavior, r.start): r.arm for r in result.runs}
+    fig_h = 0.9 + 0.42 * len(behaviors)
+    fig, ax = plt.subplots(figsize=(11, max(2.8, fig_h)))
+    for row, name in enumerate(reversed(behaviors)):
+        for state, t0, t1 in intervals.get(name, []):
+            kwargs = {"color": STATE_COLOURS[state], "edgecolor": "none"}
+            if state == "running" and len(arms) > 1:
+                arm = run_arm.get((name, t0), arms[0])
+                if arm != arms[0]:
+                    kwargs.update(hatch="///", edgecolor="white")
+            ax.barh(row, t1 - t0, left=t0, height=0.62, **kwargs)
+            if state == "running" and len(arms) > 1 and t1 - t0 > 2.5:
+                arm = run_arm.get((name, t0), "")
+                ax.text(
+                    (t0 + t1) / 2, row, arm, ha="center", va="center", fontsize=7, color="white"
+                )
+    rows = {name: row for row, name in enumerate(reversed(behaviors))}
+    for ev in result.log:
+        if ev.kind == "reset" and ev.source in rows:
+            ax.plot(ev.t, rows[ev.source], marker="x", color="#cc0000", markersize=10, mew=2.5)
+        elif ev.kind == "move" and str(ev.data.get("object")) in rows:
+            ax.plot(
+                ev.t, rows[str(ev.data["object"])] + 0.42, marker="v", color="#cc0000", markersize=7
+            )
+    ax.set_yticks(range(len(behaviors)))
+    ax.set_yticklabels(list(reversed(behaviors)))
+    ax.set_xlabel("time (s)")
+    ax.set_xlim(0, max(result.time, 1e-6))
+    ax.set_ylim(-0.6, len(behaviors) - 0.3)
+    ax.grid(axis="x", color="#bbbbbb", linewidth=0.5, alpha=0.7)
+    ax.set_axisbelow(True)
+    handles = [
+        Patch(
+            color=STATE_COLOURS[s],
+            label=f"running ({arms[0]})" if s == "running" and len(arms) > 1 else s,
+        )
+        for s in STATE_ORDER
+    ]
+    if len(arms) > 1:
+        handles.append(
+            Patch(
+                facecolor=STATE_COLOURS["running"],
+                hatch="///",
+                edgecolor="white",
+                label=f"running ({arms[1]})",
+            )
+        )
+    if result.resets:
+        handles.append(
+            plt.Line2D(
+                [],
+                [],
+                marker="x",
+                color="#cc0000",
+                linestyle="none",
+                mew=2.5,
+                label="reset (validity check)",
+            )
+        )
+    ax.legend(
+        handles=handles,
+        loc="upper center",
+        bbox_to_anchor=(0.5, -0.12),
+        ncol=len(handles),
+        frameon=False,
+    )
+    order = ", ".join(result.order)
+    ax.set_title(title or f"Behaviour states over time — order: {order}", fontsize=10)
+    fig.tight_layout()
+    out = Path(path)
+    fig.savefig(out, dpi=120)
+    plt.close(fig)
+    return out

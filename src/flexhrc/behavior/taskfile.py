@@ -1,0 +1,195 @@
+"""The YAML task file: a task, and optionally the world it runs in.
+
+::
+
+    name: table setting            # optional
+    task:                          # a goal mapping, a behaviour name, or the prefix string
+      THEN:
+        - placemat
+        - AND:
+            - THEN: [plate, bowl]
+            - fork
+            - OR: [wineglass, cup, soda_can]
+    world:                         # optional: without it a default world is generated
+      arms:                        # optional: default one arm at (0.15, 0, 0.95), 0.25 m/s
+        - {name: arm, home: [0.15, 0.0, 0.95], speed: 0.25}
+      grasp_time: 2.0              # optional, seconds
+      place_time: 1.5
+      objects:
+        placemat: {position: [0.5, 0.1, 0.75], target: [0.8, 0.0, 0.75]}
+      moves:                       # optional: the experimenter moves objects
+        - {object: fork, to: [0.6, 0.4, 0.75], during_grasp: 1.0}
+        - {object: cup, to: [0.5, 0.3, 0.75], at: 12.0}
+
+Every error names the file and the line (``file:line: message``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from flexhrc.behavior.task import Task, build_task, task_spec_from_yaml_node
+from flexhrc.behavior.world import Arm, MoveRule, TabletopWorld, WorldObject, default_arms
+from flexhrc.errors import FlexhrcError, FormatError
+
+
+@dataclass
+class TaskDocument:
+    task: Task
+    world: TabletopWorld | None
+    name: str | None = None
+
+
+def _line(node: Any) -> int:
+    return int(node.start_mark.line) + 1
+
+
+def _mapping(node: Any, what: str, source: str) -> dict[str, Any]:
+    import yaml
+
+    if not isinstance(node, yaml.MappingNode):
+        raise FormatError(f"{what} must be a mapping", source, _line(node))
+    out: dict[str, Any] = {}
+    for k, v in node.value:
+        key = str(k.value)
+        if key in out:
+            raise FormatError(f"{what}: key {key!r} given twice", source, _line(k))
+        out[key] = v
+    return out
+
+
+def _vec(node: Any, what: str, source: str) -> tuple[float, float, float]:
+    import yaml
+
+    if not isinstance(node, yaml.SequenceNode) or len(node.value) != 3:
+        raise FormatError(f"{what} must be a list of 3 numbers [x, y, z]", source, _line(node))
+    try:
+        x, y, z = (float(v.value) for v in node.value)
+    except (TypeError, ValueError):
+        raise FormatError(
+            f"{what} must be a list of 3 numbers [x, y, z]", source, _line(node)
+        ) from None
+    return (x, y, z)
+
+
+def _number(node: Any, what: str, source: str) -> float:
+    try:
+        return float(node.value)
+    except (TypeError, ValueError, AttributeError):
+        raise FormatError(f"{what} must be a number", source, _line(node)) from None
+
+
+def _check_keys(fields: dict[str, Any], allowed: set[str], what: str, source: str) -> None:
+    for key, node in fields.items():
+        if key not in allowed:
+            raise FormatError(
+                f"{what}: unknown key {key!r} (expected one of {', '.join(sorted(allowed))})",
+                source,
+                _line(node),
+            )
+
+
+def world_from_yaml_node(node: Any, source: str, arms: int | None = None) -> TabletopWorld:
+    """Build a :class:`TabletopWorld` from a composed YAML ``world:`` node."""
+    fields = _mapping(node, "world", source)
+    _check_keys(fields, {"arms", "objects", "moves", "grasp_time", "place_time"}, "world", source)
+    if "objects" not in fields:
+        raise FormatError("world: missing 'objects'", source, _line(node))
+    objects = []
+    for k, v in _mapping(fields["objects"], "world.objects", source).items():
+        spec = _mapping(v, f"object {k!r}", source)
+        _check_keys(spec, {"position", "target"}, f"object {k!r}", source)
+        if "position" not in spec:
+            raise FormatError(f"object {k!r}: missing 'position'", source, _line(v))
+        target = _vec(spec["target"], f"object {k!r} target", source) if "target" in spec else None
+        objects.append(
+            WorldObject(k, _vec(spec["position"], f"object {k!r} position", source), target)
+        )
+    arm_list: list[Arm]
+    if "arms" in fields and arms is None:
+        import yaml
+
+        seq = fields["arms"]
+        if not isinstance(seq, yaml.SequenceNode) or not seq.value:
+            raise FormatError("world.arms must be a non-empty list", source, _line(seq))
+        arm_list = []
+        for a in seq.value:
+            spec = _mapping(a, "arm", source)
+            _check_keys(spec, {"name", "home", "speed"}, "arm", source)
+            if "name" not in spec or "home" not in spec:
+                raise FormatError("arm: needs 'name' and 'home'", source, _line(a))
+            speed = _number(spec["speed"], "arm speed", source) if "speed" in spec else 0.25
+            try:
+                arm_list.append(
+                    Arm(str(spec["name"].value), _vec(spec["home"], "arm home", source), speed)
+                )
+            except FlexhrcError as exc:
+                raise FormatError(str(exc), source, _line(a)) from None
+    else:
+        arm_list = default_arms(arms or 1)
+    moves = []
+    if "moves" in fields:
+        import yaml
+
+        seq = fields["moves"]
+        if not isinstance(seq, yaml.SequenceNode):
+            raise FormatError("world.moves must be a list", source, _line(seq))
+        for m in seq.value:
+            spec = _mapping(m, "move", source)
+            _check_keys(spec, {"object", "to", "at", "during_grasp"}, "move", source)
+            if "object" not in spec or "to" not in spec:
+                raise FormatError("move: needs 'object' and 'to'", source, _line(m))
+            at = _number(spec["at"], "move 'at'", source) if "at" in spec else None
+            dg = (
+                _number(spec["during_grasp"], "move 'during_grasp'", source)
+                if "during_grasp" in spec
+                else None
+            )
+            try:
+                moves.append(
+                    MoveRule(
+                        str(spec["object"].value), _vec(spec["to"], "move 'to'", source), at, dg
+                    )
+                )
+            except FlexhrcError as exc:
+                raise FormatError(str(exc), source, _line(m)) from None
+    kwargs = {}
+    for key in ("grasp_time", "place_time"):
+        if key in fields:
+            kwargs[key] = _number(fields[key], key, source)
+    try:
+        return TabletopWorld(objects, arm_list, moves, **kwargs)
+    except FlexhrcError as exc:
+        raise FormatError(str(exc), source, _line(node)) from None
+
+
+def compose(text: str, source: str) -> Any:
+    import yaml
+
+    try:
+        return yaml.compose(text, Loader=yaml.SafeLoader)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        line = mark.line + 1 if mark is not None else None
+        problem = getattr(exc, "problem", None) or str(exc)
+        raise FormatError(f"invalid YAML: {problem}", source, line) from None
+
+
+def load_task_document(text: str, source: str = "<task>", arms: int | None = None) -> TaskDocument:
+    """Parse a YAML task document (see the module docstring)."""
+    import yaml
+
+    root = compose(text, source)
+    if root is None:
+        raise FormatError("empty task file", source, 1)
+    if isinstance(root, yaml.ScalarNode):
+        return TaskDocument(build_task(task_spec_from_yaml_node(root, source), source), None)
+    fields = _mapping(root, "task file", source)
+    _check_keys(fields, {"name", "task", "world", "description"}, "task file", source)
+    if "task" not in fields:
+        raise FormatError("missing 'task' (e.g. task: {THEN: [a, b]})", source, _line(root))
+    task = build_task(task_spec_from_yaml_node(fields["task"], source), source)
+    world = world_from_yaml_node(fields["world"], source, arms) if "world" in fields else None
+    name = str(fields["name"].value) if "name" in fields else None
+    return TaskDocument(task, world, name)
