@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import re
 from collections import defaultdict
 from typing import Any
@@ -86,11 +87,11 @@ def check_invariants(result: RunResult, legs: int) -> None:
             connected_legs[args[1]] += 1
     for agent, spans in per_agent.items():
         spans.sort()
-        for (_, e0), (s1, _) in zip(spans, spans[1:], strict=False):
+        for (_, e0), (s1, _) in itertools.pairwise(spans):
             assert s1 >= e0 - 1e-9, f"{agent} runs two actions at once at t={s1}"
     for leg, spans in holdings(result).items():
         spans.sort()
-        for (_, e0, a0), (s1, _, a1) in zip(spans, spans[1:], strict=False):
+        for (_, e0, a0), (s1, _, a1) in itertools.pairwise(spans):
             assert s1 >= e0 - 1e-9, f"{leg} held by {a0} and {a1} at once (t={s1})"
     assert dict(screws) == {f"bolt_{k}": 1 for k in range(1, legs + 1)}, dict(screws)
     assert all(n == 1 for n in connected_legs.values()), dict(connected_legs)
