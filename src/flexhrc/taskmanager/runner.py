@@ -157,10 +157,10 @@ class CooperationRun:
         heapq.heappush(self._queue, (at, next(self._seq), pending))
 
     def run(self) -> RunResult:
+        wall0 = time.perf_counter()
         self._event("start", profile=self.profile, agents=list(self.domain.agents))
         self._dispatch(self.tm.start(0.0))
         self._human_consider()
-        wall0 = time.perf_counter()
         while not self.tm.done:
             if not self._queue:
                 self.tm.outcome = "failed"
