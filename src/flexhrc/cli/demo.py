@@ -199,7 +199,8 @@ def _run_table(args: argparse.Namespace, scenario: Any, profile: str) -> int:
     if args.plot:
         from flexhrc.taskmanager.timeline import plot_timeline
 
-        title = f"table assembly, {scenario.legs} legs, human {profile}, seed {args.seed}"
+        who = f"human takes bolts {args.human_takes}" if args.human_takes else f"human {profile}"
+        title = f"table assembly, {scenario.legs} legs, {who}, seed {args.seed}"
         plot_timeline(result.events, args.plot, title)
     data = dict(result.summary)
 

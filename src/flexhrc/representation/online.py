@@ -840,8 +840,9 @@ class _Template:
         self.weights = [float(n.weight) for n in g.nodes.values()] + [
             float(h.weight) for h in arc_list
         ]
+        get = idx.__getitem__
         self.children: list[tuple[int, ...]] = [()] * nn + [
-            tuple(idx[c] for c in h.children) for h in arc_list
+            tuple(map(get, h.children)) for h in arc_list
         ]
         self.parent = [-1] * nn + [idx[h.parent] for h in arc_list]
         self.incoming: list[list[int]] = [[] for _ in range(self.size)]

@@ -32,9 +32,10 @@ from flexhrc.representation.hierarchy import HierarchicalGraph
 SUFFIX = ".txt"
 
 
-def _lines(path: Path) -> list[tuple[int, list[str]]]:
+def _lines(path: str | Path) -> list[tuple[int, list[str]]]:
     try:
-        text = path.read_text(encoding="utf-8")
+        with open(path, encoding="utf-8") as fh:
+            text = fh.read()
     except UnicodeDecodeError as exc:
         raise FormatError(f"not a UTF-8 text file ({exc.reason})", path) from None
     out = []
@@ -66,7 +67,6 @@ def _name(tok: str, what: str, path: Path, line: int) -> str:
 
 def parse_graph(path: str | Path) -> tuple[AndOrGraph, list[tuple[str, int]]]:
     """Parse one file. Returns the graph and its lower-graph references (name, line)."""
-    path = Path(path)
     lines = _lines(path)
     if not lines:
         raise FormatError("empty file: expected '<graph name> <number of nodes> <root>'", path, 1)
@@ -200,7 +200,7 @@ def load_andor_text(path: str | Path) -> HierarchicalGraph:
             return key_of[p]
         key = key_for(p)
         key_of[p] = key
-        graph, refs = parse_graph(Path(p))
+        graph, refs = parse_graph(p)
         graphs[key] = graph
         here = os.path.dirname(p)
         remap: dict[str, str] = {}
