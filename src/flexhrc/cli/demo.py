@@ -307,20 +307,9 @@ def cmd_replay(args: argparse.Namespace) -> int:
 
 
 def _read_log(path: Path) -> list[dict[str, Any]]:
-    if not path.is_file():
-        raise FormatError("no such file", path)
-    events = []
-    with open(path, encoding="utf-8") as fh:
-        for i, line in enumerate(fh, 1):
-            if not line.strip():
-                continue
-            try:
-                ev = json.loads(line)
-            except json.JSONDecodeError as exc:
-                raise FormatError(f"not a JSON line ({exc.msg})", path, i) from None
-            if not isinstance(ev, dict) or "type" not in ev or "t" not in ev:
-                raise FormatError("an event needs 't' and 'type'", path, i)
-            events.append(ev)
+    from flexhrc.jsonl import read_jsonl
+
+    events = read_jsonl(path, required=("t", "type"))
     if not events:
         raise FormatError("empty log", path)
     return events

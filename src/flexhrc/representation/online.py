@@ -30,7 +30,6 @@ exponential reference).
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass, field
@@ -757,26 +756,24 @@ class OnlineGraph:
     # ------------------------------------------------------------------ history ---------
     def save_events(self, path: str | Path) -> None:
         """Write the event history as JSON lines (one event per line)."""
-        with open(path, "w", encoding="utf-8") as fh:
-            for ev in self.events:
-                fh.write(json.dumps(ev.to_dict()) + "\n")
+        from flexhrc.jsonl import write_jsonl
+
+        write_jsonl(path, (ev.to_dict() for ev in self.events))
 
     @staticmethod
     def load_events(path: str | Path) -> list[Event]:
         from flexhrc.errors import FormatError
+        from flexhrc.jsonl import read_jsonl_lines
 
         events = []
-        with open(path, encoding="utf-8") as fh:
-            for i, line in enumerate(fh, 1):
-                if not line.strip():
-                    continue
-                try:
-                    d = json.loads(line)
-                    events.append(Event(int(d["query"]), d["type"], str(d["element"])))
-                except (ValueError, KeyError, TypeError) as exc:
-                    raise FormatError(f"malformed event: {exc}", path, i) from None
-                if events[-1].type not in ("met", "solved", "infeasible"):
-                    raise FormatError(f"unknown event type {d['type']!r}", path, i)
+        for line, d in read_jsonl_lines(path, required=("query", "type", "element")):
+            try:
+                ev = Event(int(d["query"]), d["type"], str(d["element"]))
+            except (ValueError, TypeError) as exc:
+                raise FormatError(f"malformed event: {exc}", path, line) from None
+            if ev.type not in ("met", "solved", "infeasible"):
+                raise FormatError(f"unknown event type {ev.type!r}", path, line)
+            events.append(ev)
         return events
 
     @classmethod
