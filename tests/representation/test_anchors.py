@@ -131,3 +131,9 @@ def test_repeated_hyperarc_name_is_renamed_with_a_warning(capsys):
 def test_dead_end_node_is_a_warning_not_an_error():
     h = load(ANCHORS / "TRO-BallBoxPlacement/PL_BallPlacement.txt")
     assert [str(w) for w in h.warnings if "BallA_into_BoxD" in str(w)]
+
+
+def test_exact_mode_refuses_huge_graphs_with_a_clear_error(capsys):
+    rel = "TRO-TableAssembly/9Leg/TableAssembly.txt"  # 262 144 cooperation paths
+    assert main(["graph", "suggest", str(ANCHORS / rel), "--exact", "--path-limit", "1000"]) == 2
+    assert "more than 1000 cooperation paths" in capsys.readouterr().err

@@ -130,3 +130,12 @@ def test_load_events_reports_line(tmp_path):
     p.write_text('{"query": 1, "type": "met", "element": "x"}\n{"query": 2}\n')
     with pytest.raises(FlexhrcError, match=r"bad.jsonl:2"):
         OnlineGraph.load_events(p)
+
+
+def test_exact_enumeration_is_guarded_by_a_limit():
+    from flexhrc.representation.paths import PathLimitError, count_paths
+
+    g = OnlineGraph(diamond())
+    assert count_paths(g) == {"": 2}
+    with pytest.raises(PathLimitError, match="more than 1 cooperation paths"):
+        count_paths(g, limit=1)

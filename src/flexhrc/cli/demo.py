@@ -92,9 +92,11 @@ def _run_options(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--realtime",
         type=float,
+        nargs="?",
+        const=1.0,
         default=0.0,
         metavar="SPEED",
-        help="pace the simulated clock (1 = real time, 5 = five times faster)",
+        help="pace the simulated clock for watching: real time, or SPEED times faster",
     )
     add_json_flag(p)
 
