@@ -15,6 +15,7 @@ test: setup
 lint: setup
 	$(BIN)/ruff check src tests benchmarks
 	$(BIN)/ruff format --check src tests benchmarks
+	$(BIN)/mypy src/flexhrc
 
 bench: setup
 	$(BIN)/python benchmarks/andor_paper.py

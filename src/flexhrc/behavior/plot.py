@@ -18,7 +18,7 @@ from flexhrc.errors import OptionalDependencyError
 STATE_ORDER = ("inactive", "active", "running", "done")
 
 
-def _pyplot():  # type: ignore[no-untyped-def]
+def _pyplot():  # type: ignore[no-untyped-def, unused-ignore]
     try:
         import matplotlib
 

@@ -197,7 +197,7 @@ def parse_prefix(text: str, source: str = "<task>") -> Task:
                 f"column {kc}: expected THEN, AND or OR after '(', got {kind_tok!r}", source, kl
             )
         pos += 1
-        children = []
+        children: list[TaskNode] = []
         while True:
             if pos >= len(tokens):
                 raise FormatError(f"column {col}: '(' is never closed", source, ln)

@@ -19,7 +19,7 @@ from flexhrc.errors import FlexhrcError, UnknownNameError
 TASK_SUFFIXES = (".yaml", ".yml", ".txt")
 
 
-def register(subparsers: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+def register(subparsers: argparse._SubParsersAction) -> None:  # type: ignore[type-arg, unused-ignore]
     p = subparsers.add_parser(
         "behave",
         help="run a THEN/AND/OR behaviour network (activation spreading, arm mutex, "
@@ -125,8 +125,8 @@ def run(args: argparse.Namespace) -> int:
 
     label, task, world = resolve(args.target, args.layout, args.arms, args.seed)
     if args.render:
-        text = to_ascii(task) if args.render == "ascii" else to_dot(task)
-        emit(args, {"task": task.to_prefix(), "render": text}, text)
+        rendered = to_ascii(task) if args.render == "ascii" else to_dot(task)
+        emit(args, {"task": task.to_prefix(), "render": rendered}, rendered)
         return 0
     net = BehaviorNetwork(task, world, NetworkParams(seed=args.seed))
     result = net.run(args.max_ticks)

@@ -26,7 +26,7 @@ TRACE_TYPES = {
 }
 
 
-def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg, unused-ignore]
     p = sub.add_parser("demo", help="run a ready-made simulated human-robot demo")
     dsub = p.add_subparsers(dest="demo", metavar="DEMO", required=True)
     t = dsub.add_parser(
@@ -271,7 +271,7 @@ def cmd_run(args: argparse.Namespace) -> int:
             human=bool(doc.get("human", True)),
             unreachable_bolts=tuple(int(b) for b in doc.get("unreachable_bolts", [])),
             reachable_only_by=dict(doc.get("reachable_only_by", {})),
-            leg_positions=[tuple(map(float, p)) for p in doc["leg_positions"]]
+            leg_positions=[_xyz(p) for p in doc["leg_positions"]]
             if "leg_positions" in doc
             else None,
         )
@@ -279,6 +279,11 @@ def cmd_run(args: argparse.Namespace) -> int:
         raise FormatError(f"bad value: {exc}", path) from None
     profile = args.human or str(doc.get("profile", "passive"))
     return _run_table(args, scenario, profile)
+
+
+def _xyz(p: Any) -> tuple[float, float, float]:
+    x, y, z = (float(v) for v in p)
+    return (x, y, z)
 
 
 def cmd_replay(args: argparse.Namespace) -> int:

@@ -9,7 +9,7 @@ from typing import Any
 from flexhrc.cli.common import add_json_flag, emit
 
 
-def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg, unused-ignore]
     p = sub.add_parser(
         "graph",
         help="hierarchical AND/OR graphs: validate, stats, suggest, play, render",
@@ -130,7 +130,7 @@ def cmd_suggest(args: argparse.Namespace) -> int:
         from flexhrc.representation.paths import exact_costs
 
         costs = exact_costs(online, args.path_limit)
-        rows = [
+        rows: list[dict[str, Any]] = [
             {
                 "element": name,
                 "kind": online.kind(name),

@@ -26,6 +26,7 @@ import math
 import random
 from dataclasses import dataclass, field
 from importlib import resources
+from typing import Any
 
 from flexhrc.errors import FlexhrcError
 from flexhrc.knowledge import KnowledgeBase
@@ -158,13 +159,15 @@ class TableScenario:
         if self.human:
             kb.add_object("human", "human", HUMAN_HAND)
         for k, p in enumerate(self.bolt_positions(), 1):
-            attrs = {"reachable_by": []} if k in self.unreachable_bolts else {}
-            kb.add_object(f"bolt_{k}", "place", p, **attrs)
+            if k in self.unreachable_bolts:
+                kb.add_object(f"bolt_{k}", "place", p, reachable_by=[])
+            else:
+                kb.add_object(f"bolt_{k}", "place", p)
         kb.add_object("middle", "place", MIDDLE_POSE)
         length = LEG_LENGTHS[self.leg_length]
         for i, p in enumerate(self.leg_positions or self._random_leg_positions(), 1):
             leg = f"leg{i}"
-            attrs = {}
+            attrs: dict[str, Any] = {}
             if leg in self.reachable_only_by:
                 attrs["reachable_by"] = [self.reachable_only_by[leg]]
             kb.add_object(leg, "leg", p, {"length": length, "diameter": 0.04}, **attrs)

@@ -215,7 +215,7 @@ def _ground(schema: ActionSchema, args: Sequence[str], subst: Mapping[str, str])
     values = tuple(subst.get(a, a) if is_variable(a) else a for a in args)
     spec = schema.agents
     if spec.mode == "choice":
-        idx = schema.variables.index(spec.variable)  # type: ignore[arg-type]
+        idx = schema.variables.index(str(spec.variable))
         agents: tuple[str, ...] = (values[idx],)
     else:
         agents = spec.names

@@ -218,7 +218,7 @@ class TaskManager:
 
     def _update_graph(self, **kw: Iterable[str]) -> None:
         t0 = self._timer()
-        self._answer = self.graph.update(**kw)  # type: ignore[arg-type]
+        self._answer = self.graph.update(**kw)
         self.timing.task_representation_s += self._timer() - t0
         self._emit(
             "query",

@@ -46,7 +46,9 @@ def summarise_log(events: Iterable[dict[str, Any]]) -> dict[str, Any]:
             if ev["action"].startswith("screw("):
                 for agent in ev["agents"]:
                     legs[agent] = legs.get(agent, 0) + 1
-    closing = next((ev for ev in reversed(events) if ev.get("type") == "summary"), {})
+    closing: dict[str, Any] = next(
+        (ev for ev in reversed(events) if ev.get("type") == "summary"), {}
+    )
     compute = closing.get("timing", {})
     return {
         "outcome": outcome,

@@ -46,7 +46,7 @@ def _lines(path: str | Path) -> list[tuple[int, list[str]]]:
     return out
 
 
-def _weight(tok: str, kind: str, name: str, path: Path, line: int) -> float:
+def _weight(tok: str, kind: str, name: str, path: str | Path, line: int) -> float:
     if tok.isdigit():  # the common case, cheap
         return float(tok)
     what = f"{kind} {name!r}"
@@ -59,7 +59,7 @@ def _weight(tok: str, kind: str, name: str, path: Path, line: int) -> float:
     return w
 
 
-def _name(tok: str, what: str, path: Path, line: int) -> str:
+def _name(tok: str, what: str, path: str | Path, line: int) -> str:
     if "/" in tok:
         raise FormatError(f"{what} name {tok!r} must not contain '/'", path, line)
     return tok

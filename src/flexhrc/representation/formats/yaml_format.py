@@ -45,7 +45,7 @@ from flexhrc.representation.hierarchy import HierarchicalGraph
 FORMAT_VERSION = 1
 
 
-class _LineDict(dict):  # type: ignore[type-arg]
+class _LineDict(dict[Any, Any]):
     line: int = 0
     lines: dict[Any, int]
 
@@ -60,7 +60,7 @@ def _construct_mapping(loader: _Loader, node: yaml.MappingNode) -> _LineDict:
     d.line = node.start_mark.line + 1
     d.lines = {}
     for key_node, value_node in node.value:
-        key = loader.construct_object(key_node, deep=True)  # type: ignore[no-untyped-call]
+        key = loader.construct_object(key_node, deep=True)
         try:
             hash(key)
         except TypeError:
@@ -69,7 +69,7 @@ def _construct_mapping(loader: _Loader, node: yaml.MappingNode) -> _LineDict:
             ) from None
         if key in d:
             raise FormatError(f"duplicate key {key!r}", None, key_node.start_mark.line + 1)
-        d[key] = loader.construct_object(value_node, deep=True)  # type: ignore[no-untyped-call]
+        d[key] = loader.construct_object(value_node, deep=True)
         d.lines[key] = key_node.start_mark.line + 1
     return d
 
@@ -102,7 +102,7 @@ def _line(d: Any, key: Any = None) -> int | None:
 
 def _expect(d: Any, kind: type, what: str, path: Path, line: int | None) -> Any:
     if not isinstance(d, kind):
-        names = {dict: "a mapping", list: "a list", str: "a string"}
+        names: dict[type, str] = {dict: "a mapping", list: "a list", str: "a string"}
         raise FormatError(f"{what} must be {names.get(kind, kind.__name__)}", path, line)
     return d
 
