@@ -62,13 +62,15 @@ PANDA_V_MAX = (2.175, 2.175, 2.175, 2.175, 2.61, 2.61, 2.61)
 # "Ready" pose of the Panda: elbow up, TCP about 0.3 m in front of the base, pointing down.
 PANDA_Q_REST = (0.0, -math.pi / 4, 0.0, -3 * math.pi / 4, 0.0, math.pi / 2, math.pi / 4)
 
-# Placement of the two arm bases on the torso plate (world frame). Chosen so that every point of
-# the box x in [0.35, 0.65], y in [-0.2, 0.2], z in [0.05, 0.35] is reachable by both arms with a
-# top-down grasp (tests/action/test_robots.py checks it on a grid), while a point far to one side,
-# e.g. (0.3, 0.75, 0.1), is reachable by the left arm only.
+# Placement of the two arm bases (world frame): on 10 cm plinths, 30 cm apart, beside the torso
+# centre. A Panda reaches top-down with its wrist centre between ~0.21 m (elbow folded to the
+# joint-4 limit) and ~0.70 m (arm stretched) from its shoulder; this placement keeps every point
+# of the box x in [0.35, 0.65], y in [-0.2, 0.2], z in [0.05, 0.35] inside that shell for both
+# arms (tests/action/test_robots.py checks it on a grid with the real inverse kinematics), while a
+# point far to one side, e.g. (0.3, 0.7, 0.1), is reachable by the left arm only.
 ARM_BASES: dict[str, tuple[float, float, float]] = {
-    "left": (0.1, 0.2, 0.0),
-    "right": (0.1, -0.2, 0.0),
+    "left": (0.0, 0.15, 0.1),
+    "right": (0.0, -0.15, 0.1),
 }
 
 
@@ -122,6 +124,10 @@ def dual_arm_urdf(bases: dict[str, tuple[float, float, float]] | None = None) ->
         '  <link name="torso">\n',
         '    <visual><origin xyz="-0.05 0 -0.01"/><geometry><box size="0.4 0.6 0.02"/></geometry>'
         '<material name="grey"/></visual>\n',
+        '    <visual><origin xyz="0 0.15 0.05"/><geometry><cylinder radius="0.07" length="0.1"/>'
+        '</geometry><material name="grey"/></visual>\n',
+        '    <visual><origin xyz="0 -0.15 0.05"/><geometry><cylinder radius="0.07" length="0.1"/>'
+        '</geometry><material name="grey"/></visual>\n',
         '    <visual><origin xyz="-0.2 0 0.3"/><geometry><box size="0.1 0.3 0.6"/></geometry>'
         '<material name="grey"/></visual>\n',
         '    <visual><origin xyz="-0.2 0 0.68"/><geometry><sphere radius="0.1"/></geometry>'

@@ -1,0 +1,765 @@
+"""In-the-loop kinematic simulator: run an action's controller on the robot model, faster than
+real time, and tell the Task Manager whether it succeeds, how long it takes and at what cost.
+
+Paper 000, section III and V-A: the Simulator "replicates Controller operations, integrating its
+output to simulate the robot behaviour", and returns success or failure, execution time, final
+pose and an energy estimate; a simulation is successful "if the agent can reach its given goal in
+a defined time interval". Here an action is:
+
+* an :class:`ActionSpec` — data: which objectives, with which priorities and parameters (the
+  hierarchy), where the goal lies relative to the target (above it, at it, a retreat, the rest
+  posture, a screwing turn), and what the gripper does;
+* a target :class:`Pose` (position in the world frame of :mod:`flexhrc.action.robots`, plus a yaw
+  about the vertical for the top-down grasp) and the current :class:`RobotState`.
+
+:meth:`KinematicSimulator.simulate` builds the objectives of :mod:`flexhrc.action.control`,
+integrates ``q += qdot dt`` (explicit Euler, simulated time, fixed step ``dt``) and stops when
+
+* every goal objective is within tolerance (success),
+* the goal error has not improved for ``stall_s`` simulated seconds (failure: stalled — the
+  reason names the likely cause: out of reach, blocked by an obstacle, joint limits), or
+* the time budget is spent (failure: timed out).
+
+Actions (:data:`ACTIONS`): ``approach`` (TCP 10 cm above the target), ``grasp`` (down to the
+target, close the gripper), ``transport`` (carry the held object so the TCP ends at the target),
+``screw`` (turn the TCP about the vertical at the target), ``ungrasp`` (open, retreat 10 cm up),
+``rest`` (joint posture of the arm's rest configuration), ``hand_over`` (bring the held object to
+the middle pose where the human takes it). ``arm="both"`` runs the two arms together: the target is
+the object's centre, each hand grasps it ``span_m / 2`` to its own side, and while transporting
+the :class:`~flexhrc.action.control.RelativePose` objective keeps the grasp rigid.
+
+Nothing here sleeps or reads a clock except ``wall_s`` (compute time, reported for benchmarks).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from flexhrc.action.control import (
+    DEFAULT_HIERARCHY,
+    ArmGoal,
+    Obstacle,
+    ObjectiveSpec,
+    TaskPriorityController,
+    build_objectives,
+    parse_obstacle,
+    rotation_log,
+    top_down_rotation,
+    yaw_of,
+)
+from flexhrc.action.robots import ARM_NAMES, PANDA_FLANGE_Z, PANDA_TCP_Z, DualArmRobot, load_robot
+from flexhrc.errors import FlexhrcError, UnknownNameError
+
+Array = np.ndarray
+
+#: Where a hand-over happens: in the middle of the table, between robot and human (paper Fig. 12).
+MIDDLE_POSE: tuple[float, float, float] = (0.55, 0.0, 0.30)
+#: Sum of the Panda link lengths from the shoulder (joint 2) to the wrist centre (joint 6), m.
+_REACH = math.hypot(0.316, 0.0825) + math.hypot(0.384, 0.0825)
+
+
+# ----------------------------------------------------------------------------------------------
+# Data: poses, states, action definitions, outcomes
+# ----------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Pose:
+    """A top-down TCP target: position (m, world frame) and yaw about the vertical (rad)."""
+
+    position: tuple[float, float, float]
+    yaw: float = 0.0
+
+    @classmethod
+    def coerce(cls, value: Any, what: str = "target") -> Pose:
+        """A :class:`Pose` from a Pose, 3 numbers ``x y z``, or a mapping with ``position``
+        (and ``yaw``); raises :class:`FlexhrcError` naming ``what`` otherwise."""
+        if isinstance(value, Pose):
+            return value
+        if isinstance(value, Mapping):
+            pos = value.get("position", value.get("xyz"))
+            yaw = value.get("yaw", 0.0)
+        else:
+            pos, yaw = value, 0.0
+        if isinstance(pos, str | bytes):
+            raise FlexhrcError(f"{what} must be 3 numbers (x y z in metres), got {pos!r}")
+        try:
+            nums = [float(v) for v in pos]
+            yaw = float(yaw)
+        except (TypeError, ValueError):
+            raise FlexhrcError(
+                f"{what} must be 3 numbers (x y z in metres), got {value!r}"
+            ) from None
+        if len(nums) != 3 or not all(math.isfinite(v) for v in [*nums, yaw]):
+            raise FlexhrcError(f"{what} must be 3 finite numbers (x y z in metres), got {value!r}")
+        return cls((nums[0], nums[1], nums[2]), yaw)
+
+    @property
+    def xyz(self) -> Array:
+        return np.array(self.position, dtype=float)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"position": list(self.position), "yaw": self.yaw}
+
+
+@dataclass
+class RobotState:
+    """Joint configuration of every arm and whether each arm holds an object."""
+
+    q: dict[str, Array]
+    holding: dict[str, bool] = field(default_factory=dict)
+
+    @classmethod
+    def rest(cls, robot: DualArmRobot) -> RobotState:
+        return cls(robot.rest_configuration(), {a: False for a in robot.arm_names})
+
+    def copy(self) -> RobotState:
+        return RobotState({a: q.copy() for a, q in self.q.items()}, dict(self.holding))
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "q": {a: [round(float(v), 6) for v in q] for a, q in self.q.items()},
+            "holding": dict(self.holding),
+        }
+
+
+@dataclass(frozen=True)
+class ActionSpec:
+    """Definition of one control action, as data.
+
+    ``goal`` says where the TCP goes: ``"above"`` (``approach_height`` above the target),
+    ``"target"``, ``"retreat"`` (``approach_height`` above where the TCP is), ``"rest"`` (the arm's
+    rest posture), ``"screw"`` (at the target, turned by ``turn_rad`` about the vertical).
+    ``gripper`` is ``"close"`` (after the motion) or ``"open"`` (before it) or None; it takes
+    ``gripper_time_s``. ``hierarchy`` lists the objectives and their priorities; ``speed_scale``
+    scales the joint velocity limits (e.g. carrying a heavy part).
+    """
+
+    name: str
+    goal: str = "target"
+    hierarchy: tuple[ObjectiveSpec, ...] = DEFAULT_HIERARCHY
+    gripper: str | None = None
+    gripper_time_s: float = 0.5
+    approach_height: float = 0.10
+    turn_rad: float = math.pi / 2
+    speed_scale: float = 1.0
+    default_target: tuple[float, float, float] | None = None
+
+    def __post_init__(self) -> None:
+        if self.goal not in ("above", "target", "retreat", "rest", "screw"):
+            raise FlexhrcError(f"action {self.name!r}: unknown goal kind {self.goal!r}")
+        if self.gripper not in (None, "open", "close"):
+            raise FlexhrcError(f"action {self.name!r}: gripper must be 'open', 'close' or None")
+
+    @property
+    def needs_target(self) -> bool:
+        return self.goal in ("above", "target", "screw") and self.default_target is None
+
+    def with_priorities(self, **priorities: int) -> ActionSpec:
+        """A copy whose objectives of the given kinds get new priorities (``obstacles=0``...)."""
+        return replace(
+            self,
+            hierarchy=tuple(
+                replace(s, priority=priorities.get(s.kind, s.priority)) for s in self.hierarchy
+            ),
+        )
+
+    def without(self, *kinds: str) -> ActionSpec:
+        """A copy without the objectives of the given kinds."""
+        return replace(self, hierarchy=tuple(s for s in self.hierarchy if s.kind not in kinds))
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "name": self.name,
+            "goal": self.goal,
+            "gripper": self.gripper,
+            "hierarchy": [s.to_dict() for s in self.hierarchy],
+        }
+
+
+_NO_HUMAN = tuple(s for s in DEFAULT_HIERARCHY if s.kind != "human")
+
+#: The actions of the table assembly (paper 000, Fig. 8 and section VI), as data.
+ACTIONS: dict[str, ActionSpec] = {
+    "approach": ActionSpec("approach", goal="above"),
+    "grasp": ActionSpec("grasp", goal="target", gripper="close"),
+    "transport": ActionSpec("transport", goal="target"),
+    "screw": ActionSpec("screw", goal="screw"),
+    "ungrasp": ActionSpec("ungrasp", goal="retreat", gripper="open"),
+    "rest": ActionSpec("rest", goal="rest"),
+    # The human's hand is expected at the hand-over pose: no minimum distance to it there.
+    "hand_over": ActionSpec("hand_over", goal="target", hierarchy=_NO_HUMAN,
+                            default_target=MIDDLE_POSE),
+}  # fmt: skip
+
+
+@dataclass
+class Trajectory:
+    """Sampled motion: times (N,), stacked joint positions (N, 7 x arms) and TCP positions."""
+
+    arms: tuple[str, ...]
+    t: Array
+    q: Array
+    tcp: dict[str, Array]
+
+    def arm_q(self, arm: str) -> Array:
+        i = self.arms.index(arm)
+        return self.q[:, 7 * i : 7 * i + 7]
+
+    def __len__(self) -> int:
+        return int(self.t.shape[0])
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "t": np.round(self.t, 4).tolist(),
+            "q": {a: np.round(self.arm_q(a), 5).tolist() for a in self.arms},
+            "tcp": {a: np.round(p, 5).tolist() for a, p in self.tcp.items()},
+        }
+
+    @staticmethod
+    def concatenate(parts: Sequence[Trajectory]) -> Trajectory:
+        """Chain trajectories in time (each part starts where the previous ended)."""
+        arms = tuple(dict.fromkeys(a for p in parts for a in p.arms))
+        ts, qs, tcps = [], [], {a: [] for a in arms}
+        offset = 0.0
+        for p in parts:
+            if len(p) == 0:
+                continue
+            ts.append(p.t + offset)
+            offset = float(ts[-1][-1])
+            for a in arms:
+                if a in p.arms:
+                    qs_a = p.arm_q(a)
+                    tcps[a].append(p.tcp[a])
+                else:  # arm idle in this part: hold its last known value
+                    qs_a = None
+                    tcps[a].append(np.full((len(p), 3), np.nan))
+                qs.append((a, qs_a, len(p)))
+        q_cols: dict[str, list[Array]] = {a: [] for a in arms}
+        last: dict[str, Array | None] = {a: None for a in arms}
+        for a, qa, n in qs:
+            if qa is None:
+                qa = np.tile(last[a] if last[a] is not None else np.full(7, np.nan), (n, 1))
+            q_cols[a].append(qa)
+            last[a] = qa[-1]
+        t = np.concatenate(ts) if ts else np.zeros(0)
+        q = (
+            np.hstack([np.concatenate(q_cols[a]) for a in arms])
+            if ts
+            else np.zeros((0, 7 * len(arms)))
+        )
+        tcp = {a: np.concatenate(tcps[a]) if ts else np.zeros((0, 3)) for a in arms}
+        return Trajectory(arms, t, q, tcp)
+
+
+@dataclass
+class ActionOutcome:
+    """What the Simulator tells the Task Manager about one action."""
+
+    action: str
+    arm: str
+    success: bool
+    reason: str
+    duration_s: float
+    final_state: RobotState
+    min_distance_m: float
+    energy: float
+    final_error_m: float
+    final_error_rad: float
+    trajectory: Trajectory
+    wall_s: float
+    steps: int
+
+    @property
+    def final_q(self) -> dict[str, Array]:
+        return self.final_state.q
+
+    def to_dict(self, trajectory: bool = False) -> dict[str, Any]:
+        d: dict[str, Any] = {
+            "action": self.action,
+            "arm": self.arm,
+            "success": self.success,
+            "reason": self.reason,
+            "duration_s": round(self.duration_s, 4),
+            "wall_s": round(self.wall_s, 6),
+            "final_error_m": _num(self.final_error_m, 6),
+            "final_error_rad": _num(self.final_error_rad, 6),
+            "min_distance_m": _num(self.min_distance_m, 5),
+            "energy": round(self.energy, 5),
+            "steps": self.steps,
+            "final_q": self.final_state.to_dict()["q"],
+            "holding": dict(self.final_state.holding),
+        }
+        if trajectory:
+            d["trajectory"] = self.trajectory.to_dict()
+        return d
+
+
+@dataclass
+class SequenceOutcome:
+    """Outcome of a chain of actions, each starting from the final state of the previous one."""
+
+    success: bool
+    reason: str
+    outcomes: list[ActionOutcome]
+    final_state: RobotState
+
+    @property
+    def duration_s(self) -> float:
+        return sum(o.duration_s for o in self.outcomes)
+
+    @property
+    def energy(self) -> float:
+        return sum(o.energy for o in self.outcomes)
+
+    @property
+    def min_distance_m(self) -> float:
+        return min((o.min_distance_m for o in self.outcomes), default=math.inf)
+
+    @property
+    def wall_s(self) -> float:
+        return sum(o.wall_s for o in self.outcomes)
+
+    def trajectory(self) -> Trajectory:
+        return Trajectory.concatenate([o.trajectory for o in self.outcomes])
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "success": self.success,
+            "reason": self.reason,
+            "duration_s": round(self.duration_s, 4),
+            "wall_s": round(self.wall_s, 6),
+            "energy": round(self.energy, 5),
+            "min_distance_m": _num(self.min_distance_m, 5),
+            "actions": [o.to_dict() for o in self.outcomes],
+        }
+
+
+# ----------------------------------------------------------------------------------------------
+# The simulator
+# ----------------------------------------------------------------------------------------------
+
+
+def _arms_of(arm: str, robot: DualArmRobot) -> list[str]:
+    if arm == "both":
+        return list(robot.arm_names)
+    robot.arm(arm)  # raises UnknownNameError naming the argument
+    return [arm]
+
+
+def _action_spec(action: str | ActionSpec, actions: Mapping[str, ActionSpec]) -> ActionSpec:
+    if isinstance(action, ActionSpec):
+        return action
+    key = str(action).replace("-", "_")
+    if key == "handover":
+        key = "hand_over"
+    try:
+        return actions[key]
+    except KeyError:
+        raise UnknownNameError(
+            f"unknown action {action!r} (argument 'action'); known actions: {', '.join(actions)}"
+        ) from None
+
+
+class KinematicSimulator:
+    """Simulate actions of the dual-arm robot with the task-priority controller.
+
+    Parameters: the robot (default: the shipped dual Panda), the control step ``dt`` (s), the
+    default time budget per action (s), goal tolerances, the stall window, and the action
+    definitions (default :data:`ACTIONS`; pass your own mapping to change hierarchies).
+    """
+
+    def __init__(
+        self,
+        robot: DualArmRobot | None = None,
+        *,
+        dt: float = 0.02,
+        time_budget_s: float = 10.0,
+        position_tolerance_m: float = 5e-4,
+        orientation_tolerance_rad: float = 5e-3,
+        posture_tolerance_rad: float = 1e-2,
+        stall_s: float = 1.5,
+        span_m: float = 0.2,
+        actions: Mapping[str, ActionSpec] | None = None,
+    ):
+        if dt <= 0 or time_budget_s <= 0:
+            raise FlexhrcError("dt and time_budget_s must be positive")
+        self.robot = robot if robot is not None else load_robot()
+        self.dt = float(dt)
+        self.time_budget_s = float(time_budget_s)
+        self.pos_tol = position_tolerance_m
+        self.rot_tol = orientation_tolerance_rad
+        self.posture_tol = posture_tolerance_rad
+        self.stall_s = stall_s
+        self.span_m = span_m
+        self.actions: dict[str, ActionSpec] = dict(ACTIONS if actions is None else actions)
+        self._reach_cache: dict[tuple[str, int, int, int, int], bool] = {}
+
+    # -- public API ---------------------------------------------------------------------------
+
+    def rest_state(self) -> RobotState:
+        return RobotState.rest(self.robot)
+
+    def simulate(
+        self,
+        arm: str,
+        action: str | ActionSpec,
+        target: Pose | Sequence[float] | None = None,
+        *,
+        start: RobotState | None = None,
+        obstacles: Iterable[Any] = (),
+        human_hand: Sequence[float] | None = None,
+        time_budget_s: float | None = None,
+        velocity_scale: float = 1.0,
+        record: bool = True,
+    ) -> ActionOutcome:
+        """Simulate one action of ``arm`` (``left``, ``right`` or ``both``) from ``start``
+        (default: rest) towards ``target``; see the module docstring for the stop rules.
+
+        ``obstacles`` are spheres/boxes (see :func:`~flexhrc.action.control.parse_obstacle`);
+        ``human_hand`` is a point the TCPs keep their human minimum distance from.
+        ``velocity_scale`` < 1 slows the arm (used by the execution manager's disturbances).
+        """
+        t_wall = time.perf_counter()
+        spec = _action_spec(action, self.actions)
+        arms = _arms_of(arm, self.robot)
+        obs = [parse_obstacle(o, f"obstacle {i + 1}") for i, o in enumerate(obstacles)]
+        if human_hand is not None:
+            human_hand = tuple(Pose.coerce(human_hand, "human_hand").position)
+        budget = self.time_budget_s if time_budget_s is None else float(time_budget_s)
+        if budget <= 0:
+            raise FlexhrcError(f"time_budget_s must be positive, got {budget}")
+        state = (start or self.rest_state()).copy()
+        for a in arms:
+            if a not in state.q:
+                raise FlexhrcError(f"start state has no configuration for arm {a!r}")
+        if target is None and spec.default_target is not None:
+            target = spec.default_target
+        if target is None and spec.needs_target:
+            raise FlexhrcError(f"action {spec.name!r} needs a target (argument 'target')")
+        pose = Pose.coerce(target) if target is not None else None
+
+        q = np.concatenate([state.q[a] for a in arms]).astype(float)
+        goals, relative = self._goals(spec, arms, q, pose)
+
+        # Fast geometric rejection: the wrist centre of a top-down goal must be within the sum
+        # of the link lengths from the shoulder; no need to integrate to learn that.
+        for a in arms:
+            g = goals[a].position
+            if g is None:
+                continue
+            far = self._wrist_distance(a, g)
+            if far > _REACH + 1e-3:
+                return self._outcome(
+                    spec, arm, arms, state, False,
+                    f"goal {_xyz(g)} is out of reach of arm {a!r} (wrist centre "
+                    f"{far:.3f} m from the shoulder, reach {_REACH:.3f} m)",
+                    0.0, q, math.inf, 0.0, (math.inf, math.inf), None, t_wall, 0,
+                )  # fmt: skip
+
+        duration = 0.0
+        if spec.gripper == "open":
+            duration += spec.gripper_time_s
+            for a in arms:
+                state.holding[a] = False
+
+        objectives = build_objectives(
+            spec.hierarchy, self.robot, arms, goals,
+            obstacles=obs, human_hand=human_hand, relative=relative,
+        )  # fmt: skip
+        ctrl = TaskPriorityController(
+            self.robot, arms, objectives, velocity_scale=spec.speed_scale * velocity_scale
+        )
+        posture_goal = spec.goal == "rest"
+        tol_rot = self.posture_tol if posture_goal else self.rot_tol
+
+        dt = self.dt
+        max_steps = int(math.ceil(budget / dt))
+        traj_t = np.empty(max_steps + 1) if record else None
+        traj_q = np.empty((max_steps + 1, ctrl.n)) if record else None
+        traj_p = {a: np.empty((max_steps + 1, 3)) for a in arms} if record else None
+        energy = 0.0
+        min_dist = math.inf
+        best = math.inf
+        best_t = 0.0
+        t = 0.0
+        step = 0
+        success = False
+        reason = ""
+        err = (math.inf, math.inf)
+        ctx = None
+        while True:
+            ctx = ctrl.context(q)
+            qdot = ctrl.solve(ctx)
+            err = ctrl.goal_error()
+            min_dist = min(min_dist, ctx.min_distance)
+            if record:
+                traj_t[step] = t
+                traj_q[step] = q
+                for a in arms:
+                    traj_p[a][step] = ctx.arms[a].p
+            if err[0] <= self.pos_tol and err[1] <= tol_rot:
+                success = True
+                reason = "goal reached"
+                break
+            progress = err[0] + 0.1 * err[1]  # 1 rad of orientation weighs like 10 cm
+            if progress < best * 0.995 - 1e-6:
+                best, best_t = progress, t
+            elif t - best_t >= self.stall_s:
+                reason = self._stall_reason(spec, arms, goals, ctrl, ctx, err, obs, human_hand)
+                break
+            if step >= max_steps:
+                reason = (
+                    f"timed out: time budget of {budget:g} s spent, still "
+                    f"{err[0]:.4f} m / {err[1]:.4f} rad from the goal"
+                )
+                break
+            qdot = ctrl.saturate(q, qdot, dt)
+            q = q + qdot * dt
+            energy += 0.5 * float(qdot @ qdot) * dt
+            t += dt
+            step += 1
+        duration += t
+        if success and spec.gripper == "close":
+            duration += spec.gripper_time_s
+            for a in arms:
+                state.holding[a] = True
+        traj = None
+        if record:
+            traj = Trajectory(
+                tuple(arms),
+                traj_t[: step + 1].copy(),
+                traj_q[: step + 1].copy(),
+                {a: traj_p[a][: step + 1].copy() for a in arms},
+            )
+        return self._outcome(
+            spec, arm, arms, state, success, reason, duration, q, min_dist, energy, err, traj,
+            t_wall, step,
+        )  # fmt: skip
+
+    def simulate_sequence(
+        self,
+        arm: str,
+        steps: Sequence[tuple[str | ActionSpec, Pose | Sequence[float] | None]],
+        *,
+        start: RobotState | None = None,
+        obstacles: Iterable[Any] = (),
+        human_hand: Sequence[float] | None = None,
+        time_budget_s: float | None = None,
+        record: bool = True,
+    ) -> SequenceOutcome:
+        """Chain ``(action, target)`` steps, each from the final state of the previous one;
+        stops at the first failure (its reason becomes the sequence's reason)."""
+        obs = [parse_obstacle(o, f"obstacle {i + 1}") for i, o in enumerate(obstacles)]
+        state = (start or self.rest_state()).copy()
+        outcomes: list[ActionOutcome] = []
+        for action, target in steps:
+            out = self.simulate(
+                arm, action, target, start=state, obstacles=obs, human_hand=human_hand,
+                time_budget_s=time_budget_s, record=record,
+            )  # fmt: skip
+            outcomes.append(out)
+            state = out.final_state
+            if not out.success:
+                return SequenceOutcome(False, f"{out.action}: {out.reason}", outcomes, state)
+        return SequenceOutcome(True, "all actions succeeded", outcomes, state)
+
+    def pick_and_place(
+        self,
+        arm: str,
+        pick: Pose | Sequence[float],
+        place: Pose | Sequence[float],
+        **kwargs: Any,
+    ) -> SequenceOutcome:
+        """approach -> grasp -> transport -> ungrasp -> rest (the leg cycle of the table)."""
+        return self.simulate_sequence(
+            arm,
+            [
+                ("approach", pick),
+                ("grasp", pick),
+                ("transport", place),
+                ("ungrasp", None),
+                ("rest", None),
+            ],
+            **kwargs,
+        )
+
+    def reachable(self, arm: str, xyz: Sequence[float] | Pose, yaw: float | None = None) -> bool:
+        """Can ``arm`` put its TCP at ``xyz`` with a top-down grasp (within joint limits)?
+
+        A geometric bound first, then inverse kinematics with the same task-priority solver
+        (no velocity limits, large steps, from the rest posture). Results are cached.
+        """
+        pose = Pose.coerce(xyz, "xyz")
+        if yaw is not None:
+            pose = Pose(pose.position, float(yaw))
+        model = self.robot.arm(arm)
+        key = (arm, *(round(v * 1000) for v in pose.position), round(pose.yaw * 1000))
+        hit = self._reach_cache.get(key)  # type: ignore[arg-type]
+        if hit is not None:
+            return hit
+        ok = self._wrist_distance(arm, pose.xyz) <= _REACH + 1e-3 and self._ik(model.name, pose)
+        self._reach_cache[key] = ok  # type: ignore[index]
+        return ok
+
+    # -- internals ------------------------------------------------------------------------------
+
+    def _wrist_distance(self, arm: str, tcp: Array) -> float:
+        """Shoulder-to-wrist-centre distance for a top-down TCP at ``tcp`` (the wrist centre is
+        the flange plus hand length above it, offset by the 8.8 cm of the last link)."""
+        m = self.robot.arm(arm)
+        wrist = np.asarray(tcp, dtype=float) + np.array([0.0, 0.0, PANDA_FLANGE_Z + PANDA_TCP_Z])
+        d = wrist - m.shoulder_xyz
+        horiz = max(math.hypot(d[0], d[1]) - 0.088, 0.0)
+        return math.hypot(horiz, d[2])
+
+    def _ik(self, arm: str, pose: Pose) -> bool:
+        goals = {arm: ArmGoal(pose.xyz, top_down_rotation(pose.yaw))}
+        specs = (
+            ObjectiveSpec("joint_limits", 0),
+            ObjectiveSpec("ee_position", 1, {"gain": 1.0, "max_speed": 0.15}),
+            ObjectiveSpec("ee_orientation", 1, {"gain": 1.0, "max_speed": 0.5}),
+            ObjectiveSpec("posture", 2, {"gain": 0.1}),
+        )
+        ctrl = TaskPriorityController(
+            self.robot, [arm], build_objectives(specs, self.robot, [arm], goals),
+            velocity_scale=1e6,
+        )  # fmt: skip
+        q = self.robot.arm(arm).q_rest.copy()
+        for _ in range(150):
+            qdot = ctrl.solve(ctrl.context(q))
+            ep, eo = ctrl.goal_error()
+            if ep <= self.pos_tol and eo <= self.rot_tol:
+                return True
+            q = q + ctrl.saturate(q, qdot, 1.0)
+        return False
+
+    def _goals(
+        self, spec: ActionSpec, arms: list[str], q: Array, pose: Pose | None
+    ) -> tuple[dict[str, ArmGoal], tuple[Array, Array] | None]:
+        cur: dict[str, tuple[Array, Array]] = {}
+        for i, a in enumerate(arms):
+            cur[a] = self.robot.arm(a).pose(q[7 * i : 7 * i + 7])
+        goals: dict[str, ArmGoal] = {}
+        relative = None
+        if spec.goal == "rest":
+            return {a: ArmGoal(posture=self.robot.arm(a).q_rest) for a in arms}, None
+        if spec.goal == "retreat":
+            up = np.array([0.0, 0.0, spec.approach_height])
+            return {a: ArmGoal(cur[a][0] + up, cur[a][1]) for a in arms}, None
+        assert pose is not None
+        centre = pose.xyz
+        if spec.goal == "above":
+            centre = centre + np.array([0.0, 0.0, spec.approach_height])
+        if len(arms) == 1:
+            a = arms[0]
+            if spec.goal == "screw":
+                rot = top_down_rotation(yaw_of(cur[a][1]) + spec.turn_rad)
+            else:
+                rot = top_down_rotation(pose.yaw)
+            return {a: ArmGoal(centre, rot)}, None
+        # Two arms, one object centred at the target.
+        holding = spec.goal == "target" and spec.gripper is None  # transport / hand over
+        if holding:
+            mid = 0.5 * (cur[arms[0]][0] + cur[arms[1]][0])
+            for a in arms:
+                goals[a] = ArmGoal(centre + (cur[a][0] - mid), cur[a][1])
+            (p1, R1), (p2, R2) = cur[arms[0]], cur[arms[1]]
+            relative = (R1.T @ (p2 - p1), R1.T @ R2)
+        else:
+            half = 0.5 * self.span_m
+            for a in arms:
+                side = 1.0 if self.robot.arm(a).shoulder_xyz[1] > 0 else -1.0
+                goals[a] = ArmGoal(
+                    centre + np.array([0.0, side * half, 0.0]), top_down_rotation(pose.yaw)
+                )
+        return goals, relative
+
+    def _stall_reason(
+        self,
+        spec: ActionSpec,
+        arms: list[str],
+        goals: Mapping[str, ArmGoal],
+        ctrl: TaskPriorityController,
+        ctx: Any,
+        err: tuple[float, float],
+        obs: list[Obstacle],
+        human_hand: Sequence[float] | None,
+    ) -> str:
+        causes = []
+        for a in arms:
+            g = goals[a].position
+            if g is not None and self._wrist_distance(a, g) > _REACH - 0.02:
+                causes.append(f"target at the edge of or beyond the reach of arm {a!r}")
+        near = [o for o in obs for a in arms if o.distance(ctx.arms[a].p)[0] < 0.05 + 0.08 - 1e-3]
+        if near:
+            causes.append("path blocked by an obstacle")
+        if human_hand is not None:
+            hand = np.asarray(human_hand)
+            if any(np.linalg.norm(ctx.arms[a].p - hand) < 0.15 + 0.08 for a in arms):
+                causes.append("kept away by the human hand")
+        q = np.concatenate([ctx.arms[a].q for a in arms])
+        lim = np.minimum(q - ctrl.q_min, ctrl.q_max - q)
+        if float(np.min(lim)) < 0.2:
+            j = int(np.argmin(lim))
+            causes.append(f"joint {arms[j // 7]}_joint{j % 7 + 1} at its limit")
+        cause = "; ".join(dict.fromkeys(causes)) or "no progress"
+        return (
+            f"stalled for {self.stall_s:g} s at {err[0]:.4f} m / {err[1]:.4f} rad from the goal "
+            f"({cause})"
+        )
+
+    def _outcome(
+        self, spec: ActionSpec, arm: str, arms: list[str], state: RobotState, success: bool,
+        reason: str, duration: float, q: Array, min_dist: float, energy: float,
+        err: tuple[float, float], traj: Trajectory | None, t_wall: float, steps: int,
+    ) -> ActionOutcome:  # fmt: skip
+        final = state.copy()
+        for i, a in enumerate(arms):
+            final.q[a] = q[7 * i : 7 * i + 7].copy()
+        if traj is None:
+            traj = Trajectory(
+                tuple(arms), np.zeros(1), q[None, :].copy(),
+                {a: self.robot.arm(a).pose(final.q[a])[0][None, :] for a in arms},
+            )  # fmt: skip
+        return ActionOutcome(
+            action=spec.name, arm=arm, success=success, reason=reason, duration_s=duration,
+            final_state=final, min_distance_m=min_dist, energy=energy,
+            final_error_m=err[0], final_error_rad=err[1], trajectory=traj,
+            wall_s=time.perf_counter() - t_wall, steps=steps,
+        )  # fmt: skip
+
+
+def _num(x: float, digits: int) -> float | None:
+    """JSON has no infinity: an unknown/unbounded figure is ``null``."""
+    return None if not math.isfinite(x) else round(float(x), digits)
+
+
+def _xyz(p: Array) -> str:
+    return "(" + ", ".join(f"{v:.3f}" for v in p) + ")"
+
+
+def orientation_error(R_goal: Array, R: Array) -> float:
+    """Angle (rad) between two rotations."""
+    return float(np.linalg.norm(rotation_log(R_goal @ R.T)))
+
+
+__all__ = [
+    "ACTIONS",
+    "ARM_NAMES",
+    "MIDDLE_POSE",
+    "ActionOutcome",
+    "ActionSpec",
+    "KinematicSimulator",
+    "Pose",
+    "RobotState",
+    "SequenceOutcome",
+    "Trajectory",
+    "orientation_error",
+]
