@@ -44,8 +44,8 @@ import numpy as np
 from flexhrc.action.control import (
     DEFAULT_HIERARCHY,
     ArmGoal,
-    Obstacle,
     ObjectiveSpec,
+    Obstacle,
     TaskPriorityController,
     build_objectives,
     parse_obstacle,
@@ -480,7 +480,7 @@ class KinematicSimulator:
         tol_rot = self.posture_tol if posture_goal else self.rot_tol
 
         dt = self.dt
-        max_steps = int(math.ceil(budget / dt))
+        max_steps = math.ceil(budget / dt - 1e-9)
         traj_t = np.empty(max_steps + 1) if record else None
         traj_q = np.empty((max_steps + 1, ctrl.n)) if record else None
         traj_p = {a: np.empty((max_steps + 1, 3)) for a in arms} if record else None
