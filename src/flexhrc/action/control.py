@@ -300,8 +300,10 @@ class Objective:
 class JointLimits(Objective):
     """Inequality ``q_min + margin <= q <= q_max - margin`` for every joint of the controlled arms.
 
-    Active within ``width`` rad of the margin; the reference pushes the joint back to the edge
-    of the transition zone (``K (bound + width - q)``).
+    Active within ``width`` rad of the margin. The reference is ``K max(0, bound - q)``: zero in the
+    transition zone, where the activation only brakes the motion towards the limit (the closer,
+    the harder), and a push back past the bound. Pushing back to the far edge of the zone instead
+    (``x* = bound + width``) would make any goal that needs a joint inside the zone unreachable.
     """
 
     kind = "joint_limits"
@@ -311,8 +313,8 @@ class JointLimits(Objective):
         priority: int,
         arms: Sequence[ArmModel],
         *,
-        margin: float = 0.03,
-        width: float = 0.15,
+        margin: float = 0.02,
+        width: float = 0.1,
         gain: float = 2.0,
     ):
         super().__init__(priority)
@@ -333,8 +335,8 @@ class JointLimits(Objective):
             return None
         ref = np.where(
             a_lo[rows] >= a_hi[rows],
-            self.gain * (self.lo[rows] + self.width - q[rows]),
-            self.gain * (self.hi[rows] - self.width - q[rows]),
+            self.gain * np.maximum(self.lo[rows] - q[rows], 0.0),
+            self.gain * np.minimum(self.hi[rows] - q[rows], 0.0),
         )
         J = np.zeros((rows.size, ctx.n))
         J[np.arange(rows.size), rows] = 1.0
@@ -345,7 +347,8 @@ class MinimumDistance(Objective):
     """Inequality ``distance(TCP, obstacle) >= d_min`` for every obstacle and every controlled arm.
 
     One row per (arm, obstacle) pair that is closer than ``d_min + width``: its Jacobian is the
-    obstacle normal times the TCP linear Jacobian, its reference pushes back to ``d_min + width``.
+    obstacle normal times the TCP linear Jacobian, its reference is ``K max(0, d_min - d)`` (brake
+    in the transition zone, push back inside ``d_min``; see :class:`JointLimits`).
     A human hand is a :class:`Sphere` of radius 0 with its own (larger) ``d_min``: build a second
     objective of this kind for it, usually at the same top priority.
     """
@@ -358,7 +361,7 @@ class MinimumDistance(Objective):
         obstacles: Sequence[Obstacle],
         *,
         d_min: float = 0.05,
-        width: float = 0.08,
+        width: float = 0.04,
         gain: float = 2.0,
         label: str = "obstacle",
     ):
@@ -380,7 +383,7 @@ class MinimumDistance(Objective):
                 row = np.zeros(ctx.n)
                 row[k.cols] = nrm @ k.J[:3]
                 rows_J.append(row)
-                refs.append(self.gain * (self.d_min + self.width - d))
+                refs.append(self.gain * max(self.d_min - d, 0.0))
                 acts.append(a)
                 ctx.avoid.setdefault(name, []).append((nrm, a))
         if not acts:
@@ -606,7 +609,7 @@ class ObjectiveSpec:
 DEFAULT_HIERARCHY: tuple[ObjectiveSpec, ...] = (
     ObjectiveSpec("joint_limits", 0),
     ObjectiveSpec("obstacles", 1, {"d_min": 0.05}),
-    ObjectiveSpec("human", 1, {"d_min": 0.15}),
+    ObjectiveSpec("human", 1, {"d_min": 0.15, "width": 0.05}),
     ObjectiveSpec("relative_pose", 2),
     ObjectiveSpec("ee_position", 3),
     ObjectiveSpec("ee_orientation", 3),

@@ -75,7 +75,7 @@ ARM_BASES: dict[str, tuple[float, float, float]] = {
 
 
 def _fmt(values: tuple[float, ...] | list[float]) -> str:
-    return " ".join(f"{v:.6g}" for v in values)
+    return " ".join(f"{v:.12g}" for v in values)
 
 
 def _cylinder_between(vec: tuple[float, float, float], radius: float) -> str:
@@ -165,7 +165,7 @@ def dual_arm_urdf(bases: dict[str, tuple[float, float, float]] | None = None) ->
         out.append(
             f'  <joint name="{arm}_flange_joint" type="fixed">\n'
             f'    <parent link="{parent}"/><child link="{arm}_hand"/>\n'
-            f'    <origin xyz="0 0 {PANDA_FLANGE_Z}" rpy="0 0 {-math.pi / 4:.6g}"/>\n'
+            f'    <origin xyz="0 0 {PANDA_FLANGE_Z}" rpy="0 0 {-math.pi / 4:.12g}"/>\n'
             "  </joint>\n"
             f'  <link name="{arm}_hand">\n'
             '    <visual><origin xyz="0 0 0.03"/><geometry><box size="0.05 0.2 0.06"/></geometry>'

@@ -44,8 +44,8 @@ import numpy as np
 from flexhrc.action.control import (
     DEFAULT_HIERARCHY,
     ArmGoal,
+    MinimumDistance,
     ObjectiveSpec,
-    Obstacle,
     TaskPriorityController,
     build_objectives,
     parse_obstacle,
@@ -399,7 +399,8 @@ class KinematicSimulator:
         self.stall_s = stall_s
         self.span_m = span_m
         self.actions: dict[str, ActionSpec] = dict(ACTIONS if actions is None else actions)
-        self._reach_cache: dict[tuple[str, int, int, int, int], bool] = {}
+        self._reach_cache: dict[tuple[Any, ...], bool] = {}
+        self._coarse: KinematicSimulator | None = None
 
     # -- public API ---------------------------------------------------------------------------
 
@@ -512,7 +513,7 @@ class KinematicSimulator:
             if progress < best * 0.995 - 1e-6:
                 best, best_t = progress, t
             elif t - best_t >= self.stall_s:
-                reason = self._stall_reason(spec, arms, goals, ctrl, ctx, err, obs, human_hand)
+                reason = self._stall_reason(spec, arms, goals, ctrl, ctx, err)
                 break
             if step >= max_steps:
                 reason = (
@@ -593,20 +594,26 @@ class KinematicSimulator:
     def reachable(self, arm: str, xyz: Sequence[float] | Pose, yaw: float | None = None) -> bool:
         """Can ``arm`` put its TCP at ``xyz`` with a top-down grasp (within joint limits)?
 
-        A geometric bound first, then inverse kinematics with the same task-priority solver
-        (no velocity limits, large steps, from the rest posture). Results are cached.
+        A geometric bound first (wrist centre within the arm's reach), then the same controller
+        run from the rest posture with a coarser step (50 ms) and no obstacles, so the answer
+        agrees with what :meth:`simulate` will find. A few milliseconds; results are cached.
         """
         pose = Pose.coerce(xyz, "xyz")
         if yaw is not None:
             pose = Pose(pose.position, float(yaw))
-        model = self.robot.arm(arm)
+        self.robot.arm(arm)
         key = (arm, *(round(v * 1000) for v in pose.position), round(pose.yaw * 1000))
-        hit = self._reach_cache.get(key)  # type: ignore[arg-type]
-        if hit is not None:
-            return hit
-        ok = self._wrist_distance(arm, pose.xyz) <= _REACH + 1e-3 and self._ik(model.name, pose)
-        self._reach_cache[key] = ok  # type: ignore[index]
-        return ok
+        hit = self._reach_cache.get(key)
+        if hit is None:
+            if self._coarse is None:
+                self._coarse = KinematicSimulator(
+                    self.robot, dt=0.05, time_budget_s=8.0, stall_s=1.0, actions=self.actions
+                )
+            hit = self._wrist_distance(arm, pose.xyz) <= _REACH + 1e-3 and (
+                self._coarse.simulate(arm, "transport", pose, record=False).success
+            )
+            self._reach_cache[key] = hit
+        return hit
 
     # -- internals ------------------------------------------------------------------------------
 
@@ -618,27 +625,6 @@ class KinematicSimulator:
         d = wrist - m.shoulder_xyz
         horiz = max(math.hypot(d[0], d[1]) - 0.088, 0.0)
         return math.hypot(horiz, d[2])
-
-    def _ik(self, arm: str, pose: Pose) -> bool:
-        goals = {arm: ArmGoal(pose.xyz, top_down_rotation(pose.yaw))}
-        specs = (
-            ObjectiveSpec("joint_limits", 0),
-            ObjectiveSpec("ee_position", 1, {"gain": 1.0, "max_speed": 0.15}),
-            ObjectiveSpec("ee_orientation", 1, {"gain": 1.0, "max_speed": 0.5}),
-            ObjectiveSpec("posture", 2, {"gain": 0.1}),
-        )
-        ctrl = TaskPriorityController(
-            self.robot, [arm], build_objectives(specs, self.robot, [arm], goals),
-            velocity_scale=1e6,
-        )  # fmt: skip
-        q = self.robot.arm(arm).q_rest.copy()
-        for _ in range(150):
-            qdot = ctrl.solve(ctrl.context(q))
-            ep, eo = ctrl.goal_error()
-            if ep <= self.pos_tol and eo <= self.rot_tol:
-                return True
-            q = q + ctrl.saturate(q, qdot, 1.0)
-        return False
 
     def _goals(
         self, spec: ActionSpec, arms: list[str], q: Array, pose: Pose | None
@@ -689,21 +675,26 @@ class KinematicSimulator:
         ctrl: TaskPriorityController,
         ctx: Any,
         err: tuple[float, float],
-        obs: list[Obstacle],
-        human_hand: Sequence[float] | None,
     ) -> str:
         causes = []
         for a in arms:
             g = goals[a].position
             if g is not None and self._wrist_distance(a, g) > _REACH - 0.02:
                 causes.append(f"target at the edge of or beyond the reach of arm {a!r}")
-        near = [o for o in obs for a in arms if o.distance(ctx.arms[a].p)[0] < 0.05 + 0.08 - 1e-3]
-        if near:
-            causes.append("path blocked by an obstacle")
-        if human_hand is not None:
-            hand = np.asarray(human_hand)
-            if any(np.linalg.norm(ctx.arms[a].p - hand) < 0.15 + 0.08 for a in arms):
-                causes.append("kept away by the human hand")
+        for level in ctrl.levels:
+            for obj in level:
+                if not isinstance(obj, MinimumDistance):
+                    continue
+                if any(
+                    o.distance(ctx.arms[a].p)[0] < obj.d_min + obj.width
+                    for o in obj.obstacles
+                    for a in arms
+                ):
+                    causes.append(
+                        "kept away by the human hand"
+                        if obj.label == "human hand"
+                        else "path blocked by an obstacle"
+                    )
         q = np.concatenate([ctx.arms[a].q for a in arms])
         lim = np.minimum(q - ctrl.q_min, ctrl.q_max - q)
         if float(np.min(lim)) < 0.2:
