@@ -261,11 +261,14 @@ class Task:
 
     ``J is None`` stands for the identity (a joint-space objective) and ``act is None`` for all
     ones (an equality objective): the solver then skips the corresponding products.
+    Rows of an ``inequality`` task are oriented so that a positive rate moves away from the bound
+    (their reference is the least rate allowed).
     """
 
     J: Array | None
     ref: Array
     act: Array | None
+    inequality: bool = False
 
 
 # ----------------------------------------------------------------------------------------------
@@ -333,14 +336,16 @@ class JointLimits(Objective):
         rows = np.nonzero(act > 0.0)[0]
         if rows.size == 0:
             return None
-        ref = np.where(
-            a_lo[rows] >= a_hi[rows],
-            self.gain * np.maximum(self.lo[rows] - q[rows], 0.0),
-            self.gain * np.minimum(self.hi[rows] - q[rows], 0.0),
+        lower = a_lo[rows] >= a_hi[rows]
+        # Row sign: +q_i for a lower bound, -q_i for an upper one (positive = away from it).
+        ref = self.gain * np.where(
+            lower,
+            np.maximum(self.lo[rows] - q[rows], 0.0),
+            np.maximum(q[rows] - self.hi[rows], 0.0),
         )
         J = np.zeros((rows.size, ctx.n))
-        J[np.arange(rows.size), rows] = 1.0
-        return Task(J, ref, act[rows])
+        J[np.arange(rows.size), rows] = np.where(lower, 1.0, -1.0)
+        return Task(J, ref, act[rows], inequality=True)
 
 
 class MinimumDistance(Objective):
@@ -388,7 +393,7 @@ class MinimumDistance(Objective):
                 ctx.avoid.setdefault(name, []).append((nrm, a))
         if not acts:
             return None
-        return Task(np.array(rows_J), np.array(refs), np.array(acts))
+        return Task(np.array(rows_J), np.array(refs), np.array(acts), inequality=True)
 
     def describe(self) -> dict[str, Any]:
         return {**super().describe(), "label": self.label, "d_min": self.d_min}
@@ -779,14 +784,37 @@ class TaskPriorityController:
         return StepContext(self.n, arms)
 
     def solve(self, ctx: StepContext) -> Array:
-        """The task-priority recursion (module doc); returns ``rho`` before saturation."""
+        """Joint velocities ``rho`` (before saturation) for the current step.
+
+        Inequality rows only ever limit motion *towards* their bound: when a first solution of
+        the equality objectives alone already moves away from the bound faster than the row's
+        reference, the row is switched off for this step (otherwise a zero reference inside the
+        transition zone would also forbid moving away, and an arm starting near an obstacle
+        could not leave it). This extra pass is only paid when some inequality is active.
+        """
+        levels: list[list[Task]] = []
+        any_inequality = False
+        for level in self.levels:
+            tasks = [t for t in (o.evaluate(ctx) for o in level) if t is not None]
+            if tasks:
+                levels.append(tasks)
+                any_inequality = any_inequality or any(t.inequality for t in tasks)
+        if any_inequality:
+            pre = self._recursion([[t for t in lv if not t.inequality] for lv in levels])
+            for lv in levels:
+                for t in lv:
+                    if t.inequality:
+                        rate = pre if t.J is None else t.J @ pre
+                        t.act = np.where(rate >= t.ref, 0.0, t.act)
+        return self._recursion(levels)
+
+    def _recursion(self, levels: list[list[Task]]) -> Array:
+        """The task-priority recursion of the module docstring over non-empty levels."""
         rho: Array | None = None
         Q: Array | None = None  # None stands for the identity (nothing constrained yet)
-        last = len(self.levels) - 1
-        for i, level in enumerate(self.levels):
-            tasks = [t for t in (o.evaluate(ctx) for o in level) if t is not None]
-            if not tasks:
-                continue
+        levels = [lv for lv in levels if lv]
+        last = len(levels) - 1
+        for i, tasks in enumerate(levels):
             if len(tasks) == 1:
                 J, ref, act = tasks[0].J, tasks[0].ref, tasks[0].act
             else:
