@@ -425,7 +425,8 @@ class KinematicSimulator:
 
         ``obstacles`` are spheres/boxes (see :func:`~flexhrc.action.control.parse_obstacle`);
         ``human_hand`` is a point the TCPs keep their human minimum distance from.
-        ``velocity_scale`` < 1 slows the arm (used by the execution manager's disturbances).
+        ``velocity_scale`` < 1 makes the arm execute only that fraction of the commanded joint
+        velocities (the execution manager's ``slow_arm`` disturbance).
         """
         t_wall = time.perf_counter()
         spec = _action_spec(action, self.actions)
@@ -474,9 +475,9 @@ class KinematicSimulator:
             spec.hierarchy, self.robot, arms, goals,
             obstacles=obs, human_hand=human_hand, relative=relative,
         )  # fmt: skip
-        ctrl = TaskPriorityController(
-            self.robot, arms, objectives, velocity_scale=spec.speed_scale * velocity_scale
-        )
+        ctrl = TaskPriorityController(self.robot, arms, objectives, velocity_scale=spec.speed_scale)
+        if not 0.0 < velocity_scale <= 1.0:
+            raise FlexhrcError(f"velocity_scale must be in (0, 1], got {velocity_scale}")
         posture_goal = spec.goal == "rest"
         tol_rot = self.posture_tol if posture_goal else self.rot_tol
 
@@ -513,15 +514,22 @@ class KinematicSimulator:
             if progress < best * 0.995 - 1e-6:
                 best, best_t = progress, t
             elif t - best_t >= self.stall_s:
-                reason = self._stall_reason(spec, arms, goals, ctrl, ctx, err)
+                cause = self._diagnose(arms, goals, ctrl, ctx) or "no progress"
+                reason = (
+                    f"stalled for {self.stall_s:g} s at {err[0]:.4f} m / {err[1]:.4f} rad from "
+                    f"the goal ({cause})"
+                )
                 break
             if step >= max_steps:
+                cause = self._diagnose(arms, goals, ctrl, ctx)
                 reason = (
                     f"timed out: time budget of {budget:g} s spent, still "
                     f"{err[0]:.4f} m / {err[1]:.4f} rad from the goal"
+                    + (f" ({cause})" if cause else "")
                 )
                 break
-            qdot = ctrl.saturate(q, qdot, dt)
+            # A slowed arm (velocity_scale < 1) executes a fraction of what is commanded.
+            qdot = ctrl.saturate(q, qdot * velocity_scale, dt)
             q = q + qdot * dt
             energy += 0.5 * float(qdot @ qdot) * dt
             t += dt
@@ -667,15 +675,14 @@ class KinematicSimulator:
                 )
         return goals, relative
 
-    def _stall_reason(
+    def _diagnose(
         self,
-        spec: ActionSpec,
         arms: list[str],
         goals: Mapping[str, ArmGoal],
         ctrl: TaskPriorityController,
         ctx: Any,
-        err: tuple[float, float],
     ) -> str:
+        """What holds the arm back: reach, an obstacle or the human hand, a joint limit."""
         causes = []
         for a in arms:
             g = goals[a].position
@@ -700,11 +707,7 @@ class KinematicSimulator:
         if float(np.min(lim)) < 0.2:
             j = int(np.argmin(lim))
             causes.append(f"joint {arms[j // 7]}_joint{j % 7 + 1} at its limit")
-        cause = "; ".join(dict.fromkeys(causes)) or "no progress"
-        return (
-            f"stalled for {self.stall_s:g} s at {err[0]:.4f} m / {err[1]:.4f} rad from the goal "
-            f"({cause})"
-        )
+        return "; ".join(dict.fromkeys(causes))
 
     def _outcome(
         self, spec: ActionSpec, arm: str, arms: list[str], state: RobotState, success: bool,
