@@ -703,17 +703,26 @@ def build_objectives(
 _dposv: Any = None
 
 
+def _load_lapack() -> None:
+    """Import LAPACK's ``dposv`` once (scipy's import takes a while: not inside a timed step)."""
+    global _dposv
+    if _dposv is None:
+        try:
+            from scipy.linalg.lapack import dposv
+        except ImportError:  # pragma: no cover - scipy is part of the sim extra
+            return
+        _dposv = dposv
+
+
 def _spd_solve(M: Array, B: Array) -> Array:
     """Solve ``M X = B`` for a symmetric positive definite ``M`` (Cholesky, LAPACK ``dposv``).
 
     ``numpy.linalg.solve`` spends most of its ~13 us on checks for a 7x7 system; the direct LAPACK
     call takes ~3 us, and the controller does two per level per step.
     """
-    global _dposv
     if _dposv is None:
-        try:
-            from scipy.linalg.lapack import dposv as _dposv
-        except ImportError:  # pragma: no cover - scipy is part of the sim extra
+        _load_lapack()
+        if _dposv is None:  # pragma: no cover - scipy is part of the sim extra
             return np.linalg.solve(M, B)
     _, x, info = _dposv(M, B)
     if info != 0:  # pragma: no cover - M is SPD by construction (lambda^2 > 0)
@@ -757,6 +766,7 @@ class TaskPriorityController:
         eta: float = 1.0,
         velocity_scale: float = 1.0,
     ):
+        _load_lapack()
         self.robot = robot
         self.arms = [robot.arm(a) for a in arms]
         self.names = list(arms)

@@ -47,6 +47,7 @@ from flexhrc.action.control import (
     MinimumDistance,
     ObjectiveSpec,
     TaskPriorityController,
+    _load_lapack,
     build_objectives,
     parse_obstacle,
     rotation_log,
@@ -391,6 +392,7 @@ class KinematicSimulator:
         if dt <= 0 or time_budget_s <= 0:
             raise FlexhrcError("dt and time_budget_s must be positive")
         self.robot = robot if robot is not None else load_robot()
+        _load_lapack()
         self.dt = float(dt)
         self.time_budget_s = float(time_budget_s)
         self.pos_tol = position_tolerance_m
