@@ -779,6 +779,7 @@ class TaskPriorityController:
         self.levels = [levels[p] for p in sorted(levels)]
         self.goals = [o for o in objectives if o.is_goal]
         self.v_max = np.concatenate([a.v_max for a in self.arms]) * velocity_scale
+        self._inv_v_max = 1.0 / self.v_max
         self.q_min = np.concatenate([a.q_min for a in self.arms])
         self.q_max = np.concatenate([a.q_max for a in self.arms])
         self._eye = np.eye(self.n)
@@ -846,6 +847,13 @@ class TaskPriorityController:
                     Q = self._eye - Xp @ J
                 continue
             assert rho is not None
+            if J is None and act is None and i == last:
+                # Lowest-priority joint-space objective (the posture): with Q an orthogonal
+                # projector the recursion reduces to rho += Q (ref - rho) / (1 + lambda^2)^2,
+                # the classic null-space term of Liegeois; it saves two 7x7 (or 14x14)
+                # factorisations per step and only touches the least important objective.
+                rho = rho + (Q @ (ref - rho)) / (1.0 + self.lam2) ** 2
+                continue
             if J is None:  # joint-space objective: X = Q, J rho = rho
                 X, err = Q, ref - rho
             else:
@@ -859,10 +867,10 @@ class TaskPriorityController:
 
     def saturate(self, q: Array, qdot: Array, dt: float) -> Array:
         """Velocity limits (uniform scaling) and a joint-range guard for one Euler step."""
-        ratio = float(np.max(np.abs(qdot) / self.v_max))
+        ratio = float((np.abs(qdot) * self._inv_v_max).max())
         if ratio > 1.0:
             qdot = qdot / ratio
-        return np.clip(qdot, (self.q_min - q) / dt, (self.q_max - q) / dt)
+        return np.minimum(np.maximum(qdot, (self.q_min - q) / dt), (self.q_max - q) / dt)
 
     def goal_error(self) -> tuple[float, float]:
         """Largest position (m) and angular/joint (rad) error over the goal objectives, as

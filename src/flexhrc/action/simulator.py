@@ -33,6 +33,7 @@ Nothing here sleeps or reads a clock except ``wall_s`` (compute time, reported f
 
 from __future__ import annotations
 
+import contextlib
 import math
 import time
 from collections.abc import Iterable, Mapping, Sequence
@@ -168,6 +169,16 @@ class ActionSpec:
             self,
             hierarchy=tuple(
                 replace(s, priority=priorities.get(s.kind, s.priority)) for s in self.hierarchy
+            ),
+        )
+
+    def with_params(self, kind: str, **params: float) -> ActionSpec:
+        """A copy whose objectives of ``kind`` get extra parameters (``max_speed=0.1``...)."""
+        return replace(
+            self,
+            hierarchy=tuple(
+                replace(s, params={**s.params, **params}) if s.kind == kind else s
+                for s in self.hierarchy
             ),
         )
 
@@ -347,6 +358,31 @@ class SequenceOutcome:
 # ----------------------------------------------------------------------------------------------
 
 
+_POOL: Any = None
+
+
+def _single_threaded() -> Any:
+    """Keep BLAS/OpenMP single-threaded while integrating.
+
+    The controller multiplies 7x7 and 14x14 matrices thousands of times per action; OpenBLAS
+    worker threads only add wake-up latency at that size (measured: 45 ms -> 28 ms for a 5 s
+    transport on a busy 2-core machine). ``threadpoolctl`` (in the ``sim`` extra) limits the pools
+    for the duration of one simulation only (~30 us) and restores them afterwards; without it
+    this is a no-op.
+    """
+    global _POOL
+    if _POOL is None:
+        try:
+            from threadpoolctl import ThreadpoolController
+
+            _POOL = ThreadpoolController()
+        except ImportError:  # pragma: no cover - optional
+            _POOL = False
+    if _POOL is False:
+        return contextlib.nullcontext()
+    return _POOL.limit(limits=1)
+
+
 def _arms_of(arm: str, robot: DualArmRobot) -> list[str]:
     if arm == "both":
         return list(robot.arm_names)
@@ -430,6 +466,26 @@ class KinematicSimulator:
         ``velocity_scale`` < 1 makes the arm execute only that fraction of the commanded joint
         velocities (the execution manager's ``slow_arm`` disturbance).
         """
+        with _single_threaded():
+            return self._simulate(
+                arm, action, target, start=start, obstacles=obstacles, human_hand=human_hand,
+                time_budget_s=time_budget_s, velocity_scale=velocity_scale, record=record,
+            )  # fmt: skip
+
+    def _simulate(
+        self,
+        arm: str,
+        action: str | ActionSpec,
+        target: Pose | Sequence[float] | None = None,
+        *,
+        start: RobotState | None = None,
+        obstacles: Iterable[Any] = (),
+        human_hand: Sequence[float] | None = None,
+        time_budget_s: float | None = None,
+        velocity_scale: float = 1.0,
+        record: bool = True,
+    ) -> ActionOutcome:
+        """See :meth:`simulate`."""
         t_wall = time.perf_counter()
         spec = _action_spec(action, self.actions)
         arms = _arms_of(arm, self.robot)
