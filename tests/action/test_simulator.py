@@ -115,3 +115,37 @@ def test_gif_view(sim, tmp_path):
     out = sim.simulate("both", "approach", [0.5, 0.0, 0.1])
     gif = render(out.trajectory, tmp_path / "a.gif", max_frames=3, width=160, height=120)
     assert gif.read_bytes()[:6] == b"GIF89a"
+
+
+def test_action_definition_round_trips_through_data(sim):
+    spec = ACTIONS["hand_over"].with_params("ee_position", max_speed=0.2)
+    again = ActionSpec.from_dict(json.loads(json.dumps(spec.to_dict())))
+    assert again == spec
+    custom = ActionSpec.from_dict(
+        {
+            "name": "place_carefully",
+            "goal": "target",
+            "hierarchy": [
+                {"kind": "joint_limits", "priority": 0},
+                {"kind": "obstacles", "priority": 1, "params": {"d_min": 0.1}},
+                {"kind": "ee_position", "priority": 2, "params": {"max_speed": 0.1}},
+            ],
+        }
+    )
+    out = sim.simulate("left", custom, [0.5, 0.1, 0.2])
+    assert (
+        out.success
+        and out.duration_s > sim.simulate("left", "transport", [0.5, 0.1, 0.2]).duration_s
+    )
+    with pytest.raises(FlexhrcError, match="unknown keys"):
+        ActionSpec.from_dict({"name": "x", "colour": "red"})
+    with pytest.raises(UnknownNameError, match="unknown objective kind"):
+        ActionSpec.from_dict({"name": "x", "hierarchy": [{"kind": "fly", "priority": 0}]})
+
+
+def test_lazy_package_exports():
+    import flexhrc.action as action
+
+    assert action.KinematicSimulator is KinematicSimulator
+    with pytest.raises(AttributeError):
+        _ = action.Nope

@@ -191,8 +191,43 @@ class ActionSpec:
             "name": self.name,
             "goal": self.goal,
             "gripper": self.gripper,
+            "gripper_time_s": self.gripper_time_s,
+            "approach_height": self.approach_height,
+            "turn_rad": self.turn_rad,
+            "speed_scale": self.speed_scale,
+            "default_target": None if self.default_target is None else list(self.default_target),
             "hierarchy": [s.to_dict() for s in self.hierarchy],
         }
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> ActionSpec:
+        """An action definition from data (e.g. a YAML file): the keys of :meth:`to_dict`;
+        ``hierarchy`` is a list of ``{kind, priority, params}`` (default: the paper's)."""
+        if "name" not in data:
+            raise FlexhrcError("action definition needs a 'name'")
+        known = {f for f in cls.__dataclass_fields__}
+        unknown = set(data) - known
+        if unknown:
+            raise FlexhrcError(
+                f"action {data['name']!r}: unknown keys {', '.join(sorted(unknown))}"
+            )
+        kwargs = dict(data)
+        if "hierarchy" in kwargs:
+            try:
+                kwargs["hierarchy"] = tuple(
+                    ObjectiveSpec(str(o["kind"]), int(o["priority"]), dict(o.get("params", {})))
+                    for o in kwargs["hierarchy"]
+                )
+            except UnknownNameError:
+                raise
+            except (KeyError, TypeError, ValueError) as exc:
+                raise FlexhrcError(
+                    f"action {data['name']!r}: each hierarchy entry needs 'kind' and an integer "
+                    f"'priority' ({exc})"
+                ) from None
+        if kwargs.get("default_target") is not None:
+            kwargs["default_target"] = Pose.coerce(kwargs["default_target"]).position
+        return cls(**kwargs)
 
 
 _NO_HUMAN = tuple(s for s in DEFAULT_HIERARCHY if s.kind != "human")
