@@ -106,8 +106,8 @@ def render(
                     p.resetJointState(robot, joints[f"{arm_name}_joint{i + 1}"], float(q[i]),
                                       physicsClientId=cid)  # fmt: skip
 
-        view = p.computeViewMatrix(cameraEyePosition=[1.55, 0.85, 0.95],
-                                   cameraTargetPosition=[0.35, 0.0, 0.2],
+        view = p.computeViewMatrix(cameraEyePosition=[1.75, 1.0, 1.25],
+                                   cameraTargetPosition=[0.3, 0.0, 0.3],
                                    cameraUpVector=[0, 0, 1], physicsClientId=cid)  # fmt: skip
         proj = p.computeProjectionMatrixFOV(fov=45, aspect=width / height, nearVal=0.05,
                                             farVal=5.0, physicsClientId=cid)  # fmt: skip

@@ -4,7 +4,8 @@ Example::
 
     flexhrc sim transport --arm left --target 0.5 0.1 0.2 --json
     flexhrc sim approach --arm right --target 0.5 -0.1 0.05 --obstacle 0.5 -0.1 0.2 0.04
-    flexhrc sim transport --arm both --target 0.45 0.1 0.3 --view out.png
+    flexhrc sim transport --arm both --from 0.5 0 0.1 --after approach --after grasp \
+        --target 0.45 0.1 0.3 --view out.png
 
 The robot starts at rest, or where ``--after ACTION`` (simulated first, at the same target)
 leaves it. The simulator lives in the ``sim`` extra; it is imported only when the command runs.
@@ -13,6 +14,7 @@ leaves it. The simulator lives in the ``sim`` extra; it is imported only when th
 from __future__ import annotations
 
 import argparse
+import math
 import time
 from typing import Any
 
@@ -56,8 +58,15 @@ def register(subparsers: Any) -> None:
         action="append",
         default=[],
         metavar="ACTION",
-        help="simulate this action first (same arm and target) and start from its final state; "
-        "repeatable, e.g. --after approach --after grasp",
+        help="simulate this action first (same arm, at --from or else --target) and start "
+        "from its final state; repeatable, e.g. --after approach --after grasp",
+    )
+    p.add_argument(
+        "--from",
+        dest="from_",
+        nargs="+",
+        metavar="X",
+        help="X Y Z target of the --after actions (e.g. where the object is picked)",
     )
     p.add_argument("--trajectory", action="store_true", help="include the trajectory in --json")
     p.add_argument("--view", metavar="FILE", help="render the motion headless to FILE.png/.gif")
@@ -93,6 +102,12 @@ def run(args: argparse.Namespace) -> int:
         parse_obstacle(_floats(o, "--obstacle"), f"--obstacle {i + 1}")
         for i, o in enumerate(args.obstacle)
     ]
+    pick = target
+    if args.from_ is not None:
+        xyz = _floats(args.from_, "--from")
+        if xyz is None or len(xyz) != 3:
+            raise FlexhrcError(f"--from must be 3 numbers X Y Z, got {len(args.from_)}")
+        pick = Pose.coerce({"position": xyz, "yaw": args.yaw}, "--from")
     hand = None
     if args.human_hand is not None:
         hand = Pose.coerce(_floats(args.human_hand, "--human-hand"), "--human-hand").position
@@ -100,7 +115,7 @@ def run(args: argparse.Namespace) -> int:
     start = sim.rest_state()
     before = []
     for name in args.after:
-        pre = sim.simulate(args.arm, name, target, start=start, obstacles=obstacles,
+        pre = sim.simulate(args.arm, name, pick, start=start, obstacles=obstacles,
                            human_hand=hand)  # fmt: skip
         before.append(pre)
         if not pre.success:
@@ -132,7 +147,9 @@ def run(args: argparse.Namespace) -> int:
             f"  simulated duration {out.duration_s:.2f} s, compute {out.wall_s * 1e3:.1f} ms, "
             f"{out.steps} steps",
             f"  final error {out.final_error_m * 1e3:.3f} mm / {out.final_error_rad:.4f} rad, "
-            f"energy {out.energy:.3f}",
+            f"energy {out.energy:.3f}"
+            if math.isfinite(out.final_error_m)
+            else "  not simulated: rejected before integrating",
         ]
         if data["min_distance_m"] is not None:
             lines.append(f"  closest distance to obstacles {out.min_distance_m:.3f} m")
