@@ -62,14 +62,14 @@ Array = np.ndarray
 # ----------------------------------------------------------------------------------------------
 
 
-def bell_below(x: Array, bound: float | Array, width: float | Array) -> Array:
+def bell_below(x: float | Array, bound: float | Array, width: float | Array) -> Array:
     """Activation of an inequality ``x >= bound``: 1 at or below the bound, a cosine bell down to
     0 at ``bound + width``, 0 above (the smooth sigmoid of the iCAT activation functions)."""
     s = np.clip((np.asarray(x, dtype=float) - bound) / width, 0.0, 1.0)
     return 0.5 * (1.0 + np.cos(np.pi * s))
 
 
-def bell_above(x: Array, bound: float | Array, width: float | Array) -> Array:
+def bell_above(x: float | Array, bound: float | Array, width: float | Array) -> Array:
     """Activation of an inequality ``x <= bound``: mirror image of :func:`bell_below`."""
     s = np.clip((bound - np.asarray(x, dtype=float)) / width, 0.0, 1.0)
     return 0.5 * (1.0 + np.cos(np.pi * s))
@@ -652,7 +652,7 @@ def build_objectives(
     posture_goal = all(goals[a].posture is not None for a in arms)
     pose_specs: list[ObjectiveSpec] = []
     for spec in specs:
-        p = dict(spec.params)
+        p: dict[str, Any] = dict(spec.params)
         if spec.kind == "joint_limits":
             out.append(JointLimits(spec.priority, models, **p))
         elif spec.kind == "obstacles" and obstacles:
@@ -814,7 +814,7 @@ class TaskPriorityController:
             pre = self._recursion([[t for t in lv if not t.inequality] for lv in levels])
             for lv in levels:
                 for t in lv:
-                    if t.inequality:
+                    if t.inequality and t.act is not None:
                         rate = pre if t.J is None else t.J @ pre
                         t.act = np.where(rate >= t.ref, 0.0, t.act)
         return self._recursion(levels)

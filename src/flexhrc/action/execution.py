@@ -69,7 +69,7 @@ class Command:
         )
 
     def to_dict(self) -> dict[str, Any]:
-        target = self.target
+        target: Any = self.target
         if isinstance(target, Pose):
             target = target.to_dict()
         elif target is not None:
@@ -204,7 +204,7 @@ class ExecutionManager:
                 raise FlexhrcError(f"object {d.object!r} is in a gripper; it cannot be moved")
             old = self.objects[d.object]
             new = np.asarray(old.position) + np.asarray(d.offset, dtype=float)
-            self.objects[d.object] = Pose(tuple(float(v) for v in new), old.yaw)
+            self.objects[d.object] = Pose((float(new[0]), float(new[1]), float(new[2])), old.yaw)
         elif d.kind == "slow_arm" and d.arm is not None:
             self.sim.robot.arm(d.arm)
         self.disturbances.append(d)
@@ -321,7 +321,8 @@ class ExecutionManager:
             for name in names:
                 tcps = [self.sim.robot.arm(a).pose(self.state.q[a])[0] for a in arms]
                 centre = np.mean(tcps, axis=0)
-                self.objects[name] = Pose(tuple(float(v) for v in centre), self.objects[name].yaw)
+                xyz = (float(centre[0]), float(centre[1]), float(centre[2]))
+                self.objects[name] = Pose(xyz, self.objects[name].yaw)
         elif cmd.action == "ungrasp":
             for a in arms:
                 self.held.pop(a, None)

@@ -273,7 +273,9 @@ class Trajectory:
     def concatenate(parts: Sequence[Trajectory]) -> Trajectory:
         """Chain trajectories in time (each part starts where the previous ended)."""
         arms = tuple(dict.fromkeys(a for p in parts for a in p.arms))
-        ts, qs, tcps = [], [], {a: [] for a in arms}
+        ts: list[Array] = []
+        qs: list[tuple[str, Array | None, int]] = []
+        tcps: dict[str, list[Array]] = {a: [] for a in arms}
         offset = 0.0
         for p in parts:
             if len(p) == 0:
@@ -292,7 +294,8 @@ class Trajectory:
         last: dict[str, Array | None] = {a: None for a in arms}
         for a, qa, n in qs:
             if qa is None:
-                qa = np.tile(last[a] if last[a] is not None else np.full(7, np.nan), (n, 1))
+                held = last[a]
+                qa = np.tile(np.full(7, np.nan) if held is None else held, (n, 1))
             q_cols[a].append(qa)
             last[a] = qa[-1]
         t = np.concatenate(ts) if ts else np.zeros(0)
@@ -576,9 +579,10 @@ class KinematicSimulator:
 
         dt = self.dt
         max_steps = math.ceil(budget / dt - 1e-9)
-        traj_t = np.empty(max_steps + 1) if record else None
-        traj_q = np.empty((max_steps + 1, ctrl.n)) if record else None
-        traj_p = {a: np.empty((max_steps + 1, 3)) for a in arms} if record else None
+        rows = max_steps + 1 if record else 1
+        traj_t = np.empty(rows)
+        traj_q = np.empty((rows, ctrl.n))
+        traj_p = {a: np.empty((rows, 3)) for a in arms}
         energy = 0.0
         min_dist = math.inf
         best = math.inf

@@ -102,6 +102,8 @@ def render(
                         p.resetJointState(robot, j, float(q_rest[i]), physicsClientId=cid)
             for arm_name in trajectory.arms:
                 q = trajectory.arm_q(arm_name)[k]
+                if not np.all(np.isfinite(q)):  # arm idle before its first action
+                    continue
                 for i in range(7):
                     p.resetJointState(robot, joints[f"{arm_name}_joint{i + 1}"], float(q[i]),
                                       physicsClientId=cid)  # fmt: skip
