@@ -140,7 +140,10 @@ class ActionSpec:
     rest posture), ``"screw"`` (at the target, turned by ``turn_rad`` about the vertical).
     ``gripper`` is ``"close"`` (after the motion) or ``"open"`` (before it) or None; it takes
     ``gripper_time_s``. ``hierarchy`` lists the objectives and their priorities; ``speed_scale``
-    scales the joint velocity limits (e.g. carrying a heavy part).
+    scales the joint velocity limits (e.g. carrying a heavy part). ``yaw_period`` is the symmetry
+    of the grasp about the vertical: a parallel gripper closing on a leg grasps it the same way at
+    ``yaw`` and ``yaw + pi``, so the hand turns to whichever equivalent yaw keeps the last joint
+    away from its limits with the least rotation (``0`` disables this: the yaw is taken as is).
     """
 
     name: str
@@ -152,6 +155,7 @@ class ActionSpec:
     turn_rad: float = math.pi / 2
     speed_scale: float = 1.0
     default_target: tuple[float, float, float] | None = None
+    yaw_period: float = math.pi
 
     def __post_init__(self) -> None:
         if self.goal not in ("above", "target", "retreat", "rest", "screw"):
@@ -753,7 +757,7 @@ class KinematicSimulator:
             if spec.goal == "screw":
                 rot = top_down_rotation(yaw_of(cur[a][1]) + spec.turn_rad)
             else:
-                rot = top_down_rotation(pose.yaw)
+                rot = top_down_rotation(self._grasp_yaw(a, q[:7], pose.yaw, spec.yaw_period))
             return {a: ArmGoal(centre, rot)}, None
         # Two arms, one object centred at the target.
         holding = spec.goal == "target" and spec.gripper is None  # transport / hand over
@@ -765,12 +769,41 @@ class KinematicSimulator:
             relative = (R1.T @ (p2 - p1), R1.T @ R2)
         else:
             half = 0.5 * self.span_m
-            for a in arms:
+            for i, a in enumerate(arms):
                 side = 1.0 if self.robot.arm(a).shoulder_xyz[1] > 0 else -1.0
+                yaw = self._grasp_yaw(a, q[7 * i : 7 * i + 7], pose.yaw, spec.yaw_period)
                 goals[a] = ArmGoal(
-                    centre + np.array([0.0, side * half, 0.0]), top_down_rotation(pose.yaw)
+                    centre + np.array([0.0, side * half, 0.0]), top_down_rotation(yaw)
                 )
         return goals, relative
+
+    def _grasp_yaw(self, arm: str, q: Array, yaw: float, period: float) -> float:
+        """Among the yaws equivalent to ``yaw`` (modulo ``period``), the one reached by turning
+        the hand less than half a turn that leaves the last joint farthest inside its range
+        (ties: the smallest turn). The last joint turns the hand about the vertical at about
+        one radian per radian when the hand points down, which the Jacobian confirms."""
+        if period <= 0:
+            return yaw
+        model = self.robot.arm(arm)
+        _, R, J = model.kinematics(q)
+        current = yaw_of(R)
+        rate = float(J[5, 6])  # world yaw rate per unit speed of the last joint
+        if abs(rate) < 0.5:  # hand far from vertical: no reliable prediction
+            rate = 0.0
+        best: tuple[float, float, float] | None = None
+        for k in range(-4, 5):
+            cand = yaw + k * period
+            turn = math.remainder(cand - current, 2 * math.pi)
+            if abs(turn) >= math.pi - 1e-9:
+                continue
+            margin = 0.0
+            if rate:
+                q7 = q[6] + turn / rate
+                margin = min(q7 - model.q_min[6], model.q_max[6] - q7)
+            key = (-min(margin, 0.5), abs(turn), cand)
+            if best is None or key < best:
+                best = key
+        return yaw if best is None else current + math.remainder(best[2] - current, 2 * math.pi)
 
     def _diagnose(
         self,
