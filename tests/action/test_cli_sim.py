@@ -53,7 +53,7 @@ def test_sim_with_obstacle_after_and_trajectory(capsys):
         (["transport", "--arm", "middle", "--target", "0.5", "0.1", "0.2"], "argument 'arm'"),
         (["juggle", "--target", "0.5", "0.1", "0.2"], "argument 'action'"),
         (["transport", "--target", "0.5", "0.1", "0.2", "--obstacle", "1", "2"], "--obstacle 1"),
-        (["grasp"], "needs a target"),
+        (["transport"], "needs a target"),
         (["transport", "--target", "0.5", "0.1", "0.2", "--view", "x.txt"], ".png or .gif"),
     ],
 )

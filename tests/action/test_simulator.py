@@ -149,3 +149,15 @@ def test_lazy_package_exports():
     assert action.KinematicSimulator is KinematicSimulator
     with pytest.raises(AttributeError):
         _ = action.Nope
+
+
+def test_grasp_and_screw_without_target_act_where_the_hand_is(sim):
+    seq = sim.simulate_sequence(
+        "left", [("approach", [0.5, 0.1, 0.05]), ("grasp", None), ("screw", None)]
+    )
+    assert seq.success, seq.reason
+    grasp, screw = seq.outcomes[1], seq.outcomes[2]
+    assert grasp.trajectory.tcp["left"][-1] == pytest.approx([0.5, 0.1, 0.05], abs=1e-3)
+    assert screw.trajectory.tcp["left"][-1] == pytest.approx([0.5, 0.1, 0.05], abs=1e-3)
+    with pytest.raises(FlexhrcError, match="needs a target"):
+        sim.simulate("left", "transport")

@@ -144,6 +144,9 @@ class ActionSpec:
     of the grasp about the vertical: a parallel gripper closing on a leg grasps it the same way at
     ``yaw`` and ``yaw + pi``, so the hand turns to whichever equivalent yaw keeps the last joint
     away from its limits with the least rotation (``0`` disables this: the yaw is taken as is).
+    ``untargeted_offset``: called without a target, the action aims at the current TCP (the
+    middle of both TCPs for ``both``) moved by this offset, at the current yaw — ``grasp`` goes
+    straight down from where ``approach`` left the hand, ``screw`` turns the hand where it is.
     """
 
     name: str
@@ -156,6 +159,7 @@ class ActionSpec:
     speed_scale: float = 1.0
     default_target: tuple[float, float, float] | None = None
     yaw_period: float = math.pi
+    untargeted_offset: tuple[float, float, float] | None = None
 
     def __post_init__(self) -> None:
         if self.goal not in ("above", "target", "retreat", "rest", "screw"):
@@ -165,7 +169,11 @@ class ActionSpec:
 
     @property
     def needs_target(self) -> bool:
-        return self.goal in ("above", "target", "screw") and self.default_target is None
+        return (
+            self.goal in ("above", "target", "screw")
+            and self.default_target is None
+            and self.untargeted_offset is None
+        )
 
     def with_priorities(self, **priorities: int) -> ActionSpec:
         """A copy whose objectives of the given kinds get new priorities (``obstacles=0``...)."""
@@ -200,6 +208,10 @@ class ActionSpec:
             "turn_rad": self.turn_rad,
             "speed_scale": self.speed_scale,
             "default_target": None if self.default_target is None else list(self.default_target),
+            "yaw_period": self.yaw_period,
+            "untargeted_offset": None
+            if self.untargeted_offset is None
+            else list(self.untargeted_offset),
             "hierarchy": [s.to_dict() for s in self.hierarchy],
         }
 
@@ -229,8 +241,9 @@ class ActionSpec:
                     f"action {data['name']!r}: each hierarchy entry needs 'kind' and an integer "
                     f"'priority' ({exc})"
                 ) from None
-        if kwargs.get("default_target") is not None:
-            kwargs["default_target"] = Pose.coerce(kwargs["default_target"]).position
+        for key in ("default_target", "untargeted_offset"):
+            if kwargs.get(key) is not None:
+                kwargs[key] = Pose.coerce(kwargs[key], key).position
         return cls(**kwargs)
 
 
@@ -239,9 +252,9 @@ _NO_HUMAN = tuple(s for s in DEFAULT_HIERARCHY if s.kind != "human")
 #: The actions of the table assembly (paper 000, Fig. 8 and section VI), as data.
 ACTIONS: dict[str, ActionSpec] = {
     "approach": ActionSpec("approach", goal="above"),
-    "grasp": ActionSpec("grasp", goal="target", gripper="close"),
+    "grasp": ActionSpec("grasp", goal="target", gripper="close", untargeted_offset=(0, 0, -0.1)),
     "transport": ActionSpec("transport", goal="target"),
-    "screw": ActionSpec("screw", goal="screw"),
+    "screw": ActionSpec("screw", goal="screw", untargeted_offset=(0.0, 0.0, 0.0)),
     "ungrasp": ActionSpec("ungrasp", goal="retreat", gripper="open"),
     "rest": ActionSpec("rest", goal="rest"),
     # The human's hand is expected at the hand-over pose: no minimum distance to it there.
@@ -748,7 +761,12 @@ class KinematicSimulator:
         if spec.goal == "retreat":
             up = np.array([0.0, 0.0, spec.approach_height])
             return {a: ArmGoal(cur[a][0] + up, cur[a][1]) for a in arms}, None
-        assert pose is not None
+        if pose is None:
+            if spec.untargeted_offset is None:  # pragma: no cover - simulate checks needs_target
+                raise FlexhrcError(f"action {spec.name!r} needs a target (argument 'target')")
+            mid = np.mean([cur[a][0] for a in arms], axis=0)
+            here = mid + np.asarray(spec.untargeted_offset, dtype=float)
+            pose = Pose((float(here[0]), float(here[1]), float(here[2])), yaw_of(cur[arms[0]][1]))
         centre = pose.xyz
         if spec.goal == "above":
             centre = centre + np.array([0.0, 0.0, spec.approach_height])
