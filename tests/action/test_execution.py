@@ -82,3 +82,24 @@ def test_bad_commands_and_disturbances_are_named(sim):
         em.inject({"kind": "object_moved", "object": "leg9", "offset": (0, 0, 0)})
     with pytest.raises(FlexhrcError, match="factor"):
         Disturbance("slow_arm", arm="left", factor=0.0)
+
+
+def test_disturbances_during_execution(sim):
+    em = _manager(sim)
+    # The leg is moved while the arm is on its way: the approach ends where it was, and fails.
+    em.inject(Disturbance("object_moved", object="leg1", offset=(0.05, 0.0, 0.0), at_s=0.5))
+    assert em.objects["leg1"].position == LEG  # not yet
+    r = em.execute(Command("approach", "left", LEG, "leg1"))
+    assert r.status == "failed" and "not where expected" in r.reason
+    assert any("at 0.5 s" in d for d in r.disturbances)
+    assert em.objects["leg1"].position == pytest.approx((0.5, 0.1, 0.05))
+    # The arm slows down half-way through an approach: no acknowledgement in time.
+    em.inject(Disturbance("slow_arm", arm="right", factor=0.1, at_s=0.3, once=True))
+    r = em.execute(Command("approach", "right", (0.5, -0.1, 0.05), "leg2"))
+    assert r.status == "timed_out"
+    # An obstacle appears over the leg during the approach: the arm keeps away, and fails.
+    em.inject(Disturbance("blocked_path", obstacle=[0.5, 0.1, 0.15, 0.04], at_s=0.2))
+    r = em.execute(Command("approach", "left", (0.5, 0.1, 0.05), "leg1"))
+    assert r.status in ("failed", "timed_out") and "obstacle" in r.reason
+    with pytest.raises(FlexhrcError, match="at_s"):
+        Disturbance("slow_arm", arm="left", factor=0.5, at_s=-1.0)

@@ -161,3 +161,18 @@ def test_grasp_and_screw_without_target_act_where_the_hand_is(sim):
     assert screw.trajectory.tcp["left"][-1] == pytest.approx([0.5, 0.1, 0.05], abs=1e-3)
     with pytest.raises(FlexhrcError, match="needs a target"):
         sim.simulate("left", "transport")
+
+
+def test_events_change_the_world_during_an_action(sim):
+    from flexhrc.action.simulator import SimEvent
+
+    free = sim.simulate("left", "transport", [0.5, 0.1, 0.2])
+    slowed = sim.simulate(
+        "left", "transport", [0.5, 0.1, 0.2], events=[SimEvent(0.2, velocity_scale=0.5)]
+    )
+    assert slowed.success and slowed.duration_s > free.duration_s
+    blocked = sim.simulate(
+        "left", "transport", [0.5, 0.1, 0.2], events=[SimEvent(0.2, obstacle=[0.5, 0.1, 0.2, 0.03])]
+    )
+    assert not blocked.success and "obstacle" in blocked.reason
+    np.testing.assert_array_equal(blocked.trajectory.q[:10], free.trajectory.q[:10])

@@ -20,14 +20,15 @@ Everything runs in simulated time; the manager keeps its own clock (``time_s``).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 
 from flexhrc.action.control import Obstacle, parse_obstacle
-from flexhrc.action.simulator import ActionOutcome, KinematicSimulator, Pose, RobotState
+from flexhrc.action.simulator import ActionOutcome, KinematicSimulator, Pose, RobotState, SimEvent
 from flexhrc.errors import FlexhrcError, UnknownNameError
 
 STATUSES: tuple[str, ...] = ("done", "failed", "timed_out")
@@ -101,6 +102,7 @@ class Disturbance:
     factor: float = 1.0
     obstacle: Any = None
     once: bool = False
+    at_s: float | None = None
 
     def __post_init__(self) -> None:
         if self.kind not in DISTURBANCE_KINDS:
@@ -113,6 +115,8 @@ class Disturbance:
             raise FlexhrcError(f"disturbance 'slow_arm' needs 0 < factor <= 1, got {self.factor}")
         if self.kind == "blocked_path":
             parse_obstacle(self.obstacle, "disturbance obstacle")
+        if self.at_s is not None and not (math.isfinite(self.at_s) and self.at_s >= 0):
+            raise FlexhrcError(f"disturbance at_s must be >= 0 s, got {self.at_s}")
 
     def describe(self) -> str:
         if self.kind == "object_moved":
@@ -186,6 +190,7 @@ class ExecutionManager:
         self.timeout_factor = timeout_factor
         self.timeout_margin_s = timeout_margin_s
         self.disturbances: list[Disturbance] = []
+        self.scheduled: list[Disturbance] = []  # happen during the next command
         self.held: dict[str, str] = {}  # arm -> object name
         self.time_s = 0.0
         self.log: list[ExecutionReport] = []
@@ -193,20 +198,29 @@ class ExecutionManager:
     # -- the world ------------------------------------------------------------------------------
 
     def inject(self, disturbance: Disturbance | Mapping[str, Any]) -> Disturbance:
-        """Inject a disturbance into the real world (takes effect from the next command)."""
+        """Inject a disturbance into the real world: in effect from the next command, or, with
+        ``at_s``, happening ``at_s`` seconds into the next command (during its execution)."""
         d = disturbance if isinstance(disturbance, Disturbance) else Disturbance(**disturbance)
+        if d.kind == "object_moved" and d.object not in self.objects:
+            raise UnknownNameError(
+                f"unknown object {d.object!r}; known: {', '.join(self.objects) or 'none'}"
+            )
+        if d.kind == "slow_arm" and d.arm is not None:
+            self.sim.robot.arm(d.arm)
+        if d.at_s is not None:
+            self.scheduled.append(d)
+            return d
+        return self._apply(d)
+
+    def _apply(self, d: Disturbance) -> Disturbance:
         if d.kind == "object_moved":
-            if d.object not in self.objects:
-                raise UnknownNameError(
-                    f"unknown object {d.object!r}; known: {', '.join(self.objects) or 'none'}"
-                )
+            assert d.object is not None
             if d.object in self.held.values():
                 raise FlexhrcError(f"object {d.object!r} is in a gripper; it cannot be moved")
             old = self.objects[d.object]
             new = np.asarray(old.position) + np.asarray(d.offset, dtype=float)
             self.objects[d.object] = Pose((float(new[0]), float(new[1]), float(new[2])), old.yaw)
-        elif d.kind == "slow_arm" and d.arm is not None:
-            self.sim.robot.arm(d.arm)
+        d = replace(d, at_s=None)
         self.disturbances.append(d)
         return d
 
@@ -258,12 +272,37 @@ class ExecutionManager:
             if d.kind != "object_moved" and (d.arm is None or d.arm in arms)
         ]
         speed = self._speed(arms)
+        scheduled, self.scheduled = self.scheduled, []
+        events = [
+            SimEvent(
+                float(d.at_s or 0.0),
+                obstacle=d.obstacle if d.kind == "blocked_path" else None,
+                velocity_scale=min(speed, d.factor)
+                if d.kind == "slow_arm" and (d.arm is None or d.arm in arms)
+                else None,
+            )
+            for d in scheduled
+            if d.kind != "object_moved"
+        ]
         out = self.sim.simulate(
             cmd.arm, cmd.action, cmd.target, start=self.state,
             obstacles=self._real_obstacles(), human_hand=self.human_hand,
-            time_budget_s=timeout, velocity_scale=speed,
+            time_budget_s=timeout, velocity_scale=speed, events=events,
         )  # fmt: skip
         self.state = out.final_state
+        # What happened during the command is now part of the world.
+        moved_during = []
+        for d in scheduled:
+            if d.kind == "object_moved" and d.object in self.held.values():
+                continue  # it was grasped before it could be moved
+            if (d.at_s or 0.0) <= out.duration_s:
+                active.append(f"{d.describe()} at {d.at_s:g} s")
+            if d.kind == "object_moved" and (d.at_s or 0.0) <= out.duration_s:
+                moved_during.append(d)
+            else:
+                self._apply(d)
+        for d in moved_during:
+            self._apply(d)
         observed: dict[str, Any] = {}
         status, reason = ("done", "goal reached") if out.success else ("failed", out.reason)
         if not out.success and out.reason.startswith("timed out"):

@@ -110,6 +110,24 @@ class Pose:
         return {"position": list(self.position), "yaw": self.yaw}
 
 
+@dataclass(frozen=True)
+class SimEvent:
+    """A change of the world during one simulated action, ``t_s`` seconds after it starts: an
+    ``obstacle`` appears and/or the arm's ``velocity_scale`` changes (a disturbance)."""
+
+    t_s: float
+    obstacle: Any = None
+    velocity_scale: float | None = None
+
+    def __post_init__(self) -> None:
+        if not math.isfinite(self.t_s) or self.t_s < 0:
+            raise FlexhrcError(f"event time must be >= 0 s, got {self.t_s}")
+        if self.velocity_scale is not None and not 0.0 < self.velocity_scale <= 1.0:
+            raise FlexhrcError(f"velocity_scale must be in (0, 1], got {self.velocity_scale}")
+        if self.obstacle is not None:
+            parse_obstacle(self.obstacle, "event obstacle")
+
+
 @dataclass
 class RobotState:
     """Joint configuration of every arm and whether each arm holds an object."""
@@ -512,6 +530,7 @@ class KinematicSimulator:
         time_budget_s: float | None = None,
         velocity_scale: float = 1.0,
         record: bool = True,
+        events: Sequence[SimEvent] = (),
     ) -> ActionOutcome:
         """Simulate one action of ``arm`` (``left``, ``right`` or ``both``) from ``start``
         (default: rest) towards ``target``; see the module docstring for the stop rules.
@@ -519,12 +538,14 @@ class KinematicSimulator:
         ``obstacles`` are spheres/boxes (see :func:`~flexhrc.action.control.parse_obstacle`);
         ``human_hand`` is a point the TCPs keep their human minimum distance from.
         ``velocity_scale`` < 1 makes the arm execute only that fraction of the commanded joint
-        velocities (the execution manager's ``slow_arm`` disturbance).
+        velocities (the execution manager's ``slow_arm`` disturbance); ``events`` change the
+        world during the action (:class:`SimEvent`).
         """
         with _single_threaded():
             return self._simulate(
                 arm, action, target, start=start, obstacles=obstacles, human_hand=human_hand,
                 time_budget_s=time_budget_s, velocity_scale=velocity_scale, record=record,
+                events=events,
             )  # fmt: skip
 
     def _simulate(
@@ -539,6 +560,7 @@ class KinematicSimulator:
         time_budget_s: float | None = None,
         velocity_scale: float = 1.0,
         record: bool = True,
+        events: Sequence[SimEvent] = (),
     ) -> ActionOutcome:
         """See :meth:`simulate`."""
         t_wall = time.perf_counter()
@@ -584,11 +606,17 @@ class KinematicSimulator:
             for a in arms:
                 state.holding[a] = False
 
-        objectives = build_objectives(
-            spec.hierarchy, self.robot, arms, goals,
-            obstacles=obs, human_hand=human_hand, relative=relative,
-        )  # fmt: skip
-        ctrl = TaskPriorityController(self.robot, arms, objectives, velocity_scale=spec.speed_scale)
+        def controller() -> TaskPriorityController:
+            objectives = build_objectives(
+                spec.hierarchy, self.robot, arms, goals,
+                obstacles=obs, human_hand=human_hand, relative=relative,
+            )  # fmt: skip
+            return TaskPriorityController(
+                self.robot, arms, objectives, velocity_scale=spec.speed_scale
+            )
+
+        ctrl = controller()
+        pending = sorted(events, key=lambda e: e.t_s)
         if not 0.0 < velocity_scale <= 1.0:
             raise FlexhrcError(f"velocity_scale must be in (0, 1], got {velocity_scale}")
         posture_goal = spec.goal == "rest"
@@ -611,6 +639,14 @@ class KinematicSimulator:
         err = (math.inf, math.inf)
         ctx = None
         while True:
+            while pending and t >= pending[0].t_s - 1e-9:
+                ev = pending.pop(0)
+                if ev.velocity_scale is not None:
+                    velocity_scale = ev.velocity_scale
+                if ev.obstacle is not None:  # the world changed: rebuild the hierarchy
+                    obs.append(parse_obstacle(ev.obstacle, "event obstacle"))
+                    ctrl = controller()
+                best, best_t = math.inf, t  # judge progress afresh from here
             ctx = ctrl.context(q)
             qdot = ctrl.solve(ctx)
             err = ctrl.goal_error()
@@ -902,6 +938,7 @@ __all__ = [
     "Pose",
     "RobotState",
     "SequenceOutcome",
+    "SimEvent",
     "Trajectory",
     "orientation_error",
 ]
