@@ -249,6 +249,7 @@ class StepContext:
 
     n: int
     arms: dict[str, ArmKinematics]
+    q: Array = field(default_factory=lambda: np.zeros(0))  # stacked joints of all arms
     # Obstacle normals active at this step, per arm: (normal, activation); used by the
     # end-effector position objective to slide around an obstacle instead of stalling on it.
     avoid: dict[str, list[tuple[Array, float]]] = field(default_factory=dict)
@@ -327,7 +328,7 @@ class JointLimits(Objective):
         self._lo_w, self._hi_w = self.lo + width, self.hi - width
 
     def evaluate(self, ctx: StepContext) -> Task | None:
-        q = np.concatenate([k.q for k in ctx.arms.values()])
+        q = ctx.q
         if not ((q < self._lo_w).any() or (q > self._hi_w).any()):
             return None  # far from every limit: the whole objective is inactive
         a_lo = bell_below(q, self.lo, self.width)
@@ -442,8 +443,9 @@ class EndEffectorPose(Objective):
 
     def evaluate(self, ctx: StepContext) -> Task | None:
         k = ctx.arms[self.arm]
-        parts_J, parts_ref = [], []
+        ref = np.empty(6)
         ep = eo = 0.0
+        rows = 0
         if self.position is not None:
             e = self.position - k.p
             ep = math.sqrt(float(e @ e))
@@ -452,22 +454,24 @@ class EndEffectorPose(Objective):
                 v *= self.max_speed / (self.gain * ep)
             for nrm, a in ctx.avoid.get(self.arm, ()):
                 v = _slide(v, nrm, a)
-            parts_J.append(k.J[:3])
-            parts_ref.append(v)
+            ref[:3] = v
+            rows = 3
         if self.rotation is not None:
             r = rotation_log(self.rotation @ k.R.T)
             eo = math.sqrt(float(r @ r))
             w = self.angular_gain * r
             if self.angular_gain * eo > self.max_angular_speed:
                 w *= self.max_angular_speed / (self.angular_gain * eo)
-            parts_J.append(k.J[3:])
-            parts_ref.append(w)
+            ref[rows : rows + 3] = w
+            rows += 3
         self.last_error = (ep, eo)
-        m = 3 * len(parts_J)
-        J = np.zeros((m, ctx.n))
-        J[:, k.cols] = parts_J[0] if m == 3 else k.J
-        ref = parts_ref[0] if m == 3 else np.concatenate(parts_ref)
-        return Task(J, ref, None)
+        Jk = k.J if rows == 6 else (k.J[:3] if self.position is not None else k.J[3:])
+        if ctx.n == 7:  # single arm: the arm's Jacobian is the task Jacobian
+            J = Jk
+        else:
+            J = np.zeros((rows, ctx.n))
+            J[:, k.cols] = Jk
+        return Task(J, ref[:rows], None)
 
     def describe(self) -> dict[str, Any]:
         d = {**super().describe(), "arm": self.arm}
@@ -558,7 +562,7 @@ class Posture(Objective):
         self.last_error = (math.inf, math.inf)
 
     def evaluate(self, ctx: StepContext) -> Task | None:
-        q = np.concatenate([k.q for k in ctx.arms.values()])
+        q = ctx.q
         ref = self.gain * (self.q_goal - q)
         if self.max_speed is not None:
             m = float(np.max(np.abs(ref)))
@@ -792,7 +796,7 @@ class TaskPriorityController:
             qi = q[cols]
             p, R, J = model.kinematics(qi)
             arms[name] = ArmKinematics(model, cols, qi, p, R, J)
-        return StepContext(self.n, arms)
+        return StepContext(self.n, arms, q)
 
     def solve(self, ctx: StepContext) -> Array:
         """Joint velocities ``rho`` (before saturation) for the current step.

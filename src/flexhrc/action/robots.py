@@ -184,12 +184,27 @@ def dual_arm_urdf(bases: dict[str, tuple[float, float, float]] | None = None) ->
     return "".join(out)
 
 
+_PIN: Any = None
+
+
 def _import_pinocchio() -> Any:
-    try:
-        import pinocchio
-    except ImportError as exc:  # pragma: no cover - depends on the environment
-        raise OptionalDependencyError("kinematic robot models", "sim", "pin") from exc
-    return pinocchio
+    global _PIN
+    if _PIN is None:
+        try:
+            import pinocchio
+        except ImportError as exc:  # pragma: no cover - depends on the environment
+            raise OptionalDependencyError("kinematic robot models", "sim", "pin") from exc
+        _PIN = pinocchio
+    return _PIN
+
+
+_LWA: Any = None
+
+
+def _lwa() -> Any:
+    global _LWA
+    _LWA = _import_pinocchio().ReferenceFrame.LOCAL_WORLD_ALIGNED
+    return _LWA
 
 
 @dataclass
@@ -226,12 +241,10 @@ class ArmModel:
         One call to ``computeJointJacobians`` (forward kinematics plus all joint Jacobians) and one
         frame update per control step: that is the whole kinematic cost of a step.
         """
-        pin = _import_pinocchio()
+        pin = _PIN or _import_pinocchio()
         pin.computeJointJacobians(self.model, self.data, q)
         oMf = pin.updateFramePlacement(self.model, self.data, self.tcp_frame)
-        J = pin.getFrameJacobian(
-            self.model, self.data, self.tcp_frame, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
-        )
+        J = pin.getFrameJacobian(self.model, self.data, self.tcp_frame, _LWA or _lwa())
         return oMf.translation.copy(), oMf.rotation.copy(), J
 
     def within_limits(self, q: Array, tol: float = 1e-9) -> bool:
