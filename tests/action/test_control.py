@@ -21,7 +21,7 @@ from flexhrc.action.control import (
     rotation_log,
     top_down_rotation,
 )
-from flexhrc.action.simulator import ActionSpec, Pose
+from flexhrc.action.simulator import ActionSpec, KinematicSimulator, Pose
 from flexhrc.errors import FlexhrcError, UnknownNameError
 
 # -- activation functions and algebra -------------------------------------------------------------
@@ -224,7 +224,8 @@ def test_time_budget_exhausted_is_a_timeout(sim):
     assert out.duration_s == pytest.approx(0.4)
 
 
-def test_simulation_is_deterministic(sim):
+def test_simulation_is_deterministic():
+    sim = KinematicSimulator(cache_size=0)
     a = sim.simulate("right", "transport", [0.5, -0.1, 0.2], obstacles=[[0.5, -0.1, 0.35, 0.03]])
     b = sim.simulate("right", "transport", [0.5, -0.1, 0.2], obstacles=[[0.5, -0.1, 0.35, 0.03]])
     assert a.duration_s == b.duration_s and np.array_equal(a.trajectory.q, b.trajectory.q)

@@ -176,3 +176,15 @@ def test_events_change_the_world_during_an_action(sim):
     )
     assert not blocked.success and "obstacle" in blocked.reason
     np.testing.assert_array_equal(blocked.trajectory.q[:10], free.trajectory.q[:10])
+
+
+def test_outcome_cache_returns_copies_of_identical_requests():
+    sim = KinematicSimulator(cache_size=2)
+    a = sim.simulate("left", "transport", [0.5, 0.1, 0.2])
+    b = sim.simulate("left", "transport", np.array([0.5, 0.1, 0.2]))
+    assert b.wall_s == 0.0 and b.duration_s == a.duration_s
+    b.final_state.q["left"][:] = 0.0  # callers may modify their copy
+    c = sim.simulate("left", "transport", (0.5, 0.1, 0.2))
+    np.testing.assert_array_equal(c.final_q["left"], a.final_q["left"])
+    d = sim.simulate("left", "transport", [0.5, 0.1, 0.2 + 1e-9])  # another request
+    assert d.wall_s > 0.0

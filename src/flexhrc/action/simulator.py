@@ -36,6 +36,7 @@ from __future__ import annotations
 import contextlib
 import math
 import time
+from collections import OrderedDict
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -456,6 +457,42 @@ def _single_threaded() -> Any:
     return _POOL.limit(limits=1)
 
 
+def _cache_key(
+    arm: Any, action: Any, target: Any, start: RobotState | None, obstacles: list[Any],
+    human_hand: Any, budget: Any, velocity_scale: Any, record: bool, events: Sequence[Any],
+) -> tuple[Any, ...] | None:  # fmt: skip
+    """A hashable summary of a simulation request (None when something is not representable)."""
+    try:
+        state = None
+        if start is not None:
+            state = (
+                tuple((a, np.asarray(q, dtype=float).round(10).tobytes()) for a, q in
+                      sorted(start.q.items())),
+                tuple(sorted(start.holding.items())),
+            )  # fmt: skip
+        tgt: Any = target
+        if target is not None and not isinstance(target, Pose | Mapping):
+            tgt = tuple(float(v) for v in target)  # exact, unlike the repr of an array
+        elif isinstance(target, Mapping):
+            tgt = repr(sorted(target.items()))
+        act = action if isinstance(action, str) else repr(action)
+        obs = tuple(parse_obstacle(o, f"obstacle {i + 1}") for i, o in enumerate(obstacles))
+        hand = None if human_hand is None else tuple(float(v) for v in human_hand)
+        evs = tuple(
+            (e.t_s, None if e.obstacle is None else parse_obstacle(e.obstacle), e.velocity_scale)
+            for e in events
+        )
+        key = (arm, act, tgt, state, obs, hand, budget, velocity_scale, record, evs)
+        hash(key)
+        return key
+    except (
+        TypeError,
+        ValueError,
+        AttributeError,
+    ):  # pragma: no cover - unusual inputs: just do not cache
+        return None
+
+
 def _arms_of(arm: str, robot: DualArmRobot) -> list[str]:
     if arm == "both":
         return list(robot.arm_names)
@@ -483,6 +520,10 @@ class KinematicSimulator:
     Parameters: the robot (default: the shipped dual Panda), the control step ``dt`` (s), the
     default time budget per action (s), goal tolerances, the stall window, and the action
     definitions (default :data:`ACTIONS`; pass your own mapping to change hierarchies).
+
+    Simulations are deterministic, so the last ``cache_size`` outcomes are kept: asking again
+    for the same action from the same state in the same world (as a Task Manager re-scoring its
+    branches does) returns a copy at once, with ``wall_s = 0``. ``cache_size=0`` disables it.
     """
 
     def __init__(
@@ -497,6 +538,7 @@ class KinematicSimulator:
         stall_s: float = 1.5,
         span_m: float = 0.2,
         actions: Mapping[str, ActionSpec] | None = None,
+        cache_size: int = 256,
     ):
         if dt <= 0 or time_budget_s <= 0:
             raise FlexhrcError("dt and time_budget_s must be positive")
@@ -512,6 +554,8 @@ class KinematicSimulator:
         self.actions: dict[str, ActionSpec] = dict(ACTIONS if actions is None else actions)
         self._reach_cache: dict[tuple[Any, ...], bool] = {}
         self._coarse: KinematicSimulator | None = None
+        self.cache_size = int(cache_size)
+        self._cache: OrderedDict[Any, ActionOutcome] = OrderedDict()
 
     # -- public API ---------------------------------------------------------------------------
 
@@ -541,12 +585,28 @@ class KinematicSimulator:
         velocities (the execution manager's ``slow_arm`` disturbance); ``events`` change the
         world during the action (:class:`SimEvent`).
         """
+        obstacles = list(obstacles)
+        key = None
+        if self.cache_size > 0:
+            key = _cache_key(
+                arm, action, target, start, obstacles, human_hand, time_budget_s, velocity_scale,
+                record, events,
+            )  # fmt: skip
+            hit = self._cache.get(key) if key is not None else None
+            if hit is not None:
+                self._cache.move_to_end(key)
+                return replace(hit, final_state=hit.final_state.copy(), wall_s=0.0)
         with _single_threaded():
-            return self._simulate(
+            out = self._simulate(
                 arm, action, target, start=start, obstacles=obstacles, human_hand=human_hand,
                 time_budget_s=time_budget_s, velocity_scale=velocity_scale, record=record,
                 events=events,
             )  # fmt: skip
+        if key is not None:
+            self._cache[key] = replace(out, final_state=out.final_state.copy())
+            if len(self._cache) > self.cache_size:
+                self._cache.popitem(last=False)
+        return out
 
     def _simulate(
         self,
