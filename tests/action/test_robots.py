@@ -80,3 +80,12 @@ def test_far_points_unreachable_and_one_sided_points(sim):
     # Far to one side: only the arm on that side gets there.
     assert sim.reachable("left", (0.3, 0.7, 0.1)) and not sim.reachable("right", (0.3, 0.7, 0.1))
     assert sim.reachable("right", (0.3, -0.7, 0.1)) and not sim.reachable("left", (0.3, -0.7, 0.1))
+
+
+def test_workspace_geometry_is_measured_on_the_model(robot):
+    for arm in robot.arms.values():
+        assert 0.70 < arm.reach_m < 0.75  # Panda: 0.316 m and 0.384 m links with 8.25 cm offsets
+        assert arm.hand_along_m == pytest.approx(0.107 + 0.1034)
+        assert arm.hand_lateral_m == pytest.approx(0.088)
+        p, _ = arm.pose(arm.q_rest)
+        assert arm.wrist_distance(p) < arm.reach_m

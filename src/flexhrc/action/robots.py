@@ -223,10 +223,25 @@ class ArmModel:
     v_max: Array
     q_rest: Array
     shoulder_xyz: Array
+    #: Largest shoulder (joint 2) to wrist centre (joint 6) distance within the joint limits.
+    reach_m: float = 0.0
+    #: Wrist centre seen from the TCP, in the TCP frame: distance back along the approach axis,
+    #: and sideways (the Panda's last link is offset by 8.8 cm).
+    hand_along_m: float = 0.0
+    hand_lateral_m: float = 0.0
 
     @property
     def dof(self) -> int:
         return int(self.model.nq)
+
+    def wrist_distance(self, tcp_xyz: Array) -> float:
+        """Least shoulder-to-wrist-centre distance of a top-down TCP at ``tcp_xyz``: a necessary
+        condition for reaching it is ``wrist_distance <= reach_m`` (cheap, no inverse
+        kinematics)."""
+        d = np.asarray(tcp_xyz, dtype=float) - self.shoulder_xyz
+        dz = float(d[2]) + self.hand_along_m
+        horiz = max(math.hypot(float(d[0]), float(d[1])) - self.hand_lateral_m, 0.0)
+        return math.hypot(horiz, dz)
 
     def pose(self, q: Array) -> tuple[Array, Array]:
         """TCP position (3,) and rotation matrix (3, 3) at ``q``."""
@@ -315,7 +330,7 @@ def _load(path: Path) -> DualArmRobot:
         tcp = f"{name}_tcp"
         if not model.existFrame(tcp):
             raise FlexhrcError(f"{path}: arm {name!r} lacks the frame {tcp!r}")
-        arms[name] = ArmModel(
+        arm = ArmModel(
             name=name,
             model=model,
             data=model.createData(),
@@ -326,11 +341,34 @@ def _load(path: Path) -> DualArmRobot:
             q_rest=np.clip(
                 np.array(PANDA_Q_REST), model.lowerPositionLimit, model.upperPositionLimit
             ),
-            shoulder_xyz=np.array(
-                full.jointPlacements[full.getJointId(joint_names[0])].translation, dtype=float
-            ),
+            shoulder_xyz=np.zeros(3),
         )
+        _measure_workspace(pin, arm)
+        arms[name] = arm
     return DualArmRobot(urdf_path=path, arms=arms)
+
+
+def _measure_workspace(pin: Any, arm: ArmModel, samples: int = 2000) -> None:
+    """Shoulder position, reach and hand geometry of ``arm``, measured on its model.
+
+    The shoulder is the origin of joint 2 and the wrist centre that of joint 6 (the usual
+    spherical-wrist-like split of a 7-DoF arm); the reach is the largest distance between them
+    over ``samples`` seeded random configurations within the limits, plus 2 % (it only has to
+    be a safe upper bound: :meth:`ArmModel.wrist_distance` rejects goals beyond it at once).
+    """
+    m, d = arm.model, arm.data
+    pin.forwardKinematics(m, d, arm.q_rest)
+    arm.shoulder_xyz = np.array(d.oMi[2].translation, dtype=float)
+    oMf = pin.updateFramePlacement(m, d, arm.tcp_frame)
+    v = oMf.rotation.T @ (d.oMi[6].translation - oMf.translation)
+    arm.hand_along_m = float(-v[2])
+    arm.hand_lateral_m = float(math.hypot(v[0], v[1]))
+    rng = np.random.default_rng(0)
+    best = 0.0
+    for q in rng.uniform(arm.q_min, arm.q_max, size=(samples, arm.dof)):
+        pin.forwardKinematics(m, d, q)
+        best = max(best, float(np.linalg.norm(d.oMi[6].translation - d.oMi[2].translation)))
+    arm.reach_m = 1.02 * best
 
 
 def write_default_urdf(path: Path = DEFAULT_URDF) -> Path:

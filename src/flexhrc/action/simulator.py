@@ -56,15 +56,13 @@ from flexhrc.action.control import (
     top_down_rotation,
     yaw_of,
 )
-from flexhrc.action.robots import ARM_NAMES, PANDA_FLANGE_Z, PANDA_TCP_Z, DualArmRobot, load_robot
+from flexhrc.action.robots import ARM_NAMES, DualArmRobot, load_robot
 from flexhrc.errors import FlexhrcError, UnknownNameError
 
 Array = np.ndarray
 
 #: Where a hand-over happens: in the middle of the table, between robot and human (paper Fig. 12).
 MIDDLE_POSE: tuple[float, float, float] = (0.55, 0.0, 0.30)
-#: Sum of the Panda link lengths from the shoulder (joint 2) to the wrist centre (joint 6), m.
-_REACH = math.hypot(0.316, 0.0825) + math.hypot(0.384, 0.0825)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -651,12 +649,13 @@ class KinematicSimulator:
             g = goals[a].position
             if g is None:
                 continue
-            far = self._wrist_distance(a, g)
-            if far > _REACH + 1e-3:
+            model = self.robot.arm(a)
+            far = model.wrist_distance(g)
+            if far > model.reach_m:
                 return self._outcome(
                     spec, arm, arms, state, False,
                     f"goal {_xyz(g)} is out of reach of arm {a!r} (wrist centre "
-                    f"{far:.3f} m from the shoulder, reach {_REACH:.3f} m)",
+                    f"{far:.3f} m from the shoulder, reach {model.reach_m:.3f} m)",
                     0.0, q, math.inf, 0.0, (math.inf, math.inf), None, t_wall, 0,
                 )  # fmt: skip
 
@@ -827,22 +826,14 @@ class KinematicSimulator:
                 self._coarse = KinematicSimulator(
                     self.robot, dt=0.05, time_budget_s=8.0, stall_s=1.0, actions=self.actions
                 )
-            hit = self._wrist_distance(arm, pose.xyz) <= _REACH + 1e-3 and (
+            model = self.robot.arm(arm)
+            hit = model.wrist_distance(pose.xyz) <= model.reach_m and (
                 self._coarse.simulate(arm, "transport", pose, record=False).success
             )
             self._reach_cache[key] = hit
         return hit
 
     # -- internals ------------------------------------------------------------------------------
-
-    def _wrist_distance(self, arm: str, tcp: Array) -> float:
-        """Shoulder-to-wrist-centre distance for a top-down TCP at ``tcp`` (the wrist centre is
-        the flange plus hand length above it, offset by the 8.8 cm of the last link)."""
-        m = self.robot.arm(arm)
-        wrist = np.asarray(tcp, dtype=float) + np.array([0.0, 0.0, PANDA_FLANGE_Z + PANDA_TCP_Z])
-        d = wrist - m.shoulder_xyz
-        horiz = max(math.hypot(d[0], d[1]) - 0.088, 0.0)
-        return math.hypot(horiz, d[2])
 
     def _goals(
         self, spec: ActionSpec, arms: list[str], q: Array, pose: Pose | None
@@ -930,7 +921,8 @@ class KinematicSimulator:
         causes = []
         for a in arms:
             g = goals[a].position
-            if g is not None and self._wrist_distance(a, g) > _REACH - 0.02:
+            model = self.robot.arm(a)
+            if g is not None and model.wrist_distance(g) > model.reach_m - 0.03:
                 causes.append(f"target at the edge of or beyond the reach of arm {a!r}")
         for level in ctrl.levels:
             for obj in level:
