@@ -707,7 +707,7 @@ def build_objectives(
 _dposv: Any = None
 
 
-def _load_lapack() -> None:
+def load_lapack() -> None:
     """Import LAPACK's ``dposv`` once (scipy's import takes a while: not inside a timed step)."""
     global _dposv
     if _dposv is None:
@@ -725,7 +725,7 @@ def _spd_solve(M: Array, B: Array) -> Array:
     call takes ~3 us, and the controller does two per level per step.
     """
     if _dposv is None:
-        _load_lapack()
+        load_lapack()
         if _dposv is None:  # pragma: no cover - scipy is part of the sim extra
             return np.linalg.solve(M, B)
     _, x, info = _dposv(M, B)
@@ -770,7 +770,7 @@ class TaskPriorityController:
         eta: float = 1.0,
         velocity_scale: float = 1.0,
     ):
-        _load_lapack()
+        load_lapack()
         self.robot = robot
         self.arms = [robot.arm(a) for a in arms]
         self.names = list(arms)

@@ -49,8 +49,8 @@ from flexhrc.action.control import (
     MinimumDistance,
     ObjectiveSpec,
     TaskPriorityController,
-    _load_lapack,
     build_objectives,
+    load_lapack,
     parse_obstacle,
     rotation_log,
     top_down_rotation,
@@ -541,7 +541,7 @@ class KinematicSimulator:
         if dt <= 0 or time_budget_s <= 0:
             raise FlexhrcError("dt and time_budget_s must be positive")
         self.robot = robot if robot is not None else load_robot()
-        _load_lapack()
+        load_lapack()
         self.dt = float(dt)
         self.time_budget_s = float(time_budget_s)
         self.pos_tol = position_tolerance_m
