@@ -53,6 +53,15 @@ def test_regularised_pinv_fades_out_continuously_with_activation():
 def test_rotation_log_round_trip():
     R = top_down_rotation(0.7) @ top_down_rotation(0.2).T
     np.testing.assert_allclose(rotation_log(R), [0, 0, 0.5], atol=1e-12)
+    from scipy.spatial.transform import Rotation
+
+    rng = np.random.default_rng(3)
+    for _ in range(200):
+        v = rng.normal(size=3)
+        v *= rng.uniform(0.0, math.pi - 1e-3) / np.linalg.norm(v)
+        np.testing.assert_allclose(rotation_log(Rotation.from_rotvec(v).as_matrix()), v, atol=1e-7)
+    half_turn = rotation_log(Rotation.from_rotvec([0, 0, math.pi]).as_matrix())
+    assert abs(float(np.linalg.norm(half_turn)) - math.pi) < 1e-9
 
 
 # -- obstacles as data --------------------------------------------------------------------------

@@ -197,21 +197,26 @@ def skew(v: Array) -> Array:
 
 
 def rotation_log(R: Array) -> Array:
-    """Rotation vector (axis * angle) of a rotation matrix (the SO(3) logarithm)."""
-    cos = (R[0, 0] + R[1, 1] + R[2, 2] - 1.0) * 0.5
-    cos = min(1.0, max(-1.0, cos))
+    """Rotation vector (axis * angle) of a rotation matrix (the SO(3) logarithm).
+
+    Plain float arithmetic on the nine entries (read at once with ``tolist``): this runs at
+    every control step, where numpy's per-call overhead would dominate a 3x3 computation.
+    """
+    (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = R.tolist()
+    cos = min(1.0, max(-1.0, (r00 + r11 + r22 - 1.0) * 0.5))
     angle = math.acos(cos)
-    w = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
+    wx, wy, wz = r21 - r12, r02 - r20, r10 - r01
     if angle < 1e-9:
-        return 0.5 * w
-    if math.pi - angle < 1e-6:  # near pi: axis from the symmetric part
-        B = 0.5 * (R + np.eye(3))
+        return np.array([0.5 * wx, 0.5 * wy, 0.5 * wz])
+    if math.pi - angle < 1e-6:  # near pi: axis from the symmetric part (R + I) / 2
+        B = 0.5 * (np.asarray(R) + np.eye(3))
         i = int(np.argmax(np.diag(B)))
-        axis = B[:, i] / math.sqrt(max(B[i, i], 1e-12))
-        if w @ axis < 0:
+        axis = B[:, i] / math.sqrt(max(float(B[i, i]), 1e-12))
+        if wx * axis[0] + wy * axis[1] + wz * axis[2] < 0:
             axis = -axis
         return angle * axis
-    return (angle / (2.0 * math.sin(angle))) * w
+    k = angle / (2.0 * math.sin(angle))
+    return np.array([k * wx, k * wy, k * wz])
 
 
 def top_down_rotation(yaw: float = 0.0) -> Array:
@@ -873,8 +878,9 @@ class TaskPriorityController:
         """Velocity limits (uniform scaling) and a joint-range guard for one Euler step."""
         ratio = float((np.abs(qdot) * self._inv_v_max).max())
         if ratio > 1.0:
-            qdot = qdot / ratio
-        return np.minimum(np.maximum(qdot, (self.q_min - q) / dt), (self.q_max - q) / dt)
+            qdot = qdot * (1.0 / ratio)
+        inv_dt = 1.0 / dt
+        return np.minimum(np.maximum(qdot, (self.q_min - q) * inv_dt), (self.q_max - q) * inv_dt)
 
     def goal_error(self) -> tuple[float, float]:
         """Largest position (m) and angular/joint (rad) error over the goal objectives, as
