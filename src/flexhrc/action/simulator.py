@@ -738,11 +738,13 @@ class KinematicSimulator:
                 )
                 break
             # A slowed arm (velocity_scale < 1) executes a fraction of what is commanded.
-            qdot = ctrl.saturate(q, qdot * velocity_scale, dt)
+            if velocity_scale != 1.0:
+                qdot = qdot * velocity_scale
+            qdot = ctrl.saturate(q, qdot, dt)
             q = q + qdot * dt
             energy += 0.5 * float(qdot @ qdot) * dt
-            t += dt
             step += 1
+            t = step * dt  # not a running sum: no drift over thousands of steps
         duration += t
         if success and spec.gripper == "close":
             duration += spec.gripper_time_s
