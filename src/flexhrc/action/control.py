@@ -31,7 +31,14 @@ least squares of Nakamura/Wampler in place of the paper's singular-value bell)::
 
 ``X^T A X`` is the sum of the activation-weighted term ``X^T A^2 X`` and the task-oriented
 regularisation ``X^T (I - A) A X`` of the iCAT formulation, so a row whose activation goes to zero
-fades out continuously: switching an obstacle on or off never makes the velocity jump.
+fades out continuously as the arm approaches or leaves the transition zone.
+
+Inequality rows are one-sided: their reference is ``K max(0, bound - x)`` (brake inside the
+transition zone, push back past the bound), and a row is switched off for a step when a first
+solution of the equality objectives alone already moves away from its bound (otherwise it would
+also hold back a motion that is safe). The lowest joint-space level (the posture used for
+redundancy resolution) is the null-space term ``rho += Q (xdot - rho)`` of Liegeois, which is what
+the recursion gives for an identity Jacobian and a projector ``Q``.
 
 Velocity limits are the top priority in the form of the paper's saturation: the final ``rho`` is
 scaled uniformly (direction, hence the hierarchy, kept) so no joint exceeds its velocity limit, and
