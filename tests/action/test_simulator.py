@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import subprocess
@@ -188,3 +189,28 @@ def test_outcome_cache_returns_copies_of_identical_requests():
     np.testing.assert_array_equal(c.final_q["left"], a.final_q["left"])
     d = sim.simulate("left", "transport", [0.5, 0.1, 0.2 + 1e-9])  # another request
     assert d.wall_s > 0.0
+
+
+def test_any_junk_target_or_obstacle_is_a_flexhrc_error():
+    from hypothesis import given, settings
+    from hypothesis import strategies as st
+
+    from flexhrc.action.control import parse_obstacle
+
+    junk = st.one_of(
+        st.none(),
+        st.text(max_size=5),
+        st.floats(allow_nan=True, allow_infinity=True),
+        st.lists(st.one_of(st.floats(), st.text(max_size=3), st.none()), max_size=8),
+        st.dictionaries(st.sampled_from(["type", "center", "radius", "position", "yaw"]),
+                        st.one_of(st.text(max_size=4), st.floats(), st.lists(st.floats()))),
+    )  # fmt: skip
+
+    @settings(max_examples=300, deadline=None)
+    @given(junk)
+    def check(value):
+        for parse in (Pose.coerce, parse_obstacle):
+            with contextlib.suppress(FlexhrcError):  # anything else fails the test
+                parse(value)
+
+    check()
