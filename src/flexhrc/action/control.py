@@ -33,12 +33,15 @@ least squares of Nakamura/Wampler in place of the paper's singular-value bell)::
 regularisation ``X^T (I - A) A X`` of the iCAT formulation, so a row whose activation goes to zero
 fades out continuously as the arm approaches or leaves the transition zone.
 
-Inequality rows are one-sided: their reference is ``K max(0, bound - x)`` (brake inside the
-transition zone, push back past the bound), and a row is switched off for a step when a first
-solution of the equality objectives alone already moves away from its bound (otherwise it would
-also hold back a motion that is safe). The lowest joint-space level (the posture used for
-redundancy resolution) is the null-space term ``rho += Q (xdot - rho)`` of Liegeois, which is what
-the recursion gives for an identity Jacobian and a projector ``Q``.
+Inequality rows are one-sided. Their reference ``K (bound - x)`` is, inside the transition zone,
+the fastest approach allowed, shrinking to zero at the bound (a velocity damper), and past the
+bound a push back; a row is switched off for a step when a first solution of the equality
+objectives alone already respects it (moves away, or approaches slowly enough), so it never holds
+back a safe motion and a goal inside the transition zone is reached at full speed.
+
+The lowest joint-space level (the posture used for redundancy resolution) is the null-space term
+``rho += Q (xdot - rho)`` of Liegeois, which is what the recursion gives for an identity Jacobian
+and a projector ``Q``.
 
 Velocity limits are the top priority in the form of the paper's saturation: the final ``rho`` is
 scaled uniformly (direction, hence the hierarchy, kept) so no joint exceeds its velocity limit, and
@@ -316,9 +319,9 @@ class Objective:
 class JointLimits(Objective):
     """Inequality ``q_min + margin <= q <= q_max - margin`` for every joint of the controlled arms.
 
-    Active within ``width`` rad of the margin. The reference is ``K max(0, bound - q)``: zero in the
-    transition zone, where the activation only brakes the motion towards the limit (the closer,
-    the harder), and a push back past the bound. Pushing back to the far edge of the zone instead
+    Active within ``width`` rad of the margin. The reference is ``K (bound - q)`` (row oriented
+    away from the limit): in the transition zone the fastest approach allowed, zero at the bound,
+    and a push back past it. Pushing back to the far edge of the zone instead
     (``x* = bound + width``) would make any goal that needs a joint inside the zone unreachable.
     """
 
@@ -351,11 +354,7 @@ class JointLimits(Objective):
             return None
         lower = a_lo[rows] >= a_hi[rows]
         # Row sign: +q_i for a lower bound, -q_i for an upper one (positive = away from it).
-        ref = self.gain * np.where(
-            lower,
-            np.maximum(self.lo[rows] - q[rows], 0.0),
-            np.maximum(q[rows] - self.hi[rows], 0.0),
-        )
+        ref = self.gain * np.where(lower, self.lo[rows] - q[rows], q[rows] - self.hi[rows])
         J = np.zeros((rows.size, ctx.n))
         J[np.arange(rows.size), rows] = np.where(lower, 1.0, -1.0)
         return Task(J, ref, act[rows], inequality=True)
@@ -365,8 +364,9 @@ class MinimumDistance(Objective):
     """Inequality ``distance(TCP, obstacle) >= d_min`` for every obstacle and every controlled arm.
 
     One row per (arm, obstacle) pair that is closer than ``d_min + width``: its Jacobian is the
-    obstacle normal times the TCP linear Jacobian, its reference is ``K max(0, d_min - d)`` (brake
-    in the transition zone, push back inside ``d_min``; see :class:`JointLimits`).
+    obstacle normal times the TCP linear Jacobian, its reference is ``K (d_min - d)`` (the fastest
+    approach allowed in the transition zone, a push back inside ``d_min``; see
+    :class:`JointLimits`).
     A human hand is a :class:`Sphere` of radius 0 with its own (larger) ``d_min``: build a second
     objective of this kind for it, usually at the same top priority.
     """
@@ -380,7 +380,7 @@ class MinimumDistance(Objective):
         *,
         d_min: float = 0.05,
         width: float = 0.04,
-        gain: float = 2.0,
+        gain: float = 4.0,
         label: str = "obstacle",
     ):
         super().__init__(priority)
@@ -401,7 +401,7 @@ class MinimumDistance(Objective):
                 row = np.zeros(ctx.n)
                 row[k.cols] = nrm @ k.J[:3]
                 rows_J.append(row)
-                refs.append(self.gain * max(self.d_min - d, 0.0))
+                refs.append(self.gain * (self.d_min - d))
                 acts.append(a)
                 ctx.avoid.setdefault(name, []).append((nrm, a))
         if not acts:
