@@ -241,7 +241,7 @@ class ExecutionManager:
 
     # -- commands -------------------------------------------------------------------------------
 
-    def expected_duration(self, command: Command) -> ActionOutcome:
+    def prior_simulation(self, command: Command) -> ActionOutcome:
         """The prior simulation: the command on the nominal model, in the believed world."""
         return self.sim.simulate(
             command.arm, command.action, command.target, start=self.state,
@@ -261,7 +261,7 @@ class ExecutionManager:
                 raise FlexhrcError(f"timeout_s must be positive, got {cmd.timeout_s}")
             timeout = float(cmd.timeout_s)
         else:
-            prior = self.expected_duration(cmd)
+            prior = self.prior_simulation(cmd)
             expected = prior.duration_s if prior.success else None
             timeout = (
                 expected or self.sim.time_budget_s
@@ -272,7 +272,7 @@ class ExecutionManager:
             if d.kind != "object_moved" and (d.arm is None or d.arm in arms)
         ]
         speed = self._speed(arms)
-        scheduled, self.scheduled = self.scheduled, []
+        scheduled = list(self.scheduled)
         events = [
             SimEvent(
                 float(d.at_s or 0.0),
@@ -290,6 +290,7 @@ class ExecutionManager:
             time_budget_s=timeout, velocity_scale=speed, events=events,
         )  # fmt: skip
         self.state = out.final_state
+        self.scheduled = []
         # What happened during the command is now part of the world.
         moved_during = []
         for d in scheduled:
