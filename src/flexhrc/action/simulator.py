@@ -1,0 +1,1009 @@
+"""In-the-loop kinematic simulator: run an action's controller on the robot model, faster than
+real time, and tell the Task Manager whether it succeeds, how long it takes and at what cost.
+
+Paper 000, section III and V-A: the Simulator "replicates Controller operations, integrating its
+output to simulate the robot behaviour", and returns success or failure, execution time, final
+pose and an energy estimate; a simulation is successful "if the agent can reach its given goal in
+a defined time interval". Here an action is:
+
+* an :class:`ActionSpec` — data: which objectives, with which priorities and parameters (the
+  hierarchy), where the goal lies relative to the target (above it, at it, a retreat, the rest
+  posture, a screwing turn), and what the gripper does;
+* a target :class:`Pose` (position in the world frame of :mod:`flexhrc.action.robots`, plus a yaw
+  about the vertical for the top-down grasp) and the current :class:`RobotState`.
+
+:meth:`KinematicSimulator.simulate` builds the objectives of :mod:`flexhrc.action.control`,
+integrates ``q += qdot dt`` (explicit Euler, simulated time, fixed step ``dt``) and stops when
+
+* every goal objective is within tolerance (success),
+* the goal error has not improved for ``stall_s`` simulated seconds: success if it has settled
+  within ``settle`` times the tolerances, else failure (stalled — the reason names the likely
+  cause: out of reach, blocked by an obstacle, kept away by the human hand, a joint limit), or
+* the time budget is spent (failure: timed out).
+
+Actions (:data:`ACTIONS`): ``approach`` (TCP 10 cm above the target), ``grasp`` (down to the
+target, close the gripper), ``transport`` (carry the held object so the TCP ends at the target),
+``screw`` (turn the TCP about the vertical at the target), ``ungrasp`` (open, retreat 10 cm up),
+``rest`` (joint posture of the arm's rest configuration), ``hand_over`` (bring the held object to
+the middle pose where the human takes it). ``arm="both"`` runs the two arms together: the target is
+the object's centre, each hand grasps it ``span_m / 2`` to its own side, and while transporting
+the :class:`~flexhrc.action.control.RelativePose` objective keeps the grasp rigid.
+
+Nothing here sleeps or reads a clock except ``wall_s`` (compute time, reported for benchmarks).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import time
+from collections import OrderedDict
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from flexhrc.action.control import (
+    DEFAULT_HIERARCHY,
+    ArmGoal,
+    MinimumDistance,
+    ObjectiveSpec,
+    TaskPriorityController,
+    build_objectives,
+    load_lapack,
+    parse_obstacle,
+    rotation_log,
+    top_down_rotation,
+    yaw_of,
+)
+from flexhrc.action.robots import ARM_NAMES, DualArmRobot, load_robot
+from flexhrc.errors import FlexhrcError, UnknownNameError
+
+Array = np.ndarray
+
+#: Where a hand-over happens: in the middle of the table, between robot and human (paper Fig. 12).
+MIDDLE_POSE: tuple[float, float, float] = (0.55, 0.0, 0.30)
+
+
+# ----------------------------------------------------------------------------------------------
+# Data: poses, states, action definitions, outcomes
+# ----------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Pose:
+    """A top-down TCP target: position (m, world frame) and yaw about the vertical (rad)."""
+
+    position: tuple[float, float, float]
+    yaw: float = 0.0
+
+    @classmethod
+    def coerce(cls, value: Any, what: str = "target") -> Pose:
+        """A :class:`Pose` from a Pose, 3 numbers ``x y z``, or a mapping with ``position``
+        (and ``yaw``); raises :class:`FlexhrcError` naming ``what`` otherwise."""
+        if isinstance(value, Pose):
+            return value
+        if isinstance(value, Mapping):
+            pos = value.get("position", value.get("xyz"))
+            yaw = value.get("yaw", 0.0)
+        else:
+            pos, yaw = value, 0.0
+        if isinstance(pos, str | bytes):
+            raise FlexhrcError(f"{what} must be 3 numbers (x y z in metres), got {pos!r}")
+        try:
+            nums = [float(v) for v in pos]
+            yaw = float(yaw)
+        except (TypeError, ValueError):
+            raise FlexhrcError(
+                f"{what} must be 3 numbers (x y z in metres), got {value!r}"
+            ) from None
+        if len(nums) != 3 or not all(math.isfinite(v) for v in [*nums, yaw]):
+            raise FlexhrcError(f"{what} must be 3 finite numbers (x y z in metres), got {value!r}")
+        return cls((nums[0], nums[1], nums[2]), yaw)
+
+    @property
+    def xyz(self) -> Array:
+        return np.array(self.position, dtype=float)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"position": list(self.position), "yaw": self.yaw}
+
+
+@dataclass(frozen=True)
+class SimEvent:
+    """A change of the world during one simulated action, ``t_s`` seconds after it starts: an
+    ``obstacle`` appears and/or the arm's ``velocity_scale`` changes (a disturbance)."""
+
+    t_s: float
+    obstacle: Any = None
+    velocity_scale: float | None = None
+
+    def __post_init__(self) -> None:
+        if not math.isfinite(self.t_s) or self.t_s < 0:
+            raise FlexhrcError(f"event time must be >= 0 s, got {self.t_s}")
+        if self.velocity_scale is not None and not 0.0 < self.velocity_scale <= 1.0:
+            raise FlexhrcError(f"velocity_scale must be in (0, 1], got {self.velocity_scale}")
+        if self.obstacle is not None:
+            parse_obstacle(self.obstacle, "event obstacle")
+
+
+@dataclass
+class RobotState:
+    """Joint configuration of every arm and whether each arm holds an object."""
+
+    q: dict[str, Array]
+    holding: dict[str, bool] = field(default_factory=dict)
+
+    @classmethod
+    def rest(cls, robot: DualArmRobot) -> RobotState:
+        return cls(robot.rest_configuration(), {a: False for a in robot.arm_names})
+
+    def copy(self) -> RobotState:
+        return RobotState({a: q.copy() for a, q in self.q.items()}, dict(self.holding))
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "q": {a: [round(float(v), 6) for v in q] for a, q in self.q.items()},
+            "holding": dict(self.holding),
+        }
+
+
+@dataclass(frozen=True)
+class ActionSpec:
+    """Definition of one control action, as data.
+
+    ``goal`` says where the TCP goes: ``"above"`` (``approach_height`` above the target),
+    ``"target"``, ``"retreat"`` (``approach_height`` above where the TCP is), ``"rest"`` (the arm's
+    rest posture), ``"screw"`` (at the target, turned by ``turn_rad`` about the vertical).
+    ``gripper`` is ``"close"`` (after the motion) or ``"open"`` (before it) or None; it takes
+    ``gripper_time_s``. ``hierarchy`` lists the objectives and their priorities; ``speed_scale``
+    scales the joint velocity limits (e.g. carrying a heavy part). ``yaw_period`` is the symmetry
+    of the grasp about the vertical: a parallel gripper closing on a leg grasps it the same way at
+    ``yaw`` and ``yaw + pi``, so the hand turns to whichever equivalent yaw keeps the last joint
+    away from its limits with the least rotation (``0`` disables this: the yaw is taken as is).
+    ``untargeted_offset``: called without a target, the action aims at the current TCP (the
+    middle of both TCPs for ``both``) moved by this offset, at the current yaw — ``grasp`` goes
+    straight down from where ``approach`` left the hand, ``screw`` turns the hand where it is.
+    """
+
+    name: str
+    goal: str = "target"
+    hierarchy: tuple[ObjectiveSpec, ...] = DEFAULT_HIERARCHY
+    gripper: str | None = None
+    gripper_time_s: float = 0.5
+    approach_height: float = 0.10
+    turn_rad: float = math.pi / 2
+    speed_scale: float = 1.0
+    default_target: tuple[float, float, float] | None = None
+    yaw_period: float = math.pi
+    untargeted_offset: tuple[float, float, float] | None = None
+
+    def __post_init__(self) -> None:
+        if self.goal not in ("above", "target", "retreat", "rest", "screw"):
+            raise FlexhrcError(f"action {self.name!r}: unknown goal kind {self.goal!r}")
+        if self.gripper not in (None, "open", "close"):
+            raise FlexhrcError(f"action {self.name!r}: gripper must be 'open', 'close' or None")
+
+    @property
+    def needs_target(self) -> bool:
+        return (
+            self.goal in ("above", "target", "screw")
+            and self.default_target is None
+            and self.untargeted_offset is None
+        )
+
+    def with_priorities(self, **priorities: int) -> ActionSpec:
+        """A copy whose objectives of the given kinds get new priorities (``obstacles=0``...)."""
+        return replace(
+            self,
+            hierarchy=tuple(
+                replace(s, priority=priorities.get(s.kind, s.priority)) for s in self.hierarchy
+            ),
+        )
+
+    def with_params(self, kind: str, **params: float) -> ActionSpec:
+        """A copy whose objectives of ``kind`` get extra parameters (``max_speed=0.1``...)."""
+        return replace(
+            self,
+            hierarchy=tuple(
+                replace(s, params={**s.params, **params}) if s.kind == kind else s
+                for s in self.hierarchy
+            ),
+        )
+
+    def without(self, *kinds: str) -> ActionSpec:
+        """A copy without the objectives of the given kinds."""
+        return replace(self, hierarchy=tuple(s for s in self.hierarchy if s.kind not in kinds))
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "name": self.name,
+            "goal": self.goal,
+            "gripper": self.gripper,
+            "gripper_time_s": self.gripper_time_s,
+            "approach_height": self.approach_height,
+            "turn_rad": self.turn_rad,
+            "speed_scale": self.speed_scale,
+            "default_target": None if self.default_target is None else list(self.default_target),
+            "yaw_period": self.yaw_period,
+            "untargeted_offset": None
+            if self.untargeted_offset is None
+            else list(self.untargeted_offset),
+            "hierarchy": [s.to_dict() for s in self.hierarchy],
+        }
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> ActionSpec:
+        """An action definition from data (e.g. a YAML file): the keys of :meth:`to_dict`;
+        ``hierarchy`` is a list of ``{kind, priority, params}`` (default: the paper's)."""
+        if "name" not in data:
+            raise FlexhrcError("action definition needs a 'name'")
+        known = {f for f in cls.__dataclass_fields__}
+        unknown = set(data) - known
+        if unknown:
+            raise FlexhrcError(
+                f"action {data['name']!r}: unknown keys {', '.join(sorted(unknown))}"
+            )
+        kwargs = dict(data)
+        if "hierarchy" in kwargs:
+            try:
+                kwargs["hierarchy"] = tuple(
+                    ObjectiveSpec(str(o["kind"]), int(o["priority"]), dict(o.get("params", {})))
+                    for o in kwargs["hierarchy"]
+                )
+            except UnknownNameError:
+                raise
+            except (KeyError, TypeError, ValueError) as exc:
+                raise FlexhrcError(
+                    f"action {data['name']!r}: each hierarchy entry needs 'kind' and an integer "
+                    f"'priority' ({exc})"
+                ) from None
+        for key in ("default_target", "untargeted_offset"):
+            if kwargs.get(key) is not None:
+                kwargs[key] = Pose.coerce(kwargs[key], key).position
+        return cls(**kwargs)
+
+
+_NO_HUMAN = tuple(s for s in DEFAULT_HIERARCHY if s.kind != "human")
+
+#: The actions of the table assembly (paper 000, Fig. 8 and section VI), as data.
+ACTIONS: dict[str, ActionSpec] = {
+    "approach": ActionSpec("approach", goal="above"),
+    "grasp": ActionSpec("grasp", goal="target", gripper="close", untargeted_offset=(0, 0, -0.1)),
+    "transport": ActionSpec("transport", goal="target"),
+    "screw": ActionSpec("screw", goal="screw", untargeted_offset=(0.0, 0.0, 0.0)),
+    "ungrasp": ActionSpec("ungrasp", goal="retreat", gripper="open"),
+    "rest": ActionSpec("rest", goal="rest"),
+    # The human's hand is expected at the hand-over pose: no minimum distance to it there.
+    "hand_over": ActionSpec("hand_over", goal="target", hierarchy=_NO_HUMAN,
+                            default_target=MIDDLE_POSE),
+}  # fmt: skip
+
+
+@dataclass
+class Trajectory:
+    """Sampled motion: times (N,), stacked joint positions (N, 7 x arms) and TCP positions."""
+
+    arms: tuple[str, ...]
+    t: Array
+    q: Array
+    tcp: dict[str, Array]
+
+    def arm_q(self, arm: str) -> Array:
+        i = self.arms.index(arm)
+        return self.q[:, 7 * i : 7 * i + 7]
+
+    def __len__(self) -> int:
+        return int(self.t.shape[0])
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "t": np.round(self.t, 4).tolist(),
+            "q": {a: np.round(self.arm_q(a), 5).tolist() for a in self.arms},
+            "tcp": {a: np.round(p, 5).tolist() for a, p in self.tcp.items()},
+        }
+
+    @staticmethod
+    def concatenate(parts: Sequence[Trajectory]) -> Trajectory:
+        """Chain trajectories in time (each part starts where the previous ended)."""
+        arms = tuple(dict.fromkeys(a for p in parts for a in p.arms))
+        ts: list[Array] = []
+        qs: list[tuple[str, Array | None, int]] = []
+        tcps: dict[str, list[Array]] = {a: [] for a in arms}
+        offset = 0.0
+        for p in parts:
+            if len(p) == 0:
+                continue
+            ts.append(p.t + offset)
+            offset = float(ts[-1][-1])
+            for a in arms:
+                if a in p.arms:
+                    qs_a = p.arm_q(a)
+                    tcps[a].append(p.tcp[a])
+                else:  # arm idle in this part: hold its last known value
+                    qs_a = None
+                    tcps[a].append(np.full((len(p), 3), np.nan))
+                qs.append((a, qs_a, len(p)))
+        q_cols: dict[str, list[Array]] = {a: [] for a in arms}
+        last: dict[str, Array | None] = {a: None for a in arms}
+        for a, qa, n in qs:
+            if qa is None:
+                held = last[a]
+                qa = np.tile(np.full(7, np.nan) if held is None else held, (n, 1))
+            q_cols[a].append(qa)
+            last[a] = qa[-1]
+        t = np.concatenate(ts) if ts else np.zeros(0)
+        q = (
+            np.hstack([np.concatenate(q_cols[a]) for a in arms])
+            if ts
+            else np.zeros((0, 7 * len(arms)))
+        )
+        tcp = {a: np.concatenate(tcps[a]) if ts else np.zeros((0, 3)) for a in arms}
+        return Trajectory(arms, t, q, tcp)
+
+
+@dataclass
+class ActionOutcome:
+    """What the Simulator tells the Task Manager about one action."""
+
+    action: str
+    arm: str
+    success: bool
+    reason: str
+    duration_s: float
+    final_state: RobotState
+    min_distance_m: float
+    energy: float
+    final_error_m: float
+    final_error_rad: float
+    trajectory: Trajectory
+    wall_s: float
+    steps: int
+
+    @property
+    def final_q(self) -> dict[str, Array]:
+        return self.final_state.q
+
+    def to_dict(self, trajectory: bool = False) -> dict[str, Any]:
+        d: dict[str, Any] = {
+            "action": self.action,
+            "arm": self.arm,
+            "success": self.success,
+            "reason": self.reason,
+            "duration_s": round(self.duration_s, 4),
+            "wall_s": round(self.wall_s, 6),
+            "final_error_m": _num(self.final_error_m, 6),
+            "final_error_rad": _num(self.final_error_rad, 6),
+            "min_distance_m": _num(self.min_distance_m, 5),
+            "energy": round(self.energy, 5),
+            "steps": self.steps,
+            "final_q": self.final_state.to_dict()["q"],
+            "holding": dict(self.final_state.holding),
+        }
+        if trajectory:
+            d["trajectory"] = self.trajectory.to_dict()
+        return d
+
+
+@dataclass
+class SequenceOutcome:
+    """Outcome of a chain of actions, each starting from the final state of the previous one."""
+
+    success: bool
+    reason: str
+    outcomes: list[ActionOutcome]
+    final_state: RobotState
+
+    @property
+    def duration_s(self) -> float:
+        return sum(o.duration_s for o in self.outcomes)
+
+    @property
+    def energy(self) -> float:
+        return sum(o.energy for o in self.outcomes)
+
+    @property
+    def min_distance_m(self) -> float:
+        return min((o.min_distance_m for o in self.outcomes), default=math.inf)
+
+    @property
+    def wall_s(self) -> float:
+        return sum(o.wall_s for o in self.outcomes)
+
+    def trajectory(self) -> Trajectory:
+        return Trajectory.concatenate([o.trajectory for o in self.outcomes])
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "success": self.success,
+            "reason": self.reason,
+            "duration_s": round(self.duration_s, 4),
+            "wall_s": round(self.wall_s, 6),
+            "energy": round(self.energy, 5),
+            "min_distance_m": _num(self.min_distance_m, 5),
+            "actions": [o.to_dict() for o in self.outcomes],
+        }
+
+
+# ----------------------------------------------------------------------------------------------
+# The simulator
+# ----------------------------------------------------------------------------------------------
+
+
+_POOL: Any = None
+
+
+def _single_threaded() -> Any:
+    """Keep BLAS/OpenMP single-threaded while integrating.
+
+    The controller multiplies 7x7 and 14x14 matrices thousands of times per action; OpenBLAS
+    worker threads only add wake-up latency at that size (measured: 45 ms -> 28 ms for a 5 s
+    transport on a busy 2-core machine). ``threadpoolctl`` (in the ``sim`` extra) limits the pools
+    for the duration of one simulation only (~30 us) and restores them afterwards; without it
+    this is a no-op.
+    """
+    global _POOL
+    if _POOL is None:
+        try:
+            from threadpoolctl import ThreadpoolController
+
+            _POOL = ThreadpoolController()
+        except ImportError:  # pragma: no cover - optional
+            _POOL = False
+    if _POOL is False:
+        return contextlib.nullcontext()
+    return _POOL.limit(limits=1)
+
+
+def _cache_key(
+    arm: Any, action: Any, target: Any, start: RobotState | None, obstacles: list[Any],
+    human_hand: Any, budget: Any, velocity_scale: Any, record: bool, events: Sequence[Any],
+) -> tuple[Any, ...] | None:  # fmt: skip
+    """A hashable summary of a simulation request (None when something is not representable)."""
+    try:
+        state = None
+        if start is not None:
+            state = (
+                tuple((a, np.asarray(q, dtype=float).round(10).tobytes()) for a, q in
+                      sorted(start.q.items())),
+                tuple(sorted(start.holding.items())),
+            )  # fmt: skip
+        tgt: Any = target
+        if target is not None and not isinstance(target, Pose | Mapping):
+            tgt = tuple(float(v) for v in target)  # exact, unlike the repr of an array
+        elif isinstance(target, Mapping):
+            tgt = repr(sorted(target.items()))
+        act = action if isinstance(action, str) else repr(action)
+        obs = tuple(parse_obstacle(o, f"obstacle {i + 1}") for i, o in enumerate(obstacles))
+        hand = None if human_hand is None else tuple(float(v) for v in human_hand)
+        evs = tuple(
+            (e.t_s, None if e.obstacle is None else parse_obstacle(e.obstacle), e.velocity_scale)
+            for e in events
+        )
+        key = (arm, act, tgt, state, obs, hand, budget, velocity_scale, record, evs)
+        hash(key)
+        return key
+    except (
+        TypeError,
+        ValueError,
+        AttributeError,
+    ):  # pragma: no cover - unusual inputs: just do not cache
+        return None
+
+
+def _arms_of(arm: str, robot: DualArmRobot) -> list[str]:
+    if arm == "both":
+        return list(robot.arm_names)
+    robot.arm(arm)  # raises UnknownNameError naming the argument
+    return [arm]
+
+
+def _action_spec(action: str | ActionSpec, actions: Mapping[str, ActionSpec]) -> ActionSpec:
+    if isinstance(action, ActionSpec):
+        return action
+    key = str(action).replace("-", "_")
+    if key == "handover":
+        key = "hand_over"
+    try:
+        return actions[key]
+    except KeyError:
+        raise UnknownNameError(
+            f"unknown action {action!r} (argument 'action'); known actions: {', '.join(actions)}"
+        ) from None
+
+
+class KinematicSimulator:
+    """Simulate actions of the dual-arm robot with the task-priority controller.
+
+    Parameters: the robot (default: the shipped dual Panda), the control step ``dt`` (s), the
+    default time budget per action (s), goal tolerances, the stall window (an action whose error
+    has stopped improving for ``stall_s`` counts as reached if it is within ``settle`` times the
+    tolerances — 0.9 mm and 0.009 rad by default — and fails otherwise), and the action
+    definitions (default :data:`ACTIONS`; pass your own mapping to change hierarchies).
+
+    Simulations are deterministic, so the last ``cache_size`` outcomes are kept: asking again
+    for the same action from the same state in the same world (as a Task Manager re-scoring its
+    branches does) returns a copy at once, with ``wall_s = 0``. ``cache_size=0`` disables it.
+    """
+
+    def __init__(
+        self,
+        robot: DualArmRobot | None = None,
+        *,
+        dt: float = 0.02,
+        time_budget_s: float = 10.0,
+        position_tolerance_m: float = 5e-4,
+        orientation_tolerance_rad: float = 5e-3,
+        posture_tolerance_rad: float = 1e-2,
+        stall_s: float = 1.5,
+        settle: float = 1.8,
+        span_m: float = 0.2,
+        actions: Mapping[str, ActionSpec] | None = None,
+        cache_size: int = 256,
+    ):
+        if dt <= 0 or time_budget_s <= 0:
+            raise FlexhrcError("dt and time_budget_s must be positive")
+        self.robot = robot if robot is not None else load_robot()
+        load_lapack()
+        self.dt = float(dt)
+        self.time_budget_s = float(time_budget_s)
+        self.pos_tol = position_tolerance_m
+        self.rot_tol = orientation_tolerance_rad
+        self.posture_tol = posture_tolerance_rad
+        self.stall_s = stall_s
+        self.settle = settle
+        self.span_m = span_m
+        self.actions: dict[str, ActionSpec] = dict(ACTIONS if actions is None else actions)
+        self._reach_cache: dict[tuple[Any, ...], bool] = {}
+        self._coarse: KinematicSimulator | None = None
+        self.cache_size = int(cache_size)
+        self._cache: OrderedDict[Any, ActionOutcome] = OrderedDict()
+
+    # -- public API ---------------------------------------------------------------------------
+
+    def rest_state(self) -> RobotState:
+        return RobotState.rest(self.robot)
+
+    def simulate(
+        self,
+        arm: str,
+        action: str | ActionSpec,
+        target: Pose | Sequence[float] | None = None,
+        *,
+        start: RobotState | None = None,
+        obstacles: Iterable[Any] = (),
+        human_hand: Sequence[float] | None = None,
+        time_budget_s: float | None = None,
+        velocity_scale: float = 1.0,
+        record: bool = True,
+        events: Sequence[SimEvent] = (),
+    ) -> ActionOutcome:
+        """Simulate one action of ``arm`` (``left``, ``right`` or ``both``) from ``start``
+        (default: rest) towards ``target``; see the module docstring for the stop rules.
+
+        ``obstacles`` are spheres/boxes (see :func:`~flexhrc.action.control.parse_obstacle`);
+        ``human_hand`` is a point the TCPs keep their human minimum distance from.
+        ``velocity_scale`` < 1 makes the arm execute only that fraction of the commanded joint
+        velocities (the execution manager's ``slow_arm`` disturbance); ``events`` change the
+        world during the action (:class:`SimEvent`).
+        """
+        obstacles = list(obstacles)
+        key = None
+        if self.cache_size > 0:
+            key = _cache_key(
+                arm, action, target, start, obstacles, human_hand, time_budget_s, velocity_scale,
+                record, events,
+            )  # fmt: skip
+            hit = self._cache.get(key) if key is not None else None
+            if hit is not None:
+                self._cache.move_to_end(key)
+                return replace(hit, final_state=hit.final_state.copy(), wall_s=0.0)
+        with _single_threaded():
+            out = self._simulate(
+                arm, action, target, start=start, obstacles=obstacles, human_hand=human_hand,
+                time_budget_s=time_budget_s, velocity_scale=velocity_scale, record=record,
+                events=events,
+            )  # fmt: skip
+        if key is not None:
+            self._cache[key] = replace(out, final_state=out.final_state.copy())
+            if len(self._cache) > self.cache_size:
+                self._cache.popitem(last=False)
+        return out
+
+    def _simulate(
+        self,
+        arm: str,
+        action: str | ActionSpec,
+        target: Pose | Sequence[float] | None = None,
+        *,
+        start: RobotState | None = None,
+        obstacles: Iterable[Any] = (),
+        human_hand: Sequence[float] | None = None,
+        time_budget_s: float | None = None,
+        velocity_scale: float = 1.0,
+        record: bool = True,
+        events: Sequence[SimEvent] = (),
+    ) -> ActionOutcome:
+        """See :meth:`simulate`."""
+        t_wall = time.perf_counter()
+        spec = _action_spec(action, self.actions)
+        arms = _arms_of(arm, self.robot)
+        obs = [parse_obstacle(o, f"obstacle {i + 1}") for i, o in enumerate(obstacles)]
+        if human_hand is not None:
+            human_hand = tuple(Pose.coerce(human_hand, "human_hand").position)
+        budget = self.time_budget_s if time_budget_s is None else float(time_budget_s)
+        if budget <= 0:
+            raise FlexhrcError(f"time_budget_s must be positive, got {budget}")
+        state = (start or self.rest_state()).copy()
+        for a in arms:
+            if a not in state.q:
+                raise FlexhrcError(f"start state has no configuration for arm {a!r}")
+        if target is None and spec.default_target is not None:
+            target = spec.default_target
+        if target is None and spec.needs_target:
+            raise FlexhrcError(f"action {spec.name!r} needs a target (argument 'target')")
+        pose = Pose.coerce(target) if target is not None else None
+
+        q = np.concatenate([state.q[a] for a in arms]).astype(float)
+        goals, relative = self._goals(spec, arms, q, pose)
+
+        # Fast geometric rejection: the wrist centre of a top-down goal must be within the sum
+        # of the link lengths from the shoulder; no need to integrate to learn that.
+        for a in arms:
+            g = goals[a].position
+            if g is None:
+                continue
+            model = self.robot.arm(a)
+            far = model.wrist_distance(g)
+            if far > model.reach_m:
+                return self._outcome(
+                    spec, arm, arms, state, False,
+                    f"goal {_xyz(g)} is out of reach of arm {a!r} (wrist centre "
+                    f"{far:.3f} m from the shoulder, reach {model.reach_m:.3f} m)",
+                    0.0, q, math.inf, 0.0, (math.inf, math.inf), None, t_wall, 0,
+                )  # fmt: skip
+
+        duration = 0.0
+        if spec.gripper == "open":
+            duration += spec.gripper_time_s
+            for a in arms:
+                state.holding[a] = False
+
+        def controller() -> TaskPriorityController:
+            objectives = build_objectives(
+                spec.hierarchy, self.robot, arms, goals,
+                obstacles=obs, human_hand=human_hand, relative=relative,
+            )  # fmt: skip
+            return TaskPriorityController(
+                self.robot, arms, objectives, velocity_scale=spec.speed_scale
+            )
+
+        ctrl = controller()
+        pending = sorted(events, key=lambda e: e.t_s)
+        if not 0.0 < velocity_scale <= 1.0:
+            raise FlexhrcError(f"velocity_scale must be in (0, 1], got {velocity_scale}")
+        posture_goal = spec.goal == "rest"
+        tol_rot = self.posture_tol if posture_goal else self.rot_tol
+
+        dt = self.dt
+        max_steps = math.ceil(budget / dt - 1e-9)
+        rows = max_steps + 1 if record else 1
+        traj_t = np.empty(rows)
+        traj_q = np.empty((rows, ctrl.n))
+        traj_p = {a: np.empty((rows, 3)) for a in arms}
+        energy = 0.0
+        min_dist = math.inf
+        best = math.inf
+        best_t = 0.0
+        t = 0.0
+        step = 0
+        success = False
+        reason = ""
+        err = (math.inf, math.inf)
+        ctx = None
+        while True:
+            while pending and t >= pending[0].t_s - 1e-9:
+                ev = pending.pop(0)
+                if ev.velocity_scale is not None:
+                    velocity_scale = ev.velocity_scale
+                if ev.obstacle is not None:  # the world changed: rebuild the hierarchy
+                    obs.append(parse_obstacle(ev.obstacle, "event obstacle"))
+                    ctrl = controller()
+                best, best_t = math.inf, t  # judge progress afresh from here
+            ctx = ctrl.context(q)
+            qdot = ctrl.solve(ctx)
+            err = ctrl.goal_error()
+            min_dist = min(min_dist, ctx.min_distance)
+            if record:
+                traj_t[step] = t
+                traj_q[step] = q
+                for a in arms:
+                    traj_p[a][step] = ctx.arms[a].p
+            if err[0] <= self.pos_tol and err[1] <= tol_rot:
+                success = True
+                reason = "goal reached"
+                break
+            progress = err[0] + 0.1 * err[1]  # 1 rad of orientation weighs like 10 cm
+            if progress < best * 0.995 - 1e-6:
+                best, best_t = progress, t
+            elif t - best_t >= self.stall_s:
+                if err[0] <= self.settle * self.pos_tol and err[1] <= self.settle * tol_rot:
+                    # Converging too slowly to matter (at the edge of the workspace, or
+                    # braked by a joint limit) but already close: the goal is reached.
+                    success = True
+                    reason = f"goal reached (settled {err[0] * 1e3:.2f} mm / {err[1]:.4f} rad away)"
+                    break
+                cause = self._diagnose(arms, goals, ctrl, ctx) or "no progress"
+                reason = (
+                    f"stalled for {self.stall_s:g} s at {err[0]:.4f} m / {err[1]:.4f} rad from "
+                    f"the goal ({cause})"
+                )
+                break
+            if step >= max_steps:
+                cause = self._diagnose(arms, goals, ctrl, ctx)
+                reason = (
+                    f"timed out: time budget of {budget:g} s spent, still "
+                    f"{err[0]:.4f} m / {err[1]:.4f} rad from the goal"
+                    + (f" ({cause})" if cause else "")
+                )
+                break
+            # A slowed arm (velocity_scale < 1) executes a fraction of what is commanded.
+            if velocity_scale != 1.0:
+                qdot = qdot * velocity_scale
+            qdot = ctrl.saturate(q, qdot, dt)
+            q = q + qdot * dt
+            energy += 0.5 * float(qdot @ qdot) * dt
+            step += 1
+            t = step * dt  # not a running sum: no drift over thousands of steps
+        duration += t
+        if success and spec.gripper == "close":
+            duration += spec.gripper_time_s
+            for a in arms:
+                state.holding[a] = True
+        traj = None
+        if record:
+            traj = Trajectory(
+                tuple(arms),
+                traj_t[: step + 1].copy(),
+                traj_q[: step + 1].copy(),
+                {a: traj_p[a][: step + 1].copy() for a in arms},
+            )
+        return self._outcome(
+            spec, arm, arms, state, success, reason, duration, q, min_dist, energy, err, traj,
+            t_wall, step,
+        )  # fmt: skip
+
+    def simulate_sequence(
+        self,
+        arm: str,
+        steps: Sequence[tuple[str | ActionSpec, Pose | Sequence[float] | None]],
+        *,
+        start: RobotState | None = None,
+        obstacles: Iterable[Any] = (),
+        human_hand: Sequence[float] | None = None,
+        time_budget_s: float | None = None,
+        record: bool = True,
+    ) -> SequenceOutcome:
+        """Chain ``(action, target)`` steps, each from the final state of the previous one;
+        stops at the first failure (its reason becomes the sequence's reason)."""
+        obs = [parse_obstacle(o, f"obstacle {i + 1}") for i, o in enumerate(obstacles)]
+        state = (start or self.rest_state()).copy()
+        outcomes: list[ActionOutcome] = []
+        for action, target in steps:
+            out = self.simulate(
+                arm, action, target, start=state, obstacles=obs, human_hand=human_hand,
+                time_budget_s=time_budget_s, record=record,
+            )  # fmt: skip
+            outcomes.append(out)
+            state = out.final_state
+            if not out.success:
+                return SequenceOutcome(False, f"{out.action}: {out.reason}", outcomes, state)
+        return SequenceOutcome(True, "all actions succeeded", outcomes, state)
+
+    def pick_and_place(
+        self,
+        arm: str,
+        pick: Pose | Sequence[float],
+        place: Pose | Sequence[float],
+        **kwargs: Any,
+    ) -> SequenceOutcome:
+        """approach -> grasp -> transport -> ungrasp -> rest (the leg cycle of the table)."""
+        return self.simulate_sequence(
+            arm,
+            [
+                ("approach", pick),
+                ("grasp", pick),
+                ("transport", place),
+                ("ungrasp", None),
+                ("rest", None),
+            ],
+            **kwargs,
+        )
+
+    def reachable(self, arm: str, xyz: Sequence[float] | Pose, yaw: float | None = None) -> bool:
+        """Can ``arm`` put its TCP at ``xyz`` with a top-down grasp (within joint limits)?
+
+        A geometric bound first (wrist centre within the arm's reach), then the same controller
+        run from the rest posture with a coarser step (50 ms) and no obstacles, so the answer
+        agrees with what :meth:`simulate` will find. A few milliseconds; results are cached.
+        """
+        pose = Pose.coerce(xyz, "xyz")
+        if yaw is not None:
+            pose = Pose(pose.position, float(yaw))
+        self.robot.arm(arm)
+        key = (arm, *(round(v * 1000) for v in pose.position), round(pose.yaw * 1000))
+        hit = self._reach_cache.get(key)
+        if hit is None:
+            if self._coarse is None:
+                self._coarse = KinematicSimulator(
+                    self.robot, dt=0.05, time_budget_s=8.0, stall_s=1.0, actions=self.actions
+                )
+            model = self.robot.arm(arm)
+            hit = model.wrist_distance(pose.xyz) <= model.reach_m and (
+                self._coarse.simulate(arm, "transport", pose, record=False).success
+            )
+            self._reach_cache[key] = hit
+        return hit
+
+    # -- internals ------------------------------------------------------------------------------
+
+    def _goals(
+        self, spec: ActionSpec, arms: list[str], q: Array, pose: Pose | None
+    ) -> tuple[dict[str, ArmGoal], tuple[Array, Array] | None]:
+        cur: dict[str, tuple[Array, Array]] = {}
+        for i, a in enumerate(arms):
+            cur[a] = self.robot.arm(a).pose(q[7 * i : 7 * i + 7])
+        goals: dict[str, ArmGoal] = {}
+        relative = None
+        if spec.goal == "rest":
+            return {a: ArmGoal(posture=self.robot.arm(a).q_rest) for a in arms}, None
+        if spec.goal == "retreat":
+            up = np.array([0.0, 0.0, spec.approach_height])
+            return {a: ArmGoal(cur[a][0] + up, cur[a][1]) for a in arms}, None
+        if pose is None:
+            if spec.untargeted_offset is None:  # pragma: no cover - simulate checks needs_target
+                raise FlexhrcError(f"action {spec.name!r} needs a target (argument 'target')")
+            mid = np.mean([cur[a][0] for a in arms], axis=0)
+            here = mid + np.asarray(spec.untargeted_offset, dtype=float)
+            pose = Pose((float(here[0]), float(here[1]), float(here[2])), yaw_of(cur[arms[0]][1]))
+        centre = pose.xyz
+        if spec.goal == "above":
+            centre = centre + np.array([0.0, 0.0, spec.approach_height])
+        if len(arms) == 1:
+            a = arms[0]
+            if spec.goal == "screw":
+                rot = top_down_rotation(yaw_of(cur[a][1]) + spec.turn_rad)
+            else:
+                rot = top_down_rotation(self._grasp_yaw(a, q[:7], pose.yaw, spec.yaw_period))
+            return {a: ArmGoal(centre, rot)}, None
+        # Two arms, one object centred at the target.
+        holding = spec.goal == "target" and spec.gripper is None  # transport / hand over
+        if holding:
+            mid = 0.5 * (cur[arms[0]][0] + cur[arms[1]][0])
+            for a in arms:
+                goals[a] = ArmGoal(centre + (cur[a][0] - mid), cur[a][1])
+            (p1, R1), (p2, R2) = cur[arms[0]], cur[arms[1]]
+            relative = (R1.T @ (p2 - p1), R1.T @ R2)
+        else:
+            half = 0.5 * self.span_m
+            for i, a in enumerate(arms):
+                side = 1.0 if self.robot.arm(a).shoulder_xyz[1] > 0 else -1.0
+                yaw = self._grasp_yaw(a, q[7 * i : 7 * i + 7], pose.yaw, spec.yaw_period)
+                goals[a] = ArmGoal(
+                    centre + np.array([0.0, side * half, 0.0]), top_down_rotation(yaw)
+                )
+        return goals, relative
+
+    def _grasp_yaw(self, arm: str, q: Array, yaw: float, period: float) -> float:
+        """Among the yaws equivalent to ``yaw`` (modulo ``period``), the one reached by turning
+        the hand less than half a turn that leaves the last joint farthest inside its range
+        (ties: the smallest turn). The last joint turns the hand about the vertical at about
+        one radian per radian when the hand points down, which the Jacobian confirms."""
+        if period <= 0:
+            return yaw
+        model = self.robot.arm(arm)
+        _, R, J = model.kinematics(q)
+        current = yaw_of(R)
+        rate = float(J[5, 6])  # world yaw rate per unit speed of the last joint
+        if abs(rate) < 0.5:  # hand far from vertical: no reliable prediction
+            rate = 0.0
+        best: tuple[float, float, float] | None = None
+        for k in range(-4, 5):
+            cand = yaw + k * period
+            turn = math.remainder(cand - current, 2 * math.pi)
+            if abs(turn) >= math.pi - 1e-9:
+                continue
+            margin = 0.0
+            if rate:
+                q7 = q[6] + turn / rate
+                margin = min(q7 - model.q_min[6], model.q_max[6] - q7)
+            key = (-min(margin, 0.5), abs(turn), cand)
+            if best is None or key < best:
+                best = key
+        return yaw if best is None else current + math.remainder(best[2] - current, 2 * math.pi)
+
+    def _diagnose(
+        self,
+        arms: list[str],
+        goals: Mapping[str, ArmGoal],
+        ctrl: TaskPriorityController,
+        ctx: Any,
+    ) -> str:
+        """What holds the arm back: reach, an obstacle or the human hand, a joint limit."""
+        causes = []
+        for a in arms:
+            g = goals[a].position
+            model = self.robot.arm(a)
+            if g is not None and model.wrist_distance(g) > model.reach_m - 0.03:
+                causes.append(f"target at the edge of or beyond the reach of arm {a!r}")
+        for level in ctrl.levels:
+            for obj in level:
+                if not isinstance(obj, MinimumDistance):
+                    continue
+                if any(
+                    o.distance(ctx.arms[a].p)[0] < obj.d_min + obj.width
+                    for o in obj.obstacles
+                    for a in arms
+                ):
+                    causes.append(
+                        "kept away by the human hand"
+                        if obj.label == "human hand"
+                        else "path blocked by an obstacle"
+                    )
+        q = np.concatenate([ctx.arms[a].q for a in arms])
+        lim = np.minimum(q - ctrl.q_min, ctrl.q_max - q)
+        if float(np.min(lim)) < 0.2:
+            j = int(np.argmin(lim))
+            causes.append(f"joint {arms[j // 7]}_joint{j % 7 + 1} at its limit")
+        return "; ".join(dict.fromkeys(causes))
+
+    def _outcome(
+        self, spec: ActionSpec, arm: str, arms: list[str], state: RobotState, success: bool,
+        reason: str, duration: float, q: Array, min_dist: float, energy: float,
+        err: tuple[float, float], traj: Trajectory | None, t_wall: float, steps: int,
+    ) -> ActionOutcome:  # fmt: skip
+        final = state.copy()
+        for i, a in enumerate(arms):
+            final.q[a] = q[7 * i : 7 * i + 7].copy()
+        if traj is None:
+            traj = Trajectory(
+                tuple(arms), np.zeros(1), q[None, :].copy(),
+                {a: self.robot.arm(a).pose(final.q[a])[0][None, :] for a in arms},
+            )  # fmt: skip
+        return ActionOutcome(
+            action=spec.name, arm=arm, success=success, reason=reason, duration_s=duration,
+            final_state=final, min_distance_m=min_dist, energy=energy,
+            final_error_m=err[0], final_error_rad=err[1], trajectory=traj,
+            wall_s=time.perf_counter() - t_wall, steps=steps,
+        )  # fmt: skip
+
+
+def _num(x: float, digits: int) -> float | None:
+    """JSON has no infinity: an unknown/unbounded figure is ``null``."""
+    return None if not math.isfinite(x) else round(float(x), digits)
+
+
+def _xyz(p: Array) -> str:
+    return "(" + ", ".join(f"{v:.3f}" for v in p) + ")"
+
+
+def orientation_error(R_goal: Array, R: Array) -> float:
+    """Angle (rad) between two rotations."""
+    return float(np.linalg.norm(rotation_log(R_goal @ R.T)))
+
+
+__all__ = [
+    "ACTIONS",
+    "ARM_NAMES",
+    "MIDDLE_POSE",
+    "ActionOutcome",
+    "ActionSpec",
+    "KinematicSimulator",
+    "Pose",
+    "RobotState",
+    "SequenceOutcome",
+    "SimEvent",
+    "Trajectory",
+    "orientation_error",
+]

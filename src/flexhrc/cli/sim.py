@@ -1,0 +1,161 @@
+"""``flexhrc sim``: simulate one robot action with the kinematic task-priority controller.
+
+Example::
+
+    flexhrc sim transport --arm left --target 0.5 0.1 0.2 --json
+    flexhrc sim approach --arm right --target 0.5 -0.1 0.05 --obstacle 0.5 -0.1 0.2 0.04
+    flexhrc sim transport --arm both --from 0.5 0 0.1 --after approach --after grasp \
+        --target 0.45 0.1 0.3 --view out.png
+
+The robot starts at rest, or where ``--after ACTION`` (simulated first, at the same target)
+leaves it. The simulator lives in the ``sim`` extra; it is imported only when the command runs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+from typing import Any
+
+from flexhrc.cli.common import add_json_flag, emit
+from flexhrc.errors import FlexhrcError
+
+
+def register(subparsers: Any) -> None:
+    p = subparsers.add_parser(
+        "sim",
+        help="simulate one robot action (kinematic task-priority controller)",
+        description="Simulate one action of the dual-arm robot from rest (or after --after) and "
+        "report success, reason, simulated duration, compute time and final error. Frame: origin "
+        "at the centre of the robot base at table height, x forward, y left, z up (metres).",
+    )
+    p.add_argument(
+        "action",
+        metavar="ACTION",
+        help="approach, grasp, transport, screw, ungrasp, rest, hand_over",
+    )
+    p.add_argument("--arm", default="left", help="left, right or both (default: left)")
+    p.add_argument(
+        "--target", nargs="+", metavar="X", help="target TCP position X Y Z in metres (world)"
+    )
+    p.add_argument("--yaw", type=float, default=0.0, help="grasp yaw about the vertical (rad)")
+    p.add_argument(
+        "--obstacle",
+        nargs="+",
+        action="append",
+        default=[],
+        metavar="V",
+        help="obstacle 'X Y Z R' (sphere) or 'X Y Z HX HY HZ' (box); repeatable",
+    )
+    p.add_argument(
+        "--human-hand", nargs="+", metavar="X", help="human hand position X Y Z (kept 15 cm away)"
+    )
+    p.add_argument("--time-budget", type=float, default=10.0, help="simulated seconds (10)")
+    p.add_argument("--dt", type=float, default=0.02, help="control step in seconds (0.02)")
+    p.add_argument(
+        "--after",
+        action="append",
+        default=[],
+        metavar="ACTION",
+        help="simulate this action first (same arm, at --from or else --target) and start "
+        "from its final state; repeatable, e.g. --after approach --after grasp",
+    )
+    p.add_argument(
+        "--from",
+        dest="from_",
+        nargs="+",
+        metavar="X",
+        help="X Y Z target of the --after actions (e.g. where the object is picked)",
+    )
+    p.add_argument("--trajectory", action="store_true", help="include the trajectory in --json")
+    p.add_argument("--view", metavar="FILE", help="render the motion headless to FILE.png/.gif")
+    add_json_flag(p)
+    p.set_defaults(func=run)
+
+
+def _floats(values: list[str] | None, what: str) -> list[float] | None:
+    if values is None:
+        return None
+    try:
+        return [float(v) for v in values]
+    except ValueError:
+        raise FlexhrcError(f"{what} must be numbers, got {' '.join(values)!r}") from None
+
+
+def run(args: argparse.Namespace) -> int:
+    from flexhrc.action.control import parse_obstacle
+    from flexhrc.action.simulator import KinematicSimulator, Pose
+
+    t0 = time.perf_counter()
+    if args.time_budget <= 0:
+        raise FlexhrcError(f"--time-budget must be positive, got {args.time_budget}")
+    if args.dt <= 0 or args.dt > 0.1:
+        raise FlexhrcError(f"--dt must be in (0, 0.1] seconds, got {args.dt}")
+    target = None
+    if args.target is not None:
+        xyz = _floats(args.target, "--target")
+        if xyz is None or len(xyz) != 3:
+            raise FlexhrcError(f"--target must be 3 numbers X Y Z, got {len(args.target)}")
+        target = Pose.coerce({"position": xyz, "yaw": args.yaw}, "--target")
+    obstacles = [
+        parse_obstacle(_floats(o, "--obstacle"), f"--obstacle {i + 1}")
+        for i, o in enumerate(args.obstacle)
+    ]
+    pick = target
+    if args.from_ is not None:
+        xyz = _floats(args.from_, "--from")
+        if xyz is None or len(xyz) != 3:
+            raise FlexhrcError(f"--from must be 3 numbers X Y Z, got {len(args.from_)}")
+        pick = Pose.coerce({"position": xyz, "yaw": args.yaw}, "--from")
+    hand = None
+    if args.human_hand is not None:
+        hand = Pose.coerce(_floats(args.human_hand, "--human-hand"), "--human-hand").position
+    sim = KinematicSimulator(dt=args.dt, time_budget_s=args.time_budget)
+    start = sim.rest_state()
+    before = []
+    for name in args.after:
+        pre = sim.simulate(args.arm, name, pick, start=start, obstacles=obstacles,
+                           human_hand=hand)  # fmt: skip
+        before.append(pre)
+        if not pre.success:
+            raise FlexhrcError(f"--after {name} failed: {pre.reason}")
+        start = pre.final_state
+    out = sim.simulate(args.arm, args.action, target, start=start, obstacles=obstacles,
+                       human_hand=hand)  # fmt: skip
+    data: dict[str, Any] = out.to_dict(trajectory=args.trajectory)
+    data["target"] = None if target is None else target.to_dict()
+    data["obstacles"] = [o.to_dict() for o in obstacles]
+    data["after"] = [{"action": b.action, "duration_s": round(b.duration_s, 4)} for b in before]
+    data["real_time_factor"] = (
+        round(out.duration_s / out.wall_s, 1) if out.wall_s > 0 and out.duration_s > 0 else None
+    )
+    if args.view:
+        from flexhrc.action.simulator import Trajectory
+        from flexhrc.action.view import render
+
+        traj = Trajectory.concatenate([*(b.trajectory for b in before), out.trajectory])
+        goal = None if target is None else list(target.position)
+        data["view"] = str(
+            render(traj, args.view, obstacles=obstacles, human_hand=hand, goal=goal, rest=start.q)
+        )
+    data["total_wall_s"] = round(time.perf_counter() - t0, 4)
+
+    def text() -> str:
+        lines = [
+            f"{out.action} by {out.arm}: {'success' if out.success else 'FAILED'} — {out.reason}",
+            f"  simulated duration {out.duration_s:.2f} s, compute {out.wall_s * 1e3:.1f} ms, "
+            f"{out.steps} steps",
+            f"  final error {out.final_error_m * 1e3:.3f} mm / {out.final_error_rad:.4f} rad, "
+            f"energy {out.energy:.3f}"
+            if math.isfinite(out.final_error_m)
+            else "  not simulated: rejected before integrating",
+        ]
+        if data["min_distance_m"] is not None:
+            lines.append(f"  closest distance to obstacles {out.min_distance_m:.3f} m")
+        if args.view:
+            lines.append(f"  view: {data['view']}")
+        return "\n".join(lines)
+
+    emit(args, data, text)
+    return 0 if out.success else 1
