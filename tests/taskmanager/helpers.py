@@ -12,7 +12,7 @@ from flexhrc.scenarios.table_assembly import TableScenario
 from flexhrc.taskmanager import CooperationRun, RunResult
 
 # legs on both sides of the tabletop, two per side
-LAYOUT = [(0.35, 0.40, 0.0), (0.60, 0.45, 0.0), (0.35, -0.40, 0.0), (0.60, -0.45, 0.0)]
+LAYOUT = [(0.35, 0.30, 0.0), (0.50, 0.32, 0.0), (0.35, -0.30, 0.0), (0.50, -0.32, 0.0)]
 
 
 def run_table(

@@ -34,11 +34,13 @@ from flexhrc.logic import parse_conjunction
 from flexhrc.representation import AndOrGraph, HierarchicalGraph, Node
 from flexhrc.taskmanager.domain import Domain
 
-TABLETOPS = {"large": (0.50, 0.40), "small": (0.40, 0.30)}  # width (x), depth (y), metres
+# Geometry (metres, x forward, y left, z up, table at z = 0) sized for flexhrc.action's dual-arm
+# robot, so the analytic and the kinematic simulator see the same workspace.
+TABLETOPS = {"large": (0.30, 0.40), "small": (0.26, 0.34)}  # width (x), depth (y)
 LEG_LENGTHS = {"long": 0.40, "short": 0.30}
-TABLETOP_CENTRE = (0.50, 0.0, 0.0)
-MIDDLE_POSE = (0.85, 0.0, 0.0)
-HUMAN_HAND = (1.20, 0.0, 0.10)
+TABLETOP_CENTRE = (0.45, 0.0, 0.0)
+MIDDLE_POSE = (0.70, 0.0, 0.10)  # a stand between the tabletop and the operator
+HUMAN_HAND = (1.10, 0.0, 0.10)
 
 ROBOT_DIRECT = (
     "approach(?arm, ?leg)",
@@ -129,7 +131,7 @@ class TableScenario:
         return load_domain(self.human)
 
     def bolt_positions(self) -> list[tuple[float, float, float]]:
-        """Bolts at the tabletop corners (inset 5 cm), then along the long sides."""
+        """Bolts at the tabletop corners (inset 4 cm), then along the long sides."""
         w, d = TABLETOPS[self.tabletop]
         cx, cy, _ = TABLETOP_CENTRE
         corners = [(+1, +1), (+1, -1), (-1, -1), (-1, +1)]
@@ -139,8 +141,8 @@ class TableScenario:
             shrink = 1.0 - 0.35 * (k // 4)
             out.append(
                 (
-                    round(cx + sx * (w / 2 - 0.05) * shrink, 4),
-                    round(cy + sy * (d / 2 - 0.05), 4),
+                    round(cx + sx * (w / 2 - 0.04) * shrink, 4),
+                    round(cy + sy * (d / 2 - 0.04), 4),
                     0.0,
                 )
             )
@@ -180,8 +182,8 @@ class TableScenario:
         out: list[tuple[float, float, float]] = []
         _w, d = TABLETOPS[self.tabletop]
         while len(out) < self.legs:
-            x = rng.uniform(0.30, 0.75)
-            y = rng.choice((-1, 1)) * rng.uniform(d / 2 + 0.08, 0.55)
+            x = rng.uniform(0.25, 0.60)
+            y = rng.choice((-1, 1)) * rng.uniform(d / 2 + 0.06, 0.48)
             if all(math.dist((x, y), q[:2]) > 0.08 for q in out):
                 out.append((round(x, 3), round(y, 3), 0.0))
         return out
