@@ -7,7 +7,9 @@
 * :mod:`flexhrc.action.simulator` — the in-the-loop :class:`KinematicSimulator` (actions as data,
   success / duration / energy / trajectory, faster than real time);
 * :mod:`flexhrc.action.execution` — the Robot :class:`ExecutionManager` with disturbances;
-* :mod:`flexhrc.action.view` — headless PyBullet rendering of a trajectory.
+* :mod:`flexhrc.action.view` — headless PyBullet rendering of a trajectory;
+* :mod:`flexhrc.action.bridge` — :class:`KinematicTaskSimulator`, the simulator and the
+  execution model of the Task Manager.
 
 Importing this package is cheap: pinocchio and PyBullet are imported only when a robot is
 loaded or a view rendered (both in the ``sim`` extra). The names below are loaded on first use.
@@ -38,6 +40,7 @@ _EXPORTS = {
     "Box": "control",
     "DualArmRobot": "robots",
     "load_robot": "robots",
+    "KinematicTaskSimulator": "bridge",
 }
 
 __all__ = sorted(_EXPORTS)

@@ -86,6 +86,21 @@ def _run_options(p: argparse.ArgumentParser) -> None:
         metavar="ACTION[:N]",
         help="inject a failure of the N-th robot ACTION (e.g. transport:1)",
     )
+    p.add_argument(
+        "--simulator",
+        choices=["auto", "analytic", "kinematic"],
+        default="auto",
+        help="how branches are simulated: kinematic (task-priority control on the robot model; "
+        "the default when the sim extra is installed) or analytic (distances and speeds)",
+    )
+    p.add_argument(
+        "--disturb",
+        action="append",
+        default=[],
+        metavar="KIND[:ACTION[:N]]",
+        help="kinematic simulator only: during the N-th ACTION (default transport:1) the real "
+        "robot meets KIND = blocked_path (an obstacle appears at the target) or slow_arm",
+    )
     p.add_argument("--log", metavar="FILE", help="write the event log (JSON lines)")
     p.add_argument("--plot", metavar="FILE", help="write the timeline PNG")
     p.add_argument("--quiet", action="store_true", help="no live trace")
@@ -99,6 +114,42 @@ def _run_options(p: argparse.ArgumentParser) -> None:
         help="pace the simulated clock for watching: real time, or SPEED times faster",
     )
     add_json_flag(p)
+
+
+def _simulators(args: argparse.Namespace) -> tuple[Any, Any]:
+    """(branch simulator, execution model) for --simulator and --disturb."""
+    choice = args.simulator
+    if choice == "auto":
+        import importlib.util
+
+        choice = "kinematic" if importlib.util.find_spec("pinocchio") else "analytic"
+    if choice == "analytic":
+        if args.disturb:
+            raise FlexhrcError("--disturb needs --simulator kinematic (use --fail with analytic)")
+        return None, None
+    try:
+        from flexhrc.action.bridge import KinematicTaskSimulator
+
+        kin = KinematicTaskSimulator()
+    except ImportError as exc:
+        raise FlexhrcError(
+            f"--simulator kinematic needs the sim extra ({exc.name} is missing): "
+            "pip install 'flexhrc[sim]'"
+        ) from None
+    for spec in args.disturb:
+        kind, _, rest = spec.partition(":")
+        action, _, n = rest.partition(":")
+        if kind not in ("blocked_path", "slow_arm"):
+            raise FlexhrcError(f"--disturb {spec!r}: KIND is blocked_path or slow_arm")
+        try:
+            nth = int(n) if n else 1
+        except ValueError:
+            raise FlexhrcError(f"--disturb {spec!r}: N must be a whole number") from None
+        params: dict[str, Any] = {"kind": kind, "once": True, "at_s": 0.3}
+        if kind == "slow_arm":
+            params.update(factor=0.2, at_s=None)
+        kin.schedule(action or "transport", nth, **params)
+    return kin, kin
 
 
 def _failures(specs: list[str]) -> list[Any]:
@@ -184,10 +235,13 @@ def _run_table(args: argparse.Namespace, scenario: Any, profile: str) -> int:
 
     if not scenario.human and profile != "passive":
         raise FlexhrcError("--human needs a human: drop --no-human")
+    simulator, execution = _simulators(args)
     run = CooperationRun(
         OnlineGraph(scenario.graph()),
         scenario.domain(),
         scenario.knowledge(),
+        simulator=simulator,
+        execution=execution,
         human_profile=profile,
         seed=args.seed,
         failures=_failures(args.fail),

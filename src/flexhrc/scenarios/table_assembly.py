@@ -162,7 +162,12 @@ class TableScenario:
             kb.add_object("human", "human", HUMAN_HAND)
         for k, p in enumerate(self.bolt_positions(), 1):
             if k in self.unreachable_bolts:
+                # a fixture right above the bolt: no arm gets there (the analytic simulator reads
+                # reachable_by, the kinematic one keeps its distance from the obstacle sphere)
                 kb.add_object(f"bolt_{k}", "place", p, reachable_by=[])
+                kb.add_object(
+                    f"fixture_{k}", "obstacle", (p[0], p[1], p[2] + 0.10), {"radius": 0.05}
+                )
             else:
                 kb.add_object(f"bolt_{k}", "place", p)
         kb.add_object("middle", "place", MIDDLE_POSE)

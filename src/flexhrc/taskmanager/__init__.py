@@ -18,7 +18,14 @@ from flexhrc.taskmanager.manager import (
     TaskManager,
 )
 from flexhrc.taskmanager.runner import PROFILES, CooperationRun, InjectedFailure, RunResult
-from flexhrc.taskmanager.simulator import AnalyticSimulator, SimulationResult, Simulator, Timing
+from flexhrc.taskmanager.simulator import (
+    AnalyticSimulator,
+    ExecutionModel,
+    SimulationResult,
+    Simulator,
+    StepReport,
+    Timing,
+)
 
 __all__ = [
     "PROFILES",
@@ -33,6 +40,7 @@ __all__ = [
     "CooperationRun",
     "DecisionTree",
     "Domain",
+    "ExecutionModel",
     "GroundAction",
     "HumanAction",
     "InjectedFailure",
@@ -40,6 +48,7 @@ __all__ = [
     "RunResult",
     "SimulationResult",
     "Simulator",
+    "StepReport",
     "Stop",
     "Suggest",
     "TaskManager",

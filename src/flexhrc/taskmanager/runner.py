@@ -44,7 +44,7 @@ from flexhrc.taskmanager.manager import (
     Suggest,
     TaskManager,
 )
-from flexhrc.taskmanager.simulator import AnalyticSimulator, Simulator
+from flexhrc.taskmanager.simulator import AnalyticSimulator, ExecutionModel, Simulator
 
 PROFILES = ("passive", "takeover", "cooperative", "random")
 
@@ -98,7 +98,7 @@ class CooperationRun:
         kb: KnowledgeBase,
         *,
         simulator: Simulator | None = None,
-        execution: AnalyticSimulator | None = None,
+        execution: ExecutionModel | None = None,
         human_profile: str = "passive",
         seed: int = 0,
         failures: list[InjectedFailure] | None = None,
@@ -208,8 +208,9 @@ class CooperationRun:
 
     def _start_robot(self, cmd: Command) -> None:
         positions = self._positions()
-        ok, duration, why = self.execution.step(cmd.action, positions, self.kb, self.domain)
-        status, reason = ("done", None) if ok else ("failed", why)
+        report = self.execution.execute(cmd.action, positions, self.kb, self.domain)
+        status, duration = report.status, report.duration_s
+        reason = None if status == "done" else report.reason
         for f in self.failures:
             if f.action == cmd.action.name and (f.agent is None or f.agent in cmd.agents):
                 n = self._failure_counts.get(id(f), 0) + 1
@@ -298,7 +299,7 @@ class CooperationRun:
             return
         step = plan.steps[plan.index]
         positions = self._positions()
-        _, duration, _ = self.execution.step(step, positions, self.kb, self.domain)
+        duration = self.execution.execute(step, positions, self.kb, self.domain).duration_s
         self._push(
             self.now + duration,
             _Pending("human_done", {"step": step, "start": self.now, "positions": positions}),

@@ -53,6 +53,29 @@ class Simulator(Protocol):
 
 
 @dataclass
+class StepReport:
+    """How one command went on the (simulated) real robot or operator."""
+
+    status: str  # done | failed | timed_out
+    duration_s: float
+    reason: str | None = None
+
+
+class ExecutionModel(Protocol):
+    """The simulated "real" world an agent acts in (see :class:`~flexhrc.taskmanager.runner.
+    CooperationRun`). ``positions`` holds where objects and end effectors are; the model updates
+    it with the physical outcome of the action."""
+
+    def execute(
+        self,
+        action: GroundAction,
+        positions: dict[str, Vec3],
+        kb: KnowledgeBase,
+        domain: Domain,
+    ) -> StepReport: ...
+
+
+@dataclass
 class Timing:
     """Nominal speeds (m/s) and fixed durations (s). Robot figures follow the paper's robot
     (max linear end-effector speed 0.4 m/s); human ones are typical assembly motions."""
@@ -206,6 +229,17 @@ class AnalyticSimulator:
         if kind == "screw":
             return True, t.human_screw, None
         return True, 2.0, None
+
+    def execute(
+        self,
+        action: GroundAction,
+        positions: dict[str, Vec3],
+        kb: KnowledgeBase,
+        domain: Domain,
+    ) -> StepReport:
+        """As an :class:`ExecutionModel`: the same model plays the real world."""
+        ok, duration, why = self.step(action, positions, kb, domain)
+        return StepReport("done" if ok else "failed", duration, why)
 
     # -- a sequence -----------------------------------------------------------------------
     def simulate(

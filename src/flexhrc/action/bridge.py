@@ -1,0 +1,225 @@
+"""The kinematic simulator in the Task Manager's loop (paper 000, V-A: the in-the-loop simulator).
+
+:class:`KinematicTaskSimulator` implements both sides the Task Manager needs:
+
+* the :class:`~flexhrc.taskmanager.Simulator` protocol — a decision-tree branch's ground actions
+  (``approach(left, leg2)``, ``transport(left, leg2, bolt_1)``, ...) are integrated with the
+  task-priority controller on the robot model, from the robot's current configuration, in the
+  world the knowledge base describes (objects, obstacles, the operator's hand). Success and
+  durations — hence the utility of eq. (21) — come from the simulation: an arm that cannot reach
+  a leg, or a bolt behind an obstacle, scores 0;
+* the :class:`~flexhrc.taskmanager.ExecutionModel` protocol — commands run on the simulated
+  "real" robot of an :class:`~flexhrc.action.ExecutionManager`, where disturbances can be
+  injected (:meth:`inject`), so execution may differ from the prior simulation and fail.
+
+Objects lie on the table at the positions of the knowledge base; the hand grasps a leg
+``grasp_height_m`` above its position and holds it ``hold_height_m`` above a place (a bolt or the
+middle pose) to transport and screw it. Human actions are timed by the analytic operator model.
+Knowledge-base objects of type ``obstacle`` (attribute ``radius``) are spheres in both worlds.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from typing import Any
+
+from flexhrc.knowledge import KnowledgeBase
+from flexhrc.taskmanager.domain import Domain, GroundAction
+from flexhrc.taskmanager.simulator import (
+    AnalyticSimulator,
+    SimulationResult,
+    StepReport,
+    Vec3,
+)
+
+ROBOT_KINDS = ("approach", "grasp", "transport", "screw", "ungrasp", "rest")
+
+
+class KinematicTaskSimulator:
+    """Task-Manager simulator and execution model backed by :mod:`flexhrc.action`."""
+
+    def __init__(
+        self,
+        simulator: Any = None,
+        *,
+        execution: Any = None,
+        human: AnalyticSimulator | None = None,
+        grasp_height_m: float = 0.02,
+        hold_height_m: float = 0.10,
+        dt: float = 0.04,
+    ):
+        from flexhrc.action.execution import ExecutionManager
+        from flexhrc.action.simulator import KinematicSimulator
+
+        # a 40 ms step ranks branches as well as 20 ms (durations within ~3 %) at half the cost
+        self.sim = simulator if simulator is not None else KinematicSimulator(dt=dt)
+        self.execution = (
+            execution if execution is not None else ExecutionManager(KinematicSimulator())
+        )
+        self.human = human or AnalyticSimulator()
+        self.grasp_height_m = grasp_height_m
+        self.hold_height_m = hold_height_m
+        self.wall_s = 0.0
+        self._scheduled: list[list[Any]] = []  # [action kind, nth, disturbance kwargs, seen]
+
+    # -- geometry -------------------------------------------------------------------------
+    def _pos(self, name: str, kb: KnowledgeBase, positions: dict[str, Vec3]) -> Vec3:
+        return positions.get(name) or kb.position(name)
+
+    def target(
+        self, action: GroundAction, kb: KnowledgeBase, positions: dict[str, Vec3]
+    ) -> tuple[float, float, float] | None:
+        """Where the hand goes for one ground action (None: where it is)."""
+        kind = action.schema.kind
+        objs = [a for a in action.args if a in kb.objects and a not in action.agents]
+        if kind in ("approach", "grasp") and objs:
+            x, y, z = self._pos(objs[0], kb, positions)
+            return (x, y, z + self.grasp_height_m)
+        if kind in ("transport", "screw") and len(objs) >= 2:
+            x, y, z = self._pos(objs[-1], kb, positions)
+            return (x, y, z + self.hold_height_m)
+        return None
+
+    @staticmethod
+    def obstacles(kb: KnowledgeBase) -> list[tuple[float, float, float, float]]:
+        out = []
+        for o in kb.objects_of_type("obstacle"):
+            x, y, z = o.position
+            out.append((x, y, z, float(o.attrs.get("radius", o.size.get("radius", 0.05)))))
+        return out
+
+    @staticmethod
+    def human_hand(kb: KnowledgeBase) -> Vec3 | None:
+        return kb.position("human") if "human" in kb.objects else None
+
+    def _check(self, action: GroundAction) -> str | None:
+        if action.schema.kind not in ROBOT_KINDS:
+            return f"the kinematic simulator has no action {action.schema.kind!r}"
+        if len(action.agents) != 1:
+            return f"{action}: joint actions of several arms are not supported here"
+        return None
+
+    # -- Simulator protocol ---------------------------------------------------------------
+    def simulate(
+        self, steps: Sequence[GroundAction], kb: KnowledgeBase, domain: Domain
+    ) -> SimulationResult:
+        t0 = time.perf_counter()
+        try:
+            return self._simulate(steps, kb, domain)
+        finally:
+            self.wall_s += time.perf_counter() - t0
+
+    def _simulate(
+        self, steps: Sequence[GroundAction], kb: KnowledgeBase, domain: Domain
+    ) -> SimulationResult:
+        positions: dict[str, Vec3] = {}
+        state = self.execution.state.copy()  # the robot as it is now
+        durations: list[float] = []
+        details: list[dict[str, object]] = []
+        obstacles = self.obstacles(kb)
+        hand = self.human_hand(kb)
+        for action in steps:
+            if any(domain.agent(a).is_human for a in action.agents):
+                ok, dt, why = self.human.step(action, positions, kb, domain)
+                durations.append(dt)
+                details.append({"action": str(action), "agents": list(action.agents), "t": dt})
+                if not ok:
+                    return SimulationResult(False, durations, why, details)
+                continue
+            problem = self._check(action)
+            if problem:
+                return SimulationResult(False, [*durations, 0.0], problem, details)
+            arm = action.agents[0]
+            target = self.target(action, kb, positions)
+            out = self.sim.simulate(
+                arm, action.schema.kind, target, start=state, obstacles=obstacles,
+                human_hand=hand, record=False,
+            )  # fmt: skip
+            durations.append(out.duration_s)
+            details.append(
+                {
+                    "action": str(action),
+                    "agents": [arm],
+                    "t": round(out.duration_s, 4),
+                    "min_distance_m": out.min_distance_m,
+                    "energy": round(out.energy, 4),
+                }
+            )
+            if not out.success:
+                return SimulationResult(False, durations, f"{action}: {out.reason}", details)
+            state = out.final_state
+            self._follow(action, target, positions, kb)
+        return SimulationResult(True, durations, None, details)
+
+    def _follow(
+        self,
+        action: GroundAction,
+        target: tuple[float, float, float] | None,
+        positions: dict[str, Vec3],
+        kb: KnowledgeBase,
+    ) -> None:
+        """Where things are after the action, in knowledge-base terms (objects on places)."""
+        arm = action.agents[0]
+        kind = action.schema.kind
+        objs = [a for a in action.args if a in kb.objects and a not in action.agents]
+        if target is not None:
+            positions[arm] = target
+        if kind == "transport" and len(objs) >= 2:
+            positions[objs[0]] = self._pos(objs[-1], kb, positions)
+
+    # -- ExecutionModel protocol ----------------------------------------------------------
+    def execute(
+        self,
+        action: GroundAction,
+        positions: dict[str, Vec3],
+        kb: KnowledgeBase,
+        domain: Domain,
+    ) -> StepReport:
+        if any(domain.agent(a).is_human for a in action.agents):
+            return self.human.execute(action, positions, kb, domain)
+        from flexhrc.action.execution import Command, Disturbance
+
+        problem = self._check(action)
+        if problem:
+            return StepReport("failed", 0.0, problem)
+        em = self.execution
+        em.obstacles = [*self.obstacles(kb)]
+        em.human_hand = self.human_hand(kb)
+        target = self.target(action, kb, positions)
+        for item in self._scheduled:
+            if item[0] != action.schema.kind:
+                continue
+            item[3] += 1
+            if item[3] == item[1]:
+                params = dict(item[2])
+                if params["kind"] == "blocked_path" and params.get("obstacle") is None:
+                    # something appears right where the hand is going
+                    params["obstacle"] = (
+                        *(target or positions.get(action.agents[0], (0, 0, 0))),
+                        0.03,
+                    )
+                em.inject(Disturbance(**params))
+        report = em.execute(Command(action.schema.kind, action.agents[0], target))
+        if report.status == "done":
+            self._follow(action, target, positions, kb)
+        return StepReport(report.status, report.duration_s, None if report.ok else report.reason)
+
+    def inject(self, disturbance: Any) -> Any:
+        """Inject a disturbance into the simulated real robot's world (see ExecutionManager)."""
+        return self.execution.inject(disturbance)
+
+    def schedule(self, action: str, nth: int = 1, **disturbance: Any) -> None:
+        """Inject a disturbance when the ``nth`` command of kind ``action`` starts, e.g.
+        ``schedule("transport", kind="blocked_path", at_s=0.3, once=True)``: with ``at_s`` it
+        happens during that command. A ``blocked_path`` without ``obstacle`` gets a 3 cm sphere
+        right at that command's target."""
+        from flexhrc.action.execution import Disturbance
+
+        if "kind" not in disturbance:
+            raise TypeError("schedule() needs kind=...")
+        probe = dict(disturbance)
+        if probe["kind"] == "blocked_path" and probe.get("obstacle") is None:
+            probe["obstacle"] = (0.0, 0.0, 0.0, 0.03)
+        Disturbance(**probe)  # validate now, not in the middle of a run
+        self._scheduled.append([action, nth, disturbance, 0])

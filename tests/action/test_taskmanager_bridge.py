@@ -1,0 +1,102 @@
+"""The Task Manager with the kinematic simulator (issue 5): reachability decides the allocation."""
+
+from __future__ import annotations
+
+import argparse
+
+import pytest
+
+pytest.importorskip("pinocchio")
+
+from flexhrc.action import KinematicTaskSimulator
+from flexhrc.representation import OnlineGraph
+from flexhrc.scenarios.table_assembly import TableScenario
+from flexhrc.taskmanager import CooperationRun
+
+from ..taskmanager.helpers import LAYOUT, check_invariants, first, solved
+
+
+def run(scenario: TableScenario, kin: KinematicTaskSimulator | None = None, **kw):
+    kin = kin or KinematicTaskSimulator()
+    r = CooperationRun(
+        OnlineGraph(scenario.graph()),
+        scenario.domain(),
+        scenario.knowledge(),
+        simulator=kin,
+        execution=kin,
+        **kw,
+    )
+    return r.run()
+
+
+def test_a_leg_reachable_by_one_arm_only_goes_to_that_arm():
+    # (0.45, 0.55): far on the robot's left; the right arm cannot get there
+    result = run(TableScenario(legs=1, leg_positions=[(0.45, 0.55, 0.0)]))
+    decision = first(result.events, "decision")
+    by_arm = {b["grounding"]["?arm"]: b for b in decision["branches"]}
+    assert by_arm["left"]["success"] and by_arm["left"]["utility"] > 0
+    assert not by_arm["right"]["success"] and by_arm["right"]["utility"] == 0
+    assert "approach(right, leg1)" in by_arm["right"]["reason"]
+    assert solved(result) == [("robot_1", ("left",))]
+
+
+def test_a_leg_neither_arm_can_connect_is_asked_of_the_human_via_the_middle_pose():
+    # a fixture over bolt 1: no arm reaches it; the robot brings the leg to the middle pose
+    result = run(TableScenario(legs=1, leg_positions=[(0.40, 0.30, 0.0)], unreachable_bolts=(1,)))
+    assert result.outcome == "solved"
+    seq = solved(result)
+    assert [e for e, _ in seq] == ["to_middle_1", "human_from_middle_1"]
+    assert seq[0][1][0] in ("left", "right") and seq[1][1] == ("human",)
+    infeasible = [e["element"] for e in result.events if e["type"] == "infeasible"]
+    assert infeasible == ["robot_1", "robot_from_middle_1"]
+    first_tree = first(result.events, "decision")
+    assert all(
+        "path blocked" in b["reason"] or "reach" in b["reason"] for b in first_tree["branches"]
+    )
+    assert first(result.events, "suggestion")["element"] == "human_from_middle_1"
+
+
+def test_branch_utilities_come_from_simulated_durations():
+    result = run(TableScenario(legs=4, leg_positions=LAYOUT))
+    decision = first(result.events, "decision")
+    assert len(decision["branches"]) == 8
+    for b in decision["branches"]:
+        assert b["success"]
+        assert b["utility"] == pytest.approx(1.0 / sum(b["durations"]), rel=1e-5)
+    # the controller's timings, not the analytic constants (grasp 1.0 s, screw 4.0 s)
+    grasp_times = {b["durations"][1] for b in decision["branches"]}
+    assert grasp_times != {1.0}
+    best = max(decision["branches"], key=lambda b: b["utility"])
+    assert decision["branches"][decision["chosen"]] == best
+    assert result.outcome == "solved"
+    check_invariants(result, 4)
+
+
+def test_a_disturbance_during_execution_fails_the_action_and_the_manager_replans():
+    kin = KinematicTaskSimulator()
+    kin.schedule("transport", 1, kind="blocked_path", at_s=0.3, once=True)
+    result = run(TableScenario(legs=4, leg_positions=LAYOUT), kin)
+    failed = first(result.events, "action_failed")
+    assert failed["element"] == "robot_1" and "blocked" in failed["reason"]
+    later = [e for e in result.events if e["type"] == "decision" and e["t"] >= failed["t"]]
+    assert later[0]["element"] == "robot_1"
+    assert all(b["grounding"] != failed["grounding"] for b in later[0]["branches"])
+    assert result.outcome == "solved"
+    assert [e for e, _ in solved(result)] == ["robot_1", "robot_2", "robot_3", "robot_4"]
+    check_invariants(result, 4)
+
+
+def test_a_slow_arm_times_out_and_the_manager_replans():
+    kin = KinematicTaskSimulator()
+    kin.schedule("approach", 1, kind="slow_arm", factor=0.2, once=True)
+    result = run(TableScenario(legs=2, leg_positions=LAYOUT[:2]), kin)
+    failed = first(result.events, "action_failed")
+    assert failed["status"] == "timed_out"
+    assert result.outcome == "solved"
+
+
+def test_the_kinematic_simulator_is_the_default_when_installed():
+    from flexhrc.cli.demo import _simulators
+
+    sim, execution = _simulators(argparse.Namespace(simulator="auto", disturb=[]))
+    assert isinstance(sim, KinematicTaskSimulator) and execution is sim
