@@ -157,12 +157,12 @@ class OnlineRecognizer:
             t_start = now - n / self.rate_hz
             recent = self._last.get(name)
             # One report per occurrence: ignore a match that mostly overlaps the last report.
-            if recent is None or t_start >= recent - 0.5 * n / self.rate_hz:
-                if cand is None or score < cand.score:
-                    if cand is not None and cand.name != name and t_start >= cand.t_end:
-                        out.extend(self._emit())  # a new action after the candidate: emit it
-                    self._candidate = _Candidate(name, score, t_start, now)
-                    return out
+            fresh = recent is None or t_start >= recent - 0.5 * n / self.rate_hz
+            if fresh and (cand is None or score < cand.score):
+                if cand is not None and cand.name != name and t_start >= cand.t_end:
+                    out.extend(self._emit())  # a new action after the candidate: emit it
+                self._candidate = _Candidate(name, score, t_start, now)
+                return out
         if cand is not None and (cand.age >= self.patience or best is None or best[0] >= 1.0):
             out.extend(self._emit())
         return out

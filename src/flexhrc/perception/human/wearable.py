@@ -59,8 +59,8 @@ class SimulatedWearable:
         else:
             body = envelope  # signed body acceleration was modelled directly
         x = gravity + body
-        lead = np.repeat(x[:1], int(round(lead_s * self.rate_hz)), axis=0)
-        tail = np.repeat(x[-1:], int(round(tail_s * self.rate_hz)), axis=0)
+        lead = np.repeat(x[:1], round(lead_s * self.rate_hz), axis=0)
+        tail = np.repeat(x[-1:], round(tail_s * self.rate_hz), axis=0)
         still = [seg + 0.005 * self._rng.standard_normal(seg.shape) for seg in (lead, tail)]
         return np.vstack([still[0], x, still[1]])
 
