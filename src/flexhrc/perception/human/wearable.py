@@ -16,6 +16,23 @@ from flexhrc.perception._deps import require
 from flexhrc.perception.human.models import GMMGMRRecognizer
 
 
+def _invert_lowpass(
+    target: np.ndarray, sos: np.ndarray, signal, cutoff: float, rate: float, iterations: int = 25
+) -> np.ndarray:
+    """Raw signal whose causal low-pass is ``target``: fixed point ``x ← x + C(target - F x)``.
+
+    ``C`` is a zero-phase low-pass at half the filter's cutoff: the iteration converges where
+    the filter's phase lag is small, and the faster content is attenuated by the filter anyway.
+    """
+    zi0 = signal.sosfilt_zi(sos)[:, :, None]
+    corr = signal.butter(2, cutoff / 2, fs=rate, output="sos")
+    x = target.copy()
+    for _ in range(iterations):
+        y, _ = signal.sosfilt(sos, x, axis=0, zi=zi0 * x[0][None, None, :])
+        x = x + signal.sosfiltfilt(corr, target - y, axis=0, padlen=min(len(x) - 1, 30))
+    return x
+
+
 class SimulatedWearable:
     """Synthesises wrist-acceleration streams (``(n, 3)`` in g) for the actions of ``model``."""
 
@@ -49,13 +66,27 @@ class SimulatedWearable:
         smooth /= smooth.std(axis=0, keepdims=True) + 1e-12
         chol = np.linalg.cholesky(cov + 1e-9 * np.eye(f)[None])
         feats = mean + self.deviation * np.einsum("lij,lj->li", chol, smooth)
-        gravity = feats[:, :3]
-        envelope = np.clip(feats[:, 3:], 0.0, None)
         pre = self.model.preprocessor
+        # The templates hold *filtered* features; find the raw signal whose filtered version is
+        # the sampled template (otherwise the filter lag is applied twice).
+        rate = self.rate_hz
+        gravity = _invert_lowpass(feats[:, :3], pre._sos(), signal, pre.cutoff_hz, rate)
+        envelope = feats[:, 3:]
+        smooth = pre._smooth_sos()
+        if smooth is not None:
+            envelope = _invert_lowpass(envelope, smooth, signal, 1.0 / pre.body_smoothing_s, rate)
+        envelope = np.clip(envelope, 0.0, None)
         if pre.body_smoothing_s > 0:
             # The body features are smoothed |body|: E|N(0, s²)| = s √(2/π).
-            scale = envelope * np.sqrt(np.pi / 2)
-            body = scale * self._rng.standard_normal((n, 3))
+            # The body features are the smoothed |body acceleration|. A sinusoidal carrier per
+            # axis (2.5-4 Hz: arm motion, above the gravity cut-off) has a steady |.| average of 2/π, so
+            # ``envelope × π/2 × carrier`` reproduces the modelled energy without the
+            # fluctuations a noise carrier would add.
+            t = np.arange(n) / self.rate_hz
+            freq = self._rng.uniform(2.5, 4.0, 3)
+            phase = self._rng.uniform(0.0, 2 * np.pi, 3)
+            carrier = np.sin(2 * np.pi * freq[None, :] * t[:, None] + phase[None, :])
+            body = envelope * (np.pi / 2) * carrier
         else:
             body = envelope  # signed body acceleration was modelled directly
         x = gravity + body
