@@ -77,9 +77,9 @@ class SimulatedWearable:
             envelope = _invert_lowpass(envelope, smooth, signal, 1.0 / pre.body_smoothing_s, rate)
         envelope = np.clip(envelope, 0.0, None)
         if pre.body_smoothing_s > 0:
-            # The body features are smoothed |body|: E|N(0, s²)| = s √(2/π).
             # The body features are the smoothed |body acceleration|. A sinusoidal carrier per
-            # axis (2.5-4 Hz: arm motion, above the gravity cut-off) has a steady |.| average of 2/π, so
+            # axis (2.5-4 Hz: arm motion, above the gravity cut-off) has a steady |.| average
+            # of 2/π, so
             # ``envelope × π/2 × carrier`` reproduces the modelled energy without the
             # fluctuations a noise carrier would add.
             t = np.arange(n) / self.rate_hz
