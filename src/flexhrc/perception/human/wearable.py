@@ -4,8 +4,11 @@ To drive the Task Manager from a *signal* rather than injected action names (and
 whole chain without a person), :class:`SimulatedWearable` turns an action's GMR template back
 into raw acceleration: it samples a feature trajectory around the expected one with the GMR
 covariance (the noise is low-pass filtered so it is smooth in time, as real deviations are),
-then rebuilds the raw signal as gravity + body, where the body part is zero-mean noise whose
-envelope matches the modelled body-acceleration energy. Streams are reproducible from ``seed``.
+then rebuilds the raw signal as gravity + body: the features are *filtered* quantities, so the
+low-pass filters of the pre-processing are inverted first (else their lag would apply twice),
+and the body part is a zero-mean oscillation whose envelope matches the modelled body energy.
+Recognising the stream with the same model then works like recognising a real trial. Streams
+are reproducible from ``seed``.
 """
 
 from __future__ import annotations
