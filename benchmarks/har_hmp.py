@@ -40,7 +40,7 @@ from flexhrc.perception.human.evaluation import (  # noqa: E402
 def streaming_check(trials, n_folds, max_trials_per_fold: int = 6, seed: int = 0):
     """Replay held-out trials (with 3 s of stillness after) through the online recogniser."""
     rng = np.random.default_rng(seed)
-    delays, correct, total, signal_s, cpu_s = [], 0, 0, 0.0, 0.0
+    delays, correct, total, signal_s, cpu_s, others = [], 0, 0, 0.0, 0.0, 0
     for fold in volunteer_folds(trials, n_folds):
         train = [t for t in trials if t.volunteer not in fold]
         test = [t for t in trials if t.volunteer in fold]
@@ -57,6 +57,7 @@ def streaming_check(trials, n_folds, max_trials_per_fold: int = 6, seed: int = 0
             signal_s += len(stream) / t.rate_hz
             total += 1
             hits = [r for r in found if r.name == t.action]
+            others += len(found) - len(hits)
             if hits:
                 correct += 1
                 first = min(hits, key=lambda r: r.t_end)
@@ -64,6 +65,7 @@ def streaming_check(trials, n_folds, max_trials_per_fold: int = 6, seed: int = 0
     return {
         "replayed_trials": total,
         "recognised_fraction": round(correct / total, 4) if total else 0.0,
+        "other_actions_reported": others,
         "delay_after_end_s_median": round(float(np.median(delays)), 3) if delays else None,
         "delay_after_end_s_max": round(float(np.max(delays)), 3) if delays else None,
         "speed_x_realtime": round(signal_s / cpu_s, 1) if cpu_s else None,

@@ -170,7 +170,7 @@ class GMMGMRRecognizer:
         self,
         max_components: int = 4,
         threshold_quantile: float = 0.95,
-        threshold_scale: float = 1.5,
+        threshold_scale: float = 2.0,
         min_std: float = 0.01,
         max_points: int = 2000,
         duration_weight: float = 0.1,
