@@ -199,16 +199,15 @@ def fit_cone(
 ) -> PrimitiveFit:
     """Upright cone (apex up) on the support: ``r(z) = R (1 - z / H)`` about a vertical axis.
 
-    The axis passes through the centre of a RANSAC circle fitted to the footprint; then
-    RANSAC over pairs of points fixes the line ``r = R - k z``.
+    The axis starts through the highest points (the apex), RANSAC over pairs of points fixes
+    the line ``r = R - k z``, and a robust least-squares fit refines axis, ``R`` and ``k``.
     """
     rng = rng if rng is not None else np.random.default_rng(0)
     xy = points[:, :2]
-    # The rings of an upright cone are concentric, so the least-squares circle of the whole
-    # footprint is centred on the axis even when only one side is visible.
-    c, _ = _circle_lsq(xy)
-    r = np.linalg.norm(xy - c, axis=1)
     z = points[:, 2]
+    # The apex is the top of the cluster and lies on the axis, whichever side is visible.
+    c = xy[z >= np.percentile(z, 95)].mean(axis=0)
+    r = np.linalg.norm(xy - c, axis=1)
     pair = rng.integers(0, len(z), size=(iterations, 2))
     dz = z[pair[:, 0]] - z[pair[:, 1]]
     okp = np.abs(dz) > 1e-3
@@ -219,7 +218,7 @@ def fit_cone(
     # A cone stands on the support with its apex at the top of the cluster, and its base fits
     # inside the footprint: this rejects the huge flat "cones" that explain a board.
     zmax = float(np.percentile(z, 99))
-    r_max = 0.6 * float(np.ptp(xy, axis=0).max())
+    r_max = 1.2 * float(np.percentile(r, 99))
     H_all = R / np.where(k > 0, k, np.inf)
     valid = (k > 0.05) & (R > 0.005) & (r_max > R) & (np.abs(H_all - zmax) < 0.25 * zmax + tol)
     if not valid.any():
