@@ -8,7 +8,8 @@ scales (``0.8 L, L, 1.25 L`` by default) and time-normalised to ``L`` before mat
 An action is *reported* once per occurrence: when a model's distance falls below its threshold
 it becomes the candidate; the candidate is kept while its distance keeps decreasing (or another
 model matches better) and is emitted ``patience`` steps after its best match, or as soon as the
-distance rises above the threshold. So a replayed trial is reported shortly after it ends —
+distance rises above the threshold (with ``exclusive=True`` a report also silences every other
+action over the window it covers). So a replayed trial is reported shortly after it ends —
 within one window length, usually a fraction of a second. The confidence is
 ``1 - distance / threshold`` at the best match (0 at the threshold, 1 for a perfect match).
 """
@@ -65,6 +66,7 @@ class OnlineRecognizer:
         scales: Sequence[float] = (0.8, 1.0, 1.25),
         patience: int = 4,
         t0: float = 0.0,
+        exclusive: bool = False,
     ):
         recognizer._check_fitted()
         if stride < 1:
@@ -77,6 +79,7 @@ class OnlineRecognizer:
         self.stride = stride
         self.scales = tuple(scales)
         self.patience = patience
+        self.exclusive = exclusive
         self.rate_hz = recognizer.preprocessor.rate_hz
         self._pre = recognizer.preprocessor.stream()
         self._classes = recognizer.classes_
@@ -155,7 +158,7 @@ class OnlineRecognizer:
             score, k, n = best
             name = self._classes[k]
             t_start = now - n / self.rate_hz
-            recent = self._last.get(name)
+            recent = self._last.get("*" if self.exclusive else name)
             # One report per occurrence: ignore a match that mostly overlaps the last report.
             fresh = recent is None or t_start >= recent - 0.5 * n / self.rate_hz
             if fresh and (cand is None or score < cand.score):
@@ -173,5 +176,6 @@ class OnlineRecognizer:
         if cand is None:
             return []
         self._last[cand.name] = cand.t_end
+        self._last["*"] = cand.t_end
         conf = float(np.clip(1.0 - cand.score, 0.0, 1.0))
         return [RecognisedAction(cand.name, cand.t_start, cand.t_end, conf)]
