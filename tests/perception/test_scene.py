@@ -144,7 +144,7 @@ def test_empty_and_bad_clouds():
     with pytest.raises(ValueError, match=r"\(n, 3\)"):
         p.process(np.zeros((10, 2)))
     with pytest.raises(ValueError):
-        ScenePerception(voxel=0)
+        ScenePerception(cluster_radius=0)
 
 
 def _obj(i, pos, t="leg_short"):

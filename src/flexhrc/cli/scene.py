@@ -75,7 +75,7 @@ def _bench(args: argparse.Namespace) -> int:
                 f"  size_error_rel    {res['size_error_rel']} (median)",
                 f"  type_accuracy     {res['type_accuracy']:.4f}",
                 f"  false_positives   {res['false_positives']}",
-                f"  frame_s           {res['frame_s']} (median)",
+                f"  frame_s           {res['frame_s']} (median; CPU {res['frame_cpu_s']})",
             ]
         )
 

@@ -20,9 +20,9 @@ import numpy as np
 
 from flexhrc.perception._deps import require
 from flexhrc.perception.scene.classify import RuleSet
-from flexhrc.perception.scene.cloud import depth_to_cloud, voxel_downsample
+from flexhrc.perception.scene.cloud import depth_to_cloud
 from flexhrc.perception.scene.primitives import fit_box, fit_cone, fit_cylinder, fit_sphere
-from flexhrc.perception.scene.segmentation import euclidean_clusters, ransac_plane
+from flexhrc.perception.scene.segmentation import grid_clusters, ransac_plane
 from flexhrc.perception.scene.types import CameraIntrinsics, DetectedObject, PrimitiveFit
 
 
@@ -55,17 +55,16 @@ class ScenePerception:
     rules: RuleSet = field(default_factory=RuleSet.default)
     plane_threshold: float = 0.01
     min_height: float = 0.008
-    voxel: float = 0.008
     cluster_radius: float = 0.02
     min_cluster_points: int = 40
     fit_tol: float = 0.005
-    max_fit_points: int = 800
+    max_fit_points: int = 500
     primitives: tuple[str, ...] = ("box", "cylinder", "sphere", "cone")
     up: tuple[float, float, float] = (0.0, 0.0, 1.0)
     seed: int = 0
 
     def __post_init__(self) -> None:
-        for name in ("plane_threshold", "voxel", "cluster_radius", "fit_tol"):
+        for name in ("plane_threshold", "cluster_radius", "fit_tol"):
             if getattr(self, name) <= 0:
                 raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
         unknown = set(self.primitives) - {"box", "cylinder", "sphere", "cone"}
@@ -104,16 +103,7 @@ class ScenePerception:
         R = np.column_stack([ex, ey, n])
         origin = -d * n
         local = (objects_pts - origin) @ R
-        vox, inverse = voxel_downsample(local, self.voxel)
-        clusters = euclidean_clusters(vox, self.cluster_radius)
-        # Map voxel clusters back to the points they hold.
-        label = np.full(len(vox), -1)
-        for k, c in enumerate(clusters):
-            label[c] = k
-        point_label = label[inverse]
-        order = np.argsort(point_label, kind="stable")
-        counts = np.bincount(point_label + 1, minlength=len(clusters) + 1)
-        groups = np.split(order, np.cumsum(counts)[:-1])[1:]  # drop label -1
+        groups = grid_clusters(local, self.cluster_radius / 2)
         out: list[DetectedObject] = []
         for k, idx in enumerate(groups):
             if len(idx) < self.min_cluster_points:

@@ -228,6 +228,8 @@ def fit_cone(
     res = np.abs(r[None] - (R[:, None] - k[:, None] * z[None])) / np.sqrt(1 + k[:, None] ** 2)
     scores = (res < tol).sum(1)
     b = int(np.argmax(scores))
+    if scores[b] < 0.5 * len(points):  # not a cone: skip the (comparatively costly) refinement
+        return PrimitiveFit("cone", np.array([*c, 0.0]), _UP.copy(), np.zeros(3), 0.0)
     # Refine axis position, base radius and slope together (robust least squares): the
     # footprint circle is biased when only one side of the cone is visible.
     optimize = require("scipy.optimize", "cone fitting")
