@@ -44,12 +44,20 @@ def _quaternion(R: np.ndarray) -> np.ndarray:
     return q / np.linalg.norm(q)
 
 
+def _mad_sigma(residuals: np.ndarray) -> float:
+    if len(residuals) == 0:
+        return 0.0
+    return float(1.4826 * np.median(np.abs(residuals - np.median(residuals))))
+
+
 @dataclass
 class ScenePerception:
     """Configuration and entry points of the pipeline (all lengths in metres).
 
-    ``up`` orients the support-plane normal (the side the objects are on); ``seed`` makes the
-    RANSAC steps deterministic.
+    ``up`` orients the support-plane normal (the side the objects are on); ``noise`` is the
+    depth noise σ (m) — by default it is estimated on the support plane each frame, and the
+    plane threshold, the height above the plane and the fit tolerance grow with it (they never
+    go below the configured values); ``seed`` makes the RANSAC steps deterministic.
     """
 
     rules: RuleSet = field(default_factory=RuleSet.default)
@@ -61,6 +69,7 @@ class ScenePerception:
     max_fit_points: int = 500
     primitives: tuple[str, ...] = ("box", "cylinder", "sphere", "cone")
     up: tuple[float, float, float] = (0.0, 0.0, 1.0)
+    noise: float | None = None
     seed: int = 0
 
     def __post_init__(self) -> None:
@@ -90,12 +99,19 @@ class ScenePerception:
         if len(points) < 100:
             return []
         rng = np.random.default_rng(self.seed)
-        n, d, _ = ransac_plane(points, self.plane_threshold, rng=rng)
+        n, d, inliers = ransac_plane(points, self.plane_threshold, rng=rng)
+        # Sensor noise, from the spread of the support plane (robust MAD). With noisier data
+        # every threshold widens with it, so the plane's noise does not become "objects".
+        sigma = self.noise if self.noise is not None else _mad_sigma(points[inliers] @ n + d)
+        if 3.5 * sigma > self.plane_threshold:
+            n, d, inliers = ransac_plane(points, 3.5 * sigma, rng=rng)
+        min_height = max(self.min_height, 4.0 * sigma)
+        fit_tol = max(self.fit_tol, 2.5 * sigma)
         up = np.asarray(self.up, dtype=float)
         if n @ up < 0:
             n, d = -n, -d
         height = points @ n + d
-        objects_pts = points[height > self.min_height]
+        objects_pts = points[height > min_height]
         # Support frame: z along the plane normal, origin on the plane below the centroid.
         ex = np.cross(n, [0.0, 1.0, 0.0]) if abs(n[1]) < 0.9 else np.cross(n, [1.0, 0.0, 0.0])
         ex /= np.linalg.norm(ex)
@@ -111,7 +127,7 @@ class ScenePerception:
             pts = local[idx]
             if len(pts) > self.max_fit_points:
                 pts = pts[rng.choice(len(pts), self.max_fit_points, replace=False)]
-            fit = self.fit_primitive(pts, rng)
+            fit = self.fit_primitive(pts, rng, fit_tol)
             obj_type, err = self.rules.classify(fit.kind, fit.size)
             conf = fit.inlier_ratio * (1.0 - 0.5 * min(err, 1.0)) if np.isfinite(err) else 0.0
             center = origin + R @ fit.center
@@ -132,14 +148,16 @@ class ScenePerception:
         return out
 
     # ---------------------------------------------------------------------------- helpers
-    def fit_primitive(self, pts: np.ndarray, rng: np.random.Generator) -> PrimitiveFit:
+    def fit_primitive(
+        self, pts: np.ndarray, rng: np.random.Generator, tol: float | None = None
+    ) -> PrimitiveFit:
         """Best primitive for a cluster in the support frame (highest inlier ratio).
 
         A box explains any compact cluster a little, so a curved primitive wins ties: it is
         preferred when its inlier ratio is within 0.05 of the box's.
         """
         fits: list[PrimitiveFit] = []
-        tol = self.fit_tol
+        tol = self.fit_tol if tol is None else tol
         if "box" in self.primitives:
             fits.append(fit_box(pts, tol))
         if "cylinder" in self.primitives:
