@@ -142,3 +142,11 @@ def test_hmp_by_volunteer_small(hmp_dir):
     rec = GMMGMRRecognizer(max_points=1000).fit(train)
     rep = classification_report([t.action for t in test], rec.predict(test))
     assert rep["accuracy"] >= 0.8
+
+
+def test_fit_with_one_short_trial_per_action():
+    rng = np.random.default_rng(0)
+    down, left = np.array([0.0, 0.0, -1.0]), np.array([0.0, 1.0, 0.0])
+    X = [rng.normal(0, 0.1, (12, 3)) + down, rng.normal(0, 0.1, (20, 3)) + left]
+    rec = GMMGMRRecognizer().fit(X, ["a", "b"])
+    assert rec.predict(X) == ["a", "b"]

@@ -231,7 +231,7 @@ class GMMGMRRecognizer:
             if len(pts) > self.max_points:
                 pts = pts[rng.choice(len(pts), self.max_points, replace=False)]
             best, best_bic = None, np.inf
-            for k in range(1, min(self.max_components, len(pts) // 10) + 1):
+            for k in range(1, max(1, min(self.max_components, len(pts) // 10)) + 1):
                 gm = mixture.GaussianMixture(
                     k, covariance_type="full", reg_covar=1e-5, random_state=seed, n_init=1
                 ).fit(pts)
