@@ -9,7 +9,8 @@ Regression after Bruno, Mastrogiovanni, Sgorbissa et al. (CASE 2012, ICRA 2013):
 * :mod:`.online` — :class:`OnlineRecognizer` over a stream, :class:`RecognisedAction`;
 * :mod:`.wearable` — :class:`SimulatedWearable` synthesising streams from a model;
 * :mod:`.mapping` — :class:`ActionMapping` to Task-Manager actions, :class:`HumanActionPublisher`;
-* :mod:`.evaluation` — metrics, volunteer-wise cross-validation, the summary-feature baseline.
+* :mod:`.evaluation` — metrics, volunteer-wise cross-validation, the summary-feature baseline;
+* :mod:`.synthetic` — toy trials and datasets for examples and tests without the HMP data.
 
 Only numpy is imported here; SciPy and scikit-learn are imported when they are needed.
 """

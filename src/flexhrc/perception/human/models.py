@@ -31,7 +31,7 @@ import numpy as np
 
 from flexhrc.errors import FlexhrcError, FormatError, UnknownNameError
 from flexhrc.perception._deps import require
-from flexhrc.perception.human.dataset import HMP_RATE_HZ, Trial
+from flexhrc.perception.human.dataset import Trial
 from flexhrc.perception.human.preprocessing import Preprocessor, resample
 
 FORMAT_VERSION = 1
@@ -408,7 +408,3 @@ def _as_trials(X, y, rate_hz: float) -> list[Trial]:
     return [
         Trial(str(lab), np.asarray(x), rate_hz=rate_hz) for x, lab in zip(items, y, strict=True)
     ]
-
-
-#: Rate of the data the default pre-processor expects.
-DEFAULT_RATE_HZ = HMP_RATE_HZ
