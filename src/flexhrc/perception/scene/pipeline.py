@@ -5,11 +5,11 @@ shapes fitted by RANSAC (box, cylinder, sphere, cone) → PCA axis and extents �
 (rules as data) → persistent identities across frames (:class:`Tracker`) → knowledge base
 (:func:`~flexhrc.perception.scene.types.publish_objects`).
 
-Point-cloud library: numpy + SciPy (``cKDTree``, sparse connected components) already ship with
-the ``perception`` extra (~40 MB) and process a 100k-point frame in well under the 150 ms budget
-(see ``flexhrc scene bench``); open3d would add ~1 GB for the same operations, and generic RANSAC
-packages (e.g. pyransac3d) fit cylinders far more slowly than the PCA-axis + circle RANSAC used
-here, so neither earns its install size.
+Point-cloud library: numpy + SciPy (``ndimage.label``, ``cKDTree``, sparse graphs,
+``least_squares``) already ship with the ``perception`` extra and process a 100k-point frame in
+~55 ms, well under the 150 ms budget (see ``flexhrc scene bench``); open3d would add ~1.1 GB for
+the same operations, and generic RANSAC packages (e.g. pyransac3d) fit cylinders far more slowly
+than the PCA-axis + circle RANSAC used here, so neither earns its install size.
 """
 
 from __future__ import annotations
