@@ -212,3 +212,22 @@ def test_bench_small():
     assert res["detection_rate"] >= 0.9
     with pytest.raises(ValueError):
         run_bench(n_scenes=0)
+
+
+def test_pybullet_rendering_matches_the_ray_caster():
+    pytest.importorskip("pybullet")
+    from flexhrc.perception.scene.sim_render import render_depth_pybullet
+
+    rng = np.random.default_rng(5)
+    scene = generate_scene(rng)
+    d_pb = render_depth_pybullet(scene)
+    d_rc = render_depth(scene)
+    both = (d_pb > 0) & (d_rc > 0)
+    assert both.mean() > 0.8
+    assert np.median(np.abs(d_pb - d_rc)[both]) < 0.002
+    objs = ScenePerception().process_depth(d_pb, scene.intrinsics, scene.extrinsics)
+    pairs = match(
+        np.array([o.center for o in scene.objects]), np.array([o.position for o in objs]), 0.05
+    )
+    assert len(pairs) == len(scene.objects)
+    assert all(objs[d].type == scene.objects[t].type for t, d in pairs)

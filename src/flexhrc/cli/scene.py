@@ -30,6 +30,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     b.add_argument("--dropout", type=float, default=0.0, help="fraction of missing pixels")
     b.add_argument("--width", type=int, default=400, help="depth image width (px)")
     b.add_argument("--height", type=int, default=300, help="depth image height (px)")
+    b.add_argument(
+        "--renderer",
+        choices=["raycast", "pybullet"],
+        default="raycast",
+        help="analytic ray casting (default) or pybullet's renderer (needs the sim extra)",
+    )
     add_json_flag(b)
     b.set_defaults(func=_bench)
 
@@ -60,6 +66,7 @@ def _bench(args: argparse.Namespace) -> int:
             width=args.width,
             height=args.height,
             dropout=args.dropout,
+            renderer=args.renderer,
             progress=(lambda m: log(args, m)) if args.json else None,
         )
     except ValueError as exc:
@@ -68,7 +75,8 @@ def _bench(args: argparse.Namespace) -> int:
     def text() -> str:
         return "\n".join(
             [
-                f"{res['scenes']} scenes, seed {res['seed']}, noise {res['noise_m']} m, "
+                f"{res['scenes']} scenes ({res['renderer']}), seed {res['seed']}, "
+                f"noise {res['noise_m']} m, "
                 f"{res['objects']} objects, {res['points_per_frame']} points/frame (median)",
                 f"  detection_rate    {res['detection_rate']:.4f}",
                 f"  position_error_m  {res['position_error_m']} (median)",

@@ -44,11 +44,14 @@ def run_bench(
     match_radius: float = 0.05,
     perception: ScenePerception | None = None,
     progress: Callable[[str], None] | None = None,
+    renderer: str = "raycast",
 ) -> dict[str, float | int]:
     if n_scenes < 1:
         raise ValueError(f"--scenes must be >= 1, got {n_scenes}")
     if noise < 0:
         raise ValueError(f"--noise must be >= 0, got {noise}")
+    if renderer not in ("raycast", "pybullet"):
+        raise ValueError(f"--renderer must be raycast or pybullet, got {renderer!r}")
     rng = np.random.default_rng(seed)
     perception = perception or ScenePerception(seed=seed)
     # The pipeline's matrices are small: BLAS threads only add overhead (and spin against other
@@ -60,11 +63,15 @@ def run_bench(
     else:
         limits = threadpool_limits(1)
     with limits:
-        return _run(n_scenes, seed, noise, width, height, dropout, match_radius, perception, rng,
-                    progress)  # fmt: skip
+        res = _run(n_scenes, seed, noise, width, height, dropout, match_radius, perception, rng,
+                   progress, renderer)  # fmt: skip
+    res["renderer"] = renderer
+    return res
 
 
-def _run(n_scenes, seed, noise, width, height, dropout, match_radius, perception, rng, progress):
+def _run(
+    n_scenes, seed, noise, width, height, dropout, match_radius, perception, rng, progress, renderer
+):
     n_truth = n_matched = n_type_ok = n_false = 0
     pos_err: list[float] = []
     size_err: list[float] = []
@@ -73,7 +80,14 @@ def _run(n_scenes, seed, noise, width, height, dropout, match_radius, perception
     n_points: list[int] = []
     for i in range(n_scenes):
         scene = generate_scene(rng, width=width, height=height)
-        depth = render_depth(scene, noise=noise, dropout=dropout, rng=rng)
+        if renderer == "pybullet":
+            from flexhrc.perception.scene.sim_render import render_depth_pybullet
+
+            depth = render_depth_pybullet(scene, noise=noise, rng=rng)
+            if dropout > 0:
+                depth[rng.random(depth.shape) < dropout] = 0.0
+        else:
+            depth = render_depth(scene, noise=noise, dropout=dropout, rng=rng)
         t0, c0 = time.perf_counter(), time.process_time()
         cloud = depth_to_cloud(depth, scene.intrinsics, scene.extrinsics)
         objs = perception.process(cloud)
