@@ -12,8 +12,10 @@ Heavy imports happen inside the handlers so ``flexhrc --help`` stays fast.
 from __future__ import annotations
 
 import argparse
+import functools
 import time
 from pathlib import Path
+from typing import Any
 
 from flexhrc.cli.common import add_json_flag, emit, log
 from flexhrc.errors import FlexhrcError
@@ -138,6 +140,10 @@ def _report_text(title: str, rep: dict) -> str:
     return "\n".join(lines)
 
 
+def _progress(args: argparse.Namespace, method: str, message: str) -> None:
+    log(args, f"[{method}] {message}")
+
+
 def _eval(args: argparse.Namespace) -> int:
     from flexhrc.perception.human import GMMGMRRecognizer, load_dataset
     from flexhrc.perception.human.evaluation import (
@@ -151,14 +157,16 @@ def _eval(args: argparse.Namespace) -> int:
             raise FlexhrcError("eval --cv volunteer takes one argument: DATA_DIR")
         trials = load_dataset(args.paths[0], _actions(args.actions), args.min_trials)
         labels = sorted({t.action for t in trials})
-        methods = [("gmm_gmr", lambda: GMMGMRRecognizer(random_state=args.seed))]
+        methods: list[tuple[str, Any]] = [
+            ("gmm_gmr", lambda: GMMGMRRecognizer(random_state=args.seed))
+        ]
         if args.baseline:
             methods.append(("baseline_rf", lambda: SummaryFeatureBaseline(random_state=args.seed)))
         out: dict = {"split": "leave-one-volunteer-out" if args.folds is None else
                      f"{args.folds} folds by volunteer"}  # fmt: skip
         for name, make in methods:
             y_true, y_pred = cross_validate(
-                trials, make, args.folds, progress=lambda m, n=name: log(args, f"[{n}] {m}")
+                trials, make, args.folds, progress=functools.partial(_progress, args, name)
             )
             out[name] = classification_report(y_true, y_pred, labels)
         emit(

@@ -254,7 +254,7 @@ class GMMGMRRecognizer:
             np.inf,
             tuple(self.groups),
             float(np.mean(log_len)),
-            float(max(np.std(log_len), 0.05)),  # floor: a single trial gives std 0
+            max(float(np.std(log_len)), 0.05),  # floor: a single trial gives std 0
             self.duration_weight,
         )
         dists = np.array([model.distance(f) for f in feats])
@@ -343,7 +343,7 @@ class GMMGMRRecognizer:
                 arrays[f"m{i}_g{j}_mean"] = mu
                 arrays[f"m{i}_g{j}_cov"] = cov
         with path.open("wb") as fh:
-            np.savez_compressed(fh, **arrays)
+            np.savez_compressed(fh, **arrays)  # type: ignore[arg-type]
         return path
 
     @classmethod

@@ -40,8 +40,8 @@ def _quaternion(R: np.ndarray) -> np.ndarray:
         q[i] = s / 4
         q[j] = (R[j, i] + R[i, j]) / s
         q[k] = (R[k, i] + R[i, k]) / s
-    q = np.asarray(q)
-    return q / np.linalg.norm(q)
+    qa = np.asarray(q, dtype=float)
+    return qa / np.linalg.norm(qa)
 
 
 def _mad_sigma(residuals: np.ndarray) -> float:
