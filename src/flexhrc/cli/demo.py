@@ -23,6 +23,8 @@ TRACE_TYPES = {
     "human_decides",
     "waiting",
     "human_action_unmatched",
+    "human_sensed",
+    "human_sensing_missed",
 }
 
 
@@ -101,6 +103,18 @@ def _run_options(p: argparse.ArgumentParser) -> None:
         help="kinematic simulator only: during the N-th ACTION (default transport:1) the real "
         "robot meets KIND = blocked_path (an obstacle appears at the target) or slow_arm",
     )
+    p.add_argument(
+        "--human-sensing",
+        choices=["injected", "har"],
+        default="injected",
+        help="how the manager learns what the operator did: told directly, or recognised from "
+        "a synthesised wrist signal (GMM/GMR; perception extra)",
+    )
+    p.add_argument(
+        "--har-model",
+        metavar="FILE",
+        help="a trained recogniser (flexhrc har train) for --human-sensing har",
+    )
     p.add_argument("--log", metavar="FILE", help="write the event log (JSON lines)")
     p.add_argument("--plot", metavar="FILE", help="write the timeline PNG")
     p.add_argument("--quiet", action="store_true", help="no live trace")
@@ -150,6 +164,25 @@ def _simulators(args: argparse.Namespace) -> tuple[Any, Any]:
             params.update(factor=0.2, at_s=None)
         kin.schedule(action or "transport", nth, **params)
     return kin, kin
+
+
+def _human_sensing(args: argparse.Namespace) -> Any:
+    if args.human_sensing != "har":
+        if args.har_model:
+            raise FlexhrcError("--har-model goes with --human-sensing har")
+        return None
+    try:
+        from flexhrc.perception.human import GMMGMRRecognizer
+        from flexhrc.perception.human.sensing import WearableHumanSensor
+    except ImportError as exc:
+        raise FlexhrcError(
+            f"--human-sensing har needs the perception extra ({exc.name} is missing): "
+            "pip install 'flexhrc[perception]'"
+        ) from None
+    model = GMMGMRRecognizer.load(args.har_model) if args.har_model else None
+    if model is None and not args.quiet:
+        print("training the wrist-motion recogniser on synthetic motions ...", file=sys.stderr)
+    return WearableHumanSensor(model, seed=args.seed)
 
 
 def _failures(specs: list[str]) -> list[Any]:
@@ -202,6 +235,13 @@ def _trace_printer(args: argparse.Namespace) -> Any:
         elif kind == "human_gives_up":
             what = ev.get("leg") or ev.get("bolt")
             line = f"human leaves {what}: the {ev['holder']} got there first"
+        elif kind == "human_sensed":
+            line = (
+                f"wrist sensor: {ev['performed']} -> recognised {ev['recognised']} "
+                f"(confidence {ev['confidence']:.2f}, {ev['samples']} samples)"
+            )
+        elif kind == "human_sensing_missed":
+            line = f"wrist sensor missed {ev['action']}; scene perception reports it"
         elif kind == "waiting":
             line = f"waiting: {ev['reason']}"
         elif kind == "outcome":
@@ -248,6 +288,7 @@ def _run_table(args: argparse.Namespace, scenario: Any, profile: str) -> int:
         trace=_trace_printer(args),
         realtime=args.realtime,
         human_takes=args.human_takes,
+        human_sensing=_human_sensing(args),
     )
     result = run.run()
     if args.log:

@@ -107,6 +107,7 @@ class CooperationRun:
         realtime: float = 0.0,
         max_time_s: float = 3600.0,
         human_takes: Iterable[int] | None = None,
+        human_sensing: Any = None,
     ):
         if human_profile not in PROFILES:
             raise FlexhrcError(
@@ -120,6 +121,9 @@ class CooperationRun:
         self.profile = human_profile
         # a scripted operator: takes exactly these bolts (1-based), whatever the profile says
         self.human_takes = set(human_takes) if human_takes is not None else None
+        # None: the Task Manager is told what the operator did; else an object with
+        # sense(action) -> result with .recognised (task action or None) and .to_dict()
+        self.human_sensing = human_sensing
         self.rng = random.Random(seed)
         self.failures = list(failures or [])
         self._failure_counts: dict[int, int] = {}
@@ -308,6 +312,19 @@ class CooperationRun:
             "action_start", agents=["human"], action=str(step), planned_s=round(duration, 6)
         )
 
+    def _sensed(self, step: GroundAction) -> str:
+        """The action name the Task Manager learns: the performed one, or what the wearable
+        sensor recognised. The object (which leg) comes from scene perception."""
+        if self.human_sensing is None:
+            return step.name
+        sensed = self.human_sensing.sense(step.name)
+        self._event("human_sensed", action=str(step), **sensed.to_dict())
+        if sensed.recognised is None:
+            # the wrist signal was not recognised; scene perception still sees the leg move
+            self._event("human_sensing_missed", action=str(step))
+            return step.name
+        return str(sensed.recognised)
+
     def _taken_by_robot(self, obj: str) -> str | None:
         for fact in self.kb.facts:
             if fact[0] == "holding" and fact[2] == obj:
@@ -351,7 +368,9 @@ class CooperationRun:
             self.kb.assert_fact("on_table", step.args[1])
             self.human_plan = None
             return
-        self._dispatch(self.tm.on_human_action(self.now, HumanAction(step.name, step.args)))
+        self._dispatch(
+            self.tm.on_human_action(self.now, HumanAction(self._sensed(step), step.args))
+        )
         plan = self.human_plan
         if plan is None:
             return
