@@ -75,3 +75,28 @@ def test_errors_name_the_problem():
         k.add_object("leg1", "leg", (0, 0, 0))
     with pytest.raises(FlexhrcError, match="three finite numbers"):
         k.add_object("x", "leg", (0, 0))
+
+
+def test_scene_perception_feeds_the_knowledge_base():
+    """Recognised objects go to the knowledge base through the ObjectSink protocol."""
+    np = pytest.importorskip("numpy")
+    pytest.importorskip("scipy")
+    from flexhrc.perception.scene.cloud import depth_to_cloud
+    from flexhrc.perception.scene.pipeline import ScenePerception
+    from flexhrc.perception.scene.synthetic import generate_scene, render_depth
+    from flexhrc.perception.scene.types import publish_objects
+
+    rng = np.random.default_rng(0)
+    scene = generate_scene(rng, n_legs=3, n_clutter=(0, 0))
+    depth = render_depth(scene, noise=0.002, rng=rng)
+    objects = ScenePerception().process(depth_to_cloud(depth, scene.intrinsics, scene.extrinsics))
+    k = KnowledgeBase()
+    assert publish_objects(k, objects) == len(objects)
+    # the rule set types legs by length (leg_long / leg_short) and tabletops by size
+    legs = [o for o in k.objects.values() if o.type.startswith("leg_")]
+    assert len(legs) == 3 and all(0.2 < o.size["length"] < 0.5 for o in legs)
+    assert len(k.query(parse_conjunction("leg_short(?l)"))) == 2 and k.consistent
+    # the same object seen again as something else is not silently accepted
+    first = objects[0]
+    assert not k.update_object(first.id, "sphere_thing", first.pose, tuple(first.size))
+    assert not k.consistent

@@ -116,16 +116,19 @@ class KnowledgeBase:
         obj_id: str,
         type: str,
         pose: Iterable[float],
-        size: Mapping[str, float] | None = None,
+        size: Mapping[str, float] | Iterable[float] | None = None,
         **attrs: Any,
     ) -> bool:
         """A percept of one object (the perception modules' ``ObjectSink`` protocol).
 
-        A new id is added; a known one is updated when the percept agrees with the base.
-        Returns False when the percept contradicts the base: it is then kept as an
+        ``pose`` starts with the position (a quaternion may follow); ``size`` is a mapping of
+        named dimensions, or extents largest first (stored as ``length``, ``width``,
+        ``height``). A new id is added; a known one is updated when the percept agrees with the
+        base. Returns False when the percept contradicts the base: it is then kept as an
         :class:`Inconsistency` and nothing changes until :meth:`resolve`.
         """
         position = _vec(list(pose)[:3])
+        size = _size(size)
         percept = {"type": type, "position": position, "size": dict(size or {}), "attrs": attrs}
         rec = self.objects.get(obj_id)
         if rec is None:
@@ -226,6 +229,15 @@ class KnowledgeBase:
             "facts": sorted(list(f) for f in self._facts),
             "consistent": self.consistent,
         }
+
+
+def _size(size: Mapping[str, float] | Iterable[float] | None) -> dict[str, float]:
+    if size is None:
+        return {}
+    if isinstance(size, Mapping):
+        return {str(k): float(v) for k, v in size.items()}
+    values = [float(v) for v in size]
+    return dict(zip(("length", "width", "height"), values, strict=False))
 
 
 def _vec(p: Iterable[float]) -> Vec3:
