@@ -14,7 +14,7 @@ tick — the same results, the worst case).
 
 Usage::
 
-    PYTHONPATH=src python3 benchmarks/behavior_ticks.py [--ticks 60] [--warmup 30] [--json]
+    python3 benchmarks/behavior_ticks.py [--ticks 60] [--warmup 30] [--json]
 """
 
 from __future__ import annotations
@@ -23,7 +23,11 @@ import argparse
 import json
 import random
 import statistics
+import sys
 import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))
 
 from flexhrc.behavior import BehaviorNetwork, NetworkParams, build_task, random_world
 
