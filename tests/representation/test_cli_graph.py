@@ -72,64 +72,24 @@ def test_stats_json_keys(capsys, graph_file):
     assert (st["instantiated_nodes"], st["instantiated_hyperarcs"]) == (9, 6)
 
 
+# the top graph up to the lower-graph instance of h1
+TOP_DONE = ["--met", "Plate_initPose", "--met", "Leg1_T", "--solved", "h0",
+            "--met", "Plate_assemblyPose"]  # fmt: skip
+LOWER_LEAVES = ["--met", "h1/Leg_T", "--met", "h1/Plate"]
+
+
 def test_suggest_json_contract_and_qualified_names(capsys, graph_file):
-    code, rows = run_json(
-        capsys,
-        "graph",
-        "suggest",
-        str(graph_file),
-        "--met",
-        "Plate_initPose",
-        "--met",
-        "Leg1_T",
-        "--solved",
-        "h0",
-        "--met",
-        "Plate_assemblyPose",
-    )
+    code, rows = run_json(capsys, "graph", "suggest", str(graph_file), *TOP_DONE)
     assert code == 0
     assert all(set(r) == {"element", "kind", "cost", "graph"} for r in rows)
     assert {r["element"] for r in rows} == {"h1/Leg_T", "h1/Plate"}
     assert {r["graph"] for r in rows} == {"h1"}
     # cheapest lower path: h2 (1); upper: + h21 1 -> 2
     assert rows[0]["cost"] == 2 and rows[0]["kind"] == "node"
-    code, rows = run_json(
-        capsys,
-        "graph",
-        "suggest",
-        str(graph_file),
-        "--met",
-        "Plate_initPose",
-        "--met",
-        "Leg1_T",
-        "--solved",
-        "h0",
-        "--met",
-        "Plate_assemblyPose",
-        "--met",
-        "h1/Leg_T",
-        "--met",
-        "h1/Plate",
-    )
+    code, rows = run_json(capsys, "graph", "suggest", str(graph_file), *TOP_DONE, *LOWER_LEAVES)
     assert rows[0] == {"element": "h1/h2", "kind": "hyperarc", "cost": 2, "graph": "h1"}
     code, exact = run_json(
-        capsys,
-        "graph",
-        "suggest",
-        str(graph_file),
-        "--exact",
-        "--met",
-        "Plate_initPose",
-        "--met",
-        "Leg1_T",
-        "--solved",
-        "h0",
-        "--met",
-        "Plate_assemblyPose",
-        "--met",
-        "h1/Leg_T",
-        "--met",
-        "h1/Plate",
+        capsys, "graph", "suggest", str(graph_file), "--exact", *TOP_DONE, *LOWER_LEAVES
     )
     assert exact == rows
 
