@@ -24,7 +24,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))
 
 from flexhrc.representation import OnlineGraph
 from flexhrc.scenarios.table_assembly import TableScenario
-from flexhrc.taskmanager import PROFILES, CooperationRun
+from flexhrc.taskmanager import PROFILES, AnalyticSimulator, CooperationRun
 
 PAPER = {"task_manager_s": 0.01, "task_representation_s": 0.57, "simulator_s": 4.15}
 TARGET_S = 0.050
@@ -56,6 +56,7 @@ def main() -> int:
                 sc.knowledge(),
                 human_profile=profile,
                 seed=seed,
+                simulator=AnalyticSimulator(),
             )
             result = run.run()
             t = result.summary["timing"]

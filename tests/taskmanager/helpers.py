@@ -9,7 +9,7 @@ from typing import Any
 
 from flexhrc.representation import OnlineGraph
 from flexhrc.scenarios.table_assembly import TableScenario
-from flexhrc.taskmanager import CooperationRun, RunResult
+from flexhrc.taskmanager import AnalyticSimulator, CooperationRun, RunResult
 
 # legs on both sides of the tabletop, two per side
 LAYOUT = [(0.35, 0.30, 0.0), (0.50, 0.32, 0.0), (0.35, -0.30, 0.0), (0.50, -0.32, 0.0)]
@@ -19,13 +19,9 @@ def run_table(
     profile: str = "passive", *, seed: int = 0, layout=LAYOUT, run_kw=None, **scenario_kw
 ):
     sc = TableScenario(seed=seed, leg_positions=layout, **scenario_kw)
+    kw = {"simulator": AnalyticSimulator(), **(run_kw or {})}  # fast; the kinematic one is tested
     run = CooperationRun(
-        OnlineGraph(sc.graph()),
-        sc.domain(),
-        sc.knowledge(),
-        human_profile=profile,
-        seed=seed,
-        **(run_kw or {}),
+        OnlineGraph(sc.graph()), sc.domain(), sc.knowledge(), human_profile=profile, seed=seed, **kw
     )
     return run.run(), run
 

@@ -25,6 +25,7 @@ from flexhrc.taskmanager.simulator import (
     Simulator,
     StepReport,
     Timing,
+    default_simulator,
 )
 
 __all__ = [
@@ -53,4 +54,5 @@ __all__ = [
     "Suggest",
     "TaskManager",
     "Timing",
+    "default_simulator",
 ]

@@ -38,7 +38,7 @@ from flexhrc.logic import Literal, apply_substitution, is_variable
 from flexhrc.representation import OnlineGraph
 from flexhrc.taskmanager.decision import ActionStateTable, Branch, DecisionTree
 from flexhrc.taskmanager.domain import Domain, GroundAction
-from flexhrc.taskmanager.simulator import Simulator
+from flexhrc.taskmanager.simulator import Simulator, default_simulator
 
 
 # ----------------------------------------------------------------------------- directives --
@@ -148,7 +148,7 @@ class TaskManager:
         graph: OnlineGraph,
         domain: Domain,
         kb: KnowledgeBase,
-        simulator: Simulator,
+        simulator: Simulator | None = None,
         *,
         log: Callable[[dict[str, Any]], None] | None = None,
         timer: Callable[[], float] = time.perf_counter,
@@ -156,7 +156,8 @@ class TaskManager:
         self.graph = graph
         self.domain = domain
         self.kb = kb
-        self.simulator = simulator
+        # default: the kinematic simulator when the sim extra is installed (paper V-A)
+        self.simulator = simulator if simulator is not None else default_simulator()
         self.table = ActionStateTable()
         self.timing = Timing()
         self.decisions = 0

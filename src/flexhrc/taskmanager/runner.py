@@ -44,7 +44,12 @@ from flexhrc.taskmanager.manager import (
     Suggest,
     TaskManager,
 )
-from flexhrc.taskmanager.simulator import AnalyticSimulator, ExecutionModel, Simulator
+from flexhrc.taskmanager.simulator import (
+    AnalyticSimulator,
+    ExecutionModel,
+    Simulator,
+    default_simulator,
+)
 
 PROFILES = ("passive", "takeover", "cooperative", "random")
 
@@ -116,8 +121,11 @@ class CooperationRun:
         self.graph = graph
         self.domain = domain
         self.kb = kb
-        self.simulator = simulator or AnalyticSimulator()
-        self.execution = execution or AnalyticSimulator()
+        self.simulator = simulator if simulator is not None else default_simulator()
+        if execution is None:  # the simulator plays the real world too, when it can
+            sim: Any = self.simulator
+            execution = sim if hasattr(sim, "execute") else AnalyticSimulator()
+        self.execution: ExecutionModel = execution
         self.profile = human_profile
         # a scripted operator: takes exactly these bolts (1-based), whatever the profile says
         self.human_takes = set(human_takes) if human_takes is not None else None

@@ -264,3 +264,15 @@ def _v(p: object) -> Vec3:
 
 def _fmt(p: Vec3) -> str:
     return "(" + ", ".join(f"{v:.2f}" for v in p) + ")"
+
+
+def default_simulator() -> Simulator:
+    """The kinematic simulator of :mod:`flexhrc.action` when the ``sim`` extra is installed
+    (pinocchio importable), else the :class:`AnalyticSimulator`."""
+    import importlib.util
+
+    if importlib.util.find_spec("pinocchio") is not None:
+        from flexhrc.action.bridge import KinematicTaskSimulator
+
+        return KinematicTaskSimulator()
+    return AnalyticSimulator()
