@@ -100,3 +100,14 @@ def test_the_kinematic_simulator_is_the_default_when_installed():
 
     sim, execution = _simulators(argparse.Namespace(simulator="auto", disturb=[]))
     assert isinstance(sim, KinematicTaskSimulator) and execution is sim
+
+
+def test_the_task_manager_defaults_to_the_kinematic_simulator():
+    from flexhrc.taskmanager import TaskManager
+
+    sc = TableScenario(legs=1, leg_positions=LAYOUT[:1])
+    tm = TaskManager(OnlineGraph(sc.graph()), sc.domain(), sc.knowledge())
+    assert isinstance(tm.simulator, KinematicTaskSimulator)
+    directives = tm.start(0.0)
+    assert directives[0].action.name == "approach"
+    assert tm.branches_simulated == 2
