@@ -111,3 +111,18 @@ def test_the_task_manager_defaults_to_the_kinematic_simulator():
     directives = tm.start(0.0)
     assert directives[0].action.name == "approach"
     assert tm.branches_simulated == 2
+
+
+def test_cli_disturbance_and_simulator_errors(capsys):
+    import json
+
+    from flexhrc.cli import main
+
+    code = main(["demo", "table", "--legs", "2", "--simulator", "kinematic", "--disturb",
+                 "blocked_path:transport:1", "--json", "--quiet"])  # fmt: skip
+    data = json.loads(capsys.readouterr().out)
+    assert code == 0 and data["outcome"] == "solved"
+    assert main(["demo", "table", "--disturb", "earthquake"]) == 2
+    assert "KIND is blocked_path or slow_arm" in capsys.readouterr().err
+    assert main(["demo", "table", "--simulator", "analytic", "--disturb", "slow_arm"]) == 2
+    assert "--disturb needs --simulator kinematic" in capsys.readouterr().err
