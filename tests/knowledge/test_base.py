@@ -92,11 +92,29 @@ def test_scene_perception_feeds_the_knowledge_base():
     objects = ScenePerception().process(depth_to_cloud(depth, scene.intrinsics, scene.extrinsics))
     k = KnowledgeBase()
     assert publish_objects(k, objects) == len(objects)
-    # the rule set types legs by length (leg_long / leg_short) and tabletops by size
+    # the rule set types legs by length (leg_long / leg_short); a task written for legs sees both
+    assert k.supertypes == {}
     legs = [o for o in k.objects.values() if o.type.startswith("leg_")]
     assert len(legs) == 3 and all(0.2 < o.size["length"] < 0.5 for o in legs)
     assert len(k.query(parse_conjunction("leg_short(?l)"))) == 2 and k.consistent
+    typed = KnowledgeBase(supertypes={"leg_long": "leg", "leg_short": "leg"})
+    publish_objects(typed, objects)
+    assert len(typed.query(parse_conjunction("leg(?l)"))) == 3
+    assert len(typed.objects_of_type("leg")) == 3
     # the same object seen again as something else is not silently accepted
     first = objects[0]
     assert not k.update_object(first.id, "sphere_thing", first.pose, tuple(first.size))
     assert not k.consistent
+
+
+def test_supertypes_and_their_errors():
+    k = KnowledgeBase(supertypes={"leg_long": "leg", "leg": "part"})
+    k.add_object("l1", "leg_long", (0, 0, 0))
+    assert k.holds("leg_long", "l1") and k.holds("leg", "l1") and k.holds("part", "l1")
+    assert [o.id for o in k.objects_of_type("part")] == ["l1"]
+    assert not k.update_object("l1", "leg_short", (0, 0, 0))  # a different type: inconsistent
+    k.resolve("l1", accept=True)
+    assert k.holds("leg_short", "l1") and not k.holds("leg", "l1")
+    bad = KnowledgeBase(supertypes={"a": "b", "b": "a"})
+    with pytest.raises(FlexhrcError, match="cycle"):
+        bad.add_object("x", "a", (0, 0, 0))

@@ -5,6 +5,10 @@ are what the Task Manager grounds action parameters against. Queries are closed-
 that is not stored is false. Every object contributes the unary fact ``(type, id)``, so
 ``leg(?l) & on_table(?l)`` finds the legs lying on the table.
 
+Types may have supertypes (``supertypes={"leg_long": "leg"}``): an object of type ``leg_long``
+also makes ``leg(id)`` true, so a task written for legs accepts the long legs scene perception
+reports.
+
 Percepts and action effects update the base. A percept that contradicts what is stored — another
 type for a known id, a size off by more than the tolerance, an object that is fixed in place but
 seen elsewhere — is *not* applied: it is kept as an :class:`Inconsistency` and the base is
@@ -60,8 +64,15 @@ class Inconsistency:
 class KnowledgeBase:
     """Typed objects and ground facts with closed-world queries and a consistency check."""
 
-    def __init__(self, *, size_tolerance: float = 0.05, position_tolerance: float = 0.02):
+    def __init__(
+        self,
+        *,
+        size_tolerance: float = 0.05,
+        position_tolerance: float = 0.02,
+        supertypes: Mapping[str, str] | None = None,
+    ):
         self.objects: dict[str, ObjectRecord] = {}
+        self.supertypes: dict[str, str] = dict(supertypes or {})
         self._facts: set[tuple[str, ...]] = set()
         self.size_tolerance = size_tolerance
         self.position_tolerance = position_tolerance
@@ -81,9 +92,20 @@ class KnowledgeBase:
             raise FlexhrcError(f"object {obj_id!r} already exists")
         rec = ObjectRecord(obj_id, type, _vec(position), dict(size or {}), dict(attrs))
         self.objects[obj_id] = rec
-        self._facts.add((type, obj_id))
+        for t in self.type_chain(type):
+            self._facts.add((t, obj_id))
         self.version += 1
         return rec
+
+    def type_chain(self, type: str) -> list[str]:
+        """``type`` and its supertypes, most specific first (a cycle is an error)."""
+        chain = [type]
+        while chain[-1] in self.supertypes:
+            parent = self.supertypes[chain[-1]]
+            if parent in chain:
+                raise FlexhrcError(f"supertypes form a cycle: {' -> '.join([*chain, parent])}")
+            chain.append(parent)
+        return chain
 
     def object(self, obj_id: str) -> ObjectRecord:
         try:
@@ -104,7 +126,8 @@ class KnowledgeBase:
         self.version += 1
 
     def objects_of_type(self, type: str) -> list[ObjectRecord]:
-        return [o for o in self.objects.values() if o.type == type]
+        """Objects of ``type`` or of one of its subtypes."""
+        return [o for o in self.objects.values() if type in self.type_chain(o.type)]
 
     # -- percepts -----------------------------------------------------------------------
     @property
@@ -169,12 +192,14 @@ class KnowledgeBase:
                 continue
             if accept:
                 rec = self.objects[inc.object_id]
-                self._facts.discard((rec.type, rec.id))
+                for t in self.type_chain(rec.type):
+                    self._facts.discard((t, rec.id))
                 rec.type = inc.percept["type"]
                 rec.position = inc.percept["position"]
                 rec.size.update(inc.percept["size"])
                 rec.fixed = False
-                self._facts.add((rec.type, rec.id))
+                for t in self.type_chain(rec.type):
+                    self._facts.add((t, rec.id))
         self.inconsistencies = keep
         self.version += 1
 
