@@ -174,7 +174,8 @@ def resolve_reference(ref: str, including: Path, top_dir: Path) -> Path | None:
 
 def _resolve(ref: str, including_dir: str, top_dir: str) -> str | None:
     for base in (including_dir, top_dir):
-        for cand in (os.path.join(base, ref), os.path.join(base, ref + SUFFIX)):
+        # references usually omit the extension: try that first (one stat instead of two)
+        for cand in (os.path.join(base, ref + SUFFIX), os.path.join(base, ref)):
             if os.path.isfile(cand):
                 return os.path.normpath(cand)
     return None
@@ -190,8 +191,10 @@ def load_andor_text(path: str | Path) -> HierarchicalGraph:
     key_of: dict[str, str] = {}
     resolved: dict[tuple[str, str], str | None] = {}
 
+    prefix = top_dir + os.sep
+
     def key_for(p: str) -> str:
-        rel = os.path.relpath(p, top_dir) if p.startswith(top_dir + os.sep) else os.path.basename(p)
+        rel = p[len(prefix) :] if p.startswith(prefix) else os.path.basename(p)
         rel = rel.replace(os.sep, "/")
         return rel[: -len(SUFFIX)] if rel.endswith(SUFFIX) else rel
 
