@@ -242,7 +242,6 @@ class OnlineGraph:
         self._i_upper = i_upper
         self._i_parent = i_parent
         self._i_leaves = i_leaves
-        self._i_depth = i_depth
         self._i_span = i_span
         self._i_name = [H.graphs[k].name for k in i_key]
         # mutable state

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from flexhrc.knowledge import KnowledgeBase
-from flexhrc.logic import Literal, Substitution, apply_substitution, is_variable
+from flexhrc.logic import Literal, Substitution, is_variable
 from flexhrc.taskmanager.domain import ActionSchema, Domain, GroundAction
 from flexhrc.taskmanager.simulator import SimulationResult, Simulator
 
@@ -220,7 +220,3 @@ def _ground(schema: ActionSchema, args: Sequence[str], subst: Mapping[str, str])
     else:
         agents = spec.names
     return GroundAction(schema, values, agents)
-
-
-def ground_formula(formula: Iterable[Literal], subst: Mapping[str, str]) -> list[Literal]:
-    return [apply_substitution(lit, subst) for lit in formula]

@@ -32,7 +32,6 @@ from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from typing import Any
 
-from flexhrc.errors import FlexhrcError
 from flexhrc.knowledge import KnowledgeBase
 from flexhrc.logic import Literal, apply_substitution, is_variable
 from flexhrc.representation import OnlineGraph
@@ -133,7 +132,7 @@ class Execution:
 
 
 @dataclass
-class Timing:
+class ComputeTiming:
     """Wall-clock compute per module (paper Table I)."""
 
     task_manager_s: float = 0.0
@@ -159,7 +158,7 @@ class TaskManager:
         # default: the kinematic simulator when the sim extra is installed (paper V-A)
         self.simulator = simulator if simulator is not None else default_simulator()
         self.table = ActionStateTable()
-        self.timing = Timing()
+        self.timing = ComputeTiming()
         self.decisions = 0
         self.branches_simulated = 0
         self.outcome = "running"
@@ -524,7 +523,7 @@ class TaskManager:
             if ex.owner != "human" or ex.next_index >= len(ex.branch.steps):
                 continue
             step = ex.branch.steps[ex.next_index]
-            if step.name == action.name and _compatible(step.args, action.args):
+            if step.name == action.name and step.args == action.args:
                 return ex
         return None
 
@@ -622,10 +621,6 @@ class TaskManager:
         }
 
 
-def _compatible(expected: tuple[str, ...], got: tuple[str, ...]) -> bool:
-    return len(expected) == len(got) and all(e == g for e, g in zip(expected, got, strict=True))
-
-
 def _num(x: float) -> float | int:
     return int(x) if float(x).is_integer() else x
 
@@ -635,7 +630,6 @@ __all__ = [
     "Command",
     "Directive",
     "Execution",
-    "FlexhrcError",
     "HumanAction",
     "Stop",
     "Suggest",

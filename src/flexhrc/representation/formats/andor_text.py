@@ -166,12 +166,6 @@ def parse_graph(path: str | Path) -> tuple[AndOrGraph, list[tuple[str, int]]]:
     return graph, refs
 
 
-def resolve_reference(ref: str, including: Path, top_dir: Path) -> Path | None:
-    """Find the file of lower graph ``ref`` (see module docstring for the search order)."""
-    found = _resolve(ref, str(including.parent), str(top_dir))
-    return Path(found) if found else None
-
-
 def _resolve(ref: str, including_dir: str, top_dir: str) -> str | None:
     for base in (including_dir, top_dir):
         # references usually omit the extension: try that first (one stat instead of two)
