@@ -141,6 +141,7 @@ class Cell:
         self.replaying = False
         self.resumed = False
         self._wall0 = time.perf_counter()
+        self._clock0: float | None = None
         self._panel_inputs = 0
         self._subs = [
             transport.subscribe(P.ACK_TOPIC, self._on_ack_message),
@@ -316,9 +317,17 @@ class Cell:
             body = {k: v for k, v in ev.items() if k not in ("t", "type")}
             self._record(str(ev["type"]), body)
 
+    def _clock(self) -> float:
+        """Cell time from the wall clock, when agents take real time (unordered loop)."""
+        if self.ordered or self.realtime <= 0 or self._clock0 is None:
+            return self.now
+        return (time.perf_counter() - self._clock0) * self.realtime
+
     def _input(self, kind: str, body: dict[str, Any], t: float | None = None) -> None:
         if t is not None:
             self.now = max(self.now, float(t))
+        if not self.replaying:
+            self.now = max(self.now, round(self._clock(), 6))
         self._record(kind, body)  # committed before the manager acts on it
         directives = self._feed(kind, body)
         self._handle(directives)
@@ -538,6 +547,8 @@ class Cell:
         self._last_wall = time.perf_counter()
         if not self.resumed:
             self.wait_for_agents(agents_timeout, progress)
+        self._clock0 = time.perf_counter() - (self.now / self.realtime if self.realtime else 0)
+        if not self.resumed:
             self._input(
                 "start",
                 {
