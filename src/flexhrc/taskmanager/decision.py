@@ -149,6 +149,7 @@ class DecisionTree:
         reserved: Iterable[str] = (),
         check_pre: bool = True,
         from_index: int = 0,
+        binding: Mapping[str, str] | None = None,
     ) -> DecisionTree:
         """Enumerate branches.
 
@@ -157,7 +158,8 @@ class DecisionTree:
         capable agents in ``available_agents``; objects in ``reserved`` (used by another
         running element) and groundings in ``exclude`` (failed before) are left out. With
         ``check_pre`` every branch's preconditions are checked from step ``from_index`` on
-        (earlier steps count as done) and failing branches go to :attr:`pruned`.
+        (earlier steps count as done) and failing branches go to :attr:`pruned`. ``binding``
+        fixes variables beforehand (the groundings the children were reached with).
         """
         parsed = [domain.invocation(text) for text in invocations]
         variables: dict[str, str] = {}  # variable -> type
@@ -173,6 +175,7 @@ class DecisionTree:
         excluded = [dict(x) for x in exclude]
         constraint_list = list(constraints)
         bound_by_constraints = {a for lit in constraint_list for a in lit.args if is_variable(a)}
+        bound_by_constraints |= set(binding or {})
 
         # Object variables: ground them from the KB (children's formulas + their types).
         object_vars = [v for v in variables if v not in agent_vars]
@@ -181,7 +184,7 @@ class DecisionTree:
         ]
         groundings: list[Substitution] = []
         seen: set[tuple[tuple[str, str], ...]] = set()
-        for sub in kb.iter_query([*constraint_list, *type_lits]):
+        for sub in kb.iter_query([*constraint_list, *type_lits], binding):
             key = tuple(sorted((k, v) for k, v in sub.items() if k in variables))
             if key in seen:
                 continue

@@ -85,6 +85,9 @@ class ActionSchema:
     duration: float | None = None  # nominal seconds (None: the simulator's own model)
     moves_to: str | None = None  # parameter whose object/place the hand goes to
     until: Conjunction = ()  # processes only: the end condition
+    carries: str | None = None  # parameter whose object travels with the hand
+    fixes: str | None = None  # parameter whose object is fixed in place afterwards
+    undo: str | None = None  # the action that puts things back (an operator changing its mind)
     line: int | None = field(default=None, compare=False)
 
     @property
@@ -302,14 +305,18 @@ def _schema(
                 source,
                 _line(sd, "duration"),
             )
-    moves_to = sd.get("moves_to")
-    if moves_to is not None and str(moves_to) not in dict(params):
-        raise FormatError(
-            f"{what} {name!r}: moves_to {moves_to!r} is not one of its parameters "
-            f"({', '.join(v for v, _ in params) or 'none'})",
-            source,
-            _line(sd, "moves_to"),
-        )
+    roles: dict[str, str | None] = {}
+    for key in ("moves_to", "carries", "fixes"):
+        value = sd.get(key)
+        if value is not None and str(value) not in dict(params):
+            raise FormatError(
+                f"{what} {name!r}: {key} {value!r} is not one of its parameters "
+                f"({', '.join(v for v, _ in params) or 'none'})",
+                source,
+                _line(sd, key),
+            )
+        roles[key] = None if value is None else str(value)
+    moves_to = roles["moves_to"]
     return ActionSchema(
         name,
         params,
@@ -319,8 +326,11 @@ def _schema(
         _formula(sd.get("delete"), source, _line(sd, "delete")),
         str(sd.get("kind", name)),
         duration,
-        None if moves_to is None else str(moves_to),
+        moves_to,
         _formula(sd.get("until"), source, _line(sd, "until")),
+        roles["carries"],
+        roles["fixes"],
+        None if sd.get("undo") is None else str(sd["undo"]),
         line,
     )
 

@@ -278,6 +278,30 @@ class TaskManager:
     def done(self) -> bool:
         return self.outcome != "running"
 
+    # -- what the operators see (read only) -----------------------------------------------
+    def feasible_hyperarcs(self) -> dict[str, float]:
+        """Feasible hyper-arcs and their suggestion costs (eq. 10), as the graph answered."""
+        return {n: c for n, c in self._answer.feasible.items() if self.graph.kind(n) == "hyperarc"}
+
+    def actions_of(self, hyperarc: str) -> tuple[str, ...]:
+        """A(h): the hyper-arc's ordered action invocations."""
+        return self._describe(hyperarc)[1]
+
+    def constraints_of(self, hyperarc: str) -> list[Literal]:
+        """The state formulas of h's children."""
+        return self._constraints(hyperarc)
+
+    def binding_of(self, hyperarc: str) -> dict[str, str]:
+        """The groundings h's children were reached with."""
+        return self._child_binding(hyperarc)
+
+    def parent_of(self, hyperarc: str) -> str:
+        return self._parent(hyperarc)
+
+    def reserved_objects(self) -> set[str]:
+        """Objects that running executions' groundings use."""
+        return set().union(*(ex.objects for ex in self.executions.values()))
+
     # -- plumbing -------------------------------------------------------------------------
     def _entry(self, now: float, body: Callable[[], list[Directive]]) -> list[Directive]:
         self._now = now
@@ -515,12 +539,14 @@ class TaskManager:
         return any(children & set(self._children(e)) for e in self.executions)
 
     def _constraints(self, element: str) -> list[Literal]:
-        """The children's state formulas, under the bindings they were reached with."""
-        out: list[Literal] = []
+        """The children's state formulas (h starts from the state its children describe)."""
+        return [lit for c in self._children(element) for lit in self._formulas.get(c, ())]
+
+    def _child_binding(self, element: str) -> dict[str, str]:
+        """The groundings h's children were reached with (carried from their hyper-arcs)."""
+        out: dict[str, str] = {}
         for c in self._children(element):
-            binding = self.bindings.get(c)
-            for lit in self._formulas.get(c, ()):
-                out.append(apply_substitution(lit, binding) if binding else lit)
+            out.update(self.bindings.get(c, {}))
         return out
 
     def _busy_humans(self) -> set[str]:
@@ -563,6 +589,7 @@ class TaskManager:
                 exclude=self.failed.get(name, ()),
                 available_agents=available,
                 reserved=reserved,
+                binding=self._child_binding(name),
             )
             if not tree.branches:
                 # no branch with the agents free now: maybe later (an agent is busy)
@@ -629,6 +656,7 @@ class TaskManager:
             self.kb,
             exclude=self.failed.get(name, ()),
             check_pre=False,  # a precondition may come true when the others are done
+            binding=self._child_binding(name),
         )
         return bool(tree.branches)
 
@@ -894,7 +922,10 @@ class TaskManager:
     def _recognised_branch(
         self, name: str, actions: tuple[str, ...], binding: dict[str, str], index: int
     ) -> Branch | None:
-        constraints = [apply_substitution(lit, binding) for lit in self._constraints(name)]
+        fixed = {**self._child_binding(name), **binding}
+        if any(self._child_binding(name).get(k, v) != v for k, v in binding.items()):
+            return None  # the human's objects are not those the children were reached with
+        constraints = self._constraints(name)
 
         def pick(tree: DecisionTree) -> Branch | None:
             for b in tree.branches:
@@ -913,12 +944,19 @@ class TaskManager:
             self.kb,
             available_agents=self._humans(),
             from_index=index,
+            binding=fixed,
         )
         branch = pick(tree)
         if branch is None and index == 0:
             # the children's state may already be consumed by the action's own effect
             tree = DecisionTree.build(
-                name, actions, [], self.domain, self.kb, available_agents=self._humans()
+                name,
+                actions,
+                [],
+                self.domain,
+                self.kb,
+                available_agents=self._humans(),
+                binding=fixed,
             )
             branch = pick(tree)
         if branch is not None:
