@@ -313,10 +313,10 @@ def _trace_printer(args: argparse.Namespace) -> Any:
         elif kind == "infeasible":
             line = f"{ev['element']} infeasible: {ev['reason']}"
         elif kind == "human_decides":
-            line = f"human goes for {ev['leg']} ({ev['bolt']})"
+            line = f"{ev.get('agent', 'human')} goes for {ev['element']}: {'; '.join(ev['actions'])}"
         elif kind == "human_gives_up":
-            what = ev.get("leg") or ev.get("bolt")
-            line = f"human leaves {what}: the {ev['holder']} got there first"
+            what = ev.get("object") or ev.get("step")
+            line = f"{ev.get('agent', 'human')} leaves {what}: the {ev['holder']} got there first"
         elif kind == "human_sensed":
             line = (
                 f"wrist sensor: {ev['performed']} -> recognised {ev['recognised']} "
