@@ -30,7 +30,7 @@ from typing import Any
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "src"))
 
-from flexhrc.cell import Cell, EventStore, HumanAgent, RobotAgent  # noqa: E402
+from flexhrc.cell import Cell, EventStore, RobotAgent  # noqa: E402
 from flexhrc.cell import protocol as P  # noqa: E402
 from flexhrc.cell.components import execution_model, world_of  # noqa: E402
 from flexhrc.scenarios.parallel_assembly import ParallelScenario  # noqa: E402

@@ -23,8 +23,8 @@ from flexhrc.representation import AndOrGraph, HierarchicalGraph, Node
 from flexhrc.scenarios.table_assembly import ROBOT_DIRECT
 from flexhrc.taskmanager.domain import Domain
 
-ARM_SPACING = 0.5
-HUMAN = ("pick_up(?op, ?leg)", "screw(?op, ?leg, {bolt})")  # any of the operators  # metres between neighbouring shoulders, along y
+ARM_SPACING = 0.5  # metres between neighbouring shoulders, along y
+HUMAN = ("pick_up(?op, ?leg)", "screw(?op, ?leg, {bolt})")  # any of the operators
 
 
 @dataclass
@@ -45,7 +45,9 @@ class ParallelScenario:
         if not 1 <= self.legs <= 256:
             raise FlexhrcError(f"legs must be in 1..256, got {self.legs}")
         if not 0 <= self.human_legs <= self.legs:
-            raise FlexhrcError(f"human_legs must be in 0..legs ({self.legs}), got {self.human_legs}")
+            raise FlexhrcError(
+                f"human_legs must be in 0..legs ({self.legs}), got {self.human_legs}"
+            )
         if self.human_legs and not self.humans:
             raise FlexhrcError("human_legs needs humans >= 1")
 
@@ -118,7 +120,7 @@ class ParallelScenario:
             kb.add_object(f"bolt_{k}", "place", (0.45, y, 0.0))
             leg = f"leg{k}"
             p = (round(rng.uniform(0.3, 0.4), 3), round(y + rng.uniform(-0.05, 0.05), 3), 0.0)
-            attrs = {"reachable_by": []} if k <= self.human_legs else {}
+            attrs: dict[str, Any] = {"reachable_by": []} if k <= self.human_legs else {}
             kb.add_object(leg, "leg", p, {"length": 0.4, "diameter": 0.04}, **attrs)
             kb.assert_fact("on_table", leg)
             kb.assert_fact("kit", leg, f"bolt_{k}")
