@@ -282,6 +282,7 @@ class Cell:
             self._agent_down(name)
         elif alive and not st.available:
             self._input("agent_up", {"agent": name, "wall": time.time()})
+            self._resend(name)  # an operator's open suggestion (reports already seen are dropped)
         elif alive:
             self._resend(name)
 
@@ -313,7 +314,7 @@ class Cell:
         seq = self.store.append(kind, body, t) if self.store is not None else len(self.events) + 1
         ev = StoredEvent(seq, t, kind, body)
         self.events.append(ev)
-        self.trace({"t": t, "type": kind, **body})
+        self.trace({**body, "t": t, "type": kind})
 
     def _tm_log(self, ev: dict[str, Any]) -> None:
         if ev.get("type") in STORED_LOG_TYPES:

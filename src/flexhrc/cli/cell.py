@@ -89,6 +89,15 @@ def add_transport_options(p: argparse.ArgumentParser, *, default: str = "inproce
     )
 
 
+def quiet_library_logs() -> None:
+    """The command's trace already shows every dropped message: keep the library's warnings
+    (flexhrc.cell, flexhrc.transport) from printing them a second time."""
+    import logging
+
+    for name in ("flexhrc.cell", "flexhrc.transport"):
+        logging.getLogger(name).addHandler(logging.NullHandler())
+
+
 def open_zenoh(args: argparse.Namespace, *, listen_default: list[str]) -> Any:
     import re
 
@@ -145,6 +154,7 @@ def trace_line(ev: dict[str, Any]) -> str | None:
 
 
 def cmd_cell(args: argparse.Namespace) -> int:
+    quiet_library_logs()
     from flexhrc.cell import Cell, EventStore, HumanAgent, RobotAgent, load_scenario
     from flexhrc.cell.components import execution_model
 
