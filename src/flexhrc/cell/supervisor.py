@@ -144,6 +144,8 @@ class Cell:
         self._clock0: float | None = None
         self._last_wall = time.perf_counter()
         self._panel_inputs = 0
+        self._sent_at: dict[int, float] = {}  # command id -> when it was last sent (monotonic)
+        self.resent = 0
         self._subs = [
             transport.subscribe(P.ACK_TOPIC, self._on_ack_message),
             transport.subscribe(P.HUMAN_TOPIC, self._on_human_message),
@@ -402,6 +404,7 @@ class Cell:
         st = self.agents[agent]
         if self.replaying or not st.alive or not st.available:
             return
+        self._sent_at[cmd.id] = time.monotonic()
         self.transport.publish(
             P.cmd_topic(agent),
             P.message(
@@ -434,6 +437,23 @@ class Cell:
         sid = self.active_suggestion.get(agent)
         if sid is not None:
             self._send_suggestion(agent, sid)
+
+    def _resend_overdue(self) -> None:
+        """Send again a command whose answer is long overdue (a message lost on the way, an
+        agent that reconnected): agents treat a repeated id as the same command."""
+        now = time.monotonic()
+        pending_ids = {b["id"] for *_, k, b in self.pending if k == "ack"}
+        for agent, cmd in sorted(self.tm.busy.items()):
+            sent = self._sent_at.get(cmd.id)
+            if sent is None or cmd.id in pending_ids or cmd.id in self.acked:
+                continue
+            # an agent reports a time-out itself after 3x the expected time
+            paced = 3.0 * cmd.expected_s / self.agent_speed if self.agent_speed > 0 else 0.0
+            wait = 2.0 + paced
+            if now - sent > wait:
+                log.info("command %d to %s: no answer after %.1f s, resent", cmd.id, agent, wait)
+                self.resent += 1
+                self._send_command(agent, cmd)
 
     def _publish_state(self) -> None:
         try:
@@ -605,6 +625,7 @@ class Cell:
                     )
                     self._record("outcome", {"outcome": "failed", "reason": self.tm.reason})
                     break
+            self._resend_overdue()
             if time.monotonic() > deadline:
                 self.tm.outcome, self.tm.reason = "failed", f"wall time {max_wall_s} s exceeded"
                 self._record("outcome", {"outcome": "failed", "reason": self.tm.reason})
@@ -665,6 +686,7 @@ class Cell:
             "events": len(self.events),
             "resumed": self.resumed,
             "dropped": len(self.dropped),
+            "resent": self.resent,
             "agents": {n: st.to_dict() for n, st in self.agents.items()},
         }
         data["knowledge"] = self.kb.to_dict()
