@@ -373,8 +373,9 @@ class Cell:
                 if not self.replaying:
                     self._record("command", body)
                     self.stored_commands.add(d.id)
-                for agent in d.agents:
-                    self._send_command(agent, d)
+                # a joint command goes to its first agent, which drives all of them (as one
+                # execution model does in CooperationRun); the others are busy with it
+                self._send_command(d.agents[0], d)
             elif isinstance(d, Suggest):
                 sid = f"s{len(self.suggestions) + 1}"
                 human = next(a for a in d.actions[0].agents if self.agents[a].kind == "human")
@@ -432,7 +433,7 @@ class Cell:
     def _resend(self, agent: str) -> None:
         """An agent is (again) reachable: send what it should be doing (after a resume)."""
         for a, cmd in sorted(self.tm.busy.items()):
-            if a == agent and cmd.id not in self.acked:
+            if a == agent == cmd.agents[0] and cmd.id not in self.acked:
                 self._send_command(agent, cmd)
         sid = self.active_suggestion.get(agent)
         if sid is not None:
@@ -445,7 +446,9 @@ class Cell:
         pending_ids = {b["id"] for *_, k, b in self.pending if k == "ack"}
         for agent, cmd in sorted(self.tm.busy.items()):
             sent = self._sent_at.get(cmd.id)
-            if sent is None or cmd.id in pending_ids or cmd.id in self.acked:
+            if agent != cmd.agents[0] or sent is None or cmd.id in pending_ids:
+                continue
+            if cmd.id in self.acked:
                 continue
             # an agent reports a time-out itself after 3x the expected time
             paced = 3.0 * cmd.expected_s / self.agent_speed if self.agent_speed > 0 else 0.0
