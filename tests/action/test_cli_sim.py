@@ -54,7 +54,10 @@ def test_sim_with_obstacle_after_and_trajectory(capsys):
         (["juggle", "--target", "0.5", "0.1", "0.2"], "argument 'action'"),
         (["transport", "--target", "0.5", "0.1", "0.2", "--obstacle", "1", "2"], "--obstacle 1"),
         (["transport"], "needs a target"),
-        (["transport", "--target", "0.5", "0.1", "0.2", "--view", "x.txt"], ".png or .gif"),
+        (
+            ["transport", "--target", "0.5", "0.1", "0.2", "--view", "x.txt"],
+            "unsupported output format '.txt'; use one of .gif, .png",
+        ),
     ],
 )
 def test_sim_bad_input_is_one_line_exit_2(capsys, argv, message):
