@@ -23,7 +23,7 @@ from flexhrc.errors import FlexhrcError
 
 MIN_DT = 1e-3  # a finer step only costs time: the controller is converged at 1 ms
 MAX_TIME_BUDGET = 600.0  # simulated seconds
-MAX_STEPS = 1_000_000  # time budget / dt: bounds the memory of the trajectory
+MAX_STEPS = 200_000  # time budget / dt: bounds the time and memory of the trajectory
 
 
 def register(subparsers: Any) -> None:
