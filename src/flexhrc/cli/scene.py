@@ -105,7 +105,7 @@ def _bench(args: argparse.Namespace) -> int:
             height=args.height,
             dropout=args.dropout,
             renderer=args.renderer,
-            progress=progress if args.json else None,
+            progress=progress,  # one line per scene, on stderr
         )
     except ValueError as exc:
         raise FlexhrcError(str(exc)) from None
@@ -113,9 +113,10 @@ def _bench(args: argparse.Namespace) -> int:
     def text() -> str:
         return "\n".join(
             [
-                f"{res['scenes']} scenes ({res['renderer']}), seed {res['seed']}, "
+                f"{plural(res['scenes'], 'scene')} ({res['renderer']}), seed {res['seed']}, "
                 f"noise {res['noise_m']} m, "
-                f"{res['objects']} objects, {res['points_per_frame']} points/frame (median)",
+                f"{plural(res['objects'], 'object')}, {res['points_per_frame']} points/frame "
+                "(median)",
                 f"  detection_rate    {res['detection_rate']:.4f}",
                 f"  position_error_m  {res['position_error_m']} (median)",
                 f"  size_error_rel    {res['size_error_rel']} (median)",

@@ -121,6 +121,14 @@ def check_log(lines: Sequence[tuple[int, dict[str, Any]]], source: str | Path) -
             for key, v in timing.items():
                 if not _number(v) or v < 0:
                     raise fail(f"summary: timing {key!r} must be a finite time >= 0", line)
+            # the runner writes the summary at the end, stamped with the makespan it reports
+            total = timing.get("total_s")
+            if total is not None and abs(float(total) - last_t) > 1e-6:
+                raise fail(
+                    f"summary: the run ended at {total} s but its events reach {last_t} s "
+                    "(an edited log?)",
+                    line,
+                )
         elif kind == "decision":
             branches = ev.get("branches")
             if not isinstance(branches, list) or not all(isinstance(b, dict) for b in branches):
