@@ -448,6 +448,7 @@ def test_sigkill_leaves_a_readable_log_that_replay_says_was_cut_short(tmp_path, 
     data = json.loads(captured.out)
     assert data["events"] == len(written)  # every event written before the kill is read
     assert data["outcome"] == "cut_short" and not data["complete"]
+    assert data["compute_recorded"] is False  # no closing summary: Table I says n/a, not 0
     assert "the run was cut short" in captured.err
     assert data["decisions"] == sum(e["type"] == "decision" for e in written) >= 1
 

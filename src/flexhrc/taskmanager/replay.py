@@ -227,6 +227,7 @@ def summarise_log(events: Iterable[dict[str, Any]]) -> dict[str, Any]:
         "outcome": outcome,
         "reason": reason,
         "complete": complete,
+        "compute_recorded": bool(compute),
         "simulator": simulator or closing.get("simulator"),
         "events": len(events),
         "robot_actions": robot_actions,
