@@ -86,6 +86,7 @@ def test_sim_view_writes_a_png(capsys, tmp_path):
         (["--time-budget", "500", "--dt", "0.001"], "500000 steps; at most"),
         (["--yaw", "nan"], "argument --yaw"),
         (["--from", "0.4", "0.1", "0.2"], "--from goes with --after"),
+        (["--trajectory"], "--trajectory goes with --json"),
         (["--view", "{tmp}/nonexistent/out.png"], "folder {tmp}/nonexistent does not exist"),
     ],
 )

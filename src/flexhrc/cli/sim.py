@@ -127,6 +127,7 @@ def run(args: argparse.Namespace) -> int:
             f"{args.time_budget / args.dt:.0f} steps; at most {MAX_STEPS} (raise --dt)"
         )
     needs(args, "--from", args.from_ is not None, "--after", bool(args.after))
+    needs(args, "--trajectory", args.trajectory, "--json", args.json)
     from flexhrc.action.view import VIEW_SUFFIXES
 
     check_outputs([("--view", args.view, VIEW_SUFFIXES)])
