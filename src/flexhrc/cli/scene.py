@@ -113,9 +113,9 @@ def _bench(args: argparse.Namespace) -> int:
     def text() -> str:
         return "\n".join(
             [
-                f"{plural(res['scenes'], 'scene')} ({res['renderer']}), seed {res['seed']}, "
+                f"{plural(int(res['scenes']), 'scene')} ({res['renderer']}), seed {res['seed']}, "
                 f"noise {res['noise_m']} m, "
-                f"{plural(res['objects'], 'object')}, {res['points_per_frame']} points/frame "
+                f"{plural(int(res['objects']), 'object')}, {res['points_per_frame']} points/frame "
                 "(median)",
                 f"  detection_rate    {res['detection_rate']:.4f}",
                 f"  position_error_m  {res['position_error_m']} (median)",
