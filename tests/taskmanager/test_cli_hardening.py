@@ -507,3 +507,15 @@ def test_sigint_and_sigterm_write_a_final_event(tmp_path, sig, code, capsys):  #
     assert json.loads(out)["outcome"] == "interrupted"  # the summary is still printed
     assert main(["replay", str(log), "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["outcome"] == "interrupted"
+
+
+def test_a_read_only_folder_is_refused_before_the_run(tmp_path):  # B8: --plot rodir/t.png
+    rodir = tmp_path / "rodir"
+    rodir.mkdir()
+    rodir.chmod(0o555)
+    proc = unprivileged(["demo", "table", *FAST, "--plot", str(rodir / "t.png")])
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr
+    assert proc.stderr.strip() == (
+        f"error: --plot {rodir / 't.png'}: cannot write in {rodir}: Permission denied"
+    )
+    assert proc.stdout == ""  # refused before the run: no trace, no table
