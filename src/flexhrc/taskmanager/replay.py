@@ -19,6 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from flexhrc.errors import FormatError
+from flexhrc.taskmanager.runner import OUTCOMES
 
 #: Every event type a cooperation run writes (runner and Task Manager).
 EVENT_TYPES = frozenset(
@@ -50,8 +51,6 @@ EVENT_TYPES = frozenset(
         "summary",
     }
 )
-#: How a run may end (``outcome`` events).
-OUTCOMES = ("solved", "failed", "interrupted")
 #: How an action may end (``action_end`` events).
 STATUSES = ("done", "failed", "timed_out", "stopped")
 CUT_SHORT = "cut_short"
