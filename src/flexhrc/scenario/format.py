@@ -180,6 +180,10 @@ def _build(doc: Any, c: _Checker) -> Scenario | None:
     if "hyperarc_actions" in doc:
         _attach_actions(graph, doc["hyperarc_actions"], c, _line(doc, "hyperarc_actions"))
     _check_semantics(graph, domain, domain_doc, domain_src, world, humans, c)
+    for h in humans:  # an operator's speed is the analytic simulator's human speed
+        agent = domain.agents.get(h.name)
+        if agent is not None:
+            domain.agents[h.name] = replace(agent, params={**agent.params, "speed": h.speed})
     return Scenario(
         name,
         description,

@@ -115,13 +115,13 @@ class Scenario:
     def make_simulator(self, choice: str | None = None) -> Any:
         """The branch simulator: ``analytic`` (durations from the domain, distances over
         speeds) or ``kinematic`` (task-priority control on the robot model; sim extra)."""
-        from flexhrc.scenario.simulate import ScenarioSimulator
+        from flexhrc.taskmanager.simulator import AnalyticSimulator
 
         choice = choice or self.simulator
         if choice not in SIMULATORS:
             raise FlexhrcError(f"unknown simulator {choice!r}; choose one of analytic, kinematic")
         if choice == "analytic":
-            return ScenarioSimulator()
+            return AnalyticSimulator()
         try:
             from flexhrc.action.bridge import KinematicTaskSimulator
         except ImportError as exc:
@@ -129,7 +129,7 @@ class Scenario:
                 f"--simulator kinematic needs the sim extra ({exc.name} is missing): "
                 "pip install 'flexhrc[sim]'"
             ) from None
-        return KinematicTaskSimulator(human=ScenarioSimulator())
+        return KinematicTaskSimulator()
 
     def summary_line(self) -> str:
         stats = self.graph.stats()
