@@ -1,4 +1,10 @@
-"""``flexhrc demo table``, ``flexhrc run SCENARIO.yaml`` and ``flexhrc replay LOG``."""
+"""``flexhrc demo table``, ``flexhrc run FILE|NAME`` and ``flexhrc replay LOG``.
+
+``demo table`` runs the shipped table scenario (:mod:`flexhrc.scenario.table`: tabletop
+placement, legs fix, check) for the table its options describe; ``run`` runs any scenario file
+(``flexhrc: 1``, :mod:`flexhrc.scenario`) or shipped scenario by name, and still accepts the
+older ``scenario: table_assembly`` files.
+"""
 
 from __future__ import annotations
 
@@ -38,6 +44,10 @@ TRACE_TYPES = {
     "human_action_unmatched",
     "human_sensed",
     "human_sensing_missed",
+    "human_gives_up",
+    "process_activated",
+    "process_ended",
+    "precondition_failed",
 }
 PLOT_SUFFIXES = (".png", ".svg", ".pdf")
 # scenario settings -> the demo's options (for errors that name what the user typed)
@@ -66,11 +76,14 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
 
     r = sub.add_parser(
         "run",
-        help="run a user-written scenario file (YAML)",
-        description="Run the cooperation a scenario file describes "
-        "(keys: see docs/taskmanager.md).",
+        help="run a scenario: a file (YAML) or a shipped one by name",
+        description="Run the cooperation a scenario describes, end to end: Task Manager, "
+        "simulator, simulated operators, log, plots (format: docs/scenarios.md; shipped: "
+        "flexhrc scenario list).",
     )
-    r.add_argument("scenario", metavar="SCENARIO.yaml", help="the scenario file")
+    r.add_argument(
+        "scenario", metavar="FILE|NAME", help="a scenario file, or a shipped scenario's name"
+    )
     _run_options(r)
     r.set_defaults(func=cmd_run)
 
@@ -117,6 +130,13 @@ def _scenario_options(p: argparse.ArgumentParser) -> None:
         help="bolt K cannot be reached by either arm (the robot asks the human, paper Fig. 12)",
     )
     p.add_argument("--no-human", action="store_true", help="the robot works alone")
+    p.add_argument(
+        "--segments",
+        choices=["all", "legs"],
+        default="all",
+        help="all: tabletop placement by both arms, legs fix, the operator's check (paper "
+        "VI-D); legs: the legs fix alone (Figs. 9-12)",
+    )
     _run_options(p)
 
 
@@ -141,7 +161,8 @@ def _run_options(p: argparse.ArgumentParser) -> None:
         action="append",
         default=None,
         metavar="K",
-        help="script the operator: it takes bolt K (repeatable), whatever the profile",
+        help="script the operator: it takes the K-th cooperation step it could do (for the "
+        "table: bolt K; repeatable), whatever the profile",
     )
     p.add_argument(
         "--fail",
@@ -151,9 +172,17 @@ def _run_options(p: argparse.ArgumentParser) -> None:
         help="inject a failure of the N-th robot ACTION (e.g. transport:1)",
     )
     p.add_argument(
+        "--reaction",
+        choices=["conflicts", "paper"],
+        default="conflicts",
+        help="when the operator does something not suggested: stop only the robot actions "
+        "that conflict with it (conflicts, default) or every robot action, arms to rest "
+        "(paper, V-B)",
+    )
+    p.add_argument(
         "--simulator",
         choices=["auto", "analytic", "kinematic"],
-        default="auto",
+        default=None,
         help="how branches are simulated: kinematic (task-priority control on the robot model; "
         "what auto picks when the sim extra is installed) or analytic (distances and speeds)",
     )
@@ -202,7 +231,7 @@ def _simulators(args: argparse.Namespace, actions: Any = None) -> tuple[Any, Any
     domain's action names --disturb may name."""
     from flexhrc.scenarios.simulators import choose_simulator, resolve_simulator_name
 
-    name = resolve_simulator_name(args.simulator)
+    name = resolve_simulator_name(args.simulator or "auto")
     if name == "analytic" and args.disturb:
         raise FlexhrcError("--disturb needs --simulator kinematic (use --fail with analytic)")
     specs = [_disturbance(spec, actions) for spec in args.disturb]  # before building anything
@@ -355,7 +384,10 @@ def cmd_demo_table(args: argparse.Namespace) -> int:
         raise FlexhrcError("--human-takes needs a human: drop --no-human")
     if args.no_human and args.human is not None:
         raise FlexhrcError(f"--human {args.human} needs a human: drop --no-human")
-    return _run_table(args, scenario, args.human or "passive", inputs=[])
+    from flexhrc.scenario.table import TableTask
+
+    task = TableTask(scenario, segments=args.segments)
+    return _run_table(args, task, args.human or "passive", inputs=[])
 
 
 def _flag_error(exc: Any) -> str:
@@ -431,6 +463,7 @@ def _run_table(
             human_takes=args.human_takes,
             human_sensing=sensing,
             sink=writer.write if writer is not None else None,
+            reaction=args.reaction,
         )
         with _stop_on_signals(run) as caught:
             result = run.run()

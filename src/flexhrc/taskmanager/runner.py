@@ -227,6 +227,7 @@ class CooperationRun:
             "start",
             profile=self.profile,
             agents=list(self.domain.agents),
+            humans=list(self.operators),
             simulator=self.simulator_name,
         )
         if not self._interrupted():
@@ -375,6 +376,7 @@ class CooperationRun:
         fixed = binding.get(schema.fixes) if schema.fixes else None
         if fixed in self.kb.objects:
             self.kb.set_fixed(fixed)
+            self._event("fixed", object=fixed, agents=list(action.agents), action=str(action))
             for a in action.agents:
                 self.legs_by_agent[a] = self.legs_by_agent.get(a, 0) + 1
 
