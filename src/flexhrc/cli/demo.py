@@ -548,12 +548,11 @@ SCENARIO_KEYS = {
 
 
 def cmd_run(args: argparse.Namespace) -> int:
+    from flexhrc import scenario as scenario_mod
     from flexhrc.files import read_text
     from flexhrc.representation.formats.yaml_format import read_yaml
-    from flexhrc.scenarios.table_assembly import ScenarioError, TableScenario
-    from flexhrc.taskmanager.runner import PROFILES
 
-    path = Path(args.scenario)
+    path = scenario_mod.resolve(args.scenario)
     read_text(path)  # missing, a folder, unreadable, binary, not UTF-8: one clear error
     try:
         doc = read_yaml(path)
@@ -561,6 +560,97 @@ def cmd_run(args: argparse.Namespace) -> int:
         raise FormatError("nested too deeply to be a scenario file", path) from None
     if not isinstance(doc, dict):
         raise FormatError("a scenario file must be a mapping", path, 1)
+    if "scenario" in doc and "flexhrc" not in doc:
+        return _run_legacy(args, path, doc)
+    return _run_scenario(args, scenario_mod.load(path), path)
+
+
+def _run_scenario(args: argparse.Namespace, sc: Any, path: Path) -> int:
+    """A ``flexhrc: 1`` scenario file, end to end."""
+    from flexhrc.files import EventLogWriter, atomic_output
+    from flexhrc.scenario import prepare
+    from flexhrc.taskmanager.runner import table_i
+
+    if args.human is not None and not sc.humans:
+        raise FlexhrcError(f"--human {args.human} needs an operator, but {path} has no humans")
+    if args.human_takes and not sc.humans:
+        raise FlexhrcError(f"--human-takes needs an operator, but {path} has no humans")
+    for k in args.human_takes or []:
+        if k < 1:
+            raise FlexhrcError(f"--human-takes {k}: steps are counted from 1")
+    robot_actions = _robot_actions(sc.domain)
+    failures = _failures(args.fail, robot_actions)
+    check_outputs(
+        [("--log", args.log, None), ("--plot", args.plot, PLOT_SUFFIXES)],
+        inputs=[path, args.har_model],
+    )
+    if args.plot:
+        _need_matplotlib()
+    args.simulator = args.simulator or sc.simulator
+    simulator, execution = _simulators(args, robot_actions)
+    sensing = _human_sensing(args)
+    writer = EventLogWriter(args.log) if args.log else None
+    try:
+        run = prepare(
+            sc,
+            profile=args.human,
+            seed=args.seed,
+            simulator=simulator,
+            execution=execution,
+            reaction=args.reaction,
+            trace=_trace_printer(args),
+            sink=writer.write if writer is not None else None,
+            failures=failures,
+            human_takes=args.human_takes,
+            human_sensing=sensing,
+            realtime=args.realtime or 0.0,
+        )
+        with _stop_on_signals(run) as caught:
+            result = run.run()
+    finally:
+        if writer is not None:
+            writer.close()
+    if args.plot:
+        from flexhrc.taskmanager.timeline import plot_timeline
+
+        who = ", ".join(f"{name} {prof}" for name, prof in run.operator_profiles()) or "no operator"
+        with atomic_output(args.plot) as tmp:
+            plot_timeline(result.events, tmp, f"{sc.name}, {who}, seed {args.seed}")
+    for f in run.unfired_failures():
+        progress(
+            f"warning: --fail {f.action}:{f.nth} never happened: the run had "
+            f"{plural(run.executions_of(f.action), f.action + ' action')}"
+        )
+    data = {"scenario": sc.name, **result.summary}
+
+    def text() -> str:
+        out = ["", table_i(data), ""]
+        by = ", ".join(f"{a}: {n}" for a, n in data["by_agent"].items())
+        out.append(
+            f"{sc.name}: outcome {data['outcome']}"
+            + (f" ({data['reason']})" if data["reason"] else "")
+            + f"; hyper-arcs solved by {by}; {plural(data['decisions'], 'decision tree')}, "
+            f"{plural(data['branches_simulated'], 'branch', 'branches')} simulated "
+            f"({data['simulator']} simulator); "
+            f"{data['robot_actions']} robot and {plural(data['human_actions'], 'human action')}"
+        )
+        if args.log:
+            out.append(f"event log: {args.log}")
+        if args.plot:
+            out.append(f"timeline: {args.plot}")
+        return "\n".join(out)
+
+    emit(args, data, text)
+    if caught:
+        print("interrupted", file=sys.stderr)
+        return EXIT_SIGNAL[signal.Signals(caught[0])]
+    return 0 if data["outcome"] == "solved" else 1
+
+
+def _run_legacy(args: argparse.Namespace, path: Path, doc: Any) -> int:
+    """The older ``scenario: table_assembly`` files (the legs fix of one table)."""
+    from flexhrc.scenarios.table_assembly import ScenarioError, TableScenario
+    from flexhrc.taskmanager.runner import PROFILES
     lines: dict[str, int] = getattr(doc, "lines", {})
 
     def line(key: str) -> int | None:

@@ -534,6 +534,10 @@ class CooperationRun:
         self._human_next(op)
 
     # -- results --------------------------------------------------------------------------
+    def operator_profiles(self) -> list[tuple[str, str]]:
+        """(operator, profile) of this run."""
+        return [(op.name, op.profile) for op in self.operators.values()]
+
     def unfired_failures(self) -> list[InjectedFailure]:
         """Injected failures whose N-th execution never came (e.g. ``transport:99``)."""
         return [f for f in self.failures if self._failure_counts.get(id(f), 0) < f.nth]
