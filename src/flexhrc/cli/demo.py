@@ -342,7 +342,9 @@ def _trace_printer(args: argparse.Namespace) -> Any:
         elif kind == "infeasible":
             line = f"{ev['element']} infeasible: {ev['reason']}"
         elif kind == "human_decides":
-            line = f"{ev.get('agent', 'human')} goes for {ev['element']}: {'; '.join(ev['actions'])}"
+            line = (
+                f"{ev.get('agent', 'human')} goes for {ev['element']}: {'; '.join(ev['actions'])}"
+            )
         elif kind == "human_gives_up":
             what = ev.get("object") or ev.get("step")
             line = f"{ev.get('agent', 'human')} leaves {what}: the {ev['holder']} got there first"
@@ -651,6 +653,7 @@ def _run_legacy(args: argparse.Namespace, path: Path, doc: Any) -> int:
     """The older ``scenario: table_assembly`` files (the legs fix of one table)."""
     from flexhrc.scenarios.table_assembly import ScenarioError, TableScenario
     from flexhrc.taskmanager.runner import PROFILES
+
     lines: dict[str, int] = getattr(doc, "lines", {})
 
     def line(key: str) -> int | None:

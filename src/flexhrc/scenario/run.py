@@ -41,7 +41,9 @@ def prepare(
     ``execution`` is given.
     """
     if profile is not None and profile not in PROFILES:
-        raise FlexhrcError(f"unknown human profile {profile!r}; choose one of {', '.join(PROFILES)}")
+        raise FlexhrcError(
+            f"unknown human profile {profile!r}; choose one of {', '.join(PROFILES)}"
+        )
     if reaction not in REACTIONS:
         raise FlexhrcError(f"unknown reaction {reaction!r}; choose one of {', '.join(REACTIONS)}")
     sim = (

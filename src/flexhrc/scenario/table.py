@@ -28,7 +28,7 @@ from flexhrc.knowledge import KnowledgeBase
 from flexhrc.logic import parse_conjunction
 from flexhrc.representation import AndOrGraph, HierarchicalGraph, Node
 from flexhrc.representation.graph import Hyperarc
-from flexhrc.scenario.model import HumanSpec, ObjectSpec, Scenario, WorldSpec
+from flexhrc.scenario.model import HumanSpec, Scenario, WorldSpec
 from flexhrc.scenarios.table_assembly import TableScenario, build_graph, tabletop_centre
 from flexhrc.taskmanager.domain import Domain
 
@@ -166,8 +166,12 @@ def shipped_documents(table: TableScenario | None = None) -> tuple[str, str]:
     facts = sorted(
         f"{f[0]}({', '.join(f[1:])})"
         for f in kb.facts
-        if len(f) > 1 and not (len(f) == 2 and kb.objects.get(f[1]) is not None and f[0] in
-                               kb.type_chain(kb.objects[f[1]].type))
+        if len(f) > 1
+        and not (
+            len(f) == 2
+            and kb.objects.get(f[1]) is not None
+            and f[0] in kb.type_chain(kb.objects[f[1]].type)
+        )
     )
     doc = {
         "flexhrc": 1,

@@ -770,7 +770,7 @@ class TaskManager:
         if row:
             row.status = "feasible"
             row.done_by = [None] * len(row.actions)
-        self._emit("abort", element=ex.element, reason=reason)
+        self._emit("abort", element=ex.element, reason=reason, agents=list(ex.branch.agents))
         for agent in ex.branch.agents:
             if self.domain.agent(agent).is_human:
                 continue
@@ -836,18 +836,32 @@ class TaskManager:
         return humans[0] if humans else "human"
 
     def _stop_every_robot(self, out: list[Directive], reason: str) -> None:
-        """Paper V-B: every robot action stops and every arm goes to rest."""
+        """Paper V-B: every robot action stops and every arm goes to rest. An execution whose
+        hyper-arc's outcome already holds (S(parent) under its grounding: only releasing and
+        resting are left) finishes: stopping it would undo nothing."""
+        finishing: set[str] = set()
         for other in list(self.executions.values()):
-            if other.owner == "robot":
-                self._abort(other, out, reason=reason)
+            if other.owner != "robot":
+                continue
+            if self._outcome_holds(other):
+                finishing.update(other.agents)
+                continue
+            self._abort(other, out, reason=reason)
         for agent, cmd in list(self.busy.items()):
-            if cmd.process or self.domain.agent(agent).is_human:
+            if cmd.process or self.domain.agent(agent).is_human or agent in finishing:
                 continue
             if cmd.element is None and cmd.action.name == "rest":
                 continue
             self._stop_agent(agent, cmd, reason, out)
             self._release(agent)
             self._rest(agent, out)
+
+    def _outcome_holds(self, ex: Execution) -> bool:
+        formula = self._formulas.get(self._parent(ex.element), ())
+        if not formula:
+            return False
+        grounded = tuple(apply_substitution(lit, ex.branch.grounding) for lit in formula)
+        return holds(grounded, self.kb.facts)
 
     def _match_running_human(self, action: HumanAction) -> Execution | None:
         for ex in self.executions.values():
@@ -976,7 +990,12 @@ class TaskManager:
             if other.element == name or shared or uses_object:
                 if other.owner == "human":
                     self.executions.pop(other.element, None)
-                    self._emit("abort", element=other.element, reason="human changed plan")
+                    self._emit(
+                        "abort",
+                        element=other.element,
+                        reason="human changed plan",
+                        agents=list(other.agents),
+                    )
                 else:
                     self._abort(other, out, reason=f"human does {name}")
 
