@@ -71,9 +71,9 @@ def _no_object_held_twice(scenario: Scenario, events: list[dict[str, Any]]) -> N
         binding = dict(zip(schema.variables, args, strict=True))
         for lit in schema.delete:
             g = apply_substitution(lit, binding)
-            if g.predicate == rule.holding.predicate and len(g.args) == 2:
-                if holder.get(g.args[1]) == g.args[0]:
-                    del holder[g.args[1]]
+            held = g.predicate == rule.holding.predicate and len(g.args) == 2
+            if held and holder.get(g.args[1]) == g.args[0]:
+                del holder[g.args[1]]
         for lit in schema.add:
             g = apply_substitution(lit, binding)
             if g.predicate == rule.holding.predicate and len(g.args) == 2:
