@@ -523,6 +523,7 @@ class TaskManager:
             return out
         self.waiting_for_consistency = False
         self._meet_nodes()
+        self._drop_obsolete(out)
         for _ in range(10_000):
             if self.done:
                 return out
@@ -531,6 +532,24 @@ class TaskManager:
             if not started:
                 break
         return out
+
+    def _drop_obsolete(self, out: list[Directive]) -> None:
+        """Executions whose hyper-arc is no longer feasible (an alternative was solved, its
+        graph instance closed) are given up: robots stop and rest, operators are told nothing
+        more (their next action will not be recognised)."""
+        for ex in list(self.executions.values()):
+            if self.graph.is_feasible(ex.element):
+                continue
+            if ex.owner == "robot":
+                self._abort(ex, out, reason=f"{ex.element} is no longer feasible")
+            else:
+                self.executions.pop(ex.element, None)
+                self._emit(
+                    "abort",
+                    element=ex.element,
+                    reason=f"{ex.element} is no longer feasible",
+                    agents=list(ex.agents),
+                )
 
     def _conflicts(self, element: str) -> bool:
         if element in self.executions:
@@ -741,6 +760,10 @@ class TaskManager:
         ex.next_index += 1
         if ex.next_index >= len(ex.branch.steps):
             del self.executions[ex.element]
+            if not self.graph.is_feasible(ex.element):
+                # meanwhile an alternative was solved: this transition no longer counts
+                self._emit("obsolete", element=ex.element, agents=list(ex.branch.agents))
+                return
             ex.command = None
             if row:
                 row.status = "solved"

@@ -54,6 +54,7 @@ EVENT_TYPES = frozenset(
         "process_failed",
         "precondition_failed",
         "fixed",
+        "obsolete",
     }
 )
 #: How a run may end (``outcome`` events).
