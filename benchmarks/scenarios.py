@@ -22,7 +22,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))
 
-from flexhrc import scenario  # noqa: E402
+from flexhrc import scenario
 
 PROFILES = ("passive", "takeover", "cooperative", "random")
 TARGET_S = 0.002

@@ -355,6 +355,14 @@ def _trace_printer(args: argparse.Namespace) -> Any:
             )
         elif kind == "human_sensing_missed":
             line = f"wrist sensor missed {ev['action']}; scene perception reports it"
+        elif kind == "process_activated":
+            line = f"{ev['node']} reached: its processes start ({', '.join(ev['processes'])})"
+        elif kind == "process_ended":
+            line = f"{ev['process']} ended ({ev['reason']}); {ev['node']} can be met"
+        elif kind == "precondition_failed":
+            line = f"{ev['element']}: {ev['reason']} at dispatch; re-planning"
+        elif kind == "human_action_unmatched":
+            line = f"human did {ev['action']}: it advances no feasible hyper-arc"
         elif kind == "waiting":
             line = f"waiting: {ev['reason']}"
         elif kind == "outcome":

@@ -173,6 +173,7 @@ class SimulatedOperator:
         actions = tm.actions_of(hyperarc)
         constraints = tm.constraints_of(hyperarc)
         reserved = tm.reserved_objects()
+        in_use = self._in_use(tm, kb)
         # a object a robot only plans to use is still free to take; prefer the others
         for avoid in (reserved, set()):
             tree = DecisionTree.build(
@@ -185,7 +186,12 @@ class SimulatedOperator:
                 reserved=avoid,
                 binding=tm.binding_of(hyperarc),
             )
-            branches = [b for b in tree.branches if not self._held_by_other(kb, tm.domain, b.steps)]
+            branches = [
+                b
+                for b in tree.branches
+                if not self._held_by_other(kb, tm.domain, b.steps)
+                and not in_use & {a for s in b.steps for a in s.args}
+            ]
             if branches:
                 break
         else:
@@ -204,6 +210,25 @@ class SimulatedOperator:
             return (math.dist(hand, kb.position(first)), first)
 
         return list(min((b.steps for b in branches), key=distance))
+
+    def _in_use(self, tm: TaskManager, kb: KnowledgeBase) -> set[str]:
+        """Objects another agent works on right now: those a robot's current command changes
+        (its effects name them — a mere approach does not: that part is still free to take,
+        the Task Manager then stops the robot), and those of another operator's execution."""
+        agents = tm.domain.agents
+        out: set[str] = set()
+        for cmd in tm.busy.values():
+            schema, binding = cmd.action.schema, cmd.action.binding
+            for lit in (*schema.add, *schema.delete):
+                for term in lit.args:
+                    value = binding.get(term, term)
+                    if value in kb.objects and value not in agents:
+                        out.add(value)
+        for ex in tm.executions.values():
+            if ex.owner == "human" and self.name not in ex.agents:
+                for step in ex.branch.steps[ex.next_index :]:
+                    out.update(a for a in step.args if a in kb.objects and a not in agents)
+        return out
 
     # -- following the Task Manager ----------------------------------------------------------
     def follow(self, element: str, actions: list[GroundAction]) -> None:
