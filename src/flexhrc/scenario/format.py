@@ -238,10 +238,11 @@ def _inline_graph(doc: Any, path: Path) -> HierarchicalGraph:
         key = str(key)
         if not isinstance(gd, dict):
             raise FormatError(f"graph {key!r} must be a mapping", path, _line(graphs_d, key))
+        # the YAML graph reader's own helpers: an inline document reads like a graph file
         if "file" in gd:
-            graphs.update(yf._load_external(key, path, gd, graphs_d))
+            graphs.update(yf._load_external(key, path, gd, graphs_d))  # type: ignore[arg-type]
         else:
-            graphs[key] = yf._graph_from_dict(key, gd, path, _line(graphs_d, key))
+            graphs[key] = yf._graph_from_dict(key, gd, path, _line(graphs_d, key))  # type: ignore[arg-type]
     if top not in graphs:
         raise FormatError(f"top graph {top!r} is not defined under 'graphs'", path, _line(doc))
     hierarchy = HierarchicalGraph(graphs, top)
@@ -370,7 +371,7 @@ def _world(w: Any, c: _Checker, line: int | None) -> WorldSpec | None:
         if not isinstance(spec.get("type"), str) or not spec.get("type"):
             c.error(f"object {name!r}: needs a type", ln)
             continue
-        pos = spec.get("position")
+        pos: Any = spec.get("position")
         if not _is_pose(pos):
             c.error(
                 f"object {name!r}: malformed pose position: {pos!r} (three finite numbers "

@@ -39,7 +39,8 @@ STAND_OFFSET = (-0.10, 0.0, 0.02)
 def task_graph(legs: int = 4, *, check: bool = True) -> HierarchicalGraph:
     """Placement + legs fix (+ check) as one first-order graph."""
     fix = build_graph(legs).top_graph
-    root = "checked" if check else fix.root
+    fix_root = str(fix.root)
+    root = "checked" if check else fix_root
     g = AndOrGraph("TableAssembly", root=root)
     g.add_node(Node("tabletop_on_stand", 0, parse_conjunction("tabletop(?top) & on_table(?top)")))
     for n in fix.nodes.values():
@@ -66,15 +67,15 @@ def task_graph(legs: int = 4, *, check: bool = True) -> HierarchicalGraph:
         g.add_hyperarc(
             Hyperarc(
                 "check_connections",
-                (fix.root,),
+                (fix_root,),
                 "checked",
                 0,
                 tuple(f"check(human, {b})" for b in bolts),
             )
         )
-    h = HierarchicalGraph.single(g)
-    h.validate()
-    return h
+    hierarchy = HierarchicalGraph.single(g)
+    hierarchy.validate()
+    return hierarchy
 
 
 def task_domain_data() -> dict[str, Any]:

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import math
 import random
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -200,7 +201,7 @@ class SimulatedOperator:
             return list(self.rng.choice(branches).steps)
         hand = kb.position(self.name) if self.name in kb.objects else (1.1, 0.0, 0.1)
 
-        def distance(steps: list[GroundAction]) -> tuple[float, str]:
+        def distance(steps: Sequence[GroundAction]) -> tuple[float, str]:
             first = next(
                 (a for s in steps for a in s.args if a in kb.objects and a not in tm.domain.agents),
                 None,
@@ -209,7 +210,7 @@ class SimulatedOperator:
                 return (0.0, "")
             return (math.dist(hand, kb.position(first)), first)
 
-        return list(min((b.steps for b in branches), key=distance))
+        return list(min(branches, key=lambda b: distance(b.steps)).steps)
 
     def _in_use(self, tm: TaskManager, kb: KnowledgeBase) -> set[str]:
         """Objects another agent works on right now: those a robot's current command changes
