@@ -88,3 +88,14 @@ def test_reaction_paper_on_the_command_line(capsys):
     assert main(["run", "table_assembly", "--human", "takeover", "--reaction", "paper",
                  "--json", "--quiet"]) == 0  # fmt: skip
     assert json.loads(capsys.readouterr().out)["outcome"] == "solved"
+
+
+def test_the_tutorial_scenario_validates_and_runs_for_every_profile(capsys):
+    from ..conftest import REPO
+
+    path = REPO / "examples" / "scenarios" / "lid_task.yaml"
+    assert main(["scenario", "validate", str(path)]) == 0
+    capsys.readouterr()
+    for profile in ("passive", "takeover", "cooperative", "random"):
+        assert main(["run", str(path), "--human", profile, "--json", "--quiet"]) == 0
+        assert json.loads(capsys.readouterr().out)["outcome"] == "solved"
