@@ -234,3 +234,17 @@ def test_two_named_operators_share_the_work_never_one_object(tmp_path):
         result = scenario.run(sc, seed=seed)
         assert result.outcome == "solved", result.reason
         check_invariants(sc, result.events)
+
+
+@pytest.mark.parametrize("profile", ["passive", "takeover", "cooperative", "random"])
+def test_the_check_segment_is_done_by_the_operator(profile):
+    sc = scenario.load("table_assembly")
+    result = scenario.run(sc, profile=profile, seed=4)
+    last = result.summary["solved_hyperarcs"][-1]
+    assert last["hyperarc"] == "check_connections" and last["agent"] == "human"
+    checks = [
+        e["action"]
+        for e in result.events
+        if e["type"] == "action_end" and e["action"].startswith("check(")
+    ]
+    assert checks == [f"check(human, bolt_{k})" for k in range(1, 5)]
