@@ -94,6 +94,7 @@ class _Checker:
         self.path = path
         self.faults: list[Fault] = []
         self.names: set[str] = set()  # every object and place named, even a malformed one
+        self.types: set[str] = set()  # every object type named, even of a malformed object
 
     def error(self, message: str, line: int | None, source: str | Path | None = None) -> None:
         self.faults.append(Fault(str(source or self.path), line, message))
@@ -371,6 +372,7 @@ def _world(w: Any, c: _Checker, line: int | None) -> WorldSpec | None:
         if not isinstance(spec.get("type"), str) or not spec.get("type"):
             c.error(f"object {name!r}: needs a type", ln)
             continue
+        c.types.add(str(spec["type"]))
         pos: Any = spec.get("position")
         if not _is_pose(pos):
             c.error(
@@ -543,7 +545,7 @@ def _check_semantics(
     c: _Checker,
 ) -> None:
     # types the scenario declares: objects, places, agents, supertypes
-    declared: set[str] = {"agent", "place"}
+    declared: set[str] = {"agent", "place", *c.types}
     for o in world.objects:
         declared.add(o.type)
     for a in domain.agents.values():
@@ -640,6 +642,8 @@ def _check_semantics(
     for o in world.objects:
         makeable.update(_chain(o.type, world.supertypes))
     makeable.update(declared)
+    for t in c.types:
+        makeable.update(_chain(t, world.supertypes))
     reported: set[str] = set()
 
     def need(lits: Iterable[Literal], where: str, line: int | None, src: Any) -> None:
