@@ -248,3 +248,16 @@ def test_the_check_segment_is_done_by_the_operator(profile):
         if e["type"] == "action_end" and e["action"].startswith("check(")
     ]
     assert checks == [f"check(human, bolt_{k})" for k in range(1, 5)]
+
+
+@pytest.mark.parametrize("profile", ["passive", "takeover", "cooperative", "random"])
+def test_whoever_picked_the_ball_drops_it_the_agent_carries_too(profile):
+    from ..conftest import REPO
+
+    sc = scenario.load(REPO / "examples" / "scenarios" / "ball_in_box.yaml")
+    for seed in range(5):
+        result = scenario.run(sc, profile=profile, seed=seed)
+        assert result.outcome == "solved", result.reason
+        (pick, drop) = result.summary["solved_hyperarcs"]
+        assert drop["hyperarc"] == "drop_in" and drop["agent"] == pick["agent"]
+        check_invariants(sc, result.events)
