@@ -27,11 +27,11 @@ def run_cli(*args: str, timeout: float = 120) -> subprocess.CompletedProcess[str
     )
 
 
-def test_default_cell_is_the_demo_cooperation() -> None:
+def test_default_cell_is_the_run_cooperation() -> None:
     cell = run_cli("cell", "table_assembly", "--json", "--quiet")
-    demo = run_cli("demo", "table", "--json", "--quiet")
+    run = run_cli("run", "table_assembly", "--json", "--quiet")
     assert cell.returncode == 0, cell.stderr
-    c, d = json.loads(cell.stdout), json.loads(demo.stdout)
+    c, d = json.loads(cell.stdout), json.loads(run.stdout)
     assert set(d) - {"wall_s"} <= set(c)  # the keys of `flexhrc run --json`
     for key in ("outcome", "robot_actions", "human_actions", "decisions", "legs_by_agent",
                 "by_agent", "simulator"):  # fmt: skip
@@ -53,7 +53,10 @@ def _cell(scenario: Any) -> tuple[Cell, list[Any], InProcessBus]:
 
 
 def test_snapshot_is_json_and_human_input_drives_the_manager() -> None:
-    scenario = load_scenario("table_assembly")
+    from flexhrc.cell.scenario_ref import CellScenario
+    from flexhrc.scenarios.table_assembly import TableScenario
+
+    scenario = CellScenario("legs", TableScenario())  # the legs fix: bolt 1 is the first step
     cell, agents, bus = _cell(scenario)
     snaps: list[dict[str, Any]] = []
     told = []
