@@ -237,3 +237,18 @@ def test_a_lost_command_is_sent_again_and_executed_once() -> None:
     assert data["cell"]["resent"] == 1
     executed = [i for a in agents if isinstance(a, RobotAgent) for i in a.executed]
     assert len(executed) == len(set(executed)) == data["robot_actions"]
+
+
+def test_external_agents_that_never_come_and_a_taken_port_are_clear_errors() -> None:
+    pytest.importorskip("zenoh")
+    from flexhrc.transport.zenoh import ZenohTransport, free_tcp_port, loopback_config
+
+    port = free_tcp_port()
+    args = ["cell", "table_assembly", "--transport", "zenoh", "--listen", f"tcp/127.0.0.1:{port}"]
+    res = run_cli(*args, "--agents", "external", "--wait", "1")
+    assert res.returncode == 2 and "no agent process for human, left, right" in res.stderr
+    assert "flexhrc agent robot|human" in res.stderr and "Traceback" not in res.stderr
+    with ZenohTransport(loopback_config(port)):
+        res = run_cli(*args)
+    assert res.returncode == 2 and "cannot open a Zenoh session" in res.stderr
+    assert "Traceback" not in res.stderr
