@@ -61,10 +61,8 @@ def test_two_alternatives_solved_is_not_one_cooperation_path(table_log):
     query = next(
         e
         for e in bad
-        if e["type"] == "query"
-        and "robot_1" in e["report"].get("solved_hyperarcs", [])
-        or e["type"] == "query"
-        and "human_1" in e["report"].get("solved_hyperarcs", [])
+        if (e["type"] == "query" and "robot_1" in e["report"].get("solved_hyperarcs", []))
+        or (e["type"] == "query" and "human_1" in e["report"].get("solved_hyperarcs", []))
     )
     solved = query["report"]["solved_hyperarcs"][0]
     alternative = "to_middle_1" if solved != "to_middle_1" else "robot_1"
