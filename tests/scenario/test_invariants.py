@@ -27,7 +27,7 @@ def test_an_agent_running_two_actions_at_once_is_caught(table_log):
     bad = copy.deepcopy(events)
     ends = [e for e in bad if e["type"] == "action_end" and e["agents"] == ["left"]]
     ends[1]["start"] = ends[0]["start"]  # the second began before the first ended
-    with pytest.raises(AssertionError, match="runs .* at once"):
+    with pytest.raises(AssertionError, match=r"runs .* at once"):
         check_invariants(sc, bad)
 
 
@@ -40,7 +40,7 @@ def test_an_object_held_by_two_agents_is_caught(table_log):
     fake = {**grasp, "agents": [other], "action": f"grasp({other}, {leg})", "start": grasp["t"]}
     fake["t"] = grasp["t"] + 0.5
     bad.insert(bad.index(grasp) + 1, fake)
-    with pytest.raises(AssertionError, match="held by .* at once"):
+    with pytest.raises(AssertionError, match=r"held by .* at once"):
         check_invariants(sc, bad)
 
 
@@ -67,5 +67,5 @@ def test_two_alternatives_solved_is_not_one_cooperation_path(table_log):
     solved = query["report"]["solved_hyperarcs"][0]
     alternative = "to_middle_1" if solved != "to_middle_1" else "robot_1"
     query["report"]["solved_hyperarcs"] = [solved, alternative]
-    with pytest.raises(AssertionError, match="solved while not feasible|share children"):
+    with pytest.raises(AssertionError, match=r"solved while not feasible|share children"):
         check_invariants(sc, bad)
