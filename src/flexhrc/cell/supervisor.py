@@ -118,6 +118,8 @@ class Cell:
         self.graph = OnlineGraph(scenario.graph())
         self.domain = scenario.domain()
         self.kb = scenario.knowledge()
+        if simulator is None and hasattr(scenario, "make_simulator"):
+            simulator = scenario.make_simulator("auto")  # the scenario's own choice
         self.tm = TaskManager(self.graph, self.domain, self.kb, simulator, log=self._tm_log)
         self.agents = {
             a.name: AgentState(a.name, "human" if a.is_human else "robot")
