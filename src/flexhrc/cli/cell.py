@@ -73,7 +73,8 @@ def add_transport_options(p: argparse.ArgumentParser, *, default: str = "inproce
         action="append",
         default=[],
         metavar="ENDPOINT",
-        help=f"Zenoh endpoint to listen on (repeatable; the cell's default {DEFAULT_LISTEN})",
+        help=f"Zenoh endpoint to listen on (repeatable; default {DEFAULT_LISTEN} for the cell, "
+        "a random loopback port for an agent)",
     )
     p.add_argument(
         "--connect",
