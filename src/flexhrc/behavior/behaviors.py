@@ -30,6 +30,7 @@ from flexhrc.behavior.messages import (
     MutexRelease,
     MutexReply,
     MutexRequest,
+    MutexWithdraw,
     release_topic,
     reply_topic,
     request_topic,
@@ -60,6 +61,11 @@ class BehaviorNode(Node):
         self._requests: list[tuple[str, str]] = list(
             zip(self.arms, self._request_topics, strict=True)
         )
+        self._latched = params.latched
+        #: Latched protocol: the bids the mutexes hold for this node (None: no standing bid).
+        self._standing: dict[str, float] | None = None
+        self._bid_tick = -1  # the last update loop in which this node bid
+        self._withdraw_msg = MutexWithdraw(name)
         transport.subscribe(reply_topic(name), self._on_reply)
 
     # -- inbox ---------------------------------------------------------------------------------
@@ -70,7 +76,34 @@ class BehaviorNode(Node):
                 self._waker(self._slot)
 
     def busy(self) -> bool:
-        return super().busy() or bool(self._grants)
+        if self._grants:
+            return True
+        if (
+            self._held is not None
+            and self.state == ACTIVE
+            and self._standing is not None
+            and self._bid_tick == self.tick
+        ):
+            # Waiting for an arm with a held level and a standing bid: the next loop would
+            # re-apply the level, find no grant, bid the same and publish nothing — asleep until
+            # a grant, an activation message or a sensing change wakes it.
+            return False
+        return super().busy()
+
+    def update(self, tick: int, now: float) -> None:
+        super().update(tick, now)
+        if self._standing is not None and self._bid_tick != tick:
+            self._withdraw()  # would not have bid this loop: the standing bid ends
+
+    def _withdraw(self) -> None:
+        standing = self._standing
+        if standing is None:
+            return
+        self._standing = None
+        publish = self._transport.publish
+        for arm, topic in self._requests:
+            if arm in standing:
+                publish(topic, self._withdraw_msg)
 
     def _release_arm(self, arm: str) -> None:
         self._transport.publish(release_topic(arm), self._release)
@@ -114,6 +147,17 @@ class BehaviorNode(Node):
             return True
         publish = self._transport.publish
         bids = self.current_bids()
+        self._bid_tick = self.tick
+        if self._latched:
+            standing = self._standing
+            if standing is None:
+                standing = self._standing = {}
+            for arm, topic in self._requests:
+                bid = bids[arm]
+                if standing.get(arm) != bid:
+                    standing[arm] = bid
+                    publish(topic, MutexRequest(self.name, bid, True))
+            return False
         for arm, topic in self._requests:
             publish(topic, MutexRequest(self.name, bids[arm]))
         return False
@@ -184,6 +228,8 @@ class PickAndPlace(BehaviorNode):
     def update(self, tick: int, now: float) -> None:
         # Fast path, exactly equivalent to Algorithm 1 for an idle behaviour: inactive, below τ,
         # no grant to hand back, nothing new sensed (so nothing to publish either).
+        if self._held is not None:
+            self.level = self._held
         world = self._world
         seen = self._version
         if (
@@ -193,6 +239,7 @@ class PickAndPlace(BehaviorNode):
             and seen >= world.sensing_stamps[self._index]
             and seen >= world.sensing_stamp_all
             and self._last_published is not None
+            and self._standing is None
         ):
             self.tick = tick
             self.now = now

@@ -29,6 +29,7 @@ from flexhrc.behavior.goals import GOAL_CLASSES, GoalNode
 from flexhrc.behavior.messages import (
     LOG_TOPIC,
     ActivationMsg,
+    ActivationRelease,
     LogEvent,
     StateMsg,
     activation_topic,
@@ -186,7 +187,8 @@ class BehaviorNetwork:
                 self._sensors[node.object] = slot
         world.add_sensing_listener(self._on_sensing)
         self._root_topic = activation_topic(task.root.name)
-        self._drive_msg = ActivationMsg(DRIVER, 1.0)
+        self._drive_msg = ActivationMsg(DRIVER, 1.0, self.params.latched)
+        self._driving = False  # latched: the root holds the driver's activation
         self.transport.subscribe(state_topic(task.root.name), self._on_root_state)
 
     def _on_sensing(self, objects: set[str] | None) -> None:
@@ -222,8 +224,15 @@ class BehaviorNetwork:
         for ev in self.world.step(now):
             kind = ev.pop("kind")
             self.log.append(LogEvent(tick, now, "world", kind, ev))
-        if self.drive and not self.finished:
-            self.transport.publish(self._root_topic, self._drive_msg)
+        want = self.drive and not self.finished
+        if not self.params.latched:
+            if want:
+                self.transport.publish(self._root_topic, self._drive_msg)
+        elif want != self._driving:
+            self._driving = want
+            self.transport.publish(
+                self._root_topic, self._drive_msg if want else ActivationRelease(DRIVER)
+            )
         order = self._order
         if self.event_driven:
             awake = sorted(self._awake)
@@ -241,8 +250,12 @@ class BehaviorNetwork:
         self.transport.flush()
         self.clock.advance()
 
-    def run(self, max_ticks: int = 50_000) -> RunResult:
-        """Tick until the root reports done or ``max_ticks`` ticks have run."""
+    def run(self, max_ticks: int | None = None) -> RunResult:
+        """Tick until the root reports done or ``max_ticks`` ticks have run (default
+        :func:`default_max_ticks`: enough for the task's size, so a big task never stops for
+        lack of ticks)."""
+        if max_ticks is None:
+            max_ticks = default_max_ticks(self.task)
         while not self.finished and self.clock.tick < max_ticks:
             self.tick()
         return self.result()
@@ -263,8 +276,17 @@ class BehaviorNetwork:
         )
 
 
+def default_max_ticks(task: Task) -> int:
+    """50 000 ticks plus 1 000 per behaviour: a pick-and-place takes about 100 ticks, so a task
+    that could finish is never cut short, and one that cannot stops in bounded time."""
+    return 50_000 + 1_000 * len(task.behaviors)
+
+
 def run_task(
-    task: Task, world: TabletopWorld, params: NetworkParams | None = None, max_ticks: int = 50_000
+    task: Task,
+    world: TabletopWorld,
+    params: NetworkParams | None = None,
+    max_ticks: int | None = None,
 ) -> RunResult:
     """Build a network for ``task`` in ``world`` and run it to completion (or ``max_ticks``)."""
     return BehaviorNetwork(task, world, params).run(max_ticks)
