@@ -61,7 +61,7 @@ class ArmMutex:
         transport.subscribe(release_topic(arm), self._releases.append)
 
     def _on_request(self, msg: MutexRequest | MutexWithdraw) -> None:
-        if type(msg) is MutexWithdraw:
+        if isinstance(msg, MutexWithdraw):
             self._standing.pop(msg.sender, None)
         elif msg.standing:
             self._standing[msg.sender] = msg.potential

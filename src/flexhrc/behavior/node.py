@@ -92,7 +92,7 @@ class Node:
             self._waker(self._slot)
 
     def _on_activation(self, msg: ActivationMsg | ActivationRelease) -> None:
-        if type(msg) is ActivationRelease:
+        if isinstance(msg, ActivationRelease):
             self._held = None
         else:
             self.level = msg.level
