@@ -21,6 +21,7 @@ topic (for the event log).
 
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -45,6 +46,9 @@ from flexhrc.transport.base import SimClock, Transport
 from flexhrc.transport.inprocess import InProcessBus
 
 DRIVER = "driver"
+
+#: Makes the behaviour node of one leaf: ``factory(name, world, transport, params)``.
+BehaviorFactory = Callable[[str, TabletopWorld, Transport, NetworkParams], BehaviorNode]
 
 
 @dataclass(frozen=True)
@@ -136,7 +140,13 @@ def runs_from_log(log: list[LogEvent]) -> list[Run]:
 
 
 class BehaviorNetwork:
-    """A task turned into communicating nodes, plus one mutex per arm, on a simulated clock."""
+    """A task turned into communicating nodes, plus one mutex per arm, on a simulated clock.
+
+    Every behaviour leaf is a :class:`~flexhrc.behavior.behaviors.PickAndPlace` of the object
+    with its name, unless ``behaviors`` maps the leaf's name to a factory of another
+    :class:`~flexhrc.behavior.behaviors.BehaviorNode` (your own behaviours; see
+    ``docs/behavior.md`` and ``examples/custom_behavior.py``).
+    """
 
     def __init__(
         self,
@@ -145,6 +155,7 @@ class BehaviorNetwork:
         params: NetworkParams | None = None,
         transport: Transport | None = None,
         event_driven: bool = True,
+        behaviors: Mapping[str, BehaviorFactory] | None = None,
     ) -> None:
         self.task = task
         #: Skip quiescent nodes (see :mod:`flexhrc.behavior.node`); ``False`` updates every node
@@ -155,12 +166,18 @@ class BehaviorNetwork:
         self.transport: Transport = transport if transport is not None else InProcessBus()
         self.clock = SimClock(self.params.tick_period)
         self.log: list[LogEvent] = []
+        #: Called with every log event as it is recorded (live trace, streamed ``--log``).
+        self.listeners: list[Callable[[LogEvent], None]] = []
         self.drive = True
         self.finished = False
-        self.transport.subscribe(LOG_TOPIC, self.log.append)
+        self.transport.subscribe(LOG_TOPIC, self._record)
         self.nodes: dict[str, Node] = {}
         for tn in task.walk():
             if tn.kind == BEHAVIOR:
+                factory = (behaviors or {}).get(tn.name)
+                if factory is not None:
+                    self.nodes[tn.name] = factory(tn.name, world, self.transport, self.params)
+                    continue
                 if not world.has_object(tn.name):
                     where = task.source + (f":{tn.line}" if tn.line else "") + ": "
                     where += f"column {tn.column}: " if tn.column else ""
@@ -190,6 +207,11 @@ class BehaviorNetwork:
         self._drive_msg = ActivationMsg(DRIVER, 1.0, self.params.latched)
         self._driving = False  # latched: the root holds the driver's activation
         self.transport.subscribe(state_topic(task.root.name), self._on_root_state)
+
+    def _record(self, ev: LogEvent) -> None:
+        self.log.append(ev)
+        for listener in self.listeners:
+            listener(ev)
 
     def _on_sensing(self, objects: set[str] | None) -> None:
         if objects is None:
@@ -223,7 +245,7 @@ class BehaviorNetwork:
         now = self.clock.now()
         for ev in self.world.step(now):
             kind = ev.pop("kind")
-            self.log.append(LogEvent(tick, now, "world", kind, ev))
+            self._record(LogEvent(tick, now, "world", kind, ev))
         want = self.drive and not self.finished
         if not self.params.latched:
             if want:

@@ -2,7 +2,10 @@
 
 One row per behaviour (in task order); coloured bars show when it was inactive, active, running
 and done. With two arms, running bars of the second arm are hatched and labelled. Resets by
-validity checking are marked with a red cross, object moves with a triangle.
+validity checking are marked with a red cross, object moves with a triangle; the legend names
+every colour, hatch and marker used.
+
+The file is written atomically (a temporary file, then a rename).
 
 matplotlib is optional (``pip install 'flexhrc[viz]'``) and imported only here, lazily.
 """
@@ -84,6 +87,19 @@ def gantt(result: RunResult, path: str | Path, title: str | None = None) -> Path
                 label=f"running ({arms[1]})",
             )
         )
+    moved = any(ev.kind == "move" and str(ev.data.get("object")) in rows for ev in result.log)
+    if moved:
+        handles.append(
+            plt.Line2D(
+                [],
+                [],
+                marker="v",
+                color="#cc0000",
+                linestyle="none",
+                markersize=7,
+                label="object moved by the experimenter",
+            )
+        )
     if result.resets:
         handles.append(
             plt.Line2D(
@@ -100,13 +116,20 @@ def gantt(result: RunResult, path: str | Path, title: str | None = None) -> Path
         handles=handles,
         loc="upper center",
         bbox_to_anchor=(0.5, -0.12),
-        ncol=len(handles),
+        ncol=min(len(handles), 4),
         frameon=False,
     )
     order = ", ".join(result.order)
     ax.set_title(title or f"Behaviour states over time — order: {order}", fontsize=10)
     fig.tight_layout()
     out = Path(path)
-    fig.savefig(out, dpi=120)
-    plt.close(fig)
+    from flexhrc.files import OutputPathError, atomic_output
+
+    try:
+        with atomic_output(out) as tmp:
+            fig.savefig(tmp, dpi=120, format=out.suffix.lstrip(".").lower() or None)
+    except OSError as exc:
+        raise OutputPathError(f"--plot {out}: cannot write: {exc.strerror or exc}") from None
+    finally:
+        plt.close(fig)
     return out
