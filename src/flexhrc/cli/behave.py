@@ -164,6 +164,20 @@ def _check_args(args: argparse.Namespace) -> None:
 # ----------------------------------------------------------------------------- loading
 
 
+def _is_file(name: str) -> bool:
+    try:
+        return Path(name).is_file()
+    except OSError:  # e.g. an inline task longer than a file name may be
+        return False
+
+
+def _exists(path: Path) -> bool:
+    try:
+        return path.exists()
+    except OSError:
+        return False
+
+
 def resolve(target: str, layout: int | None, arms: int | None, seed: int) -> tuple[str, Any, Any]:
     """(label, task, world) for a scenario name, a task file or an inline prefix string."""
     from flexhrc.behavior.task import parse_prefix
@@ -182,7 +196,7 @@ def resolve(target: str, layout: int | None, arms: int | None, seed: int) -> tup
         task = parse_prefix(target, "<inline task>")
         return "inline task", task, random_world(task.behaviors, seed, arms or 1)
     path = Path(target)
-    if path.suffix.lower() in TASK_SUFFIXES or path.exists():
+    if path.suffix.lower() in TASK_SUFFIXES or _exists(path):
         text = read_text(path)
         stripped = "\n".join(line.split("#", 1)[0] for line in text.splitlines()).strip()
         if stripped.startswith("("):
@@ -292,7 +306,7 @@ def _run(args: argparse.Namespace) -> int:
     from flexhrc.behavior.validate import check_run
     from flexhrc.files import EventLogWriter, check_output
 
-    inputs = (args.target,) if Path(args.target).is_file() else ()
+    inputs = (args.target,) if _is_file(args.target) else ()
     if args.log:
         check_output(args.log, option="--log", inputs=inputs)
     _check_plot(args.plot, inputs)
@@ -450,7 +464,7 @@ def _render(args: argparse.Namespace) -> int:
     from flexhrc.behavior.render import to_dot
     from flexhrc.files import atomic_output, check_output
 
-    inputs = tuple(p for p in (args.operand, args.log) if p and Path(p).is_file())
+    inputs = tuple(p for p in (args.operand, args.log) if p and _is_file(p))
     check_output(args.output, option="-o", suffixes=RENDER_SUFFIXES, inputs=inputs)
     label, task, _world = resolve(args.operand, args.layout, args.arms, args.seed)
     snapshots = None
@@ -491,7 +505,7 @@ def _compile(args: argparse.Namespace) -> int:
     from flexhrc.files import atomic_write_text, check_output
     from flexhrc.representation.formats.yaml_format import dump_yaml
 
-    inputs = (args.operand,) if Path(args.operand).is_file() else ()
+    inputs = (args.operand,) if _is_file(args.operand) else ()
     check_output(args.output, option="-o", suffixes=GRAPH_SUFFIXES, inputs=inputs)
     _label, task, _world = resolve(args.operand, args.layout, args.arms, args.seed)
     hierarchy = compile_task(task)
