@@ -43,14 +43,43 @@ from flexhrc.transport.base import Transport
 
 
 class BehaviorNode(Node):
-    """A leaf that needs an arm: mutex bidding, running, done/reset; subclasses add the action."""
+    """A leaf that needs an arm: mutex bidding, running, done/reset; subclasses add the action.
+
+    Write your own behaviour by subclassing and overriding the hooks (see ``docs/behavior.md``,
+    "Your own behaviours", and ``examples/custom_behavior.py``):
+
+    * :meth:`ready` — the preconditions besides holding an arm (Algorithm 9's ObjectInView);
+    * :meth:`bid` — the activation potential for one arm (Algorithm 8); the node's potential,
+      reported to its parent, is its best bid;
+    * :meth:`start_action` — the mutex of ``arm`` is won: start (returns data for the log);
+    * :meth:`step_action` — once per tick while running: ``"running"``, ``"done"``, or
+      ``"invalid"`` when validity checking fails (the node then resets and competes again);
+    * :meth:`abort_action` — stop the action after ``"invalid"`` (returns data for the log).
+
+    ``obj`` names the object the behaviour works on — the one validity checking watches
+    (:class:`~flexhrc.behavior.validity.ValidityCheck`) and whose sensing wakes the node. The
+    node's clock is ``self.now`` (simulated seconds) and its parameters ``self._params``.
+
+    Set :attr:`sleeps_while_waiting` only if :meth:`ready` and :meth:`bid` change *only* when
+    the world senses a change of ``obj`` or of an arm: a waiting node then sleeps until woken,
+    as PickAndPlace does; otherwise (the default) it is updated every tick while active.
+    """
 
     kind = "BEHAVIOR"
+    #: May the executor skip this node while it waits for an arm (see the class docstring)?
+    sleeps_while_waiting = False
 
     def __init__(
-        self, name: str, arms: Sequence[str], transport: Transport, params: NetworkParams
+        self,
+        name: str,
+        arms: Sequence[str],
+        transport: Transport,
+        params: NetworkParams,
+        obj: str | None = None,
     ) -> None:
         super().__init__(name, transport, params)
+        #: The object this behaviour works on (validity checking, sensing), or None.
+        self.object: str | None = obj
         self.arms: tuple[str, ...] = tuple(arms)
         self.arm: str | None = None  # the arm whose mutex this node holds while running
         self.resets = 0
@@ -79,7 +108,8 @@ class BehaviorNode(Node):
         if self._grants:
             return True
         if (
-            self._held is not None
+            self.sleeps_while_waiting
+            and self._held is not None
             and self.state == ACTIVE
             and self._standing is not None
             and self._bid_tick == self.tick
@@ -114,16 +144,28 @@ class BehaviorNode(Node):
                 self._release_arm(arm)
         self._grants.clear()
 
-    # -- action interface (PickAndPlace implements it) -----------------------------------------
+    # -- action interface (override these; PickAndPlace implements them) ----------------------
+    def bid(self, arm: str) -> float:
+        """Activation potential of this behaviour on ``arm`` (Algorithm 8); default 1.0."""
+        return 1.0
+
     def current_bids(self) -> dict[str, float]:
         """The bid for each arm's mutex (the activation potential for that arm)."""
+        for arm in self.arms:
+            self.bids[arm] = self.bid(arm)
         return self.bids
+
+    def update_potential(self) -> None:
+        if self.state != RUNNING:  # a running node keeps its last bid
+            self.potential = max(self.current_bids().values(), default=0.0)
 
     def ready(self) -> bool:
         """Non-mutex part of the preconditions (ObjectInView for PickAndPlace)."""
         return True
 
     def start_action(self, arm: str) -> dict[str, object]:
+        """Start on ``arm`` (its mutex is held); the dictionary goes into the ``start`` log
+        event (``duration`` is shown in the trace)."""
         return {}
 
     def step_action(self) -> str:
@@ -131,6 +173,7 @@ class BehaviorNode(Node):
         return "done"
 
     def abort_action(self) -> dict[str, object]:
+        """Stop after ``"invalid"``; the dictionary goes into the ``reset`` log event."""
         return {}
 
     # -- Algorithm 1 hooks ---------------------------------------------------------------------
@@ -207,6 +250,7 @@ class PickAndPlace(BehaviorNode):
     """Pick an object from the table and place it at its target (Algorithms 8–9)."""
 
     kind = "BEHAVIOR"
+    sleeps_while_waiting = True
 
     def __init__(
         self,
@@ -216,8 +260,8 @@ class PickAndPlace(BehaviorNode):
         transport: Transport,
         params: NetworkParams,
     ) -> None:
-        super().__init__(name, world.arm_names, transport, params)
-        self.object = obj
+        super().__init__(name, world.arm_names, transport, params, obj)
+        self.object: str = obj
         self._world = world
         self._index = world.object_index(obj)
         self._version = -1

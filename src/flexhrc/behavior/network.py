@@ -40,15 +40,13 @@ from flexhrc.behavior.mutex import ArmMutex
 from flexhrc.behavior.node import DONE, Node
 from flexhrc.behavior.params import NetworkParams
 from flexhrc.behavior.task import BEHAVIOR, Task
+from flexhrc.behavior.types import BehaviorFactory
 from flexhrc.behavior.world import TabletopWorld
 from flexhrc.errors import UnknownNameError
 from flexhrc.transport.base import SimClock, Transport
 from flexhrc.transport.inprocess import InProcessBus
 
 DRIVER = "driver"
-
-#: Makes the behaviour node of one leaf: ``factory(name, world, transport, params)``.
-BehaviorFactory = Callable[[str, TabletopWorld, Transport, NetworkParams], BehaviorNode]
 
 
 @dataclass(frozen=True)
@@ -200,7 +198,7 @@ class BehaviorNetwork:
         self._sensors: dict[str, int] = {}
         for slot, node in enumerate(self._order):
             node.set_waker(self._awake.add, slot)
-            if isinstance(node, PickAndPlace):
+            if isinstance(node, BehaviorNode) and node.object is not None:
                 self._sensors[node.object] = slot
         world.add_sensing_listener(self._on_sensing)
         self._root_topic = activation_topic(task.root.name)

@@ -93,7 +93,7 @@ class PickAndPlaceMotion:
     """Time-parametrised straight-line pick-and-place: reach → grasp → carry → place → return."""
 
     arm: str
-    object: str
+    object: str | None  # None: a move to a pose that carries nothing (start_move)
     start: float
     start_pos: Vec
     grasp_pos: Vec
@@ -340,12 +340,43 @@ class TabletopWorld:
         self._sensing_changed(set())
         return motion
 
+    def start_move(self, arm: str, pose: Vec, dwell: float, now: float) -> PickAndPlaceMotion:
+        """Move ``arm`` to ``pose``, hold it there ``dwell`` seconds, and return home — for
+        behaviours that carry nothing (look at an object, point, wait for a hand-over). The
+        motion's phases are ``reach``, ``grasp`` (the dwell) and ``return``."""
+        a = self._arm(arm)
+        if a.motion is not None:
+            raise FlexhrcError(f"arm {arm!r} is busy with {a.motion.object!r}")
+        if not (math.isfinite(dwell) and dwell >= 0):
+            raise FlexhrcError(f"dwell must be a finite number >= 0, got {dwell}")
+        pose = vec(pose)
+        t_reach = now + math.dist(a.position, pose) / a.speed
+        t_dwell = t_reach + dwell
+        t_end = t_dwell + math.dist(pose, a.home) / a.speed
+        motion = PickAndPlaceMotion(
+            arm,
+            None,
+            now,
+            a.position,
+            pose,
+            pose,
+            a.home,
+            t_reach,
+            t_dwell,
+            t_dwell,
+            t_dwell,
+            t_end,
+        )
+        a.motion = motion
+        self._sensing_changed(set())
+        return motion
+
     def abort(self, arm: str, now: float) -> None:
         """Stop the arm where it is (the behaviour was reset by validity checking)."""
         a = self._arm(arm)
         if a.motion is not None:
             a.position = a.motion.position_at(now)
-            o = self.objects.get(a.motion.object)
+            o = self.objects.get(a.motion.object) if a.motion.object else None
             if o is not None and o.held_by == arm:
                 o.held_by = None
             a.motion = None
@@ -391,12 +422,20 @@ class TabletopWorld:
             if m is None:
                 continue
             a.position = m.position_at(now)
-            obj = self.objects[m.object]
             phase = m.phase_at(now)
+            if m.object is None:  # a move to a pose (start_move): no object is carried
+                if phase == "finished":
+                    a.motion = None
+                    a.position = a.home
+                    self._sensing_changed(set())
+                self.version += 1
+                continue
+            obj = self.objects[m.object]
             moved_object = False
             if phase in ("carry", "place"):
+                # taking hold counts as a change even where the position stays: ObjectInView
+                moved_object = obj.held_by != a.name or obj.position != a.position
                 obj.held_by = a.name
-                moved_object = obj.position != a.position
                 obj.position = a.position
             elif phase in ("return", "finished"):
                 obj.held_by = None

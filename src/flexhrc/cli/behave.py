@@ -180,6 +180,14 @@ def _exists(path: Path) -> bool:
 
 def resolve(target: str, layout: int | None, arms: int | None, seed: int) -> tuple[str, Any, Any]:
     """(label, task, world) for a scenario name, a task file or an inline prefix string."""
+    label, task, world, _behaviors = resolve_document(target, layout, arms, seed)
+    return label, task, world
+
+
+def resolve_document(
+    target: str, layout: int | None, arms: int | None, seed: int
+) -> tuple[str, Any, Any, dict[str, Any]]:
+    """(label, task, world, behaviour factories of typed leaves) — see :func:`resolve`."""
     from flexhrc.behavior.task import parse_prefix
     from flexhrc.behavior.taskfile import load_task_document
     from flexhrc.behavior.world import random_world
@@ -189,24 +197,25 @@ def resolve(target: str, layout: int | None, arms: int | None, seed: int) -> tup
     if target in SCENARIOS:
         sc = load_scenario(target, layout, arms or 1, seed)
         label = f"{sc.name}" + (f" (layout {sc.layout})" if sc.layout else "")
-        return label, sc.task, sc.world
+        return label, sc.task, sc.world, {}
     if layout is not None:
         raise FlexhrcError("--layout only applies to the table-setting scenario")
     if target.lstrip().startswith("("):
         task = parse_prefix(target, "<inline task>")
-        return "inline task", task, random_world(task.behaviors, seed, arms or 1)
+        return "inline task", task, random_world(task.behaviors, seed, arms or 1), {}
     path = Path(target)
     if path.suffix.lower() in TASK_SUFFIXES or _exists(path):
         text = read_text(path)
         stripped = "\n".join(line.split("#", 1)[0] for line in text.splitlines()).strip()
+        behaviors: dict[str, Any] = {}
         if stripped.startswith("("):
             task, world = parse_prefix(text, str(path)), None
         else:
             doc = load_task_document(text, str(path), arms)
-            task, world = doc.task, doc.world
+            task, world, behaviors = doc.task, doc.world, doc.behaviors
         if world is None:
             world = random_world(task.behaviors, seed, arms or 1)
-        return str(path), task, world
+        return str(path), task, world, behaviors
     raise UnknownNameError(
         f"unknown scenario {target!r} (known: {', '.join(SCENARIOS)}); "
         "or give a task file (.yaml/.txt) or an inline task such as '(THEN a (AND b c))'"
@@ -312,13 +321,13 @@ def _run(args: argparse.Namespace) -> int:
     _check_plot(args.plot, inputs)
     if args.log and args.plot and Path(args.log).resolve() == Path(args.plot).resolve():
         raise FlexhrcError("--log and --plot name the same file")
-    label, task, world = resolve(args.target, args.layout, args.arms, args.seed)
+    label, task, world, factories = resolve_document(args.target, args.layout, args.arms, args.seed)
     if args.render:
         rendered = to_ascii(task) if args.render == "ascii" else to_dot(task)
         emit(args, {"task": task.to_prefix(), "render": rendered}, rendered)
         return 0
     params = NetworkParams(seed=args.seed)
-    net = BehaviorNetwork(task, world, params)
+    net = BehaviorNetwork(task, world, params, behaviors=factories)
     max_ticks = args.max_ticks if args.max_ticks is not None else default_max_ticks(task)
     writer = EventLogWriter(args.log) if args.log else None
     realtime = args.realtime
