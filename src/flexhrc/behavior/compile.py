@@ -206,6 +206,8 @@ class _Converter:
 
 
 def _then(parts: list[_Part]) -> _Part:
+    if len(parts) == 1:
+        return parts[0]
     flat: list[_Part] = []
     for p in parts:
         if isinstance(p, tuple) and p[0] == THEN:
@@ -218,6 +220,8 @@ def _then(parts: list[_Part]) -> _Part:
 
 
 def _and(parts: list[_Part]) -> _Part:
+    if len(parts) == 1:
+        return parts[0]  # the same object: the OR factoring below compares by identity
     flat: list[_Part] = []
     for p in parts:
         if isinstance(p, tuple) and p[0] == AND:
@@ -230,32 +234,37 @@ def _and(parts: list[_Part]) -> _Part:
 
 
 def _alternatives(options: list[_Part]) -> _Part:
-    """OR of the alternatives, with a common prefix factored out: alternatives that share a
-    node consumed first (the same object, by memoisation) have that part done once before the
-    choice, since only one of them can consume it."""
+    """OR of the alternatives, with common prefixes factored out: alternatives that start with
+    the same part (the same object, by memoisation: a node they all consume first) do it once,
+    before they diverge — only one of them can consume that node."""
     if len(options) == 1:
         return options[0]
-    seqs = [list(o[1]) if isinstance(o, tuple) and o[0] == THEN else [o] for o in options]
-    prefix: list[_Part] = []
-    while all(seqs) and all(s[0] is seqs[0][0] and s[0] is not None for s in seqs):
-        if all(len(s) == 1 for s in seqs):
-            break
-        prefix.append(seqs[0][0])
-        for s in seqs:
-            s.pop(0)
-    rests = [_then(s) for s in seqs]
-    if any(r is None for r in rests):
-        raise NotSeriesParallelError(
-            "two ways into one node where one of them does nothing: an OR with an empty "
-            "alternative has no task form"
-        )
+    return _or_of([list(o[1]) if isinstance(o, tuple) and o[0] == THEN else [o] for o in options])
+
+
+def _or_of(seqs: list[list[_Part]]) -> _Part:
+    groups: dict[int, list[list[_Part]]] = {}
+    for seq in seqs:
+        groups.setdefault(id(seq[0]), []).append(seq)
+    out: list[_Part] = []
+    for group in groups.values():
+        if len(group) == 1:
+            out.append(_then(group[0]))
+            continue
+        rests = [seq[1:] for seq in group]
+        if any(not rest for rest in rests):
+            raise NotSeriesParallelError(
+                "two ways into one node where one of them does nothing more than another: an "
+                "OR with an empty alternative has no task form"
+            )
+        out.append(_then([group[0][0], _or_of(rests)]))
     flat: list[_Part] = []
-    for r in rests:
-        if isinstance(r, tuple) and r[0] == OR:
-            flat.extend(r[1])
+    for part in out:
+        if isinstance(part, tuple) and part[0] == OR:
+            flat.extend(part[1])
         else:
-            flat.append(r)
-    return _then([*prefix, (OR, flat)])
+            flat.append(part)
+    return flat[0] if len(flat) == 1 else (OR, flat)
 
 
 def _behaviours(part: _Part) -> list[str]:
