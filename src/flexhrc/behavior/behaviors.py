@@ -25,6 +25,7 @@ flickering while an arm sweeps across the table.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Protocol
 
 from flexhrc.behavior.messages import (
     MutexRelease,
@@ -40,6 +41,27 @@ from flexhrc.behavior.params import NetworkParams
 from flexhrc.behavior.validity import ValidityCheck
 from flexhrc.behavior.world import PickAndPlaceMotion, TabletopWorld
 from flexhrc.transport.base import Transport
+
+
+class PeerGate(Protocol):
+    """What a behaviour asks before it starts when several robots share the task."""
+
+    def blocked(self, behavior: str) -> bool:
+        """Another robot holds or completed it, or a rival OR alternative: do not compete."""
+        ...
+
+    def permits(self, behavior: str) -> bool | None:
+        """Claim ``behavior`` (this robot has won an arm for it): True = claimed by every live
+        robot, go; None = still asking; False = refused."""
+        ...
+
+    def finished(self, behavior: str) -> None:
+        """It completed here: tell the others (and release the claim)."""
+        ...
+
+    def released(self, behavior: str) -> None:
+        """It was reset here (validity checking): release the claim."""
+        ...
 
 
 class BehaviorNode(Node):
@@ -95,6 +117,10 @@ class BehaviorNode(Node):
         self._standing: dict[str, float] | None = None
         self._bid_tick = -1  # the last update loop in which this node bid
         self._withdraw_msg = MutexWithdraw(name)
+        #: Shares this behaviour with other robots (:class:`flexhrc.behavior.peers.PeerLink`):
+        #: a claim is needed before it starts; None for a robot on its own.
+        self.gate: PeerGate | None = None
+        self._done_by: str | None = None  # another robot completed this behaviour
         transport.subscribe(reply_topic(name), self._on_reply)
 
     # -- inbox ---------------------------------------------------------------------------------
@@ -121,9 +147,31 @@ class BehaviorNode(Node):
         return super().busy()
 
     def update(self, tick: int, now: float) -> None:
+        if self._done_by is not None and self.state != DONE:
+            self.tick, self.now = tick, now
+            self._finish_elsewhere()
+            return
         super().update(tick, now)
         if self._standing is not None and self._bid_tick != tick:
             self._withdraw()  # would not have bid this loop: the standing bid ends
+
+    # -- sharing with other robots ---------------------------------------------------------------
+    def done_elsewhere(self, robot: str) -> None:
+        """Another robot completed this behaviour: become done at the next loop (never run)."""
+        if self.state != DONE and self._done_by is None:
+            self._done_by = robot
+            self.wake()
+
+    def _finish_elsewhere(self) -> None:
+        self._withdraw()
+        for arm in self._grants:
+            self._release_arm(arm)
+        self._grants.clear()
+        self.arm = None
+        self.progress = True
+        self.set_state(DONE, by=self._done_by)
+        self.emit("done_elsewhere", by=self._done_by)
+        self.publish_state()
 
     def _withdraw(self) -> None:
         standing = self._standing
@@ -179,12 +227,25 @@ class BehaviorNode(Node):
     # -- Algorithm 1 hooks ---------------------------------------------------------------------
     def preconditions(self) -> bool:  # Algorithm 9
         grants = self._grants
-        if not self.ready():
+        gate = self.gate
+        if not self.ready() or (gate is not None and gate.blocked(self.name)):
             self._release_stray_grants()
             return False
         if grants:
             bids = self.current_bids()
             best = max(grants, key=lambda a: (bids.get(a, 0.0), -self.arms.index(a)))
+            if gate is not None:
+                verdict = gate.permits(self.name)
+                if verdict is None:  # the claim is on its way to the other robots: hold the arm
+                    for arm in grants:
+                        if arm != best:
+                            self._release_arm(arm)
+                    self._grants[:] = [best]
+                    return False
+                if not verdict:  # another robot has it (or a rival alternative): let the arm go
+                    self.arm = None
+                    self._release_stray_grants()
+                    return False
             self.arm = best
             self._release_stray_grants()
             return True
@@ -223,7 +284,11 @@ class BehaviorNode(Node):
         if status == "done":
             self.set_state(DONE, arm=arm)
             self.emit("done", arm=arm)
+            if self.gate is not None:
+                self.gate.finished(self.name)
         else:
+            if self.gate is not None:
+                self.gate.released(self.name)
             info = self.abort_action()
             self.resets += 1
             self.progress = False
@@ -284,6 +349,7 @@ class PickAndPlace(BehaviorNode):
             and seen >= world.sensing_stamp_all
             and self._last_published is not None
             and self._standing is None
+            and self._done_by is None
         ):
             self.tick = tick
             self.now = now

@@ -105,6 +105,30 @@ def register(subparsers: argparse._SubParsersAction) -> None:  # type: ignore[ty
         metavar="SECONDS",
         help="render: node states at this time of the --log run (default: its end)",
     )
+    p.add_argument(
+        "--robots",
+        type=int,
+        metavar="N",
+        help="N robots (1..4, one arm each) share the task: each runs its own copy of the "
+        "network, claims and progress go between them (default 1)",
+    )
+    p.add_argument(
+        "--transport",
+        choices=("inprocess", "zenoh"),
+        help="with --robots: all robots in this process on the in-process peer bus (default), "
+        "or one process per robot over Zenoh on 127.0.0.1",
+    )
+    p.add_argument(
+        "--robot",
+        metavar="NAME",
+        help="internal, with --transport zenoh: run as this one robot of the team (robot1 ...)",
+    )
+    p.add_argument(
+        "--peer-port",
+        type=int,
+        metavar="PORT",
+        help="internal, with --robot: the loopback TCP port robot1 listens on for its peers",
+    )
     p.set_defaults(func=run)
 
 
@@ -136,14 +160,51 @@ def _check_args(args: argparse.Namespace) -> None:
     if action is not None and args.operand is None:
         what = "LOG" if action == "replay" else "TASK"
         raise FlexhrcError(f"behave {action} needs a {what}")
+    if args.robots is not None and not 1 <= args.robots <= 4:
+        raise FlexhrcError(f"--robots must be in 1..4, got {args.robots}")
+    team = args.robots is not None and args.robots > 1
+    if args.transport is not None and not team:
+        raise FlexhrcError("--transport needs --robots 2 (or more)")
+    if (args.robot is not None or args.peer_port is not None) and args.transport != "zenoh":
+        raise FlexhrcError("--robot and --peer-port are for --robots N --transport zenoh")
+    if args.robot is not None and args.peer_port is None:
+        raise FlexhrcError("--robot needs --peer-port")
+    if args.peer_port is not None and not 1 <= args.peer_port <= 65535:
+        raise FlexhrcError(f"--peer-port must be in 1..65535, got {args.peer_port}")
+    if team:
+        for name, flag in (("arms", "--arms"), ("plot", "--plot"), ("render", "--render")):
+            if getattr(args, name) is not None:
+                raise FlexhrcError(f"{flag} does not apply with --robots (each robot has one arm)")
     allowed = {
-        None: {"layout", "arms", "seed", "plot", "render", "log", "max_ticks", "realtime"},
+        None: {
+            "layout",
+            "arms",
+            "seed",
+            "plot",
+            "render",
+            "log",
+            "max_ticks",
+            "realtime",
+            "robots",
+            "transport",
+        },
         "replay": {"plot"},
         "render": {"layout", "arms", "seed", "log", "at", "output"},
         "compile": {"layout", "arms", "seed", "output"},
     }[action]
     defaults = {"seed": 0}
-    for name in ("layout", "arms", "seed", "plot", "render", "log", "max_ticks", "realtime"):
+    for name in (
+        "layout",
+        "arms",
+        "seed",
+        "plot",
+        "render",
+        "log",
+        "max_ticks",
+        "realtime",
+        "robots",
+        "transport",
+    ):
         value = getattr(args, name)
         if name not in allowed and value is not None and value != defaults.get(name):
             flag = "--" + name.replace("_", "-")
@@ -290,6 +351,10 @@ def run(args: argparse.Namespace) -> int:
         return _render(args)
     if args.target == "compile":
         return _compile(args)
+    if args.robots is not None and args.robots > 1:
+        from flexhrc.cli.behave_team import run_team_command
+
+        return run_team_command(args)
     return _run(args)
 
 
