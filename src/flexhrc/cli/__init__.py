@@ -26,6 +26,7 @@ from flexhrc.errors import FlexhrcError
 COMMAND_MODULES: tuple[str, ...] = (
     "graph",
     "demo",
+    "scenario",
     "behave",
     "sim",
     "har",

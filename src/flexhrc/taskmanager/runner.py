@@ -227,6 +227,7 @@ class CooperationRun:
             "start",
             profile=self.profile,
             agents=list(self.domain.agents),
+            humans=list(self.operators),
             simulator=self.simulator_name,
         )
         if not self._interrupted():
@@ -375,6 +376,7 @@ class CooperationRun:
         fixed = binding.get(schema.fixes) if schema.fixes else None
         if fixed in self.kb.objects:
             self.kb.set_fixed(fixed)
+            self._event("fixed", object=fixed, agents=list(action.agents), action=str(action))
             for a in action.agents:
                 self.legs_by_agent[a] = self.legs_by_agent.get(a, 0) + 1
 
@@ -532,6 +534,10 @@ class CooperationRun:
         self._human_next(op)
 
     # -- results --------------------------------------------------------------------------
+    def operator_profiles(self) -> list[tuple[str, str]]:
+        """(operator, profile) of this run."""
+        return [(op.name, op.profile) for op in self.operators.values()]
+
     def unfired_failures(self) -> list[InjectedFailure]:
         """Injected failures whose N-th execution never came (e.g. ``transport:99``)."""
         return [f for f in self.failures if self._failure_counts.get(id(f), 0) < f.nth]
