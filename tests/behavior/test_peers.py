@@ -94,3 +94,32 @@ def test_cli_two_robots_in_one_process(capsys):
     assert data["outcome"] == "done" and data["violations"] == []
     assert sorted(data["robots"]) == ["robot1", "robot2"]
     assert len(data["order"]) == len(set(data["order"])) == 7
+
+
+def test_team_logs_are_streamed_per_robot_and_replay(capsys, tmp_path):
+    log = tmp_path / "team.jsonl"
+    assert main(["behave", "table-setting", "--robots", "2", "--log", str(log)]) == 0
+    capsys.readouterr()
+    for robot in ("robot1", "robot2"):
+        per_robot = tmp_path / f"team.{robot}.jsonl"
+        assert main(["behave", "replay", str(per_robot), "--json"]) == 0
+        data = json.loads(capsys.readouterr().out)
+        assert data["robot"] == robot and data["violations"] == [] and data["outcome"] == "done"
+        assert data["done_elsewhere"]  # the other robot's share
+
+
+@pytest.mark.parametrize(
+    ("argv", "fragment"),
+    [
+        (["(AND a b)", "--robots", "5"], "--robots must be in 1..4"),
+        (["(AND a b)", "--transport", "zenoh"], "--transport needs --robots"),
+        (["(AND a b)", "--robots", "2", "--arms", "2"], "--arms does not apply with --robots"),
+        (["(AND a b)", "--robots", "2", "--plot", "x.png"], "--plot does not apply"),
+        (["(AND a b)", "--robot", "robot1"], "--robot and --peer-port are for"),
+        (["replay", "x.jsonl", "--robots", "2"], "--robots does not apply"),
+    ],
+)
+def test_team_options_are_checked(capsys, argv, fragment):
+    assert main(["behave", *argv]) == 2
+    err = capsys.readouterr().err
+    assert fragment in err and err.count("\n") == 1

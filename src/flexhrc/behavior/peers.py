@@ -387,12 +387,16 @@ def run_team(
     lose: Mapping[str, Callable[[BehaviorNetwork], bool]] | None = None,
     max_ticks: int | None = None,
     behaviors: Mapping[str, Any] | None = None,
+    on_network: Callable[[str, BehaviorNetwork], None] | None = None,
+    on_tick: Callable[[int], None] | None = None,
 ) -> TeamResult:
     """Run ``task`` with ``robots`` robots in one process, on one in-process peer bus.
 
     Every tick each live robot's network ticks, then the peer bus delivers. ``lose`` maps a
     robot name to a condition on its network: when it holds, the robot dies on the spot (it stops
     ticking and the others are told it is lost, as a Zenoh liveliness token would).
+    ``on_network(robot, network)`` is called once per robot before the run (to add listeners:
+    a live trace, a streamed log); ``on_tick(tick)`` after every round (to pace it).
     """
     from flexhrc.behavior.network import default_max_ticks
 
@@ -404,6 +408,8 @@ def run_team(
         net = BehaviorNetwork(task, robot_world(world, k, name), params, behaviors=behaviors)
         nets[name] = net
         links[name] = PeerLink(name, names, bus, net)
+        if on_network is not None:
+            on_network(name, net)
     alive = list(names)
     lost: list[str] = []
     limit = max_ticks if max_ticks is not None else default_max_ticks(task)
@@ -420,6 +426,8 @@ def run_team(
             nets[name].tick()
         bus.flush()
         tick += 1
+        if on_tick is not None:
+            on_tick(tick)
     results = {name: nets[name].result() for name in names}
     done = bool(alive) and all(nets[n].finished for n in alive)
     period = nets[names[0]].params.tick_period

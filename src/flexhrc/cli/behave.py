@@ -493,6 +493,7 @@ def _tick_loop(net: Any, max_ticks: int, realtime: float | None) -> None:
 
 def _replay(args: argparse.Namespace) -> int:
     from flexhrc.behavior.logfile import CUT_SHORT, read_log
+    from flexhrc.behavior.network import Run
     from flexhrc.behavior.task import parse_prefix
     from flexhrc.behavior.validate import check_run
 
@@ -500,7 +501,13 @@ def _replay(args: argparse.Namespace) -> int:
     blog = read_log(args.operand)
     task = parse_prefix(str(blog.header["task"]), f"{args.operand}:1")
     result = blog.result()
-    violations = check_run(task, result.runs)
+    # a robot of a team: what the others completed counts (learned at the time of the event)
+    elsewhere = [
+        Run(ev.source, f"{ev.data.get('by')}/elsewhere", ev.t, ev.t, "done")
+        for ev in blog.events
+        if ev.kind == "done_elsewhere"
+    ]
+    violations = check_run(task, sorted([*result.runs, *elsewhere], key=lambda r: r.start))
     plot_path = None
     if args.plot:
         from flexhrc.behavior.plot import gantt
@@ -516,6 +523,8 @@ def _replay(args: argparse.Namespace) -> int:
         plot=str(plot_path) if plot_path else None,
         events=len(blog.events),
         cut_short=blog.end is None,
+        robot=blog.header.get("robot"),
+        done_elsewhere=[{"behavior": r.behavior, "by": r.arm.split("/")[0]} for r in elsewhere],
     )
 
     def text() -> str:
@@ -526,6 +535,9 @@ def _replay(args: argparse.Namespace) -> int:
                 f"warning: the run was {CUT_SHORT}: the log ends after {result.time:.1f} s "
                 "without its end line (killed?)"
             )
+        if elsewhere:
+            others = ", ".join(f"{r.behavior} ({r.arm.split('/')[0]})" for r in elsewhere)
+            lines.append(f"done by other robots: {others}")
         lines.append("")
         lines += summary_lines(result, violations, str(plot_path) if plot_path else None)
         return "\n".join(lines)

@@ -84,33 +84,70 @@ def _summary(args: argparse.Namespace, label: str, task: Any, team: dict[str, An
 
 
 def _in_process(args: argparse.Namespace) -> int:
-    from flexhrc.behavior.logfile import event_record, header_record
+    from flexhrc.behavior.logfile import end_record, event_record, header_record
     from flexhrc.behavior.params import NetworkParams
     from flexhrc.behavior.peers import robot_names, run_team
     from flexhrc.behavior.validate import check_run
+    from flexhrc.cli.behave import _live_line
     from flexhrc.files import EventLogWriter
 
     robots = robot_names(args.robots)
     _check_logs(args, robots)
     label, task, world, factories = _load(args)
     params = NetworkParams(seed=args.seed)
-    team = run_team(task, world, args.robots, params, max_ticks=args.max_ticks, behaviors=factories)
-    if args.log:  # per robot, replayable with `behave replay`
-        for robot, result in team.robots.items():
-            with EventLogWriter(robot_log_path(args.log, robot)) as writer:
-                writer.write(
-                    header_record(
-                        f"{label} ({robot})",
-                        task.to_prefix(),
-                        task.behaviors,
-                        result.arms,
-                        args.seed,
-                        params.tick_period,
-                        robot=robot,
-                    )
+    writers: dict[str, EventLogWriter] = {}
+    behaviors = set(task.behaviors)
+    realtime = args.realtime
+
+    def attach(robot: str, net: Any) -> None:
+        if args.log:  # one streamed log per robot, each replayable with `behave replay`
+            writer = writers[robot] = EventLogWriter(robot_log_path(args.log, robot))
+            writer.write(
+                header_record(
+                    f"{label} ({robot})",
+                    task.to_prefix(),
+                    task.behaviors,
+                    net.world.arm_names,
+                    args.seed,
+                    params.tick_period,
+                    robot=robot,
                 )
-                for ev in result.log:
-                    writer.write(event_record(ev))
+            )
+            net.listeners.append(lambda ev: writer.write(event_record(ev)))
+        if realtime is not None:
+
+            def live(ev: Any) -> None:
+                line = _live_line(ev, behaviors)
+                if line:
+                    log(args, f"{robot}: {line}")
+
+            net.listeners.append(live)
+
+    start = time.monotonic()
+
+    def pace(tick: int) -> None:
+        if realtime is not None:
+            delay = start + tick * params.tick_period / realtime - time.monotonic()
+            if delay > 0:
+                time.sleep(delay)
+
+    try:
+        team = run_team(
+            task,
+            world,
+            args.robots,
+            params,
+            max_ticks=args.max_ticks,
+            behaviors=factories,
+            on_network=attach,
+            on_tick=pace,
+        )
+        for robot, writer in writers.items():
+            result = team.robots[robot]
+            writer.write(end_record(result, check_run(task, result.runs, require_complete=False)))
+    finally:
+        for writer in writers.values():
+            writer.close()
     data = team.to_dict()
     data.update(
         target=label,
