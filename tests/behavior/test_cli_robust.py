@@ -84,13 +84,23 @@ def test_deep_nesting_is_a_clear_error_not_a_recursion_error(capsys, tmp_path, d
     one_error(capsys, [str(yml)], "deep")
 
 
-def test_nesting_up_to_the_limit_runs(capsys):
+def test_nesting_up_to_the_limit_runs_renders_and_compiles(capsys, tmp_path):
+    from flexhrc.behavior import BehaviorNetwork, check_run, parse_prefix, random_world
     from flexhrc.behavior.task import MAX_DEPTH
 
     names = [f"n{i}" for i in range(MAX_DEPTH)]
     text = "".join(f"(THEN {n} " for n in names) + "z" + ")" * MAX_DEPTH
-    code, out, _ = run_cli(capsys, text, "--json")
-    assert code == 0 and json.loads(out)["order"] == [*names, "z"]
+    task = parse_prefix(text)
+    world = random_world(task.behaviors, seed=0)
+    for arm in world.arms.values():
+        arm.speed = 5.0  # a fast arm: the same logic in fewer ticks
+    world.grasp_time = world.place_time = 0.1
+    result = BehaviorNetwork(task, world).run()
+    assert result.order == [*names, "z"] and check_run(task, result.runs) == []
+    code, out, _ = run_cli(capsys, text, "--render", "ascii")
+    assert code == 0 and out.count("THEN (THEN_") == MAX_DEPTH
+    graph = tmp_path / "deep.yaml"
+    assert run_cli(capsys, "compile", text, "-o", str(graph))[0] == 0
 
 
 def test_log_is_streamed_and_replay_reproduces_the_live_summary(capsys, tmp_path):

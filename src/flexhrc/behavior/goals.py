@@ -68,6 +68,7 @@ class GoalNode(Node):
         self._zero = ActivationMsg(name, 0.0)
         #: Children currently holding a latched activation from this node.
         self._holding = [False] * n
+        self._slept = False  # skipped by the executor while settled (see busy())
         for c in self.children:
             transport.subscribe(state_topic(c), self._on_child_state)
 
@@ -94,6 +95,12 @@ class GoalNode(Node):
         return self.state == ACTIVE or self._any_child_engaged or self.tick <= self._fed_until
 
     def update(self, tick: int, now: float) -> None:
+        if self._slept:
+            self._slept = False
+            if tick > self.tick + 1:
+                # Asleep while settled, it would have spread at every loop: activation was last
+                # "sent" in the previous loop, so it stays engaged for that round trip.
+                self._fed_until = max(self._fed_until, tick + 1)
         # Fast path, exactly equivalent to Algorithm 1 for an idle goal: inactive, below τ,
         # nothing new from the children, no activation in flight, nothing to re-publish.
         if self._held is not None:
@@ -118,7 +125,22 @@ class GoalNode(Node):
         # of `engaged` is published.
         if self.state == DONE:
             return False  # a done goal ignores everything (Algorithm 1)
+        if (
+            self._latched
+            and self.state == ACTIVE
+            and self._held is not None
+            and not self._dirty
+            and self.settled()
+        ):
+            # Active, held by its parent, its children held: every loop would send nothing and
+            # publish nothing until a message arrives — asleep (see update()).
+            self._slept = True
+            return False
         return super().busy() or self._dirty or self.tick <= self._fed_until
+
+    def settled(self) -> bool:
+        """Latched spreading has reached a fixed point (every child it feeds holds its level)."""
+        return False
 
     def send(self, i: int, msg: ActivationMsg) -> None:
         """Send activation to child ``i``; a positive level keeps this node engaged for the
@@ -174,6 +196,10 @@ class ThenNode(GoalNode):
         if i < len(states):
             self.send(i, self._full)
 
+    def settled(self) -> bool:
+        i = self._first
+        return i < len(self._holding) and self._holding[i] and self._child_state[i] != DONE
+
 
 class AndNode(GoalNode):
     """No ordering: every child gets activation at once (Algorithm 3)."""
@@ -215,6 +241,9 @@ class AndNode(GoalNode):
     def on_deactivate(self) -> None:
         super().on_deactivate()
         self._all_held = False
+
+    def settled(self) -> bool:
+        return self._all_held
 
 
 class OrNode(GoalNode):
@@ -274,6 +303,10 @@ class OrNode(GoalNode):
             self.chosen = target
             self.emit("choose", child=self.children[target])
         self.send(self.chosen, self._full)
+
+    def settled(self) -> bool:
+        chosen = self.chosen
+        return chosen is not None and self._leaving is None and self._holding[chosen]
 
 
 GOAL_CLASSES: dict[str, type[GoalNode]] = {"THEN": ThenNode, "AND": AndNode, "OR": OrNode}

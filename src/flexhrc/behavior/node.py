@@ -110,6 +110,7 @@ class Node:
         """Stop listening to the parent (a broken link); the level then only decays."""
         self._activation_sub.cancel()
         self._held = None
+        self.wake()  # a held level now decays: the node has work again
 
     # -- Algorithm 1 ---------------------------------------------------------------------------
     def update(self, tick: int, now: float) -> None:
