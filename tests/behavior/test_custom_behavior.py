@@ -100,3 +100,16 @@ def test_factories_replace_pick_and_place_through_the_api():
     net = BehaviorNetwork(task, random_world(["a"], seed=1), behaviors={"b": factory})
     result = net.run()
     assert made == ["b"] and result.outcome == "done" and sorted(result.order) == ["a", "b"]
+
+
+def test_a_python_type_from_the_command_line_with_types(capsys, tmp_path):
+    example = REPO / "examples" / "custom_behavior.py"
+    namespace: dict = {}
+    exec(compile(example.read_text(), str(example), "exec"), namespace)
+    task = tmp_path / "inspect.yaml"
+    task.write_text(namespace["TASK_FILE"])
+    assert main(["behave", str(task), "--types", str(example), "--json"]) == 0
+    data = __import__("json").loads(capsys.readouterr().out)
+    assert data["outcome"] == "done" and "look_at_mug" in data["order"]
+    assert main(["behave", str(task), "--types", "no_such_module_xyz"]) == 2
+    assert "--types no_such_module_xyz: ModuleNotFoundError" in capsys.readouterr().err

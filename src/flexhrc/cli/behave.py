@@ -19,6 +19,7 @@ import argparse
 import json
 import math
 import signal
+import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -104,6 +105,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:  # type: ignore[ty
         type=float,
         metavar="SECONDS",
         help="render: node states at this time of the --log run (default: its end)",
+    )
+    p.add_argument(
+        "--types",
+        action="append",
+        metavar="MODULE",
+        help="import a Python module (a name, or a path to a .py file) that registers behaviour "
+        "types the task file names (register_behavior_type); repeatable",
     )
     p.add_argument(
         "--robots",
@@ -343,8 +351,34 @@ def summary_lines(result: Any, violations: list[str], plot: str | None = None) -
 # ----------------------------------------------------------------------------- commands
 
 
+def import_types(modules: list[str] | None) -> None:
+    """Import the ``--types`` modules (they register behaviour types when imported)."""
+    import importlib
+    import importlib.util
+
+    for name in modules or ():
+        try:
+            if name.endswith(".py") or "/" in name:
+                path = Path(name)
+                if not path.is_file():
+                    raise FlexhrcError(f"--types {name}: no such file")
+                spec = importlib.util.spec_from_file_location(f"flexhrc_types_{path.stem}", path)
+                if spec is None or spec.loader is None:
+                    raise FlexhrcError(f"--types {name}: not a Python module")
+                module = importlib.util.module_from_spec(spec)
+                sys.modules[spec.name] = module
+                spec.loader.exec_module(module)
+            else:
+                importlib.import_module(name)
+        except FlexhrcError:
+            raise
+        except Exception as exc:  # the user's module failed: say which and how
+            raise FlexhrcError(f"--types {name}: {type(exc).__name__}: {exc}") from None
+
+
 def run(args: argparse.Namespace) -> int:
     _check_args(args)
+    import_types(args.types)
     if args.target == "replay":
         return _replay(args)
     if args.target == "render":

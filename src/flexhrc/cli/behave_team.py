@@ -201,6 +201,8 @@ def _spawn_team(args: argparse.Namespace) -> int:
             cmd += ["--max-ticks", str(args.max_ticks)]
         if args.log:
             cmd += ["--log", robot_log_path(args.log, robot)]
+        for module in args.types or ():
+            cmd += ["--types", module]
         procs.append(
             (
                 robot,
