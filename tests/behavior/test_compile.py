@@ -186,3 +186,15 @@ def test_cli_compile_play_and_to_task(tmp_path, capsys):
     assert "unsupported output format" in capsys.readouterr().err
     assert main(["behave", "compile", "(THEN a b)"]) == 2
     assert "needs -o OUT" in capsys.readouterr().err
+
+
+def test_to_task_on_a_graph_without_a_task_form_names_the_file_and_node(capsys):
+    from tests.conftest import REPO
+
+    graph = REPO / "examples" / "graphs" / "table_2legs.txt"
+    assert main(["graph", "to-task", str(graph)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"error: {graph}: node 'Leg_connected'") and err.count("\n") == 1
+    ball = REPO / "examples" / "graphs" / "ball_in_box.yaml"
+    assert main(["graph", "to-task", str(ball), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["task"].startswith("(THEN (OR ")

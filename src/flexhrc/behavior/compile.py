@@ -49,6 +49,10 @@ class NotSeriesParallelError(FlexhrcError):
     """An AND/OR graph that has no THEN/AND/OR task form; the message says why."""
 
 
+class _EmptyAlternative(Exception):
+    """Internal: two alternatives of which one is a prefix of the other."""
+
+
 # ----------------------------------------------------------------------------- task -> graph
 
 
@@ -171,7 +175,16 @@ class _Converter:
             part: _Part = None  # a leaf: met when its graph starts
         else:
             alternatives = [self.arc(key, h, depth + 1) for h in incoming]
-            part = _alternatives(alternatives)
+            try:
+                part = _alternatives(alternatives)
+            except _EmptyAlternative:
+                where = f"node {name!r}" + (f" of graph {key!r}" if key != self.h.top else "")
+                arcs = ", ".join(h.name for h in incoming)
+                raise self.fail(
+                    f"{where}: its hyper-arcs {arcs} include one that does nothing another does "
+                    "not (an OR with an empty alternative) — give the hyper-arcs actions, or "
+                    "this graph has no THEN/AND/OR form"
+                ) from None
         self.memo[memo_key] = part
         return part
 
@@ -253,10 +266,7 @@ def _or_of(seqs: list[list[_Part]]) -> _Part:
             continue
         rests = [seq[1:] for seq in group]
         if any(not rest for rest in rests):
-            raise NotSeriesParallelError(
-                "two ways into one node where one of them does nothing more than another: an "
-                "OR with an empty alternative has no task form"
-            )
+            raise _EmptyAlternative
         out.append(_then([group[0][0], _or_of(rests)]))
     flat: list[_Part] = []
     for part in out:
