@@ -88,8 +88,21 @@ def test_peer_messages_survive_json():
             from_wire(bad)
 
 
-def test_cli_two_robots_in_one_process(capsys):
-    assert main(["behave", "table-setting", "--layout", "2", "--robots", "2", "--json"]) == 0
+def test_cli_two_robots_in_one_process(capsys, tmp_path):
+    png = tmp_path / "team.png"
+    argv = [
+        "behave",
+        "table-setting",
+        "--layout",
+        "2",
+        "--robots",
+        "2",
+        "--json",
+        "--plot",
+        str(png),
+    ]
+    assert main(argv) == 0
+    assert png.read_bytes()[:4] == b"\x89PNG"
     data = json.loads(capsys.readouterr().out)
     assert data["outcome"] == "done" and data["violations"] == []
     assert sorted(data["robots"]) == ["robot1", "robot2"]
@@ -114,7 +127,7 @@ def test_team_logs_are_streamed_per_robot_and_replay(capsys, tmp_path):
         (["(AND a b)", "--robots", "5"], "--robots must be in 1..4"),
         (["(AND a b)", "--transport", "zenoh"], "--transport needs --robots"),
         (["(AND a b)", "--robots", "2", "--arms", "2"], "--arms does not apply with --robots"),
-        (["(AND a b)", "--robots", "2", "--plot", "x.png"], "--plot does not apply"),
+        (["(AND a b)", "--robots", "2", "--plot", "x.xyz"], "unsupported output format"),
         (["(AND a b)", "--robot", "robot1"], "--robot and --peer-port are for"),
         (["replay", "x.jsonl", "--robots", "2"], "--robots does not apply"),
     ],

@@ -345,6 +345,8 @@ class TeamResult:
     ticks: int
     time: float
     runs: list[Run] = field(default_factory=list)
+    #: When each lost robot was lost (simulated seconds).
+    lost_at: dict[str, float] = field(default_factory=dict)
 
     @property
     def order(self) -> list[str]:
@@ -359,6 +361,7 @@ class TeamResult:
             "ticks": self.ticks,
             "time": self.time,
             "lost": list(self.lost),
+            "lost_at": dict(self.lost_at),
             "robots": {
                 name: {"outcome": r.outcome, "order": r.order, "resets": r.resets}
                 for name, r in self.robots.items()
@@ -412,6 +415,7 @@ def run_team(
             on_network(name, net)
     alive = list(names)
     lost: list[str] = []
+    lost_at: dict[str, float] = {}
     limit = max_ticks if max_ticks is not None else default_max_ticks(task)
     tick = 0
     while alive and tick < limit and not all(nets[n].finished for n in alive):
@@ -419,6 +423,7 @@ def run_team(
             if lose and name in lose and lose[name](nets[name]):
                 alive.remove(name)
                 lost.append(name)
+                lost_at[name] = nets[name].clock.now()
                 links[name].close()
                 for other in alive:
                     links[other].peer_lost(name)
@@ -438,4 +443,5 @@ def run_team(
         tick,
         round(tick * period, 9),
         team_runs(results),
+        lost_at,
     )

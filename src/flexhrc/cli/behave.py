@@ -180,7 +180,7 @@ def _check_args(args: argparse.Namespace) -> None:
     if args.peer_port is not None and not 1 <= args.peer_port <= 65535:
         raise FlexhrcError(f"--peer-port must be in 1..65535, got {args.peer_port}")
     if team:
-        for name, flag in (("arms", "--arms"), ("plot", "--plot"), ("render", "--render")):
+        for name, flag in (("arms", "--arms"), ("render", "--render")):
             if getattr(args, name) is not None:
                 raise FlexhrcError(f"{flag} does not apply with --robots (each robot has one arm)")
     allowed = {

@@ -47,7 +47,10 @@ def _load(args: argparse.Namespace) -> tuple[str, Any, Any, dict[str, Any]]:
 
 
 def _check_logs(args: argparse.Namespace, robots: list[str]) -> None:
+    from flexhrc.cli.behave import _check_plot
     from flexhrc.files import check_output
+
+    _check_plot(args.plot)
 
     if args.log:
         for robot in robots:
@@ -55,7 +58,25 @@ def _check_logs(args: argparse.Namespace, robots: list[str]) -> None:
 
 
 def _summary(args: argparse.Namespace, label: str, task: Any, team: dict[str, Any]) -> int:
+    from flexhrc.behavior.network import Run
     from flexhrc.cli.behave import summary_lines
+
+    if args.plot:
+        from flexhrc.behavior.plot import team_gantt
+
+        runs = [
+            Run(r["behavior"], r["arm"], r["start"], r["end"], r["outcome"]) for r in team["runs"]
+        ]
+        team["plot"] = str(
+            team_gantt(
+                runs,
+                task.behaviors,
+                args.plot,
+                f"{label}: {', '.join(team['order'])}",
+                team.get("lost"),
+                team.get("lost_at"),
+            )
+        )
 
     class _View:
         outcome = team["outcome"]
@@ -76,7 +97,7 @@ def _summary(args: argparse.Namespace, label: str, task: Any, team: dict[str, An
                 f"{r['outcome']}"
             )
         lines.append("")
-        lines += summary_lines(_View, team["violations"])
+        lines += summary_lines(_View, team["violations"], team.get("plot"))
         return "\n".join(lines)
 
     emit(args, team, text)
