@@ -19,6 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from flexhrc.errors import FormatError
+from flexhrc.taskmanager.runner import OUTCOMES
 
 #: Every event type a cooperation run writes (runner and Task Manager).
 EVENT_TYPES = frozenset(
@@ -57,8 +58,6 @@ EVENT_TYPES = frozenset(
         "obsolete",
     }
 )
-#: How a run may end (``outcome`` events).
-OUTCOMES = ("solved", "failed", "interrupted")
 #: How an action may end (``action_end`` events).
 STATUSES = ("done", "failed", "timed_out", "stopped")
 CUT_SHORT = "cut_short"
@@ -128,6 +127,14 @@ def check_log(lines: Sequence[tuple[int, dict[str, Any]]], source: str | Path) -
             for key, v in timing.items():
                 if not _number(v) or v < 0:
                     raise fail(f"summary: timing {key!r} must be a finite time >= 0", line)
+            # the runner writes the summary at the end, stamped with the makespan it reports
+            total = timing.get("total_s")
+            if total is not None and abs(float(total) - last_t) > 1e-6:
+                raise fail(
+                    f"summary: the run ended at {total} s but its events reach {last_t} s "
+                    "(an edited log?)",
+                    line,
+                )
         elif kind == "decision":
             branches = ev.get("branches")
             if not isinstance(branches, list) or not all(isinstance(b, dict) for b in branches):
@@ -240,6 +247,7 @@ def summarise_log(events: Iterable[dict[str, Any]]) -> dict[str, Any]:
         "outcome": outcome,
         "reason": reason,
         "complete": complete,
+        "compute_recorded": bool(compute),
         "simulator": simulator or closing.get("simulator"),
         "events": len(events),
         "robot_actions": robot_actions,

@@ -604,9 +604,14 @@ def table_i(summary: dict[str, Any]) -> str:
     head = f"Computation ({sim} simulator)" if sim else "Computation (wall clock)"
     total = sum(v for _, v in compute)
     lines = [f"{head:<34}{'time [s]':>12}{'time [%]':>10}"]
-    for name, v in compute:
-        lines.append(f"{name:<34}{v:>12.4f}{100 * v / total if total else 0:>10.2f}")
-    lines.append(f"{'Compute total (wall clock)':<34}{total:>12.4f}{100.0:>10.2f}")
+    if summary.get("compute_recorded", True):
+        for name, v in compute:
+            lines.append(f"{name:<34}{v:>12.4f}{100 * v / total if total else 0:>10.2f}")
+        lines.append(f"{'Compute total (wall clock)':<34}{total:>12.4f}{100.0:>10.2f}")
+    else:  # a log cut short before its closing summary: the compute was never written down
+        for name, _ in compute:
+            lines.append(f"{name:<34}{'n/a':>12}{'':>10}")
+        lines.append("(not recorded: the log ends before the run's closing summary)")
     lines.append("")
     lines.append(f"{'Simulated time (simulated clock)':<34}{'time [s]':>12}")
     for name, v in simulated:
