@@ -347,11 +347,20 @@ def _robot_process(args: argparse.Namespace) -> int:
                     wall_start=wall_start,
                 )
             )
-            net.listeners.append(lambda ev: writer.write({**event_record(ev), "wall": time.time()}))
+        tick_wall = [wall_start]
+
+        def wall_of(ev: Any) -> float:
+            # Comparable across processes: a completion is announced to the others during its
+            # tick, so it gets the tick's start time (no earlier than the announcement); a start
+            # follows the others' grants, so it gets the time it is recorded (no later).
+            return time.time() if ev.kind == "start" else tick_wall[0]
+
+        if writer is not None:
+            net.listeners.append(lambda ev: writer.write({**event_record(ev), "wall": wall_of(ev)}))
 
         def stamp(ev: Any) -> None:
             if ev.kind in ("start", "done", "reset"):
-                wall_events.append(ev._replace(t=time.time()))
+                wall_events.append(ev._replace(t=wall_of(ev)))
 
         net.listeners.append(stamp)
         speed = args.realtime if args.realtime is not None else DEFAULT_TEAM_SPEED
@@ -359,6 +368,7 @@ def _robot_process(args: argparse.Namespace) -> int:
         start = time.monotonic()
         while not net.finished and net.clock.tick < limit:
             bus.flush()
+            tick_wall[0] = time.time()
             net.tick()
             delay = start + net.clock.now() / speed - time.monotonic()
             if delay > 0:
