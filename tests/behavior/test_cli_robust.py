@@ -55,6 +55,8 @@ def one_error(capsys, argv, fragment):
         (["replay"], "needs a LOG"),
         (["render", "(THEN a b)"], "needs -o OUT"),
         (["(THEN a b)", "extra"], "unexpected argument 'extra'"),
+        (["(THEN a b)", "--render", "ascii", "--log", "x.jsonl"], "does not apply with --render"),
+        (["render", "(THEN a b)", "-o", "x.svg", "--realtime", "2"], "--realtime does not apply"),
     ],
 )
 def test_bad_arguments_are_one_error_line(capsys, argv, fragment):

@@ -224,6 +224,13 @@ def _check_args(args: argparse.Namespace) -> None:
                 f"{flag} only applies to behave render"
                 + (" and behave compile" if name == "output" else "")
             )
+    if args.render is not None:
+        for name in ("log", "plot", "max_ticks", "realtime"):
+            if getattr(args, name) is not None:
+                flag = "--" + name.replace("_", "-")
+                raise FlexhrcError(
+                    f"{flag} does not apply with --render (it prints the network and exits)"
+                )
     if action in ("render", "compile") and args.output is None:
         raise FlexhrcError(f"behave {action} needs -o OUT")
     if args.at is not None and args.log is None:
