@@ -35,19 +35,27 @@ def one_error(capsys, argv, fragment):
 @pytest.mark.parametrize(
     ("argv", "fragment"),
     [
-        # B11, C10, C11, D
-        (["(OR a b)", "--seed", "-5"], "--seed"),
-        (["table-setting", "--layout", "0"], "--layout 0"),
-        (["(THEN a b)", "--max-ticks", "-5"], "--max-ticks"),
+        # the behave cases of the bad-input probe (../shared/reviews/bad-input-probe-2026-12-01.md)
+        pytest.param(["(OR a b)", "--seed", "-5"], "--seed", id="B11-seed"),
+        pytest.param(["table-setting", "--layout", "0"], "--layout 0", id="C10-layout-0"),
+        pytest.param(["(THEN a b)", "--max-ticks", "-5"], "--max-ticks", id="C11-max-ticks"),
         (["(THEN a b)", "--max-ticks", "0"], "--max-ticks"),
-        ([""], "TASK_OR_SCENARIO is empty"),
+        pytest.param([""], "TASK_OR_SCENARIO is empty", id="D-empty-target"),
         (["(THEN a b)", "--realtime", "nan"], "--realtime"),
         (["(THEN a b)", "--realtime", "-1"], "--realtime"),
         # B8, B9: output paths checked before the run, the plot extension first
-        (["(THEN a b)", "--log", "/nonexistent3/x.jsonl"], "--log /nonexistent3/x.jsonl"),
-        (["(THEN a b)", "--log", "/dev/full"], "--log /dev/full"),
-        (["(THEN a b)", "--plot", "/nonexistent2/x.png"], "--plot /nonexistent2/x.png"),
-        (["(THEN a b)", "--plot", "x.xyz"], "unsupported output format"),
+        pytest.param(
+            ["(THEN a b)", "--log", "/nonexistent3/x.jsonl"],
+            "--log /nonexistent3/x.jsonl",
+            id="B8-log",
+        ),
+        pytest.param(["(THEN a b)", "--log", "/dev/full"], "--log /dev/full", id="B8-dev-full"),
+        pytest.param(
+            ["(THEN a b)", "--plot", "/nonexistent2/x.png"],
+            "--plot /nonexistent2/x.png",
+            id="B8-plot",
+        ),
+        pytest.param(["(THEN a b)", "--plot", "x.xyz"], "unsupported output format", id="B9"),
         (["(THEN a b)", "--log", "/tmp"], "is a folder"),
         # options without their companion
         (["(THEN a b)", "--at", "3"], "--at only applies"),
@@ -76,7 +84,7 @@ def test_no_folder_is_created_for_a_bad_plot_path(capsys, tmp_path):
     assert not target.parent.exists()
 
 
-@pytest.mark.parametrize("depth", [500, 10_000])
+@pytest.mark.parametrize("depth", [500, 10_000], ids=["B6-500", "B6-10000"])
 def test_deep_nesting_is_a_clear_error_not_a_recursion_error(capsys, tmp_path, depth):
     deep = tmp_path / "deep.txt"
     deep.write_text("(THEN a" * depth + " z" + ")" * depth + "\n")
