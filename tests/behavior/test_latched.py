@@ -107,3 +107,19 @@ def test_waiting_behaviours_sleep_and_fewer_messages_are_sent():
         counts[latched] = (bus.published, len(net._awake))
     assert counts[True][1] < 10 < counts[False][1]  # 199 behaviours wait, asleep
     assert counts[True][0] * 20 < counts[False][0]
+
+
+@pytest.mark.slow
+def test_A11_an_and_of_1000_and_a_long_then_run_to_the_end():
+    """Bad-input probe A11 (timing is in benchmarks/behavior_scale.py): an AND of 1000 leaves
+    completes, and a THEN needing more than the old fixed 50 000 ticks is not cut short."""
+    from flexhrc.behavior import check_run
+    from flexhrc.behavior.network import default_max_ticks
+
+    wide = parse_prefix("(AND " + " ".join(f"o{i}" for i in range(1000)) + ")")
+    result = BehaviorNetwork(wide, random_world(wide.behaviors, seed=0)).run()
+    assert result.outcome == "done" and len(result.order) == 1000
+    long = parse_prefix("(THEN " + " ".join(f"o{i}" for i in range(600)) + ")")
+    result = BehaviorNetwork(long, random_world(long.behaviors, seed=0)).run()
+    assert result.ticks > 50_000 and result.outcome == "done"
+    assert result.ticks < default_max_ticks(long) and check_run(long, result.runs) == []
