@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -167,9 +168,10 @@ def test_render_with_states_from_the_log(capsys, tmp_path):
     text = dot.read_text()
     assert "cluster_legend" in text and "at 20.0 s" in text
     assert '"placemat" [shape=ellipse, label="placemat", style=filled, fillcolor="#3c78d8"]' in text
-    svg = tmp_path / "net.svg"
-    assert run_cli(capsys, "render", "table-setting", "-o", str(svg))[0] == 0
-    assert svg.read_text().lstrip().startswith("<?xml")
+    if shutil.which("dot"):  # graphviz (scripts/setup.sh installs it)
+        svg = tmp_path / "net.svg"
+        assert run_cli(capsys, "render", "table-setting", "-o", str(svg))[0] == 0
+        assert svg.read_text().lstrip().startswith("<?xml")
     one_error(
         capsys,
         ["render", "(THEN a b)", "-o", str(dot), "--log", str(log)],
