@@ -37,6 +37,8 @@ COMMAND_MODULES: tuple[str, ...] = (
     "sim",
     "har",
     "scene",
+    "cell",
+    "agent",
 )
 
 
