@@ -30,9 +30,11 @@ exponential reference).
 
 from __future__ import annotations
 
+import json
 import math
 from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass, field
+from heapq import heapify, heappop, heappush
 from pathlib import Path
 from typing import Any, Literal
 
@@ -47,6 +49,10 @@ Kind = Literal["node", "hyperarc"]
 
 class InfeasibleUpdateError(FlexhrcError):
     """An update reported an element that is not feasible; nothing was changed."""
+
+
+class GraphArgumentError(FlexhrcError, TypeError):
+    """An argument of the graph API has the wrong type (a ``TypeError`` too)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -147,20 +153,30 @@ class OnlineGraph:
     def __init__(self, graph: HierarchicalGraph | AndOrGraph, *, validate: bool = True):
         if isinstance(graph, AndOrGraph):
             graph = HierarchicalGraph.single(graph)
+        elif not isinstance(graph, HierarchicalGraph):
+            hint = (
+                ": load the file first, OnlineGraph(flexhrc.representation.load(path))"
+                if isinstance(graph, str | Path)
+                else ""
+            )
+            raise GraphArgumentError(
+                f"OnlineGraph needs an AndOrGraph or a HierarchicalGraph, got "
+                f"{type(graph).__name__}{hint}"
+            )
         if validate:
             graph.validate()
         self.hierarchy = graph
         self._build()
         self._query = 0
-        self.events: list[Event] = []
-        self._gen = 1
-        self._costs_gen = 0
+        self._log: list[tuple[int, str, int]] = []  # (query, type, element id)
+        self._events: list[Event] = []  # Event objects of _log, made on demand
         self._costs: dict[int, float] = {}
         self._outcome: str = "running"
         self._reason: str | None = None
         for k in range(len(self._i_key)):
             if self._i_upper[k] < 0:
                 self._activate(k)
+        self._settle()
         self._finish()
 
     # ------------------------------------------------------------------ construction ----
@@ -172,6 +188,7 @@ class OnlineGraph:
         kinds: list[int] = []
         weight: list[float] = []
         inst_of: list[int] = []
+        lrank: list[int] = []  # position in the instance's top-down order (outside pass)
         children: list[tuple[int, ...]] = []  # hyper-arcs: child node ids
         parent: list[int] = []  # hyper-arcs: parent node id
         lower: list[int] = []  # hyper-arcs: lower instance id or -1
@@ -184,52 +201,65 @@ class OnlineGraph:
         i_upper: list[int] = []
         i_parent: list[int] = []
         i_leaves: list[list[int]] = []
-        i_topo: list[list[int]] = []  # element ids, children before parents
+        i_down: list[list[int]] = []  # element ids, parents before children
+        i_lowers: list[list[int]] = []  # hyper-arcs of the instance that have a lower graph
         i_depth: list[int] = []
         i_span: list[tuple[int, int]] = []
 
-        def instantiate(key: str, path: str, depth: int, upper: int, parent_inst: int) -> int:
+        # depth-first, in hyper-arc order, with an explicit stack (no recursion limit)
+        stack: list[tuple[str, str, int, int, int]] = [(H.top, "", 0, -1, -1)]
+        while stack:
+            key, path, depth, upper, parent_inst = stack.pop()
             t = templates.get(key)
             if t is None:
                 t = templates[key] = _Template(H.graphs[key])
             k = len(i_key)
             base = len(names)
+            if upper >= 0:
+                lower[upper] = k
             i_path.append(path)
             i_key.append(key)
             i_root.append(base + t.root)
             i_upper.append(upper)
             i_parent.append(parent_inst)
-            i_leaves.append([base + x for x in t.leaves])
-            i_topo.append([base + x for x in t.topo])
+            shift = base.__add__
+            i_leaves.append(list(map(shift, t.leaves)))
+            i_down.append(list(map(shift, t.down)))
+            i_lowers.append([base + x for x, _ in t.lower])
             i_depth.append(depth)
             i_span.append((base, base + t.size))
             prefix = f"{path}{SEP}" if path else ""
-            names.extend([prefix + x for x in t.names])
+            names.extend([prefix + x for x in t.names] if prefix else t.names)
             local.extend(t.names)
             kinds.extend(t.kinds)
             weight.extend(t.weights)
             inst_of.extend([k] * t.size)
-            shift = base.__add__
-            children.extend([tuple(map(shift, ch)) for ch in t.children])
-            parent.extend([base + p if p >= 0 else -1 for p in t.parent])
+            lrank.extend(t.lrank)
+            if base:
+                children.extend([tuple(map(shift, ch)) for ch in t.children])
+                parent.extend([base + p if p >= 0 else -1 for p in t.parent])
+                incoming.extend([list(map(shift, hs)) for hs in t.incoming])
+                outgoing.extend([list(map(shift, hs)) for hs in t.outgoing])
+            else:
+                children.extend(t.children)
+                parent.extend(t.parent)
+                incoming.extend(t.incoming)  # never mutated: shared with the template
+                outgoing.extend(t.outgoing)
             lower.extend([-1] * t.size)
-            incoming.extend([list(map(shift, hs)) for hs in t.incoming])
-            outgoing.extend([list(map(shift, hs)) for hs in t.outgoing])
             root_of.extend([-1] * t.size)
             root_of[base + t.root] = k
-            for x, sub_key in t.lower:
-                sub = f"{prefix}{t.names[x]}"
-                lower[base + x] = instantiate(sub_key, sub, depth + 1, base + x, k)
-            return k
+            for x, sub_key in reversed(t.lower):
+                stack.append((sub_key, f"{prefix}{t.names[x]}", depth + 1, base + x, k))
 
-        instantiate(H.top, "", 0, -1, -1)
         n = len(names)
         self._names = names
         self._local = local
         self._kind = kinds
-        self._index = dict(zip(names, range(n), strict=True))
+        self._index_cache: dict[str, int] | None = None
         self._w = weight
         self._inst = inst_of
+        self._lrank = lrank
+        self._rank_span = max(t.size for t in templates.values()) + 1
         self._children = children
         self._parent = parent
         self._lower = lower
@@ -242,7 +272,11 @@ class OnlineGraph:
         self._i_upper = i_upper
         self._i_parent = i_parent
         self._i_leaves = i_leaves
+        self._i_down = i_down
+        self._i_lowers = i_lowers
+        self._i_depth = i_depth
         self._i_span = i_span
+        self._i_index = {p: k for k, p in enumerate(i_path)}
         self._i_name = [H.graphs[k].name for k in i_key]
         # mutable state
         self._done = [False] * n  # met (nodes) / solved (hyper-arcs)
@@ -253,10 +287,21 @@ class OnlineGraph:
         self._feasible: dict[int, None] = {}
         self._live: dict[int, None] = {}  # active, not closed lower instances
         self._inside = [0.0] * n
+        # outside costs relative to the element's instance root, kept exact for the elements
+        # of active instances; the instance's own offset (its root's outside cost in the whole
+        # hierarchy) is separate, so a change above an instance does not touch its elements
         self._out_val = [0.0] * n
-        self._out_gen = [0] * n
-        # initial inside costs, deepest instances first (their roots weigh their upper arcs)
-        # (every instance of one definition starts with the same values: compute them once)
+        self._i_off = [0.0] * len(i_key)
+        self._i_feas: list[dict[int, None]] = [{} for _ in i_key]  # feasible, per instance
+        self._off_dirty: set[int] = set()
+        # work lists of one query: outside costs to recompute (a heap in top-down order),
+        # elements whose cost may have changed, lower instances whose root became unreachable
+        self._heap: list[int] = []
+        self._queued: set[int] = set()
+        self._touched: set[int] = set()
+        self._dead: list[int] = []
+        # initial inside costs, deepest instances first (their roots weigh their upper arcs);
+        # every instance of one definition starts with the same values: compute them once
         calc = self._calc_inside
         ins = self._inside
         first: dict[str, int] = {}
@@ -268,8 +313,17 @@ class OnlineGraph:
                 ins[lo:hi] = ins[slo:shi]
                 continue
             first[i_key[k]] = k
-            for e in i_topo[k]:
+            for e in reversed(i_down[k]):
                 ins[e] = calc(e)
+
+    @property
+    def _index(self) -> dict[str, int]:
+        # qualified name -> element id, built on the first lookup by name (offline time matters)
+        idx = self._index_cache
+        if idx is None:
+            names = self._names
+            idx = self._index_cache = dict(zip(names, range(len(names)), strict=True))
+        return idx
 
     # ------------------------------------------------------------------ cost helpers ----
     def _calc_inside(self, e: int) -> float:
@@ -300,79 +354,192 @@ class OnlineGraph:
                 best = v
         return own + best
 
-    def _propagate(self, start: int) -> None:
-        """Recompute inside(start) and push changes to its ancestors (and upper arcs)."""
-        ins = self._inside
-        stack = [start]
-        changed = False
-        while stack:
-            e = stack.pop()
-            v = self._calc_inside(e)
-            if v == ins[e]:
-                continue
-            ins[e] = v
-            changed = True
-            if self._kind[e]:
-                stack.append(self._parent[e])
-            else:
-                stack.extend(self._out[e])
-                k = self._root_of[e]
-                if k >= 0 and self._i_upper[k] >= 0:
-                    stack.append(self._i_upper[k])
-        if changed:
-            self._gen += 1
-
-    def _outside(self, e: int) -> float:
-        """Cheapest remaining cost from element e (node or hyper-arc) to the top root."""
-        gen = self._gen
-        if self._out_gen[e] == gen:
-            return self._out_val[e]
+    def _calc_outside(self, e: int) -> float:
+        """Cheapest remaining cost from element e (node or hyper-arc) to the top root, from
+        the outside costs of the elements above it (which the top-down pass has settled)."""
+        out = self._out_val
         if self._kind[e]:
             p = self._parent[e]
             if self._blocked[p]:
-                val = INF
+                return INF
+            return (0.0 if self._done[p] else self._w[p]) + out[p]
+        if self._root_of[e] >= 0:
+            return 0.0  # relative to the instance root: see _calc_offset
+        ins = self._inside
+        val = INF
+        done, blocked, lower, w = self._done, self._blocked, self._lower, self._w
+        for h in self._out[e]:
+            if blocked[h]:
+                continue
+            if done[h]:
+                own = 0.0
+            elif lower[h] >= 0:
+                own = ins[self._i_root[lower[h]]]
             else:
-                val = (0.0 if self._done[p] else self._w[p]) + self._outside(p)
-        else:
-            k = self._root_of[e]
-            if k >= 0:
-                u = self._i_upper[k]
-                if u < 0:
-                    val = 0.0
-                elif self._blocked[u]:
-                    val = INF
-                else:
-                    # the lower path replaces w(u) in the upper path (Algorithm 6, line 27)
-                    val = self._outside(u)
-                    ins = self._inside
-                    for c in self._children[u]:
-                        val += ins[c]
-            else:
-                val = INF
-                ins = self._inside
-                for h in self._out[e]:
-                    if self._blocked[h]:
-                        continue
-                    own = 0.0 if self._done[h] else self._w[h]
-                    if self._lower[h] >= 0 and not self._done[h]:
-                        own = ins[self._i_root[self._lower[h]]]
-                    for c in self._children[h]:
-                        if c != e:
-                            own += ins[c]
-                    if own < val:
-                        cand = own + self._outside(h)
-                        if cand < val:
-                            val = cand
-        self._out_val[e] = val
-        self._out_gen[e] = gen
+                own = w[h]
+            for c in self._children[h]:
+                if c != e:
+                    own += ins[c]
+            cand = own + out[h]
+            if cand < val:
+                val = cand
         return val
+
+    def _calc_offset(self, k: int) -> float:
+        """Outside cost of the root of instance k in the whole hierarchy: the lower path
+        replaces w(u) in the upper path through its hyper-arc u (Algorithm 6, line 27)."""
+        u = self._i_upper[k]
+        if u < 0:
+            return 0.0
+        if self._blocked[u]:
+            return INF
+        val = self._out_val[u] + self._i_off[self._inst[u]]
+        ins = self._inside
+        for c in self._children[u]:
+            val += ins[c]
+        return val
+
+    def _push(self, e: int) -> None:
+        """Queue the outside cost of e for the top-down pass of this query."""
+        if e not in self._queued:
+            self._queued.add(e)
+            rank = self._i_depth[self._inst[e]] * self._rank_span + self._lrank[e]
+            heappush(self._heap, (rank << 32) | e)
+
+    def _inside_changed(self, c: int) -> None:
+        """Outside costs that read inside(c) of node c: its AND siblings, lower roots."""
+        push = self._push
+        self._touched.add(c)
+        children, lower = self._children, self._lower
+        for h in self._out[c]:
+            for s in children[h]:
+                if s != c:
+                    push(s)
+            if lower[h] >= 0:
+                self._off_dirty.add(lower[h])
+        k = self._root_of[c]
+        if k >= 0:
+            u = self._i_upper[k]
+            if u >= 0:
+                for s in children[u]:  # inside(c) is the weight of u (eq. 19)
+                    push(s)
+                if self._inside[c] == INF and self._active[k]:
+                    self._dead.append(k)
+
+    def _status_changed(self, e: int) -> None:
+        """Outside costs that read the status (met/solved/blocked) of e."""
+        push = self._push
+        self._touched.add(e)
+        if self._kind[e]:
+            for c in self._children[e]:
+                push(c)
+            if self._lower[e] >= 0:
+                self._off_dirty.add(self._lower[e])
+        else:
+            for h in self._in[e]:
+                push(h)
+
+    def _settle(self) -> None:
+        """The top-down pass: recompute queued outside costs, parents before children, and
+        queue the elements below each one that changed. Touches only what the query changed."""
+        heap = self._heap
+        if not heap:
+            self._settle_offsets()
+            return
+        out, kind, inst, active = self._out_val, self._kind, self._inst, self._active
+        touched, calc, push = self._touched, self._calc_outside, self._push
+        queued = self._queued
+        lower, children, incoming = self._lower, self._children, self._in
+        dirty = self._off_dirty
+        mask = (1 << 32) - 1
+        while heap:
+            e = heappop(heap) & mask
+            queued.discard(e)
+            if not active[inst[e]]:
+                continue  # computed in full when the instance becomes active
+            v = calc(e)
+            if v == out[e]:
+                continue
+            out[e] = v
+            touched.add(e)
+            if kind[e]:
+                for c in children[e]:
+                    push(c)
+                if lower[e] >= 0:
+                    dirty.add(lower[e])
+            else:
+                for h in incoming[e]:
+                    push(h)
+        self._settle_offsets()
+
+    def _settle_offsets(self) -> None:
+        """Recompute the dirty instance offsets, upper instances first; an offset that
+        changes moves the costs of its instance's feasible elements and the offsets below."""
+        dirty = self._off_dirty
+        if not dirty:
+            return
+        depth, active, off = self._i_depth, self._active, self._i_off
+        heap = [(depth[k], k) for k in dirty]
+        dirty.clear()
+        heapify(heap)
+        seen: set[int] = set()
+        costs, ins, out = self._costs, self._inside, self._out_val
+        while heap:
+            _, k = heappop(heap)
+            if k in seen or not active[k]:
+                continue
+            seen.add(k)
+            v = self._calc_offset(k)
+            if v == off[k]:
+                continue
+            off[k] = v
+            for e in self._i_feas[k]:
+                c = ins[e] + out[e] + v
+                if c < INF:
+                    costs[e] = c
+                else:
+                    costs.pop(e, None)
+            for h in self._i_lowers[k]:
+                heappush(heap, (depth[k] + 1, self._lower[h]))
+
+    def _fill_outside(self, k: int) -> None:
+        """Outside costs of every element of instance k, top-down (k just became active)."""
+        out, calc = self._out_val, self._calc_outside
+        for e in self._i_down[k]:
+            out[e] = calc(e)
+
+    def _propagate(self, start: int) -> None:
+        """Recompute inside(start) and push changes to its ancestors (and upper arcs)."""
+        ins = self._inside
+        kind, parent, outgoing = self._kind, self._parent, self._out
+        root_of, upper = self._root_of, self._i_upper
+        calc = self._calc_inside
+        stack = [start]
+        while stack:
+            e = stack.pop()
+            v = calc(e)
+            if v == ins[e]:
+                continue
+            ins[e] = v
+            if kind[e]:
+                self._touched.add(e)
+                stack.append(parent[e])
+            else:
+                self._inside_changed(e)
+                stack.extend(outgoing[e])
+                k = root_of[e]
+                if k >= 0 and upper[k] >= 0:
+                    stack.append(upper[k])
 
     # -------------------------------------------------------------- feasibility rules ----
     def _add_feasible(self, e: int) -> None:
         self._feasible[e] = None
+        self._i_feas[self._inst[e]][e] = None
+        self._touched.add(e)
 
     def _drop_feasible(self, e: int) -> None:
         self._feasible.pop(e, None)
+        self._i_feas[self._inst[e]].pop(e, None)
         self._costs.pop(e, None)
 
     def _node_feasible(self, n: int) -> bool:
@@ -393,29 +560,39 @@ class OnlineGraph:
         )
 
     def _activate(self, k: int) -> None:
-        """Instance k becomes active: its feasible leaves join the feasible set."""
+        """Instance k becomes active: its outside costs are computed, its feasible leaves join
+        the feasible set."""
         if self._active[k] or self._closed[k]:
             return
         self._active[k] = True
         if k:
             self._live[k] = None
+        self._fill_outside(k)
+        self._off_dirty.add(k)
         for n in self._i_leaves[k]:
             if self._node_feasible(n):
                 self._add_feasible(n)
+        if k and self._inside[self._i_root[k]] == INF:
+            self._dead.append(k)
 
     def _close(self, k: int) -> None:
-        """Instance k will never be used again (solved, or its upper arc is infeasible)."""
-        if self._closed[k]:
-            return
-        self._closed[k] = True
-        self._active[k] = False
-        self._live.pop(k, None)
-        inst = self._inst
-        for e in [e for e in self._feasible if inst[e] == k]:
-            self._drop_feasible(e)
-        for e in self._i_hyperarcs(k):
-            if self._lower[e] >= 0:
-                self._close(self._lower[e])
+        """Instance k will never be used again (solved, or its upper arc is infeasible); so
+        are the instances below it."""
+        todo = [k]
+        feasible = self._feasible
+        while todo:
+            k = todo.pop()
+            if self._closed[k]:
+                continue
+            self._closed[k] = True
+            self._active[k] = False
+            self._live.pop(k, None)
+            if feasible:
+                lo, hi = self._i_span[k]
+                for e in [e for e in range(lo, hi) if e in feasible]:
+                    self._drop_feasible(e)
+            for h in self._i_lowers[k]:
+                todo.append(self._lower[h])
 
     def _i_hyperarcs(self, k: int) -> Iterator[int]:
         # element ids of one instance are contiguous: its nodes, then its hyper-arcs
@@ -425,6 +602,7 @@ class OnlineGraph:
     def _meet(self, n: int) -> None:
         self._done[n] = True
         self._drop_feasible(n)
+        self._status_changed(n)
         self._propagate(n)
         for h in self._out[n]:
             self._unmet[h] -= 1
@@ -442,6 +620,7 @@ class OnlineGraph:
     def _solve(self, h: int) -> None:
         self._done[h] = True
         self._drop_feasible(h)
+        self._status_changed(h)
         if self._lower[h] >= 0:
             self._close(self._lower[h])
         p = self._parent[h]
@@ -455,17 +634,23 @@ class OnlineGraph:
         self._propagate(h)
 
     def _block(self, e: int) -> None:
-        self._blocked[e] = True
-        self._drop_feasible(e)
-        if self._kind[e]:
-            if self._lower[e] >= 0:
-                self._close(self._lower[e])
-        else:
-            for h in self._out[e]:
-                if not self._blocked[h] and not self._done[h]:
-                    self._block(h)
-        self._propagate(e)
-        self._gen += 1
+        # a blocked node blocks the hyper-arcs that consume it (one level: arcs block nothing)
+        todo = [e]
+        while todo:
+            e = todo.pop()
+            if self._blocked[e]:
+                continue
+            self._blocked[e] = True
+            self._drop_feasible(e)
+            self._status_changed(e)
+            if self._kind[e]:
+                if self._lower[e] >= 0:
+                    self._close(self._lower[e])
+            else:
+                for h in self._out[e]:
+                    if not self._blocked[h] and not self._done[h]:
+                        todo.append(h)
+            self._propagate(e)
 
     # ------------------------------------------------------------------ public API ------
     @property
@@ -483,15 +668,34 @@ class OnlineGraph:
 
     @property
     def queries(self) -> int:
+        """Number of answered queries (a rejected update is not counted)."""
         return self._query
 
+    @property
+    def events(self) -> list[Event]:
+        """The event history: every accepted status change, in order."""
+        evs, log = self._events, self._log
+        if len(evs) != len(log):
+            names = self._names
+            del evs[len(log) :]
+            evs.extend(Event(q, t, names[e]) for q, t, e in log[len(evs) :])  # type: ignore[arg-type]
+        return evs
+
     def element_id(self, name: str) -> int:
+        if not isinstance(name, str):
+            raise GraphArgumentError(
+                f"an element name must be a string, got {type(name).__name__} {name!r}"
+            )
         try:
             return self._index[name]
         except KeyError:
             raise UnknownNameError(_unknown(name, self._index)) from None
 
     def element_name(self, e: int) -> str:
+        if isinstance(e, bool) or not isinstance(e, int):
+            raise GraphArgumentError(f"an element id must be an int, got {type(e).__name__}")
+        if not 0 <= e < len(self._names):
+            raise UnknownNameError(f"no element with id {e} (0..{len(self._names) - 1})")
         return self._names[e]
 
     def kind(self, name: str) -> Kind:
@@ -501,12 +705,19 @@ class OnlineGraph:
         return self._w[self.element_id(name)]
 
     def is_met(self, node: str) -> bool:
+        """Whether node ``node`` is met; a hyper-arc name raises :class:`UnknownNameError`."""
         e = self.element_id(node)
-        return not self._kind[e] and self._done[e]
+        if self._kind[e]:
+            raise UnknownNameError(f"{node!r} is a hyper-arc, not a node: ask is_solved()")
+        return self._done[e]
 
     def is_solved(self, hyperarc: str) -> bool:
+        """Whether hyper-arc ``hyperarc`` is solved; a node name raises
+        :class:`UnknownNameError`."""
         e = self.element_id(hyperarc)
-        return bool(self._kind[e]) and self._done[e]
+        if not self._kind[e]:
+            raise UnknownNameError(f"{hyperarc!r} is a node, not a hyper-arc: ask is_met()")
+        return self._done[e]
 
     def is_feasible(self, name: str) -> bool:
         return self.element_id(name) in self._feasible
@@ -538,6 +749,14 @@ class OnlineGraph:
         """The current answer without reporting anything (query 0 of the protocol)."""
         return self.update()
 
+    def _ids(self, names: Iterable[str], what: str) -> list[int]:
+        if isinstance(names, str | bytes) or not isinstance(names, Iterable):
+            raise GraphArgumentError(
+                f"{what} must be a list of element names, got {type(names).__name__}"
+                + (f" {names!r}: wrap it in a list" if isinstance(names, str) else "")
+            )
+        return [self.element_id(name) for name in names]
+
     def update(
         self,
         met_nodes: Iterable[str] = (),
@@ -548,36 +767,45 @@ class OnlineGraph:
 
         Items are applied as soon as they are feasible, so one query may report a chain (e.g.
         a hyper-arc and then its parent). An item that is unknown, or never becomes feasible,
-        raises an error and leaves the state unchanged. Reporting an element that is already
-        met/solved is ignored (listed in :attr:`QueryResult.ignored`). ``infeasible`` marks
-        elements as impossible (e.g. a robot action failed): hyper-arcs can no longer be solved,
-        nodes no longer met, and every path through them is dropped.
+        raises an error and leaves the state unchanged (and the query is not counted).
+        Reporting an element that is already met/solved is ignored (listed in
+        :attr:`QueryResult.ignored`). ``infeasible`` marks elements as impossible (e.g. a robot
+        action failed): hyper-arcs can no longer be solved, nodes no longer met, and every path
+        through them is dropped. Wrong argument types raise :class:`GraphArgumentError` (a
+        ``TypeError``).
         """
-        items: list[tuple[str, int, str]] = []
-        for name in met_nodes:
-            e = self.element_id(name)
-            if self._kind[e]:
-                raise UnknownNameError(f"{name!r} is a hyper-arc, not a node: report it as solved")
-            items.append(("met", e, name))
-        for name in solved_hyperarcs:
-            e = self.element_id(name)
-            if not self._kind[e]:
-                raise UnknownNameError(f"{name!r} is a node, not a hyper-arc: report it as met")
-            items.append(("solved", e, name))
-        blocks = [self.element_id(name) for name in infeasible]
+        kinds = self._kind
+        items: list[tuple[str, int]] = []
+        if met_nodes:
+            for e in self._ids(met_nodes, "met_nodes"):
+                if kinds[e]:
+                    raise UnknownNameError(
+                        f"{self._names[e]!r} is a hyper-arc, not a node: report it as solved"
+                    )
+                items.append(("met", e))
+        if solved_hyperarcs:
+            for e in self._ids(solved_hyperarcs, "solved_hyperarcs"):
+                if not kinds[e]:
+                    raise UnknownNameError(
+                        f"{self._names[e]!r} is a node, not a hyper-arc: report it as met"
+                    )
+                items.append(("solved", e))
+        blocks = self._ids(infeasible, "infeasible") if infeasible else []
         if self._outcome != "running" and (items or blocks):
             raise FlexhrcError(f"the cooperation is already {self._outcome}; nothing to update")
-        self._query += 1
+        query = self._query + 1
         ignored: list[str] = []
         if items or blocks:
             if len(items) == 1 and not blocks and items[0][1] in self._feasible:
-                kind, e, name = items[0]
-                self._apply(kind, e)
+                kind, e = items[0]
+                self._apply(query, kind, e)
+                self._settle()
             else:
-                ignored = self._apply_many(items, blocks)
+                ignored = self._apply_many(query, items, blocks)
+        self._query = query
         self._finish()
         return QueryResult(
-            self._query,
+            query,
             self._outcome == "solved",
             self._outcome == "failed",
             self._reason,
@@ -590,48 +818,50 @@ class OnlineGraph:
         """Mark elements infeasible (for good) and answer with the new state."""
         return self.update(infeasible=names)
 
-    def _apply(self, kind: str, e: int) -> None:
-        self.events.append(Event(self._query, kind, self._names[e]))  # type: ignore[arg-type]
+    def _apply(self, query: int, kind: str, e: int) -> None:
+        self._log.append((query, kind, e))
         if kind == "met":
             self._meet(e)
         elif kind == "solved":
             self._solve(e)
         else:
             self._block(e)
-        self._check_failed_instances()
+        self._apply_dead()
 
-    def _apply_many(self, items: list[tuple[str, int, str]], blocks: list[int]) -> list[str]:
+    def _apply_many(self, query: int, items: list[tuple[str, int]], blocks: list[int]) -> list[str]:
         snapshot = self._snapshot()
-        n_events = len(self.events)
+        n_events = len(self._log)
         ignored: list[str] = []
+        names = self._names
         try:
             for e in blocks:
                 if not self._blocked[e] and not (self._done[e]):
-                    self._apply("infeasible", e)
+                    self._apply(query, "infeasible", e)
                 else:
-                    ignored.append(self._names[e])
+                    ignored.append(names[e])
             pending = []
-            for kind, e, name in items:
+            for kind, e in items:
                 if self._done[e]:
-                    ignored.append(name)
+                    ignored.append(names[e])
                 else:
-                    pending.append((kind, e, name))
+                    pending.append((kind, e))
             while pending:
                 rest = []
-                for kind, e, name in pending:
+                for kind, e in pending:
                     if self._done[e]:  # solved as a consequence (eq. 18)
                         continue
                     if e in self._feasible or (kind == "solved" and self._arc_enabled(e)):
-                        self._apply(kind, e)
+                        self._apply(query, kind, e)
                     else:
-                        rest.append((kind, e, name))
+                        rest.append((kind, e))
                 if len(rest) == len(pending):
-                    bad = ", ".join(f"{name} ({self._why_not(e)})" for _, e, name in rest)
+                    bad = ", ".join(f"{names[e]} ({self._why_not(e)})" for _, e in rest)
                     raise InfeasibleUpdateError(f"not feasible, nothing changed: {bad}")
                 pending = rest
+            self._settle()
         except BaseException:
             self._restore(snapshot)
-            del self.events[n_events:]
+            del self._log[n_events:]
             raise
         return ignored
 
@@ -650,41 +880,43 @@ class OnlineGraph:
         return "no incoming hyper-arc is solved"
 
     def _check_failed_instances(self) -> None:
-        """A lower instance that can no longer be solved — nothing feasible left, or its root
-        unreachable — makes its upper hyper-arc infeasible (eq. 17)."""
-        inst = self._inst
-        alive: set[int] = set()
-        for e in self._feasible:
-            k = inst[e]
-            while k >= 0 and k not in alive:
-                alive.add(k)
-                k = self._i_parent[k]
-        ins, roots = self._inside, self._i_root
-        for k in [k for k in self._live if k not in alive or ins[roots[k]] == INF]:
-            if self._active[k] and not self._closed[k]:
+        """Kept for compatibility: unreachable lower roots are now found as they happen."""
+        for k in list(self._live):
+            if self._inside[self._i_root[k]] == INF:
+                self._dead.append(k)
+        self._apply_dead()
+
+    def _apply_dead(self) -> None:
+        """A lower instance whose root can no longer be reached makes its upper hyper-arc
+        infeasible (eq. 17)."""
+        dead = self._dead
+        while dead:
+            k = dead.pop()
+            if self._active[k]:
                 u = self._i_upper[k]
                 if not self._blocked[u] and not self._done[u]:
                     self._block(u)
 
     def _finish(self) -> None:
-        top_root = self._i_root[0]
-        if self._done[top_root]:
+        """Costs of the elements this query touched; the outcome."""
+        touched = self._touched
+        if self._done[self._i_root[0]]:
             self._outcome, self._reason = "solved", None
             self._costs = {}
+            touched.clear()
             return
-        gen = self._gen
-        costs = self._costs
-        if self._costs_gen != gen:
-            costs.clear()
-            self._costs_gen = gen
-        ins = self._inside
-        outside = self._outside
-        for e in self._feasible:
-            if e not in costs:
-                c = ins[e] + outside(e)
-                if c < INF:
-                    costs[e] = c
-        if not costs:
+        if touched:
+            costs, feasible = self._costs, self._feasible
+            ins, out, off, inst = self._inside, self._out_val, self._i_off, self._inst
+            for e in touched:
+                if e in feasible:
+                    c = ins[e] + out[e] + off[inst[e]]
+                    if c < INF:
+                        costs[e] = c
+                    else:
+                        costs.pop(e, None)
+            touched.clear()
+        if not self._costs:
             self._outcome = "failed"
             self._reason = (
                 "no feasible node or hyper-arc is left"
@@ -693,7 +925,7 @@ class OnlineGraph:
             )
 
     # ---------------------------------------------------------------- snapshot/state ----
-    _STATE = ("_done", "_blocked", "_unmet", "_active", "_closed", "_inside")
+    _STATE = ("_done", "_blocked", "_unmet", "_active", "_closed", "_inside", "_out_val", "_i_off")
 
     def _snapshot(self) -> tuple[Any, ...]:
         return (
@@ -701,8 +933,7 @@ class OnlineGraph:
             dict(self._feasible),
             dict(self._live),
             dict(self._costs),
-            self._gen,
-            self._costs_gen,
+            [dict(d) for d in self._i_feas],
             self._outcome,
             self._reason,
         )
@@ -711,17 +942,12 @@ class OnlineGraph:
         for a, v in zip(self._STATE, snap, strict=False):
             setattr(self, a, v)
         rest = snap[len(self._STATE) :]
-        (
-            self._feasible,
-            self._live,
-            self._costs,
-            gen,
-            self._costs_gen,
-            self._outcome,
-            self._reason,
-        ) = rest
-        self._gen = max(gen, self._gen) + 1  # invalidate memoised outside costs
-        self._costs_gen = -1
+        (self._feasible, self._live, self._costs, self._i_feas, self._outcome, self._reason) = rest
+        self._heap.clear()
+        self._queued.clear()
+        self._touched.clear()
+        self._dead.clear()
+        self._off_dirty.clear()
 
     def state(self) -> dict[str, Any]:
         """A plain, comparable description of the whole state (for tests and debugging)."""
@@ -754,10 +980,10 @@ class OnlineGraph:
 
     # ------------------------------------------------------------------ history ---------
     def save_events(self, path: str | Path) -> None:
-        """Write the event history as JSON lines (one event per line)."""
-        from flexhrc.jsonl import write_jsonl
+        """Write the event history as JSON lines (one event per line), atomically."""
+        from flexhrc.files import atomic_write_text
 
-        write_jsonl(path, (ev.to_dict() for ev in self.events))
+        atomic_write_text(path, "".join(json.dumps(ev.to_dict()) + "\n" for ev in self.events))
 
     @staticmethod
     def load_events(path: str | Path) -> list[Event]:
@@ -767,11 +993,9 @@ class OnlineGraph:
         events = []
         for line, d in read_jsonl_lines(path, required=("query", "type", "element")):
             try:
-                ev = Event(int(d["query"]), d["type"], str(d["element"]))
+                ev = _event(d)
             except (ValueError, TypeError) as exc:
                 raise FormatError(f"malformed event: {exc}", path, line) from None
-            if ev.type not in ("met", "solved", "infeasible"):
-                raise FormatError(f"unknown event type {ev.type!r}", path, line)
             events.append(ev)
         return events
 
@@ -779,7 +1003,21 @@ class OnlineGraph:
     def replay(
         cls, graph: HierarchicalGraph | AndOrGraph, events: Iterable[Event | Mapping[str, Any]]
     ) -> OnlineGraph:
-        """Rebuild the state reached by a recorded event history."""
+        """Rebuild the state reached by a recorded event history.
+
+        Every event is checked first (a mapping with ``query``, ``type`` and ``element``; a
+        known type): a bad one raises :class:`GraphArgumentError` naming its position.
+        """
+        if isinstance(events, str | bytes | Mapping) or not isinstance(events, Iterable):
+            raise GraphArgumentError(
+                f"events must be a list of events, got {type(events).__name__}"
+            )
+        checked: list[Event] = []
+        for i, raw in enumerate(events):
+            try:
+                checked.append(raw if isinstance(raw, Event) and _valid(raw) else _event(raw))
+            except (ValueError, TypeError) as exc:
+                raise GraphArgumentError(f"event {i}: {exc}") from None
         online = cls(graph)
         batch: list[Event] = []
         current: int | None = None
@@ -792,12 +1030,7 @@ class OnlineGraph:
                     infeasible=[ev.element for ev in batch if ev.type == "infeasible"],
                 )
 
-        for raw in events:
-            ev = (
-                raw
-                if isinstance(raw, Event)
-                else Event(int(raw["query"]), raw["type"], raw["element"])
-            )
+        for ev in checked:
             if current is not None and ev.query != current:
                 flush()
                 batch = []
@@ -807,15 +1040,50 @@ class OnlineGraph:
         return online
 
 
+EVENT_TYPES = ("met", "solved", "infeasible")
+
+
+def _valid(ev: Event) -> bool:
+    if ev.type not in EVENT_TYPES:
+        raise ValueError(
+            f"unknown event type {ev.type!r} (expected one of {', '.join(EVENT_TYPES)})"
+        )
+    return True
+
+
+def _event(raw: object) -> Event:
+    """An :class:`Event` from a mapping, or ValueError/TypeError saying what is wrong."""
+    if isinstance(raw, Event):
+        _valid(raw)
+        return raw
+    if not isinstance(raw, Mapping):
+        raise TypeError(
+            f"expected a mapping with query, type and element, got {type(raw).__name__}"
+        )
+    missing = [k for k in ("query", "type", "element") if k not in raw]
+    if missing:
+        raise ValueError(f"missing {', '.join(missing)}")
+    q, t, el = raw["query"], raw["type"], raw["element"]
+    if isinstance(q, bool) or not isinstance(q, int) or q < 0:
+        raise ValueError(f"query must be a non-negative integer, got {q!r}")
+    if t not in EVENT_TYPES:
+        raise ValueError(f"unknown event type {t!r} (expected one of {', '.join(EVENT_TYPES)})")
+    if not isinstance(el, str) or not el:
+        raise ValueError(f"element must be a non-empty name, got {el!r}")
+    return Event(q, t, el)
+
+
 class _Template:
     """Index structure of one graph definition, shared by all of its instances."""
 
     __slots__ = (
         "children",
+        "down",
         "incoming",
         "kinds",
         "leaves",
         "lower",
+        "lrank",
         "names",
         "outgoing",
         "parent",
@@ -854,6 +1122,10 @@ class _Template:
             i = idx[name]
             self.topo.extend(self.incoming[i])
             self.topo.append(i)
+        self.down = self.topo[::-1]  # parents before children: the outside pass
+        self.lrank = [0] * self.size
+        for r, x in enumerate(self.down):
+            self.lrank[x] = r
         self.lower = [(j, h.lower) for j, h in enumerate(arc_list, nn) if h.lower is not None]
 
 
