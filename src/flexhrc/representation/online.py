@@ -441,15 +441,20 @@ class OnlineGraph:
 
     def _settle(self) -> None:
         """The top-down pass: recompute queued outside costs, parents before children, and
-        queue the elements below each one that changed. Touches only what the query changed."""
+        queue the elements below each one that changed. Touches only what the query changed.
+
+        _calc_outside is inlined (hot path).
+        """
         heap = self._heap
         if not heap:
             self._settle_offsets()
             return
         out, kind, inst, active = self._out_val, self._kind, self._inst, self._active
-        touched, calc, push = self._touched, self._calc_outside, self._push
-        queued = self._queued
-        lower, children, incoming = self._lower, self._children, self._in
+        touched, queued = self._touched, self._queued
+        idepth, lrank, span = self._i_depth, self._lrank, self._rank_span
+        lower, children, incoming, outgoing = self._lower, self._children, self._in, self._out
+        parent, done, blocked, w = self._parent, self._done, self._blocked, self._w
+        ins, roots, root_of = self._inside, self._i_root, self._root_of
         dirty = self._off_dirty
         mask = (1 << 32) - 1
         while heap:
@@ -457,19 +462,46 @@ class OnlineGraph:
             queued.discard(e)
             if not active[inst[e]]:
                 continue  # computed in full when the instance becomes active
-            v = calc(e)
+            if kind[e]:
+                p = parent[e]
+                v = INF if blocked[p] else (0.0 if done[p] else w[p]) + out[p]
+                if v == out[e]:
+                    continue
+                out[e] = v
+                touched.add(e)
+                for c in children[e]:
+                    if c not in queued and not (done[c] and not incoming[c]):
+                        queued.add(c)
+                        heappush(heap, (((idepth[inst[c]] * span + lrank[c]) << 32) | c))
+                if lower[e] >= 0:
+                    dirty.add(lower[e])
+                continue
+            if root_of[e] >= 0:
+                continue  # 0, relative to the instance root
+            v = INF
+            for h in outgoing[e]:
+                if blocked[h]:
+                    continue
+                if done[h]:
+                    own = 0.0
+                elif lower[h] >= 0:
+                    own = ins[roots[lower[h]]]
+                else:
+                    own = w[h]
+                for c in children[h]:
+                    if c != e:
+                        own += ins[c]
+                own += out[h]
+                if own < v:
+                    v = own
             if v == out[e]:
                 continue
             out[e] = v
             touched.add(e)
-            if kind[e]:
-                for c in children[e]:
-                    push(c)
-                if lower[e] >= 0:
-                    dirty.add(lower[e])
-            else:
-                for h in incoming[e]:
-                    push(h)
+            for h in incoming[e]:
+                if h not in queued and not blocked[h]:
+                    queued.add(h)
+                    heappush(heap, (((idepth[inst[h]] * span + lrank[h]) << 32) | h))
         self._settle_offsets()
 
     def _settle_offsets(self) -> None:
@@ -509,27 +541,76 @@ class OnlineGraph:
             out[e] = calc(e)
 
     def _propagate(self, start: int) -> None:
-        """Recompute inside(start) and push changes to its ancestors (and upper arcs)."""
+        """Recompute inside(start) and push changes to its ancestors (and upper arcs).
+
+        The hot path of every query: _calc_inside and _inside_changed are inlined here.
+        """
         ins = self._inside
         kind, parent, outgoing = self._kind, self._parent, self._out
         root_of, upper = self._root_of, self._i_upper
-        calc = self._calc_inside
+        done, blocked, lower, w = self._done, self._blocked, self._lower, self._w
+        children, incoming, roots = self._children, self._in, self._i_root
+        touched, dirty = self._touched, self._off_dirty
+        heap, queued, inst = self._heap, self._queued, self._inst
+        idepth, lrank, span = self._i_depth, self._lrank, self._rank_span
         stack = [start]
         while stack:
             e = stack.pop()
-            v = calc(e)
+            if kind[e]:  # hyper-arc
+                if blocked[e]:
+                    v = INF
+                else:
+                    if done[e]:
+                        v = 0.0
+                    elif lower[e] >= 0:
+                        v = ins[roots[lower[e]]]  # eq. 19
+                    else:
+                        v = w[e]
+                    for c in children[e]:
+                        v += ins[c]
+                if v == ins[e]:
+                    continue
+                ins[e] = v
+                touched.add(e)
+                stack.append(parent[e])
+                continue
+            if blocked[e]:
+                v = INF
+            else:
+                v = 0.0 if done[e] else w[e]
+                arcs = incoming[e]
+                if arcs:
+                    best = INF
+                    for h in arcs:
+                        x = ins[h]
+                        if x < best:
+                            best = x
+                    v += best
             if v == ins[e]:
                 continue
             ins[e] = v
-            if kind[e]:
-                self._touched.add(e)
-                stack.append(parent[e])
-            else:
-                self._inside_changed(e)
-                stack.extend(outgoing[e])
-                k = root_of[e]
-                if k >= 0 and upper[k] >= 0:
-                    stack.append(upper[k])
+            # outside costs that read inside(e): its AND siblings, lower-instance offsets
+            touched.add(e)
+            for h in outgoing[e]:
+                for s in children[h]:
+                    # a met leaf's outside cost is never read again (statuses are for good)
+                    if s != e and s not in queued and not (done[s] and not incoming[s]):
+                        queued.add(s)
+                        heappush(heap, (((idepth[inst[s]] * span + lrank[s]) << 32) | s))
+                if lower[h] >= 0:
+                    dirty.add(lower[h])
+            stack.extend(outgoing[e])
+            k = root_of[e]
+            if k >= 0:
+                u = upper[k]
+                if u >= 0:
+                    for s in children[u]:  # inside(e) is the weight of u (eq. 19)
+                        if s not in queued and not (done[s] and not incoming[s]):
+                            queued.add(s)
+                            heappush(heap, (((idepth[inst[s]] * span + lrank[s]) << 32) | s))
+                    if v == INF and self._active[k]:
+                        self._dead.append(k)
+                    stack.append(u)
 
     # -------------------------------------------------------------- feasibility rules ----
     def _add_feasible(self, e: int) -> None:
@@ -750,6 +831,12 @@ class OnlineGraph:
         return self.update()
 
     def _ids(self, names: Iterable[str], what: str) -> list[int]:
+        if type(names) is tuple or type(names) is list:  # the common case, cheap
+            index = self._index
+            try:
+                return [index[name] for name in names]
+            except (KeyError, TypeError):
+                pass  # the checks below name the culprit
         if isinstance(names, str | bytes) or not isinstance(names, Iterable):
             raise GraphArgumentError(
                 f"{what} must be a list of element names, got {type(names).__name__}"
