@@ -861,6 +861,13 @@ class OnlineGraph:
         through them is dropped. Wrong argument types raise :class:`GraphArgumentError` (a
         ``TypeError``).
         """
+        if met_nodes is None or solved_hyperarcs is None or infeasible is None:
+            what = (
+                "met_nodes"
+                if met_nodes is None
+                else ("solved_hyperarcs" if solved_hyperarcs is None else "infeasible")
+            )
+            raise GraphArgumentError(f"{what} must be a list of element names, got None")
         kinds = self._kind
         items: list[tuple[str, int]] = []
         if met_nodes:
