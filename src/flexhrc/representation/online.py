@@ -276,7 +276,6 @@ class OnlineGraph:
         self._i_lowers = i_lowers
         self._i_depth = i_depth
         self._i_span = i_span
-        self._i_index = {p: k for k, p in enumerate(i_path)}
         self._i_name = [H.graphs[k].name for k in i_key]
         # mutable state
         self._done = [False] * n  # met (nodes) / solved (hyper-arcs)
@@ -305,7 +304,10 @@ class OnlineGraph:
         calc = self._calc_inside
         ins = self._inside
         first: dict[str, int] = {}
-        for k in sorted(range(len(i_key)), key=lambda k: -i_depth[k]):
+        order = range(len(i_key) - 1, -1, -1) if len(i_key) > 1 else (0,)
+        # instances are numbered depth-first: every instance comes after the one above it,
+        # so the reverse order has the lower instances first
+        for k in order:
             lo, hi = i_span[k]
             seen = first.get(i_key[k])
             if seen is not None:

@@ -12,10 +12,12 @@ structural fault is reported with its file and line.
 from __future__ import annotations
 
 import os
+import stat
 from collections.abc import Callable
 from pathlib import Path
 
 from flexhrc.errors import FormatError
+from flexhrc.files import read_text
 from flexhrc.representation.hierarchy import HierarchicalGraph
 from flexhrc.representation.online import GraphArgumentError
 
@@ -42,11 +44,18 @@ def load(path: str | Path, *, validate: bool = True) -> HierarchicalGraph:
         raise GraphArgumentError(
             f"load() needs a file path (str or Path), got {type(path).__name__}"
         )
-    path = Path(path)
-    if not path.exists():
-        raise FormatError("no such file", path)
-    if path.is_dir():
+    try:
+        st = os.stat(path)  # one system call; pathlib's exists() + is_dir() cost two
+    except OSError:
+        st = None
+    if st is None or stat.S_ISDIR(st.st_mode):
+        path = Path(path)
+        if st is None:
+            if not path.exists() and not path.is_symlink():
+                raise FormatError("no such file", path)
+            read_text(path)  # says why it cannot be read
         raise FormatError("is a directory, expected a graph file (.txt or .yaml)", path)
+    path = Path(path)
     hierarchy = reader_for(path)(path)
     if validate:
         hierarchy.validate()
