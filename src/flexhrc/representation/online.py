@@ -449,7 +449,8 @@ class OnlineGraph:
         """
         heap = self._heap
         if not heap:
-            self._settle_offsets()
+            if self._off_dirty:
+                self._settle_offsets()
             return
         out, kind, inst, active = self._out_val, self._kind, self._inst, self._active
         touched, queued = self._touched, self._queued
@@ -961,7 +962,8 @@ class OnlineGraph:
             self._solve(e)
         else:
             self._block(e)
-        self._apply_dead()
+        if self._dead:
+            self._apply_dead()
 
     def _apply_many(self, query: int, items: list[tuple[str, int]], blocks: list[int]) -> list[str]:
         snapshot = self._snapshot()
