@@ -520,3 +520,20 @@ def test_no_traceback_in_a_real_process(tmp_path):
 def test_load_errors_are_format_errors(tmp_path):
     with pytest.raises(FormatError, match="no such file"):
         load(tmp_path / "missing.txt")
+
+
+def test_d_a_symbolic_link_out_of_the_folder_is_refused(tmp_path, capsys):
+    outside = tmp_path / "elsewhere"
+    outside.mkdir()
+    (outside / "basic_connection.txt").write_text(BASIC)
+    sub = tmp_path / "g"
+    sub.mkdir()
+    (sub / "basic_connection.txt").symlink_to(outside / "basic_connection.txt")
+    f = sub / "table.txt"
+    f.write_text(TWO_LEGS)
+    one_error(capsys, ["graph", "validate", str(f)], "outside the top graph")
+    (sub / "basic_connection.txt").unlink()
+    (sub / "inner").mkdir()
+    (sub / "inner" / "real.txt").write_text(BASIC)
+    (sub / "basic_connection.txt").symlink_to(sub / "inner" / "real.txt")
+    assert main(["graph", "validate", str(f)]) == 0  # a link that stays inside is fine

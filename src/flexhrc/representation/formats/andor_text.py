@@ -188,9 +188,17 @@ def _resolve(ref: str, including_dir: str, top_dir: str) -> str | None:
 
 
 def _inside(path: str, folder: str) -> bool:
-    """Whether ``path`` lies in ``folder`` or below it (symbolic links resolved)."""
-    real, top = os.path.realpath(path), os.path.realpath(folder)
-    return real == top or real.startswith(top.rstrip(os.sep) + os.sep)
+    """Whether ``path`` (normalised, lexically under ``folder``) stays under ``folder`` once
+    symbolic links are resolved. Only the components below ``folder`` are looked at (a link
+    there is resolved in full): a few ``lstat`` calls instead of ``realpath``'s one per
+    component of the whole path."""
+    cur = folder
+    for part in path[len(folder) :].strip(os.sep).split(os.sep):
+        cur = os.path.join(cur, part)
+        if os.path.islink(cur):
+            real, top = os.path.realpath(path), os.path.realpath(folder)
+            return real.startswith(top.rstrip(os.sep) + os.sep)
+    return True
 
 
 def load_andor_text(path: str | Path) -> HierarchicalGraph:
@@ -233,14 +241,14 @@ def load_andor_text(path: str | Path) -> HierarchicalGraph:
                     p,
                     ln,
                 )
-            if not target.startswith(prefix) or not _inside(target, top_dir):
-                raise FormatError(
-                    f"lower graph {ref!r} resolves to a file outside the top graph's folder "
-                    f"{top_dir}; lower graphs must lie in that folder or below it",
-                    p,
-                    ln,
-                )
             if target not in key_of:
+                if not target.startswith(prefix) or not _inside(target, top_dir):
+                    raise FormatError(
+                        f"lower graph {ref!r} resolves to a file outside the top graph's folder "
+                        f"{top_dir}; lower graphs must lie in that folder or below it",
+                        p,
+                        ln,
+                    )
                 key_of[target] = key_for(target)
                 todo.append(target)
             remap[ref] = key_of[target]
