@@ -179,7 +179,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
     r.set_defaults(func=cmd_render)
 
 
-def _plural(n: int, one: str, many: str | None = None) -> str:
+def _plural(n: Any, one: str, many: str | None = None) -> str:
     return f"{n} {one if n == 1 else (many or one + 's')}"
 
 
