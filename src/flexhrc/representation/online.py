@@ -205,6 +205,7 @@ class OnlineGraph:
         i_lowers: list[list[int]] = []  # hyper-arcs of the instance that have a lower graph
         i_depth: list[int] = []
         i_span: list[tuple[int, int]] = []
+        i_tmpl: list[_Template] = []
 
         # depth-first, in hyper-arc order, with an explicit stack (no recursion limit)
         stack: list[tuple[str, str, int, int, int]] = [(H.top, "", 0, -1, -1)]
@@ -228,6 +229,7 @@ class OnlineGraph:
             i_lowers.append([base + x for x, _ in t.lower])
             i_depth.append(depth)
             i_span.append((base, base + t.size))
+            i_tmpl.append(t)
             prefix = f"{path}{SEP}" if path else ""
             names.extend([prefix + x for x in t.names] if prefix else t.names)
             local.extend(t.names)
@@ -276,6 +278,10 @@ class OnlineGraph:
         self._i_lowers = i_lowers
         self._i_depth = i_depth
         self._i_span = i_span
+        self._i_tmpl = i_tmpl
+        # an instance is pristine until one of its elements (or of the instances below it) is
+        # marked infeasible: then its costs at activation are not its definition's any more
+        self._i_pristine = [True] * len(i_key)
         self._i_name = [H.graphs[k].name for k in i_key]
         # mutable state
         self._done = [False] * n  # met (nodes) / solved (hyper-arcs)
@@ -653,11 +659,27 @@ class OnlineGraph:
         self._active[k] = True
         if k:
             self._live[k] = None
-        self._fill_outside(k)
         self._off_dirty.add(k)
-        for n in self._i_leaves[k]:
-            if self._node_feasible(n):
-                self._add_feasible(n)
+        if self._i_pristine[k]:
+            # as its definition left it: the outside costs every pristine instance of this
+            # definition starts with, computed once; every leaf is feasible
+            t = self._i_tmpl[k]
+            lo, hi = self._i_span[k]
+            if t.pristine_out is None:
+                self._fill_outside(k)
+                t.pristine_out = self._out_val[lo:hi]
+            else:
+                self._out_val[lo:hi] = t.pristine_out
+            leaves = self._i_leaves[k]
+            fresh = dict.fromkeys(leaves)
+            self._feasible.update(fresh)
+            self._i_feas[k].update(fresh)
+            self._touched.update(leaves)
+        else:
+            self._fill_outside(k)
+            for n in self._i_leaves[k]:
+                if self._node_feasible(n):
+                    self._add_feasible(n)
         if k and self._inside[self._i_root[k]] == INF:
             self._dead.append(k)
 
@@ -698,7 +720,8 @@ class OnlineGraph:
         if self._in[n]:
             for h in self._in[n]:  # their outside costs read met(n)
                 self._push(h)
-        self._propagate(n)
+        if self._inside[n]:  # a met node's inside cost is 0: nothing moves if it was already
+            self._propagate(n)
         unmet, blocked, lower, active = self._unmet, self._blocked, self._lower, self._active
         for h in self._out[n]:
             unmet[h] -= 1
@@ -729,7 +752,8 @@ class OnlineGraph:
             for other in self._out[c]:
                 if other != h and not self._blocked[other] and not self._done[other]:
                     self._block(other)
-        self._propagate(h)
+        if self._inside[h]:  # a solved hyper-arc's inside cost is 0
+            self._propagate(h)
 
     def _block(self, e: int) -> None:
         # a blocked node blocks the hyper-arcs that consume it (one level: arcs block nothing)
@@ -739,6 +763,10 @@ class OnlineGraph:
             if self._blocked[e]:
                 continue
             self._blocked[e] = True
+            k = self._inst[e]
+            while k >= 0 and self._i_pristine[k]:
+                self._i_pristine[k] = False
+                k = self._i_parent[k]
             self._drop_feasible(e)
             self._status_changed(e)
             if self._kind[e]:
@@ -1224,6 +1252,7 @@ class _Template:
         "names",
         "outgoing",
         "parent",
+        "pristine_out",
         "root",
         "size",
         "topo",
@@ -1259,6 +1288,7 @@ class _Template:
             i = idx[name]
             self.topo.extend(self.incoming[i])
             self.topo.append(i)
+        self.pristine_out: list[float] | None = None  # set by OnlineGraph._activate
         self.down = self.topo[::-1]  # parents before children: the outside pass
         self.lrank = [0] * self.size
         for r, x in enumerate(self.down):
