@@ -520,6 +520,22 @@ class OnlineGraph:
         if not dirty:
             return
         depth, active, off = self._i_depth, self._active, self._i_off
+        if len(dirty) == 1:
+            k = dirty.pop()
+            if not self._i_lowers[k]:  # the common case: one instance, nothing below it
+                if active[k]:
+                    v = self._calc_offset(k)
+                    if v != off[k]:
+                        off[k] = v
+                        costs, ins, out = self._costs, self._inside, self._out_val
+                        for e in self._i_feas[k]:
+                            c = ins[e] + out[e] + v
+                            if c < INF:
+                                costs[e] = c
+                            else:
+                                costs.pop(e, None)
+                return
+            dirty.add(k)
         heap = [(depth[k], k) for k in dirty]
         dirty.clear()
         heapify(heap)
@@ -915,11 +931,21 @@ class OnlineGraph:
             and len(met_nodes) + len(solved_hyperarcs) == 1
         ):
             name = met_nodes[0] if met_nodes else solved_hyperarcs[0]
-            e = self._index.get(name, -1) if type(name) is str else -1
+            index = self._index_cache or self._index
+            e = index.get(name, -1) if type(name) is str else -1
             if e in self._feasible and bool(self._kind[e]) != bool(met_nodes):
                 query = self._query + 1
-                self._apply(query, "met" if met_nodes else "solved", e)
-                self._settle()
+                # _apply, inlined
+                if met_nodes:
+                    self._log.append((query, "met", e))
+                    self._meet(e)
+                else:
+                    self._log.append((query, "solved", e))
+                    self._solve(e)
+                if self._dead:
+                    self._apply_dead()
+                if self._heap or self._off_dirty:
+                    self._settle()
                 self._query = query
                 self._finish()
                 return QueryResult(
