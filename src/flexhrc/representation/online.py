@@ -733,8 +733,8 @@ class OnlineGraph:
         self._costs.pop(n, None)
         touched = self._touched
         touched.add(n)
-        if self._in[n]:
-            for h in self._in[n]:  # their outside costs read met(n)
+        if self._w[n]:
+            for h in self._in[n]:  # their outside costs read w(n), which met(n) zeroes
                 self._push(h)
         if self._inside[n]:  # a met node's inside cost is 0: nothing moves if it was already
             self._propagate(n)
@@ -755,11 +755,18 @@ class OnlineGraph:
                 self._solve(u)  # eq. 18: the lower graph is solved, so is its upper arc
 
     def _solve(self, h: int) -> None:
+        lower = self._lower[h]
+        # the outside costs of h's children read its own weight, which solved(h) zeroes: the
+        # weight, or for a lower graph its root's inside cost (0 when eq. 18 solves h)
+        own = self._inside[self._i_root[lower]] if lower >= 0 else self._w[h]
         self._done[h] = True
         self._drop_feasible(h)
-        self._status_changed(h)
-        if self._lower[h] >= 0:
-            self._close(self._lower[h])
+        self._touched.add(h)
+        if own:
+            for c in self._children[h]:
+                self._push(c)
+        if lower >= 0:
+            self._close(lower)
         p = self._parent[h]
         if self._node_feasible(p):
             self._add_feasible(p)
