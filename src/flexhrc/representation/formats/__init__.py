@@ -12,17 +12,15 @@ structural fault is reported with its file and line.
 from __future__ import annotations
 
 import os
-import stat
 from collections.abc import Callable
 from pathlib import Path
 
 from flexhrc.errors import FormatError
-from flexhrc.files import read_text
 from flexhrc.representation.hierarchy import HierarchicalGraph
 from flexhrc.representation.online import GraphArgumentError
 
 
-def reader_for(path: str | Path) -> Callable[[Path], HierarchicalGraph]:
+def reader_for(path: str | Path) -> Callable[[str | Path], HierarchicalGraph]:
     """The reader of a graph file, chosen by its extension (its module imported now)."""
     if str(path).lower().endswith((".yaml", ".yml")):
         from flexhrc.representation.formats.yaml_format import load_yaml
@@ -40,23 +38,23 @@ def load(path: str | Path, *, validate: bool = True) -> HierarchicalGraph:
     binary or non-UTF-8 file, a syntax or structure error, a lower graph that is missing or
     lies outside the top file's folder.
     """
-    if not isinstance(path, str | os.PathLike):
+    if type(path) is not str and not isinstance(path, str | os.PathLike):
         raise GraphArgumentError(
             f"load() needs a file path (str or Path), got {type(path).__name__}"
         )
+    name = os.fspath(path)
     try:
-        st = os.stat(path)  # one system call; pathlib's exists() + is_dir() cost two
-    except OSError:
-        st = None
-    if st is None or stat.S_ISDIR(st.st_mode):
-        path = Path(path)
-        if st is None:
-            if not path.exists() and not path.is_symlink():
-                raise FormatError("no such file", path)
-            read_text(path)  # says why it cannot be read
-        raise FormatError("is a directory, expected a graph file (.txt or .yaml)", path)
-    path = Path(path)
-    hierarchy = reader_for(path)(path)
+        # no stat or Path first: on the cold first call of a small graph those cost more than
+        # parsing it; the reader's own open() says whether the file is there
+        hierarchy = reader_for(name)(name)
+    except FormatError:
+        if not os.path.lexists(name):
+            raise FormatError("no such file", path) from None
+        if os.path.isdir(name):
+            raise FormatError(
+                "is a directory, expected a graph file (.txt or .yaml)", path
+            ) from None
+        raise
     if validate:
         hierarchy.validate()
     return hierarchy

@@ -121,6 +121,7 @@ def parse_graph(path: str | Path) -> tuple[AndOrGraph, list[tuple[str, int]]]:
         nodes[n] = Node(n, _weight(toks[1], "node", n, path, ln), line=ln)
     refs: list[tuple[str, int]] = []
     renamed: list[FormatError] = []
+    arcs = graph.hyperarcs
     i = count + 1
     while i < len(lines):
         ln, toks = lines[i]
@@ -170,9 +171,8 @@ def parse_graph(path: str | Path) -> tuple[AndOrGraph, list[tuple[str, int]]]:
                 )
             )
             hname = new_name
-        graph.add_hyperarc(
-            Hyperarc(hname, tuple(children), parent, weight, lower=lower_ref, line=ln)
-        )
+        # add_hyperarc's checks are done above (name, weight, at least one child, repeats)
+        arcs[hname] = Hyperarc(hname, tuple(children), parent, weight, lower=lower_ref, line=ln)
         i += k + 1
     graph.load_warnings = renamed
     return graph, refs
@@ -207,7 +207,7 @@ def load_andor_text(path: str | Path) -> HierarchicalGraph:
     A lower graph must lie in the top file's folder or below it: a reference that resolves
     elsewhere (``../../etc/passwd``) is refused.
     """
-    top_file = os.path.normpath(os.path.abspath(path))
+    top_file = os.path.abspath(path)  # normalised too
     top_dir = os.path.dirname(top_file)
     graphs: dict[str, AndOrGraph] = {}
     key_of: dict[str, str] = {}
