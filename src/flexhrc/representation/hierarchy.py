@@ -99,9 +99,10 @@ class HierarchicalGraph:
         """
         self._check_recursion()
         warnings: list[FormatError] = []
-        for key in self.used_keys():
+        used = self.used_keys()
+        for key in used:
             warnings += self.graphs[key].validate()
-        for key in self.used_keys():
+        for key in used:
             g = self.graphs[key]
             for h in g.hyperarcs.values():
                 if h.lower is not None:
