@@ -15,7 +15,10 @@ its profile, also acts on its own:
 
 Nothing sleeps (unless ``realtime``), so a 4-leg assembly takes milliseconds of wall time. Every
 decision, command, acknowledgement and human action is recorded in :attr:`RunResult.events`
-(JSON-serialisable dicts, written as JSON lines by :meth:`RunResult.save_log`).
+(JSON-serialisable dicts, written as JSON lines by :meth:`RunResult.save_log`) and handed, as it
+happens, to the ``sink`` — e.g. :meth:`flexhrc.files.EventLogWriter.write`, so a run killed
+half way leaves its log up to the last event. :meth:`CooperationRun.request_stop` (from a signal
+handler) ends the run at the next event with the outcome ``interrupted``.
 """
 
 from __future__ import annotations
@@ -49,9 +52,12 @@ from flexhrc.taskmanager.simulator import (
     ExecutionModel,
     Simulator,
     default_simulator,
+    simulator_name,
 )
 
 PROFILES = ("passive", "takeover", "cooperative", "random")
+#: Every outcome a cooperation run can end with (the ``outcome`` event and the summary).
+OUTCOMES = ("solved", "failed", "interrupted")
 
 
 @dataclass
@@ -73,9 +79,11 @@ class RunResult:
     summary: dict[str, Any]
 
     def save_log(self, path: str | Path) -> None:
-        with open(path, "w", encoding="utf-8") as fh:
-            for ev in self.events:
-                fh.write(json.dumps(ev) + "\n")
+        """Write the whole log at once, atomically (the CLI streams it instead, event by event,
+        with :class:`flexhrc.files.EventLogWriter` as the run's ``sink``)."""
+        from flexhrc.files import atomic_write_text
+
+        atomic_write_text(path, "".join(json.dumps(ev) + "\n" for ev in self.events))
 
 
 @dataclass
@@ -113,6 +121,7 @@ class CooperationRun:
         max_time_s: float = 3600.0,
         human_takes: Iterable[int] | None = None,
         human_sensing: Any = None,
+        sink: Callable[[dict[str, Any]], None] | None = None,
     ):
         if human_profile not in PROFILES:
             raise FlexhrcError(
@@ -122,6 +131,7 @@ class CooperationRun:
         self.domain = domain
         self.kb = kb
         self.simulator = simulator if simulator is not None else default_simulator()
+        self.simulator_name = simulator_name(self.simulator)
         if execution is None:  # the simulator plays the real world too, when it can
             sim: Any = self.simulator
             execution = sim if hasattr(sim, "execute") else AnalyticSimulator()
@@ -137,6 +147,9 @@ class CooperationRun:
         self._failure_counts: dict[int, int] = {}
         self.timeout_factor = timeout_factor
         self.trace = trace
+        # every event, as it happens (a streamed log); the in-memory list is kept as well
+        self.sink = sink
+        self._stop_reason: str | None = None
         self.realtime = realtime
         self.max_time_s = max_time_s
         self.events: list[dict[str, Any]] = []
@@ -158,6 +171,8 @@ class CooperationRun:
     # -- logging --------------------------------------------------------------------------
     def _record(self, ev: dict[str, Any]) -> None:
         self.events.append(ev)
+        if self.sink is not None:  # first to the log: what was shown was also stored
+            self.sink(ev)
         if self.trace:
             self.trace(ev)
 
@@ -168,12 +183,42 @@ class CooperationRun:
     def _push(self, at: float, pending: _Pending) -> None:
         heapq.heappush(self._queue, (at, next(self._seq), pending))
 
+    def request_stop(self, reason: str = "interrupted") -> None:
+        """Ask the run to end at the next event with the outcome ``interrupted`` (safe to call
+        from a signal handler: it only sets a flag, the loop writes the final events)."""
+        self._stop_reason = reason
+
+    def _interrupted(self) -> bool:
+        if self._stop_reason is None or self.tm.done:
+            return False
+        self.tm.outcome, self.tm.reason = "interrupted", self._stop_reason
+        self._event("outcome", outcome="interrupted", reason=self._stop_reason)
+        return True
+
+    def _pace(self, at: float) -> None:
+        """Realtime mode: sleep until the simulated clock reaches ``at`` (in short naps, so a
+        stop request is honoured at once)."""
+        deadline = time.monotonic() + min((at - self.now) / self.realtime, 5.0)
+        while self._stop_reason is None:
+            left = deadline - time.monotonic()
+            if left <= 0:
+                return
+            time.sleep(min(left, 0.05))
+
     def run(self) -> RunResult:
         wall0 = time.perf_counter()
-        self._event("start", profile=self.profile, agents=list(self.domain.agents))
-        self._dispatch(self.tm.start(0.0))
-        self._human_consider()
+        self._event(
+            "start",
+            profile=self.profile,
+            agents=list(self.domain.agents),
+            simulator=self.simulator_name,
+        )
+        if not self._interrupted():
+            self._dispatch(self.tm.start(0.0))
+            self._human_consider()
         while not self.tm.done:
+            if self._interrupted():
+                break
             if not self._queue:
                 self.tm.outcome = "failed"
                 self.tm.reason = "deadlock: no agent has anything to do and the task is not solved"
@@ -189,10 +234,10 @@ class CooperationRun:
                 )
                 self._event("outcome", outcome="failed", reason=self.tm.reason)
                 break
-            if self.realtime > 0:
-                lag = (at - self.now) / self.realtime - 0.0
-                if lag > 0:
-                    time.sleep(min(lag, 5.0))
+            if self.realtime > 0 and at > self.now:
+                self._pace(at)
+                if self._interrupted():
+                    break
             self.now = at
             if pending.kind == "robot_done":
                 self._robot_done(pending.data)
@@ -479,11 +524,26 @@ class CooperationRun:
         self._human_next()
 
     # -- results --------------------------------------------------------------------------
+    def unfired_failures(self) -> list[InjectedFailure]:
+        """Injected failures whose N-th execution never came (e.g. ``transport:99``)."""
+        return [f for f in self.failures if self._failure_counts.get(id(f), 0) < f.nth]
+
+    def executions_of(self, action: str) -> int:
+        """How many times robot commands of ``action`` were started in this run."""
+        return sum(
+            1
+            for ev in self.events
+            if ev["type"] == "action_start"
+            and ev["agents"] != ["human"]
+            and ev["action"].split("(", 1)[0] == action
+        )
+
     def summary(self, wall_s: float) -> dict[str, Any]:
         tm = self.tm.summary()
         return {
             "outcome": tm["outcome"],
             "reason": tm["reason"],
+            "simulator": self.simulator_name,
             "robot_actions": self.robot_actions,
             "human_actions": self.human_actions,
             "decisions": tm["decisions"],
@@ -500,19 +560,39 @@ class CooperationRun:
 
 
 def table_i(summary: dict[str, Any]) -> str:
-    """The paper's Table I from a run summary."""
+    """The paper's Table I from a run summary, in two parts that are never added up.
+
+    Compute (wall clock of this process: Task Manager, task representation, simulator) and
+    simulated time (how long the agents' actions take on the simulated clock) are different
+    quantities; the paper's Table I puts them in one column, which here would add milliseconds
+    of computation to minutes of make-believe motion.
+    """
     t = summary["timing"]
-    rows = [
+    compute = [
         ("Task Manager", t["task_manager_s"]),
         ("Task Representation", t["task_representation_s"]),
         ("Simulator", t["simulator_s"]),
+    ]
+    simulated = [
         ("Robot actions", t["robot_actions_s"]),
         ("Human actions", t["human_actions_s"]),
     ]
-    total = sum(v for _, v in rows)
-    lines = [f"{'Computation':<22}{'time [s]':>12}{'time [%]':>10}"]
-    for name, v in rows:
-        lines.append(f"{name:<22}{v:>12.4f}{100 * v / total if total else 0:>10.2f}")
-    lines.append(f"{'Total':<22}{total:>12.4f}{100.0:>10.2f}")
-    lines.append(f"(assembly makespan on the simulated clock: {t['total_s']:.2f} s)")
+    sim = summary.get("simulator")
+    head = f"Computation ({sim} simulator)" if sim else "Computation (wall clock)"
+    total = sum(v for _, v in compute)
+    lines = [f"{head:<34}{'time [s]':>12}{'time [%]':>10}"]
+    if summary.get("compute_recorded", True):
+        for name, v in compute:
+            lines.append(f"{name:<34}{v:>12.4f}{100 * v / total if total else 0:>10.2f}")
+        lines.append(f"{'Compute total (wall clock)':<34}{total:>12.4f}{100.0:>10.2f}")
+    else:  # a log cut short before its closing summary: the compute was never written down
+        for name, _ in compute:
+            lines.append(f"{name:<34}{'n/a':>12}{'':>10}")
+        lines.append("(not recorded: the log ends before the run's closing summary)")
+    lines.append("")
+    lines.append(f"{'Simulated time (simulated clock)':<34}{'time [s]':>12}")
+    for name, v in simulated:
+        lines.append(f"{name:<34}{v:>12.2f}")
+    lines.append(f"{'Assembly makespan':<34}{t['total_s']:>12.2f}")
+    lines.append("(robot and human action times overlap; they add up to more than the makespan)")
     return "\n".join(lines)

@@ -98,8 +98,7 @@ def plot_timeline(events: list[dict[str, Any]], out: str | Path, title: str = ""
     )
     ax.grid(True, axis="x", alpha=0.3)
     fig.tight_layout()
-    out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
+    out = Path(out)  # the caller checked it (flexhrc.files.check_output); no folder is created
     fig.savefig(out, dpi=120)
     plt.close(fig)
     return out
