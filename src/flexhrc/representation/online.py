@@ -675,7 +675,9 @@ class OnlineGraph:
         self._active[k] = True
         if k:
             self._live[k] = None
-        self._off_dirty.add(k)
+            # its offset now; a later change this query above it re-dirties it (_settle and
+            # _propagate do), and its elements' costs are computed from _touched at the end
+            self._i_off[k] = self._calc_offset(k)
         if self._i_pristine[k]:
             # as its definition left it: the outside costs every pristine instance of this
             # definition starts with, computed once; every leaf is feasible
