@@ -537,3 +537,40 @@ def test_d_a_symbolic_link_out_of_the_folder_is_refused(tmp_path, capsys):
     (sub / "inner" / "real.txt").write_text(BASIC)
     (sub / "basic_connection.txt").symlink_to(sub / "inner" / "real.txt")
     assert main(["graph", "validate", str(f)]) == 0  # a link that stays inside is fine
+
+
+def test_an_instance_marked_infeasible_before_it_is_active_keeps_exact_costs():
+    # two uses of one lower graph; the second instance is changed while still inactive, so it
+    # must not start from the definition's shared initial costs
+    from flexhrc.representation.paths import exact_costs
+
+    top = AndOrGraph("top", root="t")
+    for n in ("x", "y", "m", "t"):
+        top.add_node(n)
+    top.add_hyperarc("A", ["x"], "m", 1, lower="low")
+    top.add_hyperarc("B", ["m", "y"], "t", 1, lower="low")
+    low = AndOrGraph("low", root="r")
+    for n, w in (("p", 1), ("q", 2), ("s", 0), ("r", 0)):
+        low.add_node(n, w)
+    low.add_hyperarc("l1", ["p", "q"], "s", 2)
+    low.add_hyperarc("l2", ["q"], "r", 7)
+    low.add_hyperarc("l3", ["s"], "r", 1)
+    h = HierarchicalGraph({"top": top, "low": low}, "top")
+    online = OnlineGraph(h)
+    online.update(infeasible=["B/l3"])  # B's instance is inactive
+    steps = [
+        {"met_nodes": ["x"]},
+        {"met_nodes": ["A/p", "A/q"]},
+        {"solved_hyperarcs": ["A/l1"]},
+        {"met_nodes": ["A/s"]},
+        {"solved_hyperarcs": ["A/l3"]},
+        {"met_nodes": ["A/r", "m", "y"]},
+    ]
+    for kw in steps:
+        answer = online.update(**kw)
+        assert answer.feasible == exact_costs(online), kw
+    # with l3 gone, p is on no way to B's root: only q (through l2) is left to suggest
+    assert answer.feasible == {"B/q": 2 + 7}  # w(q) + w(l2); the lower path replaces w(B)
+    again = OnlineGraph(h)  # the same definition, pristine: shared initial costs
+    again.update(met_nodes=["x"])
+    assert again.query().feasible == exact_costs(again)
