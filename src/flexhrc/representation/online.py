@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from heapq import heapify, heappop, heappush
 from pathlib import Path
@@ -414,26 +414,6 @@ class OnlineGraph:
             rank = self._i_depth[self._inst[e]] * self._rank_span + self._lrank[e]
             heappush(self._heap, (rank << 32) | e)
 
-    def _inside_changed(self, c: int) -> None:
-        """Outside costs that read inside(c) of node c: its AND siblings, lower roots."""
-        push = self._push
-        self._touched.add(c)
-        children, lower = self._children, self._lower
-        for h in self._out[c]:
-            for s in children[h]:
-                if s != c:
-                    push(s)
-            if lower[h] >= 0:
-                self._off_dirty.add(lower[h])
-        k = self._root_of[c]
-        if k >= 0:
-            u = self._i_upper[k]
-            if u >= 0:
-                for s in children[u]:  # inside(c) is the weight of u (eq. 19)
-                    push(s)
-                if self._inside[c] == INF and self._active[k]:
-                    self._dead.append(k)
-
     def _status_changed(self, e: int) -> None:
         """Outside costs that read the status (met/solved/blocked) of e."""
         push = self._push
@@ -568,7 +548,8 @@ class OnlineGraph:
     def _propagate(self, start: int) -> None:
         """Recompute inside(start) and push changes to its ancestors (and upper arcs).
 
-        The hot path of every query: _calc_inside and _inside_changed are inlined here.
+        The hot path of every query: _calc_inside is inlined here, and so is what a changed
+        inside(x) re-queues (the outside costs of x's AND siblings, lower-instance offsets).
         """
         if self._calc_inside(start) == self._inside[start]:
             return  # the common case (a weight-0 leaf met, say): nothing to set up
@@ -719,11 +700,6 @@ class OnlineGraph:
                     self._drop_feasible(e)
             for h in self._i_lowers[k]:
                 todo.append(self._lower[h])
-
-    def _i_hyperarcs(self, k: int) -> Iterator[int]:
-        # element ids of one instance are contiguous: its nodes, then its hyper-arcs
-        kind = self._kind
-        return (e for e in range(self._i_span[k][0], self._i_span[k][1]) if kind[e])
 
     def _meet(self, n: int) -> None:
         # hot path: _drop_feasible, _status_changed, _arc_enabled, _add_feasible inlined
@@ -1078,13 +1054,6 @@ class OnlineGraph:
             missing = [self._names[c] for c in self._children[e] if not self._done[c]]
             return f"children not met: {', '.join(missing)}"
         return "no incoming hyper-arc is solved"
-
-    def _check_failed_instances(self) -> None:
-        """Kept for compatibility: unreachable lower roots are now found as they happen."""
-        for k in list(self._live):
-            if self._inside[self._i_root[k]] == INF:
-                self._dead.append(k)
-        self._apply_dead()
 
     def _apply_dead(self) -> None:
         """A lower instance whose root can no longer be reached makes its upper hyper-arc
