@@ -47,9 +47,9 @@ def _lines(path: str | Path) -> list[tuple[int, list[str]]]:
         text = read_text(path)
     out = []
     for i, raw in enumerate(text.splitlines(), 1):
-        s = raw.split("#", 1)[0].strip() if "#" in raw else raw.strip()
-        if s:
-            out.append((i, s.split()))
+        toks = (raw.split("#", 1)[0] if "#" in raw else raw).split()
+        if toks:
+            out.append((i, toks))
     return out
 
 
@@ -118,7 +118,8 @@ def parse_graph(path: str | Path) -> tuple[AndOrGraph, list[tuple[str, int]]]:
         if "/" in n or n in nodes:
             _name(n, "node", path, ln)
             graph.add_node(Node(n, line=ln))  # raises the duplicate-name error
-        nodes[n] = Node(n, _weight(toks[1], "node", n, path, ln), line=ln)
+        w = toks[1]
+        nodes[n] = Node(n, float(w) if w.isdigit() else _weight(w, "node", n, path, ln), line=ln)
     refs: list[tuple[str, int]] = []
     renamed: list[FormatError] = []
     arcs = graph.hyperarcs
@@ -152,7 +153,7 @@ def parse_graph(path: str | Path) -> tuple[AndOrGraph, list[tuple[str, int]]]:
                     f"hyper-arc {hname!r} declares {k} children but {found} follow", path, where
                 )
             children.append(lines[i + j][1][0])
-        weight = _weight(w_tok, "hyper-arc", hname, path, ln)
+        weight = float(w_tok) if w_tok.isdigit() else _weight(w_tok, "hyper-arc", hname, path, ln)
         lower_ref = None if lower == "-" else lower
         if lower_ref is not None:
             refs.append((lower_ref, ln))
