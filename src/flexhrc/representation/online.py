@@ -192,8 +192,8 @@ class OnlineGraph:
         children: list[tuple[int, ...]] = []  # hyper-arcs: child node ids
         parent: list[int] = []  # hyper-arcs: parent node id
         lower: list[int] = []  # hyper-arcs: lower instance id or -1
-        incoming: list[list[int]] = []  # nodes: hyper-arcs producing it
-        outgoing: list[list[int]] = []  # nodes: hyper-arcs consuming it
+        incoming: list[tuple[int, ...]] = []  # nodes: hyper-arcs producing it
+        outgoing: list[tuple[int, ...]] = []  # nodes: hyper-arcs consuming it
         root_of: list[int] = []  # nodes: instance id if this node is an instance root
         i_path: list[str] = []
         i_key: list[str] = []
@@ -238,10 +238,12 @@ class OnlineGraph:
             inst_of.extend([k] * t.size)
             lrank.extend(t.lrank)
             if base:
-                children.extend([tuple(map(shift, ch)) for ch in t.children])
+                # half of these are empty (nodes have no children, hyper-arcs no incoming or
+                # outgoing arcs): share the empty tuple instead of shifting nothing
+                children.extend([tuple(map(shift, ch)) if ch else () for ch in t.children])
                 parent.extend([base + p if p >= 0 else -1 for p in t.parent])
-                incoming.extend([list(map(shift, hs)) for hs in t.incoming])
-                outgoing.extend([list(map(shift, hs)) for hs in t.outgoing])
+                incoming.extend([tuple(map(shift, hs)) if hs else () for hs in t.incoming])
+                outgoing.extend([tuple(map(shift, hs)) if hs else () for hs in t.outgoing])
             else:
                 children.extend(t.children)
                 parent.extend(t.parent)
@@ -1279,12 +1281,15 @@ class _Template:
             tuple(map(get, h.children)) for h in arc_list
         ]
         self.parent = [-1] * nn + [idx[h.parent] for h in arc_list]
-        self.incoming: list[list[int]] = [[] for _ in range(self.size)]
-        self.outgoing: list[list[int]] = [[] for _ in range(self.size)]
+        incoming: list[list[int]] = [[] for _ in range(self.size)]
+        outgoing: list[list[int]] = [[] for _ in range(self.size)]
         for j, h in enumerate(arc_list, nn):
-            self.incoming[idx[h.parent]].append(j)
+            incoming[idx[h.parent]].append(j)
             for c in h.children:
-                self.outgoing[idx[c]].append(j)
+                outgoing[idx[c]].append(j)
+        # tuples: never changed once built, and the empty ones are all the same object
+        self.incoming: list[tuple[int, ...]] = [tuple(x) if x else () for x in incoming]
+        self.outgoing: list[tuple[int, ...]] = [tuple(x) if x else () for x in outgoing]
         self.root = idx[g.root]  # type: ignore[index]
         self.leaves = [i for i in range(nn) if not self.incoming[i]]
         self.topo: list[int] = []
