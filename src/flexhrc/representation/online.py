@@ -292,7 +292,6 @@ class OnlineGraph:
         self._active = [False] * len(i_key)
         self._closed = [False] * len(i_key)
         self._feasible: dict[int, None] = {}
-        self._live: dict[int, None] = {}  # active, not closed lower instances
         self._inside = [0.0] * n
         # outside costs relative to the element's instance root, kept exact for the elements
         # of active instances; the instance's own offset (its root's outside cost in the whole
@@ -657,7 +656,6 @@ class OnlineGraph:
             return
         self._active[k] = True
         if k:
-            self._live[k] = None
             # its offset now; a later change this query above it re-dirties it (_settle and
             # _propagate do), and its elements' costs are computed from _touched at the end
             self._i_off[k] = self._calc_offset(k)
@@ -695,7 +693,6 @@ class OnlineGraph:
                 continue
             self._closed[k] = True
             self._active[k] = False
-            self._live.pop(k, None)
             if feasible:
                 lo, hi = self._i_span[k]
                 for e in [e for e in range(lo, hi) if e in feasible]:
@@ -711,17 +708,16 @@ class OnlineGraph:
         self._feasible.pop(n, None)
         self._i_feas[k].pop(n, None)
         self._costs.pop(n, None)
-        touched = self._touched
-        touched.add(n)
+        touched = self._touched  # (n itself is not feasible any more: no cost to refresh)
         if self._w[n]:
             for h in self._in[n]:  # their outside costs read w(n), which met(n) zeroes
                 self._push(h)
         if self._inside[n]:  # a met node's inside cost is 0: nothing moves if it was already
             self._propagate(n)
-        unmet, blocked, lower, active = self._unmet, self._blocked, self._lower, self._active
-        for h in self._out[n]:
+        unmet, blocked, lower = self._unmet, self._blocked, self._lower
+        for h in self._out[n]:  # n was feasible: its instance (h's) is active
             unmet[h] -= 1
-            if unmet[h] == 0 and not done[h] and not blocked[h] and active[k]:
+            if unmet[h] == 0 and not done[h] and not blocked[h]:
                 if lower[h] >= 0:
                     self._activate(lower[h])
                 else:
@@ -1102,7 +1098,6 @@ class OnlineGraph:
         return (
             *(list(getattr(self, a)) for a in self._STATE),
             dict(self._feasible),
-            dict(self._live),
             dict(self._costs),
             [dict(d) for d in self._i_feas],
             self._outcome,
@@ -1113,7 +1108,7 @@ class OnlineGraph:
         for a, v in zip(self._STATE, snap, strict=False):
             setattr(self, a, v)
         rest = snap[len(self._STATE) :]
-        (self._feasible, self._live, self._costs, self._i_feas, self._outcome, self._reason) = rest
+        (self._feasible, self._costs, self._i_feas, self._outcome, self._reason) = rest
         self._heap.clear()
         self._queued.clear()
         self._touched.clear()
