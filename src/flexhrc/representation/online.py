@@ -224,8 +224,9 @@ class OnlineGraph:
             i_upper.append(upper)
             i_parent.append(parent_inst)
             shift = base.__add__
-            i_leaves.append(list(map(shift, t.leaves)))
-            i_down.append(list(map(shift, t.down)))
+            # read only: the top instance (base 0) shares the template's lists
+            i_leaves.append(list(map(shift, t.leaves)) if base else t.leaves)
+            i_down.append(list(map(shift, t.down)) if base else t.down)
             i_lowers.append([base + x for x, _ in t.lower])
             i_depth.append(depth)
             i_span.append((base, base + t.size))
@@ -263,7 +264,7 @@ class OnlineGraph:
         self._w = weight
         self._inst = inst_of
         self._lrank = lrank
-        self._rank_span = max(t.size for t in templates.values()) + 1
+        self._rank_span = max([t.size for t in templates.values()]) + 1
         self._children = children
         self._parent = parent
         self._lower = lower
@@ -666,7 +667,8 @@ class OnlineGraph:
             lo, hi = self._i_span[k]
             if t.pristine_out is None:
                 self._fill_outside(k)
-                t.pristine_out = self._out_val[lo:hi]
+                if k:  # the top definition has one instance: nothing to share
+                    t.pristine_out = self._out_val[lo:hi]
             else:
                 self._out_val[lo:hi] = t.pristine_out
             leaves = self._i_leaves[k]
