@@ -17,13 +17,17 @@ its own instance — and keeps the statuses of every node and hyper-arc:
 Costs (eqs. 9-11, 19) are computed by dynamic programming instead of enumerating cooperation
 paths (see ``docs/andor.md``): ``inside(x)`` is the cheapest remaining cost of achieving x from
 what is already met, maintained incrementally (a change propagates to ancestors only while the
-value changes); ``outside(x)`` is the cheapest remaining cost from x to the root, computed on
-demand for the ancestors of feasible elements and memoised until the next cost change. Met and
-solved elements weigh 0 (eq. 11); hyper-arcs that can no longer be taken weigh infinity; the
-weight of a hyper-arc with a lower graph is the lower instance's optimal remaining cost (eq. 19).
-The suggestion cost of a feasible element is ``inside + outside`` = the cheapest cooperation path
-through it (eq. 10); for elements of a lower instance the upper path is added (Algorithm 6,
-line 27). The DP equals exhaustive enumeration when no node is shared between AND branches; with
+value changes); ``outside(x)`` is the cheapest remaining cost from x to the root of its graph
+instance, kept exact by a top-down pass over what each query changed (a heap in top-down order,
+so every element is recomputed once, after everything above it); each lower instance has one
+*offset*, its root's outside cost in the whole hierarchy (the upper path through its hyper-arc,
+Algorithm 6 line 27), so a change above an instance moves one number, not its every element.
+Met and solved elements weigh 0 (eq. 11); hyper-arcs that can no longer be taken weigh
+infinity; the weight of a hyper-arc with a lower graph is the lower instance's optimal remaining
+cost (eq. 19). The suggestion cost of a feasible element is ``inside + outside + offset`` = the
+cheapest cooperation path through it (eq. 10). A query costs what it changes: there is no
+whole-graph pass, and no recursion anywhere (explicit stacks and queues). The DP equals
+exhaustive enumeration when no node is shared between AND branches; with
 sharing it counts the shared part once per branch (``flexhrc.representation.paths`` has the exact,
 exponential reference).
 """
