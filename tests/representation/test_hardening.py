@@ -255,6 +255,8 @@ def test_b5_deeply_nested_yaml(tmp_path, capsys):
         (["graph", "play", "{g}", "--events", "/dev/full"], "--events"),
         (["graph", "render", "{g}", "-o", "{tmp}/nonexistent/x.dot"], "-o"),
         (["graph", "render", "{g}", "-o", "{tmp}/g.txt"], "-o"),
+        (["graph", "play", "{g}", "--events", ""], "--events"),
+        (["graph", "play", "{g}", "--events", "/proc/version"], "--events"),
     ],
 )
 def test_b8_output_paths_checked_before_the_work(tmp_path, capsys, graph_file, argv, option):

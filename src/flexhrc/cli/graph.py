@@ -307,13 +307,13 @@ def cmd_play(args: argparse.Namespace) -> int:
     from flexhrc.representation.play import play
 
     writer: EventLogWriter | None = None
-    if args.events:
+    if args.events is not None:  # "" too: check_output says it is empty
         # before the work: never an input, never a folder or a device, its folder exists
         check_output(args.events, option="--events", inputs=[args.file])
 
     def opened(hierarchy: Any) -> None:
         nonlocal writer
-        if args.events:
+        if args.events is not None:
             # the lower graphs are known now (outside the timed offline phase)
             check_output(args.events, option="--events", inputs=_sources(hierarchy))
             writer = EventLogWriter(args.events, option="--events")
@@ -334,7 +334,7 @@ def cmd_play(args: argparse.Namespace) -> int:
             args.seed,
             record_steps=args.steps,
             on_offline=opened,
-            on_event=event if args.events else None,
+            on_event=event if args.events is not None else None,
         )
     finally:
         if writer is not None:
