@@ -32,10 +32,13 @@ from flexhrc.errors import FlexhrcError
 COMMAND_MODULES: tuple[str, ...] = (
     "graph",
     "demo",
+    "scenario",
     "behave",
     "sim",
     "har",
     "scene",
+    "cell",
+    "agent",
 )
 
 

@@ -178,6 +178,10 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
     add_json_flag(r)
     r.set_defaults(func=cmd_render)
 
+    from flexhrc.cli.behave import register_graph_to_task  # THEN/AND/OR tasks (branch behavior)
+
+    register_graph_to_task(gsub)
+
 
 def _plural(n: Any, one: str, many: str | None = None) -> str:
     return f"{n} {one if n == 1 else (many or one + 's')}"

@@ -49,6 +49,13 @@ EVENT_TYPES = frozenset(
         "human_sensing_missed",
         "outcome",
         "summary",
+        # section V in full (processes, preconditions at dispatch), the physical side
+        "process_activated",
+        "process_ended",
+        "process_failed",
+        "precondition_failed",
+        "fixed",
+        "obsolete",
     }
 )
 #: How an action may end (``action_end`` events).
@@ -178,6 +185,10 @@ def summarise_log(events: Iterable[dict[str, Any]]) -> dict[str, Any]:
     robot_actions = human_actions = 0
     robot_s = human_s = 0.0
     legs: dict[str, int] = {}
+    solved_by: dict[str, int] = {}
+    solved: list[dict[str, Any]] = []
+    humans = {"human"}
+    fixed_events = any(ev.get("type") == "fixed" for ev in events)
     decisions = branches = 0
     outcome: str | None = None
     reason = None
@@ -190,6 +201,8 @@ def summarise_log(events: Iterable[dict[str, Any]]) -> dict[str, Any]:
             simulator = ev.get("simulator")
             for agent in ev.get("agents", []):
                 legs.setdefault(agent, 0)
+                solved_by.setdefault(agent, 0)
+            humans = set(ev.get("humans", ["human"]))
         elif kind == "decision":
             decisions += 1
             branches += len(ev.get("branches", []))
@@ -197,7 +210,7 @@ def summarise_log(events: Iterable[dict[str, Any]]) -> dict[str, Any]:
             outcome, reason = ev["outcome"], ev.get("reason")
         elif kind == "action_end":
             dt = float(ev["t"]) - float(ev["start"])
-            human = "human" in ev["agents"]
+            human = any(a in humans for a in ev["agents"])
             if human:
                 human_s += dt
             else:
@@ -208,9 +221,17 @@ def summarise_log(events: Iterable[dict[str, Any]]) -> dict[str, Any]:
                 human_actions += 1
             else:
                 robot_actions += 1
-            if ev["action"].startswith("screw("):
-                for agent in ev["agents"]:
+            if not fixed_events and ev["action"].startswith("screw("):
+                for agent in ev["agents"]:  # logs written before 'fixed' events existed
                     legs[agent] = legs.get(agent, 0) + 1
+        elif kind == "fixed":
+            for agent in ev["agents"]:
+                legs[agent] = legs.get(agent, 0) + 1
+        elif kind == "solved":
+            agents = list(ev.get("agents", []))
+            solved.append({"hyperarc": ev["element"], "agent": "+".join(agents), "t": ev["t"]})
+            for agent in agents:
+                solved_by[agent] = solved_by.get(agent, 0) + 1
     closing: dict[str, Any] = next(
         (ev for ev in reversed(events) if ev.get("type") == "summary"), {}
     )
@@ -242,4 +263,6 @@ def summarise_log(events: Iterable[dict[str, Any]]) -> dict[str, Any]:
             "total_s": round(end, 6),
         },
         "legs_by_agent": legs,
+        "solved_hyperarcs": solved,
+        "by_agent": solved_by,
     }
