@@ -228,18 +228,33 @@ class LocalCooperation:
         """Simulated seconds since the start."""
         return (self._clock() - self._t0) * self.speed
 
+    def set_speed(self, speed: float) -> None:
+        """Change the arms' speed from now on (simulated time stays continuous)."""
+        if not (speed > 0 and speed < float("inf")):
+            raise PanelInputError(f"speed must be a positive number, got {speed}")
+        with self._lock:
+            now = self.now()
+            self.speed = float(speed)
+            self._t0 = self._clock() - now / self.speed
+            self._wake.notify_all()
+
     # -- life cycle -----------------------------------------------------------------------
-    def start(self) -> None:
+    def start(self, *, background: bool = True) -> None:
+        """Start the cooperation; ``background=False`` leaves robot completions to
+        :meth:`run_due` (tests drive the clock themselves)."""
         with self._lock:
             if self.started:
                 return
             self.started = True
             self._t0 = self._clock()
             self._record({"t": 0.0, "type": "start", "agents": list(self.domain.agents)})
-            self._dispatch(self.tm.start(0.0))
+            self._dispatch(self.tm.start(0.0), 0.0)
             self._changed()
-        self._thread = threading.Thread(target=self._loop, name="flexhrc-panel-cell", daemon=True)
-        self._thread.start()
+        if background:
+            self._thread = threading.Thread(
+                target=self._loop, name="flexhrc-panel-cell", daemon=True
+            )
+            self._thread.start()
         self._notify()
 
     def close(self) -> None:
@@ -268,26 +283,42 @@ class LocalCooperation:
             return True
 
     # -- the loop: robot completions on the wall clock -------------------------------------
+    def next_due(self) -> float | None:
+        """Simulated time of the next robot completion (None: no robot is working)."""
+        with self._lock:
+            live = [at for at, _, p in self._queue if not p.cancelled]
+            return min(live) if live else None
+
+    def run_due(self) -> int:
+        """Process every robot completion due by now; how many."""
+        done = 0
+        with self._lock:
+            while self._queue and not self._closed:
+                at, _, pending = self._queue[0]
+                if at > self.now() + 1e-9:
+                    break
+                heapq.heappop(self._queue)
+                if not pending.cancelled:
+                    self._robot_done(pending, at)
+                    done += 1
+        if done:
+            self._notify()
+        return done
+
     def _loop(self) -> None:
         while True:
-            changed = False
             with self._lock:
                 if self._closed:
                     return
                 if not self._queue:
                     self._wake.wait(0.5)
                     continue
-                at, _, pending = self._queue[0]
+                at = self._queue[0][0]
                 wait_s = (at / self.speed) - (self._clock() - self._t0)
                 if wait_s > 0:
                     self._wake.wait(min(wait_s, 0.5))
                     continue
-                heapq.heappop(self._queue)
-                if not pending.cancelled:
-                    self._robot_done(pending, at)
-                    changed = True
-            if changed:
-                self._notify()
+            self.run_due()
 
     def _record(self, event: dict[str, Any]) -> None:
         self.events.append(event)
@@ -300,24 +331,25 @@ class LocalCooperation:
         for cb in list(self._listeners.values()):
             cb()
 
-    def _dispatch(self, directives: list[Directive]) -> None:
+    def _dispatch(self, directives: list[Directive], now: float) -> None:
+        """Carry out the manager's directives at simulated time ``now`` (the time of the input
+        they answer, so the timeline has no gaps of processing latency)."""
         for d in directives:
             if isinstance(d, Command):
-                self._start_robot(d)
+                self._start_robot(d, now)
             elif isinstance(d, Stop):
-                self._stop(d)
+                self._stop(d, now)
             elif isinstance(d, Suggest):
                 self._record(
                     {
-                        "t": round(self.now(), 6),
+                        "t": round(now, 6),
                         "type": "human_told",
                         "element": d.element,
                         "actions": [str(a) for a in d.actions],
                     }
                 )
 
-    def _start_robot(self, cmd: Command) -> None:
-        now = self.now()
+    def _start_robot(self, cmd: Command, now: float) -> None:
         positions = {k: o.position for k, o in self.kb.objects.items()}
         reason: str | None
         if any(a in self.tm.halted for a in cmd.agents):
@@ -345,7 +377,7 @@ class LocalCooperation:
         )
         self._changed()
 
-    def _stop(self, stop: Stop) -> None:
+    def _stop(self, stop: Stop, now: float) -> None:
         pending = self._by_command.pop(stop.command_id, None)
         if pending is not None and not pending.cancelled:
             pending.cancelled = True
@@ -353,7 +385,7 @@ class LocalCooperation:
                 pending.command.agents,
                 str(pending.command.action),
                 pending.start,
-                self.now(),
+                now,
                 "stopped",
                 stop.reason,
             )
@@ -372,7 +404,7 @@ class LocalCooperation:
         self._timeline(
             cmd.agents, str(cmd.action), pending.start, at, pending.status, pending.reason
         )
-        self._dispatch(self.tm.on_ack(at, Ack(cmd.id, pending.status, pending.reason)))
+        self._dispatch(self.tm.on_ack(at, Ack(cmd.id, pending.status, pending.reason)), at)
         self._changed()
 
     def _timeline(
@@ -450,7 +482,7 @@ class LocalCooperation:
                         "stopped",
                         "stopped by the operator",
                     )
-            self._dispatch(self.tm.halt(now, name))
+            self._dispatch(self.tm.halt(now, name), now)
             self._changed()
         self._notify()
         return {"ok": True, "stopped": name}
@@ -462,7 +494,7 @@ class LocalCooperation:
                 raise PanelInputError(f"robot {name!r} is not stopped", 409)
             now = self.now()
             self._record({"t": round(now, 6), "type": "operator_resume", "agent": name})
-            self._dispatch(self.tm.resume(now, name))
+            self._dispatch(self.tm.resume(now, name), now)
             self._changed()
         self._notify()
         return {"ok": True, "resumed": name}
@@ -527,7 +559,7 @@ class LocalCooperation:
         self._timeline(
             ["human"] if "human" in step.agents else step.agents, str(action), now, now, "done"
         )
-        self._dispatch(self.tm.on_human_action(now, action))
+        self._dispatch(self.tm.on_human_action(now, action), now)
         return {"ok": True, "action": str(action), "outcome": self.tm.outcome}
 
     def _physical(self, step: GroundAction) -> None:
@@ -550,7 +582,7 @@ class LocalCooperation:
         now = self.now()
         self._dry_run(lambda tm: tm.take(now, element))  # raises PanelInputError, nothing changed
         self._record({"t": round(now, 6), "type": "operator_takes", "element": element})
-        self._dispatch(self.tm.take(now, element))
+        self._dispatch(self.tm.take(now, element), now)
         ex = self.tm.executions.get(element)
         return {
             "ok": True,

@@ -1,0 +1,106 @@
+"""Serving the panel: the address option, the loopback rule, the token on a real server."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import urllib.error
+import urllib.request
+
+import pytest
+
+from flexhrc.errors import FlexhrcError
+from flexhrc.web.server import check_bind, is_loopback, parse_web_address
+from tests.conftest import subprocess_env
+
+TOKEN = "tok-1234567890"
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        ("127.0.0.1:8080", ("127.0.0.1", 8080)),
+        (":9000", ("127.0.0.1", 9000)),
+        ("localhost", ("localhost", 8080)),
+        ("[::1]:8081", ("::1", 8081)),
+        ("0.0.0.0:0", ("0.0.0.0", 0)),
+        ("", ("127.0.0.1", 8080)),
+    ],
+)
+def test_web_address(text: str, expected: tuple[str, int]) -> None:
+    assert parse_web_address(text) == expected
+
+
+@pytest.mark.parametrize(
+    "bad", ["host:port", "1.2.3.4:70000", "::1:80", "[::1:80", "a b:80", "h:-1"]
+)
+def test_bad_web_address_names_the_option(bad: str) -> None:
+    with pytest.raises(FlexhrcError, match="--web"):
+        parse_web_address(bad)
+
+
+def test_loopback_rule() -> None:
+    for host in ("127.0.0.1", "127.1.2.3", "localhost", "::1"):
+        assert is_loopback(host)
+        check_bind(host, None)
+    for host in ("0.0.0.0", "::", "10.1.2.3", "panel.example"):
+        assert not is_loopback(host)
+        with pytest.raises(FlexhrcError, match="--token"):
+            check_bind(host, None)
+        check_bind(host, TOKEN)  # allowed with a token
+    with pytest.raises(FlexhrcError, match="at least"):
+        check_bind("0.0.0.0", "short")
+    with pytest.raises(FlexhrcError, match="--token"):
+        check_bind("0.0.0.0", "has spaces in it")
+
+
+def test_cli_refuses_a_non_loopback_address_without_token() -> None:
+    r = subprocess.run(
+        [sys.executable, "-m", "flexhrc", "panel", "--web", "0.0.0.0:0", "--exit-when-done"],
+        capture_output=True,
+        text=True,
+        env=subprocess_env(),
+        timeout=60,
+    )
+    assert r.returncode == 2
+    assert "--token" in r.stderr and "Traceback" not in r.stderr
+
+
+def test_with_a_token_requests_and_websockets_without_it_get_401() -> None:
+    pytest.importorskip("uvicorn")
+    from websockets.exceptions import InvalidStatus
+    from websockets.sync.client import connect
+
+    from flexhrc.web.local import table_assembly
+    from flexhrc.web.server import PanelServer
+
+    coop = table_assembly(4, unreachable_bolts=(2,), speed=1000)
+    with PanelServer(coop, "127.0.0.1", 0, token=TOKEN) as server:
+        coop.start()
+        coop.wait_done(0.2)
+        base = f"http://127.0.0.1:{server.port}"
+        for path in ("/", "/api/state", "/static/panel.js"):
+            with pytest.raises(urllib.error.HTTPError) as err:
+                urllib.request.urlopen(base + path, timeout=5)
+            assert err.value.code == 401, path
+        post = urllib.request.Request(
+            base + "/api/human",
+            data=b'{"take": "human_3"}',
+            headers={"Content-Type": "application/json"},
+            method="POST",
+        )
+        with pytest.raises(urllib.error.HTTPError) as err:
+            urllib.request.urlopen(post, timeout=5)
+        assert err.value.code == 401
+        with pytest.raises(InvalidStatus) as denied:
+            connect(f"ws://127.0.0.1:{server.port}/ws", open_timeout=5).close()
+        assert denied.value.response.status_code == 401
+        ok = urllib.request.Request(
+            base + "/api/state", headers={"Authorization": f"Bearer {TOKEN}"}
+        )
+        with urllib.request.urlopen(ok, timeout=5) as r:
+            assert json.loads(r.read())["outcome"] in ("running", "solved")
+        with connect(f"ws://127.0.0.1:{server.port}/ws?token={TOKEN}", open_timeout=5) as ws:
+            assert "outcome" in json.loads(ws.recv(timeout=5))
+    coop.close()
