@@ -81,11 +81,21 @@ function render(s) {
             : s.outcome === "solved" ? "solved: the task is complete" : s.waiting;
   banner.hidden = !why; banner.textContent = why || "";
   banner.className = "banner" + (s.outcome === "failed" ? " failed" : "");
-  renderSuggestions(s);
-  renderAgents(s);
-  renderGraph(s);
-  renderTimeline(s);
-  renderKB(s);
+  // only the parts whose data changed are drawn again: with many pages open on one machine
+  // the browser's work per event stays small
+  changed("suggestions", [s.suggestions, s.takeable], () => renderSuggestions(s));
+  changed("agents", s.agents, () => renderAgents(s));
+  changed("graph", s.graph, () => renderGraph(s));
+  changed("timeline", [s.timeline, (s.agents || []).map((a) => a.name)], () => renderTimeline(s));
+  changed("kb", [s.objects, s.facts], () => renderKB(s));
+}
+
+const drawn = {};
+function changed(part, data, draw) {
+  const key = JSON.stringify(data);
+  if (drawn[part] === key) return;
+  drawn[part] = key;
+  draw();
 }
 
 function renderSuggestions(s) {
@@ -247,7 +257,7 @@ function renderTimeline(s) {
   const box = document.getElementById("timeline");
   const items = s.timeline || [];
   const lanes = (s.agents || []).map((a) => a.name);
-  const end = Math.max(1, s.time || 0, ...items.map((i) => i.end));
+  const end = Math.max(1, ...items.map((i) => i.end));
   const W = Math.max(600, box.clientWidth - 10), L = 70, H = 22;
   const svg = el("svg:svg", { width: W, height: lanes.length * H + 22, id: "timeline-svg" });
   const x = (t) => L + (W - L - 10) * (t / end);

@@ -1,0 +1,106 @@
+"""The operator panel: how fast an event reaches the open page, with 1 and with 20 clients.
+
+An *event* is a change of the cooperation (here: the operator's stop and resume of an idle
+arm, each a stored event and a new state); its *latency* is the time from the call into the
+backend to the moment the page has rendered the new state (the page's own ``Date.now()`` after
+rendering, on the same machine's clock). Every page is a real headless chromium tab.
+
+    python benchmarks/panel_latency.py [--events 30] [--clients 20]
+
+Targets (issue 12, medians): an event reaches the open page in <= 100 ms; with 20 clients
+connected, no lag (the slowest of the 20 pages is still within the target).
+"""
+
+from __future__ import annotations
+
+import argparse
+import shutil
+import statistics
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))
+
+from flexhrc.web.local import table_assembly
+from flexhrc.web.server import PanelServer
+
+TARGET_MS = 100.0
+
+
+def _latencies(coop: Any, pages: list[Any], events: int) -> list[float]:
+    """Per event, the latency to the slowest page (ms)."""
+    out = []
+    arm = "right"
+    for i in range(events):
+        before = coop.snapshot()["version"]
+        t0 = time.time() * 1000.0
+        if i % 2 == 0:
+            coop.stop_robot(arm)
+        else:
+            coop.resume_robot(arm)
+        worst = 0.0
+        for p in pages:
+            p.wait_for_function(f"window.__panel.version > {before}", timeout=10_000)
+            worst = max(worst, p.evaluate("window.__panel.renderedAt") - t0)
+        out.append(worst)
+    return out
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    ap.add_argument("--events", type=int, default=30)
+    ap.add_argument("--clients", type=int, default=20)
+    ap.add_argument("--chromium", default=shutil.which("chromium") or "/usr/bin/chromium")
+    args = ap.parse_args()
+    from playwright.sync_api import sync_playwright
+
+    # the operator is asked for bolt 1 and the arms wait: the state only changes on our events
+    coop = table_assembly(4, unreachable_bolts=(1,), speed=1000)
+    server = PanelServer(coop, "127.0.0.1", 0).start()
+    coop.start()
+    deadline = time.monotonic() + 10
+    while coop.snapshot()["waiting"] is None and time.monotonic() < deadline:
+        time.sleep(0.01)
+    results: dict[int, list[float]] = {}
+    try:
+        with sync_playwright() as pw:
+            browser = pw.chromium.launch(
+                executable_path=args.chromium,
+                args=["--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage"],
+            )
+            pages: list[Any] = []
+            for n in (1, args.clients):
+                while len(pages) < n:
+                    page = browser.new_context(viewport={"width": 1280, "height": 900}).new_page()
+                    page.goto(server.url)
+                    page.wait_for_function("window.__panel.version >= 0")
+                    pages.append(page)
+                _latencies(coop, pages, 2)  # warm-up
+                results[n] = _latencies(coop, pages, args.events)
+            browser.close()
+    finally:
+        server.stop()
+        coop.close()
+    print(f"panel latency, event -> rendered on the page ({args.events} events; median, p90, max)")
+    ok = True
+    for n, lat in results.items():
+        med = statistics.median(lat)
+        p90 = sorted(lat)[int(0.9 * (len(lat) - 1))]
+        verdict = "ok" if med <= TARGET_MS else "OVER"
+        ok = ok and med <= TARGET_MS
+        print(
+            f"  {n:>2} client(s), slowest page: median {med:6.1f} ms  p90 {p90:6.1f} ms  "
+            f"max {max(lat):6.1f} ms   target <= {TARGET_MS:.0f} ms: {verdict}"
+        )
+    if len(results) == 2:
+        one, many = (statistics.median(v) for v in results.values())
+        print(f"  lag of {args.clients} clients over 1: x{many / one:.2f} (median of slowest page)")
+    return 0 if ok else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
