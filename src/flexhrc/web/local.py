@@ -19,7 +19,6 @@ part, as when the paper's manager recognises an unsuggested human action, sectio
 
 from __future__ import annotations
 
-import copy
 import heapq
 import itertools
 import threading
@@ -30,7 +29,6 @@ from typing import Any
 
 from flexhrc.knowledge import KnowledgeBase
 from flexhrc.representation import OnlineGraph
-from flexhrc.taskmanager.decision import DecisionTree
 from flexhrc.taskmanager.domain import Domain, GroundAction
 from flexhrc.taskmanager.manager import (
     Ack,
@@ -42,6 +40,7 @@ from flexhrc.taskmanager.manager import (
     TaskManager,
 )
 from flexhrc.taskmanager.simulator import AnalyticSimulator, ExecutionModel, Simulator
+from flexhrc.web import operator
 from flexhrc.web.backend import PanelInputError, json_safe, parse_action
 from flexhrc.web.snapshot import graph_snapshot, suggestions
 
@@ -49,109 +48,32 @@ TIMELINE_LIMIT = 300  # entries of the timeline kept in a snapshot (the store ke
 
 
 class PanelTaskManager(TaskManager):
-    """The Task Manager with the panel's operator inputs: take a hyper-arc, stop/resume an arm."""
+    """The Task Manager with the panel's operator inputs (see :mod:`flexhrc.web.operator`):
+    take a hyper-arc, stop and resume an arm."""
 
     def __init__(self, *args: Any, **kwargs: Any):
         super().__init__(*args, **kwargs)
         self.halted: set[str] = set()
 
-    @property
-    def idle_robots(self) -> list[str]:
-        # a stopped arm is given no work until the operator resumes it
-        return [a for a in super().idle_robots if a not in self.halted]
-
-    def humans(self) -> list[str]:
-        return [a.name for a in self.domain.agents.values() if a.is_human]
-
-    def human_branches(self, element: str) -> DecisionTree:
-        """The operator's ways of doing a feasible hyper-arc now (groundings x operators)."""
-        actions = (
-            self.graph.definition_of(element).hyperarcs[self.graph.local_name(element)].actions
-        )
-        constraints = [lit for c in self._children(element) for lit in self._formulas.get(c, ())]
-        reserved = set().union(
-            *(ex.objects for ex in self.executions.values() if ex.owner == "human")
-        )
-        return DecisionTree.build(
-            element,
-            actions,
-            constraints,
-            self.domain,
-            self.kb,
-            exclude=self.failed.get(element, ()),
-            available_agents=self.humans(),
-            reserved=reserved,
-        )
-
     def takeable(self) -> list[str]:
-        """Feasible hyper-arcs an operator may do now (not already the operator's)."""
-        out = []
-        for s in self.graph.suggestions():
-            if s.kind != "hyperarc":
-                continue
-            ex = self.executions.get(s.element)
-            if ex is not None and ex.owner == "human":
-                continue
-            if not self._describe(s.element)[1]:
-                continue
-            if self.human_branches(s.element).branches:
-                out.append(s.element)
-        return out
+        return operator.takeable(self)
 
     def take(self, now: float, element: str) -> list[Directive]:
-        """The operator will do ``element``: conflicting robot work stops, the element's actions
-        are suggested to the operator. Raises :class:`PanelInputError` when not possible."""
-        return self._entry(now, lambda: self._handle_take(element))
-
-    def _handle_take(self, element: str) -> list[Directive]:
-        if self.done:
-            raise PanelInputError(f"the cooperation has ended ({self.outcome})", 409)
-        if self.graph.kind(element) != "hyperarc":
-            raise PanelInputError(f"{element!r} is a node; take a hyper-arc", 400)
-        if not self.graph.is_feasible(element):
-            raise PanelInputError(f"{element!r} is not feasible now", 409)
-        ex = self.executions.get(element)
-        if ex is not None and ex.owner == "human":
-            raise PanelInputError(f"{element!r} is already the operator's", 409)
-        if not self._describe(element)[1]:
-            raise PanelInputError(f"{element!r} has no action to do", 409)
-        tree = self.human_branches(element)
-        if not tree.branches:
-            raise PanelInputError(
-                f"no operator can do {element!r} now (no grounding or the actions are a robot's)",
-                409,
-            )
-        best = tree.evaluate(self.simulator, self.kb, self.domain) or tree.branches[0]
-        cost = self._answer.feasible.get(element, 0.0)
-        out: list[Directive] = []
-        objects = self._objects(best)
-        for other in list(self.executions.values()):
-            shared = set(self._children(other.element)) & set(self._children(element))
-            if other.element == element or shared or other.objects & objects:
-                if other.owner == "human":
-                    self.executions.pop(other.element, None)
-                    self._emit("abort", element=other.element, reason=f"operator takes {element}")
-                else:
-                    self._abort(other, out, reason=f"operator takes {element}")
-        self._emit("taken", element=element, grounding=dict(best.grounding))
-        self._launch(element, best, cost, out)
-        out += self._plan()
-        return out
+        return operator.take(self, now, element)
 
     def halt(self, now: float, agent: str) -> list[Directive]:
-        """Stop ``agent``'s command (acknowledged as failed: stopped by the operator) and keep
-        the arm out of use until :meth:`resume`."""
+        """Stop ``agent``'s command (acknowledged as failed: stopped by the operator); the arm
+        is unavailable to the manager until :meth:`resume`."""
         self.halted.add(agent)
-        self._emit("halted", agent=agent)
+        out = self.set_available(now, agent, False)
         cmd = self.busy.get(agent)
-        if cmd is None:
-            return []
-        return self.on_ack(now, Ack(cmd.id, "failed", "stopped by the operator"))
+        if cmd is not None:
+            out += self.on_ack(now, Ack(cmd.id, "failed", "stopped by the operator"))
+        return out
 
     def resume(self, now: float, agent: str) -> list[Directive]:
         self.halted.discard(agent)
-        self._emit("resumed", agent=agent)
-        return self.replan(now)
+        return self.set_available(now, agent, True)
 
 
 @dataclass
@@ -162,16 +84,6 @@ class _Pending:
     positions: dict[str, tuple[float, float, float]]
     start: float  # simulated time
     cancelled: bool = False
-
-
-class _Sink:
-    """The manager's log callback (a separate object so a dry-run copy can get its own)."""
-
-    def __init__(self, write: Callable[[dict[str, Any]], None]):
-        self.write = write
-
-    def __call__(self, event: dict[str, Any]) -> None:
-        self.write(event)
 
 
 class LocalCooperation:
@@ -208,8 +120,7 @@ class LocalCooperation:
         self._t0 = clock()
         self.events: list[dict[str, Any]] = []
         self.timeline: list[dict[str, Any]] = []
-        self._sink = _Sink(self._record)
-        self.tm = PanelTaskManager(graph, domain, kb, self.simulator, log=self._sink)
+        self.tm = PanelTaskManager(graph, domain, kb, self.simulator, log=self._record)
         self._lock = threading.RLock()
         self._wake = threading.Condition(self._lock)
         self._queue: list[tuple[float, int, _Pending]] = []
@@ -532,17 +443,8 @@ class LocalCooperation:
                 raise PanelInputError(f"{text} is not an operator's action ({a} does it)", 409)
         return GroundAction(schema, args, agents)
 
-    def _dry_run(self, apply: Callable[[PanelTaskManager], object]) -> list[dict[str, Any]]:
-        """Apply an input to a copy of the manager; the events it would log."""
-        events: list[dict[str, Any]] = []
-        memo: dict[int, Any] = {
-            id(self._sink): _Sink(events.append),
-            id(self.tm.simulator): self.tm.simulator,
-            id(self.domain): self.domain,
-        }
-        clone = copy.deepcopy(self.tm, memo)
-        apply(clone)
-        return events
+    def _dry_run(self, apply: Callable[[Any], object]) -> list[dict[str, Any]]:
+        return operator.dry_run(self.tm, apply)
 
     def _human_action(self, text: str) -> dict[str, Any]:
         step = self._ground(text)
