@@ -35,19 +35,32 @@ def add_web_options(p: argparse.ArgumentParser, *, required: bool = False) -> No
     )
 
 
-def start_panel(args: argparse.Namespace, backend: Any) -> Any:
-    """Start the panel server for ``--web`` (None when not asked); checks the address first."""
+def check_web(args: argparse.Namespace) -> tuple[str, int] | None:
+    """``--web``/``--token`` checked before any work: the address, or None without ``--web``."""
     if getattr(args, "web", None) is None:
         if getattr(args, "token", None) is not None:
             raise FlexhrcError("--token is only used with --web")
         return None
-    from flexhrc.web.server import PanelServer, check_bind, parse_web_address
+    from flexhrc.web.server import check_bind, parse_web_address
 
     host, port = parse_web_address(args.web)
     check_bind(host, args.token)
-    server = PanelServer(backend, host, port, token=args.token).start()
+    return host, port
+
+
+def serve(address: tuple[str, int], token: str | None, backend: Any) -> Any:
+    """Start the panel for ``backend`` on a server thread; prints its address on stderr."""
+    from flexhrc.web.server import PanelServer
+
+    server = PanelServer(backend, address[0], address[1], token=token).start()
     server.announce()
     return server
+
+
+def start_panel(args: argparse.Namespace, backend: Any) -> Any:
+    """Start the panel server for ``--web`` (None when not asked); checks the address first."""
+    address = check_web(args)
+    return None if address is None else serve(address, args.token, backend)
 
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg, unused-ignore]

@@ -42,7 +42,7 @@ from flexhrc.taskmanager.manager import (
 from flexhrc.taskmanager.simulator import AnalyticSimulator, ExecutionModel, Simulator
 from flexhrc.web import operator
 from flexhrc.web.backend import PanelInputError, json_safe, parse_action
-from flexhrc.web.snapshot import graph_snapshot, suggestions
+from flexhrc.web.snapshot import feasible_costs, graph_snapshot, suggestions
 
 TIMELINE_LIMIT = 300  # entries of the timeline kept in a snapshot (the store keeps them all)
 
@@ -540,7 +540,7 @@ class LocalCooperation:
 
     def _build_snapshot(self) -> dict[str, Any]:
         tm = self.tm
-        costs = tm.graph.query().feasible
+        costs = feasible_costs(tm.graph)
         running = {e: ex.owner for e, ex in tm.executions.items()}
         kb = self.kb.to_dict()
         return json_safe(

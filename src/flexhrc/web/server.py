@@ -146,7 +146,10 @@ class PanelServer:
             time.sleep(0.01)
         return self
 
-    def stop(self) -> None:
+    def stop(self, grace: float = 0.0) -> None:
+        """Stop serving; ``grace`` seconds first, for the last push to reach the pages."""
+        if grace > 0 and self._server.started:
+            time.sleep(grace)
         self._server.should_exit = True
         if self._thread is not None:
             self._thread.join(timeout=5)

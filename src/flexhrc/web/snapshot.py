@@ -25,6 +25,12 @@ def _qualify(path: str, local: str) -> str:
     return f"{path}{SEP}{local}" if path else local
 
 
+def feasible_costs(graph: OnlineGraph) -> dict[str, float]:
+    """Suggestion costs of the feasible elements, read without querying the graph (a query
+    counts in the graph's history; the panel only looks)."""
+    return {s.element: s.cost for s in graph.suggestions()}
+
+
 def graph_snapshot(
     graph: OnlineGraph,
     costs: Mapping[str, float],
@@ -117,4 +123,4 @@ def suggestions(tm: TaskManager) -> list[dict[str, Any]]:
     return json_safe(out)
 
 
-__all__ = ["graph_snapshot", "suggestions"]
+__all__ = ["feasible_costs", "graph_snapshot", "suggestions"]
