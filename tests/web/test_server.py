@@ -67,6 +67,23 @@ def test_cli_refuses_a_non_loopback_address_without_token() -> None:
     assert "--token" in r.stderr and "Traceback" not in r.stderr
 
 
+def test_cell_refuses_a_non_loopback_panel_without_token_before_any_work(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    store = tmp_path / "cell.db"
+    r = subprocess.run(
+        [sys.executable, "-m", "flexhrc", "cell", "table_assembly", "--store", str(store),
+         "--web", "0.0.0.0:0"],
+        capture_output=True, text=True, env=subprocess_env(), timeout=60,
+    )  # fmt: skip
+    assert r.returncode == 2
+    assert "--token" in r.stderr and "Traceback" not in r.stderr
+    assert not store.exists()  # refused before the store was created
+    r = subprocess.run(
+        [sys.executable, "-m", "flexhrc", "cell", "table_assembly", "--token", "abcdefgh12"],
+        capture_output=True, text=True, env=subprocess_env(), timeout=60,
+    )  # fmt: skip
+    assert r.returncode == 2 and "--token is only used with --web" in r.stderr
+
+
 def test_with_a_token_requests_and_websockets_without_it_get_401() -> None:
     pytest.importorskip("uvicorn")
     from websockets.exceptions import InvalidStatus
