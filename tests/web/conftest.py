@@ -40,9 +40,11 @@ def open_page(browser: Any) -> Iterator[Any]:
     """``open_page(url)`` -> a new page in its own context, with JS errors collected."""
     contexts: list[Any] = []
     errors: list[str] = []
+    requests: list[str] = []
 
     def make(url: str) -> Any:
         ctx = browser.new_context(viewport={"width": 1280, "height": 900})
+        ctx.on("request", lambda r: requests.append(r.url))
         contexts.append(ctx)
         page = ctx.new_page()
         page.set_default_timeout(10_000)
@@ -54,3 +56,5 @@ def open_page(browser: Any) -> Iterator[Any]:
     for ctx in contexts:
         ctx.close()
     assert not errors, errors
+    # offline: everything the page loaded came from the panel itself, on loopback
+    assert requests and all(u.startswith("http://127.0.0.1:") for u in requests), requests

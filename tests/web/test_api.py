@@ -66,9 +66,21 @@ def test_state_has_the_contract_keys(waiting_coop) -> None:  # type: ignore[no-u
         assert state["waiting"].startswith("waiting for the operator")
         page = client.get("/")
         assert page.status_code == 200 and "/static/panel.js" in page.text
-        assert "http" not in page.text.replace("http-equiv", "")  # nothing from elsewhere
         assert client.get("/static/panel.js").status_code == 200
         assert client.get("/static/panel.css").status_code == 200
+
+
+def test_assets_come_from_the_package_only() -> None:
+    import re
+    from pathlib import Path
+
+    from flexhrc.web.app import static_dir
+
+    files = sorted(Path(static_dir()).iterdir())
+    assert {f.name for f in files} >= {"index.html", "panel.js", "panel.css"}
+    for f in files:
+        urls = set(re.findall(r"(?:https?:)?//[A-Za-z0-9.-]+\.[a-z]{2,}[^\s\"')]*", f.read_text()))
+        assert urls <= {"http://www.w3.org/2000/svg"}, (f.name, urls)  # an XML namespace only
 
 
 def test_malformed_bodies_get_4xx_and_change_nothing(waiting_coop) -> None:  # type: ignore[no-untyped-def]
