@@ -6,7 +6,8 @@
 const TOKEN = new URLSearchParams(location.search).get("token");
 const SVGNS = "http://www.w3.org/2000/svg";
 const openInstances = new Set([""]);  // instance paths unfolded by the operator
-window.__panel = { version: -1, messages: 0, renderedAt: 0, state: null };
+// what the tests and the latency benchmark read: the last state drawn, and when
+window.__panel = { version: -1, messages: 0, renderedAt: 0, state: null, log: [] };
 
 function el(tag, attrs, ...children) {
   const e = tag.startsWith("svg:") ? document.createElementNS(SVGNS, tag.slice(4))
@@ -55,6 +56,7 @@ function connect(delay) {
   const link = document.getElementById("link");
   ws.onopen = () => { link.textContent = "live"; link.className = "badge link-up"; delay = 250; };
   ws.onmessage = (ev) => {
+    const received = Date.now();
     const state = JSON.parse(ev.data);
     window.__panel.messages += 1;
     render(state);
@@ -62,6 +64,8 @@ function connect(delay) {
     window.__panel.events = state.events;
     window.__panel.renderedAt = Date.now();
     window.__panel.state = state;
+    window.__panel.log.push([state.events, window.__panel.renderedAt, received]);
+    if (window.__panel.log.length > 2000) window.__panel.log.shift();
   };
   ws.onclose = () => {
     link.textContent = "offline"; link.className = "badge link-down";
@@ -195,103 +199,191 @@ function layout(inst) {
   return { pos, width, height: (keys[keys.length - 1] + 1) * H + 10 };
 }
 
+const graphIndex = new Map();  // element id -> its drawn parts, to update statuses in place
+let graphShape = null;         // the structure drawn; redrawn only when it changes
+let graphState = [];           // the latest instances (a folded one is drawn when unfolded)
+
+function arcTitle(h) {
+  return `${h.id}: ${h.status}` + (h.cost !== null ? `, cost ${fmtCost(h.cost)}` : "")
+    + (h.running ? `, being done by the ${h.running}` : "")
+    + (h.actions.length ? "\n" + h.actions.join("\n") : "");
+}
+function nodeTitle(n) {
+  return `${n.id}: ${n.status}` + (n.cost !== null ? `, cost ${fmtCost(n.cost)}` : "");
+}
+function instanceSummary(inst) {
+  const done = inst.nodes.filter((n) => n.status === "met").length;
+  return (inst.upper ? inst.upper + " → " : "") + `${inst.name} — ${done}/${inst.nodes.length} nodes met`;
+}
+
 function drawInstance(inst) {
   const { pos, width, height } = layout(inst);
   const svg = el("svg:svg", { width, height, viewBox: `0 0 ${width} ${height}`,
                               "data-graph": inst.path || "top" });
+  const edges = new Map();
   for (const h of inst.hyperarcs) {
     const p = pos.get(h.id), done = h.status === "solved";
+    const mine = [];
     for (const c of h.children) {
       const q = pos.get(c);
-      svg.append(el("svg:path", { class: done ? "edge done" : "edge",
+      mine.push(el("svg:path", { class: done ? "edge done" : "edge",
         d: `M${q.x},${q.y - 12} C${q.x},${(q.y + p.y) / 2} ${p.x},${(q.y + p.y) / 2} ${p.x},${p.y + 10}` }));
     }
     const r = pos.get(h.parent);
-    svg.append(el("svg:path", { class: done ? "edge done" : "edge",
+    mine.push(el("svg:path", { class: done ? "edge done" : "edge",
       d: `M${p.x},${p.y - 10} L${r.x},${r.y + 12}` }));
+    svg.append(...mine);
+    edges.set(h.id, mine);
   }
   for (const h of inst.hyperarcs) {
     const p = pos.get(h.id);
     const label = h.name.length > 20 ? h.name.slice(0, 19) + "…" : h.name;
+    const title = el("svg:title", { text: arcTitle(h) });
     const g = el("svg:g", { class: "arc" + (h.running ? " running" : ""), "data-id": h.id,
                             "data-status": h.status, "data-running": h.running || "" },
-      el("svg:title", { text: `${h.id}: ${h.status}` + (h.cost !== null ? `, cost ${fmtCost(h.cost)}` : "")
-                             + (h.running ? `, being done by the ${h.running}` : "")
-                             + (h.actions.length ? "\n" + h.actions.join("\n") : "") }),
+      title,
       el("svg:rect", { x: p.x - 66, y: p.y - 10, width: 132, height: 20, rx: 4 }),
       el("svg:text", { x: p.x, y: p.y + 4, "text-anchor": "middle", text: label }));
     svg.append(g);
+    graphIndex.set(h.id, { g, title, edges: edges.get(h.id) });
   }
   for (const n of inst.nodes) {
     const p = pos.get(n.id);
-    svg.append(el("svg:g", { class: "node", "data-id": n.id, "data-status": n.status },
-      el("svg:title", { text: `${n.id}: ${n.status}` + (n.cost !== null ? `, cost ${fmtCost(n.cost)}` : "") }),
+    const title = el("svg:title", { text: nodeTitle(n) });
+    const g = el("svg:g", { class: "node", "data-id": n.id, "data-status": n.status },
+      title,
       el("svg:ellipse", { cx: p.x, cy: p.y, rx: 58, ry: 12 }),
-      el("svg:text", { x: p.x, y: p.y + 4, "text-anchor": "middle", text: n.name })));
+      el("svg:text", { x: p.x, y: p.y + 4, "text-anchor": "middle", text: n.name }));
+    svg.append(g);
+    graphIndex.set(n.id, { g, title, edges: [] });
   }
   return el("div", { class: "graph-scroll" }, svg);
 }
 
 function renderGraph(s) {
-  const box = document.getElementById("graph");
   const insts = s.graph || [];
-  const counts = (inst) => {
-    const done = inst.nodes.filter((n) => n.status === "met").length;
-    return `${inst.name} — ${done}/${inst.nodes.length} nodes met`;
-  };
-  const blocks = insts.map((inst) => {
+  graphState = insts;
+  const shape = JSON.stringify(insts.map((i) => [i.path, i.nodes.map((n) => n.id),
+    i.hyperarcs.map((h) => [h.id, h.children, h.parent])]));
+  if (shape === graphShape) { updateGraph(insts); return; }
+  graphShape = shape;
+  graphIndex.clear();
+  const box = document.getElementById("graph");
+  box.replaceChildren(...insts.map((inst) => {
+    const open = openInstances.has(inst.path);
     const d = el("details", { class: "instance" + (inst.depth ? " sub" : ""),
-                              "data-path": inst.path || "top",
-                              open: openInstances.has(inst.path) },
-      el("summary", { text: (inst.upper ? inst.upper + " → " : "") + counts(inst) }),
-      drawInstance(inst));
+                              "data-path": inst.path || "top", open },
+      el("summary", { text: instanceSummary(inst) }), open ? drawInstance(inst) : null);
     d.addEventListener("toggle", () => {
-      if (d.open) openInstances.add(inst.path); else openInstances.delete(inst.path);
+      if (!d.open) { openInstances.delete(inst.path); return; }
+      openInstances.add(inst.path);
+      if (d.querySelector("svg")) return;
+      const now = graphState.find((i) => i.path === inst.path);  // drawn when first unfolded
+      if (now) d.append(drawInstance(now));
     });
     return d;
-  });
-  box.replaceChildren(...blocks);
+  }));
 }
+
+function updateGraph(insts) {
+  const summaries = document.querySelectorAll("#graph details.instance > summary");
+  insts.forEach((inst, k) => {
+    if (summaries[k]) summaries[k].textContent = instanceSummary(inst);
+    for (const n of inst.nodes) {
+      const e = graphIndex.get(n.id);
+      if (!e) continue;  // folded, not drawn yet
+      e.g.setAttribute("data-status", n.status);
+      e.title.textContent = nodeTitle(n);
+    }
+    for (const h of inst.hyperarcs) {
+      const e = graphIndex.get(h.id);
+      if (!e) continue;
+      e.g.setAttribute("data-status", h.status);
+      e.g.setAttribute("data-running", h.running || "");
+      e.g.setAttribute("class", "arc" + (h.running ? " running" : ""));
+      e.title.textContent = arcTitle(h);
+      for (const p of e.edges) p.setAttribute("class", h.status === "solved" ? "edge done" : "edge");
+    }
+  });
+}
+
+// The timeline grows at its end: new entries are appended and only the time scale (one
+// transform) changes; it is drawn again only when its start moved (it keeps the latest 300).
+const tl = { lanes: null, first: null, last: null, count: 0, end: 1, group: null, label: null,
+             list: null, k: 1 };
+const TL_COLOUR = { done: "#2e9d5b", failed: "#c2410c", timed_out: "#c2410c", stopped: "#f59e0b" };
+const tlKey = (it) => `${it.start}|${it.end}|${it.action}|${it.status}|${it.agents.join("+")}`;
 
 function renderTimeline(s) {
   const box = document.getElementById("timeline");
   const items = s.timeline || [];
   const lanes = (s.agents || []).map((a) => a.name);
-  const end = Math.max(1, ...items.map((i) => i.end));
   const W = Math.max(600, box.clientWidth - 10), L = 70, H = 22;
-  const svg = el("svg:svg", { width: W, height: lanes.length * H + 22, id: "timeline-svg" });
-  const x = (t) => L + (W - L - 10) * (t / end);
-  lanes.forEach((name, i) => {
-    svg.append(el("svg:text", { x: 4, y: i * H + 15, class: "lane-label", text: name }));
-    svg.append(el("svg:line", { x1: L, x2: W - 10, y1: i * H + 20, y2: i * H + 20, stroke: "#e5e7eb" }));
-  });
-  const colour = { done: "#2e9d5b", failed: "#c2410c", timed_out: "#c2410c", stopped: "#f59e0b" };
-  for (const it of items) {
+  const grows = tl.group && tl.lanes === lanes.join(",") && tl.count > 0
+    && items.length >= tl.count && tlKey(items[0]) === tl.first
+    && tlKey(items[tl.count - 1]) === tl.last;
+  if (!grows) {
+    const svg = el("svg:svg", { width: W, height: lanes.length * H + 22, id: "timeline-svg" });
+    lanes.forEach((name, i) => {
+      svg.append(el("svg:text", { x: 4, y: i * H + 15, class: "lane-label", text: name }));
+      svg.append(el("svg:line", { x1: L, x2: W - 10, y1: i * H + 20, y2: i * H + 20, stroke: "#e5e7eb" }));
+    });
+    tl.group = el("svg:g", {});
+    tl.label = el("svg:text", { x: W - 10, y: lanes.length * H + 18, "text-anchor": "end",
+                                class: "muted" });
+    svg.append(tl.group, tl.label);
+    tl.list = el("ol", { id: "timeline-list", reversed: true });
+    box.replaceChildren(svg, tl.list);
+    Object.assign(tl, { lanes: lanes.join(","), count: 0, end: 1 });
+  }
+  const fresh = items.slice(tl.count);
+  tl.end = Math.max(tl.end, ...fresh.map((i) => i.end));
+  tl.k = (W - L - 10) / tl.end;
+  for (const it of fresh) {
     for (const a of it.agents) {
       const i = lanes.indexOf(a);
       if (i < 0) continue;
-      const w = Math.max(3, x(it.end) - x(it.start));
-      svg.append(el("svg:rect", { x: x(it.start), y: i * H + 4, width: w, height: 14, rx: 2,
-                                  fill: colour[it.status] || "#9aa3af" },
+      tl.group.append(el("svg:rect", { x: it.start, y: i * H + 4, height: 14,
+          width: Math.max(it.end - it.start, 3 / tl.k), fill: TL_COLOUR[it.status] || "#9aa3af" },
         el("svg:title", { text: `${it.action} ${it.status} ${it.start}–${it.end} s`
                                + (it.reason ? " (" + it.reason + ")" : "") })));
     }
-  }
-  svg.append(el("svg:text", { x: W - 10, y: lanes.length * H + 18, "text-anchor": "end",
-                              class: "muted", text: end.toFixed(1) + " s" }));
-  const list = el("ol", { id: "timeline-list", reversed: true, start: items.length },
-    ...items.slice(-40).reverse().map((it) => el("li", { "data-status": it.status },
+    tl.list.prepend(el("li", { "data-status": it.status },
       `${it.start.toFixed(1)} s `, el("code", { text: it.action }),
-      ` — ${it.agents.join(" + ")}, ${it.status}` + (it.reason ? ` (${it.reason})` : ""))));
-  box.replaceChildren(svg, list);
+      ` — ${it.agents.join(" + ")}, ${it.status}` + (it.reason ? ` (${it.reason})` : "")));
+  }
+  while (tl.list.children.length > 40) tl.list.lastChild.remove();
+  tl.list.setAttribute("start", items.length);
+  tl.group.setAttribute("transform", `translate(${L},0) scale(${tl.k},1)`);
+  tl.label.textContent = tl.end.toFixed(1) + " s";
+  tl.count = items.length;
+  if (items.length) { tl.first = tlKey(items[0]); tl.last = tlKey(items[items.length - 1]); }
 }
 
+// The objects table is updated cell by cell while the same objects are listed.
+let kbShape = null;
 function renderKB(s) {
   const body = document.querySelector("#objects tbody");
-  body.replaceChildren(...(s.objects || []).map((o) => el("tr", { "data-object": o.id },
-    el("td", {}, el("code", { text: o.id })), el("td", { text: o.type }),
-    el("td", { text: (o.position || []).map((v) => (+v).toFixed(2)).join(", ") }),
-    el("td", { text: o.fixed ? "yes" : "" }))));
+  const objects = s.objects || [];
+  const pos = (o) => (o.position || []).map((v) => (+v).toFixed(2)).join(", ");
+  const shape = objects.map((o) => o.id + ":" + o.type).join(",");
+  if (shape === kbShape) {
+    objects.forEach((o, k) => {
+      const cells = body.rows[k].cells;
+      if (cells[2].textContent !== pos(o)) cells[2].textContent = pos(o);
+      const fixed = o.fixed ? "yes" : "";
+      if (cells[3].textContent !== fixed) cells[3].textContent = fixed;
+    });
+  } else {
+    kbShape = shape;
+    body.replaceChildren(...objects.map((o) => el("tr", { "data-object": o.id },
+      el("td", {}, el("code", { text: o.id })), el("td", { text: o.type }),
+      el("td", { text: pos(o) }), el("td", { text: o.fixed ? "yes" : "" }))));
+  }
+  renderFacts(s);
+}
+
+function renderFacts(s) {
   const facts = document.getElementById("facts");
   facts.replaceChildren(...(s.facts || []).map((f) =>
     el("li", {}, el("code", { text: `${f[0]}(${f.slice(1).join(", ")})` }))));
