@@ -122,3 +122,60 @@ def test_three_clients_show_the_same_state(serve: Any, open_page: Any) -> None:
             )
         )
     assert texts[0] == texts[1] == texts[2]
+
+
+class _StaticBackend:
+    """A backend with a fixed state: a hierarchical graph whose lower instances fold."""
+
+    def __init__(self) -> None:
+        from flexhrc.representation import AndOrGraph, HierarchicalGraph, OnlineGraph
+        from flexhrc.web.snapshot import feasible_costs, graph_snapshot
+
+        lower = AndOrGraph("Screwing", root="s_done")
+        for n in ("s_leg", "s_done"):
+            lower.add_node(n)
+        lower.add_hyperarc("s_turn", ["s_leg"], "s_done", 1)
+        top = AndOrGraph("Table", root="done")
+        for n in ("leg", "done"):
+            top.add_node(n)
+        top.add_hyperarc("by_robot", ["leg"], "done", 1, lower="Screwing")
+        top.add_hyperarc("by_human", ["leg"], "done", 2, lower="Screwing")
+        graph = OnlineGraph(HierarchicalGraph({"Table": top, "Screwing": lower}, "Table"))
+        graph.update(met_nodes=["leg"])
+        self.state = {
+            "outcome": "running",
+            "reason": None,
+            "waiting": None,
+            "events": 0,
+            "suggestions": [],
+            "agents": [],
+            "graph": graph_snapshot(graph, feasible_costs(graph)),
+            "timeline": [],
+            "objects": [],
+            "facts": [],
+            "version": 1,
+        }
+
+    def snapshot(self) -> dict[str, Any]:
+        return self.state
+
+    def subscribe(self, callback: Any) -> Any:
+        return lambda: None
+
+    def submit(self, body: Any) -> dict[str, Any]:
+        raise AssertionError("not used")
+
+    stop_robot = resume_robot = submit
+
+
+def test_lower_graph_instances_fold(open_page: Any) -> None:
+    with PanelServer(_StaticBackend(), "127.0.0.1", 0) as server:  # type: ignore[arg-type]
+        page = open_page(server.url)
+        page.wait_for_selector("svg[data-graph='top'] [data-id='leg'][data-status='met']")
+        lower = page.locator("details.instance[data-path='by_robot']")
+        assert lower.locator("summary").inner_text().startswith("by_robot → Screwing")
+        assert lower.get_attribute("open") is None  # folded, not drawn
+        assert lower.locator("svg").count() == 0
+        lower.locator("summary").click()
+        page.wait_for_selector("svg[data-graph='by_robot'] [data-id='by_robot/s_leg']")
+        assert page.locator("details.instance[data-path='by_human'] svg").count() == 0
