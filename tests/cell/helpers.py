@@ -14,6 +14,10 @@ from typing import Any
 from ..conftest import subprocess_env
 
 TABLE_NO_HUMAN = "scenario: table_assembly\nhuman: false\n"
+# legs 1 and 3 are within reach of the left arm only: without it, half the work waits for it
+TABLE_LEFT_ONLY = (
+    "scenario: table_assembly\nhuman: false\nreachable_only_by: {leg1: left, leg3: left}\n"
+)
 TABLE_HUMAN_BOLT = "scenario: table_assembly\nunreachable_bolts: [2]\n"  # the operator screws it
 
 
@@ -49,9 +53,17 @@ def cell(scenario: str, port: int, store: Path, *extra: str, log: Path) -> subpr
     )
 
 
-def robot(scenario: str, arm: str, port: int, log: Path) -> subprocess.Popen[str]:
+def robot(scenario: str, arm: str, port: int, log: Path, *extra: str) -> subprocess.Popen[str]:
     return flexhrc(
-        "agent", "robot", scenario, "--arm", arm, "--connect", f"tcp/127.0.0.1:{port}", log=log
+        "agent",
+        "robot",
+        scenario,
+        "--arm",
+        arm,
+        "--connect",
+        f"tcp/127.0.0.1:{port}",
+        *extra,
+        log=log,
     )
 
 
@@ -77,7 +89,9 @@ def rows(store: Path) -> list[tuple[int, float, str, dict[str, Any]]]:
 
 
 def wait_until(
-    store: Path, check: Callable[[list[tuple[int, float, str, dict[str, Any]]]], bool], timeout: float
+    store: Path,
+    check: Callable[[list[tuple[int, float, str, dict[str, Any]]]], bool],
+    timeout: float,
 ) -> list[tuple[int, float, str, dict[str, Any]]]:
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:

@@ -17,10 +17,11 @@ import pytest
 
 pytest.importorskip("zenoh")
 
-from flexhrc.transport.zenoh import ZenohTransport, free_tcp_port, loopback_config  # noqa: E402
+from flexhrc.transport.zenoh import ZenohTransport, free_tcp_port, loopback_config
 
-from .helpers import (  # noqa: E402
+from .helpers import (
     TABLE_HUMAN_BOLT,
+    TABLE_LEFT_ONLY,
     TABLE_NO_HUMAN,
     cell,
     executed,
@@ -73,13 +74,17 @@ def test_multiprocess_cell_solves_the_table_assembly(tmp_path: Path) -> None:
 
 def test_robot_killed_mid_action_is_lost_replanned_and_used_again(tmp_path: Path) -> None:
     scenario = tmp_path / "table.yaml"
-    scenario.write_text(TABLE_NO_HUMAN)
+    scenario.write_text(TABLE_LEFT_ONLY)
     port = free_tcp_port()
     store = tmp_path / "cell.db"
     # real time x20: an action lasts about 0.1 s, so the kill lands in the middle of one
-    procs = [cell(str(scenario), port, store, "--realtime", "20", log=tmp_path / "cell.err")]
-    left = robot(str(scenario), "left", port, tmp_path / "left.err")
-    procs += [left, robot(str(scenario), "right", port, tmp_path / "right.err")]
+    # (the analytic simulator: the kinematic one does not model reachable_only_by)
+    analytic = ("--simulator", "analytic")
+    procs = [
+        cell(str(scenario), port, store, "--realtime", "20", *analytic, log=tmp_path / "cell.err")
+    ]
+    left = robot(str(scenario), "left", port, tmp_path / "left.err", *analytic)
+    procs += [left, robot(str(scenario), "right", port, tmp_path / "right.err", *analytic)]
     try:
         got = wait_until(
             store, lambda r: any(k == "command" and "left" in b["agents"] for _, _, k, b in r), 30
@@ -94,7 +99,7 @@ def test_robot_killed_mid_action_is_lost_replanned_and_used_again(tmp_path: Path
         # its running command failed as "agent lost"; the right arm took the work over
         lost = [b for _, _, k, b in got if k == "ack" and b.get("reason") == "agent lost"]
         assert [b["id"] for b in lost][:1] == [killed_cmd]
-        again = robot(str(scenario), "left", port, tmp_path / "left2.err")
+        again = robot(str(scenario), "left", port, tmp_path / "left2.err", *analytic)
         procs.append(again)
         data = finish(procs[0])
     finally:

@@ -39,24 +39,15 @@ HUMAN_PROFILES = ("passive",)
 
 
 def execution_model(choice: str = "auto", scenario: Any = None) -> ExecutionModel:
-    """The simulated real world: kinematic (``sim`` extra) or analytic."""
-    forced = getattr(scenario, "simulator", None)
-    if forced == "analytic":
-        choice = "analytic"
-    if choice == "auto":
-        import importlib.util
+    """The simulated real world: kinematic (``sim`` extra) or analytic, as
+    :func:`flexhrc.scenarios.simulators.choose_simulator` picks it; a scenario that says
+    ``simulator = "analytic"`` (many arms: the kinematic model is the dual-arm robot) gets that."""
+    from flexhrc.scenarios.simulators import choose_simulator
 
-        choice = "kinematic" if importlib.util.find_spec("pinocchio") else "analytic"
-    if choice == "analytic":
-        return AnalyticSimulator()
-    try:
-        from flexhrc.action.bridge import KinematicTaskSimulator
-    except ImportError as exc:
-        raise FlexhrcError(
-            f"--simulator kinematic needs the sim extra ({exc.name} is missing): "
-            "pip install 'flexhrc[sim]'"
-        ) from None
-    return KinematicTaskSimulator()
+    if getattr(scenario, "simulator", None) == "analytic":
+        choice = "analytic"
+    model: ExecutionModel = choose_simulator(choice)[1]
+    return model
 
 
 def ground(domain: Domain, text: str, agents: tuple[str, ...] | None = None) -> GroundAction:
@@ -118,8 +109,15 @@ class _Agent:
         self.received = 0
         self._timers: list[tuple[float, Callable[[], None]]] = []
         self._subs = [transport.subscribe(P.STATE_TOPIC, self._on_state)]
-        declare = getattr(transport, "declare_token", None)
-        self.token = declare(P.alive_key(name)) if declare is not None else None
+        self.token: Any = None
+
+    def _announce(self) -> None:
+        """Declare the liveliness token — last, once every subscription is declared, so the
+        manager never sends to an agent that cannot hear yet (Zenoh keeps a session's
+        declarations in order)."""
+        declare = getattr(self.transport, "declare_token", None)
+        if declare is not None:
+            self.token = declare(P.alive_key(self.name))
 
     def _on_state(self, data: Any) -> None:
         if isinstance(data, dict) and data.get("type") == "end":
@@ -183,6 +181,7 @@ class RobotAgent(_Agent):
         self.stopped: set[int] = set()
         self.executed: list[int] = []  # command ids in execution order (each once)
         self._subs.append(transport.subscribe(P.cmd_topic(name), self._on_message))
+        self._announce()
 
     def _on_message(self, data: Any) -> None:
         self.received += 1
@@ -282,6 +281,7 @@ class HumanAgent(_Agent):
         self.profile = profile
         self.reports: dict[str, list[dict[str, Any]]] = {}  # suggestion id -> reports sent
         self._subs.append(transport.subscribe(P.suggest_topic(name), self._on_message))
+        self._announce()
 
     def _on_message(self, data: Any) -> None:
         self.received += 1

@@ -7,7 +7,7 @@ import signal
 import sys
 from typing import Any
 
-from flexhrc.cli.cell import add_transport_options, open_zenoh
+from flexhrc.cli.cell import add_transport_options, open_zenoh, quiet_library_logs
 from flexhrc.cli.common import emit
 from flexhrc.errors import FlexhrcError
 
@@ -49,6 +49,7 @@ def _common(p: argparse.ArgumentParser) -> None:
 
 
 def cmd_agent(args: argparse.Namespace) -> int:
+    quiet_library_logs()
     from flexhrc.cell import HumanAgent, RobotAgent, load_scenario
     from flexhrc.cell.components import execution_model, run_agent
 
@@ -71,6 +72,15 @@ def cmd_agent(args: argparse.Namespace) -> int:
             f"{opt} {name!r}: no {kind} agent of that name in the scenario "
             f"({kind}s: {', '.join(names) or 'none'})"
         )
+    if args.agent_kind == "human":
+        from flexhrc.cell.components import HUMAN_PROFILES
+
+        if args.profile not in HUMAN_PROFILES:
+            raise FlexhrcError(
+                f"--profile {args.profile!r}: an operator agent follows suggestions "
+                f"({', '.join(HUMAN_PROFILES)}); the profiles that act on their own run inside "
+                "`flexhrc demo table --human PROFILE`"
+            )
     transport = open_zenoh(args, listen_default=[])
     stop = {"flag": False}
 

@@ -76,7 +76,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
 
     rp = sub.add_parser(
         "replay",
-        help="print the summary of a saved cooperation log (JSONL)",
+        help="print the summary of a saved cooperation log (JSONL) or cell store (.db)",
         description="Check every event of a cooperation log and print its summary (Table I); "
         "says so when the run was cut short (no outcome event).",
     )
@@ -665,9 +665,12 @@ def cmd_replay(args: argparse.Namespace) -> int:
 
 
 def _read_log(path: Path) -> list[dict[str, Any]]:
+    from flexhrc.cell.store import is_store, store_log
     from flexhrc.jsonl import read_jsonl_lines
     from flexhrc.taskmanager.replay import check_log
 
+    if is_store(path):  # a cell's SQLite event store (flexhrc cell --store FILE.db)
+        return store_log(path)
     lines = read_jsonl_lines(path, required=("t", "type"))
     if not lines:
         raise FormatError("empty log", path)

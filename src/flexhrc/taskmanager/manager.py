@@ -664,7 +664,8 @@ class TaskManager:
         self, name: str, actions: tuple[str, ...], constraints: list[Literal], reserved: set[str]
     ) -> bool:
         """Would some branch exist if every agent were free and nothing reserved?"""
-        if not (self.busy or reserved or self.executions):
+        # an agent that left the cell may come back (cell: its process is restarted)
+        if not (self.busy or reserved or self.executions or self.unavailable):
             return False
         tree = DecisionTree.build(
             name,
