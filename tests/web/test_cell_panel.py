@@ -16,6 +16,9 @@ import pytest
 
 pytest.importorskip("zenoh")
 pytest.importorskip("uvicorn")
+pytest.importorskip("playwright")
+
+from playwright.sync_api import TimeoutError as PlaywrightTimeout
 
 from flexhrc.transport.zenoh import free_tcp_port
 from tests.conftest import subprocess_env
@@ -75,18 +78,25 @@ def test_operator_only_at_the_panel_with_manager_and_arms_as_processes(
         url = _panel_url(cell_log, procs[0])
         page = open_page(url)
         page.evaluate("window.__marker = 'not reloaded'")
-        clicked = []
+        clicked: list[str] = []
+        banners: list[str] = []
         deadline = time.monotonic() + 60
-        while time.monotonic() < deadline:
-            if page.locator("#outcome[data-outcome='solved']").count():
-                break
-            done = page.locator("#suggestions tr.mine button.done")
-            if done.count():
-                action = done.first.get_attribute("data-action")
-                if action not in clicked:
-                    page.wait_for_selector("#banner:has-text('waiting for the operator')")
-                    done.first.click()
-                    clicked.append(action)
+        while (
+            time.monotonic() < deadline
+            and not page.locator("#outcome[data-outcome='solved']").count()
+        ):
+            # what the page asks the operator now, read at once (the page may redraw any time)
+            action, banner = page.evaluate(
+                "[document.querySelector('#suggestions tr.mine button.done')?.dataset.action"
+                " ?? null, document.getElementById('banner').textContent]"
+            )
+            if action and action not in clicked:
+                try:
+                    page.click(f"#suggestions button.done[data-action='{action}']", timeout=2_000)
+                except PlaywrightTimeout:
+                    continue  # gone meanwhile; look again
+                clicked.append(action)
+                banners.append(banner)
             page.wait_for_timeout(50)
         page.wait_for_selector("#outcome[data-outcome='solved']", timeout=5_000)
         assert page.evaluate("window.__marker") == "not reloaded"
@@ -102,6 +112,8 @@ def test_operator_only_at_the_panel_with_manager_and_arms_as_processes(
     data = json.loads(out)
     assert data["outcome"] == "solved"
     assert [a.split("(")[0] for a in clicked] == ["pick_up", "screw"]
+    # the page said what the cell was waiting for
+    assert all(b.startswith("waiting for the operator") for b in banners), banners
     assert data["human_actions"] == 2  # the two clicks, stored as the operator's actions
     assert data["legs_by_agent"]["human"] == 1
     assert data["legs_by_agent"]["left"] + data["legs_by_agent"]["right"] == 3

@@ -41,7 +41,6 @@ from flexhrc.web.local import TIMELINE_LIMIT
 from flexhrc.web.snapshot import feasible_costs, graph_snapshot, suggestions
 
 ANSWER_TIMEOUT_S = 10.0  # an HTTP request waits this long for the cell's loop to take its input
-JOIN_SETTLE_S = 0.5  # the operator joins this long after the last arm (see _join_as_operator)
 
 
 class CellPanel:
@@ -69,25 +68,11 @@ class CellPanel:
         self._tokens: list[Any] = []
         self._closed = threading.Event()
         self._snapshot = self._build()
-        if operator and getattr(cell.transport, "declare_token", None) is not None:
-            threading.Thread(target=self._join_as_operator, daemon=True).start()
-
-    def _join_as_operator(self) -> None:
-        """Declare the operators' liveliness once every arm is alive, and a moment later.
-
-        The cell starts as soon as every agent is alive; an arm declares its token a moment
-        before its command subscription reaches the cell, so the operator joins last, after a
-        settle time, and the first command finds its arm listening."""
-        c = self.cell
-        robots = [st for st in c.agents.values() if st.kind == "robot"]
-        while not self._closed.is_set() and not all(st.alive for st in robots):
-            self._closed.wait(0.05)
-        if self._closed.wait(JOIN_SETTLE_S):
-            return
-        with self._lock:
-            for name, st in c.agents.items():
+        declare = getattr(cell.transport, "declare_token", None)
+        if operator and declare is not None:  # the person at the page is the operator
+            for name, st in cell.agents.items():
                 if st.kind == "human":
-                    self._tokens.append(c.transport.declare_token(P.alive_key(name)))
+                    self._tokens.append(declare(P.alive_key(name)))
 
     # -- the backend contract (any thread) --------------------------------------------------
     def snapshot(self) -> dict[str, Any]:
