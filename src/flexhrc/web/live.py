@@ -66,7 +66,10 @@ class CellPanel:
         self._timeline_from = 0
         self._commands: dict[int, dict[str, Any]] = {}
         self._tokens: list[Any] = []
-        self._closed = threading.Event()
+        for ev in cell.events:  # a resumed cell: the operator's stops are in its store
+            if ev.body.get("by") == "operator" and ev.kind in ("agent_down", "agent_up"):
+                name = str(ev.body.get("agent"))
+                (self.halted.add if ev.kind == "agent_down" else self.halted.discard)(name)
         self._snapshot = self._build()
         declare = getattr(cell.transport, "declare_token", None)
         if operator and declare is not None:  # the person at the page is the operator
@@ -157,7 +160,6 @@ class CellPanel:
             answer.set_exception(
                 PanelInputError(f"the cooperation has ended ({self.cell.tm.outcome})", 409)
             )
-        self._closed.set()
         with self._lock:
             for token in self._tokens:
                 with contextlib.suppress(Exception):  # the session may already be closed
