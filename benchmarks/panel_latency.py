@@ -199,7 +199,7 @@ def _cell_run(args: argparse.Namespace) -> list[float]:
     to_page: dict[int, float] = {}
     for log in logs:
         seen = 0
-        for count, at, received in log:
+        for count, at, received, *_ in log:
             for n in range(seen + 1, count + 1):
                 if n in stored:
                     to_page[n] = max(to_page.get(n, 0.0), received - stored[n])
@@ -207,6 +207,9 @@ def _cell_run(args: argparse.Namespace) -> list[float]:
                 if n in stored:
                     worst[n] = max(worst.get(n, 0.0), at - stored[n])
             seen = max(seen, count)
+    costs = [entry[3] for log in logs for entry in log if len(entry) > 3]
+    if costs:
+        print(f"  (live cell: page work per state, median {statistics.median(costs):.1f} ms)")
     if to_page:
         print(
             f"  (live cell: stored -> message received by the slowest page, median "

@@ -142,8 +142,12 @@ class CellPanel:
         if seen == self._seen and not force:
             return
         self._seen = seen
+        snap = self._build()
+        if not force and {**snap, "version": None} == {**self._snapshot, "version": None}:
+            return  # nothing the page shows changed (e.g. an answer queued, not yet handled)
         self._version += 1
-        self._snapshot = self._build()
+        snap["version"] = self._version
+        self._snapshot = snap
         with self._lock:
             listeners = list(self._listeners.values())
         for cb in listeners:

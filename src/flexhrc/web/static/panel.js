@@ -57,14 +57,16 @@ function connect(delay) {
   ws.onopen = () => { link.textContent = "live"; link.className = "badge link-up"; delay = 250; };
   ws.onmessage = (ev) => {
     const received = Date.now();
+    const t0 = performance.now();
     const state = JSON.parse(ev.data);
     window.__panel.messages += 1;
     render(state);
+    const cost = performance.now() - t0;
     window.__panel.version = state.version === undefined ? window.__panel.messages : state.version;
     window.__panel.events = state.events;
     window.__panel.renderedAt = Date.now();
     window.__panel.state = state;
-    window.__panel.log.push([state.events, window.__panel.renderedAt, received]);
+    window.__panel.log.push([state.events, window.__panel.renderedAt, received, cost]);
     if (window.__panel.log.length > 2000) window.__panel.log.shift();
   };
   ws.onclose = () => {
