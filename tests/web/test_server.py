@@ -121,3 +121,25 @@ def test_with_a_token_requests_and_websockets_without_it_get_401() -> None:
         with connect(f"ws://127.0.0.1:{server.port}/ws?token={TOKEN}", open_timeout=5) as ws:
             assert "outcome" in json.loads(ws.recv(timeout=5))
     coop.close()
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["panel", "--speed", "nan"], "--speed"),
+        (["panel", "--speed", "-1"], "--speed"),
+        (["panel", "--legs", "0"], "--legs"),
+        (["panel", "--web", "localhost:http"], "--web"),
+        (["panel", "--web", "0.0.0.0:0"], "--token"),
+        (["panel", "--web", "127.0.0.1:0", "--token", "short"], "--token"),
+        (["panel", "--unreachable-bolt", "9"], "--unreachable-bolt 9"),
+    ],
+)
+def test_panel_command_bad_input_is_one_line_and_exit_2(
+    argv: list[str], message: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from flexhrc.cli import main
+
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: ") and message in err and "Traceback" not in err

@@ -103,6 +103,9 @@ def cmd_panel(args: argparse.Namespace) -> int:
         raise FlexhrcError(f"--speed must be a positive number, got {args.speed}")
     if args.legs < 1:
         raise FlexhrcError(f"--legs must be at least 1, got {args.legs}")
+    for bolt in args.unreachable_bolt:
+        if not 1 <= bolt <= args.legs:
+            raise FlexhrcError(f"--unreachable-bolt {bolt}: choose a bolt 1..{args.legs}")
     if args.web is None:
         raise FlexhrcError("--web needs an address, e.g. --web 127.0.0.1:8080")
     backend = table_assembly(
