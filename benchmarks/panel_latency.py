@@ -53,6 +53,48 @@ def _latencies(coop: Any, pages: list[Any], events: int) -> list[float]:
     return out
 
 
+def _socket_fanout(coop: Any, url: str, clients: int, events: int) -> list[float]:
+    """Per event, ms until every one of ``clients`` plain websocket clients has the new state:
+    the server's own fan-out, without the cost of drawing pages."""
+    import json
+    import threading
+
+    from websockets.sync.client import connect
+
+    ws_url = url.replace("http://", "ws://").rstrip("/") + "/ws"
+    seen: list[dict[int, float]] = [{} for _ in range(clients)]
+    socks = [connect(ws_url, open_timeout=10) for _ in range(clients)]
+
+    def listen(k: int) -> None:
+        try:
+            for msg in socks[k]:
+                seen[k][json.loads(msg)["version"]] = time.time() * 1000.0
+        except Exception:  # closed at the end
+            return
+
+    threads = [threading.Thread(target=listen, args=(k,), daemon=True) for k in range(clients)]
+    for t in threads:
+        t.start()
+    out = []
+    try:
+        for _ in range(events):
+            t0 = time.time() * 1000.0
+            if "right" in coop.tm.halted:
+                coop.resume_robot("right")
+            else:
+                coop.stop_robot("right")
+            version = coop.snapshot()["version"]
+            deadline = time.monotonic() + 5
+            while time.monotonic() < deadline and not all(version in d for d in seen):
+                time.sleep(0.0005)
+            out.append(max(d.get(version, float("inf")) for d in seen) - t0)
+            time.sleep(0.02)
+    finally:
+        for sock in socks:
+            sock.close()
+    return out
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
@@ -72,6 +114,9 @@ def main() -> int:
     while coop.snapshot()["waiting"] is None and time.monotonic() < deadline:
         time.sleep(0.01)
     results: dict[int, list[float]] = {}
+    fanout = {
+        n: _socket_fanout(coop, server.url, n, args.events) for n in sorted({1, args.clients})
+    }
     try:
         with sync_playwright() as pw:
             browser = pw.chromium.launch(
@@ -93,6 +138,13 @@ def main() -> int:
         coop.close()
     if args.cell_realtime > 0:
         results_cell = _cell_run(args)
+    print(
+        f"panel fan-out, event -> state received by every websocket client ({args.events} events)"
+    )
+    for n, lat in fanout.items():
+        print(
+            f"  {n:>2} client(s): median {statistics.median(lat):6.1f} ms  max {max(lat):6.1f} ms"
+        )
     print(f"panel latency, event -> rendered on the page ({args.events} events; median, p90, max)")
     ok = True
     for n, lat in results.items():
