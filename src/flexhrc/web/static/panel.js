@@ -312,7 +312,7 @@ function updateGraph(insts) {
 // The timeline grows at its end: new entries are appended and only the time scale (one
 // transform) changes; it is drawn again only when its start moved (it keeps the latest 300).
 const tl = { lanes: null, first: null, last: null, count: 0, end: 1, group: null, label: null,
-             list: null, k: 1 };
+             list: null, k: 1, W: 600 };
 const TL_COLOUR = { done: "#2e9d5b", failed: "#c2410c", timed_out: "#c2410c", stopped: "#f59e0b" };
 const tlKey = (it) => `${it.start}|${it.end}|${it.action}|${it.status}|${it.agents.join("+")}`;
 
@@ -320,11 +320,14 @@ function renderTimeline(s) {
   const box = document.getElementById("timeline");
   const items = s.timeline || [];
   const lanes = (s.agents || []).map((a) => a.name);
-  const W = Math.max(600, box.clientWidth - 10), L = 70, H = 22;
+  const L = 70, H = 22;
+  // the width is read once per full drawing: reading it each time would force a layout
   const grows = tl.group && tl.lanes === lanes.join(",") && tl.count > 0
     && items.length >= tl.count && tlKey(items[0]) === tl.first
     && tlKey(items[tl.count - 1]) === tl.last;
   if (!grows) {
+    tl.W = Math.max(600, box.clientWidth - 10);
+    const W = tl.W;
     const svg = el("svg:svg", { width: W, height: lanes.length * H + 22, id: "timeline-svg" });
     lanes.forEach((name, i) => {
       svg.append(el("svg:text", { x: 4, y: i * H + 15, class: "lane-label", text: name }));
@@ -340,7 +343,7 @@ function renderTimeline(s) {
   }
   const fresh = items.slice(tl.count);
   tl.end = Math.max(tl.end, ...fresh.map((i) => i.end));
-  tl.k = (W - L - 10) / tl.end;
+  tl.k = (tl.W - L - 10) / tl.end;
   for (const it of fresh) {
     for (const a of it.agents) {
       const i = lanes.indexOf(a);
