@@ -27,11 +27,11 @@ def run_cli(*args: str, timeout: float = 120) -> subprocess.CompletedProcess[str
     )
 
 
-def test_default_cell_is_the_demo_cooperation() -> None:
+def test_default_cell_is_the_run_cooperation() -> None:
     cell = run_cli("cell", "table_assembly", "--json", "--quiet")
-    demo = run_cli("demo", "table", "--json", "--quiet")
+    run = run_cli("run", "table_assembly", "--json", "--quiet")
     assert cell.returncode == 0, cell.stderr
-    c, d = json.loads(cell.stdout), json.loads(demo.stdout)
+    c, d = json.loads(cell.stdout), json.loads(run.stdout)
     assert set(d) - {"wall_s"} <= set(c)  # the keys of `flexhrc run --json`
     for key in ("outcome", "robot_actions", "human_actions", "decisions", "legs_by_agent",
                 "by_agent", "simulator"):  # fmt: skip
@@ -53,7 +53,10 @@ def _cell(scenario: Any) -> tuple[Cell, list[Any], InProcessBus]:
 
 
 def test_snapshot_is_json_and_human_input_drives_the_manager() -> None:
-    scenario = load_scenario("table_assembly")
+    from flexhrc.cell.scenario_ref import CellScenario
+    from flexhrc.scenarios.table_assembly import TableScenario
+
+    scenario = CellScenario("legs", TableScenario())  # the legs fix: bolt 1 is the first step
     cell, agents, bus = _cell(scenario)
     snaps: list[dict[str, Any]] = []
     told = []
@@ -202,3 +205,50 @@ def test_resume_in_one_process_ends_like_the_uninterrupted_run(
     assert [e.seq for e in events] == list(range(1, len(events) + 1)) and len(events) > n
     ids = [e.body["id"] for e in events if e.kind == "command"]
     assert len(ids) == len(set(ids))
+
+
+def test_a_lost_command_is_sent_again_and_executed_once() -> None:
+    class LossyBus(InProcessBus):
+        lost = 0
+
+        def publish(self, topic: str, payload: Any) -> None:
+            if topic == "cmd/left" and not self.lost:
+                self.lost += 1  # the first command to the left arm never arrives
+                return
+            super().publish(topic, payload)
+
+    scenario = load_scenario("table_assembly")
+    bus = LossyBus()
+    cell = Cell(scenario, bus, liveliness=False, simulator=execution_model("analytic"))
+    agents = [
+        (HumanAgent if a.is_human else RobotAgent)(
+            a.name, scenario, bus, execution=execution_model("analytic")
+        )
+        for a in scenario.domain().agents.values()
+    ]
+
+    def pump(timeout: float) -> None:
+        bus.flush()
+        for a in agents:
+            a.poll()
+
+    data = cell.run(pump=pump)
+    assert data["outcome"] == "solved" and bus.lost == 1
+    assert data["cell"]["resent"] == 1
+    executed = [i for a in agents if isinstance(a, RobotAgent) for i in a.executed]
+    assert len(executed) == len(set(executed)) == data["robot_actions"]
+
+
+def test_external_agents_that_never_come_and_a_taken_port_are_clear_errors() -> None:
+    pytest.importorskip("zenoh")
+    from flexhrc.transport.zenoh import ZenohTransport, free_tcp_port, loopback_config
+
+    port = free_tcp_port()
+    args = ["cell", "table_assembly", "--transport", "zenoh", "--listen", f"tcp/127.0.0.1:{port}"]
+    res = run_cli(*args, "--agents", "external", "--wait", "1")
+    assert res.returncode == 2 and "no agent process for human, left, right" in res.stderr
+    assert "flexhrc agent robot|human" in res.stderr and "Traceback" not in res.stderr
+    with ZenohTransport(loopback_config(port)):
+        res = run_cli(*args)
+    assert res.returncode == 2 and "cannot open a Zenoh session" in res.stderr
+    assert "Traceback" not in res.stderr

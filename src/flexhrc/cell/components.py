@@ -39,20 +39,25 @@ HUMAN_PROFILES = ("passive",)
 
 
 def execution_model(choice: str = "auto", scenario: Any = None) -> ExecutionModel:
-    """The simulated real world: kinematic (``sim`` extra) or analytic, as
-    :func:`flexhrc.scenarios.simulators.choose_simulator` picks it; a scenario that says
-    ``simulator = "analytic"`` (many arms: the kinematic model is the dual-arm robot) gets that."""
+    """The simulated real world: kinematic (``sim`` extra) or analytic, as the scenario makes it
+    (:meth:`~flexhrc.cell.scenario_ref.CellScenario.make_simulator`), else as
+    :func:`flexhrc.scenarios.simulators.choose_simulator` picks it."""
+    make = getattr(scenario, "make_simulator", None)
+    if make is not None:
+        model: ExecutionModel = make(choice)
+        return model
     from flexhrc.scenarios.simulators import choose_simulator
 
-    if getattr(scenario, "simulator", None) == "analytic":
-        choice = "analytic"
-    model: ExecutionModel = choose_simulator(choice)[1]
-    return model
+    chosen: ExecutionModel = choose_simulator(choice)[1]
+    return chosen
 
 
-def ground(domain: Domain, text: str, agents: tuple[str, ...] | None = None) -> GroundAction:
-    """``approach(left, leg1)`` as the domain's ground action (agents: the schema's agent)."""
-    schema, terms = domain.invocation(text)
+def ground(
+    domain: Domain, text: str, agents: tuple[str, ...] | None = None, *, process: bool = False
+) -> GroundAction:
+    """``approach(left, leg1)`` as the domain's ground action (agents: the schema's agent);
+    ``process=True`` for a round of a node process such as ``hold(tabletop)``."""
+    schema, terms = domain.invocation(text, process=process)
     if any(str(t).startswith("?") for t in terms):
         raise P.ProtocolError(f"action {text!r} is not ground")
     if agents is None:
@@ -212,7 +217,9 @@ class RobotAgent(_Agent):
             return
         if self.name not in msg["agents"]:
             raise P.ProtocolError(f"command {cid} is for {msg['agents']}, not {self.name}")
-        action = ground(self.domain, msg["action"], tuple(msg["agents"]))
+        action = ground(
+            self.domain, msg["action"], tuple(msg["agents"]), process=bool(msg.get("process"))
+        )
         sync_world(self.kb, msg.get("world") or {})
         positions = {k: o.position for k, o in self.kb.objects.items()}
         before = dict(positions)
@@ -230,7 +237,7 @@ class RobotAgent(_Agent):
             agent=self.name,
             status=status,
             reason=reason,
-            t=round(float(msg["t"]) + duration, 6),
+            t=float(msg["t"]) + duration,  # unrounded: the cell's clock adds up exactly
             duration=round(duration, 6),
             positions=moved if status == "done" else {},
         )
@@ -310,15 +317,18 @@ class HumanAgent(_Agent):
         delay = 0.0
         self.trace(f"suggestion {sid}: {msg['element']}")
         for i, step in enumerate(steps):
+            before = dict(positions)
             dt = float(self.execution.execute(step, positions, self.kb, self.domain).duration_s)
+            moved = {k: list(map(float, p)) for k, p in positions.items() if before.get(k) != p}
             rep = P.message(
                 "human_action",
                 id=f"{self.name}:{sid}:{i}",
                 agent=self.name,
                 action=str(step),
                 suggestion=sid,
-                start=round(t, 6),
-                t=round(t + dt, 6),
+                start=t,
+                t=t + dt,
+                positions=moved,
             )
             t += dt
             delay += dt / speed if speed > 0 else 0.0

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+import time
 from typing import Any
 
 from flexhrc.cli.common import add_json_flag, emit
@@ -215,7 +216,8 @@ def cmd_cell(args: argparse.Namespace) -> int:
         if internal:
             for a in scenario.domain().agents.values():
                 if a.is_human:
-                    agents.append(HumanAgent(a.name, scenario, transport))
+                    human_model = execution_model("analytic", scenario)
+                    agents.append(HumanAgent(a.name, scenario, transport, execution=human_model))
                 else:
                     model = execution_model(args.simulator, scenario)
                     agents.append(RobotAgent(a.name, scenario, transport, execution=model))
@@ -232,9 +234,11 @@ def cmd_cell(args: argparse.Namespace) -> int:
             wait = getattr(transport, "wait", None)
             if wait is not None and not (internal and transport.pending()):
                 wait(timeout)
-            transport.flush()
+            delivered = transport.flush()
             for agent in agents:
                 agent.poll()
+            if wait is None and not delivered:
+                time.sleep(0.001)  # nothing moved (e.g. waiting for a resend): do not spin
 
         if args.transport == "zenoh":
             where = ", ".join(args.listen or ([] if args.connect else [DEFAULT_LISTEN]))
@@ -248,8 +252,6 @@ def cmd_cell(args: argparse.Namespace) -> int:
             agent.close()
         cell.close()
         if args.transport == "zenoh":
-            import time
-
             time.sleep(0.2)  # let the end message leave before the session closes
     finally:
         if server is not None:
