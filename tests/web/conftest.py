@@ -49,6 +49,10 @@ def open_page(browser: Any) -> Iterator[Any]:
         page = ctx.new_page()
         page.set_default_timeout(10_000)
         page.on("pageerror", lambda e: errors.append(str(e)))
+        page.on(  # the panel's own security policy must not block any of its own parts
+            "console",
+            lambda m: errors.append(m.text) if "Content Security Policy" in m.text else None,
+        )
         page.goto(url)
         return page
 

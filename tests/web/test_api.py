@@ -66,6 +66,9 @@ def test_state_has_the_contract_keys(waiting_coop) -> None:  # type: ignore[no-u
         assert state["waiting"].startswith("waiting for the operator")
         page = client.get("/")
         assert page.status_code == 200 and "/static/panel.js" in page.text
+        csp = page.headers["content-security-policy"]
+        assert "default-src 'self'" in csp and "frame-ancestors 'none'" in csp
+        assert page.headers["referrer-policy"] == "no-referrer"  # the URL may carry ?token=
         assert client.get("/static/panel.js").status_code == 200
         assert client.get("/static/panel.css").status_code == 200
 
