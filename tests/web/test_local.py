@@ -155,3 +155,19 @@ def test_lower_graph_instances_are_listed_for_folding() -> None:
     assert a["status"] == "met"
     leaf = next(n for n in insts[1]["nodes"] if n["id"] == "h1/s_a")
     assert leaf["status"] in ("feasible", "met")
+
+
+def test_the_state_says_why_it_waits_or_failed() -> None:
+    # a percept that contradicts the knowledge base: the manager waits, the page says why
+    coop, clock = manual_table(unreachable_bolts=(2,))
+    run_robots(coop, clock)
+    leg = next(o for o in coop.kb.objects.values() if o.type == "leg" and o.fixed)
+    assert not coop.kb.update_object(leg.id, "leg", (0.9, 0.9, 0.0))  # a fixed leg elsewhere
+    waiting = coop.snapshot()["waiting"]
+    assert waiting.startswith("knowledge base inconsistent: ") and leg.id in waiting
+    # nobody can reach bolt 1 and there is no operator: the cooperation fails, with the reason
+    coop, clock = manual_table(unreachable_bolts=(1,), human=False)
+    run_robots(coop, clock)
+    snap = coop.snapshot()
+    assert snap["outcome"] == "failed" and snap["reason"]
+    assert snap["waiting"] is None

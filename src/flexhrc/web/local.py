@@ -570,13 +570,16 @@ def table_assembly(
     *,
     seed: int = 0,
     unreachable_bolts: tuple[int, ...] = (),
+    human: bool = True,
     **kwargs: Any,
 ) -> LocalCooperation:
     """The table assembly of paper 000 (VI-D) with the operator at the panel. Bolts in
     ``unreachable_bolts`` no arm reaches: the robot asks the operator (paper Fig. 12)."""
     from flexhrc.scenarios.table_assembly import TableScenario
 
-    scenario = TableScenario(legs=legs, seed=seed, unreachable_bolts=tuple(unreachable_bolts))
+    scenario = TableScenario(
+        legs=legs, seed=seed, unreachable_bolts=tuple(unreachable_bolts), human=human
+    )
     return LocalCooperation(
         OnlineGraph(scenario.graph()),
         scenario.domain(),
