@@ -13,7 +13,7 @@ event log nor the knowledge base.
 
 :class:`PanelTaskManager` adds to the Task Manager the two operator inputs a person at a panel
 has and a recognised action has not: *take* — "I will do this hyper-arc" (the robot leaves that
-part, as when the paper's manager recognises an unsuggested human action, section V-C) — and
+part, as when the paper's manager recognises an unsuggested human action, section V) — and
 *stop* of one arm (the arm is out of use until it is resumed).
 """
 
