@@ -107,6 +107,7 @@ def test_stop_robot_keeps_the_arm_out_of_use_until_resumed() -> None:
     snap = coop.snapshot()
     me = next(a for a in snap["agents"] if a["name"] == busy)
     assert me["status"] == "stopped"
+    assert f"stopped by the operator: {busy}" in snap["waiting"]
     with pytest.raises(PanelInputError):
         coop.stop_robot(busy)  # already stopped
     with pytest.raises(PanelInputError) as err:

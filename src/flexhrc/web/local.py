@@ -530,13 +530,14 @@ class LocalCooperation:
             for ex in tm.executions.values()
             if ex.owner == "human" and ex.next_index < len(ex.branch.steps)
         ]
-        if not tm.busy:
-            if asked:
-                return f"waiting for the operator: {', '.join(asked)}"
-            if tm.halted:
-                return f"waiting: stopped robot(s) {', '.join(sorted(tm.halted))}; resume one"
-            return "waiting: no agent has anything to do"
-        return None
+        parts = []
+        if asked and not tm.busy:
+            parts.append(f"waiting for the operator: {', '.join(asked)}")
+        if tm.halted:
+            parts.append(f"stopped by the operator: {', '.join(sorted(tm.halted))}")
+        if not parts and not tm.busy:
+            parts.append("waiting: no agent has anything to do")
+        return "; ".join(parts) or None
 
     def _build_snapshot(self) -> dict[str, Any]:
         tm = self.tm
