@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 from flexhrc.web.local import LocalCooperation, table_assembly
 
 
@@ -13,9 +15,9 @@ class ManualClock:
         return self.t
 
 
-def manual_table(legs: int = 4, **kw: object) -> tuple[LocalCooperation, ManualClock]:
+def manual_table(legs: int = 4, **kw: Any) -> tuple[LocalCooperation, ManualClock]:
     clock = ManualClock()
-    coop = table_assembly(legs, clock=clock, **kw)  # type: ignore[arg-type]
+    coop = table_assembly(legs, clock=clock, **kw)
     coop.start(background=False)
     return coop, clock
 

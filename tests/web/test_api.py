@@ -12,6 +12,7 @@ pytest.importorskip("httpx2")
 from starlette.testclient import TestClient, WebSocketDenialResponse
 
 from flexhrc.web.app import COOKIE, create_app
+from flexhrc.web.local import LocalCooperation
 from tests.web.helpers import human_next, manual_table, run_robots
 
 TOKEN = "s3cret-token-for-tests"
@@ -20,7 +21,7 @@ WS = "ws://127.0.0.1:8080/ws"
 
 
 @pytest.fixture
-def waiting_coop():  # type: ignore[no-untyped-def]
+def waiting_coop() -> LocalCooperation:
     """A cooperation waiting for the operator (bolt 2 out of the arms' reach)."""
     coop, clock = manual_table(unreachable_bolts=(2,))
     run_robots(coop, clock)
@@ -54,7 +55,7 @@ MALFORMED: list[tuple[bytes, str, int]] = [
 ]
 
 
-def test_state_has_the_contract_keys(waiting_coop) -> None:  # type: ignore[no-untyped-def]
+def test_state_has_the_contract_keys(waiting_coop: LocalCooperation) -> None:
     with TestClient(create_app(waiting_coop), base_url=LOCAL) as client:
         r = client.get("/api/state")
         assert r.status_code == 200
@@ -86,7 +87,7 @@ def test_assets_come_from_the_package_only() -> None:
         assert urls <= {"http://www.w3.org/2000/svg"}, (f.name, urls)  # an XML namespace only
 
 
-def test_malformed_bodies_get_4xx_and_change_nothing(waiting_coop) -> None:  # type: ignore[no-untyped-def]
+def test_malformed_bodies_get_4xx_and_change_nothing(waiting_coop: LocalCooperation) -> None:
     assert len(MALFORMED) >= 10
     with TestClient(create_app(waiting_coop), base_url=LOCAL) as client:
         before = client.get("/api/state").json()
@@ -100,7 +101,7 @@ def test_malformed_bodies_get_4xx_and_change_nothing(waiting_coop) -> None:  # t
         assert client.get("/api/state").json() == before
 
 
-def test_done_advances_the_cooperation(waiting_coop) -> None:  # type: ignore[no-untyped-def]
+def test_done_advances_the_cooperation(waiting_coop: LocalCooperation) -> None:
     with TestClient(create_app(waiting_coop), base_url=LOCAL) as client:
         (nxt,) = human_next(waiting_coop)
         with client.websocket_connect(WS) as ws:
@@ -113,7 +114,7 @@ def test_done_advances_the_cooperation(waiting_coop) -> None:  # type: ignore[no
             assert [s["next"] for s in pushed["suggestions"] if s["owner"] == "human"] != [nxt]
 
 
-def test_a_token_guards_every_request_and_the_websocket(waiting_coop) -> None:  # type: ignore[no-untyped-def]
+def test_a_token_guards_every_request_and_the_websocket(waiting_coop: LocalCooperation) -> None:
     app = create_app(waiting_coop, token=TOKEN)
     with TestClient(app, base_url="http://panel.example:8080") as client:
         for path in ("/", "/api/state", "/static/panel.js"):
@@ -143,7 +144,9 @@ def test_a_token_guards_every_request_and_the_websocket(waiting_coop) -> None:  
             assert json.loads(ws.receive_text())["outcome"] == "running"
 
 
-def test_without_token_only_loopback_hosts_and_same_origin_websockets(waiting_coop) -> None:  # type: ignore[no-untyped-def]
+def test_without_token_only_loopback_hosts_and_same_origin_websockets(
+    waiting_coop: LocalCooperation,
+) -> None:
     with TestClient(create_app(waiting_coop), base_url="http://evil.example:8080") as client:
         assert client.get("/api/state").status_code == 400  # DNS rebinding
     with TestClient(create_app(waiting_coop), base_url=LOCAL) as client:

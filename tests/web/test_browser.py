@@ -169,7 +169,7 @@ class _StaticBackend:
 
 
 def test_lower_graph_instances_fold(open_page: Any) -> None:
-    with PanelServer(_StaticBackend(), "127.0.0.1", 0) as server:  # type: ignore[arg-type]
+    with PanelServer(_StaticBackend(), "127.0.0.1", 0) as server:
         page = open_page(server.url)
         page.wait_for_selector("svg[data-graph='top'] [data-id='leg'][data-status='met']")
         lower = page.locator("details.instance[data-path='by_robot']")

@@ -7,6 +7,7 @@ import subprocess
 import sys
 import urllib.error
 import urllib.request
+from pathlib import Path
 
 import pytest
 
@@ -67,7 +68,7 @@ def test_cli_refuses_a_non_loopback_address_without_token() -> None:
     assert "--token" in r.stderr and "Traceback" not in r.stderr
 
 
-def test_cell_refuses_a_non_loopback_panel_without_token_before_any_work(tmp_path) -> None:  # type: ignore[no-untyped-def]
+def test_cell_refuses_a_non_loopback_panel_without_token_before_any_work(tmp_path: Path) -> None:
     store = tmp_path / "cell.db"
     r = subprocess.run(
         [sys.executable, "-m", "flexhrc", "cell", "table_assembly", "--store", str(store),
