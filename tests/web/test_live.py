@@ -11,7 +11,7 @@ from typing import Any
 
 import pytest
 
-from flexhrc.cell import Cell, RobotAgent, load_scenario
+from flexhrc.cell import Cell, EventStore, RobotAgent, load_scenario, summarise_store
 from flexhrc.taskmanager.simulator import AnalyticSimulator
 from flexhrc.transport import InProcessBus
 from flexhrc.web import PanelInputError
@@ -24,9 +24,12 @@ class Running:
         path.write_text(text)
         scenario = load_scenario(str(path))
         bus = InProcessBus()
+        self.store_path = tmp / "cell.db"
+        self.store = EventStore(self.store_path)
         self.cell = Cell(
             scenario,
             bus,
+            store=self.store,
             realtime=realtime,
             ordered=True,
             agent_speed=0.0,
@@ -78,6 +81,7 @@ def running(tmp_path: Path) -> Iterator[Any]:
         r.thread.join(30)
         r.panel.close()
         r.cell.close()
+        r.store.close()
 
 
 def _asked(snap: dict[str, Any]) -> list[str]:
@@ -149,3 +153,6 @@ def test_take_and_stop_in_the_cell(running: Any) -> None:
     r.thread.join(30)
     assert r.summary["outcome"] == "solved"
     assert r.summary["legs_by_agent"]["human"] == 1
+    # the store with the operator's take and stop still replays (`flexhrc replay FILE.db`)
+    summary, _ = summarise_store(r.store_path)
+    assert summary["outcome"] == "solved"
