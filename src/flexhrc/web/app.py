@@ -28,6 +28,7 @@ import asyncio
 import contextlib
 import hmac
 import json
+import logging
 from collections.abc import AsyncIterator, Awaitable, Callable, MutableMapping
 from importlib import resources
 from typing import Any
@@ -53,6 +54,8 @@ try:
     from starlette.websockets import WebSocket, WebSocketDisconnect
 except ImportError as exc:  # pragma: no cover - exercised without the web extra
     raise OptionalDependencyError("the operator panel", "web", exc.name or "starlette") from exc
+
+log = logging.getLogger("flexhrc.web")
 
 COOKIE = "flexhrc_panel_token"
 LOOPBACK_HOSTS = frozenset({"127.0.0.1", "localhost", "::1"})
@@ -109,7 +112,11 @@ class _Hub:
         while True:
             await self._changed.wait()
             self._changed.clear()
-            text = await self._render()
+            try:
+                text = await self._render()
+            except Exception:  # a backend's fault must not end the pushes of later states
+                log.exception("the panel could not take the state")
+                continue
             if text == self.text:
                 continue
             self.text = text
