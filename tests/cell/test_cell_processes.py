@@ -212,3 +212,38 @@ def test_malformed_messages_are_dropped_and_logged(tmp_path: Path) -> None:
     ref = reference(scenario)
     assert data["knowledge"]["facts"] == ref["knowledge"]["facts"]
     assert json.dumps(data["legs_by_agent"]) == json.dumps(ref["legs_by_agent"])
+
+
+def test_operator_killed_during_a_suggestion_gets_it_again(tmp_path: Path) -> None:
+    scenario = tmp_path / "table.yaml"
+    scenario.write_text(TABLE_HUMAN_BOLT)
+    port = free_tcp_port()
+    store = tmp_path / "cell.db"
+    analytic = ("--simulator", "analytic")
+    procs = [
+        cell(str(scenario), port, store, "--realtime", "10", *analytic, log=tmp_path / "cell.err")
+    ]
+    procs += [
+        robot(str(scenario), arm, port, tmp_path / f"{arm}.err", *analytic)
+        for arm in ("left", "right")
+    ]
+    operator = human(str(scenario), "human", port, tmp_path / "human.err")
+    procs.append(operator)
+    try:
+        # the operator reported its first step (pick_up) of the suggestion: kill it
+        wait_until(store, lambda r: any(k == "human_action" for _, _, k, _ in r), 60)
+        os.kill(operator.pid, signal.SIGKILL)
+        wait_until(store, lambda r: any(k == "agent_down" for _, _, k, _ in r), 10)
+        procs.append(human(str(scenario), "human", port, tmp_path / "human2.err"))
+        data = finish(procs[0])
+    finally:
+        kill_all(procs)
+    log = (tmp_path / "cell.err").read_text()
+    assert data["outcome"] == "solved", log[-2000:]
+    events = rows(store)
+    reports = [b["action"] for _, _, k, b in events if k == "human_action"]
+    assert len(reports) == 2, reports  # each step once, whichever process reported it
+    assert reports[0].startswith("pick_up(human,") and reports[1].startswith("screw(human,")
+    assert data["legs_by_agent"]["human"] == 1
+    # the new operator process did the suggestion again; its repeated first step was dropped
+    assert "duplicate human_action" in log and data["cell"]["dropped"] == 1

@@ -21,13 +21,16 @@ with the simulated end time ``t``.
 
 from __future__ import annotations
 
+import json
 import logging
 import time
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 from flexhrc.cell import protocol as P
 from flexhrc.errors import FlexhrcError, UnknownNameError
+from flexhrc.files import EventLogWriter
 from flexhrc.knowledge import KnowledgeBase
 from flexhrc.taskmanager.domain import Domain, GroundAction
 from flexhrc.taskmanager.simulator import AnalyticSimulator, ExecutionModel
@@ -171,6 +174,7 @@ class RobotAgent(_Agent):
         execution: ExecutionModel | None = None,
         timeout_factor: float = 3.0,
         trace: Callable[[str], None] | None = None,
+        journal: str | Path | None = None,
     ) -> None:
         super().__init__(name, scenario, transport, execution=execution, trace=trace)
         agent = self.domain.agents.get(name)
@@ -185,8 +189,47 @@ class RobotAgent(_Agent):
         self.running: set[int] = set()
         self.stopped: set[int] = set()
         self.executed: list[int] = []  # command ids in execution order (each once)
+        # commands an earlier process of this agent started but never finished (it died)
+        self.interrupted: set[int] = set()
+        self.journal: EventLogWriter | None = None
+        if journal is not None:
+            self._load_journal(Path(journal))
+            self.journal = EventLogWriter(journal, option="--journal", append=True)
         self._subs.append(transport.subscribe(P.cmd_topic(name), self._on_message))
         self._announce()
+
+    def _load_journal(self, path: Path) -> None:
+        """What earlier processes of this agent did (``--journal``): their acks are answered
+        again, a command they started and never finished is answered ``failed``."""
+        if not path.exists() or path.stat().st_size == 0:
+            return
+        from flexhrc.files import read_text
+
+        started: set[int] = set()
+        for n, line in enumerate(read_text(path).splitlines(), 1):
+            try:
+                rec = json.loads(line)
+                cid = int(rec["id"])
+            except (ValueError, KeyError, TypeError):
+                log.warning("%s:%d: not a journal record (a write cut short?): skipped", path, n)
+                continue
+            if rec.get("event") == "start":
+                started.add(cid)
+            elif rec.get("event") == "ack" and isinstance(rec.get("ack"), dict):
+                self.acks[cid] = rec["ack"]
+        self.interrupted = started - set(self.acks)
+        self.trace(
+            f"journal {path}: {len(self.acks)} commands done, {len(self.interrupted)} interrupted"
+        )
+
+    def _journal(self, record: dict[str, Any]) -> None:
+        if self.journal is not None:
+            self.journal.write(record)
+
+    def close(self) -> None:
+        super().close()
+        if self.journal is not None:
+            self.journal.close()
 
     def _on_message(self, data: Any) -> None:
         self.received += 1
@@ -215,6 +258,23 @@ class RobotAgent(_Agent):
         if cid in self.running or cid in self.stopped:
             self.trace(f"cmd {cid} repeated while running: ignored")
             return
+        if cid in self.interrupted:  # started by a process of this agent that died
+            ack = P.message(
+                "ack",
+                id=cid,
+                agent=self.name,
+                status="failed",
+                reason="interrupted: the agent's process was restarted during it",
+                t=float(msg["t"]),
+                duration=0.0,
+                positions={},
+            )
+            self.interrupted.discard(cid)
+            self.acks[cid] = ack
+            self._journal({"id": cid, "event": "ack", "ack": ack})
+            self.transport.publish(P.ACK_TOPIC, ack)
+            self.trace(f"cmd {cid} was interrupted by a restart: failed")
+            return
         if self.name not in msg["agents"]:
             raise P.ProtocolError(f"command {cid} is for {msg['agents']}, not {self.name}")
         action = ground(
@@ -224,6 +284,7 @@ class RobotAgent(_Agent):
         positions = {k: o.position for k, o in self.kb.objects.items()}
         before = dict(positions)
         self.executed.append(cid)
+        self._journal({"id": cid, "event": "start", "action": msg["action"]})
         report = self.execution.execute(action, positions, self.kb, self.domain)
         status, duration = report.status, float(report.duration_s)
         reason = None if status == "done" else report.reason
@@ -249,6 +310,7 @@ class RobotAgent(_Agent):
                 return  # stopped meanwhile
             self.running.discard(cid)
             self.acks[cid] = ack
+            self._journal({"id": cid, "event": "ack", "ack": ack})
             self.transport.publish(P.ACK_TOPIC, ack)
             self.trace(f"cmd {cid} {status}")
 

@@ -118,6 +118,8 @@ class Cell:
         self.graph = OnlineGraph(scenario.graph())
         self.domain = scenario.domain()
         self.kb = scenario.knowledge()
+        if simulator is None and hasattr(scenario, "make_simulator"):
+            simulator = scenario.make_simulator("auto")  # the scenario's own choice
         self.tm = TaskManager(self.graph, self.domain, self.kb, simulator, log=self._tm_log)
         self.agents = {
             a.name: AgentState(a.name, "human" if a.is_human else "robot")
@@ -582,7 +584,9 @@ class Cell:
         if self.ordered:
             if self.awaited():
                 return False
-            self.pending.sort()
+            # earliest end first; a tie goes by what the answer is about (the command's id,
+            # the operator and its report), never by which process happened to answer first
+            self.pending.sort(key=_answer_order)
             t, _, kind, body = self.pending.pop(0)
             if self.realtime > 0:
                 lag = (t - self.now) / self.realtime - (time.perf_counter() - self._last_wall)
@@ -705,6 +709,13 @@ class Cell:
             sub.cancel()
         if self.token is not None:
             self.token.undeclare()
+
+
+def _answer_order(item: tuple[float, int, str, dict[str, Any]]) -> tuple[Any, ...]:
+    t, _, kind, body = item
+    if kind == "ack":
+        return (t, 0, int(body["id"]), "")
+    return (t, 1, 0, f"{body.get('agent')}:{body.get('id')}")
 
 
 def _simulator_name(simulator: Any) -> str:
