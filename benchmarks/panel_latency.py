@@ -47,7 +47,7 @@ def _latencies(coop: Any, pages: list[Any], events: int) -> list[float]:
             coop.stop_robot(arm)
         worst = 0.0
         for p in pages:
-            p.wait_for_function(f"window.__panel.version > {before}", timeout=10_000)
+            p.wait_for_function("(v) => window.__panel.version > v", arg=before, timeout=10_000)
             worst = max(worst, p.evaluate("window.__panel.renderedAt") - t0)
         out.append(worst)
     return out
@@ -128,7 +128,7 @@ def main() -> int:
                 while len(pages) < n:
                     page = browser.new_context(viewport={"width": 1280, "height": 900}).new_page()
                     page.goto(server.url)
-                    page.wait_for_function("window.__panel.version >= 0")
+                    page.wait_for_function("() => window.__panel.version >= 0")
                     pages.append(page)
                 _latencies(coop, pages, 2)  # warm-up
                 results[n] = _latencies(coop, pages, args.events)
@@ -235,12 +235,14 @@ def _cell_run(args: argparse.Namespace) -> list[float]:
             for _ in range(args.clients):
                 page = browser.new_context(viewport={"width": 1280, "height": 900}).new_page()
                 page.goto(server.url)
-                page.wait_for_function("window.__panel.version >= 0")
+                page.wait_for_function("() => window.__panel.version >= 0")
                 pages.append(page)
             go.set()
             thread.join(150)
             for p in pages:
-                p.wait_for_function("window.__panel.state.outcome !== 'running'", timeout=10_000)
+                p.wait_for_function(
+                    "() => window.__panel.state.outcome !== 'running'", timeout=10_000
+                )
             logs = [p.evaluate("window.__panel.log") for p in pages]
             browser.close()
     finally:

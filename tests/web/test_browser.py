@@ -112,7 +112,7 @@ def test_three_clients_show_the_same_state(serve: Any, open_page: Any) -> None:
     version = coop.snapshot()["version"]
     texts = []
     for p in pages:
-        p.wait_for_function(f"window.__panel.version >= {version}")
+        p.wait_for_function("(v) => window.__panel.version >= v", arg=version)
         texts.append(
             (
                 p.inner_text("#suggestions"),
