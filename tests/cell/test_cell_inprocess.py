@@ -252,3 +252,31 @@ def test_external_agents_that_never_come_and_a_taken_port_are_clear_errors() -> 
         res = run_cli(*args)
     assert res.returncode == 2 and "cannot open a Zenoh session" in res.stderr
     assert "Traceback" not in res.stderr
+
+
+def test_percepts_are_inputs_stored_and_checked() -> None:
+    from flexhrc.cell import protocol as P
+
+    scenario = load_scenario("table_assembly")
+    cell, agents, bus = _cell(scenario)
+    sent: list[bool] = []
+
+    def pump(timeout: float) -> None:
+        if cell.started and not sent:  # a perception process reports an object it found
+            good = P.message(
+                "percept", id="cam:1", object="box9", object_type="obstacle", pose=[1, 1, 0]
+            )
+            bus.publish(P.PERCEPT_TOPIC, good)
+            bus.publish(P.PERCEPT_TOPIC, good)  # the same percept twice
+            bus.publish(P.PERCEPT_TOPIC, {**good, "id": "cam:2", "pose": [1, float("nan"), 0]})
+            sent.append(True)
+        bus.flush()
+        for a in agents:
+            a.poll()
+
+    data = cell.run(pump=pump)
+    assert data["outcome"] == "solved"
+    assert [e.body["object"] for e in cell.events if e.kind == "percept"] == ["box9"]
+    assert "box9" in cell.kb.objects
+    assert data["cell"]["dropped"] == 2
+    assert any("duplicate percept" in d for d in cell.dropped)

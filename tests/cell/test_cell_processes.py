@@ -183,7 +183,7 @@ def test_malformed_messages_are_dropped_and_logged(tmp_path: Path) -> None:
     scenario.write_text(TABLE_HUMAN_BOLT)
     port = free_tcp_port()
     store = tmp_path / "cell.db"
-    procs = [cell(str(scenario), port, store, "--realtime", "10", log=tmp_path / "cell.err")]
+    procs = [cell(str(scenario), port, store, "--realtime", "20", log=tmp_path / "cell.err")]
     procs += [robot(str(scenario), arm, port, tmp_path / f"{arm}.err") for arm in ("left", "right")]
     procs.append(human(str(scenario), "human", port, tmp_path / "human.err"))
     bus = ZenohTransport(loopback_config(connect=port), prefix="flexhrc/default")

@@ -151,7 +151,9 @@ class Cell:
         self._subs = [
             transport.subscribe(P.ACK_TOPIC, self._on_ack_message),
             transport.subscribe(P.HUMAN_TOPIC, self._on_human_message),
+            transport.subscribe(P.PERCEPT_TOPIC, self._on_percept_message),
         ]
+        self.percept_ids: set[str] = set()
         if hasattr(transport, "on_drop"):
             transport.on_drop = lambda topic, data, exc: self._drop(
                 f"{topic}: undecodable payload ({len(data)} bytes): {exc}"
@@ -266,6 +268,23 @@ class Cell:
             return
         self._arrive(msg["t"], "human_action", _body(msg))
 
+    def _on_percept_message(self, data: Any) -> None:
+        """A percept of one object from a perception process: applied when it arrives (the
+        knowledge base checks it against what it knows; a contradiction makes the manager wait,
+        paper III)."""
+        try:
+            msg = P.parse(data, expect="percept")
+        except P.ProtocolError as exc:
+            self._drop(f"percept: {exc}")
+            return
+        if msg["id"] in self.percept_ids:
+            self._drop(f"duplicate percept {msg['id']}")
+            return
+        if not self.started:
+            self._drop(f"percept {msg['id']} before the cooperation started")
+            return
+        self._input("percept", _body(msg))  # at the cell's time: a percept never moves the clock
+
     def _arrive(self, t: float, kind: str, body: dict[str, Any]) -> None:
         self._arrivals += 1
         self.pending.append((float(t), self._arrivals, kind, body))
@@ -364,6 +383,12 @@ class Cell:
             action = ground(self.domain, body["action"])
             self._physical(action, body.get("positions") or {})
             return tm.on_human_action(now, HumanAction(action.name, action.args))
+        if kind == "percept":
+            self.percept_ids.add(str(body["id"]))
+            self.kb.update_object(
+                str(body["object"]), str(body["object_type"]), body["pose"], body.get("size")
+            )
+            return tm.replan(now)
         if kind in ("agent_down", "agent_up"):
             st = self.agents[str(body["agent"])]
             st.available = kind == "agent_up"
