@@ -7,7 +7,7 @@ import signal
 import sys
 from typing import Any
 
-from flexhrc.cli.cell import add_transport_options, open_zenoh
+from flexhrc.cli.cell import add_transport_options, open_zenoh, quiet_library_logs
 from flexhrc.cli.common import emit
 from flexhrc.errors import FlexhrcError
 
@@ -23,6 +23,12 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
     r = asub.add_parser("robot", help="a simulated robot arm (kinematic simulator)")
     r.add_argument("scenario", metavar="SCENARIO")
     r.add_argument("--arm", required=True, metavar="NAME", help="which arm (e.g. left)")
+    r.add_argument(
+        "--journal",
+        metavar="FILE",
+        help="keep the commands this arm started and finished (JSON lines), so a restarted "
+        "agent process never executes a command id twice",
+    )
     r.add_argument(
         "--simulator",
         choices=["auto", "analytic", "kinematic"],
@@ -49,6 +55,7 @@ def _common(p: argparse.ArgumentParser) -> None:
 
 
 def cmd_agent(args: argparse.Namespace) -> int:
+    quiet_library_logs()
     from flexhrc.cell import HumanAgent, RobotAgent, load_scenario
     from flexhrc.cell.components import execution_model, run_agent
 
@@ -80,6 +87,10 @@ def cmd_agent(args: argparse.Namespace) -> int:
                 f"({', '.join(HUMAN_PROFILES)}); the profiles that act on their own run inside "
                 "`flexhrc demo table --human PROFILE`"
             )
+    if getattr(args, "journal", None):
+        from flexhrc.files import check_output
+
+        check_output(args.journal, option="--journal")
     transport = open_zenoh(args, listen_default=[])
     stop = {"flag": False}
 
@@ -96,9 +107,17 @@ def cmd_agent(args: argparse.Namespace) -> int:
                 transport,
                 execution=execution_model(args.simulator, scenario),
                 trace=trace,
+                journal=args.journal,
             )
         else:
-            agent = HumanAgent(name, scenario, transport, profile=args.profile, trace=trace)
+            agent = HumanAgent(
+                name,
+                scenario,
+                transport,
+                profile=args.profile,
+                execution=execution_model("analytic", scenario),
+                trace=trace,
+            )
         trace(f"ready ({args.agent_kind}, cell {args.cell!r})")
         outcome = run_agent(agent, transport, until=lambda: stop["flag"])
         trace(f"cell ended: {outcome}")

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+import time
 from typing import Any
 
 from flexhrc.cli.common import add_json_flag, emit
@@ -55,6 +56,9 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
         help="how long to wait for external agents to appear (default 30 s)",
     )
     p.add_argument("--quiet", action="store_true", help="no live trace")
+    from flexhrc.cli.panel import add_web_options
+
+    add_web_options(p)  # the operator panel (docs/panel.md)
     add_json_flag(p)
     p.set_defaults(func=cmd_cell)
 
@@ -89,18 +93,37 @@ def add_transport_options(p: argparse.ArgumentParser, *, default: str = "inproce
     )
 
 
+def quiet_library_logs() -> None:
+    """The command's trace already shows every dropped message: keep the library's warnings
+    (flexhrc.cell, flexhrc.transport) from printing them a second time."""
+    import logging
+
+    for name in ("flexhrc.cell", "flexhrc.transport"):
+        logging.getLogger(name).addHandler(logging.NullHandler())
+
+
 def open_zenoh(args: argparse.Namespace, *, listen_default: list[str]) -> Any:
     import re
 
     if not re.fullmatch(r"[A-Za-z0-9_\-]+", args.cell):
         raise FlexhrcError(f"--cell {args.cell!r}: letters, digits, '_' and '-' only")
     try:
-        from flexhrc.transport.zenoh import ZenohTransport, zenoh_config
+        from flexhrc.transport.zenoh import ZenohTransport, normalise_endpoint, zenoh_config
     except ImportError as exc:
         raise FlexhrcError(
             "the zenoh transport needs the zenoh extra: pip install 'flexhrc[zenoh]'"
         ) from exc
     listen = args.listen or (listen_default if not args.connect else [])
+    for ep in listen:
+        proto, _, rest = normalise_endpoint(ep).partition("/")
+        host = rest.rsplit(":", 1)[0].strip("[]")
+        local = proto == "unixsock-stream" or host in ("127.0.0.1", "localhost", "::1")
+        if not local and not getattr(args, "quiet", False):
+            print(
+                f"warning: --listen {ep}: reachable from other hosts; Zenoh's access control "
+                "and TLS are not configured by flexhrc (docs/cell.md)",
+                file=sys.stderr,
+            )
     return ZenohTransport(
         zenoh_config(listen=listen, connect=args.connect), prefix=f"flexhrc/{args.cell}"
     )
@@ -145,6 +168,7 @@ def trace_line(ev: dict[str, Any]) -> str | None:
 
 
 def cmd_cell(args: argparse.Namespace) -> int:
+    quiet_library_logs()
     from flexhrc.cell import Cell, EventStore, HumanAgent, RobotAgent, load_scenario
     from flexhrc.cell.components import execution_model
 
@@ -158,6 +182,10 @@ def cmd_cell(args: argparse.Namespace) -> int:
         raise FlexhrcError("--listen and --connect go with --transport zenoh")
     if args.resume and not args.store:
         raise FlexhrcError("--resume needs --store FILE.db")
+    from flexhrc.cli.panel import check_web, serve
+
+    web = check_web(args)  # a non-loopback --web without --token is refused before any work
+    server = None
     scenario = load_scenario(args.scenario, seed=args.seed)
     store = EventStore(args.store, resume=args.resume) if args.store else None
     stream = sys.stderr if args.json else sys.stdout
@@ -198,21 +226,29 @@ def cmd_cell(args: argparse.Namespace) -> int:
         if internal:
             for a in scenario.domain().agents.values():
                 if a.is_human:
-                    agents.append(HumanAgent(a.name, scenario, transport))
+                    human_model = execution_model("analytic", scenario)
+                    agents.append(HumanAgent(a.name, scenario, transport, execution=human_model))
                 else:
                     model = execution_model(args.simulator, scenario)
                     agents.append(RobotAgent(a.name, scenario, transport, execution=model))
             if args.transport == "inprocess":
                 for st in cell.agents.values():
                     st.alive = st.seen = True
+        if web is not None:  # polled by the loop like an agent; with external agents it is
+            from flexhrc.web.live import CellPanel  # the operator (holds their tokens)
+
+            agents.append(CellPanel(cell, operator=not internal))
+            server = serve(web, args.token, agents[-1])
 
         def pump(timeout: float) -> None:
             wait = getattr(transport, "wait", None)
             if wait is not None and not (internal and transport.pending()):
                 wait(timeout)
-            transport.flush()
+            delivered = transport.flush()
             for agent in agents:
                 agent.poll()
+            if wait is None and not delivered:
+                time.sleep(0.001)  # nothing moved (e.g. waiting for a resend): do not spin
 
         if args.transport == "zenoh":
             where = ", ".join(args.listen or ([] if args.connect else [DEFAULT_LISTEN]))
@@ -226,10 +262,10 @@ def cmd_cell(args: argparse.Namespace) -> int:
             agent.close()
         cell.close()
         if args.transport == "zenoh":
-            import time
-
             time.sleep(0.2)  # let the end message leave before the session closes
     finally:
+        if server is not None:
+            server.stop(grace=0.3)  # the page gets the last state first
         if store is not None:
             store.close()
         if "transport" in locals():
