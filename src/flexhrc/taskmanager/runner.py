@@ -200,6 +200,8 @@ class CooperationRun:
                 self._human_done(pending.data)
             elif pending.kind == "human_think":
                 self._human_start_own(pending.data)
+            else:
+                self._on_event(pending)
             self._human_consider()
         summary = self.summary(time.perf_counter() - wall0)
         self._record({"t": round(self.now, 6), "type": "summary", **summary})
@@ -320,18 +322,37 @@ class CooperationRun:
             "action_start", agents=["human"], action=str(step), planned_s=round(duration, 6)
         )
 
-    def _sensed(self, step: GroundAction) -> str:
-        """The action name the Task Manager learns: the performed one, or what the wearable
-        sensor recognised. The object (which leg) comes from scene perception."""
+    def _on_event(self, pending: _Pending) -> None:
+        """Other kinds of scheduled events (subclasses schedule their own)."""
+        raise FlexhrcError(f"unknown event kind {pending.kind!r}")
+
+    def _sensed(self, step: GroundAction) -> HumanAction | None:
+        """What the Task Manager learns of a human action: the performed one, or what the
+        wearable sensor recognised — nothing when it missed it (a miss is a miss). The object
+        (which leg) comes from scene perception."""
         if self.human_sensing is None:
-            return step.name
+            return HumanAction(step.name, step.args)
         sensed = self.human_sensing.sense(step.name)
         self._event("human_sensed", action=str(step), **sensed.to_dict())
         if sensed.recognised is None:
-            # the wrist signal was not recognised; scene perception still sees the leg move
             self._event("human_sensing_missed", action=str(step))
-            return step.name
-        return str(sensed.recognised)
+            return None
+        return HumanAction(str(sensed.recognised), step.args)
+
+    def _human_effects(self, step: GroundAction) -> None:
+        """The physical side of a completed human action, in the knowledge base."""
+        if step.schema.kind == "pick_up":
+            obj = step.args[1]
+            self.kb.move(
+                obj, self.kb.position("human") if "human" in self.kb.objects else (1.2, 0, 0.1)
+            )
+        if step.schema.kind == "screw":
+            leg, bolt = step.args[1], step.args[2]
+            self.kb.move(leg, self.kb.position(bolt))
+            self.kb.set_fixed(leg)
+        if step.schema.kind == "put_down":
+            self.kb.retract_fact("held_by_human", step.args[1])
+            self.kb.assert_fact("on_table", step.args[1])
 
     def _taken_by_robot(self, obj: str) -> str | None:
         for fact in self.kb.facts:
@@ -361,24 +382,15 @@ class CooperationRun:
         self._event(
             "action_end", agents=["human"], action=str(step), status="done", start=round(t0, 6)
         )
-        if step.schema.kind == "pick_up":
-            obj = step.args[1]
-            self.kb.move(
-                obj, self.kb.position("human") if "human" in self.kb.objects else (1.2, 0, 0.1)
-            )
+        self._human_effects(step)
         if step.schema.kind == "screw":
-            leg, bolt = step.args[1], step.args[2]
-            self.kb.move(leg, self.kb.position(bolt))
-            self.kb.set_fixed(leg)
             self.legs_by_agent["human"] = self.legs_by_agent.get("human", 0) + 1
         if step.schema.kind == "put_down":
-            self.kb.retract_fact("held_by_human", step.args[1])
-            self.kb.assert_fact("on_table", step.args[1])
             self.human_plan = None
             return
-        self._dispatch(
-            self.tm.on_human_action(self.now, HumanAction(self._sensed(step), step.args))
-        )
+        sensed = self._sensed(step)
+        if sensed is not None:
+            self._dispatch(self.tm.on_human_action(self.now, sensed))
         plan = self.human_plan
         if plan is None:
             return

@@ -1,0 +1,216 @@
+"""The simulated workspace as it really is: the truth the robot's sensors look at.
+
+With perception on, the Task Manager's knowledge base holds *beliefs*: where perception last saw
+each part, moved by the predicted effects of the actions done since. :class:`SimulatedWorkspace`
+is the other side — the parts as they physically are (shape, pose, who holds them), changed only
+by what the agents physically do: an arm closes its gripper on whatever part lies where it
+grasps (nothing, if the part is not there any more), carries it, releases it; the operator picks
+a part up, screws it, puts it down, or nudges it aside. Names are the workspace's own
+(``part1`` ...) and never reach the manager: it knows parts only through perception.
+
+Shapes come from the knowledge base's sizes: an object with a ``length`` and a ``diameter`` is a
+cylinder lying on the table (a leg), one with a ``width`` and a ``depth`` a board (``height``,
+default 3 cm). A part fixed to another (a screwed leg) stands upright on it.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, replace
+from typing import Any
+
+from flexhrc.errors import FlexhrcError, UnknownNameError
+from flexhrc.knowledge import KnowledgeBase
+
+Vec3 = tuple[float, float, float]
+BOARD_HEIGHT_M = 0.03
+
+
+@dataclass(frozen=True)
+class Part:
+    """One physical part. ``dims``: box ``(lx, ly, lz)``; cylinder ``(length, radius)``.
+
+    ``position`` is the centre; a lying cylinder runs along ``yaw``, an upright one (``upright``)
+    stands on its end. ``holder`` is the agent holding it, if any.
+    """
+
+    name: str
+    type: str
+    shape: str
+    dims: tuple[float, ...]
+    position: Vec3
+    yaw: float = 0.0
+    upright: bool = False
+    holder: str | None = None
+
+    @property
+    def resting_height(self) -> float:
+        """Height of the centre above its support when it lies there."""
+        if self.shape == "box":
+            return self.dims[2] / 2
+        return self.dims[0] / 2 if self.upright else self.dims[1]
+
+    @property
+    def extents(self) -> tuple[float, float, float]:
+        """Extents sorted in decreasing order (as scene perception reports them)."""
+        if self.shape == "box":
+            e = list(self.dims)
+        else:
+            e = [self.dims[0], 2 * self.dims[1], 2 * self.dims[1]]
+        a, b, c = sorted(e, reverse=True)
+        return (a, b, c)
+
+
+def shape_of(size: Mapping[str, float]) -> tuple[str, tuple[float, ...]] | None:
+    """The primitive of an object from its knowledge-base size, None if it has no body."""
+    if "length" in size and "diameter" in size:
+        return "cylinder", (float(size["length"]), float(size["diameter"]) / 2)
+    if "width" in size and "depth" in size:
+        h = float(size.get("height", BOARD_HEIGHT_M))
+        return "box", (float(size["width"]), float(size["depth"]), h)
+    return None
+
+
+class SimulatedWorkspace:
+    """The parts on the table as they physically are (see the module docstring)."""
+
+    def __init__(
+        self,
+        parts: Iterable[Part] = (),
+        *,
+        table: tuple[float, float, float, float] = (-0.05, 1.25, -0.65, 0.65),
+        grasp_tolerance_m: float = 0.03,
+        hand: Vec3 = (1.10, 0.0, 0.10),
+    ):
+        self.parts: dict[str, Part] = {}
+        for p in parts:
+            if p.name in self.parts:
+                raise FlexhrcError(f"two parts named {p.name!r}")
+            self.parts[p.name] = p
+        self.table = table  # x0, x1, y0, y1 of the table surface (z = 0)
+        self.grasp_tolerance_m = grasp_tolerance_m
+        self.hand = hand
+        self.version = 0  # bumped on every change: a renderer redraws only then
+
+    @classmethod
+    def from_knowledge(
+        cls, kb: KnowledgeBase, types: Iterable[str] | None = None, **kw: Any
+    ) -> tuple[SimulatedWorkspace, dict[str, str]]:
+        """The workspace of a scenario's full knowledge base (the truth), and which part each
+        of its objects is (object id -> part name; for tests and pictures only)."""
+        wanted = set(types) if types is not None else None
+        parts: list[Part] = []
+        names: dict[str, str] = {}
+        for rec in kb.objects.values():
+            if wanted is not None and not (set(kb.type_chain(rec.type)) & wanted):
+                continue
+            shape = shape_of(rec.size)
+            if shape is None:
+                continue
+            name = f"part{len(parts) + 1}"
+            kind, dims = shape
+            part = Part(name, rec.type, kind, dims, (0.0, 0.0, 0.0), float(rec.attrs.get("yaw", 0)))
+            x, y, _ = rec.position
+            parts.append(replace(part, position=(x, y, part.resting_height)))
+            names[rec.id] = name
+        return cls(parts, **kw), names
+
+    # -- queries --------------------------------------------------------------------------
+    def part(self, name: str) -> Part:
+        try:
+            return self.parts[name]
+        except KeyError:
+            raise UnknownNameError(
+                f"no part {name!r} in the workspace (parts: {', '.join(self.parts)})"
+            ) from None
+
+    def held_by(self, agent: str) -> Part | None:
+        return next((p for p in self.parts.values() if p.holder == agent), None)
+
+    def nearest(
+        self, xy: Iterable[float], *, within: float | None = None, free: bool = True
+    ) -> Part | None:
+        """The part whose centre is horizontally nearest ``xy`` (only parts nobody holds and
+        not fixed upright, with ``free``), or None when none lies ``within`` that distance."""
+        x, y = list(xy)[:2]
+        best: tuple[float, Part] | None = None
+        for p in self.parts.values():
+            if free and (p.holder is not None or p.upright):
+                continue
+            d = math.hypot(p.position[0] - x, p.position[1] - y)
+            if (within is None or d <= within) and (best is None or d < best[0]):
+                best = (d, p)
+        return best[1] if best else None
+
+    def _set(self, part: Part) -> Part:
+        self.parts[part.name] = part
+        self.version += 1
+        return part
+
+    # -- what agents physically do ------------------------------------------------------------
+    def grasp(self, agent: str, at: Iterable[float]) -> Part | None:
+        """``agent`` closes its hand at ``at``: it now holds the part lying there, if any."""
+        if self.held_by(agent) is not None:
+            return None
+        p = self.nearest(at, within=self.grasp_tolerance_m)
+        if p is None:
+            return None
+        return self._set(replace(p, holder=agent))
+
+    def carry(self, agent: str, to: Iterable[float]) -> Part | None:
+        """The part ``agent`` holds is now centred at ``to`` (lying)."""
+        p = self.held_by(agent)
+        if p is None:
+            return None
+        x, y, z = (float(v) for v in to)
+        return self._set(replace(p, position=(x, y, z)))
+
+    def release(self, agent: str) -> Part | None:
+        """``agent`` lets go: a part it held drops onto the table below (unless fixed)."""
+        p = self.held_by(agent)
+        if p is None:
+            return None
+        if p.upright:
+            return self._set(replace(p, holder=None))
+        x, y, _ = p.position
+        return self._set(replace(p, holder=None, position=(x, y, p.resting_height)))
+
+    def attach(self, agent: str, at: Iterable[float], on: str | None = None) -> Part | None:
+        """The part ``agent`` holds is screwed at ``at`` (x, y): it stands upright on the board
+        ``on`` (a part name; the table if None) and stays there (nobody holds it any more)."""
+        p = self.held_by(agent)
+        if p is None:
+            return None
+        x, y = list(at)[:2]
+        base = 0.0
+        if on is not None:
+            board = self.part(on)
+            base = board.position[2] + board.dims[2] / 2 if board.shape == "box" else 0.0
+        up = replace(p, upright=True, holder=None)
+        return self._set(replace(up, position=(x, y, base + up.resting_height)))
+
+    def pick_up(self, agent: str, at: Iterable[float]) -> Part | None:
+        """The operator takes the part lying nearest ``at`` (within 5 cm) into the hand."""
+        if self.held_by(agent) is not None:
+            return None
+        p = self.nearest(at, within=0.05)
+        if p is None:
+            return None
+        # held across the body, in front of the operator
+        return self._set(replace(p, holder=agent, position=self.hand, yaw=math.pi / 2))
+
+    def put_down(self, agent: str) -> Part | None:
+        return self.release(agent)
+
+    def displace(self, name: str, offset: Iterable[float]) -> Part:
+        """Someone nudges a part lying on the table by ``offset`` (dx, dy)."""
+        p = self.part(name)
+        if p.holder is not None or p.upright:
+            raise FlexhrcError(f"part {name!r} is held or fixed: it cannot be nudged")
+        dx, dy = list(offset)[:2]
+        x, y, z = p.position
+        return self._set(replace(p, position=(x + float(dx), y + float(dy), z)))
+
+
+__all__ = ["Part", "SimulatedWorkspace", "shape_of"]
