@@ -121,7 +121,9 @@ class PerceptionComponent:
         self.kb = kb
         self.rules = rules or rules_for(world)
         self.camera = camera or HeadCamera()
-        self.pipeline = pipeline or ScenePerception(rules=self.rules)
+        self.pipeline = pipeline or ScenePerception(
+            rules=self.rules, split_stacked=True, any_fit=True
+        )
         self.anchoring = Anchoring(kb, self.rules.types, on_new=on_new, **dict(anchoring or {}))
         self.robot_q = robot_q or (lambda: None)
         self.stats = PerceptionStats()

@@ -263,6 +263,11 @@ class PerceivedCooperationRun(CooperationRun):
                     _Pending("nudge", {"part": target.name, "offset": nudge.offset}),
                 )
 
+    def _stop(self, stop: Any) -> None:
+        super()._stop(stop)
+        # a stopped arm lets go of what it holds where it is (the manager believes the same)
+        self.world.release(stop.agent)
+
     def _queue_time(self, pending: _Pending) -> float:
         return next((at for at, _, p in self._queue if p is pending), self.now)
 
@@ -287,7 +292,14 @@ class PerceivedCooperationRun(CooperationRun):
             self.world.grasp(agent, self.kb.position(args[1]))
         elif kind == "transport":
             x, y, _ = self.kb.position(args[2])
-            self.world.carry(agent, (x, y, HOLD_HEIGHT_M))
+            board = self.world.over_board((x, y))
+            held = self.world.held_by(agent)
+            if board is not None and held is not None and held.shape == "cylinder":
+                # above a bolt the leg is held upright, its foot just above the board
+                top = board.position[2] + board.dims[2] / 2
+                self.world.carry(agent, (x, y, top + 0.01 + held.dims[0] / 2), upright=True)
+            else:
+                self.world.carry(agent, (x, y, HOLD_HEIGHT_M))
         elif kind == "screw":
             self.world.attach(agent, self.kb.position(args[2]), on=self._board)
         elif kind in ("ungrasp", "put_down"):

@@ -43,6 +43,7 @@ class Part:
     yaw: float = 0.0
     upright: bool = False
     holder: str | None = None
+    fixed: bool = False  # screwed to another part
 
     @property
     def resting_height(self) -> float:
@@ -136,7 +137,7 @@ class SimulatedWorkspace:
         x, y = list(xy)[:2]
         best: tuple[float, Part] | None = None
         for p in self.parts.values():
-            if free and (p.holder is not None or p.upright):
+            if free and (p.holder is not None or p.fixed):
                 continue
             d = math.hypot(p.position[0] - x, p.position[1] - y)
             if (within is None or d <= within) and (best is None or d < best[0]):
@@ -158,23 +159,27 @@ class SimulatedWorkspace:
             return None
         return self._set(replace(p, holder=agent))
 
-    def carry(self, agent: str, to: Iterable[float]) -> Part | None:
-        """The part ``agent`` holds is now centred at ``to`` (lying)."""
+    def carry(self, agent: str, to: Iterable[float], *, upright: bool = False) -> Part | None:
+        """The part ``agent`` holds is now centred at ``to``, lying, or ``upright`` (a leg
+        held above its bolt, ready to be screwed in)."""
         p = self.held_by(agent)
         if p is None:
             return None
         x, y, z = (float(v) for v in to)
-        return self._set(replace(p, position=(x, y, z)))
+        return self._set(replace(p, position=(x, y, z), upright=upright))
 
     def release(self, agent: str) -> Part | None:
         """``agent`` lets go: a part it held drops onto the table below (unless fixed)."""
         p = self.held_by(agent)
         if p is None:
             return None
-        if p.upright:
+        if p.fixed:
             return self._set(replace(p, holder=None))
+        lying = replace(p, holder=None, upright=False)
         x, y, _ = p.position
-        return self._set(replace(p, holder=None, position=(x, y, p.resting_height)))
+        board = self.over_board((x, y)) if p.shape != "box" else None
+        base = board.position[2] + board.dims[2] / 2 if board is not None else 0.0
+        return self._set(replace(lying, position=(x, y, base + lying.resting_height)))
 
     def attach(self, agent: str, at: Iterable[float], on: str | None = None) -> Part | None:
         """The part ``agent`` holds is screwed at ``at`` (x, y): it stands upright on the board
@@ -187,8 +192,21 @@ class SimulatedWorkspace:
         if on is not None:
             board = self.part(on)
             base = board.position[2] + board.dims[2] / 2 if board.shape == "box" else 0.0
-        up = replace(p, upright=True, holder=None)
+        up = replace(p, upright=True, holder=None, fixed=True)
         return self._set(replace(up, position=(x, y, base + up.resting_height)))
+
+    def over_board(self, xy: Iterable[float]) -> Part | None:
+        """The board (a box part lying flat) whose footprint contains ``xy``, if any."""
+        x, y = list(xy)[:2]
+        for p in self.parts.values():
+            if p.shape != "box" or p.holder is not None:
+                continue
+            hx, hy = p.dims[0] / 2, p.dims[1] / 2
+            c, s = math.cos(p.yaw), math.sin(p.yaw)
+            dx, dy = x - p.position[0], y - p.position[1]
+            if abs(c * dx + s * dy) <= hx and abs(-s * dx + c * dy) <= hy:
+                return p
+        return None
 
     def pick_up(self, agent: str, at: Iterable[float]) -> Part | None:
         """The operator takes the part lying nearest ``at`` (within 5 cm) into the hand."""
@@ -206,7 +224,7 @@ class SimulatedWorkspace:
     def displace(self, name: str, offset: Iterable[float]) -> Part:
         """Someone nudges a part lying on the table by ``offset`` (dx, dy)."""
         p = self.part(name)
-        if p.holder is not None or p.upright:
+        if p.holder is not None or p.fixed:
             raise FlexhrcError(f"part {name!r} is held or fixed: it cannot be nudged")
         dx, dy = list(offset)[:2]
         x, y, z = p.position
