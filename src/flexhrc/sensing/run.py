@@ -72,7 +72,7 @@ class FalseReport:
     """The wrist sensor reports ``action(human, leg)`` that the operator did not do, when the
     ``nth`` robot action ``after`` is acknowledged (``leg``: a leg on the table if None)."""
 
-    after: str = "ungrasp"
+    after: str = "rest"
     nth: int = 1
     action: str = "pick_up"
     leg: str | None = None
@@ -125,6 +125,10 @@ class PerceivedCooperationRun(CooperationRun):
     def run(self) -> RunResult:
         self._perceive("start")
         result = super().run()
+        if result.outcome == "failed" and not self.kb.consistent:
+            reasons = "; ".join(i.reason for i in self.kb.inconsistencies)
+            result.reason = f"{result.reason} (the knowledge base is inconsistent: {reasons})"
+            result.summary["reason"] = self.tm.reason = result.reason
         result.summary["perception"] = self.perception.stats.to_dict()
         result.summary["human_sensing"] = dict(self.human_stats)
         for ev in reversed(result.events):
@@ -162,7 +166,11 @@ class PerceivedCooperationRun(CooperationRun):
             self.perception.stats.repaired += 1
             self._repairing.discard(obj)
             self._event("repaired", object=obj, by="re-perceive")
+        asked: set[str] = set()
         for inc in list(self.kb.inconsistencies):
+            if inc.object_id in asked:
+                continue
+            asked.add(inc.object_id)
             report = self._report_about(inc.object_id)
             if report is None:
                 self._event(
@@ -186,6 +194,8 @@ class PerceivedCooperationRun(CooperationRun):
     def _answer(self, data: dict[str, Any]) -> None:
         obj, report = data["object"], data["report"]
         self._repairing.discard(obj)
+        if report not in self._reports or self.tm.done:
+            return  # settled meanwhile
         if report.real:  # the operator did it: the percept was wrong; look again later
             self._event("operator_answers", question=f"did you {report.action}?", answer="yes")
             self.kb.resolve(obj, accept=False)
@@ -214,10 +224,21 @@ class PerceivedCooperationRun(CooperationRun):
             if part is None or part.holder is not None or part.upright:
                 return  # already taken: nothing to nudge
             dx, dy = pending.data["offset"]
-            # dy points away from the middle of the table (no part lies on the tabletop)
+            # dy points away from the middle of the table; where that spot is taken, the
+            # operator puts the part in the first free spot as far away in another direction
             side = 1.0 if part.position[1] >= 0 else -1.0
-            self.world.displace(part.name, (dx, side * dy))
-            self._event("operator_nudges", part=part.name, offset=list(pending.data["offset"]))
+            size = math.hypot(dx, dy)
+            options = [(dx, side * dy), (size, 0.0), (-size, 0.0), (dx, -side * dy)]
+            x, y, _ = part.position
+            offset = next(
+                (o for o in options if self.world.clear_at(part.name, (x + o[0], y + o[1]))),
+                None,
+            )
+            if offset is None:
+                self._event("operator_nudge_skipped", part=part.name, reason="no free spot")
+                return
+            self.world.displace(part.name, offset)
+            self._event("operator_nudges", part=part.name, offset=list(offset))
             self._perceive("the operator moved a part")
         elif pending.kind == "operator_answer":
             self._answer(pending.data)

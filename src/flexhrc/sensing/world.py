@@ -221,6 +221,26 @@ class SimulatedWorkspace:
     def put_down(self, agent: str) -> Part | None:
         return self.release(agent)
 
+    def clear_at(self, name: str, xy: Iterable[float], gap_m: float = 0.03) -> bool:
+        """Would part ``name`` lying at ``xy`` be on the table, off any board and ``gap_m``
+        clear of every other part's footprint?"""
+        p = self.part(name)
+        x, y = list(xy)[:2]
+        x0, x1, y0, y1 = self.table
+        half = _half(p)
+        if not (x0 + half[0] <= x <= x1 - half[0] and y0 + half[1] <= y <= y1 - half[1]):
+            return False
+        for q in self.parts.values():
+            if q.name == name:
+                continue
+            hq = _half(q)
+            if (
+                abs(q.position[0] - x) < half[0] + hq[0] + gap_m
+                and abs(q.position[1] - y) < half[1] + hq[1] + gap_m
+            ):
+                return False
+        return True
+
     def displace(self, name: str, offset: Iterable[float]) -> Part:
         """Someone nudges a part lying on the table by ``offset`` (dx, dy)."""
         p = self.part(name)
@@ -229,6 +249,18 @@ class SimulatedWorkspace:
         dx, dy = list(offset)[:2]
         x, y, z = p.position
         return self._set(replace(p, position=(x + float(dx), y + float(dy), z)))
+
+
+def _half(p: Part) -> tuple[float, float]:
+    """Half extents of a part's footprint along x and y (axis-aligned bound)."""
+    if p.shape == "box":
+        a, b = p.dims[0] / 2, p.dims[1] / 2
+    elif p.upright:
+        a = b = p.dims[1]
+    else:
+        a, b = p.dims[0] / 2, p.dims[1]
+    c, s = abs(math.cos(p.yaw)), abs(math.sin(p.yaw))
+    return (c * a + s * b, s * a + c * b)
 
 
 __all__ = ["Part", "SimulatedWorkspace", "shape_of"]

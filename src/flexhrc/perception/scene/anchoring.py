@@ -254,8 +254,10 @@ class Anchoring:
                     f"moves it faster than {self.max_speed_m_s:g} m/s"
                 )
         if reason is not None:
-            self.kb.contradict(s.id, reason, percept)
-            report.inconsistencies.append(reason)
+            if not any(i.object_id == s.id for i in self.kb.inconsistencies):
+                self.kb.contradict(s.id, reason, percept)
+                report.inconsistencies.append(reason)
+            self.misses[s.id] = 0  # it is seen, only not where it should be
             return
         if self.kb.observe(s.id, pos, p.type):
             self._seen(s, p, now, report)
