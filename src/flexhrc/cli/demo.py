@@ -25,6 +25,14 @@ TRACE_TYPES = {
     "human_action_unmatched",
     "human_sensed",
     "human_sensing_missed",
+    "inconsistent",
+    "consistent_again",
+    "repair",
+    "repaired",
+    "operator_answers",
+    "operator_nudges",
+    "false_report",
+    "stop",
 }
 
 
@@ -105,10 +113,27 @@ def _run_options(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--human-sensing",
-        choices=["injected", "har"],
+        choices=["injected", "har", "har-real"],
         default="injected",
-        help="how the manager learns what the operator did: told directly, or recognised from "
-        "a synthesised wrist signal (GMM/GMR; perception extra)",
+        help="how the manager learns what the operator did: told directly, recognised from "
+        "a synthesised wrist signal (har), or from real HMP trials of other volunteers than "
+        "the model was trained on (har-real, needs --hmp; perception extra)",
+    )
+    p.add_argument(
+        "--hmp", metavar="DIR", help="the HMP dataset folder for --human-sensing har-real"
+    )
+    p.add_argument(
+        "--perception",
+        choices=["given", "scene"],
+        default="given",
+        help="where the manager's object positions come from: given by the scenario, or "
+        "scene perception of the head camera's depth images (sim and perception extras)",
+    )
+    p.add_argument(
+        "--repair",
+        action="store_true",
+        help="with --perception scene: repair an inconsistent knowledge base (look again, ask "
+        "the operator to confirm) instead of waiting",
     )
     p.add_argument(
         "--har-model",
@@ -166,7 +191,36 @@ def _simulators(args: argparse.Namespace) -> tuple[Any, Any]:
     return kin, kin
 
 
+def _check_perception_options(args: argparse.Namespace) -> None:
+    """Option combinations, checked before any work."""
+    if args.human_sensing == "har-real" and not args.hmp:
+        raise FlexhrcError("--human-sensing har-real needs --hmp DIR (the HMP dataset folder)")
+    if args.hmp and args.human_sensing != "har-real":
+        raise FlexhrcError("--hmp goes with --human-sensing har-real")
+    if args.hmp and not Path(args.hmp).is_dir():
+        raise FlexhrcError(f"--hmp {args.hmp}: not a directory")
+    if args.repair and args.perception != "scene":
+        raise FlexhrcError("--repair needs --perception scene (only perception notices)")
+
+
 def _human_sensing(args: argparse.Namespace) -> Any:
+    _check_perception_options(args)
+    if args.human_sensing == "har-real":
+        if args.har_model:
+            raise FlexhrcError(
+                "--har-model goes with --human-sensing har (har-real trains its own model on "
+                "other volunteers than those it replays)"
+            )
+        try:
+            from flexhrc.sensing.har_real import HmpReplaySensor
+        except ImportError as exc:
+            raise FlexhrcError(
+                f"--human-sensing har-real needs the perception extra ({exc.name} is missing): "
+                "pip install 'flexhrc[perception]'"
+            ) from None
+        if not args.quiet:
+            print("training the wrist-motion recogniser on HMP volunteers ...", file=sys.stderr)
+        return HmpReplaySensor(args.hmp, seed=args.seed)
     if args.human_sensing != "har":
         if args.har_model:
             raise FlexhrcError("--har-model goes with --human-sensing har")
@@ -241,7 +295,23 @@ def _trace_printer(args: argparse.Namespace) -> Any:
                 f"(confidence {ev['confidence']:.2f}, {ev['samples']} samples)"
             )
         elif kind == "human_sensing_missed":
-            line = f"wrist sensor missed {ev['action']}; scene perception reports it"
+            line = f"wrist sensor missed {ev['action']}: the manager is not told"
+        elif kind == "inconsistent":
+            line = f"INCONSISTENT: {ev['reason']}"
+        elif kind == "consistent_again":
+            line = f"consistent again: {ev['object']} ({ev['why']})"
+        elif kind == "repair":
+            line = f"repair: {ev['step']}" + (f" - {ev['question']}" if "question" in ev else "")
+        elif kind == "repaired":
+            line = f"repaired {ev['object']} by {ev['by']}"
+        elif kind == "operator_answers":
+            line = f"operator: {ev['answer']} ({ev['question']})"
+        elif kind == "operator_nudges":
+            line = f"operator moves {ev['part']} by {ev['offset']}"
+        elif kind == "false_report":
+            line = f"wrist sensor reports {ev['action']} (false)"
+        elif kind == "stop":
+            line = f"STOP {ev['agent']}: {ev['reason']}"
         elif kind == "waiting":
             line = f"waiting: {ev['reason']}"
         elif kind == "outcome":
@@ -253,6 +323,44 @@ def _trace_printer(args: argparse.Namespace) -> Any:
         print(f"{t}  {line}", file=stream, flush=True)
 
     return trace
+
+
+def _perceived(args: argparse.Namespace, scenario: Any, run_kw: dict[str, Any]) -> Any:
+    """The run with the head camera, the scene pipeline and anchoring in the loop."""
+    from dataclasses import replace
+
+    from flexhrc.representation import OnlineGraph
+
+    try:
+        from flexhrc.sensing.run import lying_layout
+        from flexhrc.sensing.setup import perceived_run
+    except ImportError as exc:
+        raise FlexhrcError(
+            f"--perception scene needs the sim and perception extras ({exc.name} is missing): "
+            "pip install 'flexhrc[sim,perception]'"
+        ) from None
+    if scenario.leg_positions is None:
+        # the parts are bodies the camera sees: lay them out clear of each other
+        from flexhrc.scenarios.table_assembly import LEG_LENGTHS, TABLETOPS
+
+        scenario = replace(
+            scenario,
+            leg_positions=lying_layout(
+                scenario.legs,
+                scenario.seed,
+                tabletop_depth=TABLETOPS[scenario.tabletop][1],
+                length=LEG_LENGTHS[scenario.leg_length],
+            ),
+        )
+    if not args.quiet:
+        print("perception: head camera, scene pipeline, anchoring ...", file=sys.stderr)
+    return perceived_run(
+        OnlineGraph(scenario.graph()),
+        scenario.domain(),
+        scenario.knowledge(),
+        repair=args.repair,
+        **run_kw,
+    )
 
 
 def cmd_demo_table(args: argparse.Namespace) -> int:
@@ -276,10 +384,7 @@ def _run_table(args: argparse.Namespace, scenario: Any, profile: str) -> int:
     if not scenario.human and profile != "passive":
         raise FlexhrcError("--human needs a human: drop --no-human")
     simulator, execution = _simulators(args)
-    run = CooperationRun(
-        OnlineGraph(scenario.graph()),
-        scenario.domain(),
-        scenario.knowledge(),
+    run_kw: dict[str, Any] = dict(
         simulator=simulator,
         execution=execution,
         human_profile=profile,
@@ -290,6 +395,13 @@ def _run_table(args: argparse.Namespace, scenario: Any, profile: str) -> int:
         human_takes=args.human_takes,
         human_sensing=_human_sensing(args),
     )
+    run: Any
+    if args.perception == "scene":
+        run = _perceived(args, scenario, run_kw)
+    else:
+        run = CooperationRun(
+            OnlineGraph(scenario.graph()), scenario.domain(), scenario.knowledge(), **run_kw
+        )
     result = run.run()
     if args.log:
         result.save_log(args.log)

@@ -365,9 +365,15 @@ class PerceivedCooperationRun(CooperationRun):
         if schema is None:
             return None
         n = len(schema.parameters)
-        if n > len(step.args):
-            return None
-        return HumanAction(sensed.name, tuple(step.args[:n]))
+        if n <= len(step.args):
+            return HumanAction(sensed.name, tuple(step.args[:n]))
+        # more arguments than the action done has (a pick-up taken for a screw): the sensor
+        # names the motion, the rest comes from what the operator is about to do
+        plan = self.human_plan.steps if self.human_plan is not None else []
+        for other in plan:
+            if other.name == sensed.name and other.args[: len(step.args)] == step.args:
+                return HumanAction(sensed.name, other.args)
+        return None
 
     def _believe(self, action: HumanAction, real: bool) -> None:
         """The belief a report implies (its effects are applied by the manager; where the
@@ -375,15 +381,17 @@ class PerceivedCooperationRun(CooperationRun):
         before = set(self.kb.facts)
         obj = action.args[1] if len(action.args) > 1 else None
         report = _Report(action, real)
+        fixed = False
         if obj is not None and obj in self.kb.objects:
             report.position = self.kb.position(obj)
+            fixed = self.kb.object(obj).fixed
             if action.name == "pick_up":
                 self.kb.move(obj, self.world.hand)
             elif action.name == "screw" and len(action.args) > 2:
                 self.kb.move(obj, self.kb.position(action.args[2]))
                 self.kb.set_fixed(obj)
         self._reports.append(report)
-        self._pending_report = (report, before)
+        self._pending_report = (report, before, fixed)
 
     def _human_done(self, data: dict[str, Any]) -> None:
         self._pending_report = None
@@ -392,17 +400,26 @@ class PerceivedCooperationRun(CooperationRun):
             self._settle_report()
             self._perceive(f"after {data['step']}")
 
-    _pending_report: tuple[_Report, set[tuple[str, ...]]] | None = None
+    _pending_report: tuple[_Report, set[tuple[str, ...]], bool] | None = None
     _before: dict[str, tuple[float, float, float]] = {}  # noqa: RUF012 - replaced, not mutated
 
     def _settle_report(self) -> None:
         """Record what the manager's handling of the report changed in the base (to undo)."""
         if self._pending_report is None:
             return
-        report, before = self._pending_report
+        report, before, fixed = self._pending_report
         after = set(self.kb.facts)
         report.added, report.removed = after - before, before - after
         self._pending_report = None
+        if not report.added and not report.removed and len(report.action.args) > 1:
+            # the manager matched the report to nothing (its effects were not applied): the
+            # belief of where the object is does not follow it either
+            obj = report.action.args[1]
+            if report.position is not None and obj in self.kb.objects:
+                self.kb.move(obj, report.position)
+                self.kb.set_fixed(obj, fixed)
+            self._reports.remove(report)
+            self._event("human_report_ignored", action=str(report.action))
 
     def _false_report(self, fr: FalseReport) -> None:
         leg = fr.leg

@@ -160,15 +160,17 @@ class Anchoring:
                         cost[i, j] = self.gate_m
                         continue
                     d = self._h(p.position, s.position)
-                    if d <= self.gate_m:
+                    if d <= self.gate_m + self._hidden(s, p) / 2:
                         cost[i, j] = d
             rows, cols = optimize.linear_sum_assignment(cost)
             for r, c in zip(rows, cols, strict=True):
                 if cost[r, c] >= _BIG:
                     continue
                 p, s = good[int(r)], symbols[int(c)]
+                partial = s.anchored and self._hidden(s, p) > 0.0
                 shift = self._h(p.position, s.position) if s.anchored else 0.0
-                if self._apply(s, p, now, report) and shift > self.move_threshold_m:
+                ok = self._apply(s, p, now, report, keep_position=partial)
+                if ok and not partial and shift > self.move_threshold_m:
                     report.moved.append(s.id)
                 pending.discard(int(r))
                 unmatched.discard(s.id)
@@ -223,11 +225,30 @@ class Anchoring:
         self.reported_missing.discard(s.id)
         self.history.setdefault(s.id, set()).add(p.type)
 
-    def _apply(self, s: ObjectRecord, p: DetectedObject, now: float, report: AnchoringReport) -> bool:
-        """A gated match: the percept agrees with the belief (or anchors a new symbol)."""
-        ok = self.kb.observe(s.id, _xyz(p.position), p.type)
+    def _hidden(self, s: ObjectRecord, p: DetectedObject) -> float:
+        """How much shorter than the symbol's known size the percept is (m): a part partly
+        hidden (by an arm) is seen shorter, and its centre shifted by up to half that."""
+        known = max((float(v) for v in s.size.values() if isinstance(v, int | float)), default=0.0)
+        seen = float(np.max(p.size)) if len(p.size) else 0.0
+        short = known - seen
+        return short if short > 0.1 * known else 0.0
+
+    def _apply(
+        self,
+        s: ObjectRecord,
+        p: DetectedObject,
+        now: float,
+        report: AnchoringReport,
+        keep_position: bool = False,
+    ) -> bool:
+        """A gated match: the percept agrees with the belief (or anchors a new symbol). A
+        partial percept (``keep_position``) confirms the symbol without moving it."""
+        position = s.position if keep_position else _xyz(p.position)
+        ok = self.kb.observe(s.id, position, p.type)
         if ok:
             self._seen(s, p, now, report)
+            if keep_position:
+                self.last_seen[s.id] = (s.position, float(now))
         else:
             report.inconsistencies.append(self.kb.inconsistencies[-1].reason)
         return ok
@@ -237,6 +258,9 @@ class Anchoring:
     ) -> None:
         seen_at, seen_t = self.last_seen[s.id]
         pos = _xyz(p.position)
+        if self._hidden(s, p) > 0.0 and self._h(pos, seen_at) <= self.gate_m + self._hidden(s, p):
+            self._apply(s, p, now, report, keep_position=True)  # seen, partly hidden
+            return
         percept = {"type": p.type, "position": pos, "size": _extents(p.size)}
         reason = None
         if self._predicted(s) and self._h(pos, seen_at) < self._h(pos, s.position):
