@@ -39,6 +39,31 @@ class Frame:
     extrinsics: np.ndarray  # camera-to-world
     rgb: np.ndarray | None = None
     robot_pixels: int = 0
+    robot_mask: np.ndarray | None = None  # pixels of the robot's own body (self filter)
+
+    def project(self, points: np.ndarray) -> np.ndarray:
+        """Pixel coordinates ``(u, v)`` of world points ``(n, 3)`` (NaN behind the camera)."""
+        T = self.extrinsics
+        cam = (np.asarray(points, dtype=float) - T[:3, 3]) @ T[:3, :3]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            z = np.where(cam[:, 2] > 1e-6, cam[:, 2], np.nan)
+            u = self.intrinsics.fx * cam[:, 0] / z + self.intrinsics.cx
+            v = self.intrinsics.fy * cam[:, 1] / z + self.intrinsics.cy
+        return np.column_stack([u, v])
+
+    def near_robot(self, point: np.ndarray, radius_px: int = 4) -> bool:
+        """Is the image of ``point`` within ``radius_px`` of the robot's own pixels?"""
+        if self.robot_mask is None:
+            return False
+        u, v = self.project(np.asarray(point, dtype=float)[None])[0]
+        if not (np.isfinite(u) and np.isfinite(v)):
+            return False
+        h, w = self.robot_mask.shape
+        u0, u1 = max(0, int(u) - radius_px), min(w, int(u) + radius_px + 1)
+        v0, v1 = max(0, int(v) - radius_px), min(h, int(v) + radius_px + 1)
+        if u0 >= u1 or v0 >= v1:
+            return False
+        return bool(self.robot_mask[v0:v1, u0:u1].any())
 
 
 class HeadCamera:
@@ -76,6 +101,9 @@ class HeadCamera:
             for j in range(p.getNumJoints(self._robot, physicsClientId=cid))
         }
         self._bodies: dict[str, tuple[int, Part]] = {}
+        from flexhrc.action.robots import ARM_NAMES, PANDA_Q_REST
+
+        self._rest = {arm: PANDA_Q_REST for arm in ARM_NAMES}  # the arms when none is given
         self._table: int | None = None
         T = self.extrinsics
         e, fwd, down = T[:3, 3], T[:3, 2], T[:3, 1]
@@ -158,7 +186,7 @@ class HeadCamera:
         self._ensure_table(world)
         for part in world.parts.values():
             self._place(part)
-        self._pose_arms(robot_q)
+        self._pose_arms(robot_q if robot_q else self._rest)
         intr = self.intrinsics
         _, _, colour, buf, seg = p.getCameraImage(
             intr.width,
@@ -180,7 +208,7 @@ class HeadCamera:
         image = None
         if rgb:
             image = np.asarray(colour, dtype=np.uint8).reshape(intr.height, intr.width, 4)[..., :3]
-        return Frame(depth, intr, self.extrinsics, image, int(robot.sum()))
+        return Frame(depth, intr, self.extrinsics, image, int(robot.sum()), robot)
 
     def close(self) -> None:
         if self._cid is not None:

@@ -15,8 +15,10 @@ from __future__ import annotations
 import statistics
 import time
 from collections.abc import Callable, Iterable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
+
+import numpy as np
 
 from flexhrc.knowledge import KnowledgeBase, ObjectRecord
 from flexhrc.perception.scene import RuleSet, ScenePerception
@@ -39,7 +41,10 @@ def rules_for(world: SimulatedWorkspace) -> RuleSet:
             size[0], tol = 0.8 * length, [0.3 * length, 0.015, 0.015]
             primitive = "cylinder"
         else:
-            tol = [max(0.15 * size[0], 0.03), max(0.15 * size[1], 0.03), 0.015]
+            # the same for a board an arm reaches over: down to half its length and width
+            a, b = size[0], size[1]
+            size[0], size[1] = 0.8 * a, 0.8 * b
+            tol = [0.3 * a, 0.3 * b, 0.015]
             primitive = "box"
         seen[part.type] = {"type": part.type, "primitive": primitive, "size": size,
                            "tolerance": tol}  # fmt: skip
@@ -136,6 +141,7 @@ class PerceptionComponent:
         frame = self.camera.render(self.world, self.robot_q(), rgb=rgb)
         t1 = time.perf_counter()
         detections = self.pipeline.process_depth(frame.depth, frame.intrinsics, frame.extrinsics)
+        detections = [self._complete(d, frame) for d in detections]
         t2 = time.perf_counter()
         report = self.anchoring.update(detections, now)
         t3 = time.perf_counter()
@@ -153,6 +159,34 @@ class PerceptionComponent:
         s.times_s.append(upd.total_s)
         self.last = upd
         return upd
+
+    def _complete(self, det: DetectedObject, frame: Frame) -> DetectedObject:
+        """A lying cylinder seen shorter than the parts of its type are, with one end at the
+        robot's own body: that end is hidden behind the arm, so the centre lies farther that
+        way (the known length from the visible end), not at the middle of what is seen."""
+        if det.primitive != "cylinder" or det.type == "unknown" or abs(det.axis[2]) > 0.5:
+            return det
+        known = [
+            max(float(v) for v in o.size.values())
+            for o in self.kb.objects.values()
+            if o.size and self.kb.compatible(o.type, det.type)
+        ]
+        if not known:
+            return det
+        length, seen = max(known), float(det.size[0])
+        if seen >= 0.9 * length:
+            return det
+        axis = np.asarray(det.axis, dtype=float)
+        axis = axis / (np.linalg.norm(axis) or 1.0)
+        ends = [det.position + axis * seen / 2, det.position - axis * seen / 2]
+        hidden = [frame.near_robot(e) for e in ends]
+        if hidden[0] == hidden[1]:
+            return det  # both or neither: no better guess
+        toward = axis if hidden[0] else -axis
+        visible_end = ends[1] if hidden[0] else ends[0]
+        centre = visible_end + toward * length / 2
+        size = np.array([length, *det.size[1:]])
+        return replace(det, position=centre, size=size)
 
     def close(self) -> None:
         self.camera.close()

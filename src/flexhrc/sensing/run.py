@@ -286,8 +286,9 @@ class PerceivedCooperationRun(CooperationRun):
 
     def _stop(self, stop: Any) -> None:
         super()._stop(stop)
-        # a stopped arm lets go of what it holds where it is (the manager believes the same)
-        self.world.release(stop.agent)
+        # a stopped arm lays what it holds back where it took it (the manager believes it is
+        # released where the arm is: perception sees otherwise and re-anchors it)
+        self.world.put_back(stop.agent)
 
     def _queue_time(self, pending: _Pending) -> float:
         return next((at for at, _, p in self._queue if p is pending), self.now)
@@ -385,6 +386,7 @@ class PerceivedCooperationRun(CooperationRun):
         if obj is not None and obj in self.kb.objects:
             report.position = self.kb.position(obj)
             fixed = self.kb.object(obj).fixed
+            self.perception.anchoring.expect(obj)  # the next percept checks the report
             if action.name == "pick_up":
                 self.kb.move(obj, self.world.hand)
             elif action.name == "screw" and len(action.args) > 2:

@@ -44,6 +44,7 @@ class Part:
     upright: bool = False
     holder: str | None = None
     fixed: bool = False  # screwed to another part
+    home: Vec3 | None = None  # where it lay when it was taken
 
     @property
     def resting_height(self) -> float:
@@ -157,7 +158,7 @@ class SimulatedWorkspace:
         p = self.nearest(at, within=self.grasp_tolerance_m)
         if p is None:
             return None
-        return self._set(replace(p, holder=agent))
+        return self._set(replace(p, holder=agent, home=p.position))
 
     def carry(self, agent: str, to: Iterable[float], *, upright: bool = False) -> Part | None:
         """The part ``agent`` holds is now centred at ``to``, lying, or ``upright`` (a leg
@@ -180,6 +181,16 @@ class SimulatedWorkspace:
         board = self.over_board((x, y)) if p.shape != "box" else None
         base = board.position[2] + board.dims[2] / 2 if board is not None else 0.0
         return self._set(replace(lying, position=(x, y, base + lying.resting_height)))
+
+    def put_back(self, agent: str) -> Part | None:
+        """``agent`` is stopped while holding a part: it lays it back where it took it from
+        (if that spot is still free; else it lets go where it is)."""
+        p = self.held_by(agent)
+        if p is None:
+            return None
+        if p.fixed or p.home is None or not self.clear_at(p.name, p.home[:2]):
+            return self.release(agent)
+        return self._set(replace(p, holder=None, upright=False, position=p.home))
 
     def attach(self, agent: str, at: Iterable[float], on: str | None = None) -> Part | None:
         """The part ``agent`` holds is screwed at ``at`` (x, y): it stands upright on the board
@@ -216,7 +227,9 @@ class SimulatedWorkspace:
         if p is None:
             return None
         # held across the body, in front of the operator
-        return self._set(replace(p, holder=agent, position=self.hand, yaw=math.pi / 2))
+        return self._set(
+            replace(p, holder=agent, position=self.hand, yaw=math.pi / 2, home=p.position)
+        )
 
     def put_down(self, agent: str) -> Part | None:
         return self.release(agent)

@@ -11,9 +11,9 @@ frame, with a gated optimal assignment (Hungarian, ``scipy.optimize.linear_sum_a
    known yet (:meth:`~flexhrc.knowledge.KnowledgeBase.add_symbol`) pairs with any compatible
    percept at the cost of the gate, so a known position always wins.
 2. **Continuity** — percepts left over are paired again, without the gate, with the symbols left
-   over that have been seen before. A symbol the last action left somewhere else than it was
-   seen (the base predicts where it is now) but that is still seen where it was is an
-   inconsistency: the belief is wrong (e.g. a false report of a human action). A non-fixed
+   over that have been seen before. A symbol whose belief a caller asked to check
+   (:meth:`Anchoring.expect`: e.g. where a reported human action left it) but that is still
+   seen where it was is an inconsistency: the belief is wrong (e.g. a false report). A non-fixed
    object seen farther from where it was last seen than any agent could have carried it in the
    meantime (``max_speed_m_s`` times the time elapsed, plus the gate) is an inconsistency too.
    Otherwise the object has moved and is re-anchored at its new place (``moved`` in the report:
@@ -113,6 +113,14 @@ class Anchoring:
         self.reported_missing: set[str] = set()
         self.created: list[str] = []
         self.history: dict[str, set[str]] = {}  # symbol -> every percept type anchored to it
+        self.expected: set[str] = set()  # beliefs the next percepts must confirm
+
+    def expect(self, symbol: str) -> None:
+        """The belief about ``symbol`` comes from an uncertain source (a recognised human
+        action): the next percept must confirm it, or it is an inconsistency. Other beliefs
+        (predicted effects of acknowledged robot actions) simply follow the percept."""
+        self.kb.object(symbol)
+        self.expected.add(symbol)
 
     # -- helpers --------------------------------------------------------------------------
     def perceivable(self, rec: ObjectRecord) -> bool:
@@ -130,9 +138,13 @@ class Anchoring:
         return math.hypot(float(a[0]) - float(b[0]), float(a[1]) - float(b[1]))
 
     def _predicted(self, rec: ObjectRecord) -> bool:
-        """Has an action moved the belief away from where the object was last seen?"""
+        """Is the belief one to check, away from where the object was last seen?"""
         seen = self.last_seen.get(rec.id)
-        return seen is not None and self._h(seen[0], rec.position) > self.gate_m
+        return (
+            rec.id in self.expected
+            and seen is not None
+            and self._h(seen[0], rec.position) > self.gate_m
+        )
 
     # -- one frame ------------------------------------------------------------------------
     def update(self, percepts: Sequence[DetectedObject], now: float) -> AnchoringReport:
@@ -219,6 +231,7 @@ class Anchoring:
         return report
 
     def _seen(self, s: ObjectRecord, p: DetectedObject, now: float, report: AnchoringReport) -> None:
+        self.expected.discard(s.id)  # confirmed, or re-anchored: nothing left to check
         report.anchored[s.id] = p.id
         self.last_seen[s.id] = (_xyz(p.position), float(now))
         self.misses[s.id] = 0
