@@ -61,11 +61,15 @@ def test_symbols_known_without_a_position_are_anchored_by_type():
 def test_unmatched_percepts_become_new_objects_with_stable_names():
     kb = base()
     a = Anchoring(kb, ["leg"])
-    first = a.update([det(0, "leg", 0.3, 0.3), det(1, "leg", 0.3, -0.3), det(2, "leg", 0.8, 0.0)], 0)
+    first = a.update(
+        [det(0, "leg", 0.3, 0.3), det(1, "leg", 0.3, -0.3), det(2, "leg", 0.8, 0.0)], 0
+    )
     assert first.new_objects == ["leg_1"]
     assert kb.holds("leg", "leg_1")
     # next frame, the same three legs in another order: the new one keeps its name
-    second = a.update([det(0, "leg", 0.8, 0.01), det(1, "leg", 0.3, -0.3), det(2, "leg", 0.3, 0.3)], 1)
+    second = a.update(
+        [det(0, "leg", 0.8, 0.01), det(1, "leg", 0.3, -0.3), det(2, "leg", 0.3, 0.3)], 1
+    )
     assert second.new_objects == [] and second.anchored["leg_1"] == "c0"
 
 

@@ -36,7 +36,7 @@ def setup(camera, seed=0):
 
 
 def test_no_position_is_given_and_one_frame_anchors_every_part(camera):
-    truth, world, names, belief, comp = setup(camera)
+    _truth, world, names, belief, comp = setup(camera)
     assert not any(belief.object(o).anchored for o in names)
     upd = comp.update(0.0)
     assert set(upd.report.anchored) == set(names) and upd.report.new_objects == []
@@ -45,8 +45,11 @@ def test_no_position_is_given_and_one_frame_anchors_every_part(camera):
     parts = [world.part(p) for p in names.values()]
     for sym in names:
         pos = belief.position(sym)
-        d = min(math.dist(pos[:2], p.position[:2]) for p in parts if belief.compatible(
-            belief.object(sym).type, p.type))
+        d = min(
+            math.dist(pos[:2], p.position[:2])
+            for p in parts
+            if belief.compatible(belief.object(sym).type, p.type)
+        )
         assert d < 0.015, (sym, pos)
 
 
@@ -63,7 +66,7 @@ def test_the_robot_is_in_the_picture_but_filtered_out(camera):
 def test_arms_in_another_posture_hide_parts_and_the_hidden_end_is_completed(camera):
     from flexhrc.action.robots import PANDA_Q_REST
 
-    _, world, names, belief, comp = setup(camera, seed=1)
+    _, _world, names, belief, comp = setup(camera, seed=1)
     comp.update(0.0)
     before = {s: belief.position(s) for s in names}
     # an arm reaching over the table: whatever it hides, no symbol jumps, nothing is new
@@ -123,7 +126,7 @@ def test_camera_arguments_are_checked():
 
 
 def test_projection_of_the_table_centre_lands_in_the_image(camera):
-    _, world, _, _, comp = setup(camera)
+    _, world, _, _, _comp = setup(camera)
     frame = camera.render(world)
     u, v = frame.project(np.array([[0.6, 0.0, 0.0]]))[0]
     assert 0 <= u < frame.intrinsics.width and 0 <= v < frame.intrinsics.height

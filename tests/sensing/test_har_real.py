@@ -28,9 +28,7 @@ def sensor(hmp):
 
 def test_replayed_volunteers_are_not_those_the_model_was_trained_on(sensor):
     assert sensor.train_volunteers == sorted(TRAIN_VOLUNTEERS)
-    assert sensor.replay_volunteers and not set(sensor.replay_volunteers) & set(
-        TRAIN_VOLUNTEERS
-    )
+    assert sensor.replay_volunteers and not set(sensor.replay_volunteers) & set(TRAIN_VOLUNTEERS)
     assert set(sensor.model.classes_) == set(HMP_PROXIES.values())
     for action in ("pick_up", "screw", "pick_up"):
         sensed = sensor.sense(action)
@@ -49,7 +47,7 @@ def test_held_out_trials_are_mostly_recognised(sensor):
 @pytest.mark.parametrize("profile", ["takeover", "cooperative"])
 def test_cooperation_with_real_wrist_signals_ends_and_reports_figures(sensor, profile):
     for seed in range(3):
-        result, run, _ = run_table(profile, seed, human_sensing=sensor)
+        result, _run, _ = run_table(profile, seed, human_sensing=sensor)
         assert result.outcome in ("solved", "failed")
         if result.outcome == "failed":
             assert result.reason  # never silently, never waiting for ever
@@ -65,7 +63,7 @@ def test_a_miss_is_a_miss():
 
             return Sensed(action, None, None, 0.0, 100, 0.0)
 
-    result, run, _ = run_table("takeover", 0, human_sensing=Deaf())
+    result, _run, _ = run_table("takeover", 0, human_sensing=Deaf())
     # the manager is never told: no human action reaches it
     assert not [e for e in result.events if e["type"] == "human_action"]
     hs = result.summary["human_sensing"]
@@ -84,7 +82,9 @@ def test_cli_har_real(hmp):
     )  # fmt: skip
     assert out.returncode in (0, 1), out.stderr
     data = json.loads(out.stdout)
-    assert data["outcome"] in ("solved", "failed") and (data["outcome"] == "solved" or data["reason"])
+    assert data["outcome"] in ("solved", "failed") and (
+        data["outcome"] == "solved" or data["reason"]
+    )
     hs = data["human_sensing"]
     assert set(hs) == {"performed", "recognised", "missed", "false_reports"}
     assert hs["performed"] > 0

@@ -63,7 +63,7 @@ def kinds(result, *types):
 @pytest.mark.parametrize("profile", PROFILES)
 def test_no_positions_given_solved_for_every_profile_and_5_seeds_with_stable_symbols(profile):
     for seed in range(5):
-        result, run, frames = run_table(profile, seed, watch=True)
+        result, _run, frames = run_table(profile, seed, watch=True)
         assert result.outcome == "solved", (profile, seed, result.reason)
         p = result.summary["perception"]
         assert p["new_objects"] == [] and p["inconsistencies"] == 0, (profile, seed, p)
@@ -78,7 +78,7 @@ def test_no_positions_given_solved_for_every_profile_and_5_seeds_with_stable_sym
 
 
 def test_the_manager_starts_without_positions_and_perception_runs_after_world_changes():
-    result, run, _ = run_table("passive", 0)
+    result, _run, _ = run_table("passive", 0)
     assert result.outcome == "solved"
     percepts = kinds(result, "percept")
     whys = [e["why"] for e in percepts if "why" in e]
@@ -114,7 +114,7 @@ def test_operator_moves_a_leg_while_the_robot_goes_to_grasp_it():
 
 
 def test_a_false_report_makes_the_base_inconsistent_and_the_manager_waits():
-    result, run, _ = run_table("passive", 0, false_reports=[FalseReport("rest", 1)])
+    result, _run, _ = run_table("passive", 0, false_reports=[FalseReport("rest", 1)])
     inc = kinds(result, "inconsistent")
     assert inc and "should be at" in inc[0]["reason"]
     assert kinds(result, "waiting")
@@ -125,9 +125,7 @@ def test_a_false_report_makes_the_base_inconsistent_and_the_manager_waits():
 
 
 def test_with_repair_the_manager_repairs_first_then_solves():
-    result, run, _ = run_table(
-        "passive", 0, false_reports=[FalseReport("rest", 1)], repair=True
-    )
+    result, _run, _ = run_table("passive", 0, false_reports=[FalseReport("rest", 1)], repair=True)
     assert result.outcome == "solved", result.reason
     events = result.events
     i = next(k for k, e in enumerate(events) if e["type"] == "inconsistent")
@@ -138,9 +136,7 @@ def test_with_repair_the_manager_repairs_first_then_solves():
     assert any(e["type"] == "operator_answers" and e["answer"] == "no" for e in between)
     # no new task decision or command while repairing (rests of stopped arms aside)
     assert not [e for e in between if e["type"] == "decision"]
-    assert not [
-        e for e in between if e["type"] == "command" and not e["action"].startswith("rest")
-    ]
+    assert not [e for e in between if e["type"] == "command" and not e["action"].startswith("rest")]
     assert events[j]["object"] in events[i]["reason"]
     assert result.summary["perception"]["repaired"] == 1
 
@@ -151,7 +147,7 @@ def test_the_next_compatible_percept_clears_an_inconsistency():
     from flexhrc.sensing.world import SimulatedWorkspace
 
     _, truth = table(0)
-    world, names = SimulatedWorkspace.from_knowledge(truth, types=["leg", "tabletop"])
+    world, _names = SimulatedWorkspace.from_knowledge(truth, types=["leg", "tabletop"])
     kb = forget_positions(truth, ["leg", "tabletop"])
     comp = PerceptionComponent(world, kb)
     try:

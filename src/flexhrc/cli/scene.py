@@ -200,8 +200,10 @@ def _frame(args: argparse.Namespace) -> int:
     emit(
         args,
         report,
-        lambda: f"{report['detections']} detections, anchored: "
-        + ", ".join(f"{s} <- {c}" for s, c in report["anchored"].items())
-        + f" ({report['ms']} ms); picture: {out}",
+        lambda: (
+            f"{report['detections']} detections, anchored: "
+            + ", ".join(f"{s} <- {c}" for s, c in report["anchored"].items())
+            + f" ({report['ms']} ms); picture: {out}"
+        ),
     )
     return 0

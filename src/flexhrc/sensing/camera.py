@@ -15,6 +15,7 @@ hand) is in view, the arms at rest hide little.
 
 from __future__ import annotations
 
+import contextlib
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -213,7 +214,7 @@ class HeadCamera:
     def close(self) -> None:
         if self._cid is not None:
             self._p.disconnect(physicsClientId=self._cid)
-            self._cid = None  # type: ignore[assignment]
+            self._cid = None
 
     def __enter__(self) -> HeadCamera:
         return self
@@ -222,10 +223,8 @@ class HeadCamera:
         self.close()
 
     def __del__(self) -> None:  # pragma: no cover - best effort at interpreter exit
-        try:
+        with contextlib.suppress(Exception):
             self.close()
-        except Exception:
-            pass
 
 
 __all__ = ["Frame", "HeadCamera"]

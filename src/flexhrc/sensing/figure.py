@@ -58,7 +58,9 @@ def draw_update(
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
     except ImportError as exc:  # pragma: no cover - only without the extra
-        raise OptionalDependencyError("drawing the perception picture", "viz", "matplotlib") from exc
+        raise OptionalDependencyError(
+            "drawing the perception picture", "viz", "matplotlib"
+        ) from exc
     out = Path(path)
     symbol_of = {pid: sym for sym, pid in anchored.items()}
     fig, axes = plt.subplots(1, 2, figsize=(12, 5))
@@ -122,8 +124,9 @@ def picture_of_table(path: str | Path, *, seed: int = 0, screwed: int = 1) -> di
             world.attach("left", truth.position(f"bolt_{k}"), on=names["tabletop"])
             sym = min(
                 (s for s in names if s.startswith("leg")),
-                key=lambda s: np.hypot(*(np.subtract(kb.position(s)[:2], truth.position(
-                    f"leg{k}")[:2]))),
+                key=lambda s: np.hypot(
+                    *(np.subtract(kb.position(s)[:2], truth.position(f"leg{k}")[:2]))
+                ),
             )
             kb.move(sym, truth.position(f"bolt_{k}"))
             kb.set_fixed(sym)

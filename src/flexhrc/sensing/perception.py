@@ -146,7 +146,12 @@ class PerceptionComponent:
         report = self.anchoring.update(detections, now)
         t3 = time.perf_counter()
         upd = PerceptionUpdate(
-            report, detections, t1 - t0, t2 - t1, t3 - t2, frame if (rgb or self.keep_frames) else None
+            report,
+            detections,
+            t1 - t0,
+            t2 - t1,
+            t3 - t2,
+            frame if (rgb or self.keep_frames) else None,
         )
         s = self.stats
         s.frames += 1

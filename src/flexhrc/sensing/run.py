@@ -452,8 +452,6 @@ class PerceivedCooperationRun(CooperationRun):
         return out
 
 
-
-
 def forget_positions(kb: KnowledgeBase, types: Iterable[str]) -> KnowledgeBase:
     """A copy of ``kb`` in which the objects of ``types`` are symbols with no known position
     (what the manager starts from when perception is on)."""

@@ -134,7 +134,7 @@ class Anchoring:
         return any(self.kb.compatible(t, percept_type) for t in self.types)
 
     @staticmethod
-    def _h(a: Sequence[float], b: Sequence[float]) -> float:
+    def _h(a: Any, b: Any) -> float:
         return math.hypot(float(a[0]) - float(b[0]), float(a[1]) - float(b[1]))
 
     def _predicted(self, rec: ObjectRecord) -> bool:
@@ -230,7 +230,9 @@ class Anchoring:
         report.cleared = sorted(was_inconsistent - still)
         return report
 
-    def _seen(self, s: ObjectRecord, p: DetectedObject, now: float, report: AnchoringReport) -> None:
+    def _seen(
+        self, s: ObjectRecord, p: DetectedObject, now: float, report: AnchoringReport
+    ) -> None:
         self.expected.discard(s.id)  # confirmed, or re-anchored: nothing left to check
         report.anchored[s.id] = p.id
         self.last_seen[s.id] = (_xyz(p.position), float(now))
