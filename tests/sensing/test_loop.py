@@ -206,3 +206,16 @@ def test_cli_perception_scene_json():
 def test_cli_option_errors(args, message):
     out = cli("demo", "table", "--simulator", "analytic", "--quiet", *args)
     assert out.returncode == 2 and message in out.stderr and "Traceback" not in out.stderr
+
+
+def test_bad_run_arguments_are_refused():
+    from flexhrc.errors import FlexhrcError
+
+    with pytest.raises(FlexhrcError, match="no such action"):
+        run_table("passive", 0, false_reports=[FalseReport(action="juggle")])
+    with pytest.raises(FlexhrcError, match="nth >= 1"):
+        Nudge(nth=0)
+    with pytest.raises(FlexhrcError, match="finite"):
+        Nudge(offset=(float("nan"), 0.0))
+    with pytest.raises(FlexhrcError, match="confirm_s"):
+        run_table("passive", 0, confirm_s=float("inf"))

@@ -104,6 +104,15 @@ class PerceivedCooperationRun(CooperationRun):
         confirm_s: float = 1.0,
         **kw: Any,
     ):
+        false_reports = list(false_reports)
+        for fr in false_reports:
+            if fr.action not in domain.actions:
+                raise FlexhrcError(
+                    f"false report of {fr.action!r}: the domain has no such action "
+                    f"(actions: {', '.join(sorted(domain.actions))})"
+                )
+        if not (math.isfinite(confirm_s) and confirm_s >= 0):
+            raise FlexhrcError(f"confirm_s must be a finite number >= 0, got {confirm_s!r}")
         super().__init__(graph, domain, kb, **kw)
         self.world = world
         self.perception = perception

@@ -25,14 +25,18 @@ def perceived_run(
     domain: Domain,
     truth: KnowledgeBase,
     *,
-    types: Iterable[str] = TABLE_PARTS,
+    types: Iterable[str] | None = None,
     repair: bool = False,
     nudges: Iterable[Any] = (),
     false_reports: Iterable[Any] = (),
     camera: dict[str, Any] | None = None,
     **run_kw: Any,
 ) -> Any:
-    """A :class:`PerceivedCooperationRun` over ``truth`` (see the module docstring)."""
+    """A :class:`PerceivedCooperationRun` over ``truth`` (see the module docstring).
+
+    ``types``: the object types the camera perceives; by default every object with a body
+    (a length and a diameter: a rod lying on the table; a width and a depth: a board).
+    """
     try:
         from flexhrc.sensing.camera import HeadCamera
         from flexhrc.sensing.perception import PerceptionComponent
@@ -42,14 +46,14 @@ def perceived_run(
         raise OptionalDependencyError(
             "perception in the loop", "sim,perception", exc.name or "pybullet"
         ) from exc
-    types = list(types)
-    world, _ = SimulatedWorkspace.from_knowledge(truth, types=types)
+    wanted = list(types) if types is not None else None
+    world, names = SimulatedWorkspace.from_knowledge(truth, types=wanted)
     if not world.parts:
         raise FlexhrcError(
-            f"--perception scene: the scenario has no part of type {', '.join(types)} "
-            "with a size to see (a length and a diameter, or a width and a depth)"
+            "--perception scene: the scenario has no object with a body to see (a size with "
+            "a length and a diameter, or a width and a depth)"
         )
-    belief = forget_positions(truth, types)
+    belief = forget_positions(truth, sorted({truth.object(o).type for o in names}))
     perception = PerceptionComponent(world, belief, camera=HeadCamera(**(camera or {})))
     return PerceivedCooperationRun(
         graph,
