@@ -130,3 +130,20 @@ def test_projection_of_the_table_centre_lands_in_the_image(camera):
     frame = camera.render(world)
     u, v = frame.project(np.array([[0.6, 0.0, 0.0]]))[0]
     assert 0 <= u < frame.intrinsics.width and 0 <= v < frame.intrinsics.height
+
+
+def test_rods_are_laid_clear_of_each_other_and_crowded_ones_refused():
+    from flexhrc.knowledge import KnowledgeBase
+
+    kb = KnowledgeBase()
+    # side by side 1 cm apart along y but 8 cm along x: lying along x they would overlap
+    kb.add_object("a", "leg", (0.41, -0.43, 0.0), {"length": 0.4, "diameter": 0.04})
+    kb.add_object("b", "leg", (0.49, -0.42, 0.0), {"length": 0.4, "diameter": 0.04})
+    world, names = SimulatedWorkspace.from_knowledge(kb)
+    yaws = {world.part(names[o]).yaw for o in ("a", "b")}
+    assert yaws == {0.0} or math.pi / 2 in yaws  # one of them turned
+    for o in ("a", "b"):
+        assert world.clear_at(names[o], world.part(names[o]).position[:2], gap_m=0.005)
+    kb.add_object("c", "leg", (0.45, -0.425, 0.0), {"length": 0.4, "diameter": 0.04})
+    with pytest.raises(FlexhrcError, match="overlap"):
+        SimulatedWorkspace.from_knowledge(kb)

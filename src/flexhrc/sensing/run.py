@@ -311,18 +311,23 @@ class PerceivedCooperationRun(CooperationRun):
         if data["status"] != "done" or self.tm.done:
             return
         n = self._acks[kind] = self._acks.get(kind, 0) + 1
-        if kind in WORLD_CHANGING:
+        if self._changes_world(cmd.action):
             self._perceive(f"after {cmd.action}")
         for fr in self.false_reports:
             if fr.after == kind and fr.nth == n and not self.tm.done:
                 self._false_report(fr)
 
     def _physical(self, action: GroundAction, agent: str) -> None:
-        kind, args = action.schema.kind, action.args
+        """What the action does to the truth. Robot and operator act where they *believe*
+        things are: a grasp closes on whatever lies at the believed place."""
+        schema = action.schema
+        kind, args, binding = schema.kind, action.args, action.binding
+        carries = binding.get(getattr(schema, "carries", None) or "")
+        moves_to = binding.get(getattr(schema, "moves_to", None) or "")
         if kind == "grasp":
             self.world.grasp(agent, self.kb.position(args[1]))
         elif kind == "transport":
-            x, y, _ = self.kb.position(args[2])
+            x, y, _ = self.kb.position(moves_to or args[2])
             board = self.world.over_board((x, y))
             held = self.world.held_by(agent)
             if board is not None and held is not None and held.shape == "cylinder":
@@ -337,6 +342,17 @@ class PerceivedCooperationRun(CooperationRun):
             self.world.release(agent)
         elif kind == "pick_up":
             self.world.pick_up(agent, self.kb.position(args[1]))
+        elif carries in self.kb.objects and moves_to in self.kb.objects:
+            # e.g. both arms place the tabletop: the part lying at the believed place goes there
+            part = self.world.nearest(self.kb.position(carries), within=0.05)
+            if part is not None:
+                self.world.relocate(part.name, self.kb.position(moves_to))
+
+    def _changes_world(self, action: GroundAction) -> bool:
+        schema = action.schema
+        return schema.kind in WORLD_CHANGING or bool(
+            getattr(schema, "carries", None) or getattr(schema, "fixes", None)
+        )
 
     # -- the human ------------------------------------------------------------------------
     def _human_effects(self, step: GroundAction) -> None:

@@ -25,6 +25,8 @@ from flexhrc.knowledge import KnowledgeBase
 
 Vec3 = tuple[float, float, float]
 BOARD_HEIGHT_M = 0.03
+#: How a rod is laid when its yaw is not given: along x, else along y, else diagonally.
+_YAWS = (0.0, math.pi / 2, math.pi / 4, -math.pi / 4)
 
 
 @dataclass(frozen=True)
@@ -102,21 +104,51 @@ class SimulatedWorkspace:
         """The workspace of a scenario's full knowledge base (the truth), and which part each
         of its objects is (object id -> part name; for tests and pictures only)."""
         wanted = set(types) if types is not None else None
-        parts: list[Part] = []
+        world = cls((), **kw)
         names: dict[str, str] = {}
+        todo: list[tuple[str, Part, list[float]]] = []
         for rec in kb.objects.values():
             if wanted is not None and not (set(kb.type_chain(rec.type)) & wanted):
                 continue
             shape = shape_of(rec.size)
             if shape is None:
                 continue
-            name = f"part{len(parts) + 1}"
+            name = f"part{len(todo) + 1}"
             kind, dims = shape
-            part = Part(name, rec.type, kind, dims, (0.0, 0.0, 0.0), float(rec.attrs.get("yaw", 0)))
             x, y, _ = rec.position
-            parts.append(replace(part, position=(x, y, part.resting_height)))
+            part = Part(name, rec.type, kind, dims, (0.0, 0.0, 0.0))
+            part = replace(part, position=(x, y, part.resting_height))
+            given = rec.attrs.get("yaw")
+            yaws = [float(given)] if given is not None else list(_YAWS)
+            todo.append((rec.id, part, yaws if kind != "box" else [float(given or 0.0)]))
             names[rec.id] = name
-        return cls(parts, **kw), names
+        # boards first, then each rod turned so that no two bodies overlap (a small search:
+        # turning one rod may be what makes room for the next)
+        todo.sort(key=lambda t: t[1].shape != "box")
+
+        deepest = [0]
+
+        def place(i: int) -> bool:
+            deepest[0] = max(deepest[0], i)
+            if i == len(todo):
+                return True
+            _, part, yaws = todo[i]
+            for yaw in yaws:
+                world.parts[part.name] = replace(part, yaw=yaw)
+                if world.clear_at(part.name, part.position[:2], gap_m=0.005) and place(i + 1):
+                    return True
+            del world.parts[part.name]
+            return False
+
+        if not place(0):
+            bad = todo[min(deepest[0], len(todo) - 1)][0]
+            rec = kb.object(bad)
+            raise FlexhrcError(
+                f"{bad} at ({rec.position[0]:.3f}, {rec.position[1]:.3f}): the parts overlap "
+                "or leave the table whichever way they are turned; place them farther apart"
+            )
+        world.version += 1
+        return world, names
 
     # -- queries --------------------------------------------------------------------------
     def part(self, name: str) -> Part:
@@ -243,16 +275,20 @@ class SimulatedWorkspace:
         half = _half(p)
         if not (x0 + half[0] <= x <= x1 - half[0] and y0 + half[1] <= y <= y1 - half[1]):
             return False
+        mine = (x, y, p.yaw, _extent(p))
         for q in self.parts.values():
-            if q.name == name:
+            if q.name == name or q.holder is not None:
                 continue
-            hq = _half(q)
-            if (
-                abs(q.position[0] - x) < half[0] + hq[0] + gap_m
-                and abs(q.position[1] - y) < half[1] + hq[1] + gap_m
-            ):
+            if _overlap(mine, (q.position[0], q.position[1], q.yaw, _extent(q)), gap_m):
                 return False
         return True
+
+    def relocate(self, name: str, to: Iterable[float]) -> Part:
+        """A part nobody holds is put at ``to`` (x, y), lying (e.g. both arms place a board)."""
+        p = self.part(name)
+        x, y = list(to)[:2]
+        lying = replace(p, holder=None, upright=False)
+        return self._set(replace(lying, position=(float(x), float(y), lying.resting_height)))
 
     def displace(self, name: str, offset: Iterable[float]) -> Part:
         """Someone nudges a part lying on the table by ``offset`` (dx, dy)."""
@@ -262,6 +298,45 @@ class SimulatedWorkspace:
         dx, dy = list(offset)[:2]
         x, y, z = p.position
         return self._set(replace(p, position=(x + float(dx), y + float(dy), z)))
+
+
+def _extent(p: Part) -> tuple[float, float]:
+    """Half extents of a part's footprint in its own frame (along its yaw, across)."""
+    if p.shape == "box":
+        return (p.dims[0] / 2, p.dims[1] / 2)
+    if p.upright:
+        return (p.dims[1], p.dims[1])
+    return (p.dims[0] / 2, p.dims[1])
+
+
+def _overlap(
+    a: tuple[float, float, float, tuple[float, float]],
+    b: tuple[float, float, float, tuple[float, float]],
+    gap: float,
+) -> bool:
+    """Do two oriented rectangles (x, y, yaw, half extents) come closer than ``gap``?
+    (separating-axis test)"""
+    ax, ay, ayaw, ah = a
+    bx, by, byaw, bh = b
+    axes = [
+        (math.cos(ayaw), math.sin(ayaw)),
+        (-math.sin(ayaw), math.cos(ayaw)),
+        (math.cos(byaw), math.sin(byaw)),
+        (-math.sin(byaw), math.cos(byaw)),
+    ]
+    dx, dy = bx - ax, by - ay
+    for ux, uy in axes:
+        ra = _radius(ayaw, ah, ux, uy)
+        rb = _radius(byaw, bh, ux, uy)
+        if abs(dx * ux + dy * uy) >= ra + rb + gap:
+            return False
+    return True
+
+
+def _radius(yaw: float, half: tuple[float, float], ux: float, uy: float) -> float:
+    """Half the width of a rectangle (yaw, half extents) projected on the unit axis (ux, uy)."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    return half[0] * abs(c * ux + s * uy) + half[1] * abs(-s * ux + c * uy)
 
 
 def _half(p: Part) -> tuple[float, float]:
