@@ -43,7 +43,7 @@ from flexhrc.sensing.perception import PerceptionComponent
 from flexhrc.sensing.world import SimulatedWorkspace
 from flexhrc.taskmanager.domain import Domain, GroundAction
 from flexhrc.taskmanager.manager import Command, HumanAction
-from flexhrc.taskmanager.runner import CooperationRun, RunResult, _Pending
+from flexhrc.taskmanager.runner import CooperationRun, _Pending
 
 #: Actions after which the world looks different (approach and rest only move an arm).
 WORLD_CHANGING = ("grasp", "transport", "screw", "ungrasp", "pick_up", "put_down")
@@ -131,21 +131,15 @@ class PerceivedCooperationRun(CooperationRun):
             perception.robot_q = lambda: self.execution.execution.state.q  # type: ignore[attr-defined]
 
     # -- the loop -------------------------------------------------------------------------
-    def run(self) -> RunResult:
+    def _before_start(self) -> None:
         self._perceive("start")
-        result = super().run()
-        if result.outcome == "failed" and not self.kb.consistent:
-            reasons = "; ".join(i.reason for i in self.kb.inconsistencies)
-            result.reason = f"{result.reason} (the knowledge base is inconsistent: {reasons})"
-            result.summary["reason"] = self.tm.reason = result.reason
-        result.summary["perception"] = self.perception.stats.to_dict()
-        result.summary["human_sensing"] = dict(self.human_stats)
-        for ev in reversed(result.events):
-            if ev["type"] == "summary":
-                ev["perception"] = result.summary["perception"]
-                ev["human_sensing"] = result.summary["human_sensing"]
-                break
-        return result
+
+    def _deadlock_reason(self) -> str:
+        reason = super()._deadlock_reason()
+        if self.kb.consistent:
+            return reason
+        reasons = "; ".join(i.reason for i in self.kb.inconsistencies)
+        return f"{reason} (the knowledge base is inconsistent: {reasons})"
 
     def _perceive(self, why: str) -> None:
         upd = self.perception.update(self.now)
@@ -306,7 +300,7 @@ class PerceivedCooperationRun(CooperationRun):
         cmd: Command = data["cmd"]
         kind = cmd.action.schema.kind
         if data["status"] == "done":
-            self._physical(cmd.action, cmd.agents[0])
+            self._truth(cmd.action, cmd.agents[0])
         super()._robot_done(data)
         if data["status"] != "done" or self.tm.done:
             return
@@ -317,7 +311,7 @@ class PerceivedCooperationRun(CooperationRun):
             if fr.after == kind and fr.nth == n and not self.tm.done:
                 self._false_report(fr)
 
-    def _physical(self, action: GroundAction, agent: str) -> None:
+    def _truth(self, action: GroundAction, agent: str) -> None:
         """What the action does to the truth. Robot and operator act where they *believe*
         things are: a grasp closes on whatever lies at the believed place."""
         schema = action.schema
@@ -355,34 +349,32 @@ class PerceivedCooperationRun(CooperationRun):
         )
 
     # -- the human ------------------------------------------------------------------------
-    def _human_effects(self, step: GroundAction) -> None:
-        # the truth changes whatever the sensors make of it; the belief follows the report
-        self._physical(step, "human")
-        if step.schema.kind == "put_down":
-            # nobody reports a put-down (as in the base runner): the operator puts back the
-            # part it held, the belief follows, perception checks
-            obj = step.args[1]
-            self.kb.retract_fact("held_by_human", obj)
-            self.kb.assert_fact("on_table", obj)
-            self.kb.move(obj, (self.world.hand[0], self.world.hand[1], 0.02))
-            self._perceive(f"after {step}")
+    def _physical(self, action: GroundAction, positions: dict[str, Any]) -> None:
+        """The base runner's physical side moves the *belief* (where the action leaves what
+        it carries). A robot's acknowledged action does so at once; an operator's action
+        changes the truth here, and the belief only as far as it is reported (:meth:`_sensed`)."""
+        human = any(self.domain.agent(a).is_human for a in action.agents)
+        if not human or self._believing:
+            super()._physical(action, positions)
+            return
+        self._truth(action, action.agents[0])
+        self._human_changed = True
+        self._deferred = positions
 
     def _sensed(self, step: GroundAction) -> HumanAction | None:
         self.human_stats["performed"] += 1
         sensed = super()._sensed(step)
         if sensed is None:
             self.human_stats["missed"] += 1
-            self._perceive(f"after the operator's {step.name} (not reported)")
             return None
         action = self._fit(sensed, step)
         if action is None:
             self.human_stats["false_reports"] += 1
             self._event("human_report_unusable", recognised=sensed.name, action=str(step))
-            self._perceive(f"after the operator's {step.name} (report unusable)")
             return None
-        real = action.name == step.name
+        real = action.name == step.name and action.args == step.args
         self.human_stats["recognised" if real else "false_reports"] += 1
-        self._believe(action, real)
+        self._believe(action, real, step if real else None)
         return action
 
     def _fit(self, sensed: HumanAction, step: GroundAction) -> HumanAction | None:
@@ -395,15 +387,17 @@ class PerceivedCooperationRun(CooperationRun):
             return HumanAction(sensed.name, tuple(step.args[:n]))
         # more arguments than the action done has (a pick-up taken for a screw): the sensor
         # names the motion, the rest comes from what the operator is about to do
-        plan = self.human_plan.steps if self.human_plan is not None else []
+        op = self.operators.get(step.agents[0]) if step.agents else None
+        plan = op.plan.steps if op is not None and op.plan is not None else []
         for other in plan:
             if other.name == sensed.name and other.args[: len(step.args)] == step.args:
                 return HumanAction(sensed.name, other.args)
         return None
 
-    def _believe(self, action: HumanAction, real: bool) -> None:
-        """The belief a report implies (its effects are applied by the manager; where the
-        object now is, here), remembered so that it can be undone."""
+    def _believe(self, action: HumanAction, real: bool, step: GroundAction | None) -> None:
+        """The belief a report implies — its effects on the facts are the manager's; where the
+        objects now are, the base runner's physical side — remembered so that it can be
+        undone; the next percept checks it (:meth:`Anchoring.expect`)."""
         before = set(self.kb.facts)
         obj = action.args[1] if len(action.args) > 1 else None
         report = _Report(action, real)
@@ -411,23 +405,35 @@ class PerceivedCooperationRun(CooperationRun):
         if obj is not None and obj in self.kb.objects:
             report.position = self.kb.position(obj)
             fixed = self.kb.object(obj).fixed
-            self.perception.anchoring.expect(obj)  # the next percept checks the report
-            if action.name == "pick_up":
-                self.kb.move(obj, self.world.hand)
-            elif action.name == "screw" and len(action.args) > 2:
-                self.kb.move(obj, self.kb.position(action.args[2]))
-                self.kb.set_fixed(obj)
+            self.perception.anchoring.expect(obj)
+        ground = step
+        if ground is None:
+            schema = self.domain.actions[action.name]
+            who = action.args[0] if action.args and action.args[0] in self.domain.agents else None
+            ground = GroundAction(schema, action.args, (who,) if who else ())
+        positions = self._deferred if self._deferred is not None else self._positions()
+        self._believing = True
+        try:
+            if ground.agents:
+                super()._physical(ground, positions)
+        finally:
+            self._believing = False
         self._reports.append(report)
         self._pending_report = (report, before, fixed)
 
     def _human_done(self, data: dict[str, Any]) -> None:
         self._pending_report = None
+        self._deferred = None
+        self._human_changed = False
         super()._human_done(data)
-        if self._pending_report is not None:
-            self._settle_report()
-            self._perceive(f"after {data['step']}")
+        self._settle_report()
+        if self._human_changed and not self.tm.done:
+            self._perceive(f"after the operator's {data['step']}")
 
     _pending_report: tuple[_Report, set[tuple[str, ...]], bool] | None = None
+    _deferred: dict[str, Any] | None = None
+    _believing = False
+    _human_changed = False
     _before: dict[str, tuple[float, float, float]] = {}  # noqa: RUF012 - replaced, not mutated
 
     def _settle_report(self) -> None:
@@ -445,6 +451,7 @@ class PerceivedCooperationRun(CooperationRun):
             if report.position is not None and obj in self.kb.objects:
                 self.kb.move(obj, report.position)
                 self.kb.set_fixed(obj, fixed)
+            self.perception.anchoring.expected.discard(obj)
             self._reports.remove(report)
             self._event("human_report_ignored", action=str(report.action))
 
@@ -460,11 +467,13 @@ class PerceivedCooperationRun(CooperationRun):
             if not legs:
                 return
             leg = sorted(legs)[-1]
-        action = HumanAction(fr.action, ("human", leg))
+        who = next((a.name for a in self.domain.agents.values() if a.is_human), "human")
+        action = HumanAction(fr.action, (who, leg))
         self.human_stats["false_reports"] += 1
         self._event("false_report", action=str(action))
         self._pending_report = None
-        self._believe(action, real=False)
+        self._deferred = None
+        self._believe(action, False, None)
         self._dispatch(self.tm.on_human_action(self.now, action))
         self._settle_report()
         self._perceive(f"after the report {action}")
