@@ -26,13 +26,21 @@ from ..conftest import subprocess_env
 from .conftest import table
 
 
-def run_table(profile="passive", seed=0, *, kinematic=False, watch=False, **kw):
-    sc, truth = table(seed)
+def run_table(profile="passive", seed=0, *, kinematic=False, watch=False, shipped=False, **kw):
+    """A perceived run of the legs fix (``shipped``: the shipped ``table_assembly`` scenario,
+    all three segments, as ``flexhrc run table_assembly --perception scene`` runs it)."""
     if not kinematic:
         kw.setdefault("simulator", AnalyticSimulator())
-    run = perceived_run(
-        OnlineGraph(sc.graph()), sc.domain(), truth, human_profile=profile, seed=seed, **kw
-    )
+    if shipped:
+        from flexhrc.scenario import load, prepare
+
+        base = prepare(load("table_assembly"), profile=profile, seed=seed)
+        graph, domain, truth = base.graph, base.domain, base.kb
+        kw.setdefault("humans", base.operator_profiles())
+    else:
+        sc, truth = table(seed)
+        graph, domain = OnlineGraph(sc.graph()), sc.domain()
+    run = perceived_run(graph, domain, truth, human_profile=profile, seed=seed, **kw)
     frames: list[dict[str, str]] = []
     if watch:  # which physical part each anchored symbol sits on, frame by frame
         update = run.perception.update
@@ -60,10 +68,13 @@ def kinds(result, *types):
 
 
 @pytest.mark.slow
+@pytest.mark.parametrize("shipped", [True, False], ids=["table_assembly", "legs_fix"])
 @pytest.mark.parametrize("profile", PROFILES)
-def test_no_positions_given_solved_for_every_profile_and_5_seeds_with_stable_symbols(profile):
+def test_no_positions_given_solved_for_every_profile_and_5_seeds_with_stable_symbols(
+    profile, shipped
+):
     for seed in range(5):
-        result, _run, frames = run_table(profile, seed, watch=True)
+        result, _run, frames = run_table(profile, seed, watch=True, shipped=shipped)
         assert result.outcome == "solved", (profile, seed, result.reason)
         p = result.summary["perception"]
         assert p["new_objects"] == [] and p["inconsistencies"] == 0, (profile, seed, p)
@@ -74,7 +85,7 @@ def test_no_positions_given_solved_for_every_profile_and_5_seeds_with_stable_sym
             for sym, part in on.items():
                 assert sym_part.setdefault(sym, part) == part, (profile, seed, sym)
         assert len(set(sym_part.values())) == len(sym_part) == 5
-        assert p["frames"] == len(frames) >= 9
+        assert p["frames"] == len(frames) >= 8  # the start, then after every change
 
 
 def test_the_manager_starts_without_positions_and_perception_runs_after_world_changes():
@@ -191,6 +202,7 @@ def test_cli_perception_scene_json():
     data = json.loads(out.stdout)  # stdout is JSON only (pybullet's banner kept off it)
     assert data["outcome"] == "solved"
     assert data["perception"]["frames"] >= 5 and data["perception"]["anchored"] == 5
+    assert data["perception"]["mode"] == "scene"
     assert data["human_sensing"]["performed"] == data["human_sensing"]["recognised"] > 0
 
 
@@ -219,3 +231,24 @@ def test_bad_run_arguments_are_refused():
         Nudge(offset=(float("nan"), 0.0))
     with pytest.raises(FlexhrcError, match="confirm_s"):
         run_table("passive", 0, confirm_s=float("inf"))
+
+
+def test_cli_run_table_assembly_perception_scene():
+    out = cli("run", "table_assembly", "--perception", "scene", "--json", "--quiet")
+    assert out.returncode == 0, out.stderr
+    data = json.loads(out.stdout)
+    assert data["scenario"] == "table_assembly" and data["outcome"] == "solved"
+    p = data["perception"]
+    for key in ("frames", "anchored", "new_objects", "missing", "inconsistencies", "repaired"):
+        assert key in p
+    assert p["anchored"] == 5 and p["new_objects"] == [] and p["inconsistencies"] == 0
+    hs = data["human_sensing"]
+    assert {"performed", "recognised", "missed", "false_reports"} <= set(hs)
+
+
+def test_cli_run_given_still_reports_the_keys():
+    out = cli("run", "table_assembly", "--json", "--quiet")
+    assert out.returncode == 0, out.stderr
+    data = json.loads(out.stdout)
+    assert data["perception"]["mode"] == "given" and data["perception"]["frames"] == 0
+    assert data["human_sensing"]["performed"] == data["human_sensing"]["recognised"]

@@ -650,7 +650,10 @@ def _with_sensing(data: dict[str, Any], events: list[dict[str, Any]], args: Any)
         else:
             told = sum(1 for e in events if e["type"] == "human_action")
             data["human_sensing"] = {
-                "performed": told, "recognised": told, "missed": 0, "false_reports": 0
+                "performed": told,
+                "recognised": told,
+                "missed": 0,
+                "false_reports": 0,
             }
     data["human_sensing"] = {"mode": args.human_sensing, **data["human_sensing"]}
     return data

@@ -353,13 +353,11 @@ class PerceivedCooperationRun(CooperationRun):
         """The base runner's physical side moves the *belief* (where the action leaves what
         it carries). A robot's acknowledged action does so at once; an operator's action
         changes the truth here, and the belief only as far as it is reported (:meth:`_sensed`)."""
-        human = any(self.domain.agent(a).is_human for a in action.agents)
-        if not human or self._believing:
+        if not any(self.domain.agent(a).is_human for a in action.agents):
             super()._physical(action, positions)
             return
         self._truth(action, action.agents[0])
         self._human_changed = True
-        self._deferred = positions
 
     def _sensed(self, step: GroundAction) -> HumanAction | None:
         self.human_stats["performed"] += 1
@@ -411,19 +409,41 @@ class PerceivedCooperationRun(CooperationRun):
             schema = self.domain.actions[action.name]
             who = action.args[0] if action.args and action.args[0] in self.domain.agents else None
             ground = GroundAction(schema, action.args, (who,) if who else ())
-        positions = self._deferred if self._deferred is not None else self._positions()
-        self._believing = True
-        try:
-            if ground.agents:
-                super()._physical(ground, positions)
-        finally:
-            self._believing = False
+        self._believe_effects(ground)
         self._reports.append(report)
         self._pending_report = (report, before, fixed)
 
+    def _believe_effects(self, action: GroundAction) -> None:
+        """Where a reported operator action leaves what it carries, as the domain declares it
+        (``carries``, ``moves_to``, ``fixes``): at ``moves_to``, else at the place it names
+        (a screw at its bolt), else in the operator's hand."""
+        schema, binding = action.schema, action.binding
+        carried = binding.get(getattr(schema, "carries", None) or "")
+        fixed = binding.get(getattr(schema, "fixes", None) or "")
+        if carried is None and schema.kind == "pick_up" and len(action.args) > 1:
+            carried = action.args[1]  # a domain without the declarations
+        if carried is None and schema.kind == "screw" and len(action.args) > 2:
+            carried = fixed = action.args[1]
+        if carried in self.kb.objects and not self.kb.object(carried).fixed:
+            to = binding.get(getattr(schema, "moves_to", None) or "")
+            if to is None:
+                to = next(
+                    (
+                        a
+                        for a in action.args
+                        if a in self.kb.objects and a != carried and a not in self.domain.agents
+                    ),
+                    None,
+                )
+            self.kb.move(carried, self.kb.position(to) if to else self.world.hand)
+        if fixed in self.kb.objects and not self.kb.object(fixed).fixed:
+            self.kb.set_fixed(fixed)
+            self._event("fixed", object=fixed, agents=list(action.agents), action=str(action))
+            for a in action.agents:
+                self.legs_by_agent[a] = self.legs_by_agent.get(a, 0) + 1
+
     def _human_done(self, data: dict[str, Any]) -> None:
         self._pending_report = None
-        self._deferred = None
         self._human_changed = False
         super()._human_done(data)
         self._settle_report()
@@ -431,8 +451,6 @@ class PerceivedCooperationRun(CooperationRun):
             self._perceive(f"after the operator's {data['step']}")
 
     _pending_report: tuple[_Report, set[tuple[str, ...]], bool] | None = None
-    _deferred: dict[str, Any] | None = None
-    _believing = False
     _human_changed = False
     _before: dict[str, tuple[float, float, float]] = {}  # noqa: RUF012 - replaced, not mutated
 
@@ -472,7 +490,6 @@ class PerceivedCooperationRun(CooperationRun):
         self.human_stats["false_reports"] += 1
         self._event("false_report", action=str(action))
         self._pending_report = None
-        self._deferred = None
         self._believe(action, False, None)
         self._dispatch(self.tm.on_human_action(self.now, action))
         self._settle_report()
