@@ -639,13 +639,14 @@ def _with_sensing(data: dict[str, Any], events: list[dict[str, Any]], args: Any)
     else:
         data["perception"] = {"mode": "scene", **data["perception"]}
     if "human_sensing" not in data:
-        sensed = [e for e in events if e["type"] == "human_sensed"]
-        if sensed:
+        sensed = [e for e in events if e["type"] == "human_sensed" and e["samples"]]
+        uncovered = sum(1 for e in events if e["type"] == "human_sensing_uncovered")
+        if sensed or uncovered:
             ok = sum(e["recognised"] == e["performed"] for e in sensed)
             missed = sum(e["recognised"] is None for e in sensed)
             data["human_sensing"] = {
                 "performed": len(sensed), "recognised": ok, "missed": missed,
-                "false_reports": len(sensed) - ok - missed,
+                "false_reports": len(sensed) - ok - missed, "uncovered": uncovered,
             }  # fmt: skip
         else:
             told = sum(1 for e in events if e["type"] == "human_action")

@@ -98,7 +98,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="the robot's head camera in the table assembly: one frame, its detections and "
         "the symbols they are anchored to, as a PNG (sim, perception and viz extras)",
     )
-    f.add_argument("-o", "--output", required=True, metavar="FILE.png")
+    f.add_argument(
+        "-o", "--output", required=True, metavar="FILE.png", help="where to write the picture"
+    )
     f.add_argument("--seed", type=int, default=0, help="layout of the legs")
     add_json_flag(f)
     f.set_defaults(func=_frame)

@@ -124,7 +124,9 @@ class PerceivedCooperationRun(CooperationRun):
         self._acks: dict[str, int] = {}
         self._reports: list[_Report] = []
         self._repairing: set[str] = set()
-        self.human_stats = {"performed": 0, "recognised": 0, "missed": 0, "false_reports": 0}
+        self.human_stats = {
+            "performed": 0, "recognised": 0, "missed": 0, "false_reports": 0, "uncovered": 0
+        }  # fmt: skip
         tops = [p.name for p in world.parts.values() if p.shape == "box"]
         self._board = tops[0] if tops else None
         if getattr(self.execution, "execution", None) is not None:
@@ -360,8 +362,13 @@ class PerceivedCooperationRun(CooperationRun):
         self._human_changed = True
 
     def _sensed(self, step: GroundAction) -> HumanAction | None:
-        self.human_stats["performed"] += 1
         sensed = super()._sensed(step)
+        uncovered = bool(self.events) and self.events[-1]["type"] == "human_sensing_uncovered"
+        if sensed is not None and uncovered:
+            self.human_stats["uncovered"] += 1  # confirmed otherwise: no recognition figure
+            self._believe(sensed, True, step)
+            return sensed
+        self.human_stats["performed"] += 1
         if sensed is None:
             self.human_stats["missed"] += 1
             return None

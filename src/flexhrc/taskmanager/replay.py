@@ -68,6 +68,7 @@ EVENT_TYPES = frozenset(
         "false_report",
         "human_report_ignored",
         "human_report_unusable",
+        "human_sensing_uncovered",
     }
 )
 #: How an action may end (``action_end`` events).

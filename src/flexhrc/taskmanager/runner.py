@@ -456,6 +456,11 @@ class CooperationRun:
         sensed = self.human_sensing.sense(step.name)
         self._event("human_sensed", action=str(step), **sensed.to_dict())
         if sensed.recognised is None:
+            if not sensed.samples:
+                # no motion of the sensor plays this action (e.g. a visual check): the operator
+                # confirms it some other way (the panel's "done")
+                self._event("human_sensing_uncovered", action=str(step))
+                return HumanAction(step.name, step.args)
             self._event("human_sensing_missed", action=str(step))
             return None
         return HumanAction(str(sensed.recognised), step.args)
