@@ -47,7 +47,9 @@ def perceived_run(
             "perception in the loop", "sim,perception", exc.name or "pybullet"
         ) from exc
     wanted = list(types) if types is not None else None
-    world, names = SimulatedWorkspace.from_knowledge(truth, types=wanted)
+    world, names = SimulatedWorkspace.from_knowledge(
+        truth, types=wanted, destinations=destinations(graph, domain, truth)
+    )
     if not world.parts:
         raise FlexhrcError(
             "--perception scene: the scenario has no object with a body to see (a size with "
@@ -68,4 +70,37 @@ def perceived_run(
     )
 
 
-__all__ = ["TABLE_PARTS", "perceived_run"]
+def destinations(graph: OnlineGraph, domain: Domain, kb: KnowledgeBase) -> dict[str, list[str]]:
+    """Object -> the places the task's actions will move it to: the constant ``moves_to``
+    argument of every action of the graph that ``carries`` something (``place_tabletop(?top,
+    assembly_pose)``: every tabletop may go to ``assembly_pose``)."""
+    out: dict[str, list[str]] = {}
+    for name in graph.elements():
+        if graph.kind(name) != "hyperarc":
+            continue
+        for text in graph.definition_of(name).hyperarcs[graph.local_name(name)].actions:
+            try:
+                schema, terms = domain.invocation(text)
+            except FlexhrcError:  # an action the domain lacks: the manager reports it
+                continue
+            carries, moves_to = getattr(schema, "carries", None), getattr(schema, "moves_to", None)
+            if not carries or not moves_to:
+                continue
+            binding = dict(zip(schema.variables, terms, strict=False))
+            place, carried = binding.get(moves_to), binding.get(carries)
+            if place is None or place.startswith("?") or place not in kb.objects:
+                continue
+            kind = dict(schema.parameters).get(carries, "")
+            objs = (
+                [carried]
+                if carried and not carried.startswith("?")
+                else [o.id for o in kb.objects_of_type(kind)]
+            )
+            for o in objs:
+                out.setdefault(o, [])
+                if place not in out[o]:
+                    out[o].append(place)
+    return out
+
+
+__all__ = ["TABLE_PARTS", "destinations", "perceived_run"]

@@ -25,8 +25,12 @@ from flexhrc.knowledge import KnowledgeBase
 
 Vec3 = tuple[float, float, float]
 BOARD_HEIGHT_M = 0.03
-#: How a rod is laid when its yaw is not given: along x, else along y, else diagonally.
-_YAWS = (0.0, math.pi / 2, math.pi / 4, -math.pi / 4)
+#: Gap between two parts that the head camera still sees as two (its clustering joins points
+#: closer than about 2 cm).
+SEPARATION_M = 0.03
+#: How a rod is laid when its yaw is not given: along x, else along y, else turned by 15 degree
+#: steps — the first way that keeps it clear of the other parts.
+_YAWS = (0.0, math.pi / 2, *(math.radians(a) for a in range(15, 180, 15) if a != 90))
 
 
 @dataclass(frozen=True)
@@ -99,10 +103,18 @@ class SimulatedWorkspace:
 
     @classmethod
     def from_knowledge(
-        cls, kb: KnowledgeBase, types: Iterable[str] | None = None, **kw: Any
+        cls,
+        kb: KnowledgeBase,
+        types: Iterable[str] | None = None,
+        *,
+        destinations: Mapping[str, Iterable[str]] | None = None,
+        **kw: Any,
     ) -> tuple[SimulatedWorkspace, dict[str, str]]:
         """The workspace of a scenario's full knowledge base (the truth), and which part each
-        of its objects is (object id -> part name; for tests and pictures only)."""
+        of its objects is (object id -> part name; for tests and pictures only).
+
+        ``destinations``: object id -> places it will be moved to (a tabletop placed at the
+        assembly pose); rods are laid clear of those spots too, when they can be."""
         wanted = set(types) if types is not None else None
         world = cls((), **kw)
         names: dict[str, str] = {}
@@ -125,22 +137,36 @@ class SimulatedWorkspace:
         # boards first, then each rod turned so that no two bodies overlap (a small search:
         # turning one rod may be what makes room for the next)
         todo.sort(key=lambda t: t[1].shape != "box")
-
+        ghosts: list[Part] = []  # boards where they will be moved to
+        for oid, part, _ in todo:
+            for spot in (destinations or {}).get(oid, ()):
+                if spot in kb.objects and part.shape == "box":
+                    x, y, _ = kb.position(spot)
+                    ghosts.append(replace(part, name=f"~{part.name}@{spot}", position=(x, y, 0)))
         deepest = [0]
 
-        def place(i: int) -> bool:
+        def place(i: int, avoid: list[Part]) -> bool:
             deepest[0] = max(deepest[0], i)
             if i == len(todo):
                 return True
             _, part, yaws = todo[i]
             for yaw in yaws:
-                world.parts[part.name] = replace(part, yaw=yaw)
-                if world.clear_at(part.name, part.position[:2], gap_m=0.005) and place(i + 1):
+                mine = world.parts[part.name] = replace(part, yaw=yaw)
+                clear = world.clear_at(part.name, part.position[:2], gap_m=gap) and not any(
+                    _overlap(_rect(mine), _rect(g), gap) for g in avoid
+                )
+                if clear and place(i + 1, avoid):
                     return True
             del world.parts[part.name]
             return False
 
-        if not place(0):
+        # best: clear by a gap a camera resolves, of where boards go too; else merely apart
+        gap = SEPARATION_M
+        ok = place(0, ghosts) or place(0, [])
+        if not ok:
+            gap = 0.005
+            ok = place(0, [])
+        if not ok:
             bad = todo[min(deepest[0], len(todo) - 1)][0]
             rec = kb.object(bad)
             raise FlexhrcError(
@@ -284,11 +310,24 @@ class SimulatedWorkspace:
         return True
 
     def relocate(self, name: str, to: Iterable[float]) -> Part:
-        """A part nobody holds is put at ``to`` (x, y), lying (e.g. both arms place a board)."""
+        """A part nobody holds is put at ``to`` (x, y), lying (e.g. both arms place a board).
+        Loose parts lying where it lands are pushed aside (away from its centre, until clear)."""
         p = self.part(name)
         x, y = list(to)[:2]
         lying = replace(p, holder=None, upright=False)
-        return self._set(replace(lying, position=(float(x), float(y), lying.resting_height)))
+        placed = self._set(replace(lying, position=(float(x), float(y), lying.resting_height)))
+        for q in list(self.parts.values()):
+            if q.name == name or q.holder is not None or q.fixed:
+                continue
+            if not _overlap(_rect(placed), _rect(q), 0.0):
+                continue
+            side = 1.0 if q.position[1] >= placed.position[1] else -1.0
+            for k in range(1, 61):
+                spot = (q.position[0], q.position[1] + side * 0.01 * k)
+                if self.clear_at(q.name, spot, gap_m=SEPARATION_M):
+                    self._set(replace(q, position=(spot[0], spot[1], q.position[2])))
+                    break
+        return placed
 
     def displace(self, name: str, offset: Iterable[float]) -> Part:
         """Someone nudges a part lying on the table by ``offset`` (dx, dy)."""
@@ -298,6 +337,10 @@ class SimulatedWorkspace:
         dx, dy = list(offset)[:2]
         x, y, z = p.position
         return self._set(replace(p, position=(x + float(dx), y + float(dy), z)))
+
+
+def _rect(p: Part) -> tuple[float, float, float, tuple[float, float]]:
+    return (p.position[0], p.position[1], p.yaw, _extent(p))
 
 
 def _extent(p: Part) -> tuple[float, float]:
