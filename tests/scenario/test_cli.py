@@ -99,3 +99,18 @@ def test_the_tutorial_scenario_validates_and_runs_for_every_profile(capsys):
     for profile in ("passive", "takeover", "cooperative", "random"):
         assert main(["run", str(path), "--human", profile, "--json", "--quiet"]) == 0
         assert json.loads(capsys.readouterr().out)["outcome"] == "solved"
+
+
+def test_validate_and_list_speak_json(tmp_path, capsys):
+    from .helpers import base, write
+
+    doc = base()
+    doc["world"]["objects"]["a"]["position"] = [0.4, 0.2]
+    path = write(tmp_path, doc)
+    assert main(["scenario", "validate", str(path), "--json"]) == 2
+    data = json.loads(capsys.readouterr().out)
+    assert data["valid"] is False and data["summary"] is None
+    assert [f["severity"] for f in data["faults"]] == ["error"]
+    assert data["faults"][0]["message"].startswith("object 'a': malformed pose")
+    assert main(["scenario", "list", "--json"]) == 0
+    assert [x["name"] for x in json.loads(capsys.readouterr().out)] == list(scenario.SHIPPED)
