@@ -252,3 +252,27 @@ def test_cli_run_given_still_reports_the_keys():
     data = json.loads(out.stdout)
     assert data["perception"]["mode"] == "given" and data["perception"]["frames"] == 0
     assert data["human_sensing"]["performed"] == data["human_sensing"]["recognised"]
+
+
+def test_a_perception_log_replays(tmp_path):
+    log = tmp_path / "run.jsonl"
+    out = cli(
+        "run", "table_assembly", "--perception", "scene", "--log", str(log), "--json", "--quiet"
+    )
+    assert out.returncode == 0, out.stderr
+    kinds = {json.loads(line)["type"] for line in log.read_text().splitlines()}
+    assert "percept" in kinds
+    again = cli("replay", str(log), "--json")
+    assert again.returncode == 0, again.stderr
+    assert json.loads(again.stdout)["outcome"] == "solved"
+
+
+def test_cli_scene_frame(tmp_path):
+    png = tmp_path / "frame.png"
+    out = cli("scene", "frame", "-o", str(png), "--json")
+    assert out.returncode == 0, out.stderr
+    data = json.loads(out.stdout)
+    assert png.read_bytes()[:4] == b"\x89PNG"
+    assert data["detections"] >= 4 and "tabletop" in data["anchored"]
+    bad = cli("scene", "frame", "-o", str(tmp_path / "frame.jpg"))
+    assert bad.returncode == 2 and ".png" in bad.stderr and "Traceback" not in bad.stderr
