@@ -464,6 +464,8 @@ def cmd_demo_table(args: argparse.Namespace) -> int:
         raise FlexhrcError("--human-takes needs a human: drop --no-human")
     if args.no_human and args.human is not None:
         raise FlexhrcError(f"--human {args.human} needs a human: drop --no-human")
+    if args.perception == "scene":
+        scenario = _bodies_apart(scenario)
     from flexhrc.scenario.table import TableTask
 
     task = TableTask(scenario, segments=args.segments)
@@ -589,6 +591,37 @@ def _run_table(
         print("interrupted", file=sys.stderr)
         return EXIT_SIGNAL[signal.Signals(caught[0])]
     return 0 if data["outcome"] == "solved" else 1
+
+
+def _bodies_apart(scenario: Any) -> Any:
+    """With perception the legs are bodies the camera sees, not points: when the demo's
+    placement puts them too close to lie side by side, they are laid out clear of each other
+    (seeded, beside the tabletop)."""
+    import dataclasses
+
+    from flexhrc.errors import FlexhrcError as _Error
+    from flexhrc.scenarios.table_assembly import LEG_LENGTHS
+    from flexhrc.sensing.run import lying_layout
+    from flexhrc.sensing.world import SimulatedWorkspace
+
+    try:
+        SimulatedWorkspace.from_knowledge(scenario.knowledge())
+        return scenario
+    except _Error:
+        pass
+    try:
+        layout = lying_layout(
+            scenario.legs,
+            scenario.seed,
+            tabletop_depth=scenario.size[1],
+            length=LEG_LENGTHS[scenario.leg_length],
+        )
+    except _Error:
+        raise FlexhrcError(
+            f"--perception scene: {plural(scenario.legs, 'leg')} do not fit beside the tabletop "
+            "as bodies the camera can tell apart; use fewer --legs"
+        ) from None
+    return dataclasses.replace(scenario, leg_positions=layout)
 
 
 def _perceived(

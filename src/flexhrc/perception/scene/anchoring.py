@@ -7,7 +7,8 @@ frame, with a gated optimal assignment (Hungarian, ``scipy.optimize.linear_sum_a
 1. **Anchoring** — a percept and a symbol may pair only when their types are compatible (equal,
    or one a supertype of the other: the knowledge base's ``supertypes``); the cost is their
    horizontal distance (objects on a table: how high a part is depends on how it is held), and
-   pairs farther apart than the gate ``gate_m`` are never made. A symbol whose position is not
+   pairs farther apart than the gate ``gate_m`` (for a fixed part: twice the base's position
+   tolerance) are never made. A symbol whose position is not
    known yet (:meth:`~flexhrc.knowledge.KnowledgeBase.add_symbol`) pairs with any compatible
    percept at the cost of the gate, so a known position always wins.
 2. **Continuity** — percepts left over are paired again, without the gate, with the symbols left
@@ -172,7 +173,9 @@ class Anchoring:
                         cost[i, j] = self.gate_m
                         continue
                     d = self._h(p.position, s.position)
-                    if d <= self.gate_m + self._hidden(s, p) / 2:
+                    # a fixed part cannot have moved: only a percept where it is can be it
+                    gate = 2 * self.kb.position_tolerance if s.fixed else self.gate_m
+                    if d <= gate + (0.0 if s.fixed else self._hidden(s, p) / 2):
                         cost[i, j] = d
             rows, cols = optimize.linear_sum_assignment(cost)
             for r, c in zip(rows, cols, strict=True):
@@ -189,7 +192,7 @@ class Anchoring:
 
         # 2. continuity: what is left, against where it was last seen
         left = [good[i] for i in sorted(pending)]
-        olds = [s for s in symbols if s.id in unmatched and s.id in self.last_seen]
+        olds = [s for s in symbols if s.id in unmatched and s.id in self.last_seen and not s.fixed]
         if left and olds and optimize is not None:
             cost = np.full((len(left), len(olds)), _BIG)
             for i, p in enumerate(left):
@@ -206,6 +209,22 @@ class Anchoring:
                 unmatched.discard(s.id)
                 self._continuity(s, p, now, report)
             left = [p for i, p in enumerate(left) if i not in consumed]
+
+        # a fixed part left unseen, and a percept near it that nothing else explains: the
+        # fixed part is not where it is fixed (kb.observe records the inconsistency)
+        fixed = [s for s in symbols if s.id in unmatched and s.fixed and s.anchored]
+        for s in fixed:
+            near = [
+                p
+                for p in left
+                if self.kb.compatible(s.type, p.type)
+                and self._h(p.position, s.position) <= self.gate_m
+            ]
+            if near:
+                p = min(near, key=lambda q: self._h(q.position, s.position))
+                left.remove(p)
+                unmatched.discard(s.id)
+                self._apply(s, p, now, report)
 
         # 3. new objects
         for p in left:
