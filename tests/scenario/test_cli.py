@@ -114,3 +114,15 @@ def test_validate_and_list_speak_json(tmp_path, capsys):
     assert data["faults"][0]["message"].startswith("object 'a': malformed pose")
     assert main(["scenario", "list", "--json"]) == 0
     assert [x["name"] for x in json.loads(capsys.readouterr().out)] == list(scenario.SHIPPED)
+
+
+def test_replay_of_a_scenario_log_gives_the_same_summary(tmp_path, capsys):
+    log = tmp_path / "run.jsonl"
+    args = ["run", "kitchen_drawer", "--human", "cooperative", "--seed", "2", "--json", "--quiet"]
+    assert main([*args, "--log", str(log)]) == 0
+    live = json.loads(capsys.readouterr().out)
+    assert main(["replay", str(log), "--json"]) == 0
+    replayed = json.loads(capsys.readouterr().out)
+    for key in ("outcome", "robot_actions", "human_actions", "decisions", "branches_simulated",
+                "legs_by_agent", "solved_hyperarcs", "by_agent"):  # fmt: skip
+        assert replayed[key] == live[key], key
