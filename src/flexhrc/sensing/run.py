@@ -167,10 +167,13 @@ class PerceivedCooperationRun(CooperationRun):
         repaired_before = {i.object_id for i in self.kb.inconsistencies}
         upd = self.perception.update(self.now)
         self._event("percept", why="repair: look again", **upd.to_dict())
-        for obj in sorted(repaired_before - {i.object_id for i in self.kb.inconsistencies}):
+        cleared = sorted(repaired_before - {i.object_id for i in self.kb.inconsistencies})
+        for obj in cleared:
             self.perception.stats.repaired += 1
             self._repairing.discard(obj)
             self._event("repaired", object=obj, by="re-perceive")
+        if cleared or upd.report.moved:
+            self._dispatch(self.tm.on_percept(self.now, moved=upd.report.moved))
         asked: set[str] = set()
         for inc in list(self.kb.inconsistencies):
             if inc.object_id in asked:
@@ -203,7 +206,8 @@ class PerceivedCooperationRun(CooperationRun):
             return  # settled meanwhile
         if report.real:  # the operator did it: the percept was wrong; look again later
             self._event("operator_answers", question=f"did you {report.action}?", answer="yes")
-            self.kb.resolve(obj, accept=False)
+            self.kb.resolve(obj, accept=False)  # the belief stands
+            self.perception.anchoring.expected.discard(obj)
             self._dispatch(self.tm.on_percept(self.now))
             return
         self._event("operator_answers", question=f"did you {report.action}?", answer="no")
