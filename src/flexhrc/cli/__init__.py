@@ -37,6 +37,9 @@ COMMAND_MODULES: tuple[str, ...] = (
     "sim",
     "har",
     "scene",
+    "cell",
+    "agent",
+    "panel",
 )
 
 

@@ -97,7 +97,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
 
     rp = sub.add_parser(
         "replay",
-        help="print the summary of a saved cooperation log (JSONL)",
+        help="print the summary of a saved cooperation log (JSONL) or cell store (.db)",
         description="Check every event of a cooperation log and print its summary (Table I); "
         "says so when the run was cut short (no outcome event).",
     )
@@ -472,6 +472,16 @@ def cmd_demo_table(args: argparse.Namespace) -> int:
     return _run_table(args, task, args.human or "passive", inputs=[])
 
 
+def _bolt_steps(bolts: list[int] | None, scenario: Any) -> list[int | str] | None:
+    """``--human-takes K`` means bolt K: in the legs segment alone that is the K-th cooperation
+    step; with the tabletop placement before it, the step is named by its node."""
+    if not bolts:
+        return None
+    if getattr(scenario, "segments", "legs") == "legs":
+        return list(bolts)
+    return [f"connected_{k}" for k in bolts]
+
+
 def _flag_error(exc: Any) -> str:
     """A scenario error in the words of the demo's options."""
     flag = DEMO_FLAGS.get(exc.key, exc.key)
@@ -539,7 +549,7 @@ def _run_table(
             failures=failures,
             trace=_trace_printer(args),
             realtime=args.realtime or 0.0,
-            human_takes=args.human_takes,
+            human_takes=_bolt_steps(args.human_takes, scenario),
             human_sensing=sensing,
             sink=writer.write if writer is not None else None,
             reaction=args.reaction,
@@ -975,9 +985,12 @@ def cmd_replay(args: argparse.Namespace) -> int:
 
 
 def _read_log(path: Path) -> list[dict[str, Any]]:
+    from flexhrc.cell.store import is_store, store_log
     from flexhrc.jsonl import read_jsonl_lines
     from flexhrc.taskmanager.replay import check_log
 
+    if is_store(path):  # a cell's SQLite event store (flexhrc cell --store FILE.db)
+        return store_log(path)
     lines = read_jsonl_lines(path, required=("t", "type"))
     if not lines:
         raise FormatError("empty log", path)

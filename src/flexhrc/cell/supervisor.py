@@ -1,0 +1,753 @@
+"""The cell: the Task Manager as a service over a transport, with an event store.
+
+:class:`Cell` is a thin loop around the sans-IO :class:`~flexhrc.taskmanager.TaskManager`:
+**receive** a message, **store** it (committed), **feed** it to the manager, **send** what the
+manager decided. Inputs are ``start``, ``ack``, ``human_action``, ``agent_up`` and
+``agent_down``; outputs are commands, suggestions and stops (``docs/cell.md``).
+
+Time. With ``realtime == 0`` (or agents inside the process) the cell runs a conservative
+discrete-event loop: an answer carries the simulated time ``t`` at which the action ended, and
+the cell handles the earliest answer only once every agent it waits for has answered. The order
+of inputs — and so every decision — is then the same on every run with the same seed, whatever
+the processes' speeds. With external agents and ``realtime > 0`` the agents take real time and the
+cell handles answers as they come, like a real cell.
+
+Lost agents. Over Zenoh every agent holds a liveliness token ``alive/<agent>``. When it goes (the
+process died), the cell stores ``agent_down``, tells the manager the agent is unavailable and
+acknowledges each command it was running as ``failed`` with reason ``agent lost`` (stored acks,
+so a resume replays them); the manager re-plans with the others. When the token comes back
+(``agent_up``) the agent is used again.
+
+Resume. ``Cell(..., resume=True)`` replays the stored inputs into a fresh manager (deterministic:
+the same commands with the same ids come out), then sends every outstanding command again under
+its original id as soon as its agent is alive; agents answer a repeated id with their stored ack
+and never execute it twice.
+
+Boundary for panels and bridges: :meth:`Cell.snapshot` is the whole visible state as a JSON-able
+dict (also published on ``state`` after every event) and :meth:`Cell.human_input` is the one way
+in for a person's input; neither touches the loop.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+from flexhrc.cell import protocol as P
+from flexhrc.cell.components import ground, world_of
+from flexhrc.cell.store import EventStore, StoredEvent, log_events
+from flexhrc.errors import FlexhrcError
+from flexhrc.representation import OnlineGraph
+from flexhrc.taskmanager.domain import GroundAction
+from flexhrc.taskmanager.manager import (
+    Ack,
+    Command,
+    Directive,
+    HumanAction,
+    Stop,
+    Suggest,
+    TaskManager,
+)
+from flexhrc.taskmanager.simulator import Simulator
+from flexhrc.transport import Transport
+
+log = logging.getLogger("flexhrc.cell")
+
+AGENT_LOST = "agent lost"
+# manager log records kept in the store (the others are inputs or outputs stored on their own)
+STORED_LOG_TYPES = {
+    "decision",
+    "outcome",
+    "abort",
+    "action_failed",
+    "infeasible",
+    "recognised",
+    "solved",
+    "human_action_unmatched",
+    "ack_ignored",
+    "agent_available",
+    "agent_unavailable",
+}
+
+
+@dataclass
+class AgentState:
+    name: str
+    kind: str  # robot | human
+    alive: bool = False  # its liveliness token is present (always True in one process)
+    available: bool = True  # the manager may plan with it
+    seen: bool = False
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"kind": self.kind, "alive": self.alive, "available": self.available}
+
+
+class Cell:
+    """The manager side of a cell (see the module docstring)."""
+
+    def __init__(
+        self,
+        scenario: Any,
+        transport: Transport,
+        *,
+        store: EventStore | None = None,
+        resume: bool = False,
+        realtime: float = 0.0,
+        ordered: bool | None = None,
+        agent_speed: float | None = None,
+        simulator: Simulator | None = None,
+        liveliness: bool = True,
+        name: str = "default",
+        trace: Callable[[dict[str, Any]], None] | None = None,
+        seed: int = 0,
+    ) -> None:
+        if not realtime >= 0 or realtime != realtime or realtime == float("inf"):
+            raise FlexhrcError(f"--realtime must be a finite number >= 0, got {realtime}")
+        self.scenario = scenario
+        self.name = name
+        self.seed = seed
+        self.transport = transport
+        self.store = store
+        self.realtime = float(realtime)
+        self.ordered = (self.realtime == 0) if ordered is None else ordered
+        self.agent_speed = self.realtime if agent_speed is None else agent_speed
+        self.trace = trace or (lambda ev: None)
+        self.graph = OnlineGraph(scenario.graph())
+        self.domain = scenario.domain()
+        self.kb = scenario.knowledge()
+        if simulator is None and hasattr(scenario, "make_simulator"):
+            simulator = scenario.make_simulator("auto")  # the scenario's own choice
+        self.tm = TaskManager(self.graph, self.domain, self.kb, simulator, log=self._tm_log)
+        self.agents = {
+            a.name: AgentState(a.name, "human" if a.is_human else "robot")
+            for a in self.domain.agents.values()
+        }
+        if not liveliness:
+            for st in self.agents.values():
+                st.alive = st.seen = True
+        self.now = 0.0
+        self.events: list[StoredEvent] = []
+        self.commands: dict[int, Command] = {}
+        self.stored_commands: set[int] = set()
+        self.acked: set[int] = set()
+        self.suggestions: dict[str, dict[str, Any]] = {}
+        self.active_suggestion: dict[str, str] = {}
+        self.human_ids: set[str] = set()
+        self.pending: list[tuple[float, int, str, dict[str, Any]]] = []
+        self._arrivals = 0
+        self.dropped: list[str] = []
+        self.started = False
+        self.replaying = False
+        self.resumed = False
+        self._wall0 = time.perf_counter()
+        self._clock0: float | None = None
+        self._last_wall = time.perf_counter()
+        self._panel_inputs = 0
+        self._sent_at: dict[int, float] = {}  # command id -> when it was last sent (monotonic)
+        self.resent = 0
+        self._subs = [
+            transport.subscribe(P.ACK_TOPIC, self._on_ack_message),
+            transport.subscribe(P.HUMAN_TOPIC, self._on_human_message),
+            transport.subscribe(P.PERCEPT_TOPIC, self._on_percept_message),
+        ]
+        self.percept_ids: set[str] = set()
+        if hasattr(transport, "on_drop"):
+            transport.on_drop = lambda topic, data, exc: self._drop(
+                f"{topic}: undecodable payload ({len(data)} bytes): {exc}"
+            )
+        watch = getattr(transport, "watch_liveliness", None)
+        if liveliness and watch is not None:
+            self._subs.append(watch(f"{P.ALIVE_PREFIX}/*", self._on_alive))
+            self.token = transport.declare_token(P.alive_key(P.MANAGER))  # type: ignore[attr-defined]
+        else:
+            self.token = None
+        if resume:
+            if store is None:
+                raise FlexhrcError("--resume needs --store FILE.db")
+            self._replay(store.events())
+
+    # -- the outside world --------------------------------------------------------------------
+    def snapshot(self) -> dict[str, Any]:
+        """Everything a panel shows, JSON-able: outcome, agents, suggestions, timeline, KB."""
+        busy = {a: c for a, c in self.tm.busy.items()}
+        agents = {}
+        for name, st in self.agents.items():
+            cmd = busy.get(name)
+            status = "lost" if not st.available else ("busy" if cmd else "idle")
+            if st.kind == "human":
+                status = (
+                    "lost"
+                    if not st.available
+                    else ("busy" if name in self.active_suggestion else "idle")
+                )
+            agents[name] = {
+                **st.to_dict(),
+                "status": status,
+                "command": {"id": cmd.id, "action": str(cmd.action)} if cmd else None,
+            }
+        timeline = [
+            ev
+            for ev in log_events(self.events[-400:])
+            if ev["type"] in ("action_end", "command", "suggestion", "outcome")
+        ][-100:]
+        return {
+            "cell": self.name,
+            "scenario": getattr(self.scenario, "name", "?"),
+            "t": round(self.now, 6),
+            "outcome": self.tm.outcome,
+            "reason": self.tm.reason,
+            "events_stored": len(self.events),
+            "agents": agents,
+            "suggestions": [
+                {k: v for k, v in self.suggestions[sid].items() if k not in ("world", "v")}
+                for sid in self.active_suggestion.values()
+            ],
+            "timeline": timeline,
+            "knowledge": self.kb.to_dict(),
+            "dropped": len(self.dropped),
+        }
+
+    def human_input(self, action: str, agent: str | None = None) -> None:
+        """A person says what they did (a panel's "done" button): ``pick_up(human, leg2)``."""
+        human = agent or next((a for a, s in self.agents.items() if s.kind == "human"), None)
+        if human is None:
+            raise FlexhrcError("this scenario has no human agent")
+        self._panel_inputs += 1
+        self._on_human_message(
+            P.message(
+                "human_action",
+                id=f"panel:{self._panel_inputs}:{len(self.events)}",
+                agent=human,
+                action=action,
+                t=round(self.now, 6),
+            )
+        )
+
+    # -- receiving ----------------------------------------------------------------------------
+    def _drop(self, reason: str) -> None:
+        self.dropped.append(reason)
+        log.warning("dropped: %s", reason)
+        self.trace({"t": round(self.now, 6), "type": "dropped", "reason": reason})
+
+    def _on_ack_message(self, data: Any) -> None:
+        try:
+            msg = P.parse(data, expect="ack")
+        except P.ProtocolError as exc:
+            self._drop(f"ack: {exc}")
+            return
+        cid = msg["id"]
+        cmd = self.commands.get(cid)
+        if cmd is None:
+            self._drop(f"ack for unknown command {cid}")
+        elif cid in self.acked or any(k == "ack" and b["id"] == cid for *_, k, b in self.pending):
+            self._drop(f"duplicate ack for command {cid}")
+        elif msg["agent"] not in cmd.agents:
+            self._drop(f"ack for command {cid} from {msg['agent']}, not {'+'.join(cmd.agents)}")
+        elif self.tm.busy.get(msg["agent"]) is not cmd:
+            self._drop(f"ack for command {cid}, which is no longer running")
+        else:
+            self._arrive(msg["t"], "ack", _body(msg))
+
+    def _on_human_message(self, data: Any) -> None:
+        try:
+            msg = P.parse(data, expect="human_action")
+            st = self.agents.get(msg["agent"])
+            if st is None or st.kind != "human":
+                raise P.ProtocolError(f"{msg['agent']!r} is not a human agent of this cell")
+            ground(self.domain, msg["action"])
+        except FlexhrcError as exc:
+            self._drop(f"human_action: {exc}")
+            return
+        if msg["id"] in self.human_ids or any(
+            k == "human_action" and b["id"] == msg["id"] for *_, k, b in self.pending
+        ):
+            self._drop(f"duplicate human_action {msg['id']}")
+            return
+        self._arrive(msg["t"], "human_action", _body(msg))
+
+    def _on_percept_message(self, data: Any) -> None:
+        """A percept of one object from a perception process: applied when it arrives (the
+        knowledge base checks it against what it knows; a contradiction makes the manager wait,
+        paper III)."""
+        try:
+            msg = P.parse(data, expect="percept")
+        except P.ProtocolError as exc:
+            self._drop(f"percept: {exc}")
+            return
+        if msg["id"] in self.percept_ids:
+            self._drop(f"duplicate percept {msg['id']}")
+            return
+        if not self.started:
+            self._drop(f"percept {msg['id']} before the cooperation started")
+            return
+        self._input("percept", _body(msg))  # at the cell's time: a percept never moves the clock
+
+    def _arrive(self, t: float, kind: str, body: dict[str, Any]) -> None:
+        self._arrivals += 1
+        self.pending.append((float(t), self._arrivals, kind, body))
+
+    def _on_alive(self, key: str, alive: bool) -> None:
+        name = key.split("/", 1)[-1]
+        st = self.agents.get(name)
+        if st is None:
+            if name != P.MANAGER:
+                log.info("liveliness of %s, not an agent of this cell: ignored", name)
+            return
+        st.alive = alive
+        if alive:
+            st.seen = True
+        if not self.started:
+            return
+        if not alive and st.available:
+            self._agent_down(name)
+        elif alive and not st.available:
+            self._input("agent_up", {"agent": name, "wall": time.time()})
+            self._resend(name)  # an operator's open suggestion (reports already seen are dropped)
+        elif alive:
+            self._resend(name)
+
+    def _agent_down(self, name: str) -> None:
+        self._input("agent_down", {"agent": name, "wall": time.time()})
+        self._fail_lost()
+
+    def _fail_lost(self) -> None:
+        """Acknowledge as failed every running command of an unavailable agent."""
+        pending_ids = {b["id"] for *_, k, b in self.pending if k == "ack"}
+        while True:
+            lost = [
+                c
+                for a, c in sorted(self.tm.busy.items())
+                if not self.agents[a].available and c.id not in pending_ids
+            ]
+            if not lost or self.tm.done:
+                return
+            cmd = lost[0]
+            agent = next(a for a in cmd.agents if not self.agents[a].available)
+            body = {"id": cmd.id, "agent": agent, "status": "failed", "reason": AGENT_LOST}
+            self._input("ack", body)
+
+    # -- store, feed, send --------------------------------------------------------------------
+    def _record(self, kind: str, body: dict[str, Any]) -> None:
+        if self.replaying:
+            return
+        t = self.now  # unrounded, so a resumed clock continues exactly
+        seq = self.store.append(kind, body, t) if self.store is not None else len(self.events) + 1
+        ev = StoredEvent(seq, t, kind, body)
+        self.events.append(ev)
+        self.trace({**body, "t": t, "type": kind})
+
+    def _tm_log(self, ev: dict[str, Any]) -> None:
+        if ev.get("type") in STORED_LOG_TYPES:
+            body = {k: v for k, v in ev.items() if k not in ("t", "type")}
+            self._record(str(ev["type"]), body)
+
+    def _clock(self) -> float:
+        """Cell time from the wall clock, when agents take real time (unordered loop)."""
+        if self.ordered or self.realtime <= 0 or self._clock0 is None:
+            return self.now
+        return (time.perf_counter() - self._clock0) * self.realtime
+
+    def _input(self, kind: str, body: dict[str, Any], t: float | None = None) -> None:
+        if t is not None:
+            self.now = max(self.now, float(t))
+        if not self.replaying:
+            self.now = max(self.now, self._clock())
+        self._record(kind, body)  # committed before the manager acts on it
+        directives = self._feed(kind, body)
+        self._handle(directives)
+        if not self.replaying:
+            self._fail_lost()
+            self._publish_state()
+
+    def _feed(self, kind: str, body: dict[str, Any]) -> list[Directive]:
+        tm, now = self.tm, self.now
+        if kind == "start":
+            self.started = True
+            return tm.start(now)
+        if kind == "ack":
+            cid = int(body["id"])
+            self.acked.add(cid)
+            cmd = self.commands.get(cid)
+            if cmd is not None and body["status"] == "done":
+                positions = body.get("positions") or {}
+                for k, p in positions.items():  # where things are now (a percept of the arm)
+                    if k in self.kb.objects and self.kb.position(k) != tuple(p):
+                        self.kb.move(k, p)
+                self._physical(cmd.action, positions)
+            return tm.on_ack(now, Ack(cid, str(body["status"]), body.get("reason")))
+        if kind == "human_action":
+            self.human_ids.add(str(body["id"]))
+            action = ground(self.domain, body["action"])
+            self._physical(action, body.get("positions") or {})
+            return tm.on_human_action(now, HumanAction(action.name, action.args))
+        if kind == "percept":
+            self.percept_ids.add(str(body["id"]))
+            self.kb.update_object(
+                str(body["object"]), str(body["object_type"]), body["pose"], body.get("size")
+            )
+            return tm.replan(now)
+        if kind in ("agent_down", "agent_up"):
+            st = self.agents[str(body["agent"])]
+            st.available = kind == "agent_up"
+            return tm.set_available(now, st.name, st.available)
+        raise FlexhrcError(f"unknown input kind {kind!r} in the store")
+
+    def _physical(self, action: GroundAction, positions: dict[str, Any]) -> None:
+        """What an action does to the world besides its facts, as the domain declares it
+        (``moves_to``, ``carries``, ``fixes``): the same rules as ``CooperationRun``."""
+        schema, binding, kb = action.schema, action.binding, self.kb
+        moves_to = getattr(schema, "moves_to", None)
+        carries = getattr(schema, "carries", None)
+        fixes = getattr(schema, "fixes", None)
+        where = None
+        if moves_to and binding.get(moves_to) in kb.objects:
+            where = kb.position(binding[moves_to])
+        for agent in action.agents:
+            if agent in positions and agent in kb.objects and self.domain.agent(agent).is_human:
+                kb.move(agent, positions[agent])
+        carried = binding.get(carries) if carries else None
+        if carried in kb.objects and not kb.object(carried).fixed:
+            hand = positions.get(action.agents[0]) if action.agents else None
+            if hand is None and action.agents and action.agents[0] in kb.objects:
+                hand = kb.position(action.agents[0])
+            target = where or hand
+            if target is not None:
+                kb.move(carried, target)
+        fixed = binding.get(fixes) if fixes else None
+        if fixed in kb.objects:
+            kb.set_fixed(fixed)
+            self._record(
+                "fixed", {"object": fixed, "agents": list(action.agents), "action": str(action)}
+            )
+
+    def _handle(self, directives: list[Directive]) -> None:
+        for d in directives:
+            if isinstance(d, Command):
+                self.commands[d.id] = d
+                body = {**d.to_dict(), "t": self.now}
+                body.pop("type", None)
+                if not self.replaying:
+                    self._record("command", body)
+                    self.stored_commands.add(d.id)
+                # a joint command goes to its first agent, which drives all of them (as one
+                # execution model does in CooperationRun); the others are busy with it
+                self._send_command(d.agents[0], d)
+            elif isinstance(d, Suggest):
+                sid = f"s{len(self.suggestions) + 1}"
+                human = next(a for a in d.actions[0].agents if self.agents[a].kind == "human")
+                msg = {
+                    "v": P.VERSION,
+                    "type": "suggestion",
+                    "id": sid,
+                    "element": d.element,
+                    "actions": [str(a) for a in d.actions],
+                    "cost": float(d.cost),
+                    "t": self.now,
+                    "agent": human,
+                }
+                self.suggestions[sid] = msg
+                self.active_suggestion[human] = sid
+                self._record("suggestion", {k: v for k, v in msg.items() if k not in ("v", "type")})
+                self._send_suggestion(human, sid)
+            elif isinstance(d, Stop):
+                self._record("stop", {"agent": d.agent, "id": d.command_id, "reason": d.reason})
+                if not self.replaying and self.agents[d.agent].alive:
+                    self.transport.publish(
+                        P.cmd_topic(d.agent),
+                        P.message("stop", id=d.command_id, reason=d.reason, t=self.now),
+                    )
+
+    def _send_command(self, agent: str, cmd: Command) -> None:
+        st = self.agents[agent]
+        if self.replaying or not st.alive or not st.available:
+            return
+        self._sent_at[cmd.id] = time.monotonic()
+        self.transport.publish(
+            P.cmd_topic(agent),
+            P.message(
+                "command",
+                id=cmd.id,
+                agents=list(cmd.agents),
+                action=str(cmd.action),
+                element=cmd.element,
+                t=self.now,
+                expected_s=float(cmd.expected_s),
+                world=world_of(self.kb),
+                realtime=self.agent_speed,
+                process=bool(getattr(cmd, "process", False)),
+            ),
+        )
+
+    def _send_suggestion(self, human: str, sid: str) -> None:
+        st = self.agents[human]
+        if self.replaying or not st.alive or not st.available:
+            return
+        msg = dict(self.suggestions[sid])
+        msg.pop("agent", None)
+        msg.update(world=world_of(self.kb), realtime=self.agent_speed)
+        self.transport.publish(P.suggest_topic(human), P.parse(msg, expect="suggestion"))
+
+    def _resend(self, agent: str) -> None:
+        """An agent is (again) reachable: send what it should be doing (after a resume)."""
+        for a, cmd in sorted(self.tm.busy.items()):
+            if a == agent == cmd.agents[0] and cmd.id not in self.acked:
+                self._send_command(agent, cmd)
+        sid = self.active_suggestion.get(agent)
+        if sid is not None:
+            self._send_suggestion(agent, sid)
+
+    def _resend_overdue(self) -> None:
+        """Send again a command whose answer is long overdue (a message lost on the way, an
+        agent that reconnected): agents treat a repeated id as the same command."""
+        now = time.monotonic()
+        pending_ids = {b["id"] for *_, k, b in self.pending if k == "ack"}
+        for agent, cmd in sorted(self.tm.busy.items()):
+            sent = self._sent_at.get(cmd.id)
+            if agent != cmd.agents[0] or sent is None or cmd.id in pending_ids:
+                continue
+            if cmd.id in self.acked:
+                continue
+            # an agent reports a time-out itself after 3x the expected time
+            paced = 3.0 * cmd.expected_s / self.agent_speed if self.agent_speed > 0 else 0.0
+            wait = 2.0 + paced
+            if now - sent > wait:
+                log.info("command %d to %s: no answer after %.1f s, resent", cmd.id, agent, wait)
+                self.resent += 1
+                self._send_command(agent, cmd)
+
+    def _publish_state(self) -> None:
+        try:
+            self.transport.publish(
+                P.STATE_TOPIC, {"v": P.VERSION, "type": "state", **self.snapshot()}
+            )
+        except Exception as exc:  # a panel's view must never stop the cell
+            log.warning("state not published: %s", exc)
+
+    # -- resume -------------------------------------------------------------------------------
+    def _replay(self, events: list[StoredEvent]) -> None:
+        if not events or events[0].kind != "start":
+            raise FlexhrcError(
+                f"{self.store.path if self.store else 'store'}: nothing to resume (no start event)"
+            )
+        self.replaying = True
+        try:
+            for ev in events:
+                self.events.append(ev)
+                if ev.kind == "command":
+                    self.stored_commands.add(int(ev.body["id"]))
+                if ev.is_input:
+                    self.now = max(self.now, ev.t)
+                    self._handle(self._feed(ev.kind, ev.body))
+        finally:
+            self.replaying = False
+        self.resumed = True
+        self._refresh_suggestions()
+        # outputs of the last input that the crash kept from the store
+        for cmd in sorted(self.tm.busy.values(), key=lambda c: c.id):
+            if cmd.id not in self.stored_commands:
+                body = {**cmd.to_dict(), "t": self.now}
+                body.pop("type", None)
+                self._record("command", body)
+                self.stored_commands.add(cmd.id)
+
+    def _refresh_suggestions(self) -> None:
+        owners = {
+            a for ex in self.tm.executions.values() if ex.owner == "human" for a in ex.branch.agents
+        }
+        for human in list(self.active_suggestion):
+            if human not in owners:
+                del self.active_suggestion[human]
+
+    # -- the loop -----------------------------------------------------------------------------
+    def awaited(self) -> list[str]:
+        """Agents whose answer the discrete-event loop waits for before it moves on."""
+        pending_cmd = {b["id"] for *_, k, b in self.pending if k == "ack"}
+        pending_human = {b["agent"] for *_, k, b in self.pending if k == "human_action"}
+        out = [
+            a
+            for a, c in sorted(self.tm.busy.items())
+            if c.id not in pending_cmd and self.agents[a].available
+        ]
+        for ex in self.tm.executions.values():
+            if ex.owner != "human":
+                continue
+            for a in ex.branch.agents:
+                st = self.agents.get(a)
+                if st and st.kind == "human" and st.available and a not in pending_human:
+                    out.append(a)
+        return out
+
+    def _missing(self) -> list[str]:
+        return [n for n, st in self.agents.items() if not st.alive]
+
+    def wait_for_agents(
+        self, timeout: float, progress: Callable[[str], None] | None = None
+    ) -> None:
+        """Block until every agent of the scenario is alive (external agents)."""
+        deadline = time.monotonic() + timeout
+        said: set[str] = set()
+        while self._missing():
+            if time.monotonic() > deadline:
+                raise FlexhrcError(
+                    f"no agent process for {', '.join(self._missing())} after {timeout:g} s; "
+                    "start them with `flexhrc agent robot|human SCENARIO ... --connect ENDPOINT`"
+                )
+            for n in self._missing():
+                if progress and n not in said:
+                    progress(f"waiting for agent {n} ...")
+                    said.add(n)
+            self.transport.wait(0.1)  # type: ignore[attr-defined]
+            self.transport.flush()
+
+    def step(self) -> bool:
+        """Handle one pending answer if the loop may; returns whether it did."""
+        if not self.pending or self.tm.done:
+            return False
+        if self.ordered:
+            if self.awaited():
+                return False
+            # earliest end first; a tie goes by what the answer is about (the command's id,
+            # the operator and its report), never by which process happened to answer first
+            self.pending.sort(key=_answer_order)
+            t, _, kind, body = self.pending.pop(0)
+            if self.realtime > 0:
+                lag = (t - self.now) / self.realtime - (time.perf_counter() - self._last_wall)
+                if lag > 0:
+                    time.sleep(min(lag, 5.0))
+        else:
+            self.pending.sort(key=lambda x: x[1])  # arrival order
+            t, _, kind, body = self.pending.pop(0)
+        self._last_wall = time.perf_counter()
+        self._input(kind, body, t)
+        self._refresh_suggestions()
+        return True
+
+    def run(
+        self,
+        *,
+        pump: Callable[[float], None],
+        agents_timeout: float = 30.0,
+        max_wall_s: float = 3600.0,
+        progress: Callable[[str], None] | None = None,
+    ) -> dict[str, Any]:
+        """Run the cooperation to its end; ``pump(timeout)`` lets the transport deliver."""
+        self._last_wall = time.perf_counter()
+        if not self.resumed:
+            self.wait_for_agents(agents_timeout, progress)
+        self._clock0 = time.perf_counter() - (self.now / self.realtime if self.realtime else 0)
+        if not self.resumed:
+            self._input(
+                "start",
+                {
+                    "agents": list(self.domain.agents),
+                    "humans": [n for n, st in self.agents.items() if st.kind == "human"],
+                    "scenario": getattr(self.scenario, "name", "?"),
+                    "seed": self.seed,
+                    "realtime": self.realtime,
+                    "simulator": _simulator_name(self.tm.simulator),
+                },
+            )
+        elif self.tm.done:  # the stored cooperation had already ended: nothing to add
+            if progress:
+                progress(f"the stored cooperation already ended: {self.tm.outcome}")
+            self.transport.publish(P.STATE_TOPIC, P.message("end", outcome=self.tm.outcome))
+            return self.summary()
+        else:
+            self.started = True
+            if progress:
+                progress(f"resumed from {len(self.events)} stored events at t = {self.now:.2f} s")
+            for name, st in self.agents.items():
+                if st.alive and st.available:  # the others resend when their token arrives
+                    self._resend(name)
+            self._fail_lost()
+        resumed_at = time.monotonic() if self.resumed else None
+        deadline = time.monotonic() + max_wall_s
+        idle_since: float | None = None
+        while not self.tm.done:
+            if resumed_at is not None and time.monotonic() - resumed_at > agents_timeout:
+                # an agent that died while the manager was down never shows its token again
+                resumed_at = None
+                for name, st in self.agents.items():
+                    if not st.seen and st.available:
+                        if progress:
+                            progress(f"agent {name} did not come back after {agents_timeout:g} s")
+                        self._agent_down(name)
+            if self.step():
+                idle_since = None
+                continue
+            if not self.pending and not self.awaited():
+                # nothing running, nothing to come: stuck, unless a lost agent may come back
+                if any(not st.available for st in self.agents.values()):
+                    idle_since = None
+                else:
+                    idle_since = idle_since or time.monotonic()
+                if idle_since is not None and time.monotonic() - idle_since > 0.5:
+                    self.tm.outcome = "failed"
+                    self.tm.reason = (
+                        "deadlock: no agent has anything to do and the task is not solved"
+                    )
+                    self._record("outcome", {"outcome": "failed", "reason": self.tm.reason})
+                    break
+            self._resend_overdue()
+            if time.monotonic() > deadline:
+                self.tm.outcome, self.tm.reason = "failed", f"wall time {max_wall_s} s exceeded"
+                self._record("outcome", {"outcome": "failed", "reason": self.tm.reason})
+                break
+            pump(0.05)
+        summary = self.summary()
+        self._record("summary", summary)
+        self.transport.publish(P.STATE_TOPIC, P.message("end", outcome=self.tm.outcome))
+        self._publish_state()
+        return summary
+
+    def summary(self) -> dict[str, Any]:
+        """The keys of ``flexhrc run --json`` (counted from the stored events), plus the cell's
+        (``cell``: name, events, resumed, dropped, agents) and the final ``knowledge`` base."""
+        from flexhrc.taskmanager.replay import summarise_log
+
+        log_form = log_events([e for e in self.events if e.kind != "summary"])
+        data = summarise_log(log_form)
+        tm = self.tm.summary()
+        data["outcome"], data["reason"] = tm["outcome"], tm["reason"]
+        data["simulator"] = _simulator_name(self.tm.simulator)
+        data["decisions"] = tm["decisions"]
+        data["branches_simulated"] = tm["branches_simulated"]
+        data["timing"].update(tm["timing"])
+        data["scenario"] = str(getattr(self.scenario, "name", "?"))
+        data["wall_s"] = time.perf_counter() - self._wall0
+        data["cell"] = {
+            "name": self.name,
+            "events": len(self.events),
+            "resumed": self.resumed,
+            "dropped": len(self.dropped),
+            "resent": self.resent,
+            "agents": {n: st.to_dict() for n, st in self.agents.items()},
+        }
+        data["knowledge"] = self.kb.to_dict()
+        return data
+
+    def close(self) -> None:
+        for sub in self._subs:
+            sub.cancel()
+        if self.token is not None:
+            self.token.undeclare()
+
+
+def _answer_order(item: tuple[float, int, str, dict[str, Any]]) -> tuple[Any, ...]:
+    t, _, kind, body = item
+    if kind == "ack":
+        return (t, 0, int(body["id"]), "")
+    return (t, 1, 0, f"{body.get('agent')}:{body.get('id')}")
+
+
+def _simulator_name(simulator: Any) -> str:
+    from flexhrc.taskmanager.simulator import simulator_name
+
+    return simulator_name(simulator)
+
+
+def _body(msg: dict[str, Any]) -> dict[str, Any]:
+    return {k: v for k, v in msg.items() if k not in ("v", "type")}

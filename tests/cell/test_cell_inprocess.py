@@ -1,0 +1,282 @@
+"""The embedded default cell: one process, in-process bus, agents inside."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from flexhrc.cell import Cell, HumanAgent, RobotAgent, load_scenario
+from flexhrc.cell.components import execution_model
+from flexhrc.transport import InProcessBus
+
+from ..conftest import subprocess_env
+
+
+def run_cli(*args: str, timeout: float = 120) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "flexhrc", *args],
+        capture_output=True,
+        text=True,
+        env=subprocess_env(),
+        timeout=timeout,
+    )
+
+
+def test_default_cell_is_the_run_cooperation() -> None:
+    cell = run_cli("cell", "table_assembly", "--json", "--quiet")
+    run = run_cli("run", "table_assembly", "--json", "--quiet")
+    assert cell.returncode == 0, cell.stderr
+    c, d = json.loads(cell.stdout), json.loads(run.stdout)
+    assert set(d) - {"wall_s"} <= set(c)  # the keys of `flexhrc run --json`
+    for key in ("outcome", "robot_actions", "human_actions", "decisions", "legs_by_agent",
+                "by_agent", "simulator"):  # fmt: skip
+        assert c[key] == d[key], key
+    assert c["timing"]["total_s"] == d["timing"]["total_s"]
+    assert [h["hyperarc"] for h in c["solved_hyperarcs"]] == [
+        h["hyperarc"] for h in d["solved_hyperarcs"]
+    ]
+
+
+def _cell(scenario: Any) -> tuple[Cell, list[Any], InProcessBus]:
+    bus = InProcessBus()
+    cell = Cell(scenario, bus, liveliness=False, simulator=execution_model("analytic"))
+    agents: list[Any] = []
+    for a in scenario.domain().agents.values():
+        cls = HumanAgent if a.is_human else RobotAgent
+        agents.append(cls(a.name, scenario, bus, execution=execution_model("analytic")))
+    return cell, agents, bus
+
+
+def test_snapshot_is_json_and_human_input_drives_the_manager() -> None:
+    from flexhrc.cell.scenario_ref import CellScenario
+    from flexhrc.scenarios.table_assembly import TableScenario
+
+    scenario = CellScenario("legs", TableScenario())  # the legs fix: bolt 1 is the first step
+    cell, agents, bus = _cell(scenario)
+    snaps: list[dict[str, Any]] = []
+    told = []
+
+    def pump(timeout: float) -> None:
+        bus.flush()
+        for a in agents:
+            a.poll()
+        if not told:  # an operator at a panel: "I took leg2 and screwed it to bolt 1"
+            cell.human_input("pick_up(human, leg2)")
+            cell.human_input("screw(human, leg2, bolt_1)")
+            told.append(True)
+        snaps.append(json.loads(json.dumps(cell.snapshot())))
+
+    data = cell.run(pump=pump)
+    assert data["outcome"] == "solved"
+    assert data["legs_by_agent"]["human"] == 1
+    assert data["solved_hyperarcs"][0]["hyperarc"] == "human_1"
+    snap = snaps[-1]
+    assert {"outcome", "agents", "suggestions", "events_stored", "timeline", "knowledge"} <= set(
+        snap
+    )
+    assert set(snap["agents"]) == {"human", "left", "right"}
+    assert all({"alive", "available", "status"} <= set(a) for a in snap["agents"].values())
+    assert json.loads(json.dumps(cell.snapshot()))["outcome"] == "solved"
+
+
+def test_parallel_scenario_uses_every_arm() -> None:
+    scenario = load_scenario("parallel_assembly")
+    cell, agents, bus = _cell(scenario)
+
+    def pump(timeout: float) -> None:
+        bus.flush()
+        for a in agents:
+            a.poll()
+
+    data = cell.run(pump=pump)
+    assert data["outcome"] == "solved"
+    arms = [a for a in data["legs_by_agent"] if a.startswith("arm")]
+    assert len(arms) == 6 and all(data["legs_by_agent"][a] >= 1 for a in arms)
+    assert sum(data["legs_by_agent"].values()) == 12
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["cell", "table", "--agents", "external"], "--agents external needs --transport zenoh"),
+        (["cell", "table", "--resume"], "--resume needs --store"),
+        (["cell", "no_such_scenario"], "unknown scenario 'no_such_scenario'"),
+        (["cell", "table", "--realtime", "-1"], "--realtime must be"),
+        (["cell", "table", "--realtime", "nan"], "--realtime must be"),
+        (["cell", "table", "--connect", "tcp/127.0.0.1:1"], "go with --transport zenoh"),
+        (["cell", "table", "--store", "/no/such/dir/x.db"], "does not exist"),
+        (["cell", "table", "--transport", "zenoh", "--listen", "nonsense"], "tcp/HOST:PORT"),
+        (["agent", "robot", "table", "--arm", "middle", "--connect", "tcp/127.0.0.1:1"],
+         "--arm 'middle': no robot agent"),
+        (["agent", "human", "table", "--name", "left", "--connect", "tcp/127.0.0.1:1"],
+         "--name 'left': no human agent"),
+        (["agent", "human", "table", "--name", "human", "--profile", "takeover",
+          "--connect", "tcp/127.0.0.1:1"], "--profile 'takeover'"),
+        (["agent", "robot", "table", "--arm", "left"], "--connect ENDPOINT is needed"),
+    ],
+)  # fmt: skip
+def test_bad_arguments_are_one_clear_error(args: list[str], message: str, tmp_path: Path) -> None:
+    res = run_cli(*args, timeout=60)
+    assert res.returncode == 2, res.stderr
+    assert message in res.stderr
+    assert "Traceback" not in res.stderr
+
+
+def test_scenario_file_errors_name_the_file(tmp_path: Path) -> None:
+    bad = tmp_path / "s.yaml"
+    bad.write_text("scenario: table_assembly\nlegz: 3\n")
+    res = run_cli("cell", str(bad))
+    assert res.returncode == 2 and "s.yaml" in res.stderr and "legz" in res.stderr
+
+
+class Crash(Exception):
+    pass
+
+
+@pytest.mark.parametrize("crash_after", [6, 33, 50])  # 33: the suggestion is open
+def test_resume_in_one_process_ends_like_the_uninterrupted_run(
+    tmp_path: Path, crash_after: int
+) -> None:
+    """The manager dies after `crash_after` stored events (one with the operator's suggestion
+    open); a fresh cell resumes from the store and ends in the same state."""
+    from flexhrc.cell import EventStore
+    from flexhrc.cell.store import read_store
+    from flexhrc.scenarios.table_assembly import TableScenario
+
+    scenario = TableScenario(unreachable_bolts=(2,))
+
+    def pumped(cell: Cell, agents: list[Any], bus: InProcessBus, limit: int | None) -> Any:
+        def pump(timeout: float) -> None:
+            if limit is not None and len(cell.events) >= limit:
+                raise Crash
+            bus.flush()
+            for a in agents:
+                a.poll()
+
+        return pump
+
+    ref_cell, ref_agents, ref_bus = _cell(scenario)
+    ref = ref_cell.run(pump=pumped(ref_cell, ref_agents, ref_bus, None))
+    assert ref["human_actions"] == 2
+
+    path = tmp_path / "s.db"
+    store = EventStore(path)
+    bus = InProcessBus()
+    cell = Cell(scenario, bus, store=store, liveliness=False, simulator=execution_model("analytic"))
+    agents = [
+        (HumanAgent if a.is_human else RobotAgent)(
+            a.name, scenario, bus, execution=execution_model("analytic")
+        )
+        for a in scenario.domain().agents.values()
+    ]
+    with pytest.raises(Crash):
+        cell.run(pump=pumped(cell, agents, bus, crash_after))
+    store.close()
+    n = len(read_store(path))
+    store = EventStore(path, resume=True)
+    bus2 = InProcessBus()
+    again = Cell(
+        scenario,
+        bus2,
+        store=store,
+        resume=True,
+        liveliness=False,
+        simulator=execution_model("analytic"),
+    )
+    # the agents are new processes too here: they execute what was outstanding
+    agents2 = [
+        (HumanAgent if a.is_human else RobotAgent)(
+            a.name, scenario, bus2, execution=execution_model("analytic")
+        )
+        for a in scenario.domain().agents.values()
+    ]
+    data = again.run(pump=pumped(again, agents2, bus2, None))
+    store.close()
+    assert data["outcome"] == "solved" and data["cell"]["resumed"]
+    assert data["knowledge"] == ref["knowledge"]
+    assert data["timing"]["total_s"] == ref["timing"]["total_s"]
+    assert data["human_actions"] == ref["human_actions"]
+    events = read_store(path)
+    assert [e.seq for e in events] == list(range(1, len(events) + 1)) and len(events) > n
+    ids = [e.body["id"] for e in events if e.kind == "command"]
+    assert len(ids) == len(set(ids))
+
+
+def test_a_lost_command_is_sent_again_and_executed_once() -> None:
+    class LossyBus(InProcessBus):
+        lost = 0
+
+        def publish(self, topic: str, payload: Any) -> None:
+            if topic == "cmd/left" and not self.lost:
+                self.lost += 1  # the first command to the left arm never arrives
+                return
+            super().publish(topic, payload)
+
+    scenario = load_scenario("table_assembly")
+    bus = LossyBus()
+    cell = Cell(scenario, bus, liveliness=False, simulator=execution_model("analytic"))
+    agents = [
+        (HumanAgent if a.is_human else RobotAgent)(
+            a.name, scenario, bus, execution=execution_model("analytic")
+        )
+        for a in scenario.domain().agents.values()
+    ]
+
+    def pump(timeout: float) -> None:
+        bus.flush()
+        for a in agents:
+            a.poll()
+
+    data = cell.run(pump=pump)
+    assert data["outcome"] == "solved" and bus.lost == 1
+    assert data["cell"]["resent"] == 1
+    executed = [i for a in agents if isinstance(a, RobotAgent) for i in a.executed]
+    assert len(executed) == len(set(executed)) == data["robot_actions"]
+
+
+def test_external_agents_that_never_come_and_a_taken_port_are_clear_errors() -> None:
+    pytest.importorskip("zenoh")
+    from flexhrc.transport.zenoh import ZenohTransport, free_tcp_port, loopback_config
+
+    port = free_tcp_port()
+    args = ["cell", "table_assembly", "--transport", "zenoh", "--listen", f"tcp/127.0.0.1:{port}"]
+    res = run_cli(*args, "--agents", "external", "--wait", "1")
+    assert res.returncode == 2 and "no agent process for human, left, right" in res.stderr
+    assert "flexhrc agent robot|human" in res.stderr and "Traceback" not in res.stderr
+    with ZenohTransport(loopback_config(port)):
+        res = run_cli(*args)
+    assert res.returncode == 2 and "cannot open a Zenoh session" in res.stderr
+    assert "Traceback" not in res.stderr
+
+
+def test_percepts_are_inputs_stored_and_checked() -> None:
+    from flexhrc.cell import protocol as P
+
+    scenario = load_scenario("table_assembly")
+    cell, agents, bus = _cell(scenario)
+    sent: list[bool] = []
+
+    def pump(timeout: float) -> None:
+        if cell.started and not sent:  # a perception process reports an object it found
+            good = P.message(
+                "percept", id="cam:1", object="box9", object_type="obstacle", pose=[1, 1, 0]
+            )
+            bus.publish(P.PERCEPT_TOPIC, good)
+            bus.publish(P.PERCEPT_TOPIC, good)  # the same percept twice
+            bus.publish(P.PERCEPT_TOPIC, {**good, "id": "cam:2", "pose": [1, float("nan"), 0]})
+            sent.append(True)
+        bus.flush()
+        for a in agents:
+            a.poll()
+
+    data = cell.run(pump=pump)
+    assert data["outcome"] == "solved"
+    assert [e.body["object"] for e in cell.events if e.kind == "percept"] == ["box9"]
+    assert "box9" in cell.kb.objects
+    assert data["cell"]["dropped"] == 2
+    assert any("duplicate percept" in d for d in cell.dropped)
