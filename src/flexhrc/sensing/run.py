@@ -32,7 +32,7 @@ is a miss — the manager is not told, scene perception may still notice the cha
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -318,35 +318,8 @@ class PerceivedCooperationRun(CooperationRun):
                 self._false_report(fr)
 
     def _truth(self, action: GroundAction, agent: str) -> None:
-        """What the action does to the truth. Robot and operator act where they *believe*
-        things are: a grasp closes on whatever lies at the believed place."""
-        schema = action.schema
-        kind, args, binding = schema.kind, action.args, action.binding
-        carries = binding.get(getattr(schema, "carries", None) or "")
-        moves_to = binding.get(getattr(schema, "moves_to", None) or "")
-        if kind == "grasp":
-            self.world.grasp(agent, self.kb.position(args[1]))
-        elif kind == "transport":
-            x, y, _ = self.kb.position(moves_to or args[2])
-            board = self.world.over_board((x, y))
-            held = self.world.held_by(agent)
-            if board is not None and held is not None and held.shape == "cylinder":
-                # above a bolt the leg is held upright, its foot just above the board
-                top = board.position[2] + board.dims[2] / 2
-                self.world.carry(agent, (x, y, top + 0.01 + held.dims[0] / 2), upright=True)
-            else:
-                self.world.carry(agent, (x, y, HOLD_HEIGHT_M))
-        elif kind == "screw":
-            self.world.attach(agent, self.kb.position(args[2]), on=self._board)
-        elif kind in ("ungrasp", "put_down"):
-            self.world.release(agent)
-        elif kind == "pick_up":
-            self.world.pick_up(agent, self.kb.position(args[1]))
-        elif carries in self.kb.objects and moves_to in self.kb.objects:
-            # e.g. both arms place the tabletop: the part lying at the believed place goes there
-            part = self.world.nearest(self.kb.position(carries), within=0.05)
-            if part is not None:
-                self.world.relocate(part.name, self.kb.position(moves_to))
+        """What the action does to the truth (see :func:`physical_effect`)."""
+        physical_effect(self.world, action, agent, self.kb.position, self._board)
 
     def _changes_world(self, action: GroundAction) -> bool:
         schema = action.schema
@@ -546,4 +519,51 @@ def lying_layout(
     raise FlexhrcError(f"no room for {legs} legs beside the tabletop; use fewer legs")
 
 
-__all__ = ["FalseReport", "Nudge", "PerceivedCooperationRun", "forget_positions", "lying_layout"]
+def physical_effect(
+    world: SimulatedWorkspace,
+    action: GroundAction,
+    agent: str,
+    believed: Callable[[str], tuple[float, float, float]],
+    board: str | None,
+) -> None:
+    """What ``action`` by ``agent`` does to the truth. Robot and operator act where they
+    *believe* things are (``believed(name)``: a position): a grasp closes on whatever lies at
+    the believed place, a leg carried above a bolt of ``board`` is held upright, a screwed one
+    stands upright on it; a part the domain ``carries`` to a ``moves_to`` place without a hand
+    (both arms placing the tabletop) is put there."""
+    schema = action.schema
+    kind, args, binding = schema.kind, action.args, action.binding
+    carries = binding.get(getattr(schema, "carries", None) or "")
+    moves_to = binding.get(getattr(schema, "moves_to", None) or "")
+    if kind == "grasp":
+        world.grasp(agent, believed(args[1]))
+    elif kind == "transport":
+        x, y, _ = believed(moves_to or args[2])
+        over = world.over_board((x, y))
+        held = world.held_by(agent)
+        if over is not None and held is not None and held.shape == "cylinder":
+            # above a bolt the leg is held upright, its foot just above the board
+            top = over.position[2] + over.dims[2] / 2
+            world.carry(agent, (x, y, top + 0.01 + held.dims[0] / 2), upright=True)
+        else:
+            world.carry(agent, (x, y, HOLD_HEIGHT_M))
+    elif kind == "screw":
+        world.attach(agent, believed(args[2]), on=board)
+    elif kind in ("ungrasp", "put_down"):
+        world.release(agent)
+    elif kind == "pick_up":
+        world.pick_up(agent, believed(args[1]))
+    elif carries and moves_to:
+        part = world.nearest(believed(carries), within=0.05)
+        if part is not None:
+            world.relocate(part.name, believed(moves_to))
+
+
+__all__ = [
+    "FalseReport",
+    "Nudge",
+    "PerceivedCooperationRun",
+    "forget_positions",
+    "lying_layout",
+    "physical_effect",
+]
