@@ -246,12 +246,14 @@ def test_cli_run_table_assembly_perception_scene():
     assert {"performed", "recognised", "missed", "false_reports"} <= set(hs)
 
 
-def test_cli_run_given_still_reports_the_keys():
-    out = cli("run", "table_assembly", "--json", "--quiet")
+def test_cli_run_given_keeps_its_keys_and_a_wrist_sensor_adds_its_figures():
+    plain = json.loads(cli("run", "table_assembly", "--json", "--quiet").stdout)
+    assert "perception" not in plain and "human_sensing" not in plain  # as the cell's summary
+    out = cli("run", "table_assembly", "--human-sensing", "har", "--json", "--quiet")
     assert out.returncode == 0, out.stderr
-    data = json.loads(out.stdout)
-    assert data["perception"]["mode"] == "given" and data["perception"]["frames"] == 0
-    assert data["human_sensing"]["performed"] == data["human_sensing"]["recognised"]
+    hs = json.loads(out.stdout)["human_sensing"]
+    assert hs["mode"] == "har" and hs["uncovered"] == 4  # the operator's checks
+    assert hs["performed"] == hs["recognised"] + hs["missed"] + hs["false_reports"]
 
 
 def test_a_perception_log_replays(tmp_path):

@@ -673,18 +673,21 @@ def _perceived_like(args: argparse.Namespace, run: Any) -> Any:
 
 
 def _with_sensing(data: dict[str, Any], events: list[dict[str, Any]], args: Any) -> dict[str, Any]:
-    """The ``perception`` and ``human_sensing`` keys of a run's JSON, in every mode."""
-    if "perception" not in data:
-        data["perception"] = {
-            "mode": "given", "frames": 0, "anchored": 0, "new_objects": [], "missing": [],
-            "inconsistencies": 0, "repaired": 0,
-        }  # fmt: skip
+    """The ``perception`` (with ``--perception scene``) and ``human_sensing`` (with
+    ``--perception scene`` or a wrist sensor) keys of a run's JSON; a plain run keeps the keys
+    it always had (the cell's summary has the same)."""
+    scene = args.perception == "scene"
+    if scene:
+        data["perception"] = {"mode": "scene", **data.get("perception", {})}
     else:
-        data["perception"] = {"mode": "scene", **data["perception"]}
+        data.pop("perception", None)
+    if not scene and args.human_sensing == "injected":
+        data.pop("human_sensing", None)
+        return data
     if "human_sensing" not in data:
         sensed = [e for e in events if e["type"] == "human_sensed" and e["samples"]]
         uncovered = sum(1 for e in events if e["type"] == "human_sensing_uncovered")
-        if sensed or uncovered:
+        if sensed or uncovered or args.human_sensing != "injected":
             ok = sum(e["recognised"] == e["performed"] for e in sensed)
             missed = sum(e["recognised"] is None for e in sensed)
             data["human_sensing"] = {
