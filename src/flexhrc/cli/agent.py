@@ -43,6 +43,14 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
     h.add_argument("--profile", default="passive", metavar="PROFILE", help="passive (default)")
     _common(h)
     h.set_defaults(func=cmd_agent)
+    e = asub.add_parser(
+        "perception",
+        help="the cell's perception: the head camera renders the simulated workspace after "
+        "every action that changes it and sends percepts (sim and perception extras)",
+    )
+    e.add_argument("scenario", metavar="SCENARIO")
+    _common(e)
+    e.set_defaults(func=cmd_agent_perception)
 
 
 def _common(p: argparse.ArgumentParser) -> None:
@@ -135,4 +143,46 @@ def cmd_agent(args: argparse.Namespace) -> int:
     }
     if args.json:
         emit(args, data)
+    return 0
+
+
+def cmd_agent_perception(args: argparse.Namespace) -> int:
+    """``flexhrc agent perception SCENARIO --connect ENDPOINT``."""
+    from flexhrc.cell import load_scenario
+    from flexhrc.cell.components import run_agent
+
+    if not args.connect and not args.listen:
+        raise FlexhrcError("--connect ENDPOINT is needed (the cell's --listen endpoint)")
+    try:
+        from flexhrc.sensing.agent import PerceptionAgent
+    except ImportError as exc:
+        raise FlexhrcError(
+            f"agent perception needs the sim and perception extras ({exc.name} is missing): "
+            "pip install 'flexhrc[sim,perception]'"
+        ) from None
+    scenario = load_scenario(args.scenario, seed=args.seed)
+
+    def trace(line: str) -> None:
+        if not args.quiet:
+            print(f"[perception] {line}", file=sys.stderr, flush=True)
+
+    transport = open_zenoh(args, listen_default=[])
+    stop = {"flag": False}
+
+    def on_term(signum: int, frame: Any) -> None:
+        stop["flag"] = True
+
+    signal.signal(signal.SIGTERM, on_term)
+    agent: Any = None
+    try:
+        agent = PerceptionAgent(scenario, transport, trace=trace)
+        trace(f"ready (cell {args.cell!r})")
+        outcome = run_agent(agent, transport, until=lambda: stop["flag"])
+        trace(f"cell ended: {outcome}")
+    finally:
+        if agent is not None:
+            agent.close()
+        transport.close()
+    if args.json:
+        emit(args, agent.summary())
     return 0

@@ -48,6 +48,14 @@ TRACE_TYPES = {
     "process_activated",
     "process_ended",
     "precondition_failed",
+    "inconsistent",
+    "consistent_again",
+    "repair",
+    "repaired",
+    "operator_answers",
+    "operator_nudges",
+    "false_report",
+    "stop",
 }
 PLOT_SUFFIXES = (".png", ".svg", ".pdf")
 # scenario settings -> the demo's options (for errors that name what the user typed)
@@ -196,10 +204,27 @@ def _run_options(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--human-sensing",
-        choices=["injected", "har"],
+        choices=["injected", "har", "har-real"],
         default="injected",
-        help="how the manager learns what the operator did: told directly, or recognised from "
-        "a synthesised wrist signal (GMM/GMR; perception extra)",
+        help="how the manager learns what the operator did: told directly, recognised from "
+        "a synthesised wrist signal (har), or from real HMP trials of other volunteers than "
+        "the model was trained on (har-real, needs --hmp; perception extra)",
+    )
+    p.add_argument(
+        "--hmp", metavar="DIR", help="the HMP dataset folder for --human-sensing har-real"
+    )
+    p.add_argument(
+        "--perception",
+        choices=["given", "scene"],
+        default="given",
+        help="where the manager's object positions come from: given by the scenario, or "
+        "scene perception of the robot's head camera (sim and perception extras)",
+    )
+    p.add_argument(
+        "--repair",
+        action="store_true",
+        help="with --perception scene: repair an inconsistent knowledge base (look again, ask "
+        "the operator to confirm) instead of waiting",
     )
     p.add_argument(
         "--har-model",
@@ -268,7 +293,36 @@ def _nth(text: str, where: str) -> int:
     return nth
 
 
+def _check_perception_options(args: argparse.Namespace) -> None:
+    """Option combinations of perception and human sensing, checked before any work."""
+    if args.human_sensing == "har-real" and not args.hmp:
+        raise FlexhrcError("--human-sensing har-real needs --hmp DIR (the HMP dataset folder)")
+    if args.hmp and args.human_sensing != "har-real":
+        raise FlexhrcError("--hmp goes with --human-sensing har-real")
+    if args.hmp and not Path(args.hmp).is_dir():
+        raise FlexhrcError(f"--hmp {args.hmp}: not a directory")
+    if args.human_sensing == "har-real" and args.har_model:
+        raise FlexhrcError(
+            "--har-model goes with --human-sensing har (har-real trains its own model on other "
+            "volunteers than those it replays)"
+        )
+    if args.repair and args.perception != "scene":
+        raise FlexhrcError("--repair needs --perception scene (only perception notices)")
+
+
 def _human_sensing(args: argparse.Namespace) -> Any:
+    _check_perception_options(args)
+    if args.human_sensing == "har-real":
+        try:
+            from flexhrc.sensing.har_real import HmpReplaySensor
+        except ImportError as exc:
+            raise FlexhrcError(
+                f"--human-sensing har-real needs the perception extra ({exc.name} is missing): "
+                "pip install 'flexhrc[perception]'"
+            ) from None
+        if not args.quiet:
+            print("training the wrist-motion recogniser on HMP volunteers ...", file=sys.stderr)
+        return HmpReplaySensor(args.hmp, seed=args.seed)
     if args.human_sensing != "har":
         if args.har_model:
             raise FlexhrcError("--har-model goes with --human-sensing har")
@@ -354,7 +408,23 @@ def _trace_printer(args: argparse.Namespace) -> Any:
                 f"(confidence {ev['confidence']:.2f}, {ev['samples']} samples)"
             )
         elif kind == "human_sensing_missed":
-            line = f"wrist sensor missed {ev['action']}; scene perception reports it"
+            line = f"wrist sensor missed {ev['action']}: the manager is not told"
+        elif kind == "inconsistent":
+            line = f"INCONSISTENT: {ev['reason']}"
+        elif kind == "consistent_again":
+            line = f"consistent again: {ev['object']} ({ev['why']})"
+        elif kind == "repair":
+            line = f"repair: {ev['step']}" + (f" - {ev['question']}" if "question" in ev else "")
+        elif kind == "repaired":
+            line = f"repaired {ev['object']} by {ev['by']}"
+        elif kind == "operator_answers":
+            line = f"operator: {ev['answer']} ({ev['question']})"
+        elif kind == "operator_nudges":
+            line = f"operator moves {ev['part']} by {ev['offset']}"
+        elif kind == "false_report":
+            line = f"wrist sensor reports {ev['action']} (false)"
+        elif kind == "stop":
+            line = f"STOP {ev['agent']}: {ev['reason']}"
         elif kind == "process_activated":
             line = f"{ev['node']} reached: its processes start ({', '.join(ev['processes'])})"
         elif kind == "process_ended":
@@ -394,6 +464,8 @@ def cmd_demo_table(args: argparse.Namespace) -> int:
         raise FlexhrcError("--human-takes needs a human: drop --no-human")
     if args.no_human and args.human is not None:
         raise FlexhrcError(f"--human {args.human} needs a human: drop --no-human")
+    if args.perception == "scene":
+        scenario = _bodies_apart(scenario)
     from flexhrc.scenario.table import TableTask
 
     task = TableTask(scenario, segments=args.segments)
@@ -469,10 +541,7 @@ def _run_table(
     sensing = _human_sensing(args)
     writer = EventLogWriter(args.log) if args.log else None
     try:
-        run = CooperationRun(
-            OnlineGraph(scenario.graph()),
-            domain,
-            scenario.knowledge(),
+        run_kw: dict[str, Any] = dict(
             simulator=simulator,
             execution=execution,
             human_profile=profile,
@@ -485,6 +554,11 @@ def _run_table(
             sink=writer.write if writer is not None else None,
             reaction=args.reaction,
         )
+        graph, truth = OnlineGraph(scenario.graph()), scenario.knowledge()
+        if args.perception == "scene":
+            run = _perceived(args, graph, domain, truth, run_kw)
+        else:
+            run = CooperationRun(graph, domain, truth, **run_kw)
         with _stop_on_signals(run) as caught:
             result = run.run()
     finally:
@@ -503,7 +577,7 @@ def _run_table(
             f"warning: --fail {f.action}:{f.nth} never happened: the run had "
             f"{plural(run.executions_of(f.action), f.action + ' action')}"
         )
-    data = dict(result.summary)
+    data = _with_sensing(dict(result.summary), result.events, args)
 
     def text() -> str:
         out = ["", table_i(data), ""]
@@ -527,6 +601,109 @@ def _run_table(
         print("interrupted", file=sys.stderr)
         return EXIT_SIGNAL[signal.Signals(caught[0])]
     return 0 if data["outcome"] == "solved" else 1
+
+
+def _bodies_apart(scenario: Any) -> Any:
+    """With perception the legs are bodies the camera sees, not points: when the demo's
+    placement puts them too close to lie side by side, they are laid out clear of each other
+    (seeded, beside the tabletop)."""
+    import dataclasses
+
+    from flexhrc.errors import FlexhrcError as _Error
+    from flexhrc.scenarios.table_assembly import LEG_LENGTHS
+    from flexhrc.sensing.run import lying_layout
+    from flexhrc.sensing.world import SimulatedWorkspace
+
+    try:
+        SimulatedWorkspace.from_knowledge(scenario.knowledge())
+        return scenario
+    except _Error:
+        pass
+    try:
+        layout = lying_layout(
+            scenario.legs,
+            scenario.seed,
+            tabletop_depth=scenario.size[1],
+            length=LEG_LENGTHS[scenario.leg_length],
+        )
+    except _Error:
+        raise FlexhrcError(
+            f"--perception scene: {plural(scenario.legs, 'leg')} do not fit beside the tabletop "
+            "as bodies the camera can tell apart; use fewer --legs"
+        ) from None
+    return dataclasses.replace(scenario, leg_positions=layout)
+
+
+def _perceived(
+    args: argparse.Namespace, graph: Any, domain: Any, truth: Any, run_kw: dict[str, Any]
+) -> Any:
+    """The run with the head camera, the scene pipeline and anchoring in the loop: the
+    manager is given no position of the parts; ``truth`` is the simulated workspace."""
+    try:
+        from flexhrc.sensing.setup import perceived_run
+    except ImportError as exc:
+        raise FlexhrcError(
+            f"--perception scene needs the sim and perception extras ({exc.name} is missing): "
+            "pip install 'flexhrc[sim,perception]'"
+        ) from None
+    if not args.quiet:
+        progress("perception: head camera, scene pipeline, anchoring ...")
+    return perceived_run(graph, domain, truth, repair=args.repair, **run_kw)
+
+
+def _perceived_like(args: argparse.Namespace, run: Any) -> Any:
+    """The perceived twin of a prepared :class:`CooperationRun` (same graph, domain, world,
+    simulator, operators and options)."""
+    run_kw = dict(
+        simulator=run.simulator,
+        execution=run.execution,
+        human_profile=run.profile,
+        seed=args.seed,
+        failures=run.failures,
+        trace=run.trace,
+        realtime=run.realtime,
+        max_time_s=run.max_time_s,
+        human_takes=run.human_takes,
+        human_sensing=run.human_sensing,
+        sink=run.sink,
+        humans=run.operator_profiles(),
+        reaction=run.tm.reaction,
+    )
+    return _perceived(args, run.graph, run.domain, run.kb, run_kw)
+
+
+def _with_sensing(data: dict[str, Any], events: list[dict[str, Any]], args: Any) -> dict[str, Any]:
+    """The ``perception`` (with ``--perception scene``) and ``human_sensing`` (with
+    ``--perception scene`` or a wrist sensor) keys of a run's JSON; a plain run keeps the keys
+    it always had (the cell's summary has the same)."""
+    scene = args.perception == "scene"
+    if scene:
+        data["perception"] = {"mode": "scene", **data.get("perception", {})}
+    else:
+        data.pop("perception", None)
+    if not scene and args.human_sensing == "injected":
+        data.pop("human_sensing", None)
+        return data
+    if "human_sensing" not in data:
+        sensed = [e for e in events if e["type"] == "human_sensed" and e["samples"]]
+        uncovered = sum(1 for e in events if e["type"] == "human_sensing_uncovered")
+        if sensed or uncovered or args.human_sensing != "injected":
+            ok = sum(e["recognised"] == e["performed"] for e in sensed)
+            missed = sum(e["recognised"] is None for e in sensed)
+            data["human_sensing"] = {
+                "performed": len(sensed), "recognised": ok, "missed": missed,
+                "false_reports": len(sensed) - ok - missed, "uncovered": uncovered,
+            }  # fmt: skip
+        else:
+            told = sum(1 for e in events if e["type"] == "human_action")
+            data["human_sensing"] = {
+                "performed": told,
+                "recognised": told,
+                "missed": 0,
+                "false_reports": 0,
+            }
+    data["human_sensing"] = {"mode": args.human_sensing, **data["human_sensing"]}
+    return data
 
 
 def _robot_actions(domain: Any) -> list[str]:
@@ -625,6 +802,8 @@ def _run_scenario(args: argparse.Namespace, sc: Any, path: Path) -> int:
             human_sensing=sensing,
             realtime=args.realtime or 0.0,
         )
+        if args.perception == "scene":
+            run = _perceived_like(args, run)
         with _stop_on_signals(run) as caught:
             result = run.run()
     finally:
@@ -641,7 +820,7 @@ def _run_scenario(args: argparse.Namespace, sc: Any, path: Path) -> int:
             f"warning: --fail {f.action}:{f.nth} never happened: the run had "
             f"{plural(run.executions_of(f.action), f.action + ' action')}"
         )
-    data = {"scenario": sc.name, **result.summary}
+    data = _with_sensing({"scenario": sc.name, **result.summary}, result.events, args)
 
     def text() -> str:
         out = ["", table_i(data), ""]

@@ -3,6 +3,7 @@
 flexhrc scene bench --scenes N --seed S --noise SIGMA_M [--json]
 flexhrc scene generate -o FILE.npy [--seed S] [--noise SIGMA_M] [--depth]
 flexhrc scene detect FILE.npy [--intrinsics fx,fy,cx,cy] [--rules RULES.yaml] [--json]
+flexhrc scene frame -o FILE.png [--seed S] [--json]   # the head camera in the table assembly
 """
 
 from __future__ import annotations
@@ -91,6 +92,18 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     d.add_argument("--rules", metavar="RULES.yaml", help="classification rules (default: table)")
     add_json_flag(d)
     d.set_defaults(func=_detect)
+
+    f = sub.add_parser(
+        "frame",
+        help="the robot's head camera in the table assembly: one frame, its detections and "
+        "the symbols they are anchored to, as a PNG (sim, perception and viz extras)",
+    )
+    f.add_argument(
+        "-o", "--output", required=True, metavar="FILE.png", help="where to write the picture"
+    )
+    f.add_argument("--seed", type=int, default=0, help="layout of the legs")
+    add_json_flag(f)
+    f.set_defaults(func=_frame)
 
 
 def _bench(args: argparse.Namespace) -> int:
@@ -219,4 +232,29 @@ def _detect(args: argparse.Namespace) -> int:
         return "\n".join([plural(len(objects), "object"), *rows])
 
     emit(args, data, text)
+    return 0
+
+
+def _frame(args: argparse.Namespace) -> int:
+    from flexhrc.files import check_output
+
+    out = check_output(args.output, option="--output", suffixes=(".png",))
+    try:
+        from flexhrc.sensing.figure import picture_of_table
+    except ImportError as exc:
+        raise FlexhrcError(
+            f"scene frame needs the sim and perception extras ({exc.name} is missing): "
+            "pip install 'flexhrc[sim,perception,viz]'"
+        ) from None
+    report = picture_of_table(out, seed=args.seed)
+    report["output"] = str(out)
+    emit(
+        args,
+        report,
+        lambda: (
+            f"{report['detections']} detections, anchored: "
+            + ", ".join(f"{s} <- {c}" for s, c in report["anchored"].items())
+            + f" ({report['ms']} ms); picture: {out}"
+        ),
+    )
     return 0

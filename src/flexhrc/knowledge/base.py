@@ -14,6 +14,13 @@ type for a known id, a size off by more than the tolerance, an object that is fi
 seen elsewhere — is *not* applied: it is kept as an :class:`Inconsistency` and the base is
 :attr:`~KnowledgeBase.consistent` no more, so the Task Manager waits (paper VI-E) until
 :meth:`~KnowledgeBase.resolve` accepts or rejects it. Nothing is silently overwritten.
+
+Anchoring (paper VI-D; :mod:`flexhrc.perception.scene.anchoring` does the matching): a symbol may
+be known by name and type before anything is known of where it is (:meth:`~KnowledgeBase.
+add_symbol`); :meth:`~KnowledgeBase.observe` applies a percept matched to a symbol, and a percept
+that agrees with the base clears that symbol's pending inconsistencies — a later compatible
+percept ends the inconsistent state. :meth:`~KnowledgeBase.contradict` records an inconsistency
+found by a caller's own check (e.g. an object seen farther than any agent could have moved it).
 """
 
 from __future__ import annotations
@@ -40,6 +47,7 @@ class ObjectRecord:
     size: dict[str, float] = field(default_factory=dict)
     attrs: dict[str, Any] = field(default_factory=dict)
     fixed: bool = False  # e.g. a leg screwed to the tabletop: it cannot be seen elsewhere
+    anchored: bool = True  # False: known by name and type, where it is not perceived yet
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -49,6 +57,7 @@ class ObjectRecord:
             "size": dict(self.size),
             "attrs": dict(self.attrs),
             "fixed": self.fixed,
+            "anchored": self.anchored,
         }
 
 
@@ -182,6 +191,60 @@ class KnowledgeBase:
             return f"{rec.id} is fixed at {_fmt(rec.position)} but perceived at {_fmt(position)}"
         return None
 
+    # -- anchoring --------------------------------------------------------------------------
+    def add_symbol(
+        self, obj_id: str, type: str, size: Mapping[str, float] | None = None, **attrs: Any
+    ) -> ObjectRecord:
+        """An object known by name and type but not where it is: perception anchors it.
+
+        Its position reads as the origin until then (:attr:`ObjectRecord.anchored` is False);
+        callers that plan with positions run perception first.
+        """
+        rec = self.add_object(obj_id, type, (0.0, 0.0, 0.0), size, **attrs)
+        rec.anchored = False
+        return rec
+
+    def compatible(self, known: str, perceived: str) -> bool:
+        """Can an object of type ``known`` be perceived as a ``perceived``? Yes when one is
+        the other or a supertype of it (a ``leg`` seen as a ``leg_long``, and back)."""
+        return known in self.type_chain(perceived) or perceived in self.type_chain(known)
+
+    def observe(self, obj_id: str, position: Iterable[float], type: str | None = None) -> bool:
+        """A percept anchored to the known symbol ``obj_id``.
+
+        Applied when it agrees with the base: the position is taken, the symbol is anchored and
+        its pending inconsistencies are cleared (a later compatible percept ends the
+        inconsistent state). The type stays: a partly hidden long leg may look like a short
+        one, so a percept's subtype does not refine the symbol's.
+        A percept of an incompatible type, or of a fixed object elsewhere (horizontal distance
+        above the position tolerance: a fixed object's height depends on what is fixed where),
+        is kept as an :class:`Inconsistency` instead; returns False then.
+        """
+        rec = self.object(obj_id)
+        pos = _vec(position)
+        percept: dict[str, Any] = {"type": type or rec.type, "position": pos, "size": {}}
+        reason = None
+        if type is not None and not self.compatible(rec.type, type):
+            reason = f"{rec.id} is a {rec.type}, perceived as a {type}"
+        elif rec.fixed and rec.anchored and _hdist(rec.position, pos) > self.position_tolerance:
+            reason = f"{rec.id} is fixed at {_fmt(rec.position)} but perceived at {_fmt(pos)}"
+        if reason:
+            self.contradict(obj_id, reason, percept)
+            return False
+        rec.position = pos
+        rec.anchored = True
+        self.inconsistencies = [i for i in self.inconsistencies if i.object_id != obj_id]
+        self.version += 1
+        return True
+
+    def contradict(self, obj_id: str, reason: str, percept: Mapping[str, Any]) -> Inconsistency:
+        """Record an inconsistency found by the caller's own check (nothing else changes)."""
+        self.object(obj_id)
+        inc = Inconsistency(obj_id, reason, dict(percept))
+        self.inconsistencies.append(inc)
+        self.version += 1
+        return inc
+
     def resolve(self, obj_id: str | None = None, *, accept: bool) -> None:
         """Decide pending inconsistencies (all, or those of one object): accept the percept
         (it overwrites the base, the object is no longer fixed) or reject it."""
@@ -274,6 +337,10 @@ def _vec(p: Iterable[float]) -> Vec3:
 
 def _dist(a: Vec3, b: Vec3) -> float:
     return math.dist(a, b)
+
+
+def _hdist(a: Vec3, b: Vec3) -> float:
+    return math.hypot(a[0] - b[0], a[1] - b[1])
 
 
 def _fmt(p: Vec3) -> str:

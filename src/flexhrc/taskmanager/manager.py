@@ -263,6 +263,15 @@ class TaskManager:
     def on_human_action(self, now: float, action: HumanAction) -> list[Directive]:
         return self._entry(now, lambda: self._handle_human(action))
 
+    def on_percept(
+        self, now: float, moved: Iterable[str] = (), retracted: Iterable[HumanAction] = ()
+    ) -> list[Directive]:
+        """Perception changed the knowledge base: ``moved`` objects are not where the running
+        branches were simulated with, so robot elements using them stop and are re-planned
+        (validity checking, paper 002); human reports found false (``retracted``) drop the
+        human element they started. Then decide again (the base may be consistent again)."""
+        return self._entry(now, lambda: self._handle_percept(set(moved), list(retracted)))
+
     def replan(self, now: float) -> list[Directive]:
         """Decide again (e.g. after the knowledge base became consistent)."""
         return self._entry(now, self._plan)
@@ -854,6 +863,28 @@ class TaskManager:
         self.busy[agent] = cmd
         self._emit("command", **cmd.to_dict())
         out.append(cmd)
+
+    def _handle_percept(self, moved: set[str], retracted: list[HumanAction]) -> list[Directive]:
+        self._emit("percept", moved=sorted(moved), retracted=[str(a) for a in retracted])
+        out: list[Directive] = []
+        wrong = {a for r in retracted for a in r.args}
+        for ex in list(self.executions.values()):
+            if ex.owner == "robot" and ex.objects & moved:
+                self._abort(ex, out, reason=f"{', '.join(sorted(ex.objects & moved))} moved")
+            elif ex.owner == "human" and ex.objects & wrong:
+                self.executions.pop(ex.element, None)
+                row = self.table.rows.get(ex.element)
+                if row:
+                    row.status = "feasible"
+                    row.done_by = [None] * len(row.actions)
+                self._emit(
+                    "abort",
+                    element=ex.element,
+                    reason="human report retracted",
+                    agents=list(ex.branch.agents),
+                )
+        out += self._plan()
+        return out
 
     # -- the human ------------------------------------------------------------------------
     def _handle_human(self, action: HumanAction) -> list[Directive]:

@@ -56,6 +56,19 @@ EVENT_TYPES = frozenset(
         "precondition_failed",
         "fixed",
         "obsolete",
+        # perception in the loop (flexhrc.sensing)
+        "percept",
+        "inconsistent",
+        "consistent_again",
+        "repair",
+        "repaired",
+        "operator_answers",
+        "operator_nudges",
+        "operator_nudge_skipped",
+        "false_report",
+        "human_report_ignored",
+        "human_report_unusable",
+        "human_sensing_uncovered",
     }
 )
 #: How an action may end (``action_end`` events).

@@ -239,6 +239,7 @@ class CooperationRun:
             simulator=self.simulator_name,
         )
         if not self._interrupted():
+            self._before_start()
             self._dispatch(self.tm.start(0.0))
             self._human_consider()
         while not self.tm.done:
@@ -246,7 +247,7 @@ class CooperationRun:
                 break
             if not self._queue:
                 self.tm.outcome = "failed"
-                self.tm.reason = "deadlock: no agent has anything to do and the task is not solved"
+                self.tm.reason = self._deadlock_reason()
                 self._event("outcome", outcome="failed", reason=self.tm.reason)
                 break
             at, _, pending = heapq.heappop(self._queue)
@@ -270,6 +271,8 @@ class CooperationRun:
                 self._human_done(pending.data)
             elif pending.kind == "human_think":
                 self._human_start_own(pending.data)
+            else:
+                self._on_event(pending)
             self._human_consider()
         summary = self.summary(time.perf_counter() - wall0)
         self._record({"t": round(self.now, 6), "type": "summary", **summary})
@@ -434,18 +437,33 @@ class CooperationRun:
             "action_start", agents=[op.name], action=str(step), planned_s=round(duration, 6)
         )
 
-    def _sensed(self, step: GroundAction) -> str:
-        """The action name the Task Manager learns: the performed one, or what the wearable
-        sensor recognised. The objects come from scene perception."""
+    def _before_start(self) -> None:
+        """Called once, after the ``start`` event and before the manager's first decision."""
+
+    def _deadlock_reason(self) -> str:
+        return "deadlock: no agent has anything to do and the task is not solved"
+
+    def _on_event(self, pending: _Pending) -> None:
+        """Other kinds of scheduled events (subclasses schedule their own)."""
+        raise FlexhrcError(f"unknown event kind {pending.kind!r}")
+
+    def _sensed(self, step: GroundAction) -> HumanAction | None:
+        """What the Task Manager learns of a human action: the performed one, or what the
+        wearable sensor recognised — nothing when it missed it (a miss is a miss: scene
+        perception may still see the part move). The objects come from scene perception."""
         if self.human_sensing is None:
-            return step.name
+            return HumanAction(step.name, step.args)
         sensed = self.human_sensing.sense(step.name)
         self._event("human_sensed", action=str(step), **sensed.to_dict())
         if sensed.recognised is None:
-            # the wrist signal was not recognised; scene perception still sees the part move
+            if not sensed.samples:
+                # no motion of the sensor plays this action (e.g. a visual check): the operator
+                # confirms it some other way (the panel's "done")
+                self._event("human_sensing_uncovered", action=str(step))
+                return HumanAction(step.name, step.args)
             self._event("human_sensing_missed", action=str(step))
-            return step.name
-        return str(sensed.recognised)
+            return None
+        return HumanAction(str(sensed.recognised), step.args)
 
     def _human_done(self, data: dict[str, Any]) -> None:
         op = self.operators[data["who"]]
@@ -478,9 +496,9 @@ class CooperationRun:
             self.kb.apply_effects(step.schema.add, step.schema.delete, step.binding)
             op.plan = None
             return
-        self._dispatch(
-            self.tm.on_human_action(self.now, HumanAction(self._sensed(step), step.args))
-        )
+        sensed = self._sensed(step)
+        if sensed is not None:
+            self._dispatch(self.tm.on_human_action(self.now, sensed))
         if op.plan is not plan or plan is None:
             return  # a new suggestion came with this action's consequences: it is under way
         plan.index += 1

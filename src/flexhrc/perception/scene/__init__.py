@@ -3,12 +3,14 @@
 depth → cloud (:mod:`.cloud`) → support plane removed by RANSAC and Euclidean clusters
 (:mod:`.segmentation`) → RANSAC primitive fits and PCA (:mod:`.primitives`) → object types by
 rules as data (:mod:`.classify`) → identities across frames and the knowledge-base hook
-(:mod:`.pipeline`, :mod:`.types`). :mod:`.synthetic` generates and renders test scenes and
+(:mod:`.pipeline`, :mod:`.types`) → percepts anchored to symbols (:mod:`.anchoring`).
+:mod:`.synthetic` generates and renders test scenes and
 :mod:`.bench` measures the whole chain. Only numpy is imported here; SciPy when needed.
 """
 
 from __future__ import annotations
 
+from flexhrc.perception.scene.anchoring import Anchoring, AnchoringReport
 from flexhrc.perception.scene.classify import ClassificationRule, RuleSet
 from flexhrc.perception.scene.cloud import depth_to_cloud, voxel_downsample
 from flexhrc.perception.scene.pipeline import ScenePerception, Tracker
@@ -22,6 +24,8 @@ from flexhrc.perception.scene.types import (
 )
 
 __all__ = [
+    "Anchoring",
+    "AnchoringReport",
     "CameraIntrinsics",
     "ClassificationRule",
     "DetectedObject",

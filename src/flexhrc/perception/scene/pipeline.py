@@ -58,6 +58,14 @@ class ScenePerception:
     depth noise σ (m) — by default it is estimated on the support plane each frame, and the
     plane threshold, the height above the plane and the fit tolerance grow with it (they never
     go below the configured values); ``seed`` makes the RANSAC steps deterministic.
+
+    ``split_stacked``: a cluster of no known type is tried as parts standing on a board (legs
+    screwed upright into a tabletop touch it, so they cluster with it): the points above the
+    board's top face — the most common height of the cluster — are clustered again on their
+    own, the rest is the board; the pieces replace the cluster when one of them has a type.
+    ``any_fit``: when the best-fitting primitive matches no rule, the next best that does is
+    taken, if it explains at least half as many points (an upright leg seen from above is mostly
+    its round cap, which a sphere fits best).
     """
 
     rules: RuleSet = field(default_factory=RuleSet.default)
@@ -71,6 +79,8 @@ class ScenePerception:
     up: tuple[float, float, float] = (0.0, 0.0, 1.0)
     noise: float | None = None
     seed: int = 0
+    split_stacked: bool = False
+    any_fit: bool = False
 
     def __post_init__(self) -> None:
         for name in ("plane_threshold", "cluster_radius", "fit_tol"):
@@ -121,31 +131,70 @@ class ScenePerception:
         local = (objects_pts - origin) @ R
         groups = grid_clusters(local, self.cluster_radius / 2)
         out: list[DetectedObject] = []
-        for k, idx in enumerate(groups):
-            if len(idx) < self.min_cluster_points:
-                continue
+
+        def detect(idx: np.ndarray, name: str) -> DetectedObject:
             pts = local[idx]
             if len(pts) > self.max_fit_points:
                 pts = pts[rng.choice(len(pts), self.max_fit_points, replace=False)]
-            fit = self.fit_primitive(pts, rng, fit_tol)
+            fits = self.fit_primitives(pts, rng, fit_tol)
+            fit = fits[0]
             obj_type, err = self.rules.classify(fit.kind, fit.size)
+            if obj_type == "unknown" and self.any_fit:
+                if "cylinder" in self.primitives:  # standing upright: the normal is its axis
+                    up_axis = np.array([0.0, 0.0, 1.0])
+                    fits.append(fit_cylinder(pts, fit_tol, rng=rng, axis=up_axis, grounded=True))
+                for other in fits[1:]:
+                    t, e = self.rules.classify(other.kind, other.size)
+                    if t != "unknown" and other.inlier_ratio >= 0.5 * fit.inlier_ratio:
+                        fit, obj_type, err = other, t, e
+                        break
             conf = fit.inlier_ratio * (1.0 - 0.5 * min(err, 1.0)) if np.isfinite(err) else 0.0
-            center = origin + R @ fit.center
             axis = R @ fit.axis
-            out.append(
-                DetectedObject(
-                    id=f"c{k}",
-                    type=obj_type,
-                    position=center,
-                    orientation=self._orientation(axis, n),
-                    axis=axis,
-                    size=fit.size,
-                    confidence=float(conf),
-                    primitive=fit.kind,
-                    n_points=len(idx),
-                )
+            return DetectedObject(
+                id=name,
+                type=obj_type,
+                position=origin + R @ fit.center,
+                orientation=self._orientation(axis, n),
+                axis=axis,
+                size=fit.size,
+                confidence=float(conf),
+                primitive=fit.kind,
+                n_points=len(idx),
             )
+
+        for k, idx in enumerate(groups):
+            if len(idx) < self.min_cluster_points:
+                continue
+            det = detect(idx, f"c{k}")
+            if det.type == "unknown" and self.split_stacked:
+                pieces = [
+                    detect(part, f"c{k}.{j}")
+                    for j, part in enumerate(self._stacked(local, idx, fit_tol))
+                ]
+                if any(p.type != "unknown" for p in pieces):
+                    out.extend(pieces)
+                    continue
+            out.append(det)
         return out
+
+    def _stacked(self, local: np.ndarray, idx: np.ndarray, tol: float) -> list[np.ndarray]:
+        """Split a cluster into the board (up to its top face) and what stands on it."""
+        z = local[idx, 2]
+        bins = np.arange(z.min(), z.max() + 0.01, 0.005)
+        if len(bins) < 3:
+            return []
+        counts, edges = np.histogram(z, bins=bins)
+        top = edges[int(np.argmax(counts)) + 1]
+        upper = z > top + max(2 * tol, 0.01)
+        if upper.sum() < self.min_cluster_points or (~upper).sum() < self.min_cluster_points:
+            return []
+        up_idx = idx[upper]
+        pieces = [
+            up_idx[g]
+            for g in grid_clusters(local[up_idx], self.cluster_radius / 2)
+            if len(g) >= self.min_cluster_points
+        ]
+        return [idx[~upper], *pieces]
 
     # ---------------------------------------------------------------------------- helpers
     def fit_primitive(
@@ -156,6 +205,12 @@ class ScenePerception:
         A box explains any compact cluster a little, so a curved primitive wins ties: it is
         preferred when its inlier ratio is within 0.05 of the box's.
         """
+        return self.fit_primitives(pts, rng, tol)[0]
+
+    def fit_primitives(
+        self, pts: np.ndarray, rng: np.random.Generator, tol: float | None = None
+    ) -> list[PrimitiveFit]:
+        """Every primitive fitted to the cluster, best first (see :meth:`fit_primitive`)."""
         fits: list[PrimitiveFit] = []
         tol = self.fit_tol if tol is None else tol
         if "box" in self.primitives:
@@ -167,7 +222,7 @@ class ScenePerception:
         if "cone" in self.primitives:
             fits.append(fit_cone(pts, tol, rng=rng))
         bonus = {"box": 0.0, "cylinder": 0.05, "sphere": 0.05, "cone": 0.05}
-        return max(fits, key=lambda f: f.inlier_ratio + bonus[f.kind])
+        return sorted(fits, key=lambda f: -(f.inlier_ratio + bonus[f.kind]))
 
     @staticmethod
     def _orientation(axis: np.ndarray, normal: np.ndarray) -> np.ndarray:

@@ -121,13 +121,28 @@ def _circle_lsq(p: np.ndarray) -> tuple[np.ndarray, float]:
 
 
 def fit_cylinder(
-    points: np.ndarray, tol: float, iterations: int = 80, rng: np.random.Generator | None = None
+    points: np.ndarray,
+    tol: float,
+    iterations: int = 80,
+    rng: np.random.Generator | None = None,
+    axis: np.ndarray | None = None,
+    grounded: bool = False,
 ) -> PrimitiveFit:
-    """Cylinder with the PCA main axis; RANSAC circle in the perpendicular plane."""
+    """Cylinder with the PCA main axis (or the given ``axis``, e.g. the support normal for a
+    part standing upright, whose points are mostly its cap); RANSAC circle in the
+    perpendicular plane. ``grounded``: the cylinder reaches down to the plane through the
+    origin normal to ``axis`` (the support in the support frame), as a box fit assumes: a
+    part standing upright is seen from above by its cap and little of its side."""
     rng = rng if rng is not None else np.random.default_rng(0)
     mean, axes, _ = pca(points)
-    axis = axes[0]
-    e1, e2 = axes[1], axes[2]
+    if axis is None:
+        axis = axes[0]
+        e1, e2 = axes[1], axes[2]
+    else:
+        axis = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
+        e1 = np.cross(axis, [1.0, 0.0, 0.0] if abs(axis[0]) < 0.9 else [0.0, 1.0, 0.0])
+        e1 /= np.linalg.norm(e1)
+        e2 = np.cross(axis, e1)
     rel = points - mean
     s = rel @ axis
     p2 = np.column_stack([rel @ e1, rel @ e2])
@@ -145,6 +160,8 @@ def fit_cylinder(
     c, r = _circle_lsq(p2[inl]) if inl.sum() >= 3 else (centers[best], float(radii[best]))
     dist = np.abs(np.linalg.norm(p2 - c, axis=1) - r)
     s0, s1 = _robust_range(s)
+    if grounded:
+        s0 = min(s0, -float(mean @ axis))
     ratio = float(np.mean(dist < tol))
     center = mean + c[0] * e1 + c[1] * e2 + axis * (s0 + s1) / 2
     size = np.array([s1 - s0, 2 * r, 2 * r])

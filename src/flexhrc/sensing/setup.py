@@ -1,0 +1,106 @@
+"""Assemble a cooperation with perception in the loop from a scenario's parts.
+
+:func:`perceived_run` takes what any cooperation needs (graph, domain, the scenario's knowledge
+base — which here is the *truth*) and returns a :class:`~flexhrc.sensing.run.
+PerceivedCooperationRun` whose manager starts from the same base with the positions of the
+perceivable parts forgotten, and a perception component looking at the simulated workspace.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from typing import Any
+
+from flexhrc.errors import FlexhrcError, OptionalDependencyError
+from flexhrc.knowledge import KnowledgeBase
+from flexhrc.representation import OnlineGraph
+from flexhrc.taskmanager.domain import Domain
+
+#: The object types of the table assembly that the head camera perceives.
+TABLE_PARTS = ("leg", "tabletop")
+
+
+def perceived_run(
+    graph: OnlineGraph,
+    domain: Domain,
+    truth: KnowledgeBase,
+    *,
+    types: Iterable[str] | None = None,
+    repair: bool = False,
+    nudges: Iterable[Any] = (),
+    false_reports: Iterable[Any] = (),
+    camera: dict[str, Any] | None = None,
+    **run_kw: Any,
+) -> Any:
+    """A :class:`PerceivedCooperationRun` over ``truth`` (see the module docstring).
+
+    ``types``: the object types the camera perceives; by default every object with a body
+    (a length and a diameter: a rod lying on the table; a width and a depth: a board).
+    """
+    try:
+        from flexhrc.sensing.camera import HeadCamera
+        from flexhrc.sensing.perception import PerceptionComponent
+        from flexhrc.sensing.run import PerceivedCooperationRun, forget_positions
+        from flexhrc.sensing.world import SimulatedWorkspace
+    except ImportError as exc:  # pragma: no cover - only without the extras
+        raise OptionalDependencyError(
+            "perception in the loop", "sim,perception", exc.name or "pybullet"
+        ) from exc
+    wanted = list(types) if types is not None else None
+    world, names = SimulatedWorkspace.from_knowledge(
+        truth, types=wanted, destinations=destinations(graph, domain, truth)
+    )
+    if not world.parts:
+        raise FlexhrcError(
+            "--perception scene: the scenario has no object with a body to see (a size with "
+            "a length and a diameter, or a width and a depth)"
+        )
+    belief = forget_positions(truth, sorted({truth.object(o).type for o in names}))
+    perception = PerceptionComponent(world, belief, camera=HeadCamera(**(camera or {})))
+    return PerceivedCooperationRun(
+        graph,
+        domain,
+        belief,
+        world,
+        perception,
+        repair=repair,
+        nudges=nudges,
+        false_reports=false_reports,
+        **run_kw,
+    )
+
+
+def destinations(graph: OnlineGraph, domain: Domain, kb: KnowledgeBase) -> dict[str, list[str]]:
+    """Object -> the places the task's actions will move it to: the constant ``moves_to``
+    argument of every action of the graph that ``carries`` something (``place_tabletop(?top,
+    assembly_pose)``: every tabletop may go to ``assembly_pose``)."""
+    out: dict[str, list[str]] = {}
+    for name in graph.elements():
+        if graph.kind(name) != "hyperarc":
+            continue
+        for text in graph.definition_of(name).hyperarcs[graph.local_name(name)].actions:
+            try:
+                schema, terms = domain.invocation(text)
+            except FlexhrcError:  # an action the domain lacks: the manager reports it
+                continue
+            carries, moves_to = getattr(schema, "carries", None), getattr(schema, "moves_to", None)
+            if not carries or not moves_to:
+                continue
+            binding = dict(zip(schema.variables, terms, strict=False))
+            place, carried = binding.get(moves_to), binding.get(carries)
+            if place is None or place.startswith("?") or place not in kb.objects:
+                continue
+            kind = dict(schema.parameters).get(carries, "")
+            objs = (
+                [carried]
+                if carried and not carried.startswith("?")
+                else [o.id for o in kb.objects_of_type(kind)]
+            )
+            for o in objs:
+                out.setdefault(o, [])
+                if place not in out[o]:
+                    out[o].append(place)
+    return out
+
+
+__all__ = ["TABLE_PARTS", "destinations", "perceived_run"]

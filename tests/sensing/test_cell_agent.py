@@ -1,0 +1,78 @@
+"""``flexhrc agent perception``: the cell's perception as an agent (issue 13, item 1)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import pytest
+
+pytest.importorskip("pybullet")
+pytest.importorskip("scipy")
+
+from flexhrc.cell import Cell, HumanAgent, RobotAgent, load_scenario
+from flexhrc.cell.components import execution_model
+from flexhrc.sensing.agent import PerceptionAgent
+from flexhrc.transport import InProcessBus
+
+
+def test_the_perception_agent_sends_percepts_the_cell_applies() -> None:
+    scenario = load_scenario("table_assembly")
+    bus = InProcessBus()
+    cell = Cell(scenario, bus, liveliness=False, simulator=execution_model("analytic"))
+    agents: list[Any] = []
+    for a in scenario.domain().agents.values():
+        cls = HumanAgent if a.is_human else RobotAgent
+        agents.append(cls(a.name, scenario, bus, execution=execution_model("analytic")))
+    eye = PerceptionAgent(scenario, bus)
+    lines: list[str] = []
+    eye.trace = lines.append
+
+    def pump(timeout: float) -> None:
+        bus.flush()
+        for a in agents:
+            a.poll()
+
+    try:
+        data = cell.run(pump=pump)
+        bus.flush()
+    finally:
+        eye.close()
+    assert data["outcome"] == "solved"
+    assert eye.dropped == 0 and eye.sent > 0 and eye.ended == "solved"
+    assert cell.percept_ids  # stored inputs of the manager
+    assert cell.kb.consistent
+    s = eye.summary()
+    assert s["perception"]["frames"] >= 5 and s["perception"]["new_objects"] == []
+    assert any("percepts sent" in line for line in lines)
+
+
+@pytest.mark.slow
+def test_flexhrc_agent_perception_joins_a_cell_over_zenoh(tmp_path) -> None:
+    pytest.importorskip("zenoh")
+    import json
+    import time
+
+    from flexhrc.transport.zenoh import free_tcp_port
+
+    from ..cell.helpers import cell, finish, flexhrc, human, kill_all, robot
+
+    scenario, port = "table_assembly", free_tcp_port()
+    procs = [cell(scenario, port, tmp_path / "cell.db", log=tmp_path / "cell.err")]
+    eye = flexhrc(
+        "agent", "perception", scenario, "--connect", f"tcp/127.0.0.1:{port}", "--json",
+        log=tmp_path / "perception.err",
+    )  # fmt: skip
+    procs.append(eye)
+    time.sleep(3.0)  # the camera is up before the arms join (the cell waits for the arms)
+    procs += [robot(scenario, arm, port, tmp_path / f"{arm}.err") for arm in ("left", "right")]
+    procs.append(human(scenario, "human", port, tmp_path / "human.err"))
+    try:
+        data = finish(procs[0], timeout=120)
+        out, _ = eye.communicate(timeout=60)
+    finally:
+        kill_all(procs)
+    assert data["outcome"] == "solved", (tmp_path / "cell.err").read_text()[-2000:]
+    summary = json.loads(out)
+    assert summary["kind"] == "perception" and summary["percepts_sent"] > 0
+    assert summary["dropped"] == 0 and summary["perception"]["new_objects"] == []
+    assert "percepts sent" in (tmp_path / "perception.err").read_text()
