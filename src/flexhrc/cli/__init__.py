@@ -30,6 +30,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "sim",
     "har",
     "scene",
+    "ros2",
 )
 
 

@@ -251,7 +251,9 @@ class Ros2Transport(Transport):
 
     # -- names ------------------------------------------------------------------------------
     def ros_name(self, topic: str) -> str:
-        """The ROS 2 topic that carries ``topic``."""
+        """The ROS 2 topic that carries ``topic`` (an absolute name, ``/...``, is kept as is)."""
+        if topic.startswith("/"):
+            return ros_topic("", topic)
         return ros_topic(self.prefix, topic)
 
     # -- spinning ---------------------------------------------------------------------------
@@ -503,7 +505,8 @@ class Ros2Transport(Transport):
 
     # -- typed topics (for the bridge's standard messages) ----------------------------------
     def create_publisher(self, msg_type: Any, topic: str, qos: Any = None) -> Any:
-        """A plain ROS 2 publisher of ``msg_type`` on ``topic`` under the prefix."""
+        """A plain ROS 2 publisher of ``msg_type`` on ``topic`` (under the prefix unless it is
+        absolute)."""
         self._check_open()
         return self.node.create_publisher(msg_type, self.ros_name(topic), qos or self._qos)
 
