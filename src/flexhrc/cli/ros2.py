@@ -89,7 +89,8 @@ def register(subparsers: Any) -> None:
         "e.g. /joint_trajectory_controller/joint_trajectory",
     )
     arm.add_argument(
-        "--joint-states-topic", help="(external) the real arm's JointState topic, e.g. /joint_states"
+        "--joint-states-topic",
+        help="(external) the real arm's JointState topic, e.g. /joint_states",
     )
     arm.add_argument(
         "--tolerance",

@@ -234,6 +234,7 @@ class Ros2Transport(Transport):
         self._cond = threading.Condition()
         self._queue: deque[tuple[Subscription, Any]] = deque()
         self._publishers: dict[str, Any] = {}
+        self._typed: dict[str, Any] = {}  # ROS name -> a publisher of a standard message
         self._rsubs: dict[int, Any] = {}
         self._tokens: list[_Token] = []
         self._watches: list[_Watch] = []
@@ -297,10 +298,14 @@ class Ros2Transport(Transport):
     def wait_matched(
         self, topic: str, minimum: int = 0, timeout: float = 2.0, _pub: Any = None
     ) -> bool:
-        """Wait until this transport's publisher of ``topic`` is matched with every subscriber
+        """Wait until this transport's publisher of ``topic`` (its JSON one, or the typed one
+        :meth:`create_publisher` made) is matched with every subscriber
         the ROS graph knows for it, and with at least ``minimum`` of them; returns whether that
         happened within ``timeout`` seconds."""
-        pub = _pub if _pub is not None else self._publisher(self.ros_name(topic))
+        if _pub is None:
+            name = self.ros_name(topic)
+            _pub = self._typed.get(name) or self._publisher(name)
+        pub = _pub
         name = pub.topic_name
         deadline = time.monotonic() + timeout
         while True:
@@ -508,7 +513,11 @@ class Ros2Transport(Transport):
         """A plain ROS 2 publisher of ``msg_type`` on ``topic`` (under the prefix unless it is
         absolute)."""
         self._check_open()
-        return self.node.create_publisher(msg_type, self.ros_name(topic), qos or self._qos)
+        name = self.ros_name(topic)
+        pub = self.node.create_publisher(msg_type, name, qos or self._qos)
+        with self._lock:
+            self._typed.setdefault(name, pub)
+        return pub
 
     def create_subscription(
         self, msg_type: Any, topic: str, callback: Callable[[Any], None], qos: Any = None
