@@ -354,13 +354,15 @@ class Ros2Transport(Transport):
     # -- liveliness -------------------------------------------------------------------------
     def declare_token(self, key: str) -> _Token:
         """Declare a liveliness token at ``key`` (under the prefix); withdraw with
-        ``undeclare()``. Heartbeats start at once."""
+        ``undeclare()``. Heartbeats start at the next tick (within ``heartbeat_s``)."""
         self._check_open()
         ros_topic(self.prefix, key)  # same name rules as topics
         token = _Token(key.strip("/"), self)
         with self._lock:
             self._tokens.append(token)
-        self._beat(token.key, True)
+        # the first heartbeat goes at the next tick (<= heartbeat_s), not now: subscriptions a
+        # component creates right after its token are then announced to the others first, so
+        # whoever reacts to the token finds them (a message sent before the match is lost)
         return token
 
     def watch_liveliness(
