@@ -30,6 +30,8 @@ COMMAND_MODULES: tuple[str, ...] = (
     "sim",
     "har",
     "scene",
+    "cell",
+    "agent",
     "ros2",
 )
 

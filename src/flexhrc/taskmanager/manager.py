@@ -171,6 +171,7 @@ class TaskManager:
         self.busy: dict[str, Command] = {}  # agent -> its running command
         self.failed: dict[str, list[dict[str, str]]] = {}  # element -> failed groundings
         self.waiting_for_consistency = False
+        self.unavailable: set[str] = set()  # agents that left the cell (e.g. a dead process)
         self._answer = graph.query()
         self._formulas = self._collect_formulas()
 
@@ -188,12 +189,25 @@ class TaskManager:
         """Decide again (e.g. after the knowledge base became consistent)."""
         return self._entry(now, self._plan)
 
+    def set_available(self, now: float, agent: str, available: bool) -> list[Directive]:
+        """An agent left the cell (its process died) or came back: decide without it / with it.
+
+        A command it was running is not failed here: the caller acknowledges it as failed
+        (reason ``agent lost``), so the failure is an input like any other."""
+        self.domain.agent(agent)  # an unknown name is an error
+        if available:
+            self.unavailable.discard(agent)
+        else:
+            self.unavailable.add(agent)
+        self._emit("agent_available" if available else "agent_unavailable", agent=agent)
+        return self._entry(now, self._plan)
+
     @property
     def idle_robots(self) -> list[str]:
         return [
             a.name
             for a in self.domain.agents.values()
-            if not a.is_human and a.name not in self.busy
+            if not a.is_human and a.name not in self.busy and a.name not in self.unavailable
         ]
 
     @property
@@ -376,7 +390,11 @@ class TaskManager:
         return {v for v in branch.grounding.values() if v not in self.domain.agents}
 
     def _humans(self) -> list[str]:
-        return [a.name for a in self.domain.agents.values() if a.is_human]
+        return [
+            a.name
+            for a in self.domain.agents.values()
+            if a.is_human and a.name not in self.unavailable
+        ]
 
     def _could_run_later(
         self, name: str, actions: tuple[str, ...], constraints: list[Literal], reserved: set[str]

@@ -1,0 +1,342 @@
+"""Simulated agents of a cell: a robot arm and a human operator, each talking only protocol.
+
+Both work the same over the in-process bus (``flexhrc cell`` with ``--agents internal``) and over
+Zenoh in their own processes (``flexhrc agent robot|human``). They load the scenario themselves
+(so they know the domain and the objects' shapes) and take the live state of the world —
+positions and facts — from each command or suggestion, exactly as a real arm takes a target from
+its controller.
+
+* :class:`RobotAgent` executes a :class:`~flexhrc.taskmanager.manager.Command` with the
+  execution model (the kinematic simulator when the ``sim`` extra is installed, as in
+  :class:`~flexhrc.taskmanager.runner.CooperationRun`) and answers with an ``ack`` carrying
+  where things are afterwards. **It never executes one command id twice**: a repeated id (the
+  manager resumed after a crash) gets the stored ack again, or nothing while it is running.
+* :class:`HumanAgent` follows suggestions step by step (profile ``passive``) and reports every
+  finished step as a ``human_action``; a repeated suggestion id gets its reports again.
+
+``realtime`` (from the message) > 0 makes an agent take ``duration / realtime`` seconds of wall
+time before it answers, so a process can be killed in the middle of an action; 0 answers at once
+with the simulated end time ``t``.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Callable
+from typing import Any
+
+from flexhrc.cell import protocol as P
+from flexhrc.errors import FlexhrcError, UnknownNameError
+from flexhrc.knowledge import KnowledgeBase
+from flexhrc.taskmanager.domain import Domain, GroundAction
+from flexhrc.taskmanager.simulator import AnalyticSimulator, ExecutionModel
+from flexhrc.transport import Transport
+
+log = logging.getLogger("flexhrc.cell")
+
+HUMAN_PROFILES = ("passive",)
+
+
+def execution_model(choice: str = "auto", scenario: Any = None) -> ExecutionModel:
+    """The simulated real world: kinematic (``sim`` extra) or analytic."""
+    forced = getattr(scenario, "simulator", None)
+    if forced == "analytic":
+        choice = "analytic"
+    if choice == "auto":
+        import importlib.util
+
+        choice = "kinematic" if importlib.util.find_spec("pinocchio") else "analytic"
+    if choice == "analytic":
+        return AnalyticSimulator()
+    try:
+        from flexhrc.action.bridge import KinematicTaskSimulator
+    except ImportError as exc:
+        raise FlexhrcError(
+            f"--simulator kinematic needs the sim extra ({exc.name} is missing): "
+            "pip install 'flexhrc[sim]'"
+        ) from None
+    return KinematicTaskSimulator()
+
+
+def ground(domain: Domain, text: str, agents: tuple[str, ...] | None = None) -> GroundAction:
+    """``approach(left, leg1)`` as the domain's ground action (agents: the schema's agent)."""
+    schema, terms = domain.invocation(text)
+    if any(str(t).startswith("?") for t in terms):
+        raise P.ProtocolError(f"action {text!r} is not ground")
+    if agents is None:
+        spec = schema.agents
+        if spec.variable is not None:
+            binding = dict(zip(schema.variables, terms, strict=True))
+            agents = (binding[spec.variable],)
+        else:
+            agents = tuple(spec.names)
+    return GroundAction(schema, tuple(str(t) for t in terms), tuple(agents))
+
+
+def world_of(kb: KnowledgeBase) -> dict[str, Any]:
+    """The part of the knowledge base an agent needs to act: positions and facts."""
+    return {
+        "positions": {k: list(o.position) for k, o in kb.objects.items()},
+        "facts": sorted(list(f) for f in kb.facts),
+    }
+
+
+def sync_world(kb: KnowledgeBase, world: dict[str, Any]) -> None:
+    """Make a local knowledge base show the world a message carries."""
+    for obj, p in (world.get("positions") or {}).items():
+        if obj in kb.objects:
+            kb.move(obj, p)
+    facts = world.get("facts")
+    if isinstance(facts, list):
+        want = {tuple(str(x) for x in f) for f in facts if isinstance(f, list)}
+        have = set(kb.facts)
+        for f in have - want:
+            kb.retract_fact(*f)
+        for f in want - have:
+            kb.assert_fact(*f)
+
+
+class _Agent:
+    def __init__(
+        self,
+        name: str,
+        scenario: Any,
+        transport: Transport,
+        *,
+        execution: ExecutionModel | None = None,
+        trace: Callable[[str], None] | None = None,
+    ) -> None:
+        self.name = name
+        self.domain: Domain = scenario.domain()
+        self.kb: KnowledgeBase = scenario.knowledge()
+        self.transport = transport
+        self.execution = execution if execution is not None else execution_model("auto", scenario)
+        self.trace = trace or (lambda line: None)
+        self.ended: str | None = None  # the cell's outcome once it announced its end
+        self.dropped = 0
+        self.received = 0
+        self._timers: list[tuple[float, Callable[[], None]]] = []
+        self._subs = [transport.subscribe(P.STATE_TOPIC, self._on_state)]
+        declare = getattr(transport, "declare_token", None)
+        self.token = declare(P.alive_key(name)) if declare is not None else None
+
+    def _on_state(self, data: Any) -> None:
+        if isinstance(data, dict) and data.get("type") == "end":
+            self.ended = str(data.get("outcome"))
+
+    def _bad(self, data: Any, exc: Exception) -> None:
+        self.dropped += 1
+        log.warning("%s: dropped a malformed message: %s", self.name, exc)
+        self.trace(f"dropped: {exc}")
+
+    def _later(self, delay: float, fn: Callable[[], None]) -> None:
+        if delay <= 0:
+            fn()
+        else:
+            self._timers.append((time.monotonic() + delay, fn))
+
+    def poll(self) -> None:
+        """Run what is due (answers paced in real time)."""
+        if not self._timers:
+            return
+        now = time.monotonic()
+        due = [x for x in self._timers if x[0] <= now]
+        self._timers = [x for x in self._timers if x[0] > now]
+        for _, fn in sorted(due, key=lambda x: x[0]):
+            fn()
+
+    def next_due(self) -> float | None:
+        return min((d for d, _ in self._timers), default=None)
+
+    def close(self) -> None:
+        for sub in self._subs:
+            sub.cancel()
+        if self.token is not None:
+            self.token.undeclare()
+
+
+class RobotAgent(_Agent):
+    """A simulated robot arm (see the module docstring)."""
+
+    def __init__(
+        self,
+        name: str,
+        scenario: Any,
+        transport: Transport,
+        *,
+        execution: ExecutionModel | None = None,
+        timeout_factor: float = 3.0,
+        trace: Callable[[str], None] | None = None,
+    ) -> None:
+        super().__init__(name, scenario, transport, execution=execution, trace=trace)
+        agent = self.domain.agents.get(name)
+        if agent is None or agent.is_human:
+            arms = [a.name for a in self.domain.agents.values() if not a.is_human]
+            raise UnknownNameError(
+                f"--arm {name!r}: no robot agent of that name in the scenario "
+                f"(robots: {', '.join(arms)})"
+            )
+        self.timeout_factor = timeout_factor
+        self.acks: dict[int, dict[str, Any]] = {}  # command id -> its ack (sent again on repeat)
+        self.running: set[int] = set()
+        self.stopped: set[int] = set()
+        self.executed: list[int] = []  # command ids in execution order (each once)
+        self._subs.append(transport.subscribe(P.cmd_topic(name), self._on_message))
+
+    def _on_message(self, data: Any) -> None:
+        self.received += 1
+        try:
+            msg = P.parse(data, expect=("command", "stop"))
+            if msg["type"] == "stop":
+                self._stop(msg)
+            else:
+                self._command(msg)
+        except FlexhrcError as exc:
+            self._bad(data, exc)
+
+    def _stop(self, msg: dict[str, Any]) -> None:
+        cid = int(msg["id"])
+        if cid in self.running:
+            self.running.discard(cid)
+            self.stopped.add(cid)
+            self.trace(f"cmd {cid} stopped: {msg.get('reason')}")
+
+    def _command(self, msg: dict[str, Any]) -> None:
+        cid = int(msg["id"])
+        if cid in self.acks:  # already done: the manager missed the answer (it restarted)
+            self.trace(f"cmd {cid} repeated: ack sent again")
+            self.transport.publish(P.ACK_TOPIC, self.acks[cid])
+            return
+        if cid in self.running or cid in self.stopped:
+            self.trace(f"cmd {cid} repeated while running: ignored")
+            return
+        if self.name not in msg["agents"]:
+            raise P.ProtocolError(f"command {cid} is for {msg['agents']}, not {self.name}")
+        action = ground(self.domain, msg["action"], tuple(msg["agents"]))
+        sync_world(self.kb, msg.get("world") or {})
+        positions = {k: o.position for k, o in self.kb.objects.items()}
+        before = dict(positions)
+        self.executed.append(cid)
+        report = self.execution.execute(action, positions, self.kb, self.domain)
+        status, duration = report.status, float(report.duration_s)
+        reason = None if status == "done" else report.reason
+        limit = max(float(msg.get("expected_s", 0.0)) * self.timeout_factor, 1.0)
+        if status == "done" and duration > limit:
+            status, reason, duration = "timed_out", f"no result after {limit:.1f} s", limit
+        moved = {k: list(map(float, p)) for k, p in positions.items() if before.get(k) != p}
+        ack = P.message(
+            "ack",
+            id=cid,
+            agent=self.name,
+            status=status,
+            reason=reason,
+            t=round(float(msg["t"]) + duration, 6),
+            duration=round(duration, 6),
+            positions=moved if status == "done" else {},
+        )
+        self.running.add(cid)
+        self.trace(f"execute cmd {cid} {action} ({duration:.2f} s)")
+
+        def finish() -> None:
+            if cid not in self.running:
+                return  # stopped meanwhile
+            self.running.discard(cid)
+            self.acks[cid] = ack
+            self.transport.publish(P.ACK_TOPIC, ack)
+            self.trace(f"cmd {cid} {status}")
+
+        speed = float(msg.get("realtime", 0.0))
+        self._later(duration / speed if speed > 0 else 0.0, finish)
+
+
+class HumanAgent(_Agent):
+    """A simulated operator that carries out the suggestions it gets (profile ``passive``)."""
+
+    def __init__(
+        self,
+        name: str,
+        scenario: Any,
+        transport: Transport,
+        *,
+        profile: str = "passive",
+        execution: ExecutionModel | None = None,
+        trace: Callable[[str], None] | None = None,
+    ) -> None:
+        if profile not in HUMAN_PROFILES:
+            raise FlexhrcError(
+                f"--profile {profile!r}: an operator agent follows suggestions (passive); the "
+                "profiles that act on their own run inside the process of "
+                "`flexhrc demo table --human PROFILE`"
+            )
+        super().__init__(
+            name, scenario, transport, execution=execution or AnalyticSimulator(), trace=trace
+        )
+        agent = self.domain.agents.get(name)
+        if agent is None or not agent.is_human:
+            humans = [a.name for a in self.domain.agents.values() if a.is_human]
+            raise UnknownNameError(
+                f"--name {name!r}: no human agent of that name in the scenario "
+                f"(humans: {', '.join(humans) or 'none'})"
+            )
+        self.profile = profile
+        self.reports: dict[str, list[dict[str, Any]]] = {}  # suggestion id -> reports sent
+        self._subs.append(transport.subscribe(P.suggest_topic(name), self._on_message))
+
+    def _on_message(self, data: Any) -> None:
+        self.received += 1
+        try:
+            msg = P.parse(data, expect="suggestion")
+            self._suggestion(msg)
+        except FlexhrcError as exc:
+            self._bad(data, exc)
+
+    def _suggestion(self, msg: dict[str, Any]) -> None:
+        sid = msg["id"]
+        if sid in self.reports:
+            self.trace(f"suggestion {sid} repeated: {len(self.reports[sid])} reports sent again")
+            for rep in self.reports[sid]:
+                self.transport.publish(P.HUMAN_TOPIC, rep)
+            return
+        steps = [ground(self.domain, a) for a in msg["actions"]]
+        for step in steps:
+            if self.name not in step.agents:
+                raise P.ProtocolError(f"suggestion {sid}: {step} is not for {self.name}")
+        sync_world(self.kb, msg.get("world") or {})
+        self.reports[sid] = []
+        positions = {k: o.position for k, o in self.kb.objects.items()}
+        t = float(msg["t"])
+        speed = float(msg.get("realtime", 0.0))
+        delay = 0.0
+        self.trace(f"suggestion {sid}: {msg['element']}")
+        for i, step in enumerate(steps):
+            dt = float(self.execution.execute(step, positions, self.kb, self.domain).duration_s)
+            rep = P.message(
+                "human_action",
+                id=f"{self.name}:{sid}:{i}",
+                agent=self.name,
+                action=str(step),
+                suggestion=sid,
+                start=round(t, 6),
+                t=round(t + dt, 6),
+            )
+            t += dt
+            delay += dt / speed if speed > 0 else 0.0
+
+            def send(rep: dict[str, Any] = rep) -> None:
+                self.reports[sid].append(rep)
+                self.transport.publish(P.HUMAN_TOPIC, rep)
+                self.trace(f"did {rep['action']}")
+
+            self._later(delay, send)
+
+
+def run_agent(agent: _Agent, transport: Any, *, until: Callable[[], bool] | None = None) -> str:
+    """Serve until the cell announces its end (returns its outcome) or ``until()`` is true."""
+    while agent.ended is None and not (until and until()):
+        due = agent.next_due()
+        timeout = 0.2 if due is None else max(0.0, min(0.2, due - time.monotonic()))
+        transport.wait(timeout)
+        transport.flush()
+        agent.poll()
+    return agent.ended or "stopped"

@@ -1,0 +1,149 @@
+"""The cell protocol (``docs/protocol.md``): key expressions and JSON messages, version 1.
+
+Every key lives under ``flexhrc/<cell>/`` (the transport's prefix). Topics, relative to it:
+
+==================  ==================  ====================================================
+topic               from -> to          message ``type``
+==================  ==================  ====================================================
+``cmd/<agent>``     manager -> robot    ``command``, ``stop``
+``ack``             robot -> manager    ``ack``
+``suggest/<name>``  manager -> human    ``suggestion``
+``human``           human -> manager    ``human_action``
+``state``           manager -> all      ``state`` (the cell snapshot), ``end``
+``alive/<agent>``   liveliness tokens   (``alive/manager`` for the manager)
+==================  ==================  ====================================================
+
+Every message is a JSON object with ``"v": 1`` and ``"type"``. :func:`parse` checks one against
+its schema and raises :class:`ProtocolError` (a one-line reason) for anything malformed; the
+receiver logs it and drops it, never stops.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from flexhrc.errors import FlexhrcError
+
+VERSION = 1
+MANAGER = "manager"
+
+
+class ProtocolError(FlexhrcError):
+    """A message that does not follow the protocol (dropped by the receiver)."""
+
+
+def cmd_topic(agent: str) -> str:
+    return f"cmd/{agent}"
+
+
+def suggest_topic(human: str) -> str:
+    return f"suggest/{human}"
+
+
+ACK_TOPIC = "ack"
+HUMAN_TOPIC = "human"
+STATE_TOPIC = "state"
+ALIVE_PREFIX = "alive"
+
+
+def alive_key(agent: str) -> str:
+    return f"{ALIVE_PREFIX}/{agent}"
+
+
+# field -> (types, required); numbers must be finite
+_NUM = (int, float)
+SCHEMAS: dict[str, dict[str, tuple[tuple[type, ...], bool]]] = {
+    "command": {
+        "id": ((int,), True),
+        "agents": ((list,), True),
+        "action": ((str,), True),
+        "element": ((str, type(None)), False),
+        "t": (_NUM, True),
+        "expected_s": (_NUM, False),
+        "world": ((dict,), False),
+        "realtime": (_NUM, False),
+    },
+    "stop": {"id": ((int,), True), "reason": ((str, type(None)), False), "t": (_NUM, False)},
+    "ack": {
+        "id": ((int,), True),
+        "agent": ((str,), True),
+        "status": ((str,), True),
+        "reason": ((str, type(None)), False),
+        "t": (_NUM, True),
+        "duration": (_NUM, False),
+        "positions": ((dict,), False),
+    },
+    "suggestion": {
+        "id": ((str,), True),
+        "element": ((str,), True),
+        "actions": ((list,), True),
+        "cost": (_NUM, False),
+        "t": (_NUM, True),
+        "world": ((dict,), False),
+        "realtime": (_NUM, False),
+    },
+    "human_action": {
+        "id": ((str,), True),
+        "agent": ((str,), True),
+        "action": ((str,), True),
+        "suggestion": ((str, type(None)), False),
+        "start": (_NUM, False),
+        "t": (_NUM, True),
+    },
+    "state": {},
+    "end": {"outcome": ((str,), True)},
+}
+ACK_STATUSES = ("done", "failed", "timed_out")
+
+
+def message(kind: str, **fields: Any) -> dict[str, Any]:
+    """A message of ``kind`` (validated, so a bug on the sending side fails loudly)."""
+    msg = {"v": VERSION, "type": kind, **fields}
+    parse(msg, expect=kind)
+    return msg
+
+
+def parse(data: Any, *, expect: str | tuple[str, ...] | None = None) -> dict[str, Any]:
+    """Check a received message; returns it, or raises :class:`ProtocolError` saying why."""
+    if not isinstance(data, dict):
+        raise ProtocolError(f"a message must be a JSON object, not {type(data).__name__}")
+    v = data.get("v")
+    if v != VERSION or isinstance(v, bool):
+        raise ProtocolError(f"unsupported protocol version {v!r} (this cell speaks v{VERSION})")
+    kind = data.get("type")
+    if not isinstance(kind, str) or kind not in SCHEMAS:
+        raise ProtocolError(f"unknown message type {kind!r}")
+    if expect is not None:
+        allowed = (expect,) if isinstance(expect, str) else expect
+        if kind not in allowed:
+            raise ProtocolError(f"a {kind!r} message is not expected here")
+    for name, (types, required) in SCHEMAS[kind].items():
+        if name not in data:
+            if required:
+                raise ProtocolError(f"{kind}: missing field {name!r}")
+            continue
+        value = data[name]
+        if isinstance(value, bool) or not isinstance(value, types):
+            want = " or ".join("null" if t is type(None) else t.__name__ for t in types)
+            raise ProtocolError(f"{kind}: field {name!r} must be {want}, not {value!r:.40}")
+        if isinstance(value, float) and not math.isfinite(value):
+            raise ProtocolError(f"{kind}: field {name!r} must be finite")
+        if name in ("t", "duration", "expected_s", "start", "realtime") and value < 0:
+            raise ProtocolError(f"{kind}: field {name!r} must be >= 0, not {value}")
+    if kind == "ack" and data["status"] not in ACK_STATUSES:
+        raise ProtocolError(f"ack: status must be one of {', '.join(ACK_STATUSES)}")
+    if kind in ("command", "suggestion"):
+        key = "agents" if kind == "command" else "actions"
+        if not data[key] or not all(isinstance(a, str) for a in data[key]):
+            raise ProtocolError(f"{kind}: {key!r} must be a non-empty list of strings")
+    if kind == "ack" and "positions" in data:
+        for obj, p in data["positions"].items():
+            if (
+                not isinstance(p, list)
+                or len(p) != 3
+                or not all(isinstance(x, _NUM) and not isinstance(x, bool) for x in p)
+                or not all(math.isfinite(x) for x in p)
+            ):
+                raise ProtocolError(f"ack: position of {obj!r} must be [x, y, z] finite numbers")
+    return data

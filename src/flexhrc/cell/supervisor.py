@@ -1,0 +1,640 @@
+"""The cell: the Task Manager as a service over a transport, with an event store.
+
+:class:`Cell` is a thin loop around the sans-IO :class:`~flexhrc.taskmanager.TaskManager`:
+**receive** a message, **store** it (committed), **feed** it to the manager, **send** what the
+manager decided. Inputs are ``start``, ``ack``, ``human_action``, ``agent_up`` and
+``agent_down``; outputs are commands, suggestions and stops (``docs/cell.md``).
+
+Time. With ``realtime == 0`` (or agents inside the process) the cell runs a conservative
+discrete-event loop: an answer carries the simulated time ``t`` at which the action ended, and
+the cell handles the earliest answer only once every agent it waits for has answered. The order
+of inputs — and so every decision — is then the same on every run with the same seed, whatever
+the processes' speeds. With external agents and ``realtime > 0`` the agents take real time and the
+cell handles answers as they come, like a real cell.
+
+Lost agents. Over Zenoh every agent holds a liveliness token ``alive/<agent>``. When it goes (the
+process died), the cell stores ``agent_down``, tells the manager the agent is unavailable and
+acknowledges each command it was running as ``failed`` with reason ``agent lost`` (stored acks,
+so a resume replays them); the manager re-plans with the others. When the token comes back
+(``agent_up``) the agent is used again.
+
+Resume. ``Cell(..., resume=True)`` replays the stored inputs into a fresh manager (deterministic:
+the same commands with the same ids come out), then sends every outstanding command again under
+its original id as soon as its agent is alive; agents answer a repeated id with their stored ack
+and never execute it twice.
+
+Boundary for panels and bridges: :meth:`Cell.snapshot` is the whole visible state as a JSON-able
+dict (also published on ``state`` after every event) and :meth:`Cell.human_input` is the one way
+in for a person's input; neither touches the loop.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+from flexhrc.cell import protocol as P
+from flexhrc.cell.components import ground, world_of
+from flexhrc.cell.store import EventStore, StoredEvent, log_events
+from flexhrc.errors import FlexhrcError
+from flexhrc.representation import OnlineGraph
+from flexhrc.taskmanager.domain import GroundAction
+from flexhrc.taskmanager.manager import (
+    Ack,
+    Command,
+    Directive,
+    HumanAction,
+    Stop,
+    Suggest,
+    TaskManager,
+)
+from flexhrc.taskmanager.simulator import Simulator
+from flexhrc.transport import Transport
+
+log = logging.getLogger("flexhrc.cell")
+
+AGENT_LOST = "agent lost"
+# manager log records kept in the store (the others are inputs or outputs stored on their own)
+STORED_LOG_TYPES = {
+    "decision",
+    "outcome",
+    "abort",
+    "action_failed",
+    "infeasible",
+    "recognised",
+    "solved",
+    "human_action_unmatched",
+    "ack_ignored",
+    "agent_available",
+    "agent_unavailable",
+}
+
+
+@dataclass
+class AgentState:
+    name: str
+    kind: str  # robot | human
+    alive: bool = False  # its liveliness token is present (always True in one process)
+    available: bool = True  # the manager may plan with it
+    seen: bool = False
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"kind": self.kind, "alive": self.alive, "available": self.available}
+
+
+class Cell:
+    """The manager side of a cell (see the module docstring)."""
+
+    def __init__(
+        self,
+        scenario: Any,
+        transport: Transport,
+        *,
+        store: EventStore | None = None,
+        resume: bool = False,
+        realtime: float = 0.0,
+        ordered: bool | None = None,
+        agent_speed: float | None = None,
+        simulator: Simulator | None = None,
+        liveliness: bool = True,
+        name: str = "default",
+        trace: Callable[[dict[str, Any]], None] | None = None,
+        seed: int = 0,
+    ) -> None:
+        if not realtime >= 0 or realtime != realtime or realtime == float("inf"):
+            raise FlexhrcError(f"--realtime must be a finite number >= 0, got {realtime}")
+        self.scenario = scenario
+        self.name = name
+        self.seed = seed
+        self.transport = transport
+        self.store = store
+        self.realtime = float(realtime)
+        self.ordered = (self.realtime == 0) if ordered is None else ordered
+        self.agent_speed = self.realtime if agent_speed is None else agent_speed
+        self.trace = trace or (lambda ev: None)
+        self.graph = OnlineGraph(scenario.graph())
+        self.domain = scenario.domain()
+        self.kb = scenario.knowledge()
+        self.tm = TaskManager(self.graph, self.domain, self.kb, simulator, log=self._tm_log)
+        self.agents = {
+            a.name: AgentState(a.name, "human" if a.is_human else "robot")
+            for a in self.domain.agents.values()
+        }
+        if not liveliness:
+            for st in self.agents.values():
+                st.alive = st.seen = True
+        self.now = 0.0
+        self.events: list[StoredEvent] = []
+        self.commands: dict[int, Command] = {}
+        self.stored_commands: set[int] = set()
+        self.acked: set[int] = set()
+        self.suggestions: dict[str, dict[str, Any]] = {}
+        self.active_suggestion: dict[str, str] = {}
+        self.human_ids: set[str] = set()
+        self.pending: list[tuple[float, int, str, dict[str, Any]]] = []
+        self._arrivals = 0
+        self.dropped: list[str] = []
+        self.started = False
+        self.replaying = False
+        self.resumed = False
+        self._wall0 = time.perf_counter()
+        self._panel_inputs = 0
+        self._subs = [
+            transport.subscribe(P.ACK_TOPIC, self._on_ack_message),
+            transport.subscribe(P.HUMAN_TOPIC, self._on_human_message),
+        ]
+        if hasattr(transport, "on_drop"):
+            transport.on_drop = lambda topic, data, exc: self._drop(
+                f"{topic}: undecodable payload ({len(data)} bytes): {exc}"
+            )
+        watch = getattr(transport, "watch_liveliness", None)
+        if liveliness and watch is not None:
+            self._subs.append(watch(f"{P.ALIVE_PREFIX}/*", self._on_alive))
+            self.token = transport.declare_token(P.alive_key(P.MANAGER))  # type: ignore[attr-defined]
+        else:
+            self.token = None
+        if resume:
+            if store is None:
+                raise FlexhrcError("--resume needs --store FILE.db")
+            self._replay(store.events())
+
+    # -- the outside world --------------------------------------------------------------------
+    def snapshot(self) -> dict[str, Any]:
+        """Everything a panel shows, JSON-able: outcome, agents, suggestions, timeline, KB."""
+        busy = {a: c for a, c in self.tm.busy.items()}
+        agents = {}
+        for name, st in self.agents.items():
+            cmd = busy.get(name)
+            status = "lost" if not st.available else ("busy" if cmd else "idle")
+            if st.kind == "human":
+                status = "lost" if not st.available else (
+                    "busy" if name in self.active_suggestion else "idle"
+                )
+            agents[name] = {
+                **st.to_dict(),
+                "status": status,
+                "command": {"id": cmd.id, "action": str(cmd.action)} if cmd else None,
+            }
+        timeline = [
+            ev
+            for ev in log_events(self.events[-400:])
+            if ev["type"] in ("action_end", "command", "suggestion", "outcome")
+        ][-100:]
+        return {
+            "cell": self.name,
+            "scenario": getattr(self.scenario, "name", "?"),
+            "t": round(self.now, 6),
+            "outcome": self.tm.outcome,
+            "reason": self.tm.reason,
+            "events_stored": len(self.events),
+            "agents": agents,
+            "suggestions": [
+                {k: v for k, v in self.suggestions[sid].items() if k not in ("world", "v")}
+                for sid in self.active_suggestion.values()
+            ],
+            "timeline": timeline,
+            "knowledge": self.kb.to_dict(),
+            "dropped": len(self.dropped),
+        }
+
+    def human_input(self, action: str, agent: str | None = None) -> None:
+        """A person says what they did (a panel's "done" button): ``pick_up(human, leg2)``."""
+        human = agent or next((a for a, s in self.agents.items() if s.kind == "human"), None)
+        if human is None:
+            raise FlexhrcError("this scenario has no human agent")
+        self._panel_inputs += 1
+        self._on_human_message(
+            P.message(
+                "human_action",
+                id=f"panel:{self._panel_inputs}:{len(self.events)}",
+                agent=human,
+                action=action,
+                t=round(self.now, 6),
+            )
+        )
+
+    # -- receiving ----------------------------------------------------------------------------
+    def _drop(self, reason: str) -> None:
+        self.dropped.append(reason)
+        log.warning("dropped: %s", reason)
+        self.trace({"t": round(self.now, 6), "type": "dropped", "reason": reason})
+
+    def _on_ack_message(self, data: Any) -> None:
+        try:
+            msg = P.parse(data, expect="ack")
+        except P.ProtocolError as exc:
+            self._drop(f"ack: {exc}")
+            return
+        cid = msg["id"]
+        cmd = self.commands.get(cid)
+        if cmd is None:
+            self._drop(f"ack for unknown command {cid}")
+        elif cid in self.acked or any(k == "ack" and b["id"] == cid for *_, k, b in self.pending):
+            self._drop(f"duplicate ack for command {cid}")
+        elif msg["agent"] not in cmd.agents:
+            self._drop(f"ack for command {cid} from {msg['agent']}, not {'+'.join(cmd.agents)}")
+        elif self.tm.busy.get(msg["agent"]) is not cmd:
+            self._drop(f"ack for command {cid}, which is no longer running")
+        else:
+            self._arrive(msg["t"], "ack", _body(msg))
+
+    def _on_human_message(self, data: Any) -> None:
+        try:
+            msg = P.parse(data, expect="human_action")
+            st = self.agents.get(msg["agent"])
+            if st is None or st.kind != "human":
+                raise P.ProtocolError(f"{msg['agent']!r} is not a human agent of this cell")
+            ground(self.domain, msg["action"])
+        except FlexhrcError as exc:
+            self._drop(f"human_action: {exc}")
+            return
+        if msg["id"] in self.human_ids or any(
+            k == "human_action" and b["id"] == msg["id"] for *_, k, b in self.pending
+        ):
+            self._drop(f"duplicate human_action {msg['id']}")
+            return
+        self._arrive(msg["t"], "human_action", _body(msg))
+
+    def _arrive(self, t: float, kind: str, body: dict[str, Any]) -> None:
+        self._arrivals += 1
+        self.pending.append((float(t), self._arrivals, kind, body))
+
+    def _on_alive(self, key: str, alive: bool) -> None:
+        name = key.split("/", 1)[-1]
+        st = self.agents.get(name)
+        if st is None:
+            if name != P.MANAGER:
+                log.info("liveliness of %s, not an agent of this cell: ignored", name)
+            return
+        st.alive = alive
+        if alive:
+            st.seen = True
+        if not self.started:
+            return
+        if not alive and st.available:
+            self._agent_down(name)
+        elif alive and not st.available:
+            self._input("agent_up", {"agent": name, "wall": time.time()})
+        elif alive:
+            self._resend(name)
+
+    def _agent_down(self, name: str) -> None:
+        self._input("agent_down", {"agent": name, "wall": time.time()})
+        self._fail_lost()
+
+    def _fail_lost(self) -> None:
+        """Acknowledge as failed every running command of an unavailable agent."""
+        pending_ids = {b["id"] for *_, k, b in self.pending if k == "ack"}
+        while True:
+            lost = [
+                c
+                for a, c in sorted(self.tm.busy.items())
+                if not self.agents[a].available and c.id not in pending_ids
+            ]
+            if not lost or self.tm.done:
+                return
+            cmd = lost[0]
+            agent = next(a for a in cmd.agents if not self.agents[a].available)
+            body = {"id": cmd.id, "agent": agent, "status": "failed", "reason": AGENT_LOST}
+            self._input("ack", body)
+
+    # -- store, feed, send --------------------------------------------------------------------
+    def _record(self, kind: str, body: dict[str, Any]) -> None:
+        if self.replaying:
+            return
+        t = round(self.now, 6)
+        seq = self.store.append(kind, body, t) if self.store is not None else len(self.events) + 1
+        ev = StoredEvent(seq, t, kind, body)
+        self.events.append(ev)
+        self.trace({"t": t, "type": kind, **body})
+
+    def _tm_log(self, ev: dict[str, Any]) -> None:
+        if ev.get("type") in STORED_LOG_TYPES:
+            body = {k: v for k, v in ev.items() if k not in ("t", "type")}
+            self._record(str(ev["type"]), body)
+
+    def _input(self, kind: str, body: dict[str, Any], t: float | None = None) -> None:
+        if t is not None:
+            self.now = max(self.now, float(t))
+        self._record(kind, body)  # committed before the manager acts on it
+        directives = self._feed(kind, body)
+        self._handle(directives)
+        if not self.replaying:
+            self._fail_lost()
+            self._publish_state()
+
+    def _feed(self, kind: str, body: dict[str, Any]) -> list[Directive]:
+        tm, now = self.tm, self.now
+        if kind == "start":
+            self.started = True
+            return tm.start(now)
+        if kind == "ack":
+            cid = int(body["id"])
+            self.acked.add(cid)
+            cmd = self.commands.get(cid)
+            if cmd is not None and body["status"] == "done":
+                _apply_robot_world(self.kb, cmd.action, body.get("positions") or {})
+            return tm.on_ack(now, Ack(cid, str(body["status"]), body.get("reason")))
+        if kind == "human_action":
+            self.human_ids.add(str(body["id"]))
+            action = ground(self.domain, body["action"])
+            _apply_human_world(self.kb, action)
+            return tm.on_human_action(now, HumanAction(action.name, action.args))
+        if kind in ("agent_down", "agent_up"):
+            st = self.agents[str(body["agent"])]
+            st.available = kind == "agent_up"
+            return tm.set_available(now, st.name, st.available)
+        raise FlexhrcError(f"unknown input kind {kind!r} in the store")
+
+    def _handle(self, directives: list[Directive]) -> None:
+        for d in directives:
+            if isinstance(d, Command):
+                self.commands[d.id] = d
+                body = {**d.to_dict(), "t": round(self.now, 6)}
+                body.pop("type", None)
+                if not self.replaying:
+                    self._record("command", body)
+                    self.stored_commands.add(d.id)
+                for agent in d.agents:
+                    self._send_command(agent, d)
+            elif isinstance(d, Suggest):
+                sid = f"s{len(self.suggestions) + 1}"
+                human = next(a for a in d.actions[0].agents if self.agents[a].kind == "human")
+                msg = {
+                    "v": P.VERSION,
+                    "type": "suggestion",
+                    "id": sid,
+                    "element": d.element,
+                    "actions": [str(a) for a in d.actions],
+                    "cost": float(d.cost),
+                    "t": round(self.now, 6),
+                    "agent": human,
+                }
+                self.suggestions[sid] = msg
+                self.active_suggestion[human] = sid
+                self._record("suggestion", {k: v for k, v in msg.items() if k not in ("v", "type")})
+                self._send_suggestion(human, sid)
+            elif isinstance(d, Stop):
+                self._record("stop", {"agent": d.agent, "id": d.command_id, "reason": d.reason})
+                if not self.replaying and self.agents[d.agent].alive:
+                    self.transport.publish(
+                        P.cmd_topic(d.agent),
+                        P.message("stop", id=d.command_id, reason=d.reason, t=self.now),
+                    )
+
+    def _send_command(self, agent: str, cmd: Command) -> None:
+        st = self.agents[agent]
+        if self.replaying or not st.alive or not st.available:
+            return
+        self.transport.publish(
+            P.cmd_topic(agent),
+            P.message(
+                "command",
+                id=cmd.id,
+                agents=list(cmd.agents),
+                action=str(cmd.action),
+                element=cmd.element,
+                t=round(self.now, 6),
+                expected_s=round(float(cmd.expected_s), 6),
+                world=world_of(self.kb),
+                realtime=self.agent_speed,
+            ),
+        )
+
+    def _send_suggestion(self, human: str, sid: str) -> None:
+        st = self.agents[human]
+        if self.replaying or not st.alive or not st.available:
+            return
+        msg = dict(self.suggestions[sid])
+        msg.pop("agent", None)
+        msg.update(world=world_of(self.kb), realtime=self.agent_speed)
+        self.transport.publish(P.suggest_topic(human), P.parse(msg, expect="suggestion"))
+
+    def _resend(self, agent: str) -> None:
+        """An agent is (again) reachable: send what it should be doing (after a resume)."""
+        for a, cmd in sorted(self.tm.busy.items()):
+            if a == agent and cmd.id not in self.acked:
+                self._send_command(agent, cmd)
+        sid = self.active_suggestion.get(agent)
+        if sid is not None:
+            self._send_suggestion(agent, sid)
+
+    def _publish_state(self) -> None:
+        try:
+            self.transport.publish(P.STATE_TOPIC, {"v": P.VERSION, "type": "state", **self.snapshot()})
+        except Exception as exc:  # a panel's view must never stop the cell
+            log.warning("state not published: %s", exc)
+
+    # -- resume -------------------------------------------------------------------------------
+    def _replay(self, events: list[StoredEvent]) -> None:
+        if not events or events[0].kind != "start":
+            raise FlexhrcError(
+                f"{self.store.path if self.store else 'store'}: nothing to resume (no start event)"
+            )
+        self.replaying = True
+        try:
+            for ev in events:
+                self.events.append(ev)
+                if ev.kind == "command":
+                    self.stored_commands.add(int(ev.body["id"]))
+                if ev.is_input:
+                    self.now = max(self.now, ev.t)
+                    self._handle(self._feed(ev.kind, ev.body))
+        finally:
+            self.replaying = False
+        self.resumed = True
+        self._refresh_suggestions()
+        # outputs of the last input that the crash kept from the store
+        for cmd in sorted(self.tm.busy.values(), key=lambda c: c.id):
+            if cmd.id not in self.stored_commands:
+                body = {**cmd.to_dict(), "t": round(self.now, 6)}
+                body.pop("type", None)
+                self._record("command", body)
+                self.stored_commands.add(cmd.id)
+
+    def _refresh_suggestions(self) -> None:
+        owners = {
+            a
+            for ex in self.tm.executions.values()
+            if ex.owner == "human"
+            for a in ex.branch.agents
+        }
+        for human in list(self.active_suggestion):
+            if human not in owners:
+                del self.active_suggestion[human]
+
+    # -- the loop -----------------------------------------------------------------------------
+    def awaited(self) -> list[str]:
+        """Agents whose answer the discrete-event loop waits for before it moves on."""
+        pending_cmd = {b["id"] for *_, k, b in self.pending if k == "ack"}
+        pending_human = {b["agent"] for *_, k, b in self.pending if k == "human_action"}
+        out = [
+            a
+            for a, c in sorted(self.tm.busy.items())
+            if c.id not in pending_cmd and self.agents[a].available
+        ]
+        for ex in self.tm.executions.values():
+            if ex.owner != "human":
+                continue
+            for a in ex.branch.agents:
+                st = self.agents.get(a)
+                if st and st.kind == "human" and st.available and a not in pending_human:
+                    out.append(a)
+        return out
+
+    def _missing(self) -> list[str]:
+        return [n for n, st in self.agents.items() if not st.alive]
+
+    def wait_for_agents(self, timeout: float, progress: Callable[[str], None] | None = None) -> None:
+        """Block until every agent of the scenario is alive (external agents)."""
+        deadline = time.monotonic() + timeout
+        said: set[str] = set()
+        while self._missing():
+            if time.monotonic() > deadline:
+                raise FlexhrcError(
+                    f"no agent process for {', '.join(self._missing())} after {timeout:g} s; "
+                    "start them with `flexhrc agent robot|human SCENARIO ... --connect ENDPOINT`"
+                )
+            for n in self._missing():
+                if progress and n not in said:
+                    progress(f"waiting for agent {n} ...")
+                    said.add(n)
+            self.transport.wait(0.1)  # type: ignore[attr-defined]
+            self.transport.flush()
+
+    def step(self) -> bool:
+        """Handle one pending answer if the loop may; returns whether it did."""
+        if not self.pending or self.tm.done:
+            return False
+        if self.ordered:
+            if self.awaited():
+                return False
+            self.pending.sort()
+            t, _, kind, body = self.pending.pop(0)
+            if self.realtime > 0:
+                lag = (t - self.now) / self.realtime - (time.perf_counter() - self._last_wall)
+                if lag > 0:
+                    time.sleep(min(lag, 5.0))
+        else:
+            self.pending.sort(key=lambda x: x[1])  # arrival order
+            t, _, kind, body = self.pending.pop(0)
+        self._last_wall = time.perf_counter()
+        self._input(kind, body, t)
+        self._refresh_suggestions()
+        return True
+
+    def run(
+        self,
+        *,
+        pump: Callable[[float], None],
+        agents_timeout: float = 30.0,
+        max_wall_s: float = 3600.0,
+        progress: Callable[[str], None] | None = None,
+    ) -> dict[str, Any]:
+        """Run the cooperation to its end; ``pump(timeout)`` lets the transport deliver."""
+        self._last_wall = time.perf_counter()
+        if not self.resumed:
+            self.wait_for_agents(agents_timeout, progress)
+            self._input(
+                "start",
+                {
+                    "agents": list(self.domain.agents),
+                    "scenario": getattr(self.scenario, "name", "?"),
+                    "seed": self.seed,
+                    "realtime": self.realtime,
+                },
+            )
+        else:
+            self.started = True
+            if progress:
+                progress(f"resumed from {len(self.events)} stored events at t = {self.now:.2f} s")
+            for name, st in self.agents.items():
+                if st.alive and st.available:
+                    self._resend(name)
+                elif not st.alive and st.available:
+                    pass  # it may still be reconnecting; its token's arrival resends
+            self._fail_lost()
+        deadline = time.monotonic() + max_wall_s
+        idle_since: float | None = None
+        while not self.tm.done:
+            if self.step():
+                idle_since = None
+                continue
+            if not self.pending and not self.awaited():
+                # nothing running, nothing to come: solved elsewhere, or stuck
+                if all(st.available for st in self.agents.values()):
+                    idle_since = idle_since or time.monotonic()
+                    if time.monotonic() - idle_since > 0.5:
+                        self.tm.outcome = "failed"
+                        self.tm.reason = (
+                            "deadlock: no agent has anything to do and the task is not solved"
+                        )
+                        self._record("outcome", {"outcome": "failed", "reason": self.tm.reason})
+                        break
+            if time.monotonic() > deadline:
+                self.tm.outcome, self.tm.reason = "failed", f"wall time {max_wall_s} s exceeded"
+                self._record("outcome", {"outcome": "failed", "reason": self.tm.reason})
+                break
+            pump(0.05)
+        summary = self.summary()
+        self._record("summary", summary)
+        self.transport.publish(P.STATE_TOPIC, P.message("end", outcome=self.tm.outcome))
+        self._publish_state()
+        return summary
+
+    def summary(self) -> dict[str, Any]:
+        """The keys of ``flexhrc run --json`` (counted from the stored events), plus the cell's."""
+        from flexhrc.taskmanager.replay import summarise_log
+
+        data = summarise_log(log_events([e for e in self.events if e.kind != "summary"]))
+        tm = self.tm.summary()
+        data["outcome"], data["reason"] = tm["outcome"], tm["reason"]
+        data["decisions"] = tm["decisions"]
+        data["branches_simulated"] = tm["branches_simulated"]
+        data["timing"].update(tm["timing"])
+        data["wall_s"] = time.perf_counter() - self._wall0
+        data["cell"] = {
+            "name": self.name,
+            "events": len(self.events),
+            "resumed": self.resumed,
+            "dropped": len(self.dropped),
+            "agents": {n: st.to_dict() for n, st in self.agents.items()},
+        }
+        data["knowledge"] = self.kb.to_dict()
+        return data
+
+    def close(self) -> None:
+        for sub in self._subs:
+            sub.cancel()
+        if self.token is not None:
+            self.token.undeclare()
+
+
+def _body(msg: dict[str, Any]) -> dict[str, Any]:
+    return {k: v for k, v in msg.items() if k not in ("v", "type")}
+
+
+def _apply_robot_world(kb: Any, action: GroundAction, positions: dict[str, Any]) -> None:
+    """The physical side of a finished robot action (as CooperationRun._robot_done)."""
+    for k, p in positions.items():
+        if k in kb.objects and kb.position(k) != tuple(p):
+            kb.move(k, p)
+    if action.schema.kind == "screw":
+        kb.set_fixed(action.args[1])
+
+
+def _apply_human_world(kb: Any, action: GroundAction) -> None:
+    """The physical side of a finished human action (as CooperationRun._human_done)."""
+    kind, who = action.schema.kind, action.agents[0]
+    if kind == "pick_up":
+        kb.move(action.args[1], kb.position(who) if who in kb.objects else (1.2, 0.0, 0.1))
+    elif kind == "screw":
+        leg, bolt = action.args[1], action.args[2]
+        kb.move(leg, kb.position(bolt))
+        kb.set_fixed(leg)
+    elif kind == "put_down":
+        kb.retract_fact("held_by_human", action.args[1])
+        kb.assert_fact("on_table", action.args[1])

@@ -1,0 +1,110 @@
+"""``flexhrc agent robot|human SCENARIO``: one simulated agent of a cell, as its own process."""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+from typing import Any
+
+from flexhrc.cli.cell import add_transport_options, open_zenoh
+from flexhrc.cli.common import emit
+from flexhrc.errors import FlexhrcError
+
+
+def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg, unused-ignore]
+    p = sub.add_parser(
+        "agent",
+        help="run one simulated agent of a cell (a robot arm or an operator) as a process",
+        description="A simulated agent that joins a cell over Zenoh (docs/cell.md): it declares "
+        "its liveliness token, executes what the cell sends and exits when the cell ends.",
+    )
+    asub = p.add_subparsers(dest="agent_kind", metavar="KIND", required=True)
+    r = asub.add_parser("robot", help="a simulated robot arm (kinematic simulator)")
+    r.add_argument("scenario", metavar="SCENARIO")
+    r.add_argument("--arm", required=True, metavar="NAME", help="which arm (e.g. left)")
+    r.add_argument(
+        "--simulator",
+        choices=["auto", "analytic", "kinematic"],
+        default="auto",
+        help="the simulated world (default: kinematic when the sim extra is installed)",
+    )
+    _common(r)
+    r.set_defaults(func=cmd_agent)
+    h = asub.add_parser("human", help="a simulated operator that follows suggestions")
+    h.add_argument("scenario", metavar="SCENARIO")
+    h.add_argument("--name", required=True, metavar="NAME", help="which operator (e.g. human)")
+    h.add_argument("--profile", default="passive", metavar="PROFILE", help="passive (default)")
+    _common(h)
+    h.set_defaults(func=cmd_agent)
+
+
+def _common(p: argparse.ArgumentParser) -> None:
+    add_transport_options(p, default="zenoh")
+    p.add_argument("--seed", type=int, default=0, help="scenario seed (same as the cell's)")
+    p.add_argument("--quiet", action="store_true", help="no trace on stderr")
+    p.add_argument(
+        "--json", action="store_true", help="print a JSON summary on stdout when the cell ends"
+    )
+
+
+def cmd_agent(args: argparse.Namespace) -> int:
+    from flexhrc.cell import HumanAgent, RobotAgent, load_scenario
+    from flexhrc.cell.components import execution_model, run_agent
+
+    if not args.connect and not args.listen:
+        raise FlexhrcError("--connect ENDPOINT is needed (the cell's --listen endpoint)")
+    scenario = load_scenario(args.scenario, seed=args.seed)
+    name = args.arm if args.agent_kind == "robot" else args.name
+
+    def trace(line: str) -> None:
+        if not args.quiet:
+            print(f"[{name}] {line}", file=sys.stderr, flush=True)
+
+    # check the names before opening the network
+    agents = scenario.domain().agents
+    if name not in agents:
+        kind = "robot" if args.agent_kind == "robot" else "human"
+        names = [a.name for a in agents.values() if (a.kind == kind)]
+        opt = "--arm" if args.agent_kind == "robot" else "--name"
+        raise FlexhrcError(
+            f"{opt} {name!r}: no {kind} agent of that name in the scenario "
+            f"({kind}s: {', '.join(names) or 'none'})"
+        )
+    transport = open_zenoh(args, listen_default=[])
+    stop = {"flag": False}
+
+    def on_term(signum: int, frame: Any) -> None:
+        stop["flag"] = True
+
+    signal.signal(signal.SIGTERM, on_term)
+    agent: Any = None
+    try:
+        if args.agent_kind == "robot":
+            agent = RobotAgent(
+                name,
+                scenario,
+                transport,
+                execution=execution_model(args.simulator, scenario),
+                trace=trace,
+            )
+        else:
+            agent = HumanAgent(name, scenario, transport, profile=args.profile, trace=trace)
+        trace(f"ready ({args.agent_kind}, cell {args.cell!r})")
+        outcome = run_agent(agent, transport, until=lambda: stop["flag"])
+        trace(f"cell ended: {outcome}")
+    finally:
+        if agent is not None:
+            agent.close()
+        transport.close()
+    data = {
+        "agent": name,
+        "kind": args.agent_kind,
+        "outcome": outcome,
+        "received": agent.received,
+        "dropped": agent.dropped,
+        "executed": list(getattr(agent, "executed", [])),
+    }
+    if args.json:
+        emit(args, data)
+    return 0

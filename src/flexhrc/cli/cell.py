@@ -1,0 +1,259 @@
+"""``flexhrc cell SCENARIO``: the Task Manager as a service, agents inside or as processes."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from typing import Any
+
+from flexhrc.cli.common import add_json_flag, emit
+from flexhrc.errors import FlexhrcError
+
+DEFAULT_LISTEN = "tcp/127.0.0.1:7447"
+
+
+def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg, unused-ignore]
+    p = sub.add_parser(
+        "cell",
+        help="run a live cell: the Task Manager as a service, agents inside or as processes",
+        description="Run a cooperation as a cell (docs/cell.md). Default: one process, the "
+        "in-process bus, simulated agents inside. With --transport zenoh --agents external the "
+        "manager waits for `flexhrc agent robot|human` processes. --store keeps every event in "
+        "a SQLite file; --resume continues a crashed cell from it.",
+    )
+    p.add_argument("scenario", metavar="SCENARIO", help="table_assembly, or a scenario file")
+    add_transport_options(p)
+    p.add_argument(
+        "--agents",
+        choices=["internal", "external"],
+        default="internal",
+        help="simulated agents inside this process (default) or as their own processes",
+    )
+    p.add_argument("--store", metavar="FILE.db", help="event store (SQLite) to write")
+    p.add_argument(
+        "--resume", action="store_true", help="continue the cooperation kept in --store"
+    )
+    p.add_argument(
+        "--realtime",
+        type=float,
+        default=0.0,
+        metavar="SPEED",
+        help="0 (default): as fast as the agents answer; SPEED > 0: actions take their "
+        "simulated time divided by SPEED",
+    )
+    p.add_argument("--seed", type=int, default=0, help="scenario seed (default 0)")
+    p.add_argument(
+        "--simulator",
+        choices=["auto", "analytic", "kinematic"],
+        default="auto",
+        help="branch simulator and, for internal agents, the simulated world",
+    )
+    p.add_argument(
+        "--wait",
+        type=float,
+        default=30.0,
+        metavar="S",
+        help="how long to wait for external agents to appear (default 30 s)",
+    )
+    p.add_argument("--quiet", action="store_true", help="no live trace")
+    add_json_flag(p)
+    p.set_defaults(func=cmd_cell)
+
+
+def add_transport_options(p: argparse.ArgumentParser, *, default: str = "inprocess") -> None:
+    if default == "inprocess":
+        p.add_argument(
+            "--transport",
+            choices=["inprocess", "zenoh"],
+            default="inprocess",
+            help="message transport (default inprocess; zenoh for several processes)",
+        )
+    p.add_argument(
+        "--listen",
+        action="append",
+        default=[],
+        metavar="ENDPOINT",
+        help=f"Zenoh endpoint to listen on (repeatable; the cell's default {DEFAULT_LISTEN})",
+    )
+    p.add_argument(
+        "--connect",
+        action="append",
+        default=[],
+        metavar="ENDPOINT",
+        help="Zenoh endpoint to connect to (a router or the cell; repeatable)",
+    )
+    p.add_argument(
+        "--cell",
+        default="default",
+        metavar="NAME",
+        help="cell name: keys live under flexhrc/NAME/ (default 'default')",
+    )
+
+
+def open_zenoh(args: argparse.Namespace, *, listen_default: list[str]) -> Any:
+    import re
+
+    if not re.fullmatch(r"[A-Za-z0-9_\-]+", args.cell):
+        raise FlexhrcError(f"--cell {args.cell!r}: letters, digits, '_' and '-' only")
+    try:
+        from flexhrc.transport.zenoh import ZenohTransport, zenoh_config
+    except ImportError as exc:
+        raise FlexhrcError(
+            "the zenoh transport needs the zenoh extra: pip install 'flexhrc[zenoh]'"
+        ) from exc
+    listen = args.listen or (listen_default if not args.connect else [])
+    return ZenohTransport(
+        zenoh_config(listen=listen, connect=args.connect), prefix=f"flexhrc/{args.cell}"
+    )
+
+
+def branch_simulator(choice: str, scenario: Any) -> Any:
+    if getattr(scenario, "simulator", None) == "analytic" or choice == "analytic":
+        from flexhrc.taskmanager.simulator import AnalyticSimulator
+
+        return AnalyticSimulator()
+    if choice == "kinematic":
+        from flexhrc.cell.components import execution_model
+
+        return execution_model("kinematic")
+    return None  # the Task Manager's default
+
+
+def trace_line(ev: dict[str, Any]) -> str | None:
+    kind = ev["type"]
+    if kind == "command":
+        line = f"{'+'.join(ev['agents']):<6} {ev['action']}  [cmd {ev['id']}]"
+    elif kind == "ack":
+        if ev["status"] == "done":
+            return None
+        line = f"cmd {ev['id']} {ev['status']}: {ev.get('reason')}"
+    elif kind == "suggestion":
+        line = f"ask {ev['agent']}: {ev['element']}: {'; '.join(ev['actions'])}"
+    elif kind == "human_action":
+        line = f"{ev['agent']} did {ev['action']}"
+    elif kind == "decision":
+        line = f"decide {ev['element']} (cost {ev['cost']}): {len(ev['branches'])} branches"
+    elif kind == "agent_down":
+        line = f"AGENT LOST: {ev['agent']}"
+    elif kind == "agent_up":
+        line = f"agent back: {ev['agent']}"
+    elif kind == "dropped":
+        line = f"dropped a message: {ev['reason']}"
+    elif kind in ("abort", "action_failed", "infeasible"):
+        line = f"{kind} {ev['element']}: {ev.get('reason')}"
+    elif kind == "outcome":
+        line = f"outcome: {str(ev['outcome']).upper()}" + (
+            f" ({ev['reason']})" if ev.get("reason") else ""
+        )
+    else:
+        return None
+    return f"{ev['t']:8.2f}s  {line}"
+
+
+def cmd_cell(args: argparse.Namespace) -> int:
+    from flexhrc.cell import Cell, EventStore, HumanAgent, RobotAgent, load_scenario
+    from flexhrc.cell.components import execution_model
+
+    if not (math.isfinite(args.realtime) and args.realtime >= 0):
+        raise FlexhrcError(f"--realtime must be a finite number >= 0, got {args.realtime}")
+    if not (math.isfinite(args.wait) and args.wait > 0):
+        raise FlexhrcError(f"--wait must be a positive number of seconds, got {args.wait}")
+    if args.agents == "external" and args.transport != "zenoh":
+        raise FlexhrcError("--agents external needs --transport zenoh")
+    if args.transport == "inprocess" and (args.listen or args.connect):
+        raise FlexhrcError("--listen and --connect go with --transport zenoh")
+    if args.resume and not args.store:
+        raise FlexhrcError("--resume needs --store FILE.db")
+    scenario = load_scenario(args.scenario, seed=args.seed)
+    store = EventStore(args.store, resume=args.resume) if args.store else None
+    stream = sys.stderr if args.json else sys.stdout
+
+    def progress(msg: str) -> None:
+        if not args.quiet:
+            print(msg, file=sys.stderr, flush=True)
+
+    def trace(ev: dict[str, Any]) -> None:
+        line = trace_line(ev)
+        if line and not args.quiet:
+            print(line, file=stream, flush=True)
+
+    transport: Any
+    try:
+        if args.transport == "zenoh":
+            transport = open_zenoh(args, listen_default=[DEFAULT_LISTEN])
+        else:
+            from flexhrc.transport import InProcessBus
+
+            transport = InProcessBus()
+        internal = args.agents == "internal"
+        cell = Cell(
+            scenario,
+            transport,
+            store=store,
+            resume=args.resume,
+            realtime=args.realtime,
+            ordered=True if internal else None,
+            agent_speed=0.0 if internal else args.realtime,
+            simulator=branch_simulator(args.simulator, scenario),
+            liveliness=args.transport == "zenoh",
+            name=args.cell,
+            trace=trace,
+            seed=args.seed,
+        )
+        agents: list[Any] = []
+        if internal:
+            for a in scenario.domain().agents.values():
+                if a.is_human:
+                    agents.append(HumanAgent(a.name, scenario, transport))
+                else:
+                    model = execution_model(args.simulator, scenario)
+                    agents.append(RobotAgent(a.name, scenario, transport, execution=model))
+            if args.transport == "inprocess":
+                for st in cell.agents.values():
+                    st.alive = st.seen = True
+
+        def pump(timeout: float) -> None:
+            wait = getattr(transport, "wait", None)
+            if wait is not None and not (internal and transport.pending()):
+                wait(timeout)
+            transport.flush()
+            for agent in agents:
+                agent.poll()
+
+        if args.transport == "zenoh":
+            where = ", ".join(args.listen or ([] if args.connect else [DEFAULT_LISTEN]))
+            progress(
+                f"cell {args.cell!r} on zenoh"
+                + (f", listening on {where}" if where else "")
+                + (f", connected to {', '.join(args.connect)}" if args.connect else "")
+            )
+        data = cell.run(pump=pump, agents_timeout=args.wait, progress=progress)
+        for agent in agents:
+            agent.close()
+        cell.close()
+        if args.transport == "zenoh":
+            import time
+
+            time.sleep(0.2)  # let the end message leave before the session closes
+    finally:
+        if store is not None:
+            store.close()
+        if "transport" in locals():
+            transport.close()
+
+    def text() -> str:
+        legs = ", ".join(f"{a}: {n}" for a, n in data["legs_by_agent"].items())
+        out = [
+            f"outcome {data['outcome']}"
+            + (f" ({data['reason']})" if data["reason"] else "")
+            + f"; legs connected by {legs}; {data['decisions']} decision trees; "
+            f"{data['robot_actions']} robot and {data['human_actions']} human actions; "
+            f"{data['cell']['events']} events"
+            + (f" in {args.store}" if args.store else "")
+            + (f"; {data['cell']['dropped']} malformed messages dropped" if data["cell"]["dropped"] else "")
+        ]
+        return "\n".join(out)
+
+    emit(args, data, text)
+    return 0 if data["outcome"] == "solved" else 1

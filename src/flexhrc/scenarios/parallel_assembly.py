@@ -1,0 +1,110 @@
+"""A wide workbench with independent sockets: enough parallel work for many arms and operators.
+
+The table assembly fills its bolts in a fixed order, so at most one arm screws at a time. Here
+``legs`` sockets are independent: the root ``assembled`` is reached by one immediate hyper-arc
+from every ``connected_k``, and each ``connected_k`` has the robot and the human paths of the
+table assembly (``robot_k`` cost 1, ``human_k`` cost 3) from its own leg and socket nodes. The
+arms (``arm1`` ...) stand side by side along the bench, each reaching the sockets and legs in
+front of it and its neighbours'; the operators (``op1`` ...) stand opposite. Branches are simulated
+with the analytic simulator (the kinematic one models the dual-arm robot only).
+"""
+
+from __future__ import annotations
+
+import random
+from dataclasses import dataclass
+from typing import Any
+
+from flexhrc.errors import FlexhrcError
+from flexhrc.knowledge import KnowledgeBase
+from flexhrc.logic import parse_conjunction
+from flexhrc.representation import AndOrGraph, HierarchicalGraph, Node
+from flexhrc.scenarios.table_assembly import HUMAN, ROBOT_DIRECT
+from flexhrc.taskmanager.domain import Domain
+
+ARM_SPACING = 0.5  # metres between neighbouring shoulders, along y
+
+
+@dataclass
+class ParallelScenario:
+    arms: int = 6
+    humans: int = 3
+    legs: int = 12
+    seed: int = 0
+    name: str = "parallel_assembly"
+    simulator: str = "analytic"
+
+    def __post_init__(self) -> None:
+        for field, value, low in (("arms", self.arms, 1), ("humans", self.humans, 0)):
+            if not low <= value <= 64:
+                raise FlexhrcError(f"{field} must be in {low}..64, got {value}")
+        if not 1 <= self.legs <= 256:
+            raise FlexhrcError(f"legs must be in 1..256, got {self.legs}")
+
+    def _y(self, i: int, n: int) -> float:
+        return round((i - (n - 1) / 2) * ARM_SPACING, 4)
+
+    def graph(self) -> HierarchicalGraph:
+        g = AndOrGraph("ParallelAssembly", root="assembled")
+        g.add_node(Node("assembled", 0, None))
+        for k in range(1, self.legs + 1):
+            bolt = f"bolt_{k}"
+            g.add_node(Node(f"leg_{k}", 0, parse_conjunction("leg(?leg) & on_table(?leg)")))
+            g.add_node(Node(f"socket_{k}", 0, parse_conjunction(f"place({bolt})")))
+            g.add_node(Node(f"connected_{k}", 0, parse_conjunction(f"filled({bolt})")))
+            children = [f"leg_{k}", f"socket_{k}"]
+            fill = tuple(a.format(bolt=bolt) for a in ROBOT_DIRECT)
+            human = tuple(a.format(bolt=bolt) for a in HUMAN)
+            g.add_hyperarc(f"robot_{k}", children, f"connected_{k}", 1, actions=fill)
+            if self.humans:
+                g.add_hyperarc(f"human_{k}", children, f"connected_{k}", 3, actions=human)
+        g.add_hyperarc(
+            "finish", [f"connected_{k}" for k in range(1, self.legs + 1)], "assembled", 0
+        )
+        h = HierarchicalGraph.single(g)
+        h.validate()
+        return h
+
+    def domain(self) -> Domain:
+        from importlib import resources
+
+        import yaml
+
+        text = resources.files("flexhrc.scenarios").joinpath("data/table_assembly/domain.yaml")
+        data: dict[str, Any] = yaml.safe_load(text.read_text(encoding="utf-8"))
+        agents: dict[str, Any] = {}
+        for i in range(self.arms):
+            y = self._y(i, self.arms)
+            agents[f"arm{i + 1}"] = {
+                "kind": "robot",
+                "types": ["arm"],
+                "base": [0.0, y, 0.433],
+                "rest": [0.307, y, 0.587],
+                "reach": 0.9,
+            }
+        for j in range(self.humans):
+            agents[f"op{j + 1}"] = {"kind": "human", "types": ["human"]}
+        data["agents"] = agents
+        return Domain.from_dict(data, "parallel_assembly (generated)")
+
+    def knowledge(self) -> KnowledgeBase:
+        rng = random.Random(self.seed)
+        kb = KnowledgeBase()
+        dom = self.domain()
+        for name, agent in dom.agents.items():
+            if agent.is_human:
+                j = int(name[2:]) - 1
+                kb.add_object(name, "human", (1.1, self._y(j, self.humans), 0.1))
+            else:
+                kb.add_object(name, "arm", agent.params["rest"])
+                kb.assert_fact("free", name)
+        span = ARM_SPACING * max(self.arms - 1, 1)
+        for k in range(1, self.legs + 1):
+            y = round(-span / 2 + span * (k - 0.5) / self.legs, 4)
+            kb.add_object(f"bolt_{k}", "place", (0.45, y, 0.0))
+            leg = f"leg{k}"
+            p = (round(rng.uniform(0.3, 0.4), 3), round(y + rng.uniform(-0.05, 0.05), 3), 0.0)
+            kb.add_object(leg, "leg", p, {"length": 0.4, "diameter": 0.04})
+            kb.assert_fact("on_table", leg)
+        kb.add_object("middle", "place", (0.7, 0.0, 0.1))
+        return kb

@@ -1,0 +1,448 @@
+"""A :class:`~flexhrc.transport.Transport` over Zenoh, for components in several processes or hosts.
+
+Zenoh is the publish/subscribe middleware ROS 2 itself offers (``rmw_zenoh``); here it carries the
+same payloads the in-process bus carries, so a component written against
+:class:`~flexhrc.transport.Transport` runs unchanged across processes. Needs the ``zenoh`` extra
+(``pip install 'flexhrc[zenoh]'``); importing this module without it raises
+:class:`~flexhrc.errors.OptionalDependencyError`.
+
+Usage::
+
+    from flexhrc.transport.zenoh import ZenohTransport, zenoh_config
+
+    # the process others connect to: listens on a loopback port, no multicast scouting
+    bus = ZenohTransport(zenoh_config(listen=["tcp/127.0.0.1:7447"]))
+    # another process (or host) connects to it
+    bus = ZenohTransport(zenoh_config(connect=["tcp/127.0.0.1:7447"]))
+
+    sub = bus.subscribe("bn/left/state", print)       # topic = a Zenoh key expression
+    bus.publish("bn/left/state", {"active": True})    # JSON-encoded on the wire
+    bus.wait(1.0)                                     # block until something arrived...
+    bus.flush()                                       # ...and deliver it on this thread
+
+    token = bus.declare_token("flexhrc/cell/alive/left")           # liveliness
+    bus.watch_liveliness("flexhrc/cell/alive/*", lambda key, alive: ...)
+
+API (everything below is public and stable):
+
+* :func:`zenoh_config` builds a ``zenoh.Config``: ``mode`` (``"peer"`` by default), ``listen``
+  and ``connect`` endpoint lists (``tcp/HOST:PORT``; a bare ``HOST:PORT`` means TCP), multicast
+  scouting **off** unless ``multicast=True``. A process that connects but does not listen still
+  listens on ``tcp/127.0.0.1:0`` (a random loopback port) rather than Zenoh's default of every
+  interface, so nothing is exposed beyond the host unless an endpoint says so.
+  :func:`loopback_config` is the test helper: ``loopback_config(port)`` listens on
+  ``127.0.0.1:port``, ``loopback_config(connect=port)`` connects to it. :func:`free_tcp_port`
+  returns a free loopback port.
+* :class:`ZenohTransport` ``(config=None, *, session=None, prefix="", encode=json_encode,
+  decode=json_decode, deliver="flush", on_drop=None)``.
+
+  - ``deliver="flush"`` (default): payloads received by Zenoh's threads are queued and handed to
+    the callbacks only inside :meth:`ZenohTransport.flush`, on the caller's thread, in arrival
+    order — the same single-threaded discipline as the in-process bus, so sans-IO logic needs no
+    locks. :meth:`ZenohTransport.wait` blocks until something is queued (or a timeout).
+    ``deliver="thread"``: callbacks run at once on Zenoh's receive thread (lowest latency; the
+    callbacks must be thread-safe); ``flush`` then returns 0.
+  - ``encode(payload) -> bytes`` / ``decode(bytes) -> payload``: JSON by default
+    (:func:`json_encode`, :func:`json_decode`; NaN and infinity are refused). ``NamedTuple``
+    records serialise as JSON arrays, so pass a codec for them, e.g.
+    ``encode=lambda m: json_encode(to_wire(m))``, ``decode=lambda b: from_wire(json_decode(b))``
+    with :func:`flexhrc.behavior.messages.to_wire`.
+  - A payload that cannot be decoded is *dropped*, never raised into Zenoh's thread: it is logged
+    on the ``flexhrc.transport.zenoh`` logger, counted in :attr:`ZenohTransport.dropped`, and
+    passed to ``on_drop(topic, data, error)`` when given.
+  - ``prefix`` (e.g. ``"flexhrc/cell1"``) is prepended to every topic and token key and stripped
+    from keys handed back, so two cells can share one Zenoh network.
+  - :meth:`ZenohTransport.publish_bytes` sends raw bytes (no encoding) — for custom codecs and for
+    tests of malformed input; ``subscribe(..., raw=True)`` hands the raw bytes to the callback.
+  - :meth:`ZenohTransport.declare_token` declares a liveliness token (an object with
+    ``undeclare()``); it disappears for every watcher when undeclared, when the transport is
+    closed, or when the process dies (the TCP link drops: within milliseconds on one host, after
+    the lease — 10 s by default — if a remote host vanishes without closing its link).
+  - :meth:`ZenohTransport.watch_liveliness` calls ``callback(key, alive)`` for tokens matching a
+    key expression (wildcards allowed); with ``history=True`` (default) the tokens already alive
+    are reported first. Returns a :class:`~flexhrc.transport.Subscription`.
+  - Counters ``published``, ``delivered`` and ``dropped``; :meth:`close` releases the session
+    (idempotent; also a context manager).
+
+Topics are exact names as in the base contract; they must be valid Zenoh key expressions without
+wildcards (``a/b/c``: no empty chunk, no leading or trailing ``/``, none of ``* $ ? #``).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import logging
+import re
+import socket
+import threading
+from collections import deque
+from collections.abc import Callable, Sequence
+from typing import Any, Literal
+
+from flexhrc.errors import FlexhrcError, OptionalDependencyError
+from flexhrc.transport.base import Callback, Subscription, Transport
+
+try:
+    import zenoh as _zenoh
+except ImportError as exc:  # pragma: no cover - exercised only without the extra
+    raise OptionalDependencyError("the Zenoh transport", "zenoh", "eclipse-zenoh") from exc
+
+__all__ = [
+    "LivelinessCallback",
+    "TransportError",
+    "ZenohTransport",
+    "free_tcp_port",
+    "json_decode",
+    "json_encode",
+    "loopback_config",
+    "normalise_endpoint",
+    "zenoh_config",
+]
+
+log = logging.getLogger("flexhrc.transport.zenoh")
+
+LivelinessCallback = Callable[[str, bool], None]
+DropCallback = Callable[[str, bytes, Exception], None]
+
+_ENDPOINT = re.compile(r"^(?P<proto>tcp|udp|tls|quic|ws|unixsock-stream)/(?P<rest>.+)$")
+_HOSTPORT = re.compile(r"^(?P<host>\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9_.\-]+):(?P<port>\d{1,5})$")
+_BAD_TOPIC_CHARS = set("*$?#")
+
+
+class TransportError(FlexhrcError):
+    """A transport that cannot be set up: a malformed endpoint, a port in use, a closed session."""
+
+
+def json_encode(payload: Any) -> bytes:
+    """Compact UTF-8 JSON; NaN and infinity are refused (they are not JSON)."""
+    return json.dumps(payload, separators=(",", ":"), allow_nan=False).encode()
+
+
+def _refuse_constant(name: str) -> Any:
+    raise ValueError(f"{name} is not valid JSON")
+
+
+def json_decode(data: bytes) -> Any:
+    """Inverse of :func:`json_encode`; raises ``ValueError`` on anything that is not strict JSON."""
+    return json.loads(data.decode("utf-8"), parse_constant=_refuse_constant)
+
+
+def normalise_endpoint(endpoint: str) -> str:
+    """``tcp/HOST:PORT`` (and the other Zenoh link protocols) as given; a bare ``HOST:PORT`` gets
+    ``tcp/``. Raises :class:`TransportError` naming the endpoint when it is malformed."""
+    text = str(endpoint).strip()
+    match = _ENDPOINT.match(text)
+    rest = match.group("rest") if match else text
+    proto = match.group("proto") if match else "tcp"
+    if proto == "unixsock-stream":
+        if not rest:
+            raise TransportError(f"endpoint {endpoint!r}: no socket path")
+        return f"{proto}/{rest}"
+    hostport = _HOSTPORT.match(rest)
+    if hostport is None:
+        raise TransportError(
+            f"endpoint {endpoint!r} is not of the form tcp/HOST:PORT (e.g. tcp/127.0.0.1:7447)"
+        )
+    port = int(hostport.group("port"))
+    if port > 65535:
+        raise TransportError(f"endpoint {endpoint!r}: port {port} is out of range 0..65535")
+    return f"{proto}/{rest}"
+
+
+def zenoh_config(
+    *,
+    listen: Sequence[str] = (),
+    connect: Sequence[str] = (),
+    mode: Literal["peer", "client", "router"] = "peer",
+    multicast: bool = False,
+) -> Any:
+    """A ``zenoh.Config`` for flexhrc: explicit endpoints, multicast scouting off by default.
+
+    A peer given no ``listen`` endpoint listens on ``tcp/127.0.0.1:0`` (a random loopback port,
+    so other peers learned by gossip can reach it on this host) instead of every interface.
+    """
+    if mode not in ("peer", "client", "router"):
+        raise TransportError(f"zenoh mode must be peer, client or router, not {mode!r}")
+    listen_eps = [normalise_endpoint(e) for e in listen]
+    connect_eps = [normalise_endpoint(e) for e in connect]
+    if not listen_eps and mode != "client":
+        listen_eps = ["tcp/127.0.0.1:0"]
+    config = _zenoh.Config()
+    config.insert_json5("mode", json.dumps(mode))
+    config.insert_json5("scouting/multicast/enabled", json.dumps(bool(multicast)))
+    config.insert_json5("listen/endpoints", json.dumps(listen_eps))
+    config.insert_json5("connect/endpoints", json.dumps(connect_eps))
+    # Re-dial a lost or not-yet-started peer quickly (Zenoh's default backs off to several
+    # seconds): agents started before the manager, or a manager restarted with --resume, are
+    # found again within about a second.
+    config.insert_json5(
+        "connect/retry",
+        json.dumps({"period_init_ms": 100, "period_max_ms": 1000, "period_increase_factor": 2}),
+    )
+    return config
+
+
+def loopback_config(port: int | None = None, *, connect: int | Sequence[int] = ()) -> Any:
+    """Test helper: listen on ``127.0.0.1:port`` (when given) and/or connect to loopback ports."""
+    ports = [connect] if isinstance(connect, int) else list(connect)
+    return zenoh_config(
+        listen=[f"tcp/127.0.0.1:{port}"] if port is not None else (),
+        connect=[f"tcp/127.0.0.1:{p}" for p in ports],
+    )
+
+
+def free_tcp_port() -> int:
+    """A TCP port free on 127.0.0.1 right now (the OS picks it)."""
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def _check_topic(topic: str, *, wildcards: bool = False) -> str:
+    if not isinstance(topic, str) or not topic:
+        raise ValueError(f"topic must be a non-empty string, not {topic!r}")
+    chunks = topic.split("/")
+    if any(not c for c in chunks):
+        raise ValueError(f"topic {topic!r}: empty chunk (leading, trailing or double '/')")
+    if not wildcards and _BAD_TOPIC_CHARS & set(topic):
+        raise ValueError(f"topic {topic!r}: '*', '$', '?' and '#' are not allowed in a topic")
+    return topic
+
+
+class _Token:
+    """A declared liveliness token; ``undeclare()`` withdraws it (idempotent)."""
+
+    def __init__(self, key: str, token: Any) -> None:
+        self.key = key
+        self._token = token
+        self.active = True
+
+    def undeclare(self) -> None:
+        if self.active:
+            self.active = False
+            with contextlib.suppress(Exception):  # the session may already be closed
+                self._token.undeclare()
+
+
+class ZenohTransport(Transport):
+    """Publish/subscribe over a Zenoh session (see the module docstring for the full API)."""
+
+    def __init__(
+        self,
+        config: Any = None,
+        *,
+        session: Any = None,
+        prefix: str = "",
+        encode: Callable[[Any], bytes] = json_encode,
+        decode: Callable[[bytes], Any] = json_decode,
+        deliver: Literal["flush", "thread"] = "flush",
+        on_drop: DropCallback | None = None,
+    ) -> None:
+        if deliver not in ("flush", "thread"):
+            raise ValueError(f"deliver must be 'flush' or 'thread', not {deliver!r}")
+        self.prefix = _check_topic(prefix.strip("/")) if prefix.strip("/") else ""
+        self.encode = encode
+        self.decode = decode
+        self.deliver = deliver
+        self.on_drop = on_drop
+        self.published = 0
+        self.delivered = 0
+        self.dropped = 0
+        self._owns_session = session is None
+        if session is None:
+            try:
+                session = _zenoh.open(config if config is not None else zenoh_config())
+            except Exception as exc:  # zenoh.ZError: port in use, bad locator...
+                raise TransportError(f"cannot open a Zenoh session: {exc}") from None
+        self.session = session
+        self._publishers: dict[str, Any] = {}
+        self._zsubs: dict[int, Any] = {}
+        self._tokens: list[_Token] = []
+        self._queue: deque[tuple[Subscription, Any]] = deque()
+        self._cond = threading.Condition()
+        self._lock = threading.Lock()
+        self._closed = False
+
+    # -- keys -------------------------------------------------------------------------------
+    def _key(self, topic: str, *, wildcards: bool = False) -> str:
+        _check_topic(topic, wildcards=wildcards)
+        return f"{self.prefix}/{topic}" if self.prefix else topic
+
+    def _unkey(self, key: str) -> str:
+        if self.prefix and key.startswith(self.prefix + "/"):
+            return key[len(self.prefix) + 1 :]
+        return key
+
+    # -- publish ----------------------------------------------------------------------------
+    def publish(self, topic: str, payload: Any) -> None:
+        self.publish_bytes(topic, self.encode(payload))
+
+    def publish_bytes(self, topic: str, data: bytes) -> None:
+        """Send ``data`` as is (no encoding) to the subscribers of ``topic``."""
+        self._check_open()
+        key = self._key(topic)
+        with self._lock:
+            pub = self._publishers.get(key)
+            if pub is None:
+                # express: no batching, so a command reaches its agent without waiting for more
+                pub = self.session.declare_publisher(
+                    key,
+                    express=True,
+                    congestion_control=_zenoh.CongestionControl.BLOCK,
+                )
+                self._publishers[key] = pub
+            self.published += 1
+        pub.put(bytes(data))
+
+    # -- subscribe --------------------------------------------------------------------------
+    def subscribe(self, topic: str, callback: Callback, *, raw: bool = False) -> Subscription:
+        """Deliver every later payload of ``topic`` to ``callback`` (decoded unless ``raw``)."""
+        self._check_open()
+        key = self._key(topic)
+        sub = Subscription(topic, callback, self)
+
+        def on_sample(sample: Any) -> None:
+            data = sample.payload.to_bytes()
+            if raw:
+                self._hand(sub, data)
+                return
+            try:
+                payload = self.decode(data)
+            except Exception as exc:  # a bad payload must never reach Zenoh
+                self._drop(topic, data, exc)
+                return
+            self._hand(sub, payload)
+
+        zsub = self.session.declare_subscriber(key, on_sample)
+        with self._lock:
+            self._zsubs[id(sub)] = zsub
+        return sub
+
+    def watch_liveliness(
+        self, key_expr: str, callback: LivelinessCallback, *, history: bool = True
+    ) -> Subscription:
+        """Call ``callback(key, alive)`` whenever a token matching ``key_expr`` appears or goes."""
+        self._check_open()
+        kexpr = self._key(key_expr, wildcards=True)
+
+        def relay(event: tuple[str, bool]) -> None:
+            callback(*event)
+
+        sub = Subscription(key_expr, relay, self)
+
+        def on_sample(sample: Any) -> None:
+            alive = sample.kind == _zenoh.SampleKind.PUT
+            self._hand(sub, (self._unkey(str(sample.key_expr)), alive))
+
+        zsub = self.session.liveliness().declare_subscriber(kexpr, on_sample, history=history)
+        with self._lock:
+            self._zsubs[id(sub)] = zsub
+        return sub
+
+    def declare_token(self, key: str) -> _Token:
+        """Declare a liveliness token at ``key`` (under the prefix); withdraw with ``undeclare``."""
+        self._check_open()
+        full = self._key(key)
+        token = _Token(key, self.session.liveliness().declare_token(full))
+        self._tokens.append(token)
+        return token
+
+    def unsubscribe(self, subscription: Subscription) -> None:
+        with self._lock:
+            zsub = self._zsubs.pop(id(subscription), None)
+        subscription.active = False
+        if zsub is not None:
+            with contextlib.suppress(Exception):  # the session may already be closed
+                zsub.undeclare()
+
+    # -- delivery ---------------------------------------------------------------------------
+    def _hand(self, sub: Subscription, payload: Any) -> None:
+        if not sub.active:
+            return
+        if self.deliver == "thread":
+            self.delivered += 1
+            try:
+                sub.callback(payload)
+            except Exception:  # never let a callback kill Zenoh's thread
+                log.exception("callback for %s raised", sub.topic)
+            return
+        with self._cond:
+            self._queue.append((sub, payload))
+            self._cond.notify_all()
+
+    def _drop(self, topic: str, data: bytes, exc: Exception) -> None:
+        self.dropped += 1
+        log.warning("dropped an undecodable payload on %s (%d bytes): %s", topic, len(data), exc)
+        if self.on_drop is not None:
+            try:
+                self.on_drop(topic, data, exc)
+            except Exception:
+                log.exception("on_drop raised")
+
+    def pending(self) -> int:
+        """Payloads received and waiting for the next :meth:`flush` (``deliver="flush"``)."""
+        with self._cond:
+            return len(self._queue)
+
+    def wait(self, timeout: float | None = None) -> bool:
+        """Block until a payload is waiting for :meth:`flush` or ``timeout`` seconds pass;
+        returns whether one is waiting. Always ``False`` with ``deliver="thread"``."""
+        if self.deliver == "thread":
+            return False
+        with self._cond:
+            if not self._queue and not self._closed:
+                self._cond.wait(timeout)
+            return bool(self._queue)
+
+    def flush(self) -> int:
+        """Deliver, on this thread and in arrival order, the payloads received before the call."""
+        if self.deliver == "thread":
+            return 0
+        with self._cond:
+            batch = list(self._queue)
+            self._queue.clear()
+        count = 0
+        for sub, payload in batch:
+            if sub.active:
+                sub.callback(payload)
+                count += 1
+        self.delivered += count
+        return count
+
+    # -- lifetime ---------------------------------------------------------------------------
+    def _check_open(self) -> None:
+        if self._closed:
+            raise TransportError("the Zenoh transport is closed")
+
+    @property
+    def closed(self) -> bool:
+        return self._closed
+
+    def close(self) -> None:
+        """Withdraw tokens, undeclare everything and close the session (if this object opened
+        it). Idempotent."""
+        if self._closed:
+            return
+        self._closed = True
+        for token in self._tokens:
+            token.undeclare()
+        with self._lock:
+            zsubs = list(self._zsubs.values())
+            self._zsubs.clear()
+            pubs = list(self._publishers.values())
+            self._publishers.clear()
+        for entity in (*zsubs, *pubs):
+            with contextlib.suppress(Exception):
+                entity.undeclare()
+        if self._owns_session:
+            with contextlib.suppress(Exception):
+                self.session.close()
+        with self._cond:
+            self._cond.notify_all()
+
+    def __enter__(self) -> ZenohTransport:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
