@@ -7,9 +7,9 @@ Two separate processes on one host, the cell's JSON messages on ``std_msgs/Strin
   an agent process answers every command with its ``ack`` on ``/flexhrc/<cell>/ack`` as soon as
   it arrives — the round trip of the bridge itself (both transports in ``flush`` delivery, as
   the cell uses them);
-* *arm node*: the same through ``flexhrc ros2 arm table_assembly --arm left --realtime 0``
-  executing ``rest(left)`` from rest — the round trip plus the node's kinematic simulation of a
-  motion that is already over.
+* *arm node*: the same through ``flexhrc ros2 arm table_assembly --arm left`` executing
+  ``rest(left)`` from rest with the cell's ``realtime`` 0 (answer at once) — the round trip plus
+  the node's kinematic simulation of a motion that is already over.
 
 The first ``--warmup`` round trips are not timed. Median, 90th percentile and maximum in ms.
 
@@ -43,8 +43,8 @@ _ECHO = textwrap.dedent(
     from flexhrc.ros2.transport import Ros2Transport
     t = Ros2Transport(prefix=sys.argv[1])
     def answer(m):
-        t.publish("ack", {"v": 1, "kind": "ack", "id": m["id"], "agent": "left",
-                          "status": "done", "reason": None})
+        t.publish("ack", {"v": 1, "type": "ack", "id": m["id"], "agent": "left",
+                          "status": "done", "reason": None, "t": m["t"]})
     t.subscribe("cmd/left", answer)
     t.declare_token("alive/left")
     while True:
@@ -85,7 +85,16 @@ def measure(argv: list[str], cell: str, domain: int, action: str, n: int, warmup
             t0 = time.perf_counter()
             bus.publish(
                 "cmd/left",
-                {"v": 1, "kind": "command", "id": i + 1, "action": action, "agents": ["left"]},
+                {
+                    "v": 1,
+                    "type": "command",
+                    "id": i + 1,
+                    "action": action,
+                    "agents": ["left"],
+                    "t": 0.0,
+                    "expected_s": 1.0,
+                    "realtime": 0.0,
+                },
             )
             limit = time.monotonic() + 10
             while i + 1 not in got:
@@ -124,7 +133,7 @@ def main() -> int:
     cell = f"b{uuid.uuid4().hex[:8]}"
     out["arm_node"] = measure(
         [sys.executable, "-m", "flexhrc", "ros2", "arm", "table_assembly", "--arm", "left",
-         "--cell", cell, "--realtime", "0"],
+         "--cell", cell, "--quiet"],
         cell, domain, "rest(left)", max(50, args.n // 5), 10,
     )  # fmt: skip
     out["target_ms"] = TARGET_MS

@@ -3,6 +3,7 @@ moving, publishes its end-effector pose and plan; a real arm driven through Join
 
 from __future__ import annotations
 
+import json
 import random
 import subprocess
 import sys
@@ -19,7 +20,9 @@ from tests.ros2.conftest import wait_for
 
 
 def _cmd(cid, action, **kw):
-    return {"v": 1, "kind": "command", "id": cid, "action": action, "agents": ["left"], **kw}
+    """A command of the cell protocol (docs/protocol.md), paced at 2x real time."""
+    return {"v": 1, "type": "command", "id": cid, "action": action, "agents": ["left"],
+            "t": 0.0, "expected_s": 3.0, "realtime": 2.0, **kw}  # fmt: skip
 
 
 @pytest.fixture(scope="module")
@@ -33,8 +36,8 @@ def arm_node():
     env.update(ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
     proc = subprocess.Popen(
         [sys.executable, "-m", "flexhrc", "ros2", "arm", "table_assembly", "--arm", "left",
-         "--cell", cell, "--realtime", "2"],
-        env=env, stderr=subprocess.PIPE, text=True,
+         "--cell", cell, "--json"],
+        env=env, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True,
     )  # fmt: skip
     client = Ros2Transport(prefix=f"flexhrc/{cell}", domain_id=domain)
     rec: dict[str, list] = {"acks": [], "js": [], "poses": [], "plans": [], "alive": []}
@@ -58,7 +61,7 @@ def arm_node():
             "the arm node never announced itself"
         )
         assert client.wait_matched("cmd/left", minimum=1, timeout=10.0)
-        yield client, rec
+        yield client, rec, proc
     finally:
         client.close()
         proc.terminate()
@@ -68,19 +71,27 @@ def arm_node():
             proc.kill()
 
 
+def _cmd_bytes(cid, t: str) -> bytes:
+    return (
+        f'{{"v": 1, "type": "command", "id": {cid}, "action": "rest(left)", '
+        f'"agents": ["left"], "t": {t}}}'
+    ).encode()
+
+
 def _ack(rec, cid):
     return next((a for a in rec["acks"] if a["id"] == cid), None)
 
 
 @pytest.mark.slow
 def test_a_command_moves_the_arm_streams_joint_states_and_is_acknowledged(arm_node):
-    client, rec = arm_node
+    client, rec, _ = arm_node
     t0 = time.monotonic()
     client.publish("cmd/left", _cmd(1, "approach(left, leg1)"))
     assert wait_for(lambda: _ack(rec, 1) is not None, 15.0, client.flush)
     t1 = time.monotonic()
     ack = _ack(rec, 1)
     assert ack["status"] == "done" and ack["agent"] == "left" and ack["v"] == 1
+    assert ack["type"] == "ack" and ack["t"] == pytest.approx(ack["duration"])
     moving = [(t, m) for t, m in rec["js"] if t0 + 0.05 < t < t1 - 0.05]
     rate = len(moving) / (t1 - t0 - 0.1)
     assert rate >= 30.0, f"joint states at {rate:.1f} Hz while moving"
@@ -99,42 +110,58 @@ def test_a_command_moves_the_arm_streams_joint_states_and_is_acknowledged(arm_no
 
 
 @pytest.mark.slow
-def test_bad_commands_are_dropped_or_answered_and_the_node_goes_on(arm_node):
-    client, rec = arm_node
+def test_bad_commands_are_dropped_and_the_node_goes_on(arm_node):
+    client, rec, _ = arm_node
     n_acks = len(rec["acks"])
-    for bad in ([1, 2], {"v": 2, "kind": "command", "id": 5, "action": "rest(left)"},
-                {"v": 1, "kind": "dance", "id": 6}, {"v": 1, "kind": "command", "action": "x"},
-                {"v": 1, "kind": "command", "id": 7}):  # fmt: skip
+    for bad in ([1, 2], _cmd(5, "rest(left)", v=2), {"v": 1, "type": "dance", "id": 6},
+                {"v": 1, "type": "command", "action": "x"}, _cmd(8, "fly(left, leg1)"),
+                _cmd(9, "rest(right)", agents=["right"])):  # fmt: skip
         client.publish("cmd/left", bad)
+    client.publish_bytes("cmd/left", _cmd_bytes(7, t="1e999"))  # infinite time
     client.publish_bytes("cmd/left", b"{garbage")
-    client.publish("cmd/left", _cmd(8, "fly(left, leg1)"))  # well formed, unknown action
-    assert wait_for(lambda: _ack(rec, 8) is not None, 10.0, client.flush)
-    assert _ack(rec, 8)["status"] == "failed" and "fly" in _ack(rec, 8)["reason"]
-    assert len(rec["acks"]) == n_acks + 1  # the malformed ones got no answer
-    client.publish("cmd/left", _cmd(9, "rest(left)"))
-    assert wait_for(lambda: _ack(rec, 9) is not None, 15.0, client.flush)
-    assert _ack(rec, 9)["status"] == "done"
+    client.publish("cmd/left", _cmd(10, "rest(left)"))
+    assert wait_for(lambda: _ack(rec, 10) is not None, 15.0, client.flush)
+    assert _ack(rec, 10)["status"] == "done"
+    assert len(rec["acks"]) == n_acks + 1  # none of the bad ones got an answer
 
 
 @pytest.mark.slow
 def test_a_stop_ends_the_motion_where_the_arm_is(arm_node):
-    client, rec = arm_node
-    client.publish("cmd/left", _cmd(10, "approach(left, leg3)"))
-    assert wait_for(
-        lambda: len(rec["plans"]) > 0 and any(p.points and len(p.points) > 1 for p in rec["plans"]),
-        10.0,
-        client.flush,
-    )
-    time.sleep(0.3)  # into the motion (the node plays it at 2x real time)
-    client.publish("cmd/left", {"v": 1, "kind": "stop", "id": 10, "reason": "human takes it"})
-    assert wait_for(lambda: _ack(rec, 10) is not None, 5.0, client.flush)
-    ack = _ack(rec, 10)
-    assert ack["status"] == "failed" and "human takes it" in ack["reason"]
+    client, rec, _ = arm_node
+    plans = len(rec["plans"])
+    client.publish("cmd/left", _cmd(11, "approach(left, leg3)"))
+    assert wait_for(lambda: len(rec["plans"]) > plans, 10.0, client.flush)
+    started = time.monotonic()
+    assert wait_for(lambda: time.monotonic() - started > 0.3, 1.0)  # into the motion
+    client.publish("cmd/left", {"v": 1, "type": "stop", "id": 11, "reason": "human takes it"})
+    stopped = time.monotonic()
+    planned = rec["plans"][-1].points[-1].time_from_start
+    end = started + (planned.sec + planned.nanosec * 1e-9) / 2.0  # when it would have ended
+    assert wait_for(lambda: time.monotonic() > end + 0.3, 10.0, client.flush)
+    client.flush()
+    assert _ack(rec, 11) is None  # a stopped command is not acknowledged (the cell dropped it)
+    late = [np.array(m.position) for t, m in rec["js"] if t > stopped + 0.2]
+    assert len(late) >= 2 and np.max(np.abs(late[-1] - late[0])) < 1e-9  # it stays put
+    final = np.array(rec["plans"][-1].points[-1].positions)
+    assert np.max(np.abs(late[-1] - final)) > 1e-3  # and not at the planned end
+
+
+@pytest.mark.slow
+def test_the_node_exits_when_the_cell_ends(arm_node):
+    client, _, proc = arm_node
+    client.publish("state", {"v": 1, "type": "end", "outcome": "solved"})
+    out, _ = proc.communicate(timeout=20)
+    assert proc.returncode == 0
+    data = json.loads(out)
+    assert data["outcome"] == "solved" and data["agent"] == "left"
+    assert data["executed"][:1] == [1] and data["executed"].count(1) == 1
+    assert data["dropped"] >= 6
 
 
 def test_a_real_arm_is_driven_through_joint_trajectory(domain_id: int, cell_name: str):
     """--execute external: the plan goes to the controller's topic; done when the arm's joint
     states reach its last point (a fake controller that jumps there)."""
+    from flexhrc.cell.components import run_agent
     from flexhrc.ros2.arm import ArmNode
     from flexhrc.scenarios.table_assembly import TableScenario
 
@@ -157,11 +184,13 @@ def test_a_real_arm_is_driven_through_joint_trajectory(domain_id: int, cell_name
 
     robot.create_subscription(JointTrajectory, "/fake_arm/joint_trajectory", controller)
     node = ArmNode(
-        node_bus, "left", sc.knowledge(), sc.domain(), execute="external",
+        "left", sc, node_bus, execute="external",
         trajectory_topic="/fake_arm/joint_trajectory", joint_states_topic="/fake_arm/joint_states",
     )  # fmt: skip
     done = threading.Event()
-    runner = threading.Thread(target=node.run, kwargs={"until": done.is_set}, daemon=True)
+    runner = threading.Thread(
+        target=run_agent, args=(node, node_bus), kwargs={"until": done.is_set}, daemon=True
+    )
     runner.start()
     acks: list = []
     client.subscribe("ack", acks.append)
@@ -177,7 +206,7 @@ def test_a_real_arm_is_driven_through_joint_trajectory(domain_id: int, cell_name
             robot.flush()
 
         assert wait_for(lambda: bool(acks), 15.0, pump)
-        assert acks[0]["status"] == "done" and acks[0]["id"] == 1
+        assert acks[0]["status"] == "done" and acks[0]["id"] == 1 and acks[0]["agent"] == "left"
         assert received and received[0].joint_names[0] == "left_joint1"
         assert len(received[0].points) > 2
     finally:

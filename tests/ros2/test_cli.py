@@ -24,7 +24,7 @@ def _run(*args: str, code: str | None = None) -> subprocess.CompletedProcess[str
 @pytest.mark.parametrize(
     ("args", "message"),
     [
-        (["table_assembly", "--arm", "middle"], "unknown arm 'middle'"),
+        (["table_assembly", "--arm", "middle"], "--arm 'middle': no robot agent"),
         (["nowhere", "--arm", "left"], "unknown scenario 'nowhere'"),
         (["table_assembly", "--arm", "left", "--rate", "5"], "--rate must be between 30"),
         (["table_assembly", "--arm", "left", "--cell", "my-cell"], "not a valid ROS 2 name"),
@@ -39,9 +39,22 @@ def test_bad_arm_options_are_one_clear_error(args: list[str], message: str):
     assert "Traceback" not in out.stderr
 
 
-def test_realtime_must_be_finite_and_not_negative():
-    out = _run("ros2", "arm", "table_assembly", "--arm", "left", "--realtime", "nan")
-    assert out.returncode == 2 and "finite number >= 0" in out.stderr
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--realtime", "nan"], "finite number >= 0"),
+        (["--realtime", "-1"], "finite number >= 0"),
+        (["--resume"], "--resume needs --store"),
+        (["--markers-rate", "0"], "--markers-rate must be in"),
+        (["--wait", "-1"], "--wait must be a positive"),
+        (["--store", "/nonexistent/dir/c.db"], "/nonexistent/dir"),
+        (["--cell", "a-b"], "not a valid ROS 2 name"),
+    ],
+)
+def test_bad_cell_options_are_one_clear_error(args: list[str], message: str):
+    out = _run("ros2", "cell", "table_assembly", *args)
+    assert out.returncode == 2, out.stderr
+    assert message in out.stderr and "Traceback" not in out.stderr
 
 
 def test_without_rclpy_the_bridge_names_the_extra_and_the_rest_still_works():

@@ -1,13 +1,14 @@
-"""``flexhrc ros2``: the cell's manager and arms as ROS 2 nodes (the ``ros2`` extra).
+"""``flexhrc ros2 cell|arm``: the cell's manager and arms as ROS 2 nodes (the ``ros2`` extra).
 
-Examples::
+Examples (one shell each; ``export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``)::
 
-    flexhrc ros2 arm table_assembly --arm left --cell cell1
-    flexhrc ros2 arm table_assembly --arm right --cell cell1 --realtime 2
+    flexhrc ros2 cell table_assembly --realtime 1
+    flexhrc ros2 arm table_assembly --arm left
+    flexhrc ros2 arm table_assembly --arm right
 
-rclpy is imported only when a command runs, so ``flexhrc --help`` works without the extra.
-Environment: ``ROS_DOMAIN_ID`` (or ``--domain-id``) and, to keep discovery on this host,
-``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`` (see docs/ros2.md).
+``flexhrc ros2 cell`` is ``flexhrc cell ... --agents external`` with the ROS 2 transport: the same
+manager loop (:class:`flexhrc.cell.Cell`), the same event store and resume. rclpy is imported
+only when a command runs, so ``flexhrc --help`` works without the extra (docs/ros2.md).
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ import signal
 import sys
 from typing import Any
 
+from flexhrc.cli.common import add_json_flag, emit
 from flexhrc.errors import FlexhrcError
 
 
@@ -32,11 +34,12 @@ def _finite_nonneg(value: str) -> float:
 
 
 def _add_common(p: argparse.ArgumentParser) -> None:
-    p.add_argument("scenario", metavar="SCENARIO", help="the scenario (built in: table_assembly)")
+    p.add_argument("scenario", metavar="SCENARIO", help="table_assembly, or a scenario file")
     p.add_argument(
         "--cell",
-        default="cell",
-        help="cell name: topics live under /flexhrc/<cell>/ (default: cell)",
+        default="default",
+        metavar="NAME",
+        help="cell name: topics live under /flexhrc/NAME/ (default 'default')",
     )
     p.add_argument(
         "--domain-id",
@@ -44,36 +47,74 @@ def _add_common(p: argparse.ArgumentParser) -> None:
         default=None,
         help="ROS domain id 0..232 (default: $ROS_DOMAIN_ID, else 0)",
     )
-    p.add_argument("--seed", type=int, default=0, help="scenario seed (default 0)")
+    p.add_argument("--seed", type=int, default=0, help="scenario seed (the same in every node)")
+    p.add_argument("--quiet", action="store_true", help="no live trace")
 
 
 def register(subparsers: Any) -> None:
     p = subparsers.add_parser(
         "ros2",
         help="the cell as ROS 2 nodes (manager, arms) with standard messages",
-        description="Run parts of a cell as ROS 2 nodes. Protocol messages travel as JSON on "
-        "std_msgs/String topics under /flexhrc/<cell>/; arms also publish sensor_msgs/JointState, "
-        "geometry_msgs/PoseStamped and trajectory_msgs/JointTrajectory (docs/ros2.md).",
+        description="Run the parts of a cell as ROS 2 nodes. Protocol messages travel as JSON "
+        "on std_msgs/String topics under /flexhrc/<cell>/; arms also publish "
+        "sensor_msgs/JointState, geometry_msgs/PoseStamped and trajectory_msgs/JointTrajectory, "
+        "the manager a visualization_msgs/MarkerArray (docs/ros2.md).",
     )
-    sub = p.add_subparsers(dest="ros2_command", metavar="NODE")
-    p.set_defaults(func=lambda args: (p.print_help(sys.stderr), 2)[1])
+    sub = p.add_subparsers(dest="ros2_command", metavar="NODE", required=True)
+
+    cell = sub.add_parser(
+        "cell",
+        help="the cell's manager as a ROS 2 node (waits for its agent nodes)",
+        description="The cell's manager (the loop of `flexhrc cell`, docs/cell.md) as a ROS 2 "
+        "node. It waits for every agent of the scenario — `flexhrc ros2 arm` nodes, and an "
+        "operator client — like `flexhrc cell --agents external`.",
+    )
+    _add_common(cell)
+    cell.add_argument("--store", metavar="FILE.db", help="event store (SQLite) to write")
+    cell.add_argument(
+        "--resume", action="store_true", help="continue the cooperation kept in --store"
+    )
+    cell.add_argument(
+        "--realtime",
+        type=_finite_nonneg,
+        default=0.0,
+        metavar="SPEED",
+        help="0 (default): as fast as the agents answer; SPEED > 0: actions take their "
+        "simulated time divided by SPEED",
+    )
+    cell.add_argument(
+        "--simulator",
+        choices=["auto", "analytic", "kinematic"],
+        default="auto",
+        help="the Task Manager's branch simulator (default: kinematic with the sim extra)",
+    )
+    cell.add_argument(
+        "--wait",
+        type=float,
+        default=60.0,
+        metavar="S",
+        help="how long to wait for the agent nodes to appear (default 60 s)",
+    )
+    cell.add_argument(
+        "--markers-rate",
+        type=float,
+        default=2.0,
+        metavar="HZ",
+        help="MarkerArray rate for RViz (default 2 Hz)",
+    )
+    add_json_flag(cell)
+    cell.set_defaults(func=cmd_cell)
 
     arm = sub.add_parser(
         "arm",
         help="a simulated (or real) robot arm node",
         description="A robot arm of the cell as a ROS 2 node: executes the manager's commands "
         "with the kinematic simulator (or on a real arm through JointTrajectory, --execute "
-        "external), acknowledges them, and publishes its joint states and end-effector pose.",
+        "external), acknowledges them, and publishes its joint states, end-effector pose and "
+        "planned trajectories. It exits when the cell ends.",
     )
     _add_common(arm)
-    arm.add_argument("--arm", required=True, help="which arm of the scenario (e.g. left)")
-    arm.add_argument(
-        "--realtime",
-        type=_finite_nonneg,
-        default=1.0,
-        metavar="SPEED",
-        help="play motions at SPEED x real time (default 1; 0: as fast as possible)",
-    )
+    arm.add_argument("--arm", required=True, metavar="NAME", help="which arm (e.g. left)")
     arm.add_argument(
         "--rate", type=float, default=50.0, help="joint-state rate while moving, Hz (default 50)"
     )
@@ -81,7 +122,7 @@ def register(subparsers: Any) -> None:
         "--execute",
         choices=["sim", "external"],
         default="sim",
-        help="sim: the kinematic simulator; external: a real arm via JointTrajectory",
+        help="sim: the kinematic simulator (default); external: a real arm via JointTrajectory",
     )
     arm.add_argument(
         "--trajectory-topic",
@@ -98,25 +139,27 @@ def register(subparsers: Any) -> None:
         default=0.01,
         help="(external) joint error in rad at which a motion is done (default 0.01)",
     )
+    add_json_flag(arm)
     arm.set_defaults(func=cmd_arm)
 
 
-def _transport(args: argparse.Namespace, node_name: str) -> Any:
+def _transport(args: argparse.Namespace, role: str) -> Any:
     from flexhrc.ros2.transport import Ros2Transport, ros_topic
 
     ros_topic("flexhrc", args.cell)  # a cell name must be a valid ROS name part
     return Ros2Transport(
-        prefix=f"flexhrc/{args.cell}", node_name=node_name, domain_id=args.domain_id
+        prefix=f"flexhrc/{args.cell}",
+        node_name=f"flexhrc_{args.cell}_{role}",
+        domain_id=args.domain_id,
     )
 
 
 class _Stop:
-    """SIGTERM/SIGINT end the node's loop, so its token is withdrawn on the way out."""
+    """SIGTERM ends a node's loop, so its liveliness token is withdrawn on the way out."""
 
     def __init__(self) -> None:
         self.requested = False
-        for sig in (signal.SIGTERM, signal.SIGINT):
-            signal.signal(sig, self._handle)
+        signal.signal(signal.SIGTERM, self._handle)
 
     def _handle(self, signum: int, frame: Any) -> None:
         self.requested = True
@@ -125,42 +168,168 @@ class _Stop:
         return self.requested
 
 
+def _progress(args: argparse.Namespace) -> Any:
+    def progress(line: str) -> None:
+        if not args.quiet:
+            print(line, file=sys.stderr, flush=True)
+
+    return progress
+
+
 def cmd_arm(args: argparse.Namespace) -> int:
+    from flexhrc.cell import load_scenario
+    from flexhrc.cell.components import run_agent
     from flexhrc.ros2.arm import ArmNode
-    from flexhrc.ros2.scenario import load_node_scenario
     from flexhrc.ros2.transport import ros_topic
 
-    scenario = load_node_scenario(args.scenario, args.seed)
+    scenario = load_scenario(args.scenario, seed=args.seed)
     ros_topic("", args.arm)
     if not (math.isfinite(args.rate) and 30 <= args.rate <= 1000):
         raise FlexhrcError(f"--rate must be between 30 and 1000 Hz, got {args.rate}")
-    domain = scenario.domain()
-    if args.arm not in domain.agents or domain.agents[args.arm].is_human:
-        robots = [a.name for a in domain.agents.values() if not a.is_human]
-        raise FlexhrcError(f"unknown arm {args.arm!r} (argument --arm); arms: {', '.join(robots)}")
-    transport = _transport(args, f"flexhrc_{args.cell}_arm_{args.arm}")
+    agents = scenario.domain().agents
+    if args.arm not in agents or agents[args.arm].is_human:
+        robots = [a.name for a in agents.values() if not a.is_human]
+        raise FlexhrcError(
+            f"--arm {args.arm!r}: no robot agent of that name in the scenario "
+            f"(robots: {', '.join(robots)})"
+        )
+    if args.execute == "external" and not (args.trajectory_topic and args.joint_states_topic):
+        raise FlexhrcError(
+            "--execute external needs --trajectory-topic and --joint-states-topic "
+            "(the real arm's controller command and its joint states)"
+        )
+    say = _progress(args)
+    transport = _transport(args, f"arm_{args.arm}")
     stop = _Stop()
+    node: ArmNode | None = None
     try:
         node = ArmNode(
-            transport,
             args.arm,
-            scenario.knowledge(),
-            domain,
-            realtime=args.realtime,
+            scenario,
+            transport,
             rate_hz=args.rate,
             execute=args.execute,
             trajectory_topic=args.trajectory_topic,
             joint_states_topic=args.joint_states_topic,
             tolerance_rad=args.tolerance,
+            trace=lambda line: say(f"[{args.arm}] {line}"),
         )
-        print(
-            f"arm {args.arm} of cell {args.cell} on ROS domain {transport.domain_id}: "
-            f"commands on {transport.ros_name('cmd/' + args.arm)}",
-            file=sys.stderr,
-            flush=True,
+        say(
+            f"[{args.arm}] ready: cell {args.cell!r}, ROS domain {transport.domain_id}, "
+            f"commands on {transport.ros_name('cmd/' + args.arm)}"
         )
-        node.run(until=stop)
-        node.close()
+        outcome = run_agent(node, transport, until=stop)
+        say(f"[{args.arm}] cell ended: {outcome}")
     finally:
+        if node is not None:
+            node.close()
         transport.close()
+    data = {
+        "agent": args.arm,
+        "outcome": outcome,
+        "received": node.received,
+        "dropped": node.dropped,
+        "executed": list(node.executed),
+    }
+    if args.json:
+        emit(args, data)
     return 0
+
+
+def _targets(cell: Any) -> dict[str, tuple[float, float, float]]:
+    """Where each busy arm is going: the last object its running command names."""
+    out: dict[str, tuple[float, float, float]] = {}
+    for agent, cmd in cell.tm.busy.items():
+        objs = [a for a in cmd.action.args if a in cell.kb.objects and a not in cmd.agents]
+        if objs:
+            out[agent] = cell.kb.position(objs[-1])
+    return out
+
+
+def cmd_cell(args: argparse.Namespace) -> int:
+    from flexhrc.cell import Cell, EventStore, load_scenario
+    from flexhrc.cli.cell import branch_simulator, trace_line
+    from flexhrc.ros2.extras import ManagerInterfaces
+
+    if not (math.isfinite(args.wait) and args.wait > 0):
+        raise FlexhrcError(f"--wait must be a positive number of seconds, got {args.wait}")
+    if not (math.isfinite(args.markers_rate) and 0 < args.markers_rate <= 100):
+        raise FlexhrcError(f"--markers-rate must be in (0, 100] Hz, got {args.markers_rate}")
+    if args.resume and not args.store:
+        raise FlexhrcError("--resume needs --store FILE.db")
+    scenario = load_scenario(args.scenario, seed=args.seed)
+    progress = _progress(args)
+    stream = sys.stderr if args.json else sys.stdout
+
+    def trace(ev: dict[str, Any]) -> None:
+        line = trace_line(ev)
+        if line and not args.quiet:
+            print(line, file=stream, flush=True)
+
+    store = EventStore(args.store, resume=args.resume) if args.store else None
+    transport: Any = None
+    try:
+        transport = _transport(args, "manager")
+        cell = Cell(
+            scenario,
+            transport,
+            store=store,
+            resume=args.resume,
+            realtime=args.realtime,
+            agent_speed=args.realtime,
+            simulator=branch_simulator(args.simulator, scenario),
+            liveliness=True,
+            name=args.cell,
+            trace=trace,
+            seed=args.seed,
+        )
+        humans = [a.name for a in cell.domain.agents.values() if a.is_human]
+
+        def percept(p: dict[str, Any]) -> None:
+            transport.publish("percept", {"v": 1, "type": "percept", **p})
+
+        def imu(who: str, sample: dict[str, Any]) -> None:
+            transport.publish(f"imu/{who}", {"v": 1, "type": "imu", "agent": who, **sample})
+
+        interfaces = ManagerInterfaces(
+            transport,
+            cell.kb,
+            operators=humans,
+            on_percept=percept,
+            on_imu=imu,
+            rate_hz=args.markers_rate,
+        )
+
+        def pump(timeout: float) -> None:
+            transport.wait(timeout)
+            transport.flush()
+            interfaces.targets = _targets(cell)
+            interfaces.poll()
+
+        progress(
+            f"cell {args.cell!r} on ROS 2 (domain {transport.domain_id}): "
+            f"topics under {transport.ros_name('state').rsplit('/', 1)[0]}/"
+        )
+        data = cell.run(pump=pump, agents_timeout=args.wait, progress=progress)
+        interfaces.targets = {}
+        interfaces.publish_markers()
+        cell.close()
+        transport.wait_matched("state", timeout=0.5)  # let the end message leave
+    finally:
+        if store is not None:
+            store.close()
+        if transport is not None:
+            transport.close()
+
+    def text() -> str:
+        legs = ", ".join(f"{a}: {n}" for a, n in data["legs_by_agent"].items())
+        return (
+            f"outcome {data['outcome']}"
+            + (f" ({data['reason']})" if data["reason"] else "")
+            + f"; legs connected by {legs}; {data['decisions']} decision trees; "
+            f"{data['robot_actions']} robot and {data['human_actions']} human actions; "
+            f"{data['cell']['events']} events" + (f" in {args.store}" if args.store else "")
+        )
+
+    emit(args, data, text)
+    return 0 if data["outcome"] == "solved" else 1

@@ -1,33 +1,33 @@
-"""A robot arm as a ROS 2 node: executes the cell's commands and streams standard messages.
+"""A robot arm of the cell as a ROS 2 node, streaming standard messages.
 
-:class:`ArmNode` is one arm of the cell (``flexhrc ros2 arm SCENARIO --arm NAME``). It speaks the
-cell's JSON protocol on its :class:`~flexhrc.ros2.transport.Ros2Transport` (commands in, acks
-out, a liveliness token ``alive/<arm>``) and publishes, for ROS 2 tools (RViz,
-``robot_state_publisher``, rosbag):
+:class:`ArmNode` *is* the cell's :class:`~flexhrc.cell.components.RobotAgent` (same protocol,
+same "never execute one command id twice", same pacing by the cell's ``realtime``) on a
+:class:`~flexhrc.ros2.transport.Ros2Transport`, plus what ROS 2 tools expect of an arm:
 
-=======================================  =================================  ===================
-topic (under ``/flexhrc/<cell>/``)       type                               when
-=======================================  =================================  ===================
-``arm/<arm>/joint_states``               ``sensor_msgs/JointState``         ``rate_hz`` while
-                                                                            moving, 5 Hz idle
-``arm/<arm>/pose``                       ``geometry_msgs/PoseStamped``      with each joint state
-``arm/<arm>/joint_trajectory``           ``trajectory_msgs/JointTrajectory`` each command's plan
-=======================================  =================================  ===================
+=======================================  ===================================  ==================
+topic (under ``/flexhrc/<cell>/``)       type                                 when
+=======================================  ===================================  ==================
+``arm/<arm>/joint_states``               ``sensor_msgs/JointState``           ``rate_hz`` (50)
+                                                                              while moving, 5 Hz
+                                                                              idle
+``arm/<arm>/pose``                       ``geometry_msgs/PoseStamped``        with each joint
+                                                                              state
+``arm/<arm>/joint_trajectory``           ``trajectory_msgs/JointTrajectory``  each command's plan
+=======================================  ===================================  ==================
 
 Two ways to execute a command:
 
-* ``execute="sim"`` (default): the kinematic simulator of :mod:`flexhrc.action` (through
-  :class:`~flexhrc.action.bridge.KinematicTaskSimulator`, the same model the Task Manager
-  simulates with) integrates the motion; the node plays it back on the wall clock at
-  ``realtime`` x speed (``0``: at once) and acknowledges at its end;
-* ``execute="external"``: a real arm. The planned motion goes out as a ``JointTrajectory`` on
-  ``trajectory_topic`` (e.g. ``/joint_trajectory_controller/joint_trajectory`` of
-  ``ros2_control``) and the command is ``done`` when the arm's ``sensor_msgs/JointState`` on
-  ``joint_states_topic`` come within ``tolerance_rad`` of the last point, ``timed_out`` when they
-  do not within ``1.5 x duration + 1 s``.
-
-A command id seen again (a cell resuming after a crash re-sends what was outstanding) is never
-executed twice: while it runs it is ignored, once finished its ack is sent again.
+* ``execute="sim"`` (default): the kinematic simulator (:mod:`flexhrc.action`, through
+  :class:`~flexhrc.action.bridge.KinematicTaskSimulator`, the model the Task Manager simulates
+  with) integrates the motion; the node plays it back on the wall clock at the cell's
+  ``realtime`` speed and acknowledges at its end (``realtime`` 0: at once). A ``stop`` leaves the
+  simulated arm where it was at that moment;
+* ``execute="external"``: a real arm. The motion planned on the model from the arm's measured
+  joints goes out as a ``JointTrajectory`` on ``trajectory_topic`` (e.g. a
+  ``joint_trajectory_controller``); the command is ``done`` when the ``sensor_msgs/JointState``
+  on ``joint_states_topic`` come within ``tolerance_rad`` of its last point, ``timed_out`` when
+  they do not within ``1.5 x duration + 1 s``; a ``stop`` sends a one-point trajectory that holds
+  the arm where it is.
 """
 
 from __future__ import annotations
@@ -36,21 +36,16 @@ import logging
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
+from flexhrc.cell import protocol as P
+from flexhrc.cell.components import RobotAgent
 from flexhrc.errors import FlexhrcError
 from flexhrc.ros2 import messages as rm
 from flexhrc.ros2._deps import msg
-from flexhrc.ros2.protocol import (
-    PROTOCOL_VERSION,
-    ack_topic,
-    alive_key,
-    command_topic,
-    parse_agent_message,
-)
 
 log = logging.getLogger("flexhrc.ros2.arm")
 
@@ -62,24 +57,20 @@ __all__ = ["EXECUTE_MODES", "ArmNode", "Motion"]
 
 @dataclass
 class Motion:
-    """One command being carried out: its planned motion of this arm and its outcome."""
+    """The planned motion of one command: samples of this arm's joints and the pace."""
 
-    command_id: Any
-    action: str
-    t: np.ndarray  # (N,) seconds from the start
+    command_id: int
+    t: np.ndarray  # (N,) seconds from the start, simulated time
     q: np.ndarray  # (N, dof)
-    status: str
-    reason: str | None
-    duration_s: float
-    started: float = 0.0  # wall clock (monotonic)
-    timeout_s: float = math.inf
-    extra: dict[str, Any] = field(default_factory=dict)
+    duration_s: float  # simulated
+    speed: float  # simulated seconds per wall second (0: at once)
+    started: float  # wall clock (monotonic) at the start
+    timeout_s: float = math.inf  # wall seconds (external execution)
+    t_cell: float = 0.0  # the cell's (simulated) time when the command was sent
 
     def sample(self, elapsed: float) -> np.ndarray:
-        """Joint positions ``elapsed`` seconds into the motion (linear interpolation; the last
-        sample is held, e.g. while a gripper closes)."""
-        if len(self.t) == 0:
-            return self.q[-1]
+        """Joint positions ``elapsed`` simulated seconds in (linear interpolation; the last
+        sample is held, e.g. while the gripper closes)."""
         if elapsed <= self.t[0]:
             return self.q[0]
         if elapsed >= self.t[-1]:
@@ -87,27 +78,24 @@ class Motion:
         return np.array([np.interp(elapsed, self.t, self.q[:, j]) for j in range(self.q.shape[1])])
 
 
-class ArmNode:
-    """A simulated (or real, ``execute="external"``) arm of the cell on ROS 2."""
+class ArmNode(RobotAgent):
+    """The cell's robot agent as a ROS 2 node (see the module docstring)."""
 
     def __init__(
         self,
+        name: str,
+        scenario: Any,
         transport: Any,
-        arm: str,
-        kb: Any,
-        domain: Any,
         *,
-        realtime: float = 1.0,
+        execution: Any = None,
         rate_hz: float = 50.0,
         execute: str = "sim",
         trajectory_topic: str | None = None,
         joint_states_topic: str | None = None,
         tolerance_rad: float = 0.01,
+        trace: Callable[[str], None] | None = None,
         clock: Callable[[], float] = time.monotonic,
-        simulator: Any = None,
     ) -> None:
-        if not (math.isfinite(realtime) and realtime >= 0):
-            raise FlexhrcError(f"--realtime must be a finite number >= 0, got {realtime}")
         if not (math.isfinite(rate_hz) and 30.0 <= rate_hz <= 1000.0):
             raise FlexhrcError(f"--rate must be between 30 and 1000 Hz, got {rate_hz}")
         if execute not in EXECUTE_MODES:
@@ -121,247 +109,185 @@ class ArmNode:
             )
         if not (math.isfinite(tolerance_rad) and tolerance_rad > 0):
             raise FlexhrcError(f"--tolerance must be a positive angle, got {tolerance_rad}")
-        agent = domain.agents.get(arm)
-        if agent is None or agent.is_human:
-            robots = [a.name for a in domain.agents.values() if not a.is_human]
-            raise FlexhrcError(
-                f"unknown arm {arm!r} (argument --arm); the scenario's arms: {', '.join(robots)}"
-            )
-        if simulator is None:
-            from flexhrc.action.bridge import KinematicTaskSimulator
-
-            simulator = KinematicTaskSimulator()
-        self.sim = simulator
-        robot = self.sim.execution.sim.robot
-        robot.arm(arm)  # the robot model must have it too
-        self.transport = transport
-        self.arm = arm
-        self.kb = kb
-        self.domain = domain
-        self.realtime = float(realtime)
+        if execution is None:
+            try:
+                from flexhrc.action.bridge import KinematicTaskSimulator
+            except ImportError as exc:  # pragma: no cover - the sim extra is missing
+                raise FlexhrcError(
+                    f"the ROS 2 arm needs the sim extra ({exc.name} is missing): "
+                    "pip install 'flexhrc[sim]'"
+                ) from None
+            execution = KinematicTaskSimulator()
+        if not hasattr(execution, "execution"):
+            raise FlexhrcError("the ROS 2 arm needs the kinematic simulator (joint motions)")
+        self.robot = execution.execution.sim.robot
         self.rate_hz = float(rate_hz)
         self.execute_mode = execute
         self.tolerance_rad = float(tolerance_rad)
         self.clock = clock
-        self.names = rm.joint_names(arm, robot.arm(arm).dof)
-        self.positions: dict[str, tuple[float, float, float]] = {}
         self.motion: Motion | None = None
-        self.finished: dict[Any, dict[str, Any]] = {}  # command id -> its ack
-        self.executed: list[Any] = []  # command ids, in execution order
-        self.malformed = 0
-        self._last_publish = -math.inf
         self._measured: np.ndarray | None = None
-        self._t0 = clock()
-        self._sub = transport.subscribe(command_topic(arm), self._on_message)
-        self._js_pub = transport.create_publisher(
-            msg("sensor_msgs.msg", "JointState"), f"arm/{arm}/joint_states"
-        )
-        self._pose_pub = transport.create_publisher(
-            msg("geometry_msgs.msg", "PoseStamped"), f"arm/{arm}/pose"
-        )
+        self._last_publish = -math.inf
+        self._external_finish: Callable[[], None] | None = None
+        self._starting: int | None = None
+        # the ROS side first, then the agent (its liveliness token announces a ready node)
+        JointState = msg("sensor_msgs.msg", "JointState")
         JointTrajectory = msg("trajectory_msgs.msg", "JointTrajectory")
-        self._plan_pub = transport.create_publisher(JointTrajectory, f"arm/{arm}/joint_trajectory")
+        self._js_pub = transport.create_publisher(JointState, f"arm/{name}/joint_states")
+        self._pose_pub = transport.create_publisher(
+            msg("geometry_msgs.msg", "PoseStamped"), f"arm/{name}/pose"
+        )
+        self._plan_pub = transport.create_publisher(JointTrajectory, f"arm/{name}/joint_trajectory")
         self._controller_pub = (
             transport.create_publisher(JointTrajectory, trajectory_topic)
             if execute == "external" and trajectory_topic
             else None
         )
+        super().__init__(name, scenario, transport, execution=execution, trace=trace)
+        self.robot.arm(name)  # the robot model must have this arm too
+        self.names = rm.joint_names(name, self.robot.arm(name).dof)
         if execute == "external" and joint_states_topic:
-            transport.create_subscription(
-                msg("sensor_msgs.msg", "JointState"), joint_states_topic, self._on_joint_states
-            )
-        # announce only once the command subscription exists (see Ros2Transport.publish)
-        self._token = transport.declare_token(alive_key(arm))
+            transport.create_subscription(JointState, joint_states_topic, self._on_joint_states)
 
-    # -- time -------------------------------------------------------------------------------
-    def _stamp(self) -> float:
-        return max(time.time(), 0.0)
+    # -- where the arm is -------------------------------------------------------------------
+    def _model_q(self) -> np.ndarray:
+        return np.asarray(self.execution.execution.state.q[self.name], dtype=float)  # type: ignore[attr-defined]
 
     @property
     def q(self) -> np.ndarray:
-        """The arm's current joint positions."""
-        if self.motion is not None and self.execute_mode == "sim":
+        """The arm's joint positions now (measured on a real arm)."""
+        if self.execute_mode == "external":
+            return self._measured if self._measured is not None else self._model_q()
+        if self.motion is not None:
             return self.motion.sample(self._elapsed(self.motion))
-        if self.execute_mode == "external" and self._measured is not None:
-            return self._measured
-        return np.asarray(self.sim.execution.state.q[self.arm], dtype=float)
+        return self._model_q()
 
     def _elapsed(self, motion: Motion) -> float:
-        if self.realtime == 0:
+        if motion.speed <= 0:
             return math.inf
-        return (self.clock() - motion.started) * self.realtime
-
-    # -- messages in ------------------------------------------------------------------------
-    def _on_message(self, payload: Any) -> None:
-        try:
-            m = parse_agent_message(payload)
-        except ValueError as exc:
-            self.malformed += 1
-            log.warning("%s: dropped a malformed message: %s", self.arm, exc)
-            return
-        if m["kind"] == "stop":
-            self.stop(m["id"], m.get("reason") or "stopped")
-        else:
-            self.command(m["id"], m["action"], m.get("agents") or [self.arm])
+        return (self.clock() - motion.started) * motion.speed
 
     def _on_joint_states(self, m: Any) -> None:
         index = {n: i for i, n in enumerate(m.name)}
-        if not all(n in index for n in self.names):
-            return  # another arm's joints
-        self._measured = np.array([float(m.position[index[n]]) for n in self.names])
+        if all(n in index for n in self.names) and len(m.position) == len(m.name):
+            q = np.array([float(m.position[index[n]]) for n in self.names])
+            if np.all(np.isfinite(q)):
+                self._measured = q
 
-    # -- commands ---------------------------------------------------------------------------
-    def command(self, command_id: Any, action: str, agents: list[str]) -> None:
-        """Start a command (the protocol's ``command`` message)."""
-        if command_id in self.finished:
-            self._publish_ack(self.finished[command_id])  # a resent command: the same answer
+    # -- commands (the cell's RobotAgent does the protocol) ---------------------------------
+    def _command(self, message: dict[str, Any]) -> None:
+        cid = int(message["id"])
+        fresh = cid not in self.acks and cid not in self.running and cid not in self.stopped
+        em = self.execution.execution  # type: ignore[attr-defined]
+        if fresh and self.execute_mode == "external" and self._measured is not None:
+            em.state.q[self.name] = self._measured.copy()  # plan from where the real arm is
+        q0 = self._model_q().copy()
+        before = len(em.log)
+        self._starting = cid if fresh else None
+        try:
+            super()._command(message)
+        finally:
+            self._starting = None
+        if not fresh or len(em.log) == before:
             return
-        if self.motion is not None:
-            if self.motion.command_id == command_id:
-                return  # already running
-            # the manager never sends a busy arm a command; if it does, the old one is over
-            self.stop(self.motion.command_id, f"superseded by command {command_id}")
-        motion = self._plan(command_id, action, agents)
-        self.executed.append(command_id)
-        motion.started = self.clock()
-        self.motion = motion
-        plan = rm.joint_trajectory(self.names, motion.t.tolist(), motion.q.tolist(), self._stamp())
+        report = em.log[-1]
+        traj = report.outcome.trajectory if report.outcome is not None else None
+        if traj is not None and self.name in traj.arms and len(traj) > 0:
+            t = np.asarray(traj.t, dtype=float)
+            t = t - t[0]
+            q = np.asarray(traj.arm_q(self.name), dtype=float)
+        else:
+            t, q = np.zeros(1), q0[None, :]
+        speed = float(message.get("realtime", 0.0))
+        duration = max(float(report.duration_s), float(t[-1]))
+        motion = Motion(cid, t, q, duration, speed, self.clock(), t_cell=float(message["t"]))
+        if self.execute_mode == "external":
+            motion.timeout_s = 1.5 * motion.duration_s + 1.0
+        plan = rm.joint_trajectory(self.names, t.tolist(), q.tolist(), time.time())
         self._plan_pub.publish(plan)
         if self._controller_pub is not None:
             self._controller_pub.publish(plan)
-        log.info("%s: command %s %s (%.2f s)", self.arm, command_id, action, motion.duration_s)
-        self.step()
+        if cid in self.running:  # still going: play it (sim) or watch the real arm (external)
+            self.motion = motion
+        self._publish_state()
 
-    def _plan(self, command_id: Any, action: str, agents: list[str]) -> Motion:
-        q0 = np.asarray(self.sim.execution.state.q[self.arm], dtype=float)
-        hold = Motion(command_id, action, np.zeros(1), q0[None, :], "failed", None, 0.0)
-        try:
-            schema, args = self.domain.invocation(action)
-        except Exception as exc:  # a malformed or unknown action: answered, not raised
-            hold.reason = f"cannot execute {action!r}: {exc}"
-            return hold
-        if list(agents) != [self.arm]:
-            hold.reason = f"{action}: this node is arm {self.arm!r}, the command is for {agents}"
-            return hold
-        from flexhrc.taskmanager.domain import GroundAction
-
-        ground = GroundAction(schema, tuple(args), (self.arm,))
-        em = self.sim.execution
-        if self.execute_mode == "external" and self._measured is not None:
-            # plan on the model from where the real arm is
-            em.state.q[self.arm] = self._measured.copy()
-        before = len(em.log)
-        try:
-            report = self.sim.execute(ground, self.positions, self.kb, self.domain)
-        except FlexhrcError as exc:
-            hold.reason = f"{action}: {exc}"
-            return hold
-        if len(em.log) > before:
-            traj = em.log[-1].outcome.trajectory
-            t = np.asarray(traj.t, dtype=float)
-            q = np.asarray(traj.arm_q(self.arm), dtype=float) if self.arm in traj.arms else q0[None]
-        else:  # answered without moving (e.g. an action the simulator does not know)
-            t, q = np.zeros(1), q0[None, :]
-        if len(t) == 0:
-            t, q = np.zeros(1), q0[None, :]
-        motion = Motion(
-            command_id,
-            action,
-            t - t[0],
-            q,
-            report.status,
-            report.reason,
-            max(float(report.duration_s), float(t[-1] - t[0])),
-        )
-        if self.execute_mode == "external":
-            motion.timeout_s = 1.5 * motion.duration_s + 1.0
-        return motion
-
-    def stop(self, command_id: Any, reason: str) -> None:
-        """Stop the running command where the arm is (the protocol's ``stop`` message); its ack
-        says ``failed`` with the reason."""
-        motion = self.motion
-        if motion is None or motion.command_id != command_id:
+    def _later(self, delay: float, fn: Callable[[], None]) -> None:
+        if self.execute_mode == "external" and self._starting is not None:
+            # a real arm answers when it gets there, not after the simulated time
+            self._external_finish = fn
             return
-        q = self.q
+        super()._later(delay, fn)
+
+    def _stop(self, message: dict[str, Any]) -> None:
+        cid = int(message["id"])
+        motion = self.motion
+        super()._stop(message)
+        if motion is None or motion.command_id != cid or cid not in self.stopped:
+            return
+        q = self.q.copy()
         self.motion = None
-        # the simulated arm stays where it stopped, not where the plan ended
-        self.sim.execution.state.q[self.arm] = np.asarray(q, dtype=float).copy()
+        self._external_finish = None
+        # the arm stays where it stopped, not where the plan ended
+        self.execution.execution.state.q[self.name] = q  # type: ignore[attr-defined]
         if self._controller_pub is not None:
-            hold = rm.joint_trajectory(self.names, [0.0], [list(q)], self._stamp())
-            self._controller_pub.publish(hold)
-        self._finish(motion, "failed", f"stopped: {reason}")
-
-    def _finish(self, motion: Motion, status: str, reason: str | None) -> None:
-        ack = {
-            "v": PROTOCOL_VERSION,
-            "kind": "ack",
-            "id": motion.command_id,
-            "agent": self.arm,
-            "status": status,
-            "reason": reason,
-            "duration_s": round(motion.duration_s, 4),
-        }
-        self.finished[motion.command_id] = ack
-        self._publish_state(self.q)
-        self._publish_ack(ack)
-        log.info("%s: command %s %s", self.arm, motion.command_id, status)
-
-    def _publish_ack(self, ack: dict[str, Any]) -> None:
-        self.transport.publish(ack_topic(), ack)
+            self._controller_pub.publish(
+                rm.joint_trajectory(self.names, [0.0], [q.tolist()], time.time())
+            )
+        self._publish_state()
 
     # -- the loop ---------------------------------------------------------------------------
-    def step(self) -> float:
-        """Publish what is due and finish a motion that ended; returns the seconds until the
-        next thing is due (for the caller's wait)."""
-        now = self.clock()
+    def poll(self) -> None:
+        """Answers that are due (the agent's timers), the real arm's progress, joint states."""
+        super().poll()
         motion = self.motion
-        period = 1.0 / (self.rate_hz if motion is not None else IDLE_RATE_HZ)
         if motion is not None:
-            if self.execute_mode == "sim":
-                if self._elapsed(motion) >= motion.duration_s:
-                    self.motion = None
-                    self._finish(motion, motion.status, motion.reason)
-                    return period
-            else:
-                if self._reached(motion):
-                    self.motion = None
-                    self._finish(
-                        motion, "done" if motion.status == "done" else motion.status, motion.reason
-                    )
-                    return period
-                if now - motion.started > motion.timeout_s:
-                    self.motion = None
-                    self._finish(
-                        motion,
-                        "timed_out",
-                        f"the arm did not reach the end of the trajectory within "
-                        f"{motion.timeout_s:.2f} s",
-                    )
-                    return period
-        if now - self._last_publish >= period - 1e-4:
-            self._publish_state(self.q)
-        return max(0.0, self._last_publish + period - self.clock())
+            if motion.command_id not in self.running:  # answered (sim) or stopped
+                self.motion = None
+                self._publish_state()
+            elif self.execute_mode == "external":
+                self._watch_external(motion)
+        period = 1.0 / (self.rate_hz if self.motion is not None else IDLE_RATE_HZ)
+        if self.clock() - self._last_publish >= period - 1e-4:
+            self._publish_state()
 
-    def _reached(self, motion: Motion) -> bool:
-        if self._measured is None:
-            return False
-        return bool(np.max(np.abs(self._measured - motion.q[-1])) <= self.tolerance_rad)
+    def _watch_external(self, motion: Motion) -> None:
+        reached = self._measured is not None and bool(
+            np.max(np.abs(self._measured - motion.q[-1])) <= self.tolerance_rad
+        )
+        if reached:
+            finish, self._external_finish = self._external_finish, None
+            self.motion = None
+            if finish is not None:
+                finish()
+        elif self.clock() - motion.started > motion.timeout_s:
+            self.motion = None
+            self._external_finish = None
+            self.running.discard(motion.command_id)
+            ack = P.message(
+                "ack",
+                id=motion.command_id,
+                agent=self.name,
+                status="timed_out",
+                reason=f"the arm did not reach the end of its trajectory within "
+                f"{motion.timeout_s:.2f} s",
+                t=round(motion.t_cell + motion.timeout_s, 6),
+                duration=round(motion.timeout_s, 6),
+                positions={},
+            )
+            self.acks[motion.command_id] = ack
+            self.transport.publish(P.ACK_TOPIC, ack)
+            self.trace(f"cmd {motion.command_id} timed_out")
 
-    def _publish_state(self, q: np.ndarray) -> None:
-        stamp = self._stamp()
+    def next_due(self) -> float | None:
+        period = 1.0 / (self.rate_hz if self.motion is not None else IDLE_RATE_HZ)
+        due = self._last_publish + period
+        other = super().next_due()
+        return due if other is None else min(due, other)
+
+    def _publish_state(self) -> None:
+        q = self.q
+        stamp = time.time()
         self._js_pub.publish(rm.joint_state(self.names, [float(v) for v in q], stamp))
-        xyz, R = self.sim.execution.sim.robot.arm(self.arm).pose(np.asarray(q, dtype=float))
+        xyz, R = self.robot.arm(self.name).pose(np.asarray(q, dtype=float))
         self._pose_pub.publish(rm.pose_stamped(xyz, stamp, rm.quaternion_from_matrix(R)))
         self._last_publish = self.clock()
-
-    def run(self, until: Callable[[], bool] = lambda: False) -> None:
-        """Serve commands until ``until()`` is true (or forever)."""
-        while not until():
-            delay = self.step()
-            if self.transport.wait(min(delay, 0.05)):
-                self.transport.flush()
-
-    def close(self) -> None:
-        self._token.undeclare()
-        self._sub.cancel()

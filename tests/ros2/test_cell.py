@@ -1,0 +1,168 @@
+"""Acceptance of the ROS 2 bridge: a whole cell as separate ROS 2 processes on localhost.
+
+* `flexhrc ros2 cell` + two `flexhrc ros2 arm` nodes complete the table assembly; an
+  independent plain-rclpy client (tests/ros2/rclpy_client.py, no flexhrc code) plays the
+  operator: it sees the manager's suggestions and reports the human actions, which the manager
+  follows to the end;
+* SIGKILL of an arm node in the middle of an action -> `agent lost`, re-planned with the other
+  arm, `solved`.
+
+Everything waits on conditions (topics, processes) with bounded timeouts, never fixed sleeps.
+"""
+
+from __future__ import annotations
+
+import json
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from flexhrc.cell import read_store
+from flexhrc.ros2.transport import Ros2Transport
+from tests.ros2.conftest import wait_for
+from tests.ros2.rclpy_client import PlainClient
+
+pytestmark = pytest.mark.slow
+
+
+def _node(env: dict[str, str], *args: str, log: Path) -> subprocess.Popen[str]:
+    fh = open(log, "w")  # noqa: SIM115 - closed with the process by the test's cleanup
+    return subprocess.Popen(
+        [sys.executable, "-m", "flexhrc", "ros2", *args],
+        env=env, stdout=subprocess.PIPE, stderr=fh, text=True,
+    )  # fmt: skip
+
+
+def _stop_all(procs: list[subprocess.Popen[str]]) -> None:
+    for p in procs:
+        if p.poll() is None:
+            p.terminate()
+    for p in procs:
+        try:
+            p.wait(10)
+        except subprocess.TimeoutExpired:
+            p.kill()
+            p.wait(5)
+
+
+def _finish(manager: subprocess.Popen[str], timeout: float, logs: Path) -> dict:
+    try:
+        out, _ = manager.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        manager.kill()
+        out, _ = manager.communicate()
+        tails = {p.name: p.read_text()[-1500:] for p in logs.glob("*.log")}
+        raise AssertionError(f"the cell did not end within {timeout} s: {tails}") from None
+    assert out.strip(), (logs / "manager.log").read_text()[-2000:]
+    return json.loads(out)
+
+
+def _operate_until_the_end(
+    client: PlainClient, suggestions: list, manager: subprocess.Popen[str], timeout: float
+) -> None:
+    """The operator: do what is asked, step by step, on the cell's clock (2 s a step)."""
+    answered: set[str] = set()
+    deadline = time.monotonic() + timeout
+    while manager.poll() is None and time.monotonic() < deadline:
+        with client.lock:
+            todo = [s for s in suggestions if s["id"] not in answered]
+        for s in todo:
+            answered.add(s["id"])
+            t = float(s["t"])
+            for i, action in enumerate(s["actions"]):
+                client.publish("human", {
+                    "v": 1, "type": "human_action", "id": f"plain:{s['id']}:{i}",
+                    "agent": "human", "action": action, "suggestion": s["id"],
+                    "start": t, "t": t + 2.0,
+                })  # fmt: skip
+                t += 2.0
+        time.sleep(0.02)
+
+
+def test_manager_two_arms_and_a_plain_rclpy_operator_complete_the_assembly(
+    tmp_path: Path, ros_env: dict[str, str], domain_id: int, cell_name: str
+):
+    # bolt 2 is out of both arms' reach: only the operator can fix leg 2 -> a suggestion
+    scenario = tmp_path / "table.yaml"
+    scenario.write_text("scenario: table_assembly\nunreachable_bolts: [2]\n")
+    common = [str(scenario), "--cell", cell_name]
+    client = PlainClient(cell_name, domain_id)
+    suggestions = client.watch("suggest/human")
+    states = client.watch("state")
+    client.tokens.append("alive/human")  # the operator announces itself like any agent
+    procs: list[subprocess.Popen[str]] = []
+    try:
+        procs.append(_node(ros_env, "cell", *common, "--json", "--store", str(tmp_path / "c.db"),
+                           log=tmp_path / "manager.log"))  # fmt: skip
+        for arm in ("left", "right"):
+            procs.append(_node(ros_env, "arm", *common, "--arm", arm, log=tmp_path / f"{arm}.log"))
+        _operate_until_the_end(client, suggestions, procs[0], 120.0)
+        data = _finish(procs[0], 30, tmp_path)
+    finally:
+        client.close()
+        _stop_all(procs)
+    assert data["outcome"] == "solved", data.get("reason")
+    assert suggestions, "the client saw no suggestion"
+    first = suggestions[0]
+    assert first["v"] == 1 and first["type"] == "suggestion" and first["element"].endswith("_2")
+    assert all(a.endswith(")") and "human" in a for a in first["actions"])
+    assert data["legs_by_agent"]["human"] == 1  # the operator's leg, as the manager followed it
+    assert data["legs_by_agent"]["left"] + data["legs_by_agent"]["right"] == 3
+    assert data["human_actions"] == len(first["actions"])
+    kinds = [e.kind for e in read_store(tmp_path / "c.db")]
+    assert kinds.count("human_action") == len(first["actions"]) and "suggestion" in kinds
+    assert any(s.get("type") == "end" and s.get("outcome") == "solved" for s in states)
+
+
+def test_sigkill_of_an_arm_node_mid_action_is_replanned_and_solved(
+    tmp_path: Path, ros_env: dict[str, str], domain_id: int, cell_name: str
+):
+    scenario = tmp_path / "table.yaml"
+    scenario.write_text("scenario: table_assembly\n")
+    common = [str(scenario), "--cell", cell_name]
+    store = tmp_path / "c.db"
+    watcher = Ros2Transport(prefix=f"flexhrc/{cell_name}", domain_id=domain_id)
+    to_left: list[dict] = []
+    watcher.subscribe("cmd/left", to_left.append)
+    # the operator takes what the right arm alone cannot reach
+    client = PlainClient(cell_name, domain_id)
+    suggestions = client.watch("suggest/human")
+    client.tokens.append("alive/human")
+    procs: list[subprocess.Popen[str]] = []
+    try:
+        procs.append(_node(ros_env, "cell", *common, "--json", "--realtime", "4", "--store",
+                           str(store), log=tmp_path / "manager.log"))  # fmt: skip
+        for arm in ("left", "right"):
+            procs.append(_node(ros_env, "arm", *common, "--arm", arm, log=tmp_path / f"{arm}.log"))
+        left = procs[1]
+        # kill the left arm while it executes a command (not between two)
+        assert wait_for(lambda: any(c["type"] == "command" for c in to_left), 90.0, watcher.flush)
+        assert left.poll() is None
+        left.send_signal(signal.SIGKILL)
+        killed = time.monotonic()
+        _operate_until_the_end(client, suggestions, procs[0], 120.0)
+        data = _finish(procs[0], 30, tmp_path)
+    finally:
+        watcher.close()
+        client.close()
+        _stop_all(procs)
+    assert data["outcome"] == "solved", data.get("reason")
+    assert data["cell"]["agents"]["left"]["available"] is False
+    assert data["legs_by_agent"]["right"] >= 1
+    events = read_store(store)
+    down = [e for e in events if e.kind == "agent_down"]
+    assert [e.body["agent"] for e in down] == ["left"]
+    assert down[0].body["wall"] - (time.time() - (time.monotonic() - killed)) < 2.0
+    lost = [e for e in events if e.kind == "ack" and e.body.get("reason") == "agent lost"]
+    assert lost and lost[0].body["agent"] == "left"
+    # after the loss the work went to the right arm (and the operator); what the manager still
+    # addressed to the lost arm (sending it to rest) was failed at once as `agent lost`
+    after = [e for e in events if e.kind == "command" and e.seq > down[0].seq]
+    lost_ids = {e.body["id"] for e in lost}
+    assert any(e.body["agents"] == ["right"] for e in after)
+    assert all(e.body["agents"] == ["right"] or e.body["id"] in lost_ids for e in after)
+    assert data["legs_by_agent"]["left"] == 0
