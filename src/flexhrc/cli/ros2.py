@@ -105,6 +105,19 @@ def register(subparsers: Any) -> None:
     add_json_flag(cell)
     cell.set_defaults(func=cmd_cell)
 
+    human = sub.add_parser(
+        "human",
+        help="a simulated operator node that follows the suggestions",
+        description="The cell's simulated operator (`flexhrc agent human`) as a ROS 2 node: it "
+        "carries out each suggestion on suggest/<name> and reports the human actions on human. "
+        "It exits when the cell ends.",
+    )
+    _add_common(human)
+    human.add_argument("--name", required=True, metavar="NAME", help="which operator (e.g. human)")
+    human.add_argument("--profile", default="passive", metavar="PROFILE", help="passive (default)")
+    add_json_flag(human)
+    human.set_defaults(func=cmd_human)
+
     arm = sub.add_parser(
         "arm",
         help="a simulated (or real) robot arm node",
@@ -233,6 +246,38 @@ def cmd_arm(args: argparse.Namespace) -> int:
     }
     if args.json:
         emit(args, data)
+    return 0
+
+
+def cmd_human(args: argparse.Namespace) -> int:
+    from flexhrc.cell import HumanAgent, load_scenario
+    from flexhrc.cell.components import run_agent
+    from flexhrc.ros2.transport import ros_topic
+
+    scenario = load_scenario(args.scenario, seed=args.seed)
+    ros_topic("", args.name)
+    say = _progress(args)
+    transport = _transport(args, f"human_{args.name}")
+    stop = _Stop()
+    agent: Any = None
+    try:
+        agent = HumanAgent(
+            args.name,
+            scenario,
+            transport,
+            profile=args.profile,
+            trace=lambda line: say(f"[{args.name}] {line}"),
+        )
+        say(f"[{args.name}] ready: cell {args.cell!r}, ROS domain {transport.domain_id}")
+        outcome = run_agent(agent, transport, until=stop)
+        say(f"[{args.name}] cell ended: {outcome}")
+    finally:
+        if agent is not None:
+            agent.close()
+        transport.close()
+    if args.json:
+        emit(args, {"agent": args.name, "outcome": outcome, "received": agent.received,
+                    "dropped": agent.dropped})  # fmt: skip
     return 0
 
 
