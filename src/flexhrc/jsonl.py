@@ -16,33 +16,47 @@ def read_jsonl(path: str | Path, required: Iterable[str] = ()) -> list[dict[str,
     return [obj for _, obj in read_jsonl_lines(path, required)]
 
 
+def _no_constant(name: str) -> Any:
+    raise ValueError(f"{name} is not a JSON number")
+
+
 def read_jsonl_lines(
     path: str | Path, required: Iterable[str] = ()
 ) -> list[tuple[int, dict[str, Any]]]:
-    """Like :func:`read_jsonl`, with the line number of every object."""
+    """Like :func:`read_jsonl`, with the line number of every object.
+
+    The file is read with :func:`flexhrc.files.read_text` (missing, a folder, unreadable,
+    binary and non-UTF-8 files are one clear error); ``NaN`` and ``Infinity``, which Python's
+    ``json`` would accept, are refused, and so is nesting too deep to parse.
+    """
+    from flexhrc.files import read_text
+
     path = Path(path)
-    if not path.is_file():
-        raise FormatError("no such file", path)
+    text = read_text(path)
     need = tuple(required)
     out: list[tuple[int, dict[str, Any]]] = []
-    with open(path, encoding="utf-8") as fh:
-        for i, line in enumerate(fh, 1):
-            if not line.strip():
-                continue
-            try:
-                obj = json.loads(line)
-            except json.JSONDecodeError as exc:
-                raise FormatError(f"not a JSON line ({exc.msg})", path, i) from None
-            if not isinstance(obj, dict):
-                raise FormatError("each line must be a JSON object", path, i)
-            missing = [k for k in need if k not in obj]
-            if missing:
-                raise FormatError(f"missing {', '.join(repr(k) for k in missing)}", path, i)
-            out.append((i, obj))
+    for i, line in enumerate(text.split("\n"), 1):
+        if not line.strip():
+            continue
+        try:
+            obj = json.loads(line, parse_constant=_no_constant)
+        except json.JSONDecodeError as exc:
+            raise FormatError(f"not a JSON line ({exc.msg})", path, i) from None
+        except ValueError as exc:
+            raise FormatError(f"not a JSON line ({exc})", path, i) from None
+        except RecursionError:
+            raise FormatError("not a JSON line (nested too deeply)", path, i) from None
+        if not isinstance(obj, dict):
+            raise FormatError("each line must be a JSON object", path, i)
+        missing = [k for k in need if k not in obj]
+        if missing:
+            raise FormatError(f"missing {', '.join(repr(k) for k in missing)}", path, i)
+        out.append((i, obj))
     return out
 
 
 def write_jsonl(path: str | Path, objects: Iterable[dict[str, Any]]) -> None:
-    with open(path, "w", encoding="utf-8") as fh:
-        for obj in objects:
-            fh.write(json.dumps(obj) + "\n")
+    """Write ``objects`` as JSON lines, atomically (the old file or the new one, never half)."""
+    from flexhrc.files import atomic_write_text
+
+    atomic_write_text(path, "".join(json.dumps(obj) + "\n" for obj in objects))

@@ -102,15 +102,39 @@ def test_the_kinematic_simulator_is_the_default_when_installed():
     assert isinstance(sim, KinematicTaskSimulator) and execution is sim
 
 
-def test_the_task_manager_defaults_to_the_kinematic_simulator():
-    from flexhrc.taskmanager import TaskManager
+def test_auto_picks_the_kinematic_simulator_at_the_edge():
+    # the choice is made above the Task Manager (scenarios.simulators), which stays unaware of
+    # the action level: given no simulator it uses the analytic one (STYLE.md: no import circle)
+    from flexhrc.scenarios.simulators import choose_simulator
+    from flexhrc.taskmanager import AnalyticSimulator, TaskManager
 
+    name, kin = choose_simulator("auto")
+    assert name == "kinematic" and isinstance(kin, KinematicTaskSimulator)
     sc = TableScenario(legs=1, leg_positions=LAYOUT[:1])
-    tm = TaskManager(OnlineGraph(sc.graph()), sc.domain(), sc.knowledge())
-    assert isinstance(tm.simulator, KinematicTaskSimulator)
+    tm = TaskManager(OnlineGraph(sc.graph()), sc.domain(), sc.knowledge(), kin)
     directives = tm.start(0.0)
     assert directives[0].action.name == "approach"
     assert tm.branches_simulated == 2
+    bare = TaskManager(OnlineGraph(sc.graph()), sc.domain(), sc.knowledge())
+    assert isinstance(bare.simulator, AnalyticSimulator)
+
+
+def test_the_taskmanager_package_does_not_import_the_action_level():
+    import subprocess
+    import sys
+
+    from ..conftest import subprocess_env
+
+    code = (
+        "import sys, flexhrc.taskmanager as t; from flexhrc.scenarios import table_assembly; "
+        "t.default_simulator(); "
+        "print(sorted(m for m in sys.modules if m.startswith('flexhrc.action')))"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, env=subprocess_env()
+    )
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "[]"
 
 
 def test_cli_disturbance_and_simulator_errors(capsys):

@@ -39,24 +39,15 @@ HUMAN_PROFILES = ("passive",)
 
 
 def execution_model(choice: str = "auto", scenario: Any = None) -> ExecutionModel:
-    """The simulated real world: kinematic (``sim`` extra) or analytic."""
-    forced = getattr(scenario, "simulator", None)
-    if forced == "analytic":
-        choice = "analytic"
-    if choice == "auto":
-        import importlib.util
+    """The simulated real world: kinematic (``sim`` extra) or analytic, as
+    :func:`flexhrc.scenarios.simulators.choose_simulator` picks it; a scenario that says
+    ``simulator = "analytic"`` (many arms: the kinematic model is the dual-arm robot) gets that."""
+    from flexhrc.scenarios.simulators import choose_simulator
 
-        choice = "kinematic" if importlib.util.find_spec("pinocchio") else "analytic"
-    if choice == "analytic":
-        return AnalyticSimulator()
-    try:
-        from flexhrc.action.bridge import KinematicTaskSimulator
-    except ImportError as exc:
-        raise FlexhrcError(
-            f"--simulator kinematic needs the sim extra ({exc.name} is missing): "
-            "pip install 'flexhrc[sim]'"
-        ) from None
-    return KinematicTaskSimulator()
+    if getattr(scenario, "simulator", None) == "analytic":
+        choice = "analytic"
+    model: ExecutionModel = choose_simulator(choice)[1]
+    return model
 
 
 def ground(domain: Domain, text: str, agents: tuple[str, ...] | None = None) -> GroundAction:

@@ -129,7 +129,8 @@ def parse(data: Any, *, expect: str | tuple[str, ...] | None = None) -> dict[str
             raise ProtocolError(f"{kind}: field {name!r} must be {want}, not {value!r:.40}")
         if isinstance(value, float) and not math.isfinite(value):
             raise ProtocolError(f"{kind}: field {name!r} must be finite")
-        if name in ("t", "duration", "expected_s", "start", "realtime") and value < 0:
+        numeric = name in ("t", "duration", "expected_s", "start", "realtime")
+        if numeric and isinstance(value, int | float) and value < 0:
             raise ProtocolError(f"{kind}: field {name!r} must be >= 0, not {value}")
     if kind == "ack" and data["status"] not in ACK_STATUSES:
         raise ProtocolError(f"ack: status must be one of {', '.join(ACK_STATUSES)}")

@@ -17,6 +17,7 @@ closing ``summary`` are stored too so that ``flexhrc replay FILE.db`` can rebuil
 
 from __future__ import annotations
 
+import contextlib
 import fcntl
 import json
 import os
@@ -116,10 +117,8 @@ class EventStore:
         return list(iter_events(self._db))
 
     def close(self) -> None:
-        try:
+        with contextlib.suppress(sqlite3.Error):
             self._db.close()
-        except sqlite3.Error:
-            pass
         if self._lock_fd >= 0:
             os.close(self._lock_fd)  # releases the lock
             self._lock_fd = -1
@@ -170,16 +169,19 @@ def is_store(path: str | Path) -> bool:
 
 def log_events(events: list[StoredEvent]) -> list[dict[str, Any]]:
     """The store as the JSON-lines events of ``flexhrc run --log`` (``start``, ``decision``,
-    ``command``, ``action_end``, ``outcome``, ``summary`` ...), for :func:`summarise_log` and the
-    timeline plot."""
+    ``command``, ``action_start``/``action_end``, ``outcome``, ``summary`` ...), for
+    :func:`~flexhrc.taskmanager.replay.summarise_log` and the timeline plot. Cell-only kinds
+    (``agent_up``/``agent_down``, ``human_action`` inputs) become the runner's events or are
+    left out."""
+    from flexhrc.taskmanager.replay import EVENT_TYPES
+
     out: list[dict[str, Any]] = []
     commands: dict[int, tuple[float, dict[str, Any]]] = {}
-    human_start: dict[str, float] = {}
     for ev in events:
         b = ev.body
         t = round(ev.t, 6)
         if ev.kind == "start":
-            out.append({"t": t, "type": "start", "agents": b.get("agents", []), **_keep(b)})
+            out.append({"t": t, "type": "start", "profile": "cell", **b})
         elif ev.kind == "command":
             commands[int(b["id"])] = (ev.t, b)
             out.append({"t": t, "type": "command", **b})
@@ -203,14 +205,13 @@ def log_events(events: list[StoredEvent]) -> list[dict[str, Any]]:
                     "action": cmd.get("action", "?"),
                     "command": b["id"],
                     "status": b["status"],
-                    "start": round(start, 6),
+                    "start": round(min(start, ev.t), 6),
                     "reason": b.get("reason"),
                     "element": cmd.get("element"),
                 }
             )
         elif ev.kind == "human_action":
-            start = float(b.get("start", ev.t))
-            human_start[str(b.get("id"))] = start
+            start = min(float(b.get("start", ev.t)), ev.t)
             out.append(
                 {
                     "t": t,
@@ -221,15 +222,22 @@ def log_events(events: list[StoredEvent]) -> list[dict[str, Any]]:
                     "start": round(start, 6),
                 }
             )
-        elif ev.kind in ("summary", "outcome", "decision", "suggestion", "stop"):
-            out.append({"t": t, "type": ev.kind, **b})
-        else:
+        elif ev.kind in EVENT_TYPES:
             out.append({"t": t, "type": ev.kind, **b})
     return out
 
 
-def _keep(b: dict[str, Any]) -> dict[str, Any]:
-    return {k: v for k, v in b.items() if k != "agents"}
+def store_log(path: str | Path) -> list[dict[str, Any]]:
+    """A store read as a cooperation log, validated like one (``flexhrc replay FILE.db``);
+    a bad event is a :class:`FormatError` naming the store and the event's ``seq``."""
+    from flexhrc.taskmanager.replay import check_log
+
+    events = read_store(path)
+    if not events:
+        raise FormatError("empty store", path)
+    log = log_events(events)
+    check_log([(i + 1, ev) for i, ev in enumerate(log)], f"{path} (as a log, event)")
+    return log
 
 
 def summarise_store(path: str | Path) -> tuple[dict[str, Any], list[dict[str, Any]]]:
@@ -237,8 +245,5 @@ def summarise_store(path: str | Path) -> tuple[dict[str, Any], list[dict[str, An
     events in log form."""
     from flexhrc.taskmanager.replay import summarise_log
 
-    events = read_store(path)
-    if not events:
-        raise FormatError("empty store", path)
-    log = log_events(events)
+    log = store_log(path)
     return summarise_log(log), log

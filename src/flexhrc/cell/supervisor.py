@@ -141,6 +141,8 @@ class Cell:
         self.replaying = False
         self.resumed = False
         self._wall0 = time.perf_counter()
+        self._clock0: float | None = None
+        self._last_wall = time.perf_counter()
         self._panel_inputs = 0
         self._subs = [
             transport.subscribe(P.ACK_TOPIC, self._on_ack_message),
@@ -170,8 +172,10 @@ class Cell:
             cmd = busy.get(name)
             status = "lost" if not st.available else ("busy" if cmd else "idle")
             if st.kind == "human":
-                status = "lost" if not st.available else (
-                    "busy" if name in self.active_suggestion else "idle"
+                status = (
+                    "lost"
+                    if not st.available
+                    else ("busy" if name in self.active_suggestion else "idle")
                 )
             agents[name] = {
                 **st.to_dict(),
@@ -316,9 +320,17 @@ class Cell:
             body = {k: v for k, v in ev.items() if k not in ("t", "type")}
             self._record(str(ev["type"]), body)
 
+    def _clock(self) -> float:
+        """Cell time from the wall clock, when agents take real time (unordered loop)."""
+        if self.ordered or self.realtime <= 0 or self._clock0 is None:
+            return self.now
+        return (time.perf_counter() - self._clock0) * self.realtime
+
     def _input(self, kind: str, body: dict[str, Any], t: float | None = None) -> None:
         if t is not None:
             self.now = max(self.now, float(t))
+        if not self.replaying:
+            self.now = max(self.now, round(self._clock(), 6))
         self._record(kind, body)  # committed before the manager acts on it
         directives = self._feed(kind, body)
         self._handle(directives)
@@ -424,7 +436,9 @@ class Cell:
 
     def _publish_state(self) -> None:
         try:
-            self.transport.publish(P.STATE_TOPIC, {"v": P.VERSION, "type": "state", **self.snapshot()})
+            self.transport.publish(
+                P.STATE_TOPIC, {"v": P.VERSION, "type": "state", **self.snapshot()}
+            )
         except Exception as exc:  # a panel's view must never stop the cell
             log.warning("state not published: %s", exc)
 
@@ -457,10 +471,7 @@ class Cell:
 
     def _refresh_suggestions(self) -> None:
         owners = {
-            a
-            for ex in self.tm.executions.values()
-            if ex.owner == "human"
-            for a in ex.branch.agents
+            a for ex in self.tm.executions.values() if ex.owner == "human" for a in ex.branch.agents
         }
         for human in list(self.active_suggestion):
             if human not in owners:
@@ -488,7 +499,9 @@ class Cell:
     def _missing(self) -> list[str]:
         return [n for n, st in self.agents.items() if not st.alive]
 
-    def wait_for_agents(self, timeout: float, progress: Callable[[str], None] | None = None) -> None:
+    def wait_for_agents(
+        self, timeout: float, progress: Callable[[str], None] | None = None
+    ) -> None:
         """Block until every agent of the scenario is alive (external agents)."""
         deadline = time.monotonic() + timeout
         said: set[str] = set()
@@ -538,6 +551,8 @@ class Cell:
         self._last_wall = time.perf_counter()
         if not self.resumed:
             self.wait_for_agents(agents_timeout, progress)
+        self._clock0 = time.perf_counter() - (self.now / self.realtime if self.realtime else 0)
+        if not self.resumed:
             self._input(
                 "start",
                 {
@@ -545,17 +560,21 @@ class Cell:
                     "scenario": getattr(self.scenario, "name", "?"),
                     "seed": self.seed,
                     "realtime": self.realtime,
+                    "simulator": _simulator_name(self.tm.simulator),
                 },
             )
+        elif self.tm.done:  # the stored cooperation had already ended: nothing to add
+            if progress:
+                progress(f"the stored cooperation already ended: {self.tm.outcome}")
+            self.transport.publish(P.STATE_TOPIC, P.message("end", outcome=self.tm.outcome))
+            return self.summary()
         else:
             self.started = True
             if progress:
                 progress(f"resumed from {len(self.events)} stored events at t = {self.now:.2f} s")
             for name, st in self.agents.items():
-                if st.alive and st.available:
+                if st.alive and st.available:  # the others resend when their token arrives
                     self._resend(name)
-                elif not st.alive and st.available:
-                    pass  # it may still be reconnecting; its token's arrival resends
             self._fail_lost()
         deadline = time.monotonic() + max_wall_s
         idle_since: float | None = None
@@ -564,16 +583,18 @@ class Cell:
                 idle_since = None
                 continue
             if not self.pending and not self.awaited():
-                # nothing running, nothing to come: solved elsewhere, or stuck
-                if all(st.available for st in self.agents.values()):
+                # nothing running, nothing to come: stuck, unless a lost agent may come back
+                if any(not st.available for st in self.agents.values()):
+                    idle_since = None
+                else:
                     idle_since = idle_since or time.monotonic()
-                    if time.monotonic() - idle_since > 0.5:
-                        self.tm.outcome = "failed"
-                        self.tm.reason = (
-                            "deadlock: no agent has anything to do and the task is not solved"
-                        )
-                        self._record("outcome", {"outcome": "failed", "reason": self.tm.reason})
-                        break
+                if idle_since is not None and time.monotonic() - idle_since > 0.5:
+                    self.tm.outcome = "failed"
+                    self.tm.reason = (
+                        "deadlock: no agent has anything to do and the task is not solved"
+                    )
+                    self._record("outcome", {"outcome": "failed", "reason": self.tm.reason})
+                    break
             if time.monotonic() > deadline:
                 self.tm.outcome, self.tm.reason = "failed", f"wall time {max_wall_s} s exceeded"
                 self._record("outcome", {"outcome": "failed", "reason": self.tm.reason})
@@ -586,15 +607,48 @@ class Cell:
         return summary
 
     def summary(self) -> dict[str, Any]:
-        """The keys of ``flexhrc run --json`` (counted from the stored events), plus the cell's."""
+        """The keys of ``flexhrc run --json`` (counted from the stored events), plus the cell's
+        (``cell``: name, events, resumed, dropped, agents) and the final ``knowledge`` base."""
         from flexhrc.taskmanager.replay import summarise_log
 
-        data = summarise_log(log_events([e for e in self.events if e.kind != "summary"]))
+        log_form = log_events([e for e in self.events if e.kind != "summary"])
+        data = summarise_log(log_form)
         tm = self.tm.summary()
         data["outcome"], data["reason"] = tm["outcome"], tm["reason"]
+        data["simulator"] = _simulator_name(self.tm.simulator)
         data["decisions"] = tm["decisions"]
         data["branches_simulated"] = tm["branches_simulated"]
         data["timing"].update(tm["timing"])
+        # robot or human by the agents' kinds (operators need not be called "human")
+        counts = {"robot": 0, "human": 0}
+        seconds = {"robot": 0.0, "human": 0.0}
+        legs = {a: 0 for a in self.domain.agents}
+        for ev in log_form:
+            if ev["type"] != "action_end":
+                continue
+            human = any(self.agents[a].kind == "human" for a in ev["agents"] if a in self.agents)
+            kind = "human" if human else "robot"
+            seconds[kind] += float(ev["t"]) - float(ev["start"])
+            if ev["status"] == "done":
+                counts[kind] += 1
+                if ev["action"].startswith("screw("):
+                    for a in ev["agents"]:
+                        legs[a] = legs.get(a, 0) + 1
+        data["robot_actions"], data["human_actions"] = counts["robot"], counts["human"]
+        data["timing"]["robot_actions_s"] = round(seconds["robot"], 6)
+        data["timing"]["human_actions_s"] = round(seconds["human"], 6)
+        data["legs_by_agent"] = legs
+        solved = [
+            {"hyperarc": e.body["element"], "agent": "+".join(e.body["agents"]), "t": e.t}
+            for e in self.events
+            if e.kind == "solved"
+        ]
+        by_agent = {a: 0 for a in self.domain.agents}
+        for item in solved:
+            for a in item["agent"].split("+"):
+                by_agent[a] = by_agent.get(a, 0) + 1
+        data["solved_hyperarcs"] = solved
+        data["by_agent"] = by_agent
         data["wall_s"] = time.perf_counter() - self._wall0
         data["cell"] = {
             "name": self.name,
@@ -611,6 +665,12 @@ class Cell:
             sub.cancel()
         if self.token is not None:
             self.token.undeclare()
+
+
+def _simulator_name(simulator: Any) -> str:
+    from flexhrc.taskmanager.simulator import simulator_name
+
+    return simulator_name(simulator)
 
 
 def _body(msg: dict[str, Any]) -> dict[str, Any]:

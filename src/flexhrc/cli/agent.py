@@ -71,6 +71,15 @@ def cmd_agent(args: argparse.Namespace) -> int:
             f"{opt} {name!r}: no {kind} agent of that name in the scenario "
             f"({kind}s: {', '.join(names) or 'none'})"
         )
+    if args.agent_kind == "human":
+        from flexhrc.cell.components import HUMAN_PROFILES
+
+        if args.profile not in HUMAN_PROFILES:
+            raise FlexhrcError(
+                f"--profile {args.profile!r}: an operator agent follows suggestions "
+                f"({', '.join(HUMAN_PROFILES)}); the profiles that act on their own run inside "
+                "`flexhrc demo table --human PROFILE`"
+            )
     transport = open_zenoh(args, listen_default=[])
     stop = {"flag": False}
 

@@ -31,9 +31,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
         help="simulated agents inside this process (default) or as their own processes",
     )
     p.add_argument("--store", metavar="FILE.db", help="event store (SQLite) to write")
-    p.add_argument(
-        "--resume", action="store_true", help="continue the cooperation kept in --store"
-    )
+    p.add_argument("--resume", action="store_true", help="continue the cooperation kept in --store")
     p.add_argument(
         "--realtime",
         type=float,
@@ -109,15 +107,10 @@ def open_zenoh(args: argparse.Namespace, *, listen_default: list[str]) -> Any:
 
 
 def branch_simulator(choice: str, scenario: Any) -> Any:
-    if getattr(scenario, "simulator", None) == "analytic" or choice == "analytic":
-        from flexhrc.taskmanager.simulator import AnalyticSimulator
+    """The Task Manager's branch simulator for ``--simulator`` (the scenario may force one)."""
+    from flexhrc.cell.components import execution_model
 
-        return AnalyticSimulator()
-    if choice == "kinematic":
-        from flexhrc.cell.components import execution_model
-
-        return execution_model("kinematic")
-    return None  # the Task Manager's default
+    return execution_model(choice, scenario)
 
 
 def trace_line(ev: dict[str, Any]) -> str | None:
@@ -251,7 +244,11 @@ def cmd_cell(args: argparse.Namespace) -> int:
             f"{data['robot_actions']} robot and {data['human_actions']} human actions; "
             f"{data['cell']['events']} events"
             + (f" in {args.store}" if args.store else "")
-            + (f"; {data['cell']['dropped']} malformed messages dropped" if data["cell"]["dropped"] else "")
+            + (
+                f"; {data['cell']['dropped']} malformed messages dropped"
+                if data["cell"]["dropped"]
+                else ""
+            )
         ]
         return "\n".join(out)
 

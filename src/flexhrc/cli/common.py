@@ -4,12 +4,16 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
 
 from flexhrc.errors import FlexhrcError
+
+#: The largest seed any command accepts (numpy's generators take 0 .. 2**32 - 1).
+MAX_SEED = 2**32 - 1
 
 
 def add_json_flag(parser: argparse.ArgumentParser) -> None:
@@ -35,6 +39,111 @@ def log(args: argparse.Namespace, message: str) -> None:
     """A progress/trace line: stderr under ``--json`` (stdout stays pure JSON), else stdout."""
     stream = sys.stderr if getattr(args, "json", False) else sys.stdout
     print(message, file=stream, flush=True)
+
+
+def progress(message: str) -> None:
+    """A progress line ("training ...", "scene 3/10"): always stderr, so stdout holds results."""
+    print(message, file=sys.stderr, flush=True)
+
+
+def plural(n: int, word: str, many: str | None = None) -> str:
+    """``1 branch``, ``2 branches``, ``0 objects``."""
+    if n == 1:
+        return f"{n} {word}"
+    if many is None:
+        many = word + ("es" if word.endswith(("s", "x", "ch", "sh")) else "s")
+    return f"{n} {many}"
+
+
+def int_range(lo: int | None = None, hi: int | None = None) -> Callable[[str], int]:
+    """An argparse ``type=``: a whole number in ``[lo, hi]`` (argparse names the option)."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+        if (lo is not None and value < lo) or (hi is not None and value > hi):
+            raise argparse.ArgumentTypeError(f"must be {_bounds(lo, hi)}, got {value}")
+        return value
+
+    parse.__name__ = "integer"
+    return parse
+
+
+def float_range(
+    lo: float | None = None,
+    hi: float | None = None,
+    *,
+    lo_open: bool = False,
+    hi_open: bool = False,
+) -> Callable[[str], float]:
+    """An argparse ``type=``: a finite number in the range (``lo_open``: ``> lo``, not ``>=``).
+    NaN and infinities are refused here, so no command sees them."""
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+        bad = not math.isfinite(value)
+        if lo is not None:
+            bad = bad or (value <= lo if lo_open else value < lo)
+        if hi is not None:
+            bad = bad or (value >= hi if hi_open else value > hi)
+        if bad:
+            raise argparse.ArgumentTypeError(
+                f"must be a finite number {_bounds(lo, hi, lo_open, hi_open)}, got {text}"
+            )
+        return value
+
+    parse.__name__ = "number"
+    return parse
+
+
+def _bounds(
+    lo: float | None, hi: float | None, lo_open: bool = False, hi_open: bool = False
+) -> str:
+    def f(v: float) -> str:
+        return str(v) if isinstance(v, int) else f"{v:g}"
+
+    if lo is not None and hi is not None:
+        return f"in {'(' if lo_open else '['}{f(lo)}, {f(hi)}{')' if hi_open else ']'}"
+    if lo is not None:
+        return f"{'>' if lo_open else '>='} {f(lo)}"
+    if hi is not None:
+        return f"{'<' if hi_open else '<='} {f(hi)}"
+    return "a number"
+
+
+seed_type = int_range(0, MAX_SEED)
+
+
+def needs(args: argparse.Namespace, option: str, given: bool, companion: str, ok: bool) -> None:
+    """Refuse ``option`` when its companion is missing (``--folds`` without ``--cv``) rather
+    than ignoring it."""
+    if given and not ok:
+        raise FlexhrcError(f"{option} goes with {companion}; add {companion} or drop {option}")
+
+
+def check_outputs(
+    outputs: Iterable[tuple[str, str | Path | None, Iterable[str] | None]],
+    inputs: Iterable[str | Path | None] = (),
+) -> None:
+    """Check every output of a command before the work: ``(option, path, suffixes)`` triples
+    (``path`` None when the option was not given), never an input, never two the same."""
+    from flexhrc.files import check_output
+
+    ins = [i for i in inputs if i is not None]
+    seen: dict[str, str] = {}
+    for option, path, suffixes in outputs:
+        if path is None:
+            continue
+        check_output(path, option=option, suffixes=suffixes, inputs=ins)
+        key = str(Path(path).resolve())
+        if key in seen:
+            raise FlexhrcError(f"{option} {path}: also given to {seen[key]}; use two files")
+        seen[key] = option
 
 
 def existing_file(value: str) -> Path:

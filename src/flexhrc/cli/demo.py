@@ -3,12 +3,25 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
+import signal
 import sys
+import threading
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-from flexhrc.cli.common import add_json_flag, emit
+from flexhrc.cli.common import (
+    add_json_flag,
+    check_outputs,
+    emit,
+    float_range,
+    int_range,
+    plural,
+    progress,
+    seed_type,
+)
 from flexhrc.errors import FlexhrcError, FormatError
 
 TRACE_TYPES = {
@@ -26,6 +39,17 @@ TRACE_TYPES = {
     "human_sensed",
     "human_sensing_missed",
 }
+PLOT_SUFFIXES = (".png", ".svg", ".pdf")
+# scenario settings -> the demo's options (for errors that name what the user typed)
+DEMO_FLAGS = {
+    "legs": "--legs",
+    "tabletop": "--tabletop",
+    "leg_length": "--leg-length",
+    "seed": "--seed",
+    "unreachable_bolts": "--unreachable-bolt",
+}
+MAX_LEGS = 10_000
+EXIT_SIGNAL = {signal.SIGINT: 130, signal.SIGTERM: 143}
 
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg, unused-ignore]
@@ -40,22 +64,50 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
     _scenario_options(t)
     t.set_defaults(func=cmd_demo_table)
 
-    r = sub.add_parser("run", help="run a user-written scenario file (YAML)")
-    r.add_argument("scenario", metavar="SCENARIO.yaml")
+    r = sub.add_parser(
+        "run",
+        help="run a user-written scenario file (YAML)",
+        description="Run the cooperation a scenario file describes "
+        "(keys: see docs/taskmanager.md).",
+    )
+    r.add_argument("scenario", metavar="SCENARIO.yaml", help="the scenario file")
     _run_options(r)
     r.set_defaults(func=cmd_run)
 
-    rp = sub.add_parser("replay", help="print the summary of a saved cooperation log (JSONL)")
-    rp.add_argument("log", metavar="LOG")
-    rp.add_argument("--plot", metavar="FILE", help="draw the timeline PNG from the log")
+    rp = sub.add_parser(
+        "replay",
+        help="print the summary of a saved cooperation log (JSONL) or cell store (.db)",
+        description="Check every event of a cooperation log and print its summary (Table I); "
+        "says so when the run was cut short (no outcome event).",
+    )
+    rp.add_argument("log", metavar="LOG", help="the event log a run wrote with --log")
+    rp.add_argument(
+        "--plot", metavar="FILE", help="draw the timeline from the log (.png, .svg or .pdf)"
+    )
     add_json_flag(rp)
     rp.set_defaults(func=cmd_replay)
 
 
 def _scenario_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--legs", type=int, default=4, help="number of legs (default 4)")
-    p.add_argument("--tabletop", choices=["large", "small"], default="large")
-    p.add_argument("--leg-length", choices=["long", "short"], default="long")
+    p.add_argument(
+        "--legs",
+        type=int_range(None, MAX_LEGS),
+        default=4,
+        help="number of legs (default 4; as many as the tabletop holds, see --tabletop)",
+    )
+    p.add_argument(
+        "--tabletop",
+        default="large",
+        metavar="large|small|WxD",
+        help="tabletop: large (0.30x0.40 m, 20 legs at most), small (0.26x0.34 m) or its "
+        "width x depth in metres, e.g. 0.9x0.9 for 60 legs (default large)",
+    )
+    p.add_argument(
+        "--leg-length",
+        choices=["long", "short"],
+        default="long",
+        help="length of the legs: long (0.40 m) or short (0.30 m)",
+    )
     p.add_argument(
         "--unreachable-bolt",
         type=int,
@@ -71,8 +123,18 @@ def _scenario_options(p: argparse.ArgumentParser) -> None:
 def _run_options(p: argparse.ArgumentParser) -> None:
     from flexhrc.taskmanager.runner import PROFILES
 
-    p.add_argument("--human", choices=PROFILES, default=None, help="human operator profile")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument(
+        "--human",
+        choices=PROFILES,
+        default=None,
+        help="human operator profile: passive (acts when asked), takeover, cooperative, random",
+    )
+    p.add_argument(
+        "--seed",
+        type=seed_type,
+        default=0,
+        help="seed of the leg layout and of the operator's choices (default 0)",
+    )
     p.add_argument(
         "--human-takes",
         type=int,
@@ -93,7 +155,7 @@ def _run_options(p: argparse.ArgumentParser) -> None:
         choices=["auto", "analytic", "kinematic"],
         default="auto",
         help="how branches are simulated: kinematic (task-priority control on the robot model; "
-        "the default when the sim extra is installed) or analytic (distances and speeds)",
+        "what auto picks when the sim extra is installed) or analytic (distances and speeds)",
     )
     p.add_argument(
         "--disturb",
@@ -115,55 +177,66 @@ def _run_options(p: argparse.ArgumentParser) -> None:
         metavar="FILE",
         help="a trained recogniser (flexhrc har train) for --human-sensing har",
     )
-    p.add_argument("--log", metavar="FILE", help="write the event log (JSON lines)")
-    p.add_argument("--plot", metavar="FILE", help="write the timeline PNG")
+    p.add_argument(
+        "--log",
+        metavar="FILE",
+        help="write the event log (JSON lines), event by event as the run goes; the file is "
+        "locked, so a second run on it is refused",
+    )
+    p.add_argument("--plot", metavar="FILE", help="write the timeline (.png, .svg or .pdf)")
     p.add_argument("--quiet", action="store_true", help="no live trace")
     p.add_argument(
         "--realtime",
-        type=float,
+        type=float_range(0.0, 1e6, lo_open=True),
         nargs="?",
         const=1.0,
-        default=0.0,
+        default=None,
         metavar="SPEED",
         help="pace the simulated clock for watching: real time, or SPEED times faster",
     )
     add_json_flag(p)
 
 
-def _simulators(args: argparse.Namespace) -> tuple[Any, Any]:
-    """(branch simulator, execution model) for --simulator and --disturb."""
-    choice = args.simulator
-    if choice == "auto":
-        import importlib.util
+def _simulators(args: argparse.Namespace, actions: Any = None) -> tuple[Any, Any]:
+    """(branch simulator, execution model) for --simulator and --disturb; ``actions`` are the
+    domain's action names --disturb may name."""
+    from flexhrc.scenarios.simulators import choose_simulator, resolve_simulator_name
 
-        choice = "kinematic" if importlib.util.find_spec("pinocchio") else "analytic"
-    if choice == "analytic":
-        if args.disturb:
-            raise FlexhrcError("--disturb needs --simulator kinematic (use --fail with analytic)")
-        return None, None
-    try:
-        from flexhrc.action.bridge import KinematicTaskSimulator
+    name = resolve_simulator_name(args.simulator)
+    if name == "analytic" and args.disturb:
+        raise FlexhrcError("--disturb needs --simulator kinematic (use --fail with analytic)")
+    specs = [_disturbance(spec, actions) for spec in args.disturb]  # before building anything
+    _, sim = choose_simulator(name)
+    for action, nth, params in specs:
+        sim.schedule(action, nth, **params)
+    return sim, sim
 
-        kin = KinematicTaskSimulator()
-    except ImportError as exc:
+
+def _disturbance(spec: str, actions: Any) -> tuple[str, int, dict[str, Any]]:
+    kind, _, rest = spec.partition(":")
+    action, _, n = rest.partition(":")
+    if kind not in ("blocked_path", "slow_arm"):
+        raise FlexhrcError(f"--disturb {spec!r}: KIND is blocked_path or slow_arm")
+    action = action or "transport"
+    if actions is not None and action not in actions:
         raise FlexhrcError(
-            f"--simulator kinematic needs the sim extra ({exc.name} is missing): "
-            "pip install 'flexhrc[sim]'"
-        ) from None
-    for spec in args.disturb:
-        kind, _, rest = spec.partition(":")
-        action, _, n = rest.partition(":")
-        if kind not in ("blocked_path", "slow_arm"):
-            raise FlexhrcError(f"--disturb {spec!r}: KIND is blocked_path or slow_arm")
-        try:
-            nth = int(n) if n else 1
-        except ValueError:
-            raise FlexhrcError(f"--disturb {spec!r}: N must be a whole number") from None
-        params: dict[str, Any] = {"kind": kind, "once": True, "at_s": 0.3}
-        if kind == "slow_arm":
-            params.update(factor=0.2, at_s=None)
-        kin.schedule(action or "transport", nth, **params)
-    return kin, kin
+            f"--disturb {spec!r}: unknown robot action {action!r}; one of {', '.join(actions)}"
+        )
+    nth = _nth(n, f"--disturb {spec!r}")
+    params: dict[str, Any] = {"kind": kind, "once": True, "at_s": 0.3}
+    if kind == "slow_arm":
+        params.update(factor=0.2, at_s=None)
+    return action, nth, params
+
+
+def _nth(text: str, where: str) -> int:
+    try:
+        nth = int(text) if text else 1
+    except ValueError:
+        raise FlexhrcError(f"{where}: N must be a whole number") from None
+    if not 1 <= nth <= 1_000_000:
+        raise FlexhrcError(f"{where}: N must be at least 1 (the first time is 1), got {nth}")
+    return nth
 
 
 def _human_sensing(args: argparse.Namespace) -> Any:
@@ -185,16 +258,25 @@ def _human_sensing(args: argparse.Namespace) -> Any:
     return WearableHumanSensor(model, seed=args.seed)
 
 
-def _failures(specs: list[str]) -> list[Any]:
+def _failures(specs: list[str], actions: Any = None) -> list[Any]:
     from flexhrc.taskmanager.runner import InjectedFailure
 
     out = []
     for spec in specs:
-        action, _, n = spec.partition(":")
+        action, sep, n = spec.partition(":")
+        if not action or ":" in n or (sep and not n):
+            raise FlexhrcError(f"--fail {spec!r}: expected ACTION or ACTION:N")
+        if actions is not None and action not in actions:
+            raise FlexhrcError(
+                f"--fail {spec!r}: unknown robot action {action!r}; one of {', '.join(actions)}"
+            )
         try:
-            out.append(InjectedFailure(action, int(n) if n else 1))
+            nth = int(n) if n else 1
         except ValueError:
             raise FlexhrcError(f"--fail {spec!r}: expected ACTION or ACTION:N") from None
+        if not 1 <= nth <= 1_000_000:
+            raise FlexhrcError(f"--fail {spec!r}: N must be at least 1 (the first time is 1)")
+        out.append(InjectedFailure(action, nth))
     return out
 
 
@@ -211,7 +293,7 @@ def _trace_printer(args: argparse.Namespace) -> Any:
         if kind == "decision":
             n = len(ev["branches"])
             best = ev["chosen"]
-            line = f"decide {ev['element']} (cost {ev['cost']}): {n} branches simulated"
+            line = f"decide {ev['element']} (cost {ev['cost']}): {plural(n, 'branch')} simulated"
             if best is not None:
                 b = ev["branches"][best]
                 grounding = ", ".join(f"{k}={v}" for k, v in sorted(b["grounding"].items()))
@@ -231,10 +313,10 @@ def _trace_printer(args: argparse.Namespace) -> Any:
         elif kind == "infeasible":
             line = f"{ev['element']} infeasible: {ev['reason']}"
         elif kind == "human_decides":
-            line = f"human goes for {ev['leg']} ({ev['bolt']})"
+            line = f"{ev.get('agent', 'human')} goes for {ev['element']}: {'; '.join(ev['actions'])}"
         elif kind == "human_gives_up":
-            what = ev.get("leg") or ev.get("bolt")
-            line = f"human leaves {what}: the {ev['holder']} got there first"
+            what = ev.get("object") or ev.get("step")
+            line = f"{ev.get('agent', 'human')} leaves {what}: the {ev['holder']} got there first"
         elif kind == "human_sensed":
             line = (
                 f"wrist sensor: {ev['performed']} -> recognised {ev['recognised']} "
@@ -256,49 +338,118 @@ def _trace_printer(args: argparse.Namespace) -> Any:
 
 
 def cmd_demo_table(args: argparse.Namespace) -> int:
-    from flexhrc.scenarios.table_assembly import TableScenario
+    from flexhrc.scenarios.table_assembly import ScenarioError, TableScenario
 
-    scenario = TableScenario(
-        legs=args.legs,
-        tabletop=args.tabletop,
-        leg_length=args.leg_length,
-        seed=args.seed,
-        human=not args.no_human,
-        unreachable_bolts=tuple(args.unreachable_bolt),
-    )
-    return _run_table(args, scenario, args.human or "passive")
+    try:
+        scenario = TableScenario(
+            legs=args.legs,
+            tabletop=args.tabletop,
+            leg_length=args.leg_length,
+            seed=args.seed,
+            human=not args.no_human,
+            unreachable_bolts=tuple(args.unreachable_bolt),
+        )
+    except ScenarioError as exc:
+        raise FlexhrcError(_flag_error(exc)) from None
+    if args.no_human and args.human_takes:
+        raise FlexhrcError("--human-takes needs a human: drop --no-human")
+    if args.no_human and args.human is not None:
+        raise FlexhrcError(f"--human {args.human} needs a human: drop --no-human")
+    return _run_table(args, scenario, args.human or "passive", inputs=[])
 
 
-def _run_table(args: argparse.Namespace, scenario: Any, profile: str) -> int:
+def _flag_error(exc: Any) -> str:
+    """A scenario error in the words of the demo's options."""
+    flag = DEMO_FLAGS.get(exc.key, exc.key)
+    text = f"{flag} {exc.detail}"
+    if exc.fix is not None:
+        text += f"; {DEMO_FLAGS.get(exc.fix[0], exc.fix[0])} {exc.fix[1]} holds them"
+    return text
+
+
+@contextlib.contextmanager
+def _stop_on_signals(run: Any) -> Iterator[list[int]]:
+    """SIGINT/SIGTERM ask the run to stop at its next event (it then writes an ``outcome``
+    event ``interrupted`` and the summary); a second signal stops at once."""
+    caught: list[int] = []
+    if threading.current_thread() is not threading.main_thread():
+        yield caught
+        return
+
+    def handler(signum: int, _frame: Any) -> None:
+        if caught:
+            raise KeyboardInterrupt
+        caught.append(signum)
+        run.request_stop(f"interrupted by {signal.Signals(signum).name}")
+
+    old = {sig: signal.signal(sig, handler) for sig in EXIT_SIGNAL}
+    try:
+        yield caught
+    finally:
+        for sig, h in old.items():
+            signal.signal(sig, h)
+
+
+def _run_table(
+    args: argparse.Namespace, scenario: Any, profile: str, inputs: list[Any], where: str = ""
+) -> int:
+    from flexhrc.files import EventLogWriter
     from flexhrc.representation import OnlineGraph
     from flexhrc.taskmanager.runner import CooperationRun, table_i
 
-    if not scenario.human and profile != "passive":
-        raise FlexhrcError("--human needs a human: drop --no-human")
-    simulator, execution = _simulators(args)
-    run = CooperationRun(
-        OnlineGraph(scenario.graph()),
-        scenario.domain(),
-        scenario.knowledge(),
-        simulator=simulator,
-        execution=execution,
-        human_profile=profile,
-        seed=args.seed,
-        failures=_failures(args.fail),
-        trace=_trace_printer(args),
-        realtime=args.realtime,
-        human_takes=args.human_takes,
-        human_sensing=_human_sensing(args),
+    # everything that can be wrong is found before the run starts
+    domain = scenario.domain()
+    robot_actions = _robot_actions(domain)
+    failures = _failures(args.fail, robot_actions)
+    if args.human_takes:
+        for k in args.human_takes:
+            if not 1 <= k <= scenario.legs:
+                raise FlexhrcError(f"--human-takes {k}: not one of the bolts 1..{scenario.legs}")
+        if not scenario.human:
+            raise FlexhrcError(f"--human-takes needs a human, but {where}human: false")
+    check_outputs(
+        [("--log", args.log, None), ("--plot", args.plot, PLOT_SUFFIXES)],
+        inputs=[*inputs, args.har_model],
     )
-    result = run.run()
-    if args.log:
-        result.save_log(args.log)
     if args.plot:
+        _need_matplotlib()
+    simulator, execution = _simulators(args, robot_actions)
+    sensing = _human_sensing(args)
+    writer = EventLogWriter(args.log) if args.log else None
+    try:
+        run = CooperationRun(
+            OnlineGraph(scenario.graph()),
+            domain,
+            scenario.knowledge(),
+            simulator=simulator,
+            execution=execution,
+            human_profile=profile,
+            seed=args.seed,
+            failures=failures,
+            trace=_trace_printer(args),
+            realtime=args.realtime or 0.0,
+            human_takes=args.human_takes,
+            human_sensing=sensing,
+            sink=writer.write if writer is not None else None,
+        )
+        with _stop_on_signals(run) as caught:
+            result = run.run()
+    finally:
+        if writer is not None:
+            writer.close()
+    if args.plot:
+        from flexhrc.files import atomic_output
         from flexhrc.taskmanager.timeline import plot_timeline
 
         who = f"human takes bolts {args.human_takes}" if args.human_takes else f"human {profile}"
-        title = f"table assembly, {scenario.legs} legs, {who}, seed {args.seed}"
-        plot_timeline(result.events, args.plot, title)
+        title = f"table assembly, {plural(scenario.legs, 'leg')}, {who}, seed {args.seed}"
+        with atomic_output(args.plot) as tmp:
+            plot_timeline(result.events, tmp, title)
+    for f in run.unfired_failures():
+        progress(
+            f"warning: --fail {f.action}:{f.nth} never happened: the run had "
+            f"{plural(run.executions_of(f.action), f.action + ' action')}"
+        )
     data = dict(result.summary)
 
     def text() -> str:
@@ -307,9 +458,10 @@ def _run_table(args: argparse.Namespace, scenario: Any, profile: str) -> int:
         out.append(
             f"outcome {data['outcome']}"
             + (f" ({data['reason']})" if data["reason"] else "")
-            + f"; legs connected by {legs}; {data['decisions']} decision trees, "
-            f"{data['branches_simulated']} branches simulated; "
-            f"{data['robot_actions']} robot and {data['human_actions']} human actions"
+            + f"; legs connected by {legs}; {plural(data['decisions'], 'decision tree')}, "
+            f"{plural(data['branches_simulated'], 'branch', 'branches')} simulated "
+            f"({data['simulator']} simulator); "
+            f"{data['robot_actions']} robot and {plural(data['human_actions'], 'human action')}"
         )
         if args.log:
             out.append(f"event log: {args.log}")
@@ -318,79 +470,180 @@ def _run_table(args: argparse.Namespace, scenario: Any, profile: str) -> int:
         return "\n".join(out)
 
     emit(args, data, text)
+    if caught:
+        print("interrupted", file=sys.stderr)
+        return EXIT_SIGNAL[signal.Signals(caught[0])]
     return 0 if data["outcome"] == "solved" else 1
 
 
+def _robot_actions(domain: Any) -> list[str]:
+    """The actions a robot agent of ``domain`` can carry out (what --fail and --disturb name)."""
+    out = []
+    for name, schema in domain.actions.items():
+        spec = schema.agents
+        if spec.variable is not None:
+            kind = dict(schema.parameters).get(spec.variable, "agent")
+            agents = domain.agents_of_type(kind)
+        else:
+            agents = [domain.agents[n] for n in spec.names if n in domain.agents]
+        if any(not a.is_human for a in agents):
+            out.append(name)
+    return sorted(out)
+
+
+def _need_matplotlib() -> None:
+    import importlib.util
+
+    from flexhrc.errors import OptionalDependencyError
+
+    if importlib.util.find_spec("matplotlib") is None:
+        raise OptionalDependencyError("--plot", "viz", "matplotlib")
+
+
+SCENARIO_KEYS = {
+    "scenario",
+    "legs",
+    "tabletop",
+    "leg_length",
+    "seed",
+    "human",
+    "unreachable_bolts",
+    "leg_positions",
+    "profile",
+    "reachable_only_by",
+}
+
+
 def cmd_run(args: argparse.Namespace) -> int:
+    from flexhrc.files import read_text
     from flexhrc.representation.formats.yaml_format import read_yaml
-    from flexhrc.scenarios.table_assembly import TableScenario
+    from flexhrc.scenarios.table_assembly import ScenarioError, TableScenario
+    from flexhrc.taskmanager.runner import PROFILES
 
     path = Path(args.scenario)
-    if not path.is_file():
-        raise FormatError("no such file", path)
-    doc = read_yaml(path)
+    read_text(path)  # missing, a folder, unreadable, binary, not UTF-8: one clear error
+    try:
+        doc = read_yaml(path)
+    except RecursionError:
+        raise FormatError("nested too deeply to be a scenario file", path) from None
     if not isinstance(doc, dict):
         raise FormatError("a scenario file must be a mapping", path, 1)
+    lines: dict[str, int] = getattr(doc, "lines", {})
+
+    def line(key: str) -> int | None:
+        return lines.get(key)
+
+    def bad(key: str, message: str) -> FormatError:
+        return FormatError(f"{key}: {message}", path, line(key))
+
     kind = doc.get("scenario")
     if kind != "table_assembly":
         raise FormatError(
-            f"unknown scenario {kind!r}; supported: table_assembly",
-            path,
-            getattr(doc, "lines", {}).get("scenario", 1),
+            f"unknown scenario {kind!r}; supported: table_assembly", path, line("scenario") or 1
         )
-    allowed = {
-        "scenario",
-        "legs",
-        "tabletop",
-        "leg_length",
-        "seed",
-        "human",
-        "unreachable_bolts",
-        "leg_positions",
-        "profile",
-        "reachable_only_by",
-    }
     for key in doc:
-        if key not in allowed:
+        if key not in SCENARIO_KEYS:
             raise FormatError(
-                f"unknown key {key!r} (allowed: {', '.join(sorted(allowed))})",
+                f"unknown key {key!r} (allowed: {', '.join(sorted(SCENARIO_KEYS))})",
                 path,
-                doc.lines.get(key) if hasattr(doc, "lines") else None,
+                line(key),
             )
+
+    def integer(key: str, default: int) -> int:
+        v = doc.get(key, default)
+        if isinstance(v, bool) or not isinstance(v, int):
+            raise bad(key, f"expected a whole number, got {v!r}")
+        return v
+
+    def name(key: str, default: str, choices: tuple[str, ...]) -> str:
+        v = doc.get(key, default)
+        if not isinstance(v, str) or v not in choices:
+            raise bad(key, f"expected one of {', '.join(choices)}, got {v!r}")
+        return v
+
+    legs = integer("legs", 4)
+    seed = integer("seed", args.seed)
+    human = doc.get("human", True)
+    if not isinstance(human, bool):
+        raise bad("human", f"expected true or false, got {human!r}")
+    leg_length = name("leg_length", "long", ("long", "short"))
+    profile_in_file = "profile" in doc
+    profile = name("profile", "passive", PROFILES)
+    top = doc.get("tabletop", "large")
+    if isinstance(top, list) and all(
+        isinstance(v, int | float) and not isinstance(v, bool) for v in top
+    ):
+        top = "x".join(str(v) for v in top)
+    if not isinstance(top, str):
+        raise bad("tabletop", f"expected large, small, WIDTHxDEPTH or [width, depth], got {top!r}")
+    bolts = doc.get("unreachable_bolts", [])
+    if not isinstance(bolts, list) or not all(
+        isinstance(b, int) and not isinstance(b, bool) for b in bolts
+    ):
+        raise bad("unreachable_bolts", f"expected a list of bolt numbers, got {bolts!r}")
+    only = doc.get("reachable_only_by", {})
+    if not isinstance(only, dict) or not all(
+        isinstance(k, str) and isinstance(v, str) for k, v in only.items()
+    ):
+        raise bad("reachable_only_by", f"expected a mapping leg: arm, got {only!r}")
+    positions = None
+    if "leg_positions" in doc:
+        raw = doc["leg_positions"]
+        if not isinstance(raw, list):
+            raise bad("leg_positions", "expected a list of [x, y, z]")
+        positions = []
+        for i, p in enumerate(raw, 1):
+            if (
+                not isinstance(p, list)
+                or len(p) != 3
+                or not all(isinstance(v, int | float) and not isinstance(v, bool) for v in p)
+            ):
+                raise bad("leg_positions", f"leg{i}: expected [x, y, z] numbers, got {p!r}")
+            positions.append((float(p[0]), float(p[1]), float(p[2])))
+    if profile_in_file and not human and profile != "passive":
+        raise bad("profile", f"{profile} needs a human, but the file says human: false")
+    if args.human is not None and not human and args.human != "passive":
+        raise FlexhrcError(
+            f"--human {args.human} needs a human, but {path}:{line('human')}: human: false"
+        )
     try:
         scenario = TableScenario(
-            legs=int(doc.get("legs", 4)),
-            tabletop=str(doc.get("tabletop", "large")),
-            leg_length=str(doc.get("leg_length", "long")),
-            seed=int(doc.get("seed", args.seed)),
-            human=bool(doc.get("human", True)),
-            unreachable_bolts=tuple(int(b) for b in doc.get("unreachable_bolts", [])),
-            reachable_only_by=dict(doc.get("reachable_only_by", {})),
-            leg_positions=[_xyz(p) for p in doc["leg_positions"]]
-            if "leg_positions" in doc
-            else None,
+            legs=legs,
+            tabletop=top,
+            leg_length=leg_length,
+            seed=seed,
+            human=human,
+            unreachable_bolts=tuple(bolts),
+            reachable_only_by=dict(only),
+            leg_positions=positions,
         )
-    except (TypeError, ValueError) as exc:
-        raise FormatError(f"bad value: {exc}", path) from None
-    profile = args.human or str(doc.get("profile", "passive"))
-    return _run_table(args, scenario, profile)
-
-
-def _xyz(p: Any) -> tuple[float, float, float]:
-    x, y, z = (float(v) for v in p)
-    return (x, y, z)
+    except ScenarioError as exc:
+        message = f"{exc.key}: {exc.detail}"
+        if exc.fix is not None:
+            message += f"; {exc.fix[0]}: {exc.fix[1]} holds them"
+        raise FormatError(message, path, line(exc.key)) from None
+    where = f"{path}:{line('human')}: " if "human" in doc else ""
+    return _run_table(args, scenario, args.human or profile, inputs=[path], where=where)
 
 
 def cmd_replay(args: argparse.Namespace) -> int:
     from flexhrc.taskmanager.replay import summarise_log
     from flexhrc.taskmanager.runner import table_i
 
-    events = _read_log(Path(args.log))
+    check_outputs([("--plot", args.plot, PLOT_SUFFIXES)], inputs=[args.log])
+    if args.plot:
+        _need_matplotlib()
+    path = Path(args.log)
+    events = _read_log(path)
     data = summarise_log(events)
     if args.plot:
+        from flexhrc.files import atomic_output
         from flexhrc.taskmanager.timeline import plot_timeline
 
-        plot_timeline(events, args.plot, f"replay of {args.log}")
+        with atomic_output(args.plot) as tmp:
+            plot_timeline(events, tmp, f"replay of {args.log}")
+    if not data["complete"]:
+        progress(f"warning: {path}: {data['reason']}")
 
     def text() -> str:
         legs = ", ".join(f"{a}: {n}" for a, n in data["legs_by_agent"].items())
@@ -398,9 +651,12 @@ def cmd_replay(args: argparse.Namespace) -> int:
             [
                 table_i(data),
                 "",
-                f"outcome {data['outcome']}; legs connected by {legs}; "
-                f"{data['decisions']} decision trees, {data['branches_simulated']} branches; "
-                f"{data['robot_actions']} robot and {data['human_actions']} human actions",
+                f"outcome {data['outcome']}"
+                + (f" ({data['reason']})" if data["reason"] else "")
+                + f"; legs connected by {legs}; {plural(data['decisions'], 'decision tree')}, "
+                f"{plural(data['branches_simulated'], 'branch', 'branches')}; "
+                f"{data['robot_actions']} robot and "
+                f"{plural(data['human_actions'], 'human action')}",
             ]
         )
 
@@ -409,9 +665,14 @@ def cmd_replay(args: argparse.Namespace) -> int:
 
 
 def _read_log(path: Path) -> list[dict[str, Any]]:
-    from flexhrc.jsonl import read_jsonl
+    from flexhrc.cell.store import is_store, store_log
+    from flexhrc.jsonl import read_jsonl_lines
+    from flexhrc.taskmanager.replay import check_log
 
-    events = read_jsonl(path, required=("t", "type"))
-    if not events:
+    if is_store(path):  # a cell's SQLite event store (flexhrc cell --store FILE.db)
+        return store_log(path)
+    lines = read_jsonl_lines(path, required=("t", "type"))
+    if not lines:
         raise FormatError("empty log", path)
-    return events
+    check_log(lines, path)
+    return [ev for _, ev in lines]

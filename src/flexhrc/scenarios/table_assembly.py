@@ -18,12 +18,19 @@ so the same graph serves legs of any length and either tabletop; which leg and w
 decided at run time by the decision tree (4 legs x 2 arms = 8 branches at the start). The
 "middle pose" lies in front of the human, where either arm can leave a leg for the other arm or
 for the operator (the reason for the middle paths: one arm may reach a leg but not its bolt).
+
+Any number of legs the table holds: bolts sit on the tabletop's edge (the four corners first,
+then evenly spaced along the edges, at least :data:`BOLT_SPACING` apart) and the legs lie on a
+grid of slots beside the tabletop (:data:`LEG_SPACING` apart; a seed picks the slots and a small
+offset within them). Both are computed, never searched for, so a request beyond the capacity is
+a :class:`ScenarioError` saying how many legs fit and what size of tabletop would hold more.
 """
 
 from __future__ import annotations
 
 import math
 import random
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from importlib import resources
 from typing import Any
@@ -38,7 +45,15 @@ from flexhrc.taskmanager.domain import Domain
 # robot, so the analytic and the kinematic simulator see the same workspace.
 TABLETOPS = {"large": (0.30, 0.40), "small": (0.26, 0.34)}  # width (x), depth (y)
 LEG_LENGTHS = {"long": 0.40, "short": 0.30}
-TABLETOP_CENTRE = (0.45, 0.0, 0.0)
+TABLETOP_CENTRE = (0.45, 0.0, 0.0)  # of the named tabletops; a larger one moves away
+TABLETOP_NEAR_EDGE_X = 0.15  # a large tabletop's edge nearest the robot stays this far out
+TABLETOP_LIMITS_M = (0.12, 5.0)  # smallest and largest side accepted
+BOLT_INSET = 0.04  # bolts sit this far inside the tabletop's edge
+BOLT_SPACING = 0.05  # at least this far apart (a leg is 4 cm thick)
+LEG_SPACING = 0.08  # leg slots beside the tabletop: grid pitch
+LEG_JITTER = 0.015  # seeded offset of a leg within its slot (keeps >= 5 cm between legs)
+LEG_CLEARANCE = 0.04  # two given leg positions closer than this are the same place
+ARMS = ("left", "right")
 MIDDLE_POSE = (0.70, 0.0, 0.10)  # a stand between the tabletop and the operator
 HUMAN_HAND = (1.10, 0.0, 0.10)
 
@@ -60,10 +75,137 @@ TO_MIDDLE = (
 HUMAN = ("pick_up(human, ?leg)", "screw(human, ?leg, {bolt})")
 
 
+class ScenarioError(FlexhrcError):
+    """A bad scenario setting. ``key`` names it (``legs``, ``tabletop`` ...) so the caller can
+    say where it came from: ``--legs`` on the command line, a line of a scenario file."""
+
+    def __init__(self, key: str, message: str, fix: tuple[str, str] | None = None):
+        self.key = key
+        self.detail = message
+        self.fix = fix  # (key, value) that gets further, e.g. ("tabletop", "0.9x0.9")
+        text = f"{key} {message}"
+        if fix is not None:
+            text += f"; {fix[0]} {fix[1]} would do"
+        super().__init__(text)
+
+
+def parse_tabletop(value: str | Sequence[float]) -> tuple[float, float]:
+    """Width (x) and depth (y) in metres of ``large``, ``small``, ``"WIDTHxDEPTH"`` or a pair."""
+    if isinstance(value, str):
+        if value in TABLETOPS:
+            return TABLETOPS[value]
+        w_s, sep, d_s = value.lower().partition("x")
+        try:
+            if not sep:
+                raise ValueError
+            pair: Sequence[float] = (float(w_s), float(d_s))
+        except ValueError:
+            raise ScenarioError(
+                "tabletop",
+                f"{value!r} is not a tabletop: use {' or '.join(TABLETOPS)}, or WIDTHxDEPTH in "
+                "metres (e.g. 0.9x0.9)",
+            ) from None
+    else:
+        pair = value
+    if len(pair) != 2:
+        raise ScenarioError("tabletop", "needs two sides: WIDTHxDEPTH in metres")
+    lo, hi = TABLETOP_LIMITS_M
+    sides = []
+    for v in pair:
+        if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
+            raise ScenarioError("tabletop", f"sides must be finite numbers of metres, got {v!r}")
+        if not lo <= v <= hi:
+            raise ScenarioError("tabletop", f"sides must be between {lo} and {hi} m, got {v}")
+        sides.append(float(v))
+    return sides[0], sides[1]
+
+
+def tabletop_centre(size: tuple[float, float]) -> tuple[float, float, float]:
+    """The named tabletops sit at :data:`TABLETOP_CENTRE`; a larger one is moved away from the
+    robot so that its near edge stays in front of the arms' bases."""
+    w, _d = size
+    return (max(TABLETOP_CENTRE[0], TABLETOP_NEAR_EDGE_X + w / 2), 0.0, 0.0)
+
+
+def bolt_slots(size: tuple[float, float], legs: int) -> list[tuple[float, float, float]] | None:
+    """Positions of ``legs`` bolts on a tabletop of ``size``, or None if they do not fit.
+
+    The four corners (inset :data:`BOLT_INSET`) first, in the order of the paper's figures; then
+    bolts spread along the four edges, each new one on the edge where the bolts are farthest
+    apart, evenly spaced there, never closer than :data:`BOLT_SPACING`.
+    """
+    w, d = size
+    cx, cy, _ = tabletop_centre(size)
+    a, b = w / 2 - BOLT_INSET, d / 2 - BOLT_INSET
+    corners = [(cx + a, cy + b), (cx + a, cy - b), (cx - a, cy - b), (cx - a, cy + b)]
+    if legs <= 4:
+        return [(round(x, 4), round(y, 4), 0.0) for x, y in corners[:legs]]
+    # edges from corner i to corner i+1: the far edge (x = +a), the right, near and left edges
+    edges = [(corners[i], corners[(i + 1) % 4]) for i in range(4)]
+    lengths = [math.dist(p, q) for p, q in edges]
+    room = [max(int(length / BOLT_SPACING + 1e-9) - 1, 0) for length in lengths]
+    extra = legs - 4
+    if extra > sum(room):
+        return None
+    count = [0, 0, 0, 0]
+    for _ in range(extra):  # at most capacity steps: every step places one bolt
+        i = max(
+            (j for j in range(4) if count[j] < room[j]),
+            key=lambda j: lengths[j] / (count[j] + 1),
+        )
+        count[i] += 1
+    out = [(round(x, 4), round(y, 4), 0.0) for x, y in corners]
+    for (p, q), n in zip(edges, count, strict=True):
+        for j in range(1, n + 1):
+            f = j / (n + 1)
+            out.append(
+                (round(p[0] + f * (q[0] - p[0]), 4), round(p[1] + f * (q[1] - p[1]), 4), 0.0)
+            )
+    return out
+
+
+def leg_slots(size: tuple[float, float]) -> list[tuple[float, float]]:
+    """Where legs can lie: a grid beside the tabletop, on both of its sides, within the arms'
+    workspace (the band the paper's legs are scattered in, lengthened with the tabletop)."""
+    w, d = size
+    cx, _, _ = tabletop_centre(size)
+    x0, x1 = 0.25, max(0.60, cx + w / 2 - 0.05)
+    y0, y1 = d / 2 + 0.06, d / 2 + 0.28
+    cols = int((x1 - x0) / LEG_SPACING + 1e-9) + 1
+    rows = int((y1 - y0) / LEG_SPACING + 1e-9) + 1
+    return [
+        (x0 + i * LEG_SPACING, side * (y0 + j * LEG_SPACING))
+        for side in (1, -1)
+        for j in range(rows)
+        for i in range(cols)
+    ]
+
+
+def capacity(size: tuple[float, float]) -> int:
+    """How many legs a tabletop of ``size`` holds: bolts on its edge and slots beside it."""
+    w, d = size
+    a, b = w / 2 - BOLT_INSET, d / 2 - BOLT_INSET
+    bolts = 4 + 2 * max(int(2 * a / BOLT_SPACING + 1e-9) - 1, 0)
+    bolts += 2 * max(int(2 * b / BOLT_SPACING + 1e-9) - 1, 0)
+    return min(bolts, len(leg_slots(size)))
+
+
+def tabletop_for(legs: int) -> str | None:
+    """The smallest square tabletop (in 5 cm steps) that holds ``legs`` legs, as WIDTHxDEPTH."""
+    _lo, hi = TABLETOP_LIMITS_M
+    for k in range(3, int(hi / 0.05 + 1e-9) + 1):  # bounded: at most 100 sizes
+        side = round(0.05 * k, 2)
+        if capacity((side, side)) >= legs:
+            return f"{side:g}x{side:g}"
+    return None
+
+
 def build_graph(legs: int = 4) -> HierarchicalGraph:
     """The FOL AND/OR graph for ``legs`` legs (single layer, four paths per leg)."""
+    if isinstance(legs, bool) or not isinstance(legs, int):
+        raise ScenarioError("legs", f"must be a whole number, got {legs!r}")
     if legs < 1:
-        raise FlexhrcError(f"--legs must be at least 1, got {legs}")
+        raise ScenarioError("legs", f"must be at least 1, got {legs}")
     g = AndOrGraph("TableAssembly", root=f"connected_{legs}")
     g.add_node(Node("tabletop", 0, parse_conjunction("tabletop(?top) & placed(?top)")))
     for k in range(1, legs + 1):
@@ -114,15 +256,76 @@ class TableScenario:
     leg_positions: list[tuple[float, float, float]] | None = None
 
     def __post_init__(self) -> None:
-        if self.tabletop not in TABLETOPS:
-            raise FlexhrcError(f"unknown tabletop {self.tabletop!r}; choose {', '.join(TABLETOPS)}")
+        if isinstance(self.legs, bool) or not isinstance(self.legs, int):
+            raise ScenarioError("legs", f"must be a whole number, got {self.legs!r}")
+        if self.legs < 1:
+            raise ScenarioError("legs", f"must be at least 1, got {self.legs}")
+        self.size = parse_tabletop(self.tabletop)
         if self.leg_length not in LEG_LENGTHS:
-            raise FlexhrcError(
-                f"unknown leg length {self.leg_length!r}; choose {', '.join(LEG_LENGTHS)}"
+            raise ScenarioError(
+                "leg_length", f"{self.leg_length!r} is unknown; choose {', '.join(LEG_LENGTHS)}"
             )
+        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
+            raise ScenarioError("seed", f"must be a whole number >= 0, got {self.seed!r}")
         for b in self.unreachable_bolts:
-            if not 1 <= b <= self.legs:
-                raise FlexhrcError(f"unreachable bolt {b} is not one of 1..{self.legs}")
+            if isinstance(b, bool) or not isinstance(b, int) or not 1 <= b <= self.legs:
+                raise ScenarioError(
+                    "unreachable_bolts", f"{b!r} is not one of the bolts 1..{self.legs}"
+                )
+        names = {f"leg{i}" for i in range(1, self.legs + 1)}
+        for leg, arm in self.reachable_only_by.items():
+            if leg not in names:
+                raise ScenarioError(
+                    "reachable_only_by", f"{leg!r} is not one of the legs leg1..leg{self.legs}"
+                )
+            if arm not in ARMS:
+                raise ScenarioError(
+                    "reachable_only_by", f"{leg}: {arm!r} is not an arm; choose left or right"
+                )
+        if self.leg_positions is not None:
+            self._check_leg_positions(self.leg_positions)
+        else:
+            cap = capacity(self.size)
+            if self.legs > cap:
+                w, d = self.size
+                bigger = tabletop_for(self.legs)
+                raise ScenarioError(
+                    "legs",
+                    f"{self.legs}: too many for a {w:g} x {d:g} m tabletop, which holds at most "
+                    f"{cap} legs (bolts {BOLT_SPACING * 100:.0f} cm apart on its edge, legs "
+                    f"{LEG_SPACING * 100:.0f} cm apart beside it)"
+                    + (
+                        "" if bigger else f"; no tabletop up to {TABLETOP_LIMITS_M[1]} m holds them"
+                    ),
+                    fix=("tabletop", bigger) if bigger else None,
+                )
+        if bolt_slots(self.size, self.legs) is None:
+            w, d = self.size
+            raise ScenarioError(
+                "legs", f"{self.legs} bolts do not fit on the edge of a {w:g} x {d:g} m tabletop"
+            )
+
+    def _check_leg_positions(self, positions: Sequence[tuple[float, float, float]]) -> None:
+        if len(positions) != self.legs:
+            raise ScenarioError(
+                "leg_positions",
+                f"gives {len(positions)} positions for {self.legs} legs; give one per leg",
+            )
+        for i, p in enumerate(positions, 1):
+            if len(p) != 3 or not all(
+                isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
+                for v in p
+            ):
+                raise ScenarioError(
+                    "leg_positions", f"leg{i}: expected [x, y, z] finite numbers, got {p!r}"
+                )
+            for j, q in enumerate(positions[: i - 1], 1):
+                if math.dist(p, q) < LEG_CLEARANCE:
+                    raise ScenarioError(
+                        "leg_positions",
+                        f"leg{j} and leg{i} are at the same place "
+                        f"(less than {LEG_CLEARANCE * 100:.0f} cm apart)",
+                    )
 
     def graph(self) -> HierarchicalGraph:
         return build_graph(self.legs)
@@ -131,27 +334,15 @@ class TableScenario:
         return load_domain(self.human)
 
     def bolt_positions(self) -> list[tuple[float, float, float]]:
-        """Bolts at the tabletop corners (inset 4 cm), then along the long sides."""
-        w, d = TABLETOPS[self.tabletop]
-        cx, cy, _ = TABLETOP_CENTRE
-        corners = [(+1, +1), (+1, -1), (-1, -1), (-1, +1)]
-        out = []
-        for k in range(self.legs):
-            sx, sy = corners[k % 4]
-            shrink = 1.0 - 0.35 * (k // 4)
-            out.append(
-                (
-                    round(cx + sx * (w / 2 - 0.04) * shrink, 4),
-                    round(cy + sy * (d / 2 - 0.04), 4),
-                    0.0,
-                )
-            )
-        return out
+        """Bolts at the tabletop corners (inset 4 cm), then spread along the edges."""
+        slots = bolt_slots(self.size, self.legs)
+        assert slots is not None  # checked in __post_init__
+        return slots
 
     def knowledge(self) -> KnowledgeBase:
         kb = KnowledgeBase()
-        w, d = TABLETOPS[self.tabletop]
-        kb.add_object("tabletop", "tabletop", TABLETOP_CENTRE, {"width": w, "depth": d})
+        w, d = self.size
+        kb.add_object("tabletop", "tabletop", tabletop_centre(self.size), {"width": w, "depth": d})
         kb.assert_fact("placed", "tabletop")
         domain = self.domain()
         for arm in ("left", "right"):
@@ -182,13 +373,16 @@ class TableScenario:
         return kb
 
     def _random_leg_positions(self) -> list[tuple[float, float, float]]:
-        """Legs scattered on the table beside the tabletop, within reach (seeded)."""
+        """Legs scattered on the table beside the tabletop, within reach (seeded): the seed
+        picks ``legs`` of the :func:`leg_slots` and an offset of up to :data:`LEG_JITTER` in
+        each — no search, so it never loops, and legs stay >= 5 cm apart."""
         rng = random.Random(self.seed)
-        out: list[tuple[float, float, float]] = []
-        _w, d = TABLETOPS[self.tabletop]
-        while len(out) < self.legs:
-            x = rng.uniform(0.25, 0.60)
-            y = rng.choice((-1, 1)) * rng.uniform(d / 2 + 0.06, 0.48)
-            if all(math.dist((x, y), q[:2]) > 0.08 for q in out):
-                out.append((round(x, 3), round(y, 3), 0.0))
-        return out
+        slots = rng.sample(leg_slots(self.size), self.legs)
+        return [
+            (
+                round(x + rng.uniform(-LEG_JITTER, LEG_JITTER), 3),
+                round(y + rng.uniform(-LEG_JITTER, LEG_JITTER), 3),
+                0.0,
+            )
+            for x, y in slots
+        ]

@@ -8,6 +8,11 @@ actions are done, and by whom.
 against the knowledge base times every admissible agent assignment; each leaf is a
 :class:`Branch` whose ordered ground actions are simulated and scored with the utility of
 eq. (21). The branch with the highest utility wins (ties: enumeration order, deterministic).
+
+Before a branch is simulated its preconditions are checked symbolically (paper 000, eq. 20):
+``pre(a_i)`` must hold in the knowledge base's facts progressed by the effects of
+``a_1 .. a_{i-1}``. A branch that fails is *pruned* — kept in :attr:`DecisionTree.pruned` with
+the reason, so the log says why it was never simulated.
 """
 
 from __future__ import annotations
@@ -17,7 +22,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from flexhrc.knowledge import KnowledgeBase
-from flexhrc.logic import Literal, Substitution, is_variable
+from flexhrc.logic import Literal, Substitution, apply_substitution, is_variable, satisfy
 from flexhrc.taskmanager.domain import ActionSchema, Domain, GroundAction
 from flexhrc.taskmanager.simulator import SimulationResult, Simulator
 
@@ -96,6 +101,7 @@ class Branch:
     grounding: dict[str, str]
     steps: list[GroundAction]
     result: SimulationResult | None = None
+    pruned: str | None = None  # why it was never simulated (a precondition fails)
 
     @property
     def utility(self) -> float:
@@ -117,16 +123,17 @@ class Branch:
             "success": bool(r and r.success),
             "durations": [round(d, 6) for d in (r.durations if r else [])],
             "utility": self.utility,
-            "reason": r.reason if r else None,
+            "reason": r.reason if r else self.pruned,
         }
 
 
 class DecisionTree:
     """Groundings x agent assignments for one element, simulated and scored (eq. 21)."""
 
-    def __init__(self, element: str, branches: list[Branch]):
+    def __init__(self, element: str, branches: list[Branch], pruned: list[Branch] | None = None):
         self.element = element
         self.branches = branches
+        self.pruned = pruned or []
 
     @classmethod
     def build(
@@ -140,13 +147,19 @@ class DecisionTree:
         exclude: Iterable[Mapping[str, str]] = (),
         available_agents: Iterable[str] | None = None,
         reserved: Iterable[str] = (),
+        check_pre: bool = True,
+        from_index: int = 0,
+        binding: Mapping[str, str] | None = None,
     ) -> DecisionTree:
         """Enumerate branches.
 
         ``constraints`` are the state formulas of the element's children (the objects must be
         in the state the element starts from); each action's agent parameter ranges over the
         capable agents in ``available_agents``; objects in ``reserved`` (used by another
-        running element) and groundings in ``exclude`` (failed before) are left out.
+        running element) and groundings in ``exclude`` (failed before) are left out. With
+        ``check_pre`` every branch's preconditions are checked from step ``from_index`` on
+        (earlier steps count as done) and failing branches go to :attr:`pruned`. ``binding``
+        fixes variables beforehand (the groundings the children were reached with).
         """
         parsed = [domain.invocation(text) for text in invocations]
         variables: dict[str, str] = {}  # variable -> type
@@ -162,6 +175,7 @@ class DecisionTree:
         excluded = [dict(x) for x in exclude]
         constraint_list = list(constraints)
         bound_by_constraints = {a for lit in constraint_list for a in lit.args if is_variable(a)}
+        bound_by_constraints |= set(binding or {})
 
         # Object variables: ground them from the KB (children's formulas + their types).
         object_vars = [v for v in variables if v not in agent_vars]
@@ -170,7 +184,7 @@ class DecisionTree:
         ]
         groundings: list[Substitution] = []
         seen: set[tuple[tuple[str, str], ...]] = set()
-        for sub in kb.iter_query([*constraint_list, *type_lits]):
+        for sub in kb.iter_query([*constraint_list, *type_lits], binding):
             key = tuple(sorted((k, v) for k, v in sub.items() if k in variables))
             if key in seen:
                 continue
@@ -184,6 +198,8 @@ class DecisionTree:
             names = [a.name for a in domain.agents_of_type(variables[v]) if a.name in available]
             agent_choices.append([(v, n) for n in names])
         branches: list[Branch] = []
+        pruned: list[Branch] = []
+        facts = kb.facts if check_pre else frozenset()
         for g in groundings:
             combos: list[dict[str, str]] = [dict(g)]
             for choices in agent_choices:
@@ -194,8 +210,12 @@ class DecisionTree:
                 steps = [_ground(schema, args, full) for schema, args in parsed]
                 if any(a not in available for s in steps for a in s.agents):
                     continue
+                why = unmet_precondition(steps, facts, from_index) if check_pre else None
+                if why is not None:
+                    pruned.append(Branch(full, steps, pruned=why))
+                    continue
                 branches.append(Branch(full, steps))
-        return cls(element, branches)
+        return cls(element, branches, pruned)
 
     def evaluate(self, simulator: Simulator, kb: KnowledgeBase, domain: Domain) -> Branch | None:
         """Simulate every branch; the best one (utility > 0), or None."""
@@ -208,7 +228,54 @@ class DecisionTree:
         return best
 
     def to_dict(self) -> dict[str, Any]:
-        return {"element": self.element, "branches": [b.to_dict() for b in self.branches]}
+        return {
+            "element": self.element,
+            "branches": [b.to_dict() for b in self.branches],
+            "pruned": [b.to_dict() for b in self.pruned],
+        }
+
+
+Facts = frozenset[tuple[str, ...]] | set[tuple[str, ...]]
+
+
+def holds(formula: Iterable[Literal], facts: Facts) -> bool:
+    """Whether a conjunction holds in ``facts`` (closed world); ground literals are set lookups,
+    the rest a search."""
+    rest: list[Literal] = []
+    for lit in formula:
+        if lit.is_ground:
+            if (lit.key() in facts) == lit.negated:
+                return False
+        else:
+            rest.append(lit)
+    return not rest or next(satisfy(rest, facts), None) is not None
+
+
+def unmet_precondition(
+    steps: Sequence[GroundAction],
+    facts: Facts,
+    from_index: int = 0,
+) -> str | None:
+    """The first step whose ``pre(a)`` fails in ``facts`` progressed by the earlier steps'
+    effects (eq. 20), as a sentence; None when every precondition holds."""
+    state: set[tuple[str, ...]] | None = None  # copied on the first effect only
+    current: Facts = facts
+    for i, step in enumerate(steps):
+        schema = step.schema
+        binding = step.binding
+        if i >= from_index and schema.pre:
+            pre = [apply_substitution(lit, binding) for lit in schema.pre]
+            if not holds(pre, current):
+                return f"pre({step}) does not hold: {' & '.join(str(x) for x in pre)}"
+        if schema.add or schema.delete:
+            if state is None:
+                state = set(current)
+                current = state
+            for lit in schema.delete:
+                state.discard(apply_substitution(lit, binding).key())
+            for lit in schema.add:
+                state.add(apply_substitution(lit, binding).key())
+    return None
 
 
 def _ground(schema: ActionSchema, args: Sequence[str], subst: Mapping[str, str]) -> GroundAction:

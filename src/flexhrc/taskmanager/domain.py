@@ -22,6 +22,20 @@ arguments bind the schema's parameters in order. A domain is loaded from YAML::
         pre: [on_table(?obj)]
         add: [holding(?arm, ?obj)]
         delete: [on_table(?obj)]
+        duration: 1.0            # optional: seconds (the analytic simulator's nominal time)
+        moves_to: ?obj           # optional: the hand goes to this parameter's object/place
+    processes:                   # node processes P(n) (eq. 5), named in a node's processes
+      hold:
+        parameters: {?top: tabletop}
+        agents: {joint: [left, right]}
+        duration: 2.0            # one round of the behaviour
+        add: [settled(?top)]     # effects when a round ends
+        until: [settled(?top)]   # end condition: the process ends when it holds
+
+``duration`` and ``moves_to`` let a simulator time an action without knowing the scenario;
+``human_only``/``robot_only`` are not needed: who may act is ``agents``. A process is a robot
+behaviour kept up while its node is reached; it runs in rounds of ``duration`` until ``until``
+holds (checked after each round and whenever the state changes), then the node is met.
 """
 
 from __future__ import annotations
@@ -32,7 +46,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 from flexhrc.errors import FormatError, UnknownNameError
-from flexhrc.logic import Conjunction, parse_conjunction, parse_literal
+from flexhrc.logic import Conjunction, is_variable, parse_conjunction, parse_literal
 from flexhrc.logic import Literal as Lit
 
 AgentMode = Literal["single", "choice", "joint"]
@@ -68,6 +82,13 @@ class ActionSchema:
     add: Conjunction = ()
     delete: Conjunction = ()
     kind: str = ""  # what the simulator does: approach, grasp, transport, screw, ...
+    duration: float | None = None  # nominal seconds (None: the simulator's own model)
+    moves_to: str | None = None  # parameter whose object/place the hand goes to
+    until: Conjunction = ()  # processes only: the end condition
+    carries: str | None = None  # parameter whose object travels with the hand
+    fixes: str | None = None  # parameter whose object is fixed in place afterwards
+    undo: str | None = None  # the action that puts things back (an operator changing its mind)
+    line: int | None = field(default=None, compare=False)
 
     @property
     def variables(self) -> tuple[str, ...]:
@@ -101,12 +122,29 @@ class GroundAction:
         return f"{self.schema.name}({', '.join(self.args)})"
 
 
+@dataclass(frozen=True)
+class StopRule:
+    """What happens to what a stopped robot holds (``on_stop`` in the domain file): facts
+    matching ``holding`` (with ``agent_var`` bound to the arm) are replaced by ``release``.
+    The default reads ``holding(?agent, ?obj)`` -> ``on_table(?obj), free(?agent)``: the arm lets
+    go where it is."""
+
+    holding: Lit = field(default_factory=lambda: parse_literal("holding(?agent, ?obj)"))
+    release: Conjunction = field(
+        default_factory=lambda: parse_conjunction(["on_table(?obj)", "free(?agent)"])
+    )
+    agent_var: str = "?agent"
+    object_var: str = "?obj"
+
+
 @dataclass
 class Domain:
     """The agents and action schemas of a scenario."""
 
     agents: dict[str, Agent]
     actions: dict[str, ActionSchema]
+    processes: dict[str, ActionSchema] = field(default_factory=dict)
+    on_stop: StopRule = field(default_factory=StopRule)
 
     def agent(self, name: str) -> Agent:
         try:
@@ -124,22 +162,55 @@ class Domain:
                 f"unknown action {name!r}; actions: {', '.join(sorted(self.actions))}"
             ) from None
 
+    def process(self, name: str) -> ActionSchema:
+        try:
+            return self.processes[name]
+        except KeyError:
+            raise UnknownNameError(
+                f"unknown process {name!r}; processes: {', '.join(sorted(self.processes))}"
+            ) from None
+
+    def capable(self, schema: ActionSchema) -> list[Agent]:
+        """The agents that may perform ``schema`` (agents(a) of eq. 20)."""
+        spec = schema.agents
+        if spec.mode in ("single", "joint"):
+            return [self.agents[n] for n in spec.names if n in self.agents]
+        typ = dict(schema.parameters).get(str(spec.variable), "agent")
+        return self.agents_of_type(typ)
+
+    def human_may_do(self, schema: ActionSchema) -> bool:
+        """A human may carry the action out alone (single or choice among humans)."""
+        if schema.agents.mode == "joint":
+            return False
+        return any(a.is_human for a in self.capable(schema))
+
     def agents_of_type(self, type: str) -> list[Agent]:
         """Agents of a parameter type; the type ``agent`` admits every agent."""
         if type == "agent":
             return list(self.agents.values())
         return [a for a in self.agents.values() if type in a.types or a.name == type]
 
-    def invocation(self, text: str) -> tuple[ActionSchema, tuple[str, ...]]:
-        """Parse ``transport(?arm, ?leg, bolt_2)`` into its schema and argument terms."""
+    def invocation(
+        self, text: str, *, process: bool = False
+    ) -> tuple[ActionSchema, tuple[str, ...]]:
+        """Parse ``transport(?arm, ?leg, bolt_2)`` into its schema and argument terms
+        (``process=True``: a node process such as ``hold(?top)``)."""
+        key = (text, process)
+        hit = self._invocations.get(key)
+        if hit is not None:
+            return hit
         lit: Lit = parse_literal(text)
-        schema = self.schema(lit.predicate)
+        schema = self.process(lit.predicate) if process else self.schema(lit.predicate)
         if len(lit.args) != len(schema.parameters):
             raise FormatError(
                 f"action {text!r}: {schema.name} takes {len(schema.parameters)} arguments "
                 f"({', '.join(v for v, _ in schema.parameters)}), got {len(lit.args)}"
             )
+        self._invocations[key] = (schema, lit.args)
         return schema, lit.args
+
+    def __post_init__(self) -> None:
+        self._invocations: dict[tuple[str, bool], tuple[ActionSchema, tuple[str, ...]]] = {}
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], source: str | Path | None = None) -> Domain:
@@ -149,27 +220,37 @@ class Domain:
                 raise FormatError(f"agent {name!r}: needs kind: human or robot", source)
             extra = {k: v for k, v in ad.items() if k not in ("kind", "types")}
             agents[str(name)] = Agent(str(name), ad["kind"], tuple(ad.get("types", ())), extra)
-        actions: dict[str, ActionSchema] = {}
-        for name, sd in (data.get("actions") or {}).items():
-            if not isinstance(sd, Mapping):
-                raise FormatError(f"action {name!r} must be a mapping", source)
-            params = tuple((str(v), str(t)) for v, t in (sd.get("parameters") or {}).items())
-            for v, _ in params:
-                if not v.startswith("?"):
-                    raise FormatError(
-                        f"action {name!r}: parameter {v!r} must start with '?'", source
-                    )
-            spec = _agent_spec(name, sd.get("agents"), params, agents, source)
-            actions[str(name)] = ActionSchema(
-                str(name),
-                params,
-                spec,
-                _formula(sd.get("pre"), source),
-                _formula(sd.get("add"), source),
-                _formula(sd.get("delete"), source),
-                str(sd.get("kind", name)),
+        actions = {
+            str(name): _schema(str(name), sd, agents, source, "action")
+            for name, sd in (data.get("actions") or {}).items()
+        }
+        processes = {
+            str(name): _schema(str(name), sd, agents, source, "process")
+            for name, sd in (data.get("processes") or {}).items()
+        }
+        on_stop = StopRule()
+        if data.get("on_stop") is not None:
+            sd = data["on_stop"]
+            if not isinstance(sd, Mapping) or "holding" not in sd:
+                raise FormatError(
+                    "on_stop needs holding: 'holding(?agent, ?obj)' and release: [...]",
+                    source,
+                    _line(data, "on_stop"),
+                )
+            held = parse_literal(str(sd["holding"]), str(source), _line(sd, "holding"))
+            if len(held.args) != 2 or not all(is_variable(a) for a in held.args):
+                raise FormatError(
+                    "on_stop: holding must have two variables (agent, object)",
+                    source,
+                    _line(sd, "holding"),
+                )
+            on_stop = StopRule(
+                held,
+                _formula(sd.get("release"), source, _line(sd, "release")),
+                held.args[0],
+                held.args[1],
             )
-        return cls(agents, actions)
+        return cls(agents, actions, processes, on_stop)
 
     @classmethod
     def load(cls, path: str | Path) -> Domain:
@@ -181,10 +262,83 @@ class Domain:
         return cls.from_dict(data, path)
 
 
-def _formula(v: Any, source: str | Path | None) -> Conjunction:
+def _line(d: Any, key: Any = None) -> int | None:
+    lines = getattr(d, "lines", None)
+    if key is not None and lines and key in lines:
+        return int(lines[key])
+    line = getattr(d, "line", None)
+    return int(line) if line else None
+
+
+def _schema(
+    name: str, sd: Any, agents: Mapping[str, Agent], source: str | Path | None, what: str
+) -> ActionSchema:
+    if not isinstance(sd, Mapping):
+        raise FormatError(f"{what} {name!r} must be a mapping", source)
+    line = _line(sd)
+    raw_params = sd.get("parameters") or {}
+    if not isinstance(raw_params, Mapping):
+        raise FormatError(
+            f"{what} {name!r}: parameters must be a mapping {{?var: type}}",
+            source,
+            _line(sd, "parameters"),
+        )
+    params = tuple((str(v), str(t)) for v, t in raw_params.items())
+    for v, _ in params:
+        if not v.startswith("?"):
+            raise FormatError(
+                f"{what} {name!r}: parameter {v!r} must start with '?'",
+                source,
+                _line(sd, "parameters"),
+            )
+    spec = _agent_spec(name, sd.get("agents"), params, agents, source, _line(sd, "agents"))
+    duration = sd.get("duration")
+    if duration is not None:
+        try:
+            duration = float(duration)
+        except (TypeError, ValueError):
+            duration = float("nan")
+        if not (0.0 <= duration < 1e6):
+            raise FormatError(
+                f"{what} {name!r}: duration must be a number of seconds in [0, 1e6), "
+                f"got {sd.get('duration')!r}",
+                source,
+                _line(sd, "duration"),
+            )
+    roles: dict[str, str | None] = {}
+    for key in ("moves_to", "carries", "fixes"):
+        value = sd.get(key)
+        if value is not None and str(value) not in dict(params):
+            raise FormatError(
+                f"{what} {name!r}: {key} {value!r} is not one of its parameters "
+                f"({', '.join(v for v, _ in params) or 'none'})",
+                source,
+                _line(sd, key),
+            )
+        roles[key] = None if value is None else str(value)
+    moves_to = roles["moves_to"]
+    return ActionSchema(
+        name,
+        params,
+        spec,
+        _formula(sd.get("pre"), source, _line(sd, "pre")),
+        _formula(sd.get("add"), source, _line(sd, "add")),
+        _formula(sd.get("delete"), source, _line(sd, "delete")),
+        str(sd.get("kind", name)),
+        duration,
+        moves_to,
+        _formula(sd.get("until"), source, _line(sd, "until")),
+        roles["carries"],
+        roles["fixes"],
+        None if sd.get("undo") is None else str(sd["undo"]),
+        line,
+    )
+
+
+def _formula(v: Any, source: str | Path | None, line: int | None = None) -> Conjunction:
     if not v:
         return ()
-    return parse_conjunction(v if isinstance(v, str) else [str(x) for x in v], str(source))
+    return parse_conjunction(v if isinstance(v, str) else [str(x) for x in v], str(source), line)
 
 
 def _agent_spec(
@@ -193,6 +347,7 @@ def _agent_spec(
     params: tuple[tuple[str, str], ...],
     agents: Mapping[str, Agent],
     source: str | Path | None,
+    line: int | None = None,
 ) -> AgentSpec:
     if isinstance(v, str):
         v = {"choice": v} if v.startswith("?") else {"single": v}
@@ -200,23 +355,25 @@ def _agent_spec(
         raise FormatError(
             f"action {action!r}: agents must be a name, {{choice: ?var}} or {{joint: [names]}}",
             source,
+            line,
         )
     mode, value = next(iter(v.items()))
     if mode == "single":
         if value not in agents:
-            raise FormatError(f"action {action!r}: unknown agent {value!r}", source)
+            raise FormatError(f"action {action!r}: unknown agent {value!r}", source, line)
         return AgentSpec("single", (str(value),))
     if mode == "choice":
         if value not in dict(params):
             raise FormatError(
                 f"action {action!r}: choice variable {value!r} is not one of its parameters",
                 source,
+                line,
             )
         return AgentSpec("choice", (), str(value))
     if mode == "joint":
         names = tuple(str(x) for x in value)
         for n in names:
             if n not in agents:
-                raise FormatError(f"action {action!r}: unknown agent {n!r}", source)
+                raise FormatError(f"action {action!r}: unknown agent {n!r}", source, line)
         return AgentSpec("joint", names)
-    raise FormatError(f"action {action!r}: unknown agents mode {mode!r}", source)
+    raise FormatError(f"action {action!r}: unknown agents mode {mode!r}", source, line)

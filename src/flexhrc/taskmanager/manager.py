@@ -18,10 +18,30 @@ The loop of a decision (``_plan``):
 4. the best branch's first action goes to its robot arm (:class:`Command`), or — when only the
    human can do it — to the human as a :class:`Suggest`.
 
-A human action that was not suggested is matched to the feasible hyper-arc it advances; any robot
-element that conflicts with it is stopped (:class:`Stop`), the arm sent to rest, and the manager
-continues from the new state. The cooperation ends ``solved`` (the root is met) or ``failed``
-with a reason (no feasible element left).
+Section V in full:
+
+* **preconditions** ``pre(a)`` (eq. 20) are checked when a decision tree is built (a branch that
+  fails is pruned and the decision event carries its reason) and again at dispatch, against the
+  knowledge base as it is then (a failing step aborts the execution, its grounding is excluded,
+  the manager re-plans);
+* **the substitution chosen for a hyper-arc carries to its parent's state formula**: the parent
+  is met only when ``S(parent)`` holds under that grounding, and the grounding is kept as the
+  node's binding, so a hyper-arc leaving that node starts from the same objects;
+* **node processes** ``P(n)`` (eq. 5): when n is reached (its formula holds) its processes are
+  activated in order — robot behaviours declared under ``processes:`` in the domain, each a
+  :class:`Command` that keeps its agents busy, round after round, until its ``until`` condition
+  holds; n is met when its last process has ended (the text after eq. 5);
+* **joint actions** (``agents: {joint: [left, right]}``) are one command for several arms;
+* an **unsuggested human action** is matched against the *whole* action list of every feasible
+  hyper-arc: it may be any action of A(h) whose earlier actions' effects already hold; the
+  binding it gives must ground the whole list (every later action and the children's formulas);
+* the **reaction** to it: ``reaction="conflicts"`` stops only robot executions that share a
+  child node or an object with what the human does; ``reaction="paper"`` (paper V-B) stops every
+  robot action and sends every arm to rest, then re-plans.
+
+The cooperation ends ``solved`` (the root is met) or ``failed`` with a reason (no feasible
+element left). The manager is deterministic given its inputs (``start``, acks, human actions,
+percepts applied to the knowledge base between calls) and keeps no clock of its own.
 """
 
 from __future__ import annotations
@@ -32,12 +52,21 @@ from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from typing import Any
 
+from flexhrc.errors import FlexhrcError
 from flexhrc.knowledge import KnowledgeBase
-from flexhrc.logic import Literal, apply_substitution, is_variable
+from flexhrc.logic import Literal, Substitution, apply_substitution, is_variable
 from flexhrc.representation import OnlineGraph
-from flexhrc.taskmanager.decision import ActionStateTable, Branch, DecisionTree
+from flexhrc.taskmanager.decision import (
+    ActionStateTable,
+    Branch,
+    DecisionTree,
+    holds,
+    unmet_precondition,
+)
 from flexhrc.taskmanager.domain import Domain, GroundAction
 from flexhrc.taskmanager.simulator import Simulator, default_simulator
+
+REACTIONS = ("conflicts", "paper")
 
 
 # ----------------------------------------------------------------------------- directives --
@@ -48,12 +77,13 @@ class Command:
     id: int
     agents: tuple[str, ...]
     action: GroundAction
-    element: str | None  # hyper-arc it belongs to; None for a lone 'rest'
+    element: str | None  # hyper-arc (or node, for a process) it belongs to; None: a lone 'rest'
     index: int
     expected_s: float
+    process: bool = False  # a round of a node process P(n), not an action of A(h)
 
     def to_dict(self) -> dict[str, Any]:
-        return {
+        d = {
             "type": "command",
             "id": self.id,
             "agents": list(self.agents),
@@ -62,6 +92,9 @@ class Command:
             "index": self.index,
             "expected_s": round(self.expected_s, 6),
         }
+        if self.process:
+            d["process"] = True
+        return d
 
 
 @dataclass
@@ -72,10 +105,20 @@ class Suggest:
     actions: list[GroundAction]
     cost: float
 
+    @property
+    def agents(self) -> tuple[str, ...]:
+        """The human(s) asked (several operators: the one the branch chose)."""
+        seen: dict[str, None] = {}
+        for a in self.actions:
+            for name in a.agents:
+                seen.setdefault(name, None)
+        return tuple(seen)
+
     def to_dict(self) -> dict[str, Any]:
         return {
             "type": "suggestion",
             "element": self.element,
+            "agents": list(self.agents),
             "actions": [str(a) for a in self.actions],
             "cost": self.cost,
         }
@@ -120,6 +163,23 @@ class HumanAction:
 
 
 @dataclass
+class ProcessRun:
+    """The processes P(n) of one reached node, run in order (eq. 5)."""
+
+    node: str
+    invocations: tuple[str, ...]
+    binding: dict[str, str]
+    index: int = 0  # the process running or waiting for its agents
+    command: Command | None = None
+    rounds: int = 0
+    failures: int = 0
+
+    @property
+    def ended(self) -> bool:
+        return self.index >= len(self.invocations)
+
+
+@dataclass
 class Execution:
     """An element being carried out with the grounding and agents of its chosen branch."""
 
@@ -129,6 +189,10 @@ class Execution:
     next_index: int = 0
     command: Command | None = None
     objects: set[str] = field(default_factory=set)  # KB objects its grounding uses
+
+    @property
+    def agents(self) -> tuple[str, ...]:
+        return self.branch.agents
 
 
 @dataclass
@@ -151,7 +215,15 @@ class TaskManager:
         *,
         log: Callable[[dict[str, Any]], None] | None = None,
         timer: Callable[[], float] = time.perf_counter,
+        reaction: str = "conflicts",
+        max_process_rounds: int = 1000,
     ):
+        if reaction not in REACTIONS:
+            raise FlexhrcError(
+                f"unknown reaction {reaction!r}; choose one of {', '.join(REACTIONS)}"
+            )
+        self.reaction = reaction
+        self.max_process_rounds = max_process_rounds
         self.graph = graph
         self.domain = domain
         self.kb = kb
@@ -172,8 +244,14 @@ class TaskManager:
         self.failed: dict[str, list[dict[str, str]]] = {}  # element -> failed groundings
         self.waiting_for_consistency = False
         self.unavailable: set[str] = set()  # agents that left the cell (e.g. a dead process)
+        # node -> the substitution its producing hyper-arc was solved with (carried to S(n))
+        self.bindings: dict[str, Substitution] = {}
+        self.processes: dict[str, ProcessRun] = {}  # reached nodes whose P(n) is running
+        self._process_of: dict[int, str] = {}  # command id -> node of that process
+        self._extra: list[Directive] = []  # directives raised deep inside (process stops)
         self._answer = graph.query()
         self._formulas = self._collect_formulas()
+        self._node_processes = self._collect_processes()
 
     # -- public API -----------------------------------------------------------------------
     def start(self, now: float = 0.0) -> list[Directive]:
@@ -214,13 +292,41 @@ class TaskManager:
     def done(self) -> bool:
         return self.outcome != "running"
 
+    # -- what the operators see (read only) -----------------------------------------------
+    def feasible_hyperarcs(self) -> dict[str, float]:
+        """Feasible hyper-arcs and their suggestion costs (eq. 10), as the graph answered."""
+        return {n: c for n, c in self._answer.feasible.items() if self.graph.kind(n) == "hyperarc"}
+
+    def actions_of(self, hyperarc: str) -> tuple[str, ...]:
+        """A(h): the hyper-arc's ordered action invocations."""
+        return self._describe(hyperarc)[1]
+
+    def constraints_of(self, hyperarc: str) -> list[Literal]:
+        """The state formulas of h's children."""
+        return self._constraints(hyperarc)
+
+    def binding_of(self, hyperarc: str) -> dict[str, str]:
+        """The groundings h's children were reached with."""
+        return self._child_binding(hyperarc)
+
+    def parent_of(self, hyperarc: str) -> str:
+        return self._parent(hyperarc)
+
+    def reserved_objects(self) -> set[str]:
+        """Objects that running executions' groundings use."""
+        return set().union(*(ex.objects for ex in self.executions.values()))
+
     # -- plumbing -------------------------------------------------------------------------
     def _entry(self, now: float, body: Callable[[], list[Directive]]) -> list[Directive]:
         self._now = now
         t0 = self._timer()
         rep0, sim0 = self.timing.task_representation_s, self.timing.simulator_s
         try:
-            return body()
+            out = body()
+            if self._extra:
+                out = [*self._extra, *out]
+                self._extra = []
+            return out
         finally:
             spent = self._timer() - t0
             inner = (self.timing.task_representation_s - rep0) + (self.timing.simulator_s - sim0)
@@ -258,6 +364,15 @@ class TaskManager:
                 out[name] = node.formula if node.formula is not None else ()
         return out
 
+    def _collect_processes(self) -> dict[str, tuple[str, ...]]:
+        out: dict[str, tuple[str, ...]] = {}
+        for name in self.graph.elements():
+            if self.graph.kind(name) == "node":
+                node = self.graph.definition_of(name).nodes[self.graph.local_name(name)]
+                if node.processes:
+                    out[name] = tuple(node.processes)
+        return out
+
     def _describe(self, name: str) -> tuple[str, tuple[str, ...]]:
         g = self.graph.definition_of(name)
         local = self.graph.local_name(name)
@@ -278,19 +393,134 @@ class TaskManager:
         return f"{prefix}/{h.parent}" if prefix else h.parent
 
     # -- deciding -------------------------------------------------------------------------
+    def _node_holds(self, name: str) -> bool:
+        """S(n) under the binding carried from the hyper-arc that reached n."""
+        formula = self._formulas.get(name, ())
+        if not formula:
+            return True
+        binding = self.bindings.get(name)
+        if binding:
+            formula = tuple(apply_substitution(lit, binding) for lit in formula)
+        return holds(formula, self.kb.facts)
+
     def _meet_nodes(self) -> None:
-        """Meet feasible nodes whose state holds (processes: none modelled as pending)."""
+        """Meet feasible nodes whose state holds and whose processes have ended (eq. 5)."""
         while self.outcome == "running":
             met = []
             for name in self._answer.feasible:
-                if self.graph.kind(name) != "node":
+                if self.graph.kind(name) != "node" or not self._node_holds(name):
                     continue
-                formula = self._formulas.get(name, ())
-                if not formula or self.kb.query(formula):
-                    met.append(name)
+                if name in self._node_processes and not self._processes_ended(name):
+                    continue
+                met.append(name)
             if not met:
                 return
+            for name in met:
+                self.processes.pop(name, None)
             self._update_graph(met_nodes=met)
+
+    # -- node processes P(n) --------------------------------------------------------------
+    def _processes_ended(self, node: str) -> bool:
+        """Activate n's processes when it is reached; True once the last one has ended."""
+        run = self.processes.get(node)
+        if run is None:
+            run = ProcessRun(node, self._node_processes[node], dict(self.bindings.get(node, {})))
+            self.processes[node] = run
+            self._emit("process_activated", node=node, processes=list(run.invocations))
+        while not run.ended:
+            ground = self._ground_process(run)
+            if ground is None:
+                return False
+            schema_until = [apply_substitution(lit, ground.binding) for lit in ground.schema.until]
+            if schema_until and holds(schema_until, self.kb.facts):
+                self._end_process(run, ground, "its end condition holds")
+                continue
+            if run.command is None:
+                if any(a in self.busy for a in ground.agents):
+                    return False  # its agents are busy: it starts when they are free
+                self._start_process(run, ground)
+            return False
+        return True
+
+    def _ground_process(self, run: ProcessRun) -> GroundAction | None:
+        schema, terms = self.domain.invocation(run.invocations[run.index], process=True)
+        binding = dict(run.binding)
+        values: list[str] = []
+        for (var, typ), term in zip(schema.parameters, terms, strict=True):
+            value = binding.get(term, term) if is_variable(term) else term
+            if is_variable(value):
+                if schema.agents.mode == "choice" and var == schema.agents.variable:
+                    free = [
+                        a.name
+                        for a in self.domain.agents_of_type(typ)
+                        if not a.is_human and a.name not in self.busy
+                    ]
+                    found = free[:1]
+                else:
+                    found = [o.id for o in self.kb.objects_of_type(typ)][:1]
+                if not found:
+                    return None
+                value = binding[term] = found[0]
+            values.append(value)
+        run.binding = binding
+        spec = schema.agents
+        if spec.mode == "choice":
+            agents: tuple[str, ...] = (values[schema.variables.index(str(spec.variable))],)
+        else:
+            agents = spec.names
+        return GroundAction(schema, tuple(values), agents)
+
+    def _start_process(self, run: ProcessRun, ground: GroundAction) -> None:
+        t0 = self._timer()
+        sim = self.simulator.simulate([ground], self.kb, self.domain)
+        self.timing.simulator_s += self._timer() - t0
+        expected = sim.total_s if sim.success else (ground.schema.duration or 1.0)
+        cmd = Command(next(self._ids), ground.agents, ground, run.node, run.index, expected, True)
+        for a in ground.agents:
+            self.busy[a] = cmd
+        run.command = cmd
+        run.rounds += 1
+        self._process_of[cmd.id] = run.node
+        self._emit("command", **cmd.to_dict())
+        self._extra.append(cmd)
+
+    def _end_process(self, run: ProcessRun, ground: GroundAction, why: str) -> None:
+        cmd = run.command
+        if cmd is not None:  # still running: its end condition came true meanwhile
+            for a in cmd.agents:
+                if self.busy.get(a) is cmd:
+                    self.busy.pop(a)
+                    self._extra.append(Stop(a, cmd.id, f"process {ground} ended"))
+                    self._emit("stop", agent=a, command=cmd.id, reason=f"process {ground} ended")
+            self._process_of.pop(cmd.id, None)
+        self._emit("process_ended", node=run.node, process=str(ground), reason=why)
+        run.command = None
+        run.index += 1
+        run.rounds = 0
+
+    def _process_ack(self, node: str, cmd: Command, ack: Ack) -> None:
+        run = self.processes.get(node)
+        self._process_of.pop(cmd.id, None)
+        if run is None or run.command is not cmd:
+            return
+        run.command = None
+        ground = cmd.action
+        if ack.status == "done":
+            self._apply_effects(ground)
+            until = [apply_substitution(lit, ground.binding) for lit in ground.schema.until]
+            if not until or holds(until, self.kb.facts):
+                self._end_process(run, ground, "its end condition holds" if until else "done")
+            elif run.rounds >= self.max_process_rounds:
+                self._finish(
+                    "failed",
+                    f"process {ground} of {node}: end condition {' & '.join(map(str, until))} "
+                    f"still false after {run.rounds} rounds",
+                )
+        else:
+            run.failures += 1
+            self._emit("process_failed", node=node, process=str(ground), reason=ack.reason)
+            if run.failures >= 3:
+                self._finish("failed", f"process {ground} of {node} failed 3 times: {ack.reason}")
 
     def _plan(self) -> list[Directive]:
         out: list[Directive] = []
@@ -322,6 +552,26 @@ class TaskManager:
         children = set(self._children(element))
         return any(children & set(self._children(e)) for e in self.executions)
 
+    def _constraints(self, element: str) -> list[Literal]:
+        """The children's state formulas (h starts from the state its children describe)."""
+        return [lit for c in self._children(element) for lit in self._formulas.get(c, ())]
+
+    def _child_binding(self, element: str) -> dict[str, str]:
+        """The groundings h's children were reached with (carried from their hyper-arcs)."""
+        out: dict[str, str] = {}
+        for c in self._children(element):
+            out.update(self.bindings.get(c, {}))
+        return out
+
+    def _busy_humans(self) -> set[str]:
+        return {
+            a
+            for ex in self.executions.values()
+            if ex.owner == "human"
+            for a in ex.agents
+            if self.domain.agent(a).is_human
+        }
+
     def _start_next(self, out: list[Directive]) -> bool:
         """Start the cheapest startable element; True if something changed."""
         candidates = sorted(
@@ -332,7 +582,7 @@ class TaskManager:
             ),
         )
         robots_idle = self.idle_robots
-        human_busy = any(ex.owner == "human" for ex in self.executions.values())
+        busy_humans = self._busy_humans()
         for cost, _, name in candidates:
             if self._conflicts(name):
                 continue
@@ -341,9 +591,9 @@ class TaskManager:
                 self._update_graph(solved_hyperarcs=[name])
                 self._meet_nodes()
                 return True
-            available = list(robots_idle) + ([] if human_busy else self._humans())
+            available = list(robots_idle) + [h for h in self._humans() if h not in busy_humans]
             reserved = set().union(*(ex.objects for ex in self.executions.values()))
-            constraints = [lit for c in self._children(name) for lit in self._formulas.get(c, ())]
+            constraints = self._constraints(name)
             tree = DecisionTree.build(
                 name,
                 actions,
@@ -353,12 +603,24 @@ class TaskManager:
                 exclude=self.failed.get(name, ()),
                 available_agents=available,
                 reserved=reserved,
+                binding=self._child_binding(name),
             )
             if not tree.branches:
                 # no branch with the agents free now: maybe later (an agent is busy)
                 if self._could_run_later(name, actions, constraints, reserved):
                     continue
-                self._emit("infeasible", element=name, reason="no grounding or agent left")
+                reason = "no grounding or agent left"
+                if tree.pruned:
+                    reason = f"every branch fails a precondition ({tree.pruned[0].pruned})"
+                    self._emit(
+                        "decision",
+                        element=name,
+                        cost=_num(cost),
+                        branches=[],
+                        pruned=[b.to_dict() for b in tree.pruned],
+                        chosen=None,
+                    )
+                self._emit("infeasible", element=name, reason=reason)
                 self._update_graph(infeasible=[name])
                 self._meet_nodes()
                 return True
@@ -367,13 +629,15 @@ class TaskManager:
             self.timing.simulator_s += self._timer() - t0
             self.decisions += 1
             self.branches_simulated += len(tree.branches)
-            self._emit(
-                "decision",
-                element=name,
-                cost=_num(cost),
-                branches=[b.to_dict() for b in tree.branches],
-                chosen=tree.branches.index(best) if best else None,
-            )
+            event: dict[str, Any] = {
+                "element": name,
+                "cost": _num(cost),
+                "branches": [b.to_dict() for b in tree.branches],
+                "chosen": tree.branches.index(best) if best else None,
+            }
+            if tree.pruned:
+                event["pruned"] = [b.to_dict() for b in tree.pruned]
+            self._emit("decision", **event)
             if best is None:
                 self.failed.setdefault(name, []).extend(dict(b.grounding) for b in tree.branches)
                 if not self._could_run_later(name, actions, constraints, reserved):
@@ -400,10 +664,20 @@ class TaskManager:
         self, name: str, actions: tuple[str, ...], constraints: list[Literal], reserved: set[str]
     ) -> bool:
         """Would some branch exist if every agent were free and nothing reserved?"""
+        # an agent that left the cell may come back (cell: its process is restarted)
+        if not (self.busy or reserved or self.executions or self.unavailable):
+            return False
         tree = DecisionTree.build(
-            name, actions, constraints, self.domain, self.kb, exclude=self.failed.get(name, ())
+            name,
+            actions,
+            constraints,
+            self.domain,
+            self.kb,
+            exclude=self.failed.get(name, ()),
+            check_pre=False,  # a precondition may come true when the others are done
+            binding=self._child_binding(name),
         )
-        return bool(tree.branches) and (bool(self.busy) or bool(reserved) or bool(self.executions))
+        return bool(tree.branches)
 
     def _launch(self, name: str, branch: Branch, cost: float, out: list[Directive]) -> None:
         human = any(self.domain.agent(a).is_human for a in branch.agents)
@@ -417,10 +691,20 @@ class TaskManager:
             self._emit("suggestion", **sug.to_dict())
             out.append(sug)
         else:
-            out.append(self._command(ex))
+            cmd = self._command(ex, out)
+            if cmd is not None:
+                out.append(cmd)
 
-    def _command(self, ex: Execution) -> Command:
+    def _command(self, ex: Execution, out: list[Directive]) -> Command | None:
+        """Issue the execution's next action; its precondition is checked again first (at
+        dispatch the world may differ from what the decision tree saw)."""
         step = ex.branch.steps[ex.next_index]
+        why = unmet_precondition([step], self.kb.facts)
+        if why is not None:
+            self._emit("precondition_failed", element=ex.element, action=str(step), reason=why)
+            self.failed.setdefault(ex.element, []).append(dict(ex.branch.grounding))
+            self._abort(ex, out, reason=why)
+            return None
         expected = ex.branch.result.durations[ex.next_index] if ex.branch.result else 0.0
         cmd = Command(next(self._ids), step.agents, step, ex.element, ex.next_index, expected)
         for a in step.agents:
@@ -441,13 +725,20 @@ class TaskManager:
             "ack", command=cmd.id, status=ack.status, reason=ack.reason, action=str(cmd.action)
         )
         out: list[Directive] = []
+        node = self._process_of.get(cmd.id)
+        if node is not None:
+            self._process_ack(node, cmd, ack)
+            out += self._plan()
+            return out
         ex = self.executions.get(cmd.element) if cmd.element else None
         if ack.status == "done":
             self._apply_effects(cmd.action)
             if ex is not None:
                 self._progress(ex, cmd.agents[0])
                 if ex.element in self.executions and not self.done:
-                    out.append(self._command(ex))
+                    nxt = self._command(ex, out)
+                    if nxt is not None:
+                        out.append(nxt)
         else:
             if ex is not None:
                 self.failed.setdefault(ex.element, []).append(dict(ex.branch.grounding))
@@ -478,6 +769,12 @@ class TaskManager:
                 agents=list(ex.branch.agents),
                 grounding=dict(ex.branch.grounding),
             )
+            # the grounding carries to the parent's state formula (its variables only)
+            parent = self._parent(ex.element)
+            wanted = {a for lit in self._formulas.get(parent, ()) for a in lit.args}
+            carried = {k: v for k, v in ex.branch.grounding.items() if k in wanted}
+            if carried:
+                self.bindings[parent] = carried
             self._update_graph(solved_hyperarcs=[ex.element])
             self._meet_nodes()
 
@@ -496,28 +793,43 @@ class TaskManager:
         for agent in ex.branch.agents:
             if self.domain.agent(agent).is_human:
                 continue
-            cmd = self.busy.pop(agent, None)
-            if cmd is not None:
-                out.append(Stop(agent, cmd.id, reason))
-                self._emit("stop", agent=agent, command=cmd.id, reason=reason)
-            for fact in sorted(self.kb.facts):
-                if fact[0] == "holding" and fact[1] == agent:
-                    obj = fact[2]
-                    self.kb.retract_fact(*fact)
-                    self.kb.assert_fact("on_table", obj)
-                    self.kb.assert_fact("free", agent)
-                    if agent in self.kb.objects:
-                        p = self.kb.position(agent)
-                        self.kb.move(obj, (p[0], p[1], 0.0))
-            if "rest" in self.domain.actions:
-                rest = GroundAction(self.domain.actions["rest"], (agent,), (agent,))
-                t0 = self._timer()
-                sim = self.simulator.simulate([rest], self.kb, self.domain)
-                self.timing.simulator_s += self._timer() - t0
-                cmd = Command(next(self._ids), (agent,), rest, None, 0, sim.total_s)
-                self.busy[agent] = cmd
-                self._emit("command", **cmd.to_dict())
-                out.append(cmd)
+            cmd = self.busy.get(agent)
+            if cmd is not None and cmd.element == ex.element and not cmd.process:
+                self._stop_agent(agent, cmd, reason, out)
+            self._release(agent)
+            self._rest(agent, out)
+
+    def _stop_agent(self, agent: str, cmd: Command, reason: str, out: list[Directive]) -> None:
+        for a in cmd.agents:  # a joint command stops on every arm
+            if self.busy.get(a) is cmd:
+                self.busy.pop(a)
+        out.append(Stop(agent, cmd.id, reason))
+        self._emit("stop", agent=agent, command=cmd.id, reason=reason)
+
+    def _release(self, agent: str) -> None:
+        """What a stopped arm holds stays where the arm is (the domain's ``on_stop`` rule)."""
+        rule = self.domain.on_stop
+        for sub in self.kb.query([rule.holding], {rule.agent_var: agent}):
+            obj = sub.get(rule.object_var)
+            self.kb.apply_effects(rule.release, (rule.holding,), sub)
+            if obj in self.kb.objects and agent in self.kb.objects:
+                p = self.kb.position(agent)
+                self.kb.move(obj, (p[0], p[1], 0.0))
+
+    def _rest(self, agent: str, out: list[Directive]) -> None:
+        if agent in self.busy or "rest" not in self.domain.actions:
+            return
+        schema = self.domain.actions["rest"]
+        if len(schema.parameters) != 1:
+            return
+        rest = GroundAction(schema, (agent,), (agent,))
+        t0 = self._timer()
+        sim = self.simulator.simulate([rest], self.kb, self.domain)
+        self.timing.simulator_s += self._timer() - t0
+        cmd = Command(next(self._ids), (agent,), rest, None, 0, sim.total_s)
+        self.busy[agent] = cmd
+        self._emit("command", **cmd.to_dict())
+        out.append(cmd)
 
     # -- the human ------------------------------------------------------------------------
     def _handle_human(self, action: HumanAction) -> list[Directive]:
@@ -526,15 +838,35 @@ class TaskManager:
         ex = self._match_running_human(action)
         if ex is None:
             ex = self._recognise(action, out)
+            if self.reaction == "paper":
+                self._stop_every_robot(out, f"human did {action} (not suggested)")
         if ex is None:
             self._emit("human_action_unmatched", action=str(action))
             out += self._plan()
             return out
         step = ex.branch.steps[ex.next_index]
         self._apply_effects(step)
-        self._progress(ex, "human")
+        self._progress(ex, self._human_of(step))
         out += self._plan()
         return out
+
+    def _human_of(self, step: GroundAction) -> str:
+        humans = [a for a in step.agents if self.domain.agent(a).is_human]
+        return humans[0] if humans else "human"
+
+    def _stop_every_robot(self, out: list[Directive], reason: str) -> None:
+        """Paper V-B: every robot action stops and every arm goes to rest."""
+        for other in list(self.executions.values()):
+            if other.owner == "robot":
+                self._abort(other, out, reason=reason)
+        for agent, cmd in list(self.busy.items()):
+            if cmd.process or self.domain.agent(agent).is_human:
+                continue
+            if cmd.element is None and cmd.action.name == "rest":
+                continue
+            self._stop_agent(agent, cmd, reason, out)
+            self._release(agent)
+            self._rest(agent, out)
 
     def _match_running_human(self, action: HumanAction) -> Execution | None:
         for ex in self.executions.values():
@@ -545,8 +877,32 @@ class TaskManager:
                 return ex
         return None
 
+    def _unify(self, invocation: str, action: HumanAction) -> dict[str, str] | None:
+        schema, terms = self.domain.invocation(invocation)
+        if schema.name != action.name or len(terms) != len(action.args):
+            return None
+        binding: dict[str, str] = {}
+        for term, value in zip(terms, action.args, strict=True):
+            if is_variable(term):
+                if binding.setdefault(term, value) != value:
+                    return None
+            elif term != value:
+                return None
+        return binding
+
+    def _already_done(self, steps: list[GroundAction]) -> bool:
+        """The earlier actions of a list count as done when their add effects hold."""
+        facts = self.kb.facts
+        for step in steps:
+            adds = [apply_substitution(lit, step.binding) for lit in step.schema.add]
+            if not adds or not holds(adds, facts):
+                return False
+        return True
+
     def _recognise(self, action: HumanAction, out: list[Directive]) -> Execution | None:
-        """Which feasible hyper-arc does this unsuggested action advance? Cheapest match."""
+        """Which feasible hyper-arc does this unsuggested action advance? The action may be any
+        action of A(h) whose earlier actions are already done; the binding it gives must ground
+        the whole list. Cheapest hyper-arc first, then the earliest position in its list."""
         candidates = sorted(
             (cost, self.graph.element_id(n), n)
             for n, cost in self._answer.feasible.items()
@@ -559,70 +915,89 @@ class TaskManager:
             goal = self._formulas.get(self._parent(name), ())
             if goal and self.kb.query(goal):
                 continue  # its outcome already holds (e.g. a robot just did it): not this one
-            schema, terms = self.domain.invocation(actions[0])
-            if schema.name != action.name or len(terms) != len(action.args):
-                continue
-            binding: dict[str, str] = {}
-            ok = True
-            for term, value in zip(terms, action.args, strict=True):
-                if is_variable(term):
-                    if binding.setdefault(term, value) != value:
-                        ok = False
-                elif term != value:
-                    ok = False
-            if not ok:
-                continue
-            constraints = [
-                apply_substitution(lit, binding)
-                for c in self._children(name)
-                for lit in self._formulas.get(c, ())
-            ]
-            # the action already happened: check the state it started from, with its binding
-            tree = DecisionTree.build(
-                name, actions, constraints, self.domain, self.kb, available_agents=self._humans()
-            )
-            branch = next(
-                (
-                    b
-                    for b in tree.branches
-                    if all(b.grounding.get(k, v) == v for k, v in binding.items())
-                ),
-                None,
-            )
-            if branch is None:
-                # the precondition may already be consumed by the action's own effect
-                tree = DecisionTree.build(
-                    name, actions, [], self.domain, self.kb, available_agents=self._humans()
+            for index, invocation in enumerate(actions):
+                binding = self._unify(invocation, action)
+                if binding is None:
+                    continue
+                branch = self._recognised_branch(name, actions, binding, index)
+                if branch is None:
+                    continue
+                self._take_over(name, branch, binding, out)
+                ex = Execution(name, branch, "human", index, objects=self._objects(branch))
+                self.executions[name] = ex
+                row = self.table.rows.get(name)
+                if row:
+                    row.status = "running"
+                self._emit(
+                    "recognised",
+                    action=str(action),
+                    element=name,
+                    cost=_num(cost),
+                    index=index,
                 )
-                branch = next(
-                    (
-                        b
-                        for b in tree.branches
-                        if all(b.grounding.get(k) == v for k, v in binding.items())
-                    ),
-                    None,
-                )
-            if branch is None:
-                continue
-            branch.grounding.update(binding)
-            # stop whatever conflicts with the human's choice
-            for other in list(self.executions.values()):
-                shared = set(self._children(other.element)) & set(self._children(name))
-                uses_object = bool(other.objects & set(binding.values()))
-                if other.element == name or shared or uses_object:
-                    if other.owner == "human":
-                        self.executions.pop(other.element, None)
-                        self._emit("abort", element=other.element, reason="human changed plan")
-                    else:
-                        self._abort(other, out, reason=f"human does {name}")
-            ex = Execution(name, branch, "human", objects=self._objects(branch))
-            self.executions[name] = ex
-            row = self.table.rows.get(name)
-            if row:
-                row.status = "running"
-            self._emit("recognised", action=str(action), element=name, cost=_num(cost))
-            return ex
+                return ex
         return None
+
+    def _recognised_branch(
+        self, name: str, actions: tuple[str, ...], binding: dict[str, str], index: int
+    ) -> Branch | None:
+        fixed = {**self._child_binding(name), **binding}
+        if any(self._child_binding(name).get(k, v) != v for k, v in binding.items()):
+            return None  # the human's objects are not those the children were reached with
+        constraints = self._constraints(name)
+
+        def pick(tree: DecisionTree) -> Branch | None:
+            for b in tree.branches:
+                if all(b.grounding.get(k, v) == v for k, v in binding.items()) and (
+                    index == 0 or self._already_done(b.steps[:index])
+                ):
+                    return b
+            return None
+
+        # the action already happened: check the state it started from, with its binding
+        tree = DecisionTree.build(
+            name,
+            actions,
+            constraints if index == 0 else [],
+            self.domain,
+            self.kb,
+            available_agents=self._humans(),
+            from_index=index,
+            binding=fixed,
+        )
+        branch = pick(tree)
+        if branch is None and index == 0:
+            # the children's state may already be consumed by the action's own effect
+            tree = DecisionTree.build(
+                name,
+                actions,
+                [],
+                self.domain,
+                self.kb,
+                available_agents=self._humans(),
+                binding=fixed,
+            )
+            branch = pick(tree)
+        if branch is not None:
+            branch.grounding.update(binding)
+        return branch
+
+    def _take_over(
+        self, name: str, branch: Branch, binding: dict[str, str], out: list[Directive]
+    ) -> None:
+        """Stop whatever conflicts with the human's choice (reaction ``conflicts``; with
+        ``paper`` every robot action is stopped by the caller anyway)."""
+        children = set(self._children(name))
+        objects = set(binding.values())
+        for other in list(self.executions.values()):
+            shared = set(self._children(other.element)) & children
+            uses_object = bool(other.objects & objects)
+            if other.element == name or shared or uses_object:
+                if other.owner == "human":
+                    self.executions.pop(other.element, None)
+                    self._emit("abort", element=other.element, reason="human changed plan")
+                else:
+                    self._abort(other, out, reason=f"human does {name}")
 
     # -- inspection -----------------------------------------------------------------------
     def summary(self) -> dict[str, Any]:
@@ -644,11 +1019,13 @@ def _num(x: float) -> float | int:
 
 
 __all__ = [
+    "REACTIONS",
     "Ack",
     "Command",
     "Directive",
     "Execution",
     "HumanAction",
+    "ProcessRun",
     "Stop",
     "Suggest",
     "TaskManager",

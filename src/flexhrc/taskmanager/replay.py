@@ -3,26 +3,184 @@
 Counts and simulated times come from the logged actions and decisions themselves; the
 wall-clock compute times (Task Manager, representation, simulator) cannot be recomputed and are
 read from the log's closing ``summary`` event when there is one.
+
+:func:`check_log` validates every event first — its type, a finite time that never goes back,
+the fields the summary reads, one run per log — and names the line of the first bad one, so an
+edited or corrupted log is refused rather than summarised into nonsense. A log without an
+``outcome`` event is a run that was cut short (killed, or the machine went down): it is
+summarised up to its last event and says so.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+import math
+from collections.abc import Iterable, Sequence
+from pathlib import Path
 from typing import Any
+
+from flexhrc.errors import FormatError
+
+#: Every event type a cooperation run writes (runner and Task Manager).
+EVENT_TYPES = frozenset(
+    {
+        "start",
+        "query",
+        "decision",
+        "waiting",
+        "infeasible",
+        "suggestion",
+        "command",
+        "ack",
+        "ack_ignored",
+        "action_failed",
+        "abort",
+        "stop",
+        "solved",
+        "human_action",
+        "human_action_unmatched",
+        "recognised",
+        "action_start",
+        "action_end",
+        "human_told",
+        "human_decides",
+        "human_gives_up",
+        "human_sensed",
+        "human_sensing_missed",
+        "outcome",
+        "summary",
+    }
+)
+#: How a run may end (``outcome`` events).
+OUTCOMES = ("solved", "failed", "interrupted")
+#: How an action may end (``action_end`` events).
+STATUSES = ("done", "failed", "timed_out", "stopped")
+CUT_SHORT = "cut_short"
+
+
+def _number(v: Any) -> bool:
+    return isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def _names(v: Any) -> bool:
+    return isinstance(v, list) and bool(v) and all(isinstance(a, str) and a for a in v)
+
+
+def check_log(lines: Sequence[tuple[int, dict[str, Any]]], source: str | Path) -> None:
+    """Validate every event of a cooperation log; the first bad one is a :class:`FormatError`
+    naming its line. ``lines`` are ``(line number, event)`` pairs as
+    :func:`flexhrc.jsonl.read_jsonl_lines` returns them."""
+    last_t = 0.0
+    seen: dict[str, int] = {}  # start / outcome / summary -> line
+    commands: dict[int, int] = {}
+    ended: dict[int, int] = {}
+
+    def fail(message: str, line: int) -> FormatError:
+        return FormatError(message, source, line)
+
+    for n, (line, ev) in enumerate(lines):
+        kind, t = ev["type"], ev["t"]
+        if not isinstance(kind, str) or kind not in EVENT_TYPES:
+            raise fail(f"unknown event type {kind!r} (not a flexhrc cooperation log?)", line)
+        if not _number(t) or t < 0:
+            raise fail(f"{kind}: 't' must be a finite time >= 0, got {t!r}", line)
+        if kind in ("start", "outcome", "summary"):
+            if kind in seen:
+                what = "run starts" if kind == "start" else f"'{kind}' event"
+                raise fail(
+                    f"a second {what} (the first is on line {seen[kind]}): a log holds one run",
+                    line,
+                )
+            seen[kind] = line
+        if t < last_t - 1e-9:
+            raise fail(
+                f"{kind}: time goes back ({t} s after {last_t} s): events are written in time "
+                "order",
+                line,
+            )
+        last_t = max(last_t, float(t))
+        if n == 0 and kind != "start":
+            raise fail(f"the log must begin with a 'start' event, not {kind!r}", line)
+        if kind == "start":
+            if not _names(ev.get("agents")):
+                raise fail("start: 'agents' must be a list of agent names", line)
+            if not isinstance(ev.get("profile"), str):
+                raise fail("start: 'profile' must be a string", line)
+        elif kind == "outcome":
+            if ev.get("outcome") not in OUTCOMES:
+                raise fail(
+                    f"outcome: 'outcome' must be one of {', '.join(OUTCOMES)}, "
+                    f"got {ev.get('outcome')!r}",
+                    line,
+                )
+            if not (ev.get("reason") is None or isinstance(ev.get("reason"), str)):
+                raise fail("outcome: 'reason' must be a string or null", line)
+        elif kind == "summary":
+            timing = ev.get("timing")
+            if not isinstance(timing, dict):
+                raise fail("summary: 'timing' must be a mapping of times", line)
+            for key, v in timing.items():
+                if not _number(v) or v < 0:
+                    raise fail(f"summary: timing {key!r} must be a finite time >= 0", line)
+        elif kind == "decision":
+            branches = ev.get("branches")
+            if not isinstance(branches, list) or not all(isinstance(b, dict) for b in branches):
+                raise fail("decision: 'branches' must be a list of branches", line)
+            chosen = ev.get("chosen")
+            if chosen is not None and (
+                isinstance(chosen, bool)
+                or not isinstance(chosen, int)
+                or not 0 <= chosen < len(branches)
+            ):
+                raise fail(f"decision: 'chosen' is not one of its {len(branches)} branches", line)
+        elif kind == "command":
+            cid = ev.get("id")
+            if isinstance(cid, bool) or not isinstance(cid, int):
+                raise fail("command: 'id' must be a whole number", line)
+            if cid in commands:
+                raise fail(f"command {cid} was already issued on line {commands[cid]}", line)
+            commands[cid] = line
+        elif kind in ("action_start", "action_end"):
+            if not _names(ev.get("agents")):
+                raise fail(f"{kind}: 'agents' must be a list of agent names", line)
+            if not isinstance(ev.get("action"), str) or not ev["action"]:
+                raise fail(f"{kind}: 'action' must be a string", line)
+            if kind == "action_end":
+                if ev.get("status") not in STATUSES:
+                    raise fail(
+                        f"action_end: 'status' must be one of {', '.join(STATUSES)}, "
+                        f"got {ev.get('status')!r}",
+                        line,
+                    )
+                start: Any = ev.get("start")
+                if not _number(start) or not 0 <= float(start) <= t + 1e-9:
+                    raise fail(
+                        f"action_end: 'start' must be a finite time between 0 and t = {t}, "
+                        f"got {start!r}",
+                        line,
+                    )
+                cid = ev.get("command")
+                if isinstance(cid, int) and not isinstance(cid, bool):
+                    if cid in ended:
+                        raise fail(f"command {cid} already ended on line {ended[cid]}", line)
+                    ended[cid] = line
 
 
 def summarise_log(events: Iterable[dict[str, Any]]) -> dict[str, Any]:
+    """Table I and the counts of a log (validated with :func:`check_log` first)."""
     events = list(events)
     robot_actions = human_actions = 0
     robot_s = human_s = 0.0
     legs: dict[str, int] = {}
     decisions = branches = 0
-    outcome, reason = "running", None
+    outcome: str | None = None
+    reason = None
+    simulator = None
     end = 0.0
     for ev in events:
         end = max(end, float(ev.get("t", 0.0)))
         kind = ev.get("type")
         if kind == "start":
+            simulator = ev.get("simulator")
             for agent in ev.get("agents", []):
                 legs.setdefault(agent, 0)
         elif kind == "decision":
@@ -49,10 +207,20 @@ def summarise_log(events: Iterable[dict[str, Any]]) -> dict[str, Any]:
     closing: dict[str, Any] = next(
         (ev for ev in reversed(events) if ev.get("type") == "summary"), {}
     )
+    complete = outcome is not None
+    if outcome is None:
+        outcome = CUT_SHORT
+        reason = (
+            f"the run was cut short: the log ends after {len(events)} events "
+            f"(t = {end:.2f} s) without an outcome"
+        )
     compute = closing.get("timing", {})
     return {
         "outcome": outcome,
         "reason": reason,
+        "complete": complete,
+        "simulator": simulator or closing.get("simulator"),
+        "events": len(events),
         "robot_actions": robot_actions,
         "human_actions": human_actions,
         "decisions": decisions,

@@ -7,7 +7,8 @@ a branch is ``J(b) = success(b) / sum(t_i)`` (eq. 21).
 :class:`AnalyticSimulator` is the default: straight-line distances at nominal speeds, fixed times
 for grasping and screwing, a reach sphere per robot arm, and an optional seeded failure model.
 The kinematic simulator of :mod:`flexhrc.action` implements the same :class:`Simulator`
-protocol. Simulations never modify the knowledge base: positions are tracked on the side.
+protocol; it is chosen at the edge (:mod:`flexhrc.scenarios.simulators`), never imported here.
+Simulations never modify the knowledge base: positions are tracked on the side.
 """
 
 from __future__ import annotations
@@ -102,6 +103,8 @@ class AnalyticSimulator:
     whose target is farther than ``reach`` from the arm's base fails ("unreachable").
     ``failure_rate`` makes each robot action fail with that probability (seeded).
     """
+
+    name = "analytic"
 
     def __init__(
         self,
@@ -267,12 +270,22 @@ def _fmt(p: Vec3) -> str:
 
 
 def default_simulator() -> Simulator:
-    """The kinematic simulator of :mod:`flexhrc.action` when the ``sim`` extra is installed
-    (pinocchio importable), else the :class:`AnalyticSimulator`."""
-    import importlib.util
+    """The simulator the Task Manager uses when it is given none: the :class:`AnalyticSimulator`.
 
-    if importlib.util.find_spec("pinocchio") is not None:
-        from flexhrc.action.bridge import KinematicTaskSimulator
-
-        return KinematicTaskSimulator()
+    The Task Manager stays unaware of the action level (which imports this module); the
+    kinematic simulator is chosen at the edge — the command line, a scenario loader, a cell —
+    with :func:`flexhrc.scenarios.simulators.choose_simulator` and passed in.
+    """
     return AnalyticSimulator()
+
+
+def simulator_name(simulator: object) -> str:
+    """A short name for a simulator (``analytic``, ``kinematic`` ...), for logs and JSON."""
+    name = getattr(simulator, "name", None)
+    if isinstance(name, str) and name:
+        return name
+    cls = type(simulator).__name__
+    for suffix in ("TaskSimulator", "Simulator"):
+        if cls.endswith(suffix) and cls != suffix:
+            return cls[: -len(suffix)].lower()
+    return cls.lower()

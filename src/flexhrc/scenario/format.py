@@ -1,0 +1,714 @@
+"""Reading and checking scenario files (``flexhrc: 1``).
+
+:func:`check` reads a scenario file and returns the :class:`Scenario` it describes (None when it
+has errors) and every :class:`Fault` found, each with the file and line it is about — the
+scenario file, the domain file or the graph file. :func:`parse` raises the first error instead.
+
+Faults that stop a scenario from running (errors): a malformed document, an unknown key, a
+graph file that is missing or invalid, an unknown action in a hyper-arc, an action parameter of
+an undeclared type, an undeclared agent, an object of an unknown type, a malformed pose, a
+hyper-arc whose actions no declared agent can do. A predicate that no fact or effect can ever
+make true is a warning: the scenario runs, but the element using it will never be reached.
+"""
+
+from __future__ import annotations
+
+import fnmatch
+import math
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+from flexhrc.errors import FlexhrcError, FormatError
+from flexhrc.logic import Literal, parse_conjunction, parse_literal
+from flexhrc.representation import HierarchicalGraph
+from flexhrc.representation.graph import AndOrGraph
+from flexhrc.scenario.model import (
+    PROFILES,
+    SIMULATORS,
+    HumanSpec,
+    ObjectSpec,
+    Scenario,
+    WorldSpec,
+)
+from flexhrc.taskmanager.domain import ActionSchema, Domain
+
+FORMAT_VERSION = 1
+TOP_KEYS = {
+    "flexhrc",
+    "name",
+    "description",
+    "graph",
+    "graphs",
+    "top",
+    "hyperarc_actions",
+    "domain",
+    "world",
+    "humans",
+    "robot",
+    "simulator",
+}
+WORLD_KEYS = {"objects", "places", "facts", "supertypes"}
+OBJECT_KEYS = {"type", "position", "size", "fixed", "reachable_by", "attrs"}
+HUMAN_KEYS = {"name", "profile", "speed"}
+
+
+@dataclass(frozen=True)
+class Fault:
+    """One problem of a scenario: ``FILE:LINE: message`` (``warning: `` for warnings)."""
+
+    source: str
+    line: int | None
+    message: str
+    severity: str = "error"  # error | warning
+
+    def __str__(self) -> str:
+        where = f"{self.source}:{self.line}" if self.line else self.source
+        tag = "warning: " if self.severity == "warning" else ""
+        return f"{where}: {tag}{self.message}"
+
+
+class ScenarioError(FormatError):
+    """A scenario with errors; :attr:`faults` has them all, the message shows the first."""
+
+    def __init__(self, faults: list[Fault]):
+        self.faults = faults
+        first = faults[0]
+        more = (
+            f" (and {len(faults) - 1} more: flexhrc scenario validate)" if len(faults) > 1 else ""
+        )
+        super().__init__(first.message + more, first.source, first.line)
+
+
+def _line(d: Any, key: Any = None) -> int | None:
+    lines = getattr(d, "lines", None)
+    if key is not None and lines and key in lines:
+        return int(lines[key])
+    line = getattr(d, "line", None)
+    return int(line) if line else None
+
+
+class _Checker:
+    def __init__(self, path: Path):
+        self.path = path
+        self.faults: list[Fault] = []
+
+    def error(self, message: str, line: int | None, source: str | Path | None = None) -> None:
+        self.faults.append(Fault(str(source or self.path), line, message))
+
+    def warn(self, message: str, line: int | None, source: str | Path | None = None) -> None:
+        self.faults.append(Fault(str(source or self.path), line, message, "warning"))
+
+    def from_format_error(self, exc: FormatError) -> None:
+        self.faults.append(Fault(exc.source or str(self.path), exc.line, exc.message))
+
+    @property
+    def failed(self) -> bool:
+        return any(f.severity == "error" for f in self.faults)
+
+
+# ------------------------------------------------------------------------------ entry points --
+def check(path: str | Path) -> tuple[Scenario | None, list[Fault]]:
+    """Read and check a scenario file: (the scenario or None, every fault)."""
+    from flexhrc.files import read_text
+    from flexhrc.representation.formats.yaml_format import read_yaml
+
+    path = Path(path)
+    c = _Checker(path)
+    try:
+        read_text(path)  # missing, folder, unreadable, binary: one clear error
+        doc = read_yaml(path)
+    except FormatError as exc:
+        c.from_format_error(exc)
+        return None, c.faults
+    except FlexhrcError as exc:
+        c.error(str(exc), None)
+        return None, c.faults
+    if not isinstance(doc, dict):
+        c.error("a scenario file must be a mapping (flexhrc: 1, name, graph, domain, ...)", 1)
+        return None, c.faults
+    if "flexhrc" not in doc:
+        c.error("not a scenario file: 'flexhrc: 1' is missing", 1)
+        return None, c.faults
+    if doc.get("flexhrc") != FORMAT_VERSION:
+        c.error(
+            f"unsupported scenario format {doc.get('flexhrc')!r} (this flexhrc reads "
+            f"{FORMAT_VERSION})",
+            _line(doc, "flexhrc"),
+        )
+        return None, c.faults
+    for key in doc:
+        if key not in TOP_KEYS:
+            c.error(
+                f"unknown key {key!r} (allowed: {', '.join(sorted(TOP_KEYS))})", _line(doc, key)
+            )
+    scenario = _build(doc, c)
+    return (None if c.failed else scenario), c.faults
+
+
+def parse(path: str | Path) -> Scenario:
+    """Read a scenario file; raise :class:`ScenarioError` with every error if it has any."""
+    scenario, faults = check(path)
+    errors = [f for f in faults if f.severity == "error"]
+    if errors or scenario is None:
+        raise ScenarioError(errors or [Fault(str(path), None, "invalid scenario")])
+    return scenario
+
+
+# ------------------------------------------------------------------------------- building --
+def _build(doc: Any, c: _Checker) -> Scenario | None:
+    path = c.path
+    name = str(doc.get("name") or path.stem.removesuffix(".scenario"))
+    description = str(doc.get("description") or "")
+    graph = _graph(doc, c)
+    domain, domain_doc, domain_src = _domain(doc, c)
+    world = _world(doc.get("world"), c, _line(doc, "world"))
+    humans = _humans(doc.get("humans"), c, _line(doc, "humans"), domain)
+    simulator = str(doc.get("simulator", "analytic"))
+    if simulator not in SIMULATORS:
+        c.error(
+            f"simulator {simulator!r}: choose one of {', '.join(SIMULATORS)}",
+            _line(doc, "simulator"),
+        )
+    robot = doc.get("robot") or {}
+    if not isinstance(robot, Mapping):
+        c.error("robot must be a mapping", _line(doc, "robot"))
+        robot = {}
+    if graph is None or domain is None or world is None:
+        return None
+    if "hyperarc_actions" in doc:
+        _attach_actions(graph, doc["hyperarc_actions"], c, _line(doc, "hyperarc_actions"))
+    _check_semantics(graph, domain, domain_doc, domain_src, world, humans, c)
+    return Scenario(
+        name,
+        description,
+        graph,
+        domain,
+        world,
+        tuple(humans),
+        simulator,
+        dict(robot),
+        path,
+        tuple(str(f) for f in c.faults if f.severity == "warning"),
+    )
+
+
+def _graph(doc: Any, c: _Checker) -> HierarchicalGraph | None:
+    from flexhrc.representation.formats import load
+
+    if ("graph" in doc) == ("graphs" in doc):
+        c.error("give the task graph as 'graph: FILE' or as an inline 'graphs:' document", 1)
+        return None
+    try:
+        if "graphs" in doc:
+            return _inline_graph(doc, c.path)
+        g = doc["graph"]
+        if isinstance(g, Mapping):
+            return _inline_graph(g, c.path)
+        if not isinstance(g, str) or not g.strip():
+            c.error("graph must be a file name or an inline graphs document", _line(doc, "graph"))
+            return None
+        target = c.path.parent / g
+        if not target.is_file():
+            c.error(f"graph file {g!r} not found (looked for {target})", _line(doc, "graph"))
+            return None
+        hierarchy = load(target)
+        return hierarchy
+    except FormatError as exc:
+        c.from_format_error(exc)
+        return None
+
+
+def _inline_graph(doc: Any, path: Path) -> HierarchicalGraph:
+    """An inline ``graphs:`` document, in the YAML graph format (files relative to ``path``)."""
+    from flexhrc.representation.formats import yaml_format as yf
+
+    graphs_d = doc.get("graphs")
+    if not isinstance(graphs_d, dict) or not graphs_d:
+        raise FormatError("'graphs' must be a non-empty mapping", path, _line(doc, "graphs"))
+    top = str(doc.get("top", next(iter(graphs_d))))
+    graphs: dict[str, AndOrGraph] = {}
+    for key, gd in graphs_d.items():
+        key = str(key)
+        if not isinstance(gd, dict):
+            raise FormatError(f"graph {key!r} must be a mapping", path, _line(graphs_d, key))
+        if "file" in gd:
+            graphs.update(yf._load_external(key, path, gd, graphs_d))
+        else:
+            graphs[key] = yf._graph_from_dict(key, gd, path, _line(graphs_d, key))
+    if top not in graphs:
+        raise FormatError(f"top graph {top!r} is not defined under 'graphs'", path, _line(doc))
+    hierarchy = HierarchicalGraph(graphs, top)
+    hierarchy.validate()
+    return hierarchy
+
+
+def _domain(doc: Any, c: _Checker) -> tuple[Domain | None, Any, Path]:
+    from flexhrc.representation.formats.yaml_format import read_yaml
+
+    if "domain" not in doc:
+        c.error("'domain' is missing (agents and actions: a file name or inline)", 1)
+        return None, None, c.path
+    d = doc["domain"]
+    src = c.path
+    if isinstance(d, str):
+        src = c.path.parent / d
+        if not src.is_file():
+            c.error(f"domain file {d!r} not found (looked for {src})", _line(doc, "domain"))
+            return None, None, c.path
+        try:
+            d = read_yaml(src)
+        except FormatError as exc:
+            c.from_format_error(exc)
+            return None, None, src
+    if not isinstance(d, Mapping):
+        c.error("domain must be a mapping with 'agents' and 'actions'", _line(doc, "domain"), src)
+        return None, None, src
+    n0 = len(c.faults)
+    _precheck_domain(d, c, src)
+    if len(c.faults) > n0:
+        return None, d, src
+    try:
+        return Domain.from_dict(d, src), d, src
+    except FormatError as exc:
+        c.from_format_error(exc)
+    except FlexhrcError as exc:
+        c.error(str(exc), _line(d), src)
+    return None, d, src
+
+
+def _precheck_domain(d: Mapping[str, Any], c: _Checker, src: Path) -> None:
+    """Faults Domain.from_dict would raise one at a time: collect them all, with lines."""
+    agents = d.get("agents") or {}
+    if not isinstance(agents, Mapping):
+        c.error("agents must be a mapping {name: {kind: human|robot, types: [...]}}", _line(d), src)
+        return
+    for name, ad in agents.items():
+        if not isinstance(ad, Mapping) or ad.get("kind") not in ("human", "robot"):
+            c.error(f"agent {name!r}: needs kind: human or robot", _line(agents, name), src)
+            continue
+        for key in ("base", "rest", "hand"):
+            if key in ad and not _is_pose(ad[key]):
+                c.error(
+                    f"agent {name!r}: malformed pose {key}: {ad[key]!r} (three finite numbers "
+                    "[x, y, z] in metres)",
+                    _line(ad, key),
+                    src,
+                )
+    for section in ("actions", "processes"):
+        block = d.get(section) or {}
+        if not isinstance(block, Mapping):
+            c.error(f"{section} must be a mapping", _line(d, section), src)
+            continue
+        for aname, sd in block.items():
+            if not isinstance(sd, Mapping):
+                continue
+            spec = sd.get("agents")
+            names: list[str] = []
+            if isinstance(spec, str) and not spec.startswith("?"):
+                names = [spec]
+            elif isinstance(spec, Mapping) and "single" in spec:
+                names = [str(spec["single"])]
+            elif isinstance(spec, Mapping) and "joint" in spec and isinstance(spec["joint"], list):
+                names = [str(x) for x in spec["joint"]]
+            for n in names:
+                if n not in agents:
+                    c.error(
+                        f"{section[:-1]} {aname!r}: undeclared agent {n!r} (agents: "
+                        f"{', '.join(map(str, agents)) or 'none'})",
+                        _line(sd, "agents"),
+                        src,
+                    )
+
+
+def _is_pose(p: Any) -> bool:
+    if not isinstance(p, list | tuple) or len(p) != 3:
+        return False
+    return all(
+        isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v) for v in p
+    )
+
+
+def _world(w: Any, c: _Checker, line: int | None) -> WorldSpec | None:
+    if w is None:
+        return WorldSpec()
+    if not isinstance(w, Mapping):
+        c.error("world must be a mapping (objects, places, facts, supertypes)", line)
+        return None
+    for key in w:
+        if key not in WORLD_KEYS:
+            c.error(
+                f"unknown key {key!r} in world (allowed: {', '.join(sorted(WORLD_KEYS))})",
+                _line(w, key),
+            )
+    objects: list[ObjectSpec] = []
+    od = w.get("objects") or {}
+    if not isinstance(od, Mapping):
+        c.error(
+            "world.objects must be a mapping {NAME: {type, position, ...}}", _line(w, "objects")
+        )
+        od = {}
+    for name, spec in od.items():
+        ln = _line(od, name)
+        if not isinstance(spec, Mapping):
+            c.error(f"object {name!r}: must be a mapping {{type, position, size, fixed}}", ln)
+            continue
+        for key in spec:
+            if key not in OBJECT_KEYS:
+                c.error(
+                    f"object {name!r}: unknown key {key!r} (allowed: "
+                    f"{', '.join(sorted(OBJECT_KEYS))})",
+                    _line(spec, key),
+                )
+        if not isinstance(spec.get("type"), str) or not spec.get("type"):
+            c.error(f"object {name!r}: needs a type", ln)
+            continue
+        pos = spec.get("position")
+        if not _is_pose(pos):
+            c.error(
+                f"object {name!r}: malformed pose position: {pos!r} (three finite numbers "
+                "[x, y, z] in metres)",
+                _line(spec, "position") or ln,
+            )
+            continue
+        size = _size(spec.get("size"))
+        if size is None:
+            c.error(
+                f"object {name!r}: malformed size {spec.get('size')!r} (a list of up to three "
+                "positive numbers, or {name: number})",
+                _line(spec, "size"),
+            )
+            continue
+        attrs = dict(spec.get("attrs") or {})
+        if "reachable_by" in spec:
+            attrs["reachable_by"] = [str(a) for a in spec["reachable_by"] or []]
+        objects.append(
+            ObjectSpec(
+                str(name),
+                str(spec["type"]),
+                (float(pos[0]), float(pos[1]), float(pos[2])),
+                size,
+                bool(spec.get("fixed", False)),
+                attrs,
+            )
+        )
+    places: dict[str, tuple[float, float, float]] = {}
+    pd = w.get("places") or {}
+    if not isinstance(pd, Mapping):
+        c.error("world.places must be a mapping {NAME: [x, y, z]}", _line(w, "places"))
+        pd = {}
+    for name, pos in pd.items():
+        if not _is_pose(pos):
+            c.error(
+                f"place {name!r}: malformed pose {pos!r} (three finite numbers [x, y, z])",
+                _line(pd, name),
+            )
+            continue
+        places[str(name)] = (float(pos[0]), float(pos[1]), float(pos[2]))
+    facts: list[Literal] = []
+    fl = w.get("facts") or []
+    if not isinstance(fl, list):
+        c.error("world.facts must be a list of ground literals", _line(w, "facts"))
+        fl = []
+    for f in fl:
+        try:
+            lit = parse_literal(str(f), str(c.path), _line(w, "facts"))
+        except FormatError as exc:
+            c.from_format_error(exc)
+            continue
+        if not lit.is_ground or lit.negated:
+            c.error(f"fact {f!r} must be a positive ground literal", _line(w, "facts"))
+            continue
+        facts.append(lit)
+    st = w.get("supertypes") or {}
+    if not isinstance(st, Mapping):
+        c.error("world.supertypes must be a mapping {SUBTYPE: SUPERTYPE}", _line(w, "supertypes"))
+        st = {}
+    names = [o.name for o in objects] + list(places)
+    dup = {n for n in names if names.count(n) > 1}
+    for n in sorted(dup):
+        c.error(f"{n!r} is both an object and a place", _line(w))
+    return WorldSpec(tuple(objects), places, tuple(facts), {str(k): str(v) for k, v in st.items()})
+
+
+def _size(v: Any) -> dict[str, float] | None:
+    if v is None:
+        return {}
+    if isinstance(v, Mapping):
+        items = list(v.items())
+    elif isinstance(v, list | tuple) and len(v) <= 3:
+        items = list(zip(("length", "width", "height"), v, strict=False))
+    else:
+        return None
+    out: dict[str, float] = {}
+    for k, x in items:
+        if isinstance(x, bool) or not isinstance(x, int | float) or not (0 < x < 1e3):
+            return None
+        out[str(k)] = float(x)
+    return out
+
+
+def _humans(h: Any, c: _Checker, line: int | None, domain: Domain | None) -> list[HumanSpec]:
+    out: list[HumanSpec] = []
+    if h is None:
+        if domain is not None:  # every human agent of the domain is a passive operator
+            out = [HumanSpec(a.name) for a in domain.agents.values() if a.is_human]
+        return out
+    if not isinstance(h, list):
+        c.error("humans must be a list of {name, profile, speed}", line)
+        return out
+    for i, hd in enumerate(h):
+        if not isinstance(hd, Mapping) or "name" not in hd:
+            c.error(f"humans #{i + 1}: needs a name (a human agent of the domain)", line)
+            continue
+        ln = _line(hd)
+        for key in hd:
+            if key not in HUMAN_KEYS:
+                c.error(
+                    f"humans #{i + 1}: unknown key {key!r} (allowed: name, profile, speed)",
+                    _line(hd, key),
+                )
+        name = str(hd["name"])
+        profile = str(hd.get("profile", "passive"))
+        if profile not in PROFILES:
+            c.error(
+                f"operator {name!r}: unknown profile {profile!r} (choose {', '.join(PROFILES)})",
+                _line(hd, "profile"),
+            )
+        speed = hd.get("speed", 1.0)
+        if isinstance(speed, bool) or not isinstance(speed, int | float) or not 0 < speed < 100:
+            c.error(
+                f"operator {name!r}: speed must be a number of m/s in (0, 100), got {speed!r}",
+                _line(hd, "speed"),
+            )
+            speed = 1.0
+        if domain is not None:
+            agent = domain.agents.get(name)
+            if agent is None:
+                c.error(
+                    f"operator {name!r}: undeclared agent (declare it under domain agents with "
+                    "kind: human)",
+                    ln,
+                )
+            elif not agent.is_human:
+                c.error(f"operator {name!r}: agent {name!r} is a robot, not a human", ln)
+        out.append(HumanSpec(name, profile, float(speed)))
+    return out
+
+
+def _attach_actions(graph: HierarchicalGraph, spec: Any, c: _Checker, line: int | None) -> None:
+    """``hyperarc_actions: {GRAPH/HYPERARC: [actions]}``: action lists for hyper-arcs of graph
+    files that have none (ANDOR text). GRAPH is the graph's key or name; both parts may be
+    glob patterns (``RollerAssembly/h*``)."""
+    if not isinstance(spec, Mapping):
+        c.error("hyperarc_actions must be a mapping {GRAPH/HYPERARC: [actions]}", line)
+        return
+    for pattern, actions in spec.items():
+        ln = _line(spec, pattern)
+        gpat, _, hpat = str(pattern).rpartition("/")
+        if not gpat:
+            gpat = "*"
+        if not isinstance(actions, list) or not all(isinstance(a, str) for a in actions):
+            c.error(f"hyperarc_actions {pattern!r}: a list of actions such as 'screw(?a, ?b)'", ln)
+            continue
+        hits = 0
+        for key, g in graph.graphs.items():
+            if not (fnmatch.fnmatchcase(key, gpat) or fnmatch.fnmatchcase(g.name, gpat)):
+                continue
+            for hname, h in list(g.hyperarcs.items()):
+                if fnmatch.fnmatchcase(hname, hpat):
+                    g.hyperarcs[hname] = replace(h, actions=tuple(actions), line=h.line)
+                    hits += 1
+        if not hits:
+            c.error(f"hyperarc_actions {pattern!r} matches no hyper-arc of the graph", ln)
+
+
+# ------------------------------------------------------------------------------ semantics --
+def _check_semantics(
+    graph: HierarchicalGraph,
+    domain: Domain,
+    domain_doc: Any,
+    domain_src: Path,
+    world: WorldSpec,
+    humans: list[HumanSpec],
+    c: _Checker,
+) -> None:
+    # types the scenario declares: objects, places, agents, supertypes
+    declared: set[str] = {"agent", "place"}
+    for o in world.objects:
+        declared.add(o.type)
+    for a in domain.agents.values():
+        declared.update(a.types)
+        declared.add(a.name)
+    declared.update(world.supertypes)
+    declared.update(world.supertypes.values())
+    # ... and the types the domain needs
+    needed: set[str] = set()
+    schemas: list[tuple[str, ActionSchema]] = [
+        *(("action", s) for s in domain.actions.values()),
+        *(("process", s) for s in domain.processes.values()),
+    ]
+    for what, s in schemas:
+        block = (domain_doc or {}).get(f"{what}es" if what == "process" else "actions") or {}
+        sd = block.get(s.name) if isinstance(block, Mapping) else None
+        ln = _line(sd, "parameters") if sd is not None else s.line
+        for var, typ in s.parameters:
+            needed.add(typ)
+            if typ not in declared:
+                c.error(
+                    f"{what} {s.name!r}: parameter {var} of undeclared type {typ!r} (no object, "
+                    "place, agent or supertype has it)",
+                    ln,
+                    domain_src,
+                )
+    for o in world.objects:
+        chain = _chain(o.type, world.supertypes)
+        if not any(t in needed for t in chain) and not _type_used(o.type, graph, domain):
+            c.error(
+                f"object {o.name!r} of unknown type {o.type!r} (the domain's types: "
+                f"{', '.join(sorted(needed - {'agent'})) or 'none'}; or map it under "
+                "world.supertypes)",
+                _object_line(c, o.name),
+            )
+    # hyper-arcs: known actions, some agent able to do each
+    for key in graph.used_keys():
+        g = graph.graphs[key]
+        for h in g.hyperarcs.values():
+            src = g.source or c.path
+            for text in h.actions:
+                try:
+                    lit = parse_literal(text, str(src), h.line)
+                except FormatError as exc:
+                    c.from_format_error(exc)
+                    continue
+                schema = domain.actions.get(lit.predicate)
+                if schema is None:
+                    c.error(
+                        f"hyper-arc {h.name!r}: unknown action {lit.predicate!r} (actions: "
+                        f"{', '.join(sorted(domain.actions)) or 'none'})",
+                        h.line,
+                        src,
+                    )
+                    continue
+                if len(lit.args) != len(schema.parameters):
+                    c.error(
+                        f"hyper-arc {h.name!r}: {text!r}: {schema.name} takes "
+                        f"{len(schema.parameters)} arguments, got {len(lit.args)}",
+                        h.line,
+                        src,
+                    )
+                    continue
+                for term in lit.args:
+                    if not term.startswith("?") and term not in _constants(world, domain):
+                        c.error(
+                            f"hyper-arc {h.name!r}: {text!r}: {term!r} is no object, place or "
+                            "agent of the scenario",
+                            h.line,
+                            src,
+                        )
+                if not _someone_can(schema, lit, domain):
+                    c.error(
+                        f"hyper-arc {h.name!r}: no declared agent can do {text!r} "
+                        f"(agents: {', '.join(domain.agents) or 'none'})",
+                        h.line,
+                        src,
+                    )
+            for pname in _node_processes(g):
+                if pname not in domain.processes:
+                    c.error(
+                        f"graph {key!r}: unknown process {pname!r} (processes: "
+                        f"{', '.join(sorted(domain.processes)) or 'none'})",
+                        g.root_line,
+                        src,
+                    )
+    # predicates that can never become true (warning)
+    makeable: set[str] = {lit.predicate for lit in world.facts}
+    for _, s in schemas:
+        makeable.update(lit.predicate for lit in s.add)
+    for o in world.objects:
+        makeable.update(_chain(o.type, world.supertypes))
+    makeable.update(declared)
+    reported: set[str] = set()
+
+    def need(lits: Iterable[Literal], where: str, line: int | None, src: Any) -> None:
+        for lit in lits:
+            if lit.negated or lit.predicate in makeable or lit.predicate in reported:
+                continue
+            reported.add(lit.predicate)
+            c.warn(
+                f"{where}: predicate {lit.predicate!r} is in no fact and no effect: "
+                f"{lit} can never become true",
+                line,
+                src,
+            )
+
+    for key in graph.used_keys():
+        g = graph.graphs[key]
+        for n in g.nodes.values():
+            if n.formula:
+                need(n.formula, f"node {n.name!r}", n.line, g.source or c.path)
+    for what, s in schemas:
+        need(s.pre, f"{what} {s.name!r}: precondition", s.line, domain_src)
+        need(s.until, f"{what} {s.name!r}: end condition", s.line, domain_src)
+
+
+def _object_line(c: _Checker, name: str) -> int | None:
+    from flexhrc.representation.formats.yaml_format import read_yaml
+
+    try:
+        doc = read_yaml(c.path)
+        return _line(doc["world"]["objects"], name)
+    except (FormatError, KeyError, TypeError):
+        return None
+
+
+def _chain(typ: str, supertypes: Mapping[str, str]) -> list[str]:
+    chain = [typ]
+    while chain[-1] in supertypes and supertypes[chain[-1]] not in chain:
+        chain.append(supertypes[chain[-1]])
+    return chain
+
+
+def _type_used(typ: str, graph: HierarchicalGraph, domain: Domain) -> bool:
+    """A type used as a unary predicate in a node formula or a precondition counts as known."""
+    for key in graph.used_keys():
+        for n in graph.graphs[key].nodes.values():
+            if n.formula and any(lit.predicate == typ and len(lit.args) == 1 for lit in n.formula):
+                return True
+    for s in [*domain.actions.values(), *domain.processes.values()]:
+        if any(lit.predicate == typ and len(lit.args) == 1 for lit in s.pre):
+            return True
+    return False
+
+
+def _constants(world: WorldSpec, domain: Domain) -> set[str]:
+    return {o.name for o in world.objects} | set(world.places) | set(domain.agents)
+
+
+def _someone_can(schema: ActionSchema, lit: Literal, domain: Domain) -> bool:
+    spec = schema.agents
+    if spec.mode in ("single", "joint"):
+        return all(n in domain.agents for n in spec.names) and bool(spec.names)
+    idx = schema.variables.index(str(spec.variable))
+    term = lit.args[idx]
+    if not term.startswith("?"):
+        agent = domain.agents.get(term)
+        typ = schema.parameters[idx][1]
+        return agent is not None and (typ == "agent" or typ in agent.types or typ == agent.name)
+    return bool(domain.capable(schema))
+
+
+def _node_processes(g: AndOrGraph) -> list[str]:
+    out = []
+    for n in g.nodes.values():
+        for p in n.processes:
+            try:
+                out.append(parse_literal(p).predicate)
+            except FormatError:
+                out.append(p)
+    return out
+
+
+def parse_facts(items: Iterable[str]) -> tuple[Literal, ...]:
+    return parse_conjunction(list(items))

@@ -1,0 +1,231 @@
+"""Generic simulated operators: they read the graph and the domain, not a script of the task.
+
+A :class:`SimulatedOperator` plays one human agent of the domain in a
+:class:`~flexhrc.taskmanager.CooperationRun`. It sees what the Task Manager sees — the feasible
+hyper-arcs with their costs (eq. 10) and the suggestions addressed to it — and the knowledge
+base (what lies where). It always follows a suggestion. Besides, per profile, it acts on its
+own on the hyper-arcs it may do (every action of A(h) doable by a human, as the domain's
+``agents`` declare):
+
+* ``passive`` — only when asked;
+* ``takeover`` — takes every cooperation step it can, at once (paper Fig. 10);
+* ``cooperative`` — takes one now and then (half of the time, after 0.5-2 s; Fig. 11);
+* ``random`` — acts at random moments (0-6 s, 40 % of the steps) with random objects.
+
+A *step* is the parent node its hyper-arcs lead to: the operator decides once per step, in the
+order the steps become reachable (for the table: bolt 1, bolt 2, ...). ``takes`` scripts it
+instead: it takes exactly the K-th steps listed (1-based), whatever the profile — the paper's
+Figs. 11 and 12 in tests and demos.
+
+Its own choice of objects: the hyper-arc's decision tree restricted to this operator, objects
+that no running execution reserves first, then the nearest to its hand (``random``: any). Two
+operators never work on one object at once: a step is not taken while its objects are
+reserved, and an action on an object another agent holds (the domain's ``on_stop.holding``
+fact) fails — the operator gives up and the Task Manager continues.
+"""
+
+from __future__ import annotations
+
+import math
+import random
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+from flexhrc.knowledge import KnowledgeBase
+from flexhrc.logic import apply_substitution
+from flexhrc.taskmanager.decision import DecisionTree
+from flexhrc.taskmanager.domain import Domain, GroundAction
+
+if TYPE_CHECKING:
+    from flexhrc.taskmanager.manager import TaskManager
+
+PROFILES = ("passive", "takeover", "cooperative", "random")
+
+
+@dataclass
+class OperatorPlan:
+    """What an operator is doing: the ground actions, the next one, and why."""
+
+    steps: list[GroundAction]
+    index: int = 0
+    suggested: bool = False
+    element: str | None = None
+
+
+@dataclass
+class Intention:
+    """An operator decided to act on its own on ``hyperarc`` (reaching ``step``)."""
+
+    hyperarc: str
+    step: str
+    delay_s: float
+
+
+@dataclass
+class SimulatedOperator:
+    """One simulated human agent (see the module docstring)."""
+
+    name: str
+    profile: str = "passive"
+    seed: int = 0
+    takes: set[int] | None = None
+    rng: random.Random = field(init=False)
+    plan: OperatorPlan | None = None
+    steps_seen: list[str] = field(default_factory=list)  # target nodes, in order of appearance
+    decided: set[str] = field(default_factory=set)
+
+    def __post_init__(self) -> None:
+        if self.profile not in PROFILES:
+            from flexhrc.errors import FlexhrcError
+
+            raise FlexhrcError(
+                f"unknown human profile {self.profile!r}; choose one of {', '.join(PROFILES)}"
+            )
+        self.rng = random.Random(self.seed)
+
+    @property
+    def acts_alone(self) -> bool:
+        return self.profile != "passive" or self.takes is not None
+
+    # -- what it may do -------------------------------------------------------------------
+    def may_do(self, tm: TaskManager, hyperarc: str) -> bool:
+        """Every action of A(h) can be done by this operator (alone)."""
+        actions = tm.actions_of(hyperarc)
+        if not actions:
+            return False
+        for text in actions:
+            schema, terms = tm.domain.invocation(text)
+            if not tm.domain.human_may_do(schema):
+                return False
+            spec = schema.agents
+            if spec.mode == "single" and self.name not in spec.names:
+                return False
+            if spec.mode == "choice":
+                term = terms[schema.variables.index(str(spec.variable))]
+                if not term.startswith("?") and term != self.name:
+                    return False
+                typ = dict(schema.parameters)[str(spec.variable)]
+                if self.name not in [a.name for a in tm.domain.agents_of_type(typ)]:
+                    return False
+        return True
+
+    def options(self, tm: TaskManager) -> dict[str, list[tuple[float, str]]]:
+        """Feasible hyper-arcs it may do and nobody human does yet, by the step they reach."""
+        running_human = {e for e, ex in tm.executions.items() if ex.owner == "human"}
+        out: dict[str, list[tuple[float, str]]] = {}
+        for h, cost in sorted(tm.feasible_hyperarcs().items(), key=lambda kv: (kv[1], kv[0])):
+            if h in running_human or not self.may_do(tm, h):
+                continue
+            out.setdefault(tm.parent_of(h), []).append((cost, h))
+        return out
+
+    # -- deciding on its own ----------------------------------------------------------------
+    def consider(self, tm: TaskManager) -> Intention | None:
+        """Called whenever something changed: decide (once per step) whether to act alone."""
+        if not self.acts_alone or self.plan is not None or tm.done:
+            return None
+        if any(ex.owner == "human" and self.name in ex.agents for ex in tm.executions.values()):
+            return None
+        for step, arcs in self.options(tm).items():
+            if step not in self.steps_seen:
+                self.steps_seen.append(step)
+            if step in self.decided:
+                continue
+            self.decided.add(step)
+            k = self.steps_seen.index(step) + 1
+            if self.takes is not None:
+                act, delay = k in self.takes, 0.0
+            elif self.profile == "takeover":
+                act, delay = True, 0.0
+            elif self.profile == "cooperative":
+                act, delay = self.rng.random() < 0.5, self.rng.uniform(0.5, 2.0)
+            else:  # random
+                act, delay = self.rng.random() < 0.4, self.rng.uniform(0.0, 6.0)
+            if not act:
+                continue
+            hyperarc = self.rng.choice(arcs)[1] if self.profile == "random" else arcs[0][1]
+            self.plan = OperatorPlan([], 0, False, None)  # thinking
+            return Intention(hyperarc, step, delay)
+        return None
+
+    def start_own(
+        self, tm: TaskManager, kb: KnowledgeBase, intention: Intention
+    ) -> list[GroundAction] | None:
+        """After thinking: the ground actions it now does alone (None: it gives up)."""
+        if self.plan is None or self.plan.suggested:
+            return None
+        options = self.options(tm).get(intention.step, [])
+        arcs = [h for _, h in options]
+        if not arcs:  # meanwhile someone else got there first
+            self.plan = None
+            return None
+        hyperarc = intention.hyperarc if intention.hyperarc in arcs else arcs[0]
+        branch = self._choose_branch(tm, kb, hyperarc)
+        if branch is None:
+            self.plan = None
+            return None
+        self.plan = OperatorPlan(list(branch), 0, False, None)
+        return self.plan.steps
+
+    def _choose_branch(
+        self, tm: TaskManager, kb: KnowledgeBase, hyperarc: str
+    ) -> list[GroundAction] | None:
+        actions = tm.actions_of(hyperarc)
+        constraints = tm.constraints_of(hyperarc)
+        reserved = tm.reserved_objects()
+        # a object a robot only plans to use is still free to take; prefer the others
+        for avoid in (reserved, set()):
+            tree = DecisionTree.build(
+                hyperarc,
+                actions,
+                constraints,
+                tm.domain,
+                kb,
+                available_agents=[self.name],
+                reserved=avoid,
+                binding=tm.binding_of(hyperarc),
+            )
+            branches = [b for b in tree.branches if not self._held_by_other(kb, tm.domain, b.steps)]
+            if branches:
+                break
+        else:
+            return None
+        if self.profile == "random":
+            return list(self.rng.choice(branches).steps)
+        hand = kb.position(self.name) if self.name in kb.objects else (1.1, 0.0, 0.1)
+
+        def distance(steps: list[GroundAction]) -> tuple[float, str]:
+            first = next(
+                (a for s in steps for a in s.args if a in kb.objects and a not in tm.domain.agents),
+                None,
+            )
+            if first is None:
+                return (0.0, "")
+            return (math.dist(hand, kb.position(first)), first)
+
+        return list(min((b.steps for b in branches), key=distance))
+
+    # -- following the Task Manager ----------------------------------------------------------
+    def follow(self, element: str, actions: list[GroundAction]) -> None:
+        """A suggestion addressed to it: it drops its own idea and does what is asked."""
+        self.plan = OperatorPlan(list(actions), 0, True, element)
+
+    def holder_of(self, kb: KnowledgeBase, domain: Domain, step: GroundAction) -> str | None:
+        """Another agent holding an object this step works on (then the step cannot be done)."""
+        return self._held_by_other(kb, domain, [step])
+
+    def _held_by_other(
+        self, kb: KnowledgeBase, domain: Domain, steps: list[GroundAction]
+    ) -> str | None:
+        rule = domain.on_stop
+        objects = {a for s in steps for a in s.args if a in kb.objects and a not in domain.agents}
+        for obj in objects:
+            probe = apply_substitution(rule.holding, {rule.object_var: obj})
+            for sub in kb.query([probe]):
+                holder = sub.get(rule.agent_var)
+                if holder is not None and holder != self.name:
+                    return holder
+        return None
+
+
+__all__ = ["PROFILES", "Intention", "OperatorPlan", "SimulatedOperator"]

@@ -1,0 +1,125 @@
+"""Processes of a cell for the tests: the manager and agents as real `python -m flexhrc` runs."""
+
+from __future__ import annotations
+
+import json
+import sqlite3
+import subprocess
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from ..conftest import subprocess_env
+
+TABLE_NO_HUMAN = "scenario: table_assembly\nhuman: false\n"
+# legs 1 and 3 are within reach of the left arm only: without it, half the work waits for it
+TABLE_LEFT_ONLY = (
+    "scenario: table_assembly\nhuman: false\nreachable_only_by: {leg1: left, leg3: left}\n"
+)
+TABLE_HUMAN_BOLT = "scenario: table_assembly\nunreachable_bolts: [2]\n"  # the operator screws it
+
+
+def flexhrc(*args: str, log: Path | None = None) -> subprocess.Popen[str]:
+    """Start ``python -m flexhrc ARGS``: stdout piped, stderr to ``log`` (or piped)."""
+    err: Any = open(log, "w") if log is not None else subprocess.PIPE  # noqa: SIM115
+    return subprocess.Popen(
+        [sys.executable, "-m", "flexhrc", *args],
+        stdout=subprocess.PIPE,
+        stderr=err,
+        text=True,
+        env=subprocess_env(),
+    )
+
+
+def cell(scenario: str, port: int, store: Path, *extra: str, log: Path) -> subprocess.Popen[str]:
+    return flexhrc(
+        "cell",
+        scenario,
+        "--transport",
+        "zenoh",
+        "--agents",
+        "external",
+        "--listen",
+        f"tcp/127.0.0.1:{port}",
+        "--store",
+        str(store),
+        "--json",
+        "--wait",
+        "20",
+        *extra,
+        log=log,
+    )
+
+
+def robot(scenario: str, arm: str, port: int, log: Path, *extra: str) -> subprocess.Popen[str]:
+    return flexhrc(
+        "agent",
+        "robot",
+        scenario,
+        "--arm",
+        arm,
+        "--connect",
+        f"tcp/127.0.0.1:{port}",
+        *extra,
+        log=log,
+    )
+
+
+def human(scenario: str, name: str, port: int, log: Path) -> subprocess.Popen[str]:
+    return flexhrc(
+        "agent", "human", scenario, "--name", name, "--connect", f"tcp/127.0.0.1:{port}", log=log
+    )
+
+
+def rows(store: Path) -> list[tuple[int, float, str, dict[str, Any]]]:
+    """The store's events (read-only; empty while the file does not exist yet)."""
+    if not store.exists():
+        return []
+    try:
+        db = sqlite3.connect(f"file:{store}?mode=ro", uri=True, timeout=1.0)
+        try:
+            got = db.execute("SELECT seq, t, kind, body FROM events ORDER BY seq").fetchall()
+        finally:
+            db.close()
+    except sqlite3.OperationalError:
+        return []
+    return [(s, t, k, json.loads(b)) for s, t, k, b in got]
+
+
+def wait_until(
+    store: Path,
+    check: Callable[[list[tuple[int, float, str, dict[str, Any]]]], bool],
+    timeout: float,
+) -> list[tuple[int, float, str, dict[str, Any]]]:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        got = rows(store)
+        if check(got):
+            return got
+        time.sleep(0.005)
+    raise AssertionError(f"timed out after {timeout} s; store has {len(rows(store))} events")
+
+
+def finish(proc: subprocess.Popen[str], timeout: float = 60.0) -> dict[str, Any]:
+    """Wait for a `--json` run and return its document."""
+    out, _ = proc.communicate(timeout=timeout)
+    assert proc.returncode in (0, 1), f"exit {proc.returncode}"
+    return json.loads(out)
+
+
+def executed(log: Path) -> list[int]:
+    """Command ids a robot agent executed, from its trace."""
+    ids = []
+    for line in log.read_text().splitlines():
+        if "] execute cmd " in line:
+            ids.append(int(line.split("execute cmd ", 1)[1].split()[0]))
+    return ids
+
+
+def kill_all(procs: list[subprocess.Popen[str]]) -> None:
+    for p in procs:
+        if p.poll() is None:
+            p.kill()
+        p.wait(10)

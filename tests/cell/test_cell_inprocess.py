@@ -1,0 +1,131 @@
+"""The embedded default cell: one process, in-process bus, agents inside."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from flexhrc.cell import Cell, HumanAgent, RobotAgent, load_scenario
+from flexhrc.cell.components import execution_model
+from flexhrc.transport import InProcessBus
+
+from ..conftest import subprocess_env
+
+
+def run_cli(*args: str, timeout: float = 120) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "flexhrc", *args],
+        capture_output=True,
+        text=True,
+        env=subprocess_env(),
+        timeout=timeout,
+    )
+
+
+def test_default_cell_is_the_demo_cooperation() -> None:
+    cell = run_cli("cell", "table_assembly", "--json", "--quiet")
+    demo = run_cli("demo", "table", "--json", "--quiet")
+    assert cell.returncode == 0, cell.stderr
+    c, d = json.loads(cell.stdout), json.loads(demo.stdout)
+    assert set(d) - {"wall_s"} <= set(c)  # the keys of `flexhrc run --json`
+    for key in ("outcome", "robot_actions", "human_actions", "decisions", "legs_by_agent",
+                "by_agent", "simulator"):  # fmt: skip
+        assert c[key] == d[key], key
+    assert c["timing"]["total_s"] == d["timing"]["total_s"]
+    assert [h["hyperarc"] for h in c["solved_hyperarcs"]] == [
+        h["hyperarc"] for h in d["solved_hyperarcs"]
+    ]
+
+
+def _cell(scenario: Any) -> tuple[Cell, list[Any], InProcessBus]:
+    bus = InProcessBus()
+    cell = Cell(scenario, bus, liveliness=False, simulator=execution_model("analytic"))
+    agents: list[Any] = []
+    for a in scenario.domain().agents.values():
+        cls = HumanAgent if a.is_human else RobotAgent
+        agents.append(cls(a.name, scenario, bus, execution=execution_model("analytic")))
+    return cell, agents, bus
+
+
+def test_snapshot_is_json_and_human_input_drives_the_manager() -> None:
+    scenario = load_scenario("table_assembly")
+    cell, agents, bus = _cell(scenario)
+    snaps: list[dict[str, Any]] = []
+    told = []
+
+    def pump(timeout: float) -> None:
+        bus.flush()
+        for a in agents:
+            a.poll()
+        if not told:  # an operator at a panel: "I took leg2 and screwed it to bolt 1"
+            cell.human_input("pick_up(human, leg2)")
+            cell.human_input("screw(human, leg2, bolt_1)")
+            told.append(True)
+        snaps.append(json.loads(json.dumps(cell.snapshot())))
+
+    data = cell.run(pump=pump)
+    assert data["outcome"] == "solved"
+    assert data["legs_by_agent"]["human"] == 1
+    assert data["solved_hyperarcs"][0]["hyperarc"] == "human_1"
+    snap = snaps[-1]
+    assert {"outcome", "agents", "suggestions", "events_stored", "timeline", "knowledge"} <= set(
+        snap
+    )
+    assert set(snap["agents"]) == {"human", "left", "right"}
+    assert all({"alive", "available", "status"} <= set(a) for a in snap["agents"].values())
+    assert json.loads(json.dumps(cell.snapshot()))["outcome"] == "solved"
+
+
+def test_parallel_scenario_uses_every_arm() -> None:
+    scenario = load_scenario("parallel_assembly")
+    cell, agents, bus = _cell(scenario)
+
+    def pump(timeout: float) -> None:
+        bus.flush()
+        for a in agents:
+            a.poll()
+
+    data = cell.run(pump=pump)
+    assert data["outcome"] == "solved"
+    arms = [a for a in data["legs_by_agent"] if a.startswith("arm")]
+    assert len(arms) == 6 and all(data["legs_by_agent"][a] >= 1 for a in arms)
+    assert sum(data["legs_by_agent"].values()) == 12
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["cell", "table", "--agents", "external"], "--agents external needs --transport zenoh"),
+        (["cell", "table", "--resume"], "--resume needs --store"),
+        (["cell", "no_such_scenario"], "unknown scenario 'no_such_scenario'"),
+        (["cell", "table", "--realtime", "-1"], "--realtime must be"),
+        (["cell", "table", "--realtime", "nan"], "--realtime must be"),
+        (["cell", "table", "--connect", "tcp/127.0.0.1:1"], "go with --transport zenoh"),
+        (["cell", "table", "--store", "/no/such/dir/x.db"], "does not exist"),
+        (["cell", "table", "--transport", "zenoh", "--listen", "nonsense"], "tcp/HOST:PORT"),
+        (["agent", "robot", "table", "--arm", "middle", "--connect", "tcp/127.0.0.1:1"],
+         "--arm 'middle': no robot agent"),
+        (["agent", "human", "table", "--name", "left", "--connect", "tcp/127.0.0.1:1"],
+         "--name 'left': no human agent"),
+        (["agent", "human", "table", "--name", "human", "--profile", "takeover",
+          "--connect", "tcp/127.0.0.1:1"], "--profile 'takeover'"),
+        (["agent", "robot", "table", "--arm", "left"], "--connect ENDPOINT is needed"),
+    ],
+)  # fmt: skip
+def test_bad_arguments_are_one_clear_error(args: list[str], message: str, tmp_path: Path) -> None:
+    res = run_cli(*args, timeout=60)
+    assert res.returncode == 2, res.stderr
+    assert message in res.stderr
+    assert "Traceback" not in res.stderr
+
+
+def test_scenario_file_errors_name_the_file(tmp_path: Path) -> None:
+    bad = tmp_path / "s.yaml"
+    bad.write_text("scenario: table_assembly\nlegz: 3\n")
+    res = run_cli("cell", str(bad))
+    assert res.returncode == 2 and "s.yaml" in res.stderr and "legz" in res.stderr

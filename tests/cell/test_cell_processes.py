@@ -1,0 +1,211 @@
+"""Acceptance of the live cell (issue 11) with real processes over Zenoh on 127.0.0.1.
+
+Every process is `python -m flexhrc ...`; Zenoh listens on a random free loopback port with
+multicast scouting off (flexhrc.transport.zenoh.zenoh_config's default).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import time
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+pytest.importorskip("zenoh")
+
+from flexhrc.transport.zenoh import ZenohTransport, free_tcp_port, loopback_config
+
+from .helpers import (
+    TABLE_HUMAN_BOLT,
+    TABLE_LEFT_ONLY,
+    TABLE_NO_HUMAN,
+    cell,
+    executed,
+    finish,
+    flexhrc,
+    human,
+    kill_all,
+    robot,
+    rows,
+    wait_until,
+)
+
+pytestmark = pytest.mark.slow
+
+
+def reference(scenario: Path) -> dict[str, Any]:
+    """The same cooperation in one process (in-process bus, agents inside), uninterrupted."""
+    p = flexhrc("cell", str(scenario), "--json", "--quiet")
+    return finish(p)
+
+
+def test_multiprocess_cell_solves_the_table_assembly(tmp_path: Path) -> None:
+    scenario = tmp_path / "table.yaml"
+    scenario.write_text(TABLE_HUMAN_BOLT)
+    port = free_tcp_port()
+    store = tmp_path / "cell.db"
+    procs = [cell(str(scenario), port, store, log=tmp_path / "cell.err")]
+    procs += [robot(str(scenario), arm, port, tmp_path / f"{arm}.err") for arm in ("left", "right")]
+    procs.append(human(str(scenario), "human", port, tmp_path / "human.err"))
+    try:
+        data = finish(procs[0])
+        for p in procs[1:]:
+            assert p.wait(15) == 0  # every agent leaves when the cell announces its end
+    finally:
+        kill_all(procs)
+    assert data["outcome"] == "solved", (tmp_path / "cell.err").read_text()[-2000:]
+    # the keys of `flexhrc run --json`
+    for key in ("reason", "robot_actions", "human_actions", "decisions", "timing"):
+        assert key in data
+    assert data["human_actions"] == 2  # the operator process screwed the unreachable bolt
+    assert data["legs_by_agent"]["human"] == 1
+    assert data["legs_by_agent"]["left"] + data["legs_by_agent"]["right"] == 3
+    # the same decisions as one process: the discrete-event loop orders answers by time
+    ref = reference(scenario)
+    assert data["knowledge"] == ref["knowledge"]
+    assert data["timing"]["total_s"] == ref["timing"]["total_s"]
+    seqs = [r[0] for r in rows(store)]
+    assert seqs == list(range(1, len(seqs) + 1))
+
+
+def test_robot_killed_mid_action_is_lost_replanned_and_used_again(tmp_path: Path) -> None:
+    scenario = tmp_path / "table.yaml"
+    scenario.write_text(TABLE_LEFT_ONLY)
+    port = free_tcp_port()
+    store = tmp_path / "cell.db"
+    # real time x20: an action lasts about 0.1 s, so the kill lands in the middle of one
+    # (the analytic simulator: the kinematic one does not model reachable_only_by)
+    analytic = ("--simulator", "analytic")
+    procs = [
+        cell(str(scenario), port, store, "--realtime", "20", *analytic, log=tmp_path / "cell.err")
+    ]
+    left = robot(str(scenario), "left", port, tmp_path / "left.err", *analytic)
+    procs += [left, robot(str(scenario), "right", port, tmp_path / "right.err", *analytic)]
+    try:
+        got = wait_until(
+            store, lambda r: any(k == "command" and "left" in b["agents"] for _, _, k, b in r), 30
+        )
+        killed_cmd = next(b["id"] for _, _, k, b in got if k == "command")
+        killed_at = time.time()
+        os.kill(left.pid, signal.SIGKILL)
+        got = wait_until(store, lambda r: any(k == "agent_down" for _, _, k, _ in r), 10)
+        down = next(b for _, _, k, b in got if k == "agent_down")
+        assert down["agent"] == "left"
+        assert down["wall"] - killed_at < 2.0  # the liveliness token went with the process
+        # its running command failed as "agent lost"; the right arm took the work over
+        lost = [b for _, _, k, b in got if k == "ack" and b.get("reason") == "agent lost"]
+        assert [b["id"] for b in lost][:1] == [killed_cmd]
+        again = robot(str(scenario), "left", port, tmp_path / "left2.err", *analytic)
+        procs.append(again)
+        data = finish(procs[0])
+    finally:
+        kill_all(procs)
+    assert data["outcome"] == "solved", (tmp_path / "cell.err").read_text()[-2000:]
+    events = rows(store)
+    kinds = [k for _, _, k, _ in events]
+    assert kinds.index("agent_down") < kinds.index("agent_up")
+    up_seq = next(s for s, _, k, _ in events if k == "agent_up")
+    after = [b for s, _, k, b in events if k == "command" and s > up_seq and "left" in b["agents"]]
+    assert after, "the restarted left arm was never used again"
+    done = {b["id"] for _, _, k, b in events if k == "ack" and b["status"] == "done"}
+    assert any(c["id"] in done for c in after)
+    assert set(executed(tmp_path / "left2.err")) <= {c["id"] for c in after}
+
+
+def test_manager_killed_and_resumed_finishes_like_an_uninterrupted_run(tmp_path: Path) -> None:
+    scenario = tmp_path / "table.yaml"
+    scenario.write_text(TABLE_NO_HUMAN)
+    port = free_tcp_port()
+    store = tmp_path / "cell.db"
+    manager = cell(str(scenario), port, store, log=tmp_path / "cell.err")
+    arms = [robot(str(scenario), arm, port, tmp_path / f"{arm}.err") for arm in ("left", "right")]
+    procs = [manager, *arms]
+    try:
+        # mid-assembly: some commands answered, more to come (a 4-leg run has 24 commands)
+        wait_until(store, lambda r: sum(k == "ack" for _, _, k, _ in r) >= 8, 30)
+        os.kill(manager.pid, signal.SIGKILL)
+        manager.wait(10)
+        before = rows(store)
+        assert not any(k == "outcome" for _, _, k, _ in before), "killed too late"
+        resumed = cell(str(scenario), port, store, "--resume", log=tmp_path / "cell2.err")
+        procs.append(resumed)
+        data = finish(resumed)
+        for arm in arms:
+            assert arm.wait(15) == 0
+    finally:
+        kill_all(procs)
+    assert data["outcome"] == "solved", (tmp_path / "cell2.err").read_text()[-2000:]
+    assert data["cell"]["resumed"] is True
+    events = rows(store)
+    seqs = [s for s, *_ in events]
+    assert seqs == list(range(1, len(seqs) + 1))  # no gap across the crash
+    assert events[: len(before)] == before  # nothing stored before the crash was rewritten
+    ids = executed(tmp_path / "left.err") + executed(tmp_path / "right.err")
+    assert len(ids) == len(set(ids)), "a command id was executed twice"
+    commands = [b["id"] for _, _, k, b in events if k == "command"]
+    assert len(commands) == len(set(commands))
+    assert sorted(ids) == sorted(commands)  # ...and every command was executed once
+    ref = reference(scenario)
+    assert data["knowledge"] == ref["knowledge"]
+    assert data["robot_actions"] == ref["robot_actions"]
+    assert data["timing"]["total_s"] == ref["timing"]["total_s"]
+
+
+MALFORMED: list[tuple[str, Any]] = [
+    ("ack", {"v": 2, "type": "ack", "id": 1, "agent": "left", "status": "done", "t": 1.0}),
+    ("ack", {"v": 1, "type": "teleport", "id": 1}),
+    ("ack", {"v": 1, "type": "ack", "agent": "left", "status": "done", "t": 1.0}),
+    ("ack", {"v": 1, "type": "ack", "id": "one", "agent": "left", "status": "done", "t": 1.0}),
+    ("ack", {"v": 1, "type": "ack", "id": 1, "agent": "left", "status": "maybe", "t": 1.0}),
+    ("ack", {"v": 1, "type": "ack", "id": 1, "agent": "left", "status": "done", "t": -5}),
+    ("ack", {"v": 1, "type": "ack", "id": 999, "agent": "left", "status": "done", "t": 1.0}),
+    ("ack", [1, 2, 3]),
+    ("ack", b"\xff\xfe garbage \x00"),
+    ("ack", b'{"v": 1, "type": "ack", "id": 1, "t": NaN}'),
+    ("human", {"v": 1, "type": "human_action", "id": "x", "agent": "robot9", "action": "a()",
+               "t": 1.0}),
+    ("human", {"v": 1, "type": "human_action", "id": "y", "agent": "human",
+               "action": "fly(human, leg1)", "t": 1.0}),
+    ("human", {"v": 1, "type": "human_action", "id": True, "agent": "human",
+               "action": "pick_up(human, leg1)", "t": 1.0}),
+]  # fmt: skip
+
+
+def test_malformed_messages_are_dropped_and_logged(tmp_path: Path) -> None:
+    scenario = tmp_path / "table.yaml"
+    scenario.write_text(TABLE_HUMAN_BOLT)
+    port = free_tcp_port()
+    store = tmp_path / "cell.db"
+    procs = [cell(str(scenario), port, store, "--realtime", "10", log=tmp_path / "cell.err")]
+    procs += [robot(str(scenario), arm, port, tmp_path / f"{arm}.err") for arm in ("left", "right")]
+    procs.append(human(str(scenario), "human", port, tmp_path / "human.err"))
+    bus = ZenohTransport(loopback_config(connect=port), prefix="flexhrc/default")
+    try:
+        got = wait_until(store, lambda r: any(k == "ack" for _, _, k, _ in r), 30)
+        first_ack = next(b for _, _, k, b in got if k == "ack")
+        sent = 0
+        for topic, payload in MALFORMED:
+            if isinstance(payload, bytes):
+                bus.publish_bytes(topic, payload)
+            else:
+                bus.publish(topic, payload)
+            sent += 1
+        # a duplicate of an ack the cell already handled
+        bus.publish("ack", {"v": 1, "type": "ack", **first_ack})
+        sent += 1
+        data = finish(procs[0])
+    finally:
+        bus.close()
+        kill_all(procs)
+    log = (tmp_path / "cell.err").read_text()
+    assert data["outcome"] == "solved", log[-2000:]
+    assert data["cell"]["dropped"] == sent
+    assert log.count("dropped a message:") == sent
+    assert "duplicate ack" in log and "unknown command 999" in log and "version" in log
+    ref = reference(scenario)
+    assert data["knowledge"]["facts"] == ref["knowledge"]["facts"]
+    assert json.dumps(data["legs_by_agent"]) == json.dumps(ref["legs_by_agent"])
