@@ -22,6 +22,7 @@ from pathlib import Path
 import pytest
 
 from flexhrc.cell import read_store
+from flexhrc.errors import FormatError
 from flexhrc.ros2.transport import Ros2Transport
 from tests.ros2.conftest import wait_for
 from tests.ros2.rclpy_client import PlainClient
@@ -166,3 +167,44 @@ def test_sigkill_of_an_arm_node_mid_action_is_replanned_and_solved(
     assert any(e.body["agents"] == ["right"] for e in after)
     assert all(e.body["agents"] == ["right"] or e.body["id"] in lost_ids for e in after)
     assert data["legs_by_agent"]["left"] == 0
+
+
+def test_the_manager_node_killed_and_resumed_from_its_store_solves_without_repeating(
+    tmp_path: Path, ros_env: dict[str, str], domain_id: int, cell_name: str
+):
+    """`--store` / `--resume` over ROS 2: the same event sourcing as `flexhrc cell`."""
+    common = ["table_assembly", "--cell", cell_name]
+    store = tmp_path / "c.db"
+    procs: list[subprocess.Popen[str]] = []
+    try:
+        for arm in ("left", "right"):
+            procs.append(_node(ros_env, "arm", *common, "--arm", arm, "--json",
+                               log=tmp_path / f"{arm}.log"))  # fmt: skip
+        procs.append(_node(ros_env, "human", *common, "--name", "human", log=tmp_path / "h.log"))
+        first = _node(ros_env, "cell", *common, "--realtime", "4", "--store", str(store),
+                      log=tmp_path / "manager.log")  # fmt: skip
+        procs.append(first)
+
+        def commands() -> int:
+            try:
+                return sum(1 for e in read_store(store) if e.kind == "command")
+            except FormatError:  # not created yet
+                return 0
+
+        assert wait_for(lambda: commands() >= 6, 90.0)
+        first.send_signal(signal.SIGKILL)
+        first.wait(10)
+        second = _node(ros_env, "cell", *common, "--realtime", "4", "--store", str(store),
+                       "--resume", "--json", log=tmp_path / "manager2.log")  # fmt: skip
+        procs.append(second)
+        data = _finish(second, 120, tmp_path)
+        arms = [json.loads(p.communicate(timeout=30)[0]) for p in procs[:2]]
+    finally:
+        _stop_all(procs)
+    assert data["outcome"] == "solved" and data["cell"]["resumed"] is True
+    events = read_store(store)
+    assert [e.seq for e in events] == list(range(1, len(events) + 1))  # no gap
+    for arm in arms:
+        assert arm["outcome"] == "solved"
+        assert len(arm["executed"]) == len(set(arm["executed"])), arm  # no id executed twice
+    assert sum(len(a["executed"]) for a in arms) == data["robot_actions"]
