@@ -59,3 +59,11 @@ def wait_for(
             return True
         time.sleep(0.005)
     return condition()
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    # rosidl's parser imports lark, which still uses the deprecated sre_* modules
+    for mod in ("sre_parse", "sre_constants"):
+        config.addinivalue_line(
+            "filterwarnings", f"ignore:module '{mod}' is deprecated:DeprecationWarning"
+        )
