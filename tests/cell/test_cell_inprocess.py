@@ -129,3 +129,76 @@ def test_scenario_file_errors_name_the_file(tmp_path: Path) -> None:
     bad.write_text("scenario: table_assembly\nlegz: 3\n")
     res = run_cli("cell", str(bad))
     assert res.returncode == 2 and "s.yaml" in res.stderr and "legz" in res.stderr
+
+
+class Crash(Exception):
+    pass
+
+
+@pytest.mark.parametrize("crash_after", [6, 33, 50])  # 33: the suggestion is open
+def test_resume_in_one_process_ends_like_the_uninterrupted_run(
+    tmp_path: Path, crash_after: int
+) -> None:
+    """The manager dies after `crash_after` stored events (one with the operator's suggestion
+    open); a fresh cell resumes from the store and ends in the same state."""
+    from flexhrc.cell import EventStore
+    from flexhrc.cell.store import read_store
+    from flexhrc.scenarios.table_assembly import TableScenario
+
+    scenario = TableScenario(unreachable_bolts=(2,))
+
+    def pumped(cell: Cell, agents: list[Any], bus: InProcessBus, limit: int | None) -> Any:
+        def pump(timeout: float) -> None:
+            if limit is not None and len(cell.events) >= limit:
+                raise Crash
+            bus.flush()
+            for a in agents:
+                a.poll()
+
+        return pump
+
+    ref_cell, ref_agents, ref_bus = _cell(scenario)
+    ref = ref_cell.run(pump=pumped(ref_cell, ref_agents, ref_bus, None))
+    assert ref["human_actions"] == 2
+
+    path = tmp_path / "s.db"
+    store = EventStore(path)
+    bus = InProcessBus()
+    cell = Cell(scenario, bus, store=store, liveliness=False, simulator=execution_model("analytic"))
+    agents = [
+        (HumanAgent if a.is_human else RobotAgent)(
+            a.name, scenario, bus, execution=execution_model("analytic")
+        )
+        for a in scenario.domain().agents.values()
+    ]
+    with pytest.raises(Crash):
+        cell.run(pump=pumped(cell, agents, bus, crash_after))
+    store.close()
+    n = len(read_store(path))
+    store = EventStore(path, resume=True)
+    bus2 = InProcessBus()
+    again = Cell(
+        scenario,
+        bus2,
+        store=store,
+        resume=True,
+        liveliness=False,
+        simulator=execution_model("analytic"),
+    )
+    # the agents are new processes too here: they execute what was outstanding
+    agents2 = [
+        (HumanAgent if a.is_human else RobotAgent)(
+            a.name, scenario, bus2, execution=execution_model("analytic")
+        )
+        for a in scenario.domain().agents.values()
+    ]
+    data = again.run(pump=pumped(again, agents2, bus2, None))
+    store.close()
+    assert data["outcome"] == "solved" and data["cell"]["resumed"]
+    assert data["knowledge"] == ref["knowledge"]
+    assert data["timing"]["total_s"] == ref["timing"]["total_s"]
+    assert data["human_actions"] == ref["human_actions"]
+    events = read_store(path)
+    assert [e.seq for e in events] == list(range(1, len(events) + 1)) and len(events) > n
+    ids = [e.body["id"] for e in events if e.kind == "command"]
+    assert len(ids) == len(set(ids))

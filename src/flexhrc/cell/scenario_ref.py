@@ -34,7 +34,7 @@ _TABLE_KEYS = {
     "profile",
     "reachable_only_by",
 }
-_PARALLEL_KEYS = {"scenario", "arms", "humans", "legs", "seed"}
+_PARALLEL_KEYS = {"scenario", "arms", "humans", "legs", "human_legs", "chain", "seed"}
 
 
 def load_scenario(spec: str, *, seed: int = 0) -> Any:
@@ -90,6 +90,8 @@ def _from_file(path: Path, seed: int) -> Any:
                 arms=int(doc.get("arms", 6)),
                 humans=int(doc.get("humans", 3)),
                 legs=int(doc.get("legs", 12)),
+                human_legs=int(doc.get("human_legs", 0)),
+                chain=bool(doc.get("chain", False)),
                 seed=int(doc.get("seed", seed)),
             )
         else:

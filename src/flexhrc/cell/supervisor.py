@@ -576,9 +576,18 @@ class Cell:
                 if st.alive and st.available:  # the others resend when their token arrives
                     self._resend(name)
             self._fail_lost()
+        resumed_at = time.monotonic() if self.resumed else None
         deadline = time.monotonic() + max_wall_s
         idle_since: float | None = None
         while not self.tm.done:
+            if resumed_at is not None and time.monotonic() - resumed_at > agents_timeout:
+                # an agent that died while the manager was down never shows its token again
+                resumed_at = None
+                for name, st in self.agents.items():
+                    if not st.seen and st.available:
+                        if progress:
+                            progress(f"agent {name} did not come back after {agents_timeout:g} s")
+                        self._agent_down(name)
             if self.step():
                 idle_since = None
                 continue

@@ -3,7 +3,8 @@
 The table assembly fills its bolts in a fixed order, so at most one arm screws at a time. Here
 ``legs`` sockets are independent: the root ``assembled`` is reached by one immediate hyper-arc
 from every ``connected_k``, and each ``connected_k`` has the robot and the human paths of the
-table assembly (``robot_k`` cost 1, ``human_k`` cost 3) from its own leg and socket nodes. The
+table assembly (``robot_k`` cost 1, ``human_k`` cost 3) from its own leg (``kit(leg, bolt_k)``)
+and socket nodes. The first ``human_legs`` legs lie where no arm reaches, so operators fix them. The
 arms (``arm1`` ...) stand side by side along the bench, each reaching the sockets and legs in
 front of it and its neighbours'; the operators (``op1`` ...) stand opposite. Branches are simulated
 with the analytic simulator (the kinematic one models the dual-arm robot only).
@@ -19,10 +20,11 @@ from flexhrc.errors import FlexhrcError
 from flexhrc.knowledge import KnowledgeBase
 from flexhrc.logic import parse_conjunction
 from flexhrc.representation import AndOrGraph, HierarchicalGraph, Node
-from flexhrc.scenarios.table_assembly import HUMAN, ROBOT_DIRECT
+from flexhrc.scenarios.table_assembly import ROBOT_DIRECT
 from flexhrc.taskmanager.domain import Domain
 
 ARM_SPACING = 0.5  # metres between neighbouring shoulders, along y
+HUMAN = ("pick_up(?op, ?leg)", "screw(?op, ?leg, {bolt})")  # any of the operators
 
 
 @dataclass
@@ -31,6 +33,8 @@ class ParallelScenario:
     humans: int = 3
     legs: int = 12
     seed: int = 0
+    human_legs: int = 0  # the first ones lie where no arm reaches: the operators fix them
+    chain: bool = False  # socket k only after socket k-1 (one long sequence: long event logs)
     name: str = "parallel_assembly"
     simulator: str = "analytic"
 
@@ -40,27 +44,39 @@ class ParallelScenario:
                 raise FlexhrcError(f"{field} must be in {low}..64, got {value}")
         if not 1 <= self.legs <= 256:
             raise FlexhrcError(f"legs must be in 1..256, got {self.legs}")
+        if not 0 <= self.human_legs <= self.legs:
+            raise FlexhrcError(
+                f"human_legs must be in 0..legs ({self.legs}), got {self.human_legs}"
+            )
+        if self.human_legs and not self.humans:
+            raise FlexhrcError("human_legs needs humans >= 1")
 
     def _y(self, i: int, n: int) -> float:
         return round((i - (n - 1) / 2) * ARM_SPACING, 4)
 
     def graph(self) -> HierarchicalGraph:
-        g = AndOrGraph("ParallelAssembly", root="assembled")
-        g.add_node(Node("assembled", 0, None))
+        root = f"connected_{self.legs}" if self.chain else "assembled"
+        g = AndOrGraph("ParallelAssembly", root=root)
+        if not self.chain:
+            g.add_node(Node("assembled", 0, None))
         for k in range(1, self.legs + 1):
             bolt = f"bolt_{k}"
-            g.add_node(Node(f"leg_{k}", 0, parse_conjunction("leg(?leg) & on_table(?leg)")))
-            g.add_node(Node(f"socket_{k}", 0, parse_conjunction(f"place({bolt})")))
+            # leg k belongs to socket k (a kit): the sockets never compete for legs
+            g.add_node(Node(f"leg_{k}", 0, parse_conjunction(f"leg(?leg) & kit(?leg, {bolt})")))
+            if not self.chain or k == 1:
+                g.add_node(Node(f"socket_{k}", 0, parse_conjunction(f"place({bolt})")))
             g.add_node(Node(f"connected_{k}", 0, parse_conjunction(f"filled({bolt})")))
-            children = [f"leg_{k}", f"socket_{k}"]
+            before = f"connected_{k - 1}" if self.chain and k > 1 else f"socket_{k}"
+            children = [f"leg_{k}", before]
             fill = tuple(a.format(bolt=bolt) for a in ROBOT_DIRECT)
             human = tuple(a.format(bolt=bolt) for a in HUMAN)
             g.add_hyperarc(f"robot_{k}", children, f"connected_{k}", 1, actions=fill)
             if self.humans:
                 g.add_hyperarc(f"human_{k}", children, f"connected_{k}", 3, actions=human)
-        g.add_hyperarc(
-            "finish", [f"connected_{k}" for k in range(1, self.legs + 1)], "assembled", 0
-        )
+        if not self.chain:
+            g.add_hyperarc(
+                "finish", [f"connected_{k}" for k in range(1, self.legs + 1)], "assembled", 0
+            )
         h = HierarchicalGraph.single(g)
         h.validate()
         return h
@@ -104,7 +120,9 @@ class ParallelScenario:
             kb.add_object(f"bolt_{k}", "place", (0.45, y, 0.0))
             leg = f"leg{k}"
             p = (round(rng.uniform(0.3, 0.4), 3), round(y + rng.uniform(-0.05, 0.05), 3), 0.0)
-            kb.add_object(leg, "leg", p, {"length": 0.4, "diameter": 0.04})
+            attrs: dict[str, Any] = {"reachable_by": []} if k <= self.human_legs else {}
+            kb.add_object(leg, "leg", p, {"length": 0.4, "diameter": 0.04}, **attrs)
             kb.assert_fact("on_table", leg)
+            kb.assert_fact("kit", leg, f"bolt_{k}")
         kb.add_object("middle", "place", (0.7, 0.0, 0.1))
         return kb
