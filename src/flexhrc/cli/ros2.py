@@ -359,7 +359,7 @@ def cmd_cell(args: argparse.Namespace) -> int:
         interfaces.targets = {}
         interfaces.publish_markers()
         cell.close()
-        transport.wait_matched("state", timeout=0.5)  # let the end message leave
+        # (closing the transport waits until the end message is acknowledged)
     finally:
         if store is not None:
             store.close()

@@ -56,6 +56,7 @@ _String = require("std_msgs.msg", "the ROS 2 bridge").String
 _qos = require("rclpy.qos")
 _executors = require("rclpy.executors")
 _signals = require("rclpy.signals")
+_Duration = require("rclpy.duration").Duration
 
 __all__ = [
     "LIVELINESS_TOPIC",
@@ -555,9 +556,17 @@ class Ros2Transport(Transport):
         for token in tokens:
             token.active = False
             self._beat(token.key, False)
-        if tokens:  # let the withdrawals leave before the participant goes
-            self.wait_matched(LIVELINESS_TOPIC, timeout=0.0)
-            time.sleep(0.02)
+        # what was published last (an ack, the cell's end, the withdrawals) must reach its
+        # subscribers before the participant goes: wait until they acknowledged it, briefly
+        with self._lock:
+            pubs = [self._live_pub, *self._publishers.values()]
+        deadline = time.monotonic() + 1.0
+        for pub in pubs:
+            left = deadline - time.monotonic()
+            if left <= 0:
+                break
+            with contextlib.suppress(Exception):
+                pub.wait_for_all_acked(_Duration(seconds=left))
         self._closed = True
         self._thread.join(timeout=2.0)
         try:
