@@ -208,3 +208,60 @@ def test_the_manager_node_killed_and_resumed_from_its_store_solves_without_repea
         assert arm["outcome"] == "solved"
         assert len(arm["executed"]) == len(set(arm["executed"])), arm  # no id executed twice
     assert sum(len(a["executed"]) for a in arms) == data["robot_actions"]
+
+
+def test_an_unsuggested_human_action_from_the_plain_client_is_followed(
+    tmp_path: Path, ros_env: dict[str, str], domain_id: int, cell_name: str
+):
+    """The operator takes a leg on its own while an arm works on the first bolt (paper 000,
+    Fig. 10): the manager recognises the action, stops the conflicting arm and lets the person
+    finish that bolt."""
+    common = ["table_assembly", "--cell", cell_name]
+    store = tmp_path / "c.db"
+    client = PlainClient(cell_name, domain_id)
+    states = client.watch("state")
+    client.tokens.append("alive/human")
+    procs: list[subprocess.Popen[str]] = []
+    try:
+        procs.append(_node(ros_env, "cell", *common, "--json", "--realtime", "4", "--store",
+                           str(store), log=tmp_path / "manager.log"))  # fmt: skip
+        for arm in ("left", "right"):
+            procs.append(_node(ros_env, "arm", *common, "--arm", arm, log=tmp_path / f"{arm}.log"))
+
+        def busy_arm() -> dict | None:  # the first snapshot with an arm at work
+            with client.lock:
+                for s in states:
+                    for name, a in s.get("agents", {}).items():
+                        if a.get("command") and name != "human":
+                            return s
+            return None
+
+        assert wait_for(lambda: busy_arm() is not None, 90.0)
+        snap = busy_arm()
+        assert snap is not None
+        t = float(snap["t"])
+        # a leg no arm holds, taken by hand, then screwed into the first bolt
+        for i, action in enumerate(["pick_up(human, leg4)", "screw(human, leg4, bolt_1)"]):
+            client.publish("human", {
+                "v": 1, "type": "human_action", "id": f"own:{i}", "agent": "human",
+                "action": action, "start": t, "t": t + 0.5,
+            })  # fmt: skip
+            t += 0.5
+        data = _finish(procs[0], 120, tmp_path)
+    finally:
+        client.close()
+        _stop_all(procs)
+    assert data["outcome"] == "solved", data.get("reason")
+    events = read_store(store)
+    recognised = [e for e in events if e.kind == "recognised"]
+    assert recognised and recognised[0].body["action"] == "pick_up(human, leg4)"
+    assert recognised[0].body["element"] == "human_1"
+    stops = [e for e in events if e.kind == "stop"]  # the arm on bolt 1 gave way, mid-motion
+    assert stops and stops[0].body["reason"] == "human does human_1"
+    assert stops[0].seq < recognised[0].seq + 3
+    assert [e.body["action"] for e in events if e.kind == "human_action"] == [
+        "pick_up(human, leg4)",
+        "screw(human, leg4, bolt_1)",
+    ]
+    assert data["legs_by_agent"]["human"] == 1
+    assert data["legs_by_agent"]["left"] + data["legs_by_agent"]["right"] == 3
