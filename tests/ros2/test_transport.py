@@ -153,6 +153,7 @@ _AGENT = textwrap.dedent(
     from flexhrc.ros2.transport import Ros2Transport
     t = Ros2Transport(prefix=sys.argv[1])
     t.subscribe("cmd", lambda p: t.publish("ack", {"id": p["id"], "status": "done"}))
+    t.subscribe("late", lambda p: None)  # published to only after this process is killed
     t.declare_token("alive/echo")
     print("ready", flush=True)
     while True:
@@ -183,6 +184,16 @@ def test_another_process_answers_and_its_sigkill_is_noticed_within_the_lease(
             assert wait_for(lambda: events[-1][1] is False, 5.0, bus.flush)
             assert events[-1][0] == "alive/echo"
             assert events[-1][2] - killed < bus.lease_s + 0.5
+            # DDS still lists the dead process's subscriber (until its 20 s lease); Fast DDS
+            # matches a new publisher with it from its discovery data, so publishing to it
+            # never blocks on the match
+            assert bus.node.count_subscribers(bus.ros_name("late")) == 1
+            waits: list[str] = []
+            real_wait = bus.wait_matched
+            bus.wait_matched = lambda topic, **kw: waits.append(topic) or real_wait(topic, **kw)  # type: ignore[method-assign]
+            for i in range(5):
+                bus.publish("late", {"n": i})
+            assert len(waits) <= 1
         finally:
             proc.kill()
             proc.wait(5)

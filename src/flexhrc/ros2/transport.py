@@ -26,7 +26,9 @@ method for method, so code written for one runs on the other:
 Discovery: DDS matches a new publisher to existing subscribers asynchronously (milliseconds on
 one host), and a message published before the match is lost. :meth:`publish` therefore waits —
 at most ``match_timeout_s`` — until every subscriber the ROS graph already knows for that topic
-is matched, so a command sent right after an agent announced itself reaches it.
+is matched, so a command sent right after an agent announced itself reaches it. It waits again
+only when more subscribers are known than at its last wait: one that died unannounced (DDS keeps
+it in the graph until its lease ends) costs one wait, not one per message.
 
 QoS: reliable, volatile, keep-last ``depth`` (100) — compatible with a ROS 2 tool's defaults
 (``ros2 topic pub``, a default ``create_subscription``). Needs the ``ros2`` extra; importing this
@@ -236,6 +238,7 @@ class Ros2Transport(Transport):
         self._queue: deque[tuple[Subscription, Any]] = deque()
         self._publishers: dict[str, Any] = {}
         self._typed: dict[str, Any] = {}  # ROS name -> a publisher of a standard message
+        self._waited: dict[str, int] = {}  # ROS name -> subscribers known at the last wait
         self._rsubs: dict[int, Any] = {}
         self._tokens: list[_Token] = []
         self._watches: list[_Watch] = []
@@ -289,7 +292,13 @@ class Ros2Transport(Transport):
         self._check_open()
         name = self.ros_name(topic)
         pub = self._publisher(name)
-        self.wait_matched(topic, timeout=self.match_timeout_s, _pub=pub)
+        # wait for discovered-but-unmatched subscribers only when there are more of them than
+        # at the last wait: a subscriber that died (DDS forgets it only after its lease) then
+        # costs one wait, not one per message
+        known = self.node.count_subscribers(name)
+        if known > pub.get_subscription_count() and known > self._waited.get(name, -1):
+            self.wait_matched(topic, timeout=self.match_timeout_s, _pub=pub)
+            self._waited[name] = self.node.count_subscribers(name)
         msg = _String()
         msg.data = text
         with self._lock:
