@@ -202,3 +202,35 @@ def test_resume_in_one_process_ends_like_the_uninterrupted_run(
     assert [e.seq for e in events] == list(range(1, len(events) + 1)) and len(events) > n
     ids = [e.body["id"] for e in events if e.kind == "command"]
     assert len(ids) == len(set(ids))
+
+
+def test_a_lost_command_is_sent_again_and_executed_once() -> None:
+    class LossyBus(InProcessBus):
+        lost = 0
+
+        def publish(self, topic: str, payload: Any) -> None:
+            if topic == "cmd/left" and not self.lost:
+                self.lost += 1  # the first command to the left arm never arrives
+                return
+            super().publish(topic, payload)
+
+    scenario = load_scenario("table_assembly")
+    bus = LossyBus()
+    cell = Cell(scenario, bus, liveliness=False, simulator=execution_model("analytic"))
+    agents = [
+        (HumanAgent if a.is_human else RobotAgent)(
+            a.name, scenario, bus, execution=execution_model("analytic")
+        )
+        for a in scenario.domain().agents.values()
+    ]
+
+    def pump(timeout: float) -> None:
+        bus.flush()
+        for a in agents:
+            a.poll()
+
+    data = cell.run(pump=pump)
+    assert data["outcome"] == "solved" and bus.lost == 1
+    assert data["cell"]["resent"] == 1
+    executed = [i for a in agents if isinstance(a, RobotAgent) for i in a.executed]
+    assert len(executed) == len(set(executed)) == data["robot_actions"]

@@ -109,8 +109,15 @@ class _Agent:
         self.received = 0
         self._timers: list[tuple[float, Callable[[], None]]] = []
         self._subs = [transport.subscribe(P.STATE_TOPIC, self._on_state)]
-        declare = getattr(transport, "declare_token", None)
-        self.token = declare(P.alive_key(name)) if declare is not None else None
+        self.token: Any = None
+
+    def _announce(self) -> None:
+        """Declare the liveliness token — last, once every subscription is declared, so the
+        manager never sends to an agent that cannot hear yet (Zenoh keeps a session's
+        declarations in order)."""
+        declare = getattr(self.transport, "declare_token", None)
+        if declare is not None:
+            self.token = declare(P.alive_key(self.name))
 
     def _on_state(self, data: Any) -> None:
         if isinstance(data, dict) and data.get("type") == "end":
@@ -174,6 +181,7 @@ class RobotAgent(_Agent):
         self.stopped: set[int] = set()
         self.executed: list[int] = []  # command ids in execution order (each once)
         self._subs.append(transport.subscribe(P.cmd_topic(name), self._on_message))
+        self._announce()
 
     def _on_message(self, data: Any) -> None:
         self.received += 1
@@ -273,6 +281,7 @@ class HumanAgent(_Agent):
         self.profile = profile
         self.reports: dict[str, list[dict[str, Any]]] = {}  # suggestion id -> reports sent
         self._subs.append(transport.subscribe(P.suggest_topic(name), self._on_message))
+        self._announce()
 
     def _on_message(self, data: Any) -> None:
         self.received += 1

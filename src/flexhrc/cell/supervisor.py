@@ -144,6 +144,8 @@ class Cell:
         self._clock0: float | None = None
         self._last_wall = time.perf_counter()
         self._panel_inputs = 0
+        self._sent_at: dict[int, float] = {}  # command id -> when it was last sent (monotonic)
+        self.resent = 0
         self._subs = [
             transport.subscribe(P.ACK_TOPIC, self._on_ack_message),
             transport.subscribe(P.HUMAN_TOPIC, self._on_human_message),
@@ -282,6 +284,7 @@ class Cell:
             self._agent_down(name)
         elif alive and not st.available:
             self._input("agent_up", {"agent": name, "wall": time.time()})
+            self._resend(name)  # an operator's open suggestion (reports already seen are dropped)
         elif alive:
             self._resend(name)
 
@@ -313,7 +316,7 @@ class Cell:
         seq = self.store.append(kind, body, t) if self.store is not None else len(self.events) + 1
         ev = StoredEvent(seq, t, kind, body)
         self.events.append(ev)
-        self.trace({"t": t, "type": kind, **body})
+        self.trace({**body, "t": t, "type": kind})
 
     def _tm_log(self, ev: dict[str, Any]) -> None:
         if ev.get("type") in STORED_LOG_TYPES:
@@ -370,8 +373,9 @@ class Cell:
                 if not self.replaying:
                     self._record("command", body)
                     self.stored_commands.add(d.id)
-                for agent in d.agents:
-                    self._send_command(agent, d)
+                # a joint command goes to its first agent, which drives all of them (as one
+                # execution model does in CooperationRun); the others are busy with it
+                self._send_command(d.agents[0], d)
             elif isinstance(d, Suggest):
                 sid = f"s{len(self.suggestions) + 1}"
                 human = next(a for a in d.actions[0].agents if self.agents[a].kind == "human")
@@ -401,6 +405,7 @@ class Cell:
         st = self.agents[agent]
         if self.replaying or not st.alive or not st.available:
             return
+        self._sent_at[cmd.id] = time.monotonic()
         self.transport.publish(
             P.cmd_topic(agent),
             P.message(
@@ -428,11 +433,30 @@ class Cell:
     def _resend(self, agent: str) -> None:
         """An agent is (again) reachable: send what it should be doing (after a resume)."""
         for a, cmd in sorted(self.tm.busy.items()):
-            if a == agent and cmd.id not in self.acked:
+            if a == agent == cmd.agents[0] and cmd.id not in self.acked:
                 self._send_command(agent, cmd)
         sid = self.active_suggestion.get(agent)
         if sid is not None:
             self._send_suggestion(agent, sid)
+
+    def _resend_overdue(self) -> None:
+        """Send again a command whose answer is long overdue (a message lost on the way, an
+        agent that reconnected): agents treat a repeated id as the same command."""
+        now = time.monotonic()
+        pending_ids = {b["id"] for *_, k, b in self.pending if k == "ack"}
+        for agent, cmd in sorted(self.tm.busy.items()):
+            sent = self._sent_at.get(cmd.id)
+            if agent != cmd.agents[0] or sent is None or cmd.id in pending_ids:
+                continue
+            if cmd.id in self.acked:
+                continue
+            # an agent reports a time-out itself after 3x the expected time
+            paced = 3.0 * cmd.expected_s / self.agent_speed if self.agent_speed > 0 else 0.0
+            wait = 2.0 + paced
+            if now - sent > wait:
+                log.info("command %d to %s: no answer after %.1f s, resent", cmd.id, agent, wait)
+                self.resent += 1
+                self._send_command(agent, cmd)
 
     def _publish_state(self) -> None:
         try:
@@ -604,6 +628,7 @@ class Cell:
                     )
                     self._record("outcome", {"outcome": "failed", "reason": self.tm.reason})
                     break
+            self._resend_overdue()
             if time.monotonic() > deadline:
                 self.tm.outcome, self.tm.reason = "failed", f"wall time {max_wall_s} s exceeded"
                 self._record("outcome", {"outcome": "failed", "reason": self.tm.reason})
@@ -664,6 +689,7 @@ class Cell:
             "events": len(self.events),
             "resumed": self.resumed,
             "dropped": len(self.dropped),
+            "resent": self.resent,
             "agents": {n: st.to_dict() for n, st in self.agents.items()},
         }
         data["knowledge"] = self.kb.to_dict()

@@ -7,7 +7,7 @@ import signal
 import sys
 from typing import Any
 
-from flexhrc.cli.cell import add_transport_options, open_zenoh
+from flexhrc.cli.cell import add_transport_options, open_zenoh, quiet_library_logs
 from flexhrc.cli.common import emit
 from flexhrc.errors import FlexhrcError
 
@@ -49,6 +49,7 @@ def _common(p: argparse.ArgumentParser) -> None:
 
 
 def cmd_agent(args: argparse.Namespace) -> int:
+    quiet_library_logs()
     from flexhrc.cell import HumanAgent, RobotAgent, load_scenario
     from flexhrc.cell.components import execution_model, run_agent
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+import time
 from typing import Any
 
 from flexhrc.cli.common import add_json_flag, emit
@@ -89,6 +90,15 @@ def add_transport_options(p: argparse.ArgumentParser, *, default: str = "inproce
     )
 
 
+def quiet_library_logs() -> None:
+    """The command's trace already shows every dropped message: keep the library's warnings
+    (flexhrc.cell, flexhrc.transport) from printing them a second time."""
+    import logging
+
+    for name in ("flexhrc.cell", "flexhrc.transport"):
+        logging.getLogger(name).addHandler(logging.NullHandler())
+
+
 def open_zenoh(args: argparse.Namespace, *, listen_default: list[str]) -> Any:
     import re
 
@@ -145,6 +155,7 @@ def trace_line(ev: dict[str, Any]) -> str | None:
 
 
 def cmd_cell(args: argparse.Namespace) -> int:
+    quiet_library_logs()
     from flexhrc.cell import Cell, EventStore, HumanAgent, RobotAgent, load_scenario
     from flexhrc.cell.components import execution_model
 
@@ -210,9 +221,11 @@ def cmd_cell(args: argparse.Namespace) -> int:
             wait = getattr(transport, "wait", None)
             if wait is not None and not (internal and transport.pending()):
                 wait(timeout)
-            transport.flush()
+            delivered = transport.flush()
             for agent in agents:
                 agent.poll()
+            if wait is None and not delivered:
+                time.sleep(0.001)  # nothing moved (e.g. waiting for a resend): do not spin
 
         if args.transport == "zenoh":
             where = ", ".join(args.listen or ([] if args.connect else [DEFAULT_LISTEN]))
@@ -226,8 +239,6 @@ def cmd_cell(args: argparse.Namespace) -> int:
             agent.close()
         cell.close()
         if args.transport == "zenoh":
-            import time
-
             time.sleep(0.2)  # let the end message leave before the session closes
     finally:
         if store is not None:
