@@ -373,7 +373,13 @@ def cmd_cell(args: argparse.Namespace) -> int:
             + (f" ({data['reason']})" if data["reason"] else "")
             + f"; legs connected by {legs}; {data['decisions']} decision trees; "
             f"{data['robot_actions']} robot and {data['human_actions']} human actions; "
-            f"{data['cell']['events']} events" + (f" in {args.store}" if args.store else "")
+            f"{data['cell']['events']} events"
+            + (f" in {args.store}" if args.store else "")
+            + (
+                f"; {data['cell']['dropped']} malformed messages dropped"
+                if data["cell"]["dropped"]
+                else ""
+            )
         )
 
     emit(args, data, text)
