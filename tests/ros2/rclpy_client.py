@@ -63,6 +63,9 @@ class PlainClient:
         return box
 
     def publish(self, topic: str, payload: dict[str, Any], wait_s: float = 10.0) -> None:
+        self.publish_raw(topic, json.dumps(payload), wait_s)
+
+    def publish_raw(self, topic: str, text: str, wait_s: float = 10.0) -> None:
         pub = self.pubs.get(topic)
         if pub is None:
             pub = self.pubs[topic] = self.node.create_publisher(
@@ -71,7 +74,7 @@ class PlainClient:
         deadline = time.monotonic() + wait_s
         while pub.get_subscription_count() == 0 and time.monotonic() < deadline:
             time.sleep(0.01)  # DDS delivers only to subscribers it has discovered
-        pub.publish(String(data=json.dumps(payload)))
+        pub.publish(String(data=text))
 
     def close(self) -> None:
         for key in self.tokens:

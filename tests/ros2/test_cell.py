@@ -101,12 +101,20 @@ def test_manager_two_arms_and_a_plain_rclpy_operator_complete_the_assembly(
                            log=tmp_path / "manager.log"))  # fmt: skip
         for arm in ("left", "right"):
             procs.append(_node(ros_env, "arm", *common, "--arm", arm, log=tmp_path / f"{arm}.log"))
+        # bad input from outside never stops the manager: dropped, logged, counted
+        assert wait_for(lambda: bool(states), 90.0)  # the manager is up
+        for text in ("{garbage", '{"v": 2, "type": "ack"}', '{"v": 1, "type": "ack", "id": 999, '
+                     '"agent": "left", "status": "done", "t": 1.0}', "[1, 2]"):  # fmt: skip
+            client.publish_raw("ack", text)
+        client.publish_raw("human", '{"v": 1, "type": "human_action", "id": "x", '
+                           '"agent": "left", "action": "rest(left)", "t": 0.0}')  # fmt: skip
         _operate_until_the_end(client, suggestions, procs[0], 120.0)
         data = _finish(procs[0], 30, tmp_path)
     finally:
         client.close()
         _stop_all(procs)
     assert data["outcome"] == "solved", data.get("reason")
+    assert data["cell"]["dropped"] == 5
     assert suggestions, "the client saw no suggestion"
     first = suggestions[0]
     assert first["v"] == 1 and first["type"] == "suggestion" and first["element"].endswith("_2")
