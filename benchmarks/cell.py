@@ -3,6 +3,8 @@
 * **round trip**: a command -> its ack between two processes over Zenoh on loopback (this process
   plays the manager, ``flexhrc agent robot`` the arm; ``rest(left)`` with the analytic world, so
   the figure is the messaging, JSON and the agent's bookkeeping): target median <= 2 ms;
+* **lost agent**: SIGKILL of an agent process -> its liveliness token gone at the manager
+  (the manager's `agent lost` follows at once): target <= 2 s;
 * **resume**: rebuilding a cell from a 1000-event store (read, replay every input into a fresh
   Task Manager, re-derive the outstanding commands): target median <= 1 s;
 * **6 arms + 3 operators**: ``flexhrc cell parallel_assembly`` with 10 processes (manager, 6 robot
@@ -104,6 +106,47 @@ def round_trip(n: int) -> dict[str, Any]:
         "median_ms": round(statistics.median(times) * 1e3, 3),
         "p90_ms": round(times[int(0.9 * (n - 1))] * 1e3, 3),
         "target_ms": 2.0,
+    }
+
+
+def lost_agent(kills: int) -> dict[str, Any]:
+    """SIGKILL of an agent process -> its liveliness token gone, as the manager sees it."""
+    import os
+    import signal
+
+    port = free_tcp_port()
+    bus = ZenohTransport(loopback_config(port), prefix="flexhrc/bench")
+    events: list[tuple[float, bool]] = []
+    bus.watch_liveliness("alive/left", lambda k, a: events.append((time.perf_counter(), a)))
+    times = []
+    try:
+        for _ in range(kills):
+            events.clear()
+            agent = _flexhrc(
+                "agent", "robot", "table_assembly", "--arm", "left", "--simulator", "analytic",
+                "--connect", f"tcp/127.0.0.1:{port}", "--cell", "bench", "--quiet",
+            )  # fmt: skip
+            deadline = time.monotonic() + 30
+            while not any(a for _, a in events) and time.monotonic() < deadline:
+                bus.wait(0.1)
+                bus.flush()
+            t0 = time.perf_counter()
+            os.kill(agent.pid, signal.SIGKILL)
+            while not any(not a for _, a in events) and time.monotonic() < deadline:
+                bus.wait(0.1)
+                bus.flush()
+            gone = next((t for t, a in events if not a), None)
+            agent.wait(10)
+            if gone is None:
+                raise SystemExit("the token of a killed agent never went")
+            times.append(gone - t0)
+    finally:
+        bus.close()
+    return {
+        "kills": kills,
+        "median_ms": round(statistics.median(times) * 1e3, 2),
+        "max_ms": round(max(times) * 1e3, 2),
+        "target_ms": 2000.0,
     }
 
 
@@ -243,6 +286,7 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     results = {
         "round_trip": round_trip(args.commands),
+        "lost_agent": lost_agent(5),
         "resume": resume(args.repeat),
         "six_arms_three_operators": big_cell(),
     }
@@ -253,6 +297,11 @@ def main(argv: list[str] | None = None) -> int:
         print(
             f"command -> ack round trip over Zenoh loopback: median {rt['median_ms']} ms "
             f"(p90 {rt['p90_ms']} ms, {rt['commands']} commands; target <= 2 ms)"
+        )
+        la = results["lost_agent"]
+        print(
+            f"SIGKILL of an agent -> token gone at the manager: median {la['median_ms']} ms "
+            f"(max {la['max_ms']} ms over {la['kills']} kills; target <= 2 s)"
         )
         print(
             f"resume of a {rs['events']}-event store: median {rs['median_s']} s "
@@ -266,6 +315,7 @@ def main(argv: list[str] | None = None) -> int:
         )
     ok = (
         results["round_trip"]["median_ms"] <= 2.0
+        and results["lost_agent"]["median_ms"] <= 2000.0
         and results["resume"]["median_s"] <= 1.0
         and results["six_arms_three_operators"]["outcome"] == "solved"
         and not results["six_arms_three_operators"]["lost"]

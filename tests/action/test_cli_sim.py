@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pytest
 
 from flexhrc.cli import main
@@ -54,7 +55,10 @@ def test_sim_with_obstacle_after_and_trajectory(capsys):
         (["juggle", "--target", "0.5", "0.1", "0.2"], "argument 'action'"),
         (["transport", "--target", "0.5", "0.1", "0.2", "--obstacle", "1", "2"], "--obstacle 1"),
         (["transport"], "needs a target"),
-        (["transport", "--target", "0.5", "0.1", "0.2", "--view", "x.txt"], ".png or .gif"),
+        (
+            ["transport", "--target", "0.5", "0.1", "0.2", "--view", "x.txt"],
+            "unsupported output format '.txt'; use one of .gif, .png",
+        ),
     ],
 )
 def test_sim_bad_input_is_one_line_exit_2(capsys, argv, message):
@@ -70,3 +74,58 @@ def test_sim_view_writes_a_png(capsys, tmp_path):
     assert code == 0 and png.stat().st_size > 1000
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert "view:" in out
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [  # review B12, C22, C5
+        (["--dt", "nan"], "--dt must be in (0, 0.1] seconds, got nan"),
+        (["--dt", "1e-9"], "--dt must be at least 0.001 s"),
+        (["--time-budget", "inf"], "--time-budget must be positive and at most 600 s"),
+        (["--time-budget", "nan"], "--time-budget must be positive"),
+        (["--time-budget", "500", "--dt", "0.001"], "500000 steps; at most"),
+        (["--yaw", "nan"], "argument --yaw"),
+        (["--from", "0.4", "0.1", "0.2"], "--from goes with --after"),
+        (["--trajectory"], "--trajectory goes with --json"),
+        (["--view", "{tmp}/nonexistent/out.png"], "folder {tmp}/nonexistent does not exist"),
+    ],
+)
+def test_sim_numbers_companions_and_view_path(argv, message, capsys, tmp_path):
+    argv = [a.replace("{tmp}", str(tmp_path)) for a in argv]
+    code, _, err = _run(capsys, "transport", "--target", "0.5", "0.1", "0.2", *argv)
+    assert code == 2 and "Traceback" not in err
+    assert message.replace("{tmp}", str(tmp_path)) in err
+    assert not (tmp_path / "nonexistent").exists()  # no folder created
+
+
+def test_sim_view_has_legend_labels_and_keeps_stdout_json(capsys, tmp_path):
+    pytest.importorskip("pybullet")
+    from PIL import Image
+
+    out = tmp_path / "v.png"
+    code, stdout, _ = _run(capsys, "approach", "--arm", "right", "--target", "0.5", "-0.1", "0.05",
+                           "--obstacle", "0.5", "-0.1", "0.2", "0.04", "--view", str(out),
+                           "--json")  # fmt: skip
+    assert code == 1  # blocked by the obstacle
+    assert json.loads(stdout)["view"] == str(out)  # stdout is pure JSON
+    img = np.asarray(Image.open(out).convert("RGB")).astype(int)
+    # the legend's swatch of the obstacle colour (top-left), drawn in the picture itself
+    red = (abs(img[..., 0] - 216) < 3) & (abs(img[..., 1] - 38) < 3) & (abs(img[..., 2] - 25) < 3)
+    assert red[:120, :30].sum() >= 50
+    # text (dark pixels) in the legend area and near the projected obstacle
+    assert (img[:120, 20:200].sum(axis=2) < 100).sum() > 100
+    assert [p.name for p in tmp_path.iterdir()] == ["v.png"]  # written atomically, no temp left
+
+
+def test_view_labels_are_placed_where_the_objects_are():
+    p = pytest.importorskip("pybullet")
+    from flexhrc.action.view import _project
+
+    # a camera at +x looking at the origin: the origin projects to the image centre
+    view = p.computeViewMatrix([2, 0, 0], [0, 0, 0], [0, 0, 1])
+    proj = p.computeProjectionMatrixFOV(45, 640 / 480, 0.05, 5.0)
+    assert _project(view, proj, (0, 0, 0), 640, 480) == (320, 240)
+    side = _project(view, proj, (0, 0.5, 0), 640, 480)  # camera right = forward x up = +y
+    up = _project(view, proj, (0, 0, 0.5), 640, 480)
+    assert side is not None and side[1] == 240 and side[0] > 320
+    assert up is not None and up[0] == 320 and up[1] < 240

@@ -53,7 +53,7 @@ def test_har_synth_then_stream(capsys, tmp_path, trained):
     assert [r["name"] for r in data["recognised"]] == ["pick_up", "screw"]
     assert data["speed_x_realtime"] > 1
     code, out, _ = run(capsys, "har", "stream", str(trained), str(rec))
-    assert "pick_up" in out and "recognition(s)" in out
+    assert "pick_up" in out and "2 recognitions in" in out
 
 
 @pytest.mark.parametrize(

@@ -16,6 +16,14 @@ Objects lie on the table at the positions of the knowledge base; the hand grasps
 ``grasp_height_m`` above its position and holds it ``hold_height_m`` above a place (a bolt or the
 middle pose) to transport and screw it. Human actions are timed by the analytic operator model.
 Knowledge-base objects of type ``obstacle`` (attribute ``radius``) are spheres in both worlds.
+
+Joint actions (``agents: {joint: [left, right]}``) run on both arms at once (``arm="both"``):
+each hand grasps the object ``span_m / 2`` to its own side and, while the object is carried,
+the controller's two-arm relative-pose objective keeps the grasp rigid (paper eq. 1-3 and
+Fig. 8). ``place_tabletop`` is one such joint command: approach, grasp, transport to the
+target place and release, simulated (and executed) as one command of both arms. Actions this
+simulator has no motion for (a check, a hold, anything a scenario declares with ``duration``)
+are timed by the analytic model, as the operator's actions are.
 """
 
 from __future__ import annotations
@@ -34,6 +42,7 @@ from flexhrc.taskmanager.simulator import (
 )
 
 ROBOT_KINDS = ("approach", "grasp", "transport", "screw", "ungrasp", "rest")
+JOINT_KINDS = ("place_tabletop",)  # composite joint commands of both arms
 
 
 class KinematicTaskSimulator:
@@ -93,12 +102,42 @@ class KinematicTaskSimulator:
     def human_hand(kb: KnowledgeBase) -> Vec3 | None:
         return kb.position("human") if "human" in kb.objects else None
 
+    def _arm(self, action: GroundAction) -> str:
+        """``left``/``right``, or ``both`` for a joint action of the robot's two arms."""
+        if len(action.agents) == 1:
+            return action.agents[0]
+        return "both"
+
     def _check(self, action: GroundAction) -> str | None:
-        if action.schema.kind not in ROBOT_KINDS:
-            return f"the kinematic simulator has no action {action.schema.kind!r}"
         if len(action.agents) != 1:
-            return f"{action}: joint actions of several arms are not supported here"
+            arms = set(self.sim.robot.arm_names)
+            if set(action.agents) != arms or len(action.agents) != len(arms):
+                return (
+                    f"{action}: a joint action needs the robot's arms "
+                    f"{' and '.join(sorted(arms))}, got {', '.join(action.agents)}"
+                )
         return None
+
+    def _analytic(self, action: GroundAction) -> bool:
+        """Timed by the analytic model: no motion of this simulator for it."""
+        kind = action.schema.kind
+        return kind not in ROBOT_KINDS and kind not in JOINT_KINDS
+
+    def _joint_steps(
+        self, action: GroundAction, kb: KnowledgeBase, positions: dict[str, Vec3]
+    ) -> list[tuple[str, tuple[float, float, float] | None]]:
+        """The motions of a composite joint command, with their targets."""
+        objs = [a for a in action.args if a in kb.objects and a not in action.agents]
+        if not objs:
+            return []
+        x, y, z = self._pos(objs[0], kb, positions)
+        grip = (x, y, z + self.grasp_height_m)
+        if len(objs) >= 2:
+            px, py, pz = self._pos(objs[-1], kb, positions)
+            place = (px, py, pz + self.grasp_height_m)
+        else:
+            place = grip
+        return [("approach", grip), ("grasp", grip), ("transport", place), ("ungrasp", None)]
 
     # -- Simulator protocol ---------------------------------------------------------------
     def simulate(
@@ -120,7 +159,7 @@ class KinematicTaskSimulator:
         obstacles = self.obstacles(kb)
         hand = self.human_hand(kb)
         for action in steps:
-            if any(domain.agent(a).is_human for a in action.agents):
+            if any(domain.agent(a).is_human for a in action.agents) or self._analytic(action):
                 ok, dt, why = self.human.step(action, positions, kb, domain)
                 durations.append(dt)
                 details.append({"action": str(action), "agents": list(action.agents), "t": dt})
@@ -130,26 +169,36 @@ class KinematicTaskSimulator:
             problem = self._check(action)
             if problem:
                 return SimulationResult(False, [*durations, 0.0], problem, details)
-            arm = action.agents[0]
-            target = self.target(action, kb, positions)
-            out = self.sim.simulate(
-                arm, action.schema.kind, target, start=state, obstacles=obstacles,
-                human_hand=hand, record=False,
-            )  # fmt: skip
-            durations.append(out.duration_s)
+            arm = self._arm(action)
+            if action.schema.kind in JOINT_KINDS:
+                motions = self._joint_steps(action, kb, positions)
+            else:
+                motions = [(action.schema.kind, self.target(action, kb, positions))]
+            total, energy, min_d = 0.0, 0.0, float("inf")
+            for kind, target in motions:
+                out = self.sim.simulate(
+                    arm, kind, target, start=state, obstacles=obstacles,
+                    human_hand=hand, record=False,
+                )  # fmt: skip
+                total += out.duration_s
+                energy += out.energy
+                min_d = min(min_d, out.min_distance_m)
+                if not out.success:
+                    durations.append(total)
+                    return SimulationResult(False, durations, f"{action}: {out.reason}", details)
+                state = out.final_state
+            durations.append(total)
             details.append(
                 {
                     "action": str(action),
-                    "agents": [arm],
-                    "t": round(out.duration_s, 4),
-                    "min_distance_m": out.min_distance_m,
-                    "energy": round(out.energy, 4),
+                    "agents": list(action.agents),
+                    "t": round(total, 4),
+                    "min_distance_m": min_d,
+                    "energy": round(energy, 4),
                 }
             )
-            if not out.success:
-                return SimulationResult(False, durations, f"{action}: {out.reason}", details)
-            state = out.final_state
-            self._follow(action, target, positions, kb)
+            last_target = motions[-2][1] if len(motions) > 1 else motions[-1][1]
+            self._follow(action, last_target, positions, kb)
         return SimulationResult(True, durations, None, details)
 
     def _follow(
@@ -160,12 +209,12 @@ class KinematicTaskSimulator:
         kb: KnowledgeBase,
     ) -> None:
         """Where things are after the action, in knowledge-base terms (objects on places)."""
-        arm = action.agents[0]
         kind = action.schema.kind
         objs = [a for a in action.args if a in kb.objects and a not in action.agents]
         if target is not None:
-            positions[arm] = target
-        if kind == "transport" and len(objs) >= 2:
+            for arm in action.agents:
+                positions[arm] = target
+        if kind in ("transport", *JOINT_KINDS) and len(objs) >= 2:
             positions[objs[0]] = self._pos(objs[-1], kb, positions)
 
     # -- ExecutionModel protocol ----------------------------------------------------------
@@ -176,7 +225,7 @@ class KinematicTaskSimulator:
         kb: KnowledgeBase,
         domain: Domain,
     ) -> StepReport:
-        if any(domain.agent(a).is_human for a in action.agents):
+        if any(domain.agent(a).is_human for a in action.agents) or self._analytic(action):
             return self.human.execute(action, positions, kb, domain)
         from flexhrc.action.execution import Command, Disturbance
 
@@ -186,7 +235,12 @@ class KinematicTaskSimulator:
         em = self.execution
         em.obstacles = [*self.obstacles(kb)]
         em.human_hand = self.human_hand(kb)
-        target = self.target(action, kb, positions)
+        arm = self._arm(action)
+        if action.schema.kind in JOINT_KINDS:
+            motions = self._joint_steps(action, kb, positions)
+        else:
+            motions = [(action.schema.kind, self.target(action, kb, positions))]
+        target = motions[-1][1] if motions else None
         for item in self._scheduled:
             if item[0] != action.schema.kind:
                 continue
@@ -200,10 +254,15 @@ class KinematicTaskSimulator:
                         0.03,
                     )
                 em.inject(Disturbance(**params))
-        report = em.execute(Command(action.schema.kind, action.agents[0], target))
-        if report.status == "done":
-            self._follow(action, target, positions, kb)
-        return StepReport(report.status, report.duration_s, None if report.ok else report.reason)
+        total = 0.0
+        for kind, goal in motions:
+            report = em.execute(Command(kind, arm, goal))
+            total += report.duration_s
+            if report.status != "done":
+                return StepReport(report.status, total, report.reason)
+        last_target = motions[-2][1] if len(motions) > 1 else target
+        self._follow(action, last_target, positions, kb)
+        return StepReport("done", total, None)
 
     def inject(self, disturbance: Any) -> Any:
         """Inject a disturbance into the simulated real robot's world (see ExecutionManager)."""

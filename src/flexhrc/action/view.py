@@ -3,13 +3,20 @@
 PyBullet's ``DIRECT`` mode with its software ``TinyRenderer`` needs no display and no GPU, so this
 works on a server or in CI. The scene is the shipped robot URDF (primitive shapes only), a table
 top at z = 0, the obstacles (red), the human hand (skin colour), the goal (green) and the path of
-each TCP (small dots). A PNG shows the last configuration; a GIF shows up to ``max_frames``
-evenly spaced configurations. Only used on request (``flexhrc sim ... --view out.png``).
+each TCP (small dots). Every frame carries a legend of these colours, a label beside each
+obstacle, the goal and the hand, and a title (the action and its outcome), so a picture is
+readable without this docstring. A PNG shows the last configuration; a GIF shows up to
+``max_frames`` evenly spaced configurations. Only used on request
+(``flexhrc sim ... --view out.png``); the caller checks the output path first and writes it
+atomically (:mod:`flexhrc.files`), so no folder is created here.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+import contextlib
+import os
+import sys
+from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -20,13 +27,81 @@ from flexhrc.action.robots import DEFAULT_URDF
 from flexhrc.action.simulator import Trajectory
 from flexhrc.errors import FlexhrcError, OptionalDependencyError
 
+VIEW_SUFFIXES = (".png", ".gif")
+OBSTACLE_RGBA = (0.85, 0.15, 0.1, 1)
+HAND_RGBA = (0.95, 0.75, 0.6, 1)
+GOAL_RGBA = (0.1, 0.8, 0.2, 1)
+PATH_RGBA = (0.2, 0.4, 0.9, 1)
+
+
+@contextlib.contextmanager
+def _stdout_to_stderr() -> Iterator[None]:
+    """PyBullet's C library prints its build time on stdout when imported; under ``--json``
+    stdout must hold the JSON document only, so the file descriptor is pointed at stderr."""
+    try:
+        fd = sys.stdout.fileno()
+    except (AttributeError, OSError, ValueError):  # captured stdout (tests): nothing to redirect
+        yield
+        return
+    sys.stdout.flush()
+    saved = os.dup(fd)
+    try:
+        os.dup2(sys.stderr.fileno(), fd)
+        yield
+    finally:
+        os.dup2(saved, fd)
+        os.close(saved)
+
 
 def _import_pybullet() -> Any:
     try:
-        import pybullet
+        with _stdout_to_stderr():
+            import pybullet
     except ImportError as exc:  # pragma: no cover - depends on the environment
         raise OptionalDependencyError("the trajectory view", "sim", "pybullet") from exc
     return pybullet
+
+
+def _project(view: Sequence[float], proj: Sequence[float], xyz: Sequence[float], w: int, h: int):
+    """Pixel (column, row) of world point ``xyz`` in a PyBullet camera (column-major 4x4s)."""
+    v = np.asarray(view, dtype=float).reshape(4, 4).T
+    pr = np.asarray(proj, dtype=float).reshape(4, 4).T
+    clip = pr @ v @ np.array([*map(float, xyz), 1.0])
+    if clip[3] <= 1e-9:
+        return None
+    ndc = clip[:3] / clip[3]
+    return (int((ndc[0] + 1) / 2 * w), int((1 - ndc[1]) / 2 * h))
+
+
+def _rgb(rgba: Sequence[float]) -> tuple[int, int, int]:
+    return (int(rgba[0] * 255), int(rgba[1] * 255), int(rgba[2] * 255))
+
+
+def _annotate(
+    image: Any,
+    title: str | None,
+    legend: list[tuple[str, Sequence[float]]],
+    labels: list[tuple[str, tuple[int, int] | None]],
+) -> Any:
+    """Title, colour legend and labels drawn onto a frame (PIL's built-in font)."""
+    from PIL import ImageDraw
+
+    draw = ImageDraw.Draw(image)
+    y = 6
+    if title:
+        draw.text((8, y), title, fill=(0, 0, 0))
+        y += 16
+    for name, rgba in legend:
+        draw.rectangle((8, y + 2, 18, y + 12), fill=_rgb(rgba), outline=(0, 0, 0))
+        draw.text((24, y), name, fill=(0, 0, 0))
+        y += 15
+    for text, at in labels:
+        if at is None or not (0 <= at[0] < image.width and 0 <= at[1] < image.height):
+            continue
+        x, yy = at[0] + 10, at[1] - 16
+        draw.line((at[0], at[1], x, yy + 6), fill=(0, 0, 0))
+        draw.text((x + 2, yy), text, fill=(0, 0, 0))
+    return image
 
 
 def _import_pil() -> Any:
@@ -60,11 +135,12 @@ def render(
     height: int = 480,
     max_frames: int = 40,
     rest: dict[str, np.ndarray] | None = None,
+    title: str | None = None,
 ) -> Path:
     """Render ``trajectory`` to ``path`` (``.png``: last frame; ``.gif``: animation)."""
     out = Path(path)
     suffix = out.suffix.lower()
-    if suffix not in (".png", ".gif"):
+    if suffix not in VIEW_SUFFIXES:
         raise FlexhrcError(f"--view: {out}: the view is saved as .png or .gif")
     if len(trajectory) == 0:
         raise FlexhrcError("nothing to view: the trajectory is empty")
@@ -78,21 +154,35 @@ def render(
             info = p.getJointInfo(robot, j, physicsClientId=cid)
             joints[info[1].decode()] = j
         _visual(p, cid, "box", (0.45, 0.6, 0.01), (0.45, 0.0, -0.011), (0.62, 0.45, 0.3, 1))
-        for obs in (parse_obstacle(o) for o in obstacles):
+        marks: list[tuple[str, Sequence[float]]] = []  # (label, world point)
+        parsed = [parse_obstacle(o) for o in obstacles]
+        for n, obs in enumerate(parsed, 1):
+            name = "obstacle" if len(parsed) == 1 else f"obstacle {n}"
             if isinstance(obs, Sphere):
-                _visual(p, cid, "sphere", max(obs.radius, 0.01), obs.center, (0.85, 0.15, 0.1, 1))
+                _visual(p, cid, "sphere", max(obs.radius, 0.01), obs.center, OBSTACLE_RGBA)
+                marks.append((name, obs.center))
             elif isinstance(obs, Box):
-                _visual(p, cid, "box", obs.half_extents, obs.center, (0.85, 0.15, 0.1, 1))
+                _visual(p, cid, "box", obs.half_extents, obs.center, OBSTACLE_RGBA)
+                marks.append((name, obs.center))
         if human_hand is not None:
-            _visual(p, cid, "sphere", 0.04, human_hand, (0.95, 0.75, 0.6, 1))
+            _visual(p, cid, "sphere", 0.04, human_hand, HAND_RGBA)
+            marks.append(("human hand", human_hand))
         if goal is not None:
-            _visual(p, cid, "sphere", 0.012, goal, (0.1, 0.8, 0.2, 1))
+            _visual(p, cid, "sphere", 0.012, goal, GOAL_RGBA)
+            marks.append(("goal", goal))
         for arm in trajectory.arms:
             pts = trajectory.tcp[arm]
             idx = np.unique(np.linspace(0, len(pts) - 1, min(len(pts), 30)).astype(int))
             for i in idx:
                 if np.all(np.isfinite(pts[i])):
-                    _visual(p, cid, "sphere", 0.006, pts[i], (0.2, 0.4, 0.9, 1))
+                    _visual(p, cid, "sphere", 0.006, pts[i], PATH_RGBA)
+        legend: list[tuple[str, Sequence[float]]] = [("TCP path", PATH_RGBA)]
+        if parsed:
+            legend.append(("obstacle", OBSTACLE_RGBA))
+        if goal is not None:
+            legend.append(("goal", GOAL_RGBA))
+        if human_hand is not None:
+            legend.append(("human hand (kept 15 cm away)", HAND_RGBA))
 
         def pose(k: int) -> None:
             for arm_name, q_rest in (rest or {}).items():
@@ -114,13 +204,14 @@ def render(
         proj = p.computeProjectionMatrixFOV(fov=45, aspect=width / height, nearVal=0.05,
                                             farVal=5.0, physicsClientId=cid)  # fmt: skip
 
+        labels = [(name, _project(view, proj, xyz, width, height)) for name, xyz in marks]
+
         def snap() -> Any:
             img = p.getCameraImage(width, height, view, proj, renderer=p.ER_TINY_RENDERER,
                                    physicsClientId=cid)  # fmt: skip
             rgba = np.reshape(np.asarray(img[2], dtype=np.uint8), (height, width, 4))
-            return Image.fromarray(rgba[:, :, :3])
+            return _annotate(Image.fromarray(rgba[:, :, :3]), title, legend, labels)
 
-        out.parent.mkdir(parents=True, exist_ok=True)
         if suffix == ".png":
             pose(len(trajectory) - 1)
             snap().save(out)

@@ -39,15 +39,17 @@ HUMAN_PROFILES = ("passive",)
 
 
 def execution_model(choice: str = "auto", scenario: Any = None) -> ExecutionModel:
-    """The simulated real world: kinematic (``sim`` extra) or analytic, as
-    :func:`flexhrc.scenarios.simulators.choose_simulator` picks it; a scenario that says
-    ``simulator = "analytic"`` (many arms: the kinematic model is the dual-arm robot) gets that."""
+    """The simulated real world: kinematic (``sim`` extra) or analytic, as the scenario makes it
+    (:meth:`~flexhrc.cell.scenario_ref.CellScenario.make_simulator`), else as
+    :func:`flexhrc.scenarios.simulators.choose_simulator` picks it."""
+    make = getattr(scenario, "make_simulator", None)
+    if make is not None:
+        model: ExecutionModel = make(choice)
+        return model
     from flexhrc.scenarios.simulators import choose_simulator
 
-    if getattr(scenario, "simulator", None) == "analytic":
-        choice = "analytic"
-    model: ExecutionModel = choose_simulator(choice)[1]
-    return model
+    chosen: ExecutionModel = choose_simulator(choice)[1]
+    return chosen
 
 
 def ground(domain: Domain, text: str, agents: tuple[str, ...] | None = None) -> GroundAction:

@@ -9,8 +9,10 @@ One small function, :func:`load_scenario`, so the cell can later delegate to the
   ``unreachable_bolts`` ...) or ``scenario: parallel_assembly`` with ``arms``, ``humans``,
   ``legs``.
 
-A scenario object has ``graph()``, ``domain()``, ``knowledge()`` and a ``name``; every process
-of a cell loads the same one and so starts from the same knowledge base.
+The result is a :class:`CellScenario`: ``graph()``, ``domain()``, ``knowledge()``,
+``make_simulator(choice)`` and a ``name``; every process of a cell loads the same one and so
+starts from the same knowledge base. When :mod:`flexhrc.scenario` offers ``load`` (scenario files
+``flexhrc: 1`` and the scenarios shipped with it), names and files it knows go through it.
 """
 
 from __future__ import annotations
@@ -37,24 +39,79 @@ _TABLE_KEYS = {
 _PARALLEL_KEYS = {"scenario", "arms", "humans", "legs", "human_legs", "chain", "seed"}
 
 
-def load_scenario(spec: str, *, seed: int = 0) -> Any:
+class CellScenario:
+    """What every process of a cell needs of a scenario, whoever defined it: fresh ``graph()``,
+    ``domain()`` and ``knowledge()``, and ``make_simulator(choice)`` (the branch simulator of
+    the manager, the simulated world of an agent; ``choice`` is ``auto``, ``analytic`` or
+    ``kinematic``)."""
+
+    def __init__(self, name: str, source: Any, *, simulator: str | None = None) -> None:
+        self.name = name
+        self.source = source
+        self.forced = simulator  # e.g. "analytic" for many arms (the kinematic model has two)
+
+    def graph(self) -> Any:
+        g = self.source.graph
+        return g() if callable(g) else g
+
+    def domain(self) -> Any:
+        d = self.source.domain
+        return d() if callable(d) else d
+
+    def knowledge(self) -> Any:
+        make = getattr(self.source, "world", None) or self.source.knowledge
+        return make()
+
+    def make_simulator(self, choice: str = "auto") -> Any:
+        from flexhrc.scenarios.simulators import choose_simulator
+
+        if self.forced is not None:
+            choice = self.forced
+        own = getattr(self.source, "make_simulator", None)
+        if own is not None:  # a flexhrc.scenario file: its simulator, unless told otherwise
+            return own(None if choice == "auto" else choice)
+        return choose_simulator(choice)[1]
+
+
+def load_scenario(spec: str, *, seed: int = 0) -> CellScenario:
     """The scenario named ``spec``, or read from the YAML file ``spec``."""
     from flexhrc.scenarios.parallel_assembly import ParallelScenario
     from flexhrc.scenarios.table_assembly import TableScenario
 
     text = str(spec)
     if text in ("table_assembly", "table"):
-        scenario: Any = TableScenario(seed=seed)
-        scenario.name = "table_assembly"
-        return scenario
+        return CellScenario("table_assembly", TableScenario(seed=seed))
     if text == "parallel_assembly":
-        return ParallelScenario(seed=seed)
+        return CellScenario("parallel_assembly", ParallelScenario(seed=seed), simulator="analytic")
+    loader = _scenario_loader()
     path = Path(text)
     if path.suffix.lower() not in (".yaml", ".yml") and not path.exists():
+        if loader is not None:  # a scenario shipped with flexhrc.scenario
+            sc = loader(text)
+            return CellScenario(str(getattr(sc, "name", text)), sc)
         raise UnknownNameError(
             f"unknown scenario {text!r}: give one of {', '.join(NAMES)} or a scenario file"
         )
+    if loader is not None and _is_scenario_file(path):
+        sc = loader(path)
+        return CellScenario(str(getattr(sc, "name", path.stem)), sc)
     return _from_file(path, seed)
+
+
+def _scenario_loader() -> Any:
+    """``flexhrc.scenario.load`` when that package offers it (scenario files, issue 10)."""
+    try:
+        import flexhrc.scenario as module
+    except ImportError:
+        return None
+    return getattr(module, "load", None)
+
+
+def _is_scenario_file(path: Path) -> bool:
+    """A ``flexhrc: 1`` scenario file (rather than the keys of ``flexhrc run``)."""
+    from flexhrc.files import read_text
+
+    return any(line.strip().startswith("flexhrc:") for line in read_text(path).splitlines())
 
 
 def _from_file(path: Path, seed: int) -> Any:
@@ -86,7 +143,7 @@ def _from_file(path: Path, seed: int) -> Any:
     try:
         scenario: Any
         if kind == "parallel_assembly":
-            scenario = ParallelScenario(
+            par = ParallelScenario(
                 arms=int(doc.get("arms", 6)),
                 humans=int(doc.get("humans", 3)),
                 legs=int(doc.get("legs", 12)),
@@ -94,6 +151,7 @@ def _from_file(path: Path, seed: int) -> Any:
                 chain=bool(doc.get("chain", False)),
                 seed=int(doc.get("seed", seed)),
             )
+            scenario = CellScenario("parallel_assembly", par, simulator="analytic")
         else:
             scenario = TableScenario(
                 legs=int(doc.get("legs", 4)),
@@ -107,7 +165,7 @@ def _from_file(path: Path, seed: int) -> Any:
                 if "leg_positions" in doc
                 else None,
             )
-            scenario.name = "table_assembly"
+            scenario = CellScenario("table_assembly", scenario)
     except (TypeError, ValueError) as exc:
         raise FormatError(f"bad value: {exc}", path) from None
     return scenario

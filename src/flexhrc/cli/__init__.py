@@ -9,7 +9,12 @@ Conventions shared by every command (see :mod:`flexhrc.cli.common`):
 * ``--json`` prints one machine-readable JSON document on stdout and nothing else there;
 * bad input (a :class:`~flexhrc.errors.FlexhrcError`) prints ``error: <file>:<line>: <message>``
   on stderr and exits with code 2 — never a traceback;
-* progress and live traces go to stderr when ``--json`` is given.
+* progress goes to stderr; live traces too when ``--json`` is given;
+* numeric options are checked where they are parsed (:func:`~flexhrc.cli.common.int_range`,
+  :func:`~flexhrc.cli.common.float_range`: NaN, infinities, negative and absurdly large
+  values are refused, naming the option), options given without their companion flag are
+  refused (:func:`~flexhrc.cli.common.needs`), and every output path is checked before the
+  work starts (:func:`~flexhrc.cli.common.check_outputs`) and written atomically.
 """
 
 from __future__ import annotations
@@ -18,6 +23,7 @@ import argparse
 import importlib
 import sys
 from collections.abc import Sequence
+from typing import NoReturn
 
 from flexhrc import __version__
 from flexhrc.errors import FlexhrcError
@@ -26,6 +32,7 @@ from flexhrc.errors import FlexhrcError
 COMMAND_MODULES: tuple[str, ...] = (
     "graph",
     "demo",
+    "scenario",
     "behave",
     "sim",
     "har",
@@ -36,8 +43,16 @@ COMMAND_MODULES: tuple[str, ...] = (
 )
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse, with its errors as one ``error:`` line like every other flexhrc error (the
+    usage is a ``--help`` away). Sub-command parsers inherit the class."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"error: {self.prog}: {message} (see {self.prog} --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="flexhrc",
         description="Flexible human-robot collaboration: AND/OR graphs, task manager, "
         "perception, control and behaviour networks.",
@@ -57,7 +72,10 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
-    args = parser.parse_args(list(argv) if argv is not None else None)
+    try:
+        args = parser.parse_args(list(argv) if argv is not None else None)
+    except SystemExit as exc:  # argparse has printed usage and "error: argument --x: ..."
+        return exc.code if isinstance(exc.code, int) else 2
     func = getattr(args, "func", None)
     if func is None:
         parser.print_help(sys.stderr)

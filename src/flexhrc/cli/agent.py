@@ -99,7 +99,14 @@ def cmd_agent(args: argparse.Namespace) -> int:
                 trace=trace,
             )
         else:
-            agent = HumanAgent(name, scenario, transport, profile=args.profile, trace=trace)
+            agent = HumanAgent(
+                name,
+                scenario,
+                transport,
+                profile=args.profile,
+                execution=execution_model("analytic", scenario),
+                trace=trace,
+            )
         trace(f"ready ({args.agent_kind}, cell {args.cell!r})")
         outcome = run_agent(agent, transport, until=lambda: stop["flag"])
         trace(f"cell ended: {outcome}")

@@ -209,7 +209,8 @@ def cmd_cell(args: argparse.Namespace) -> int:
         if internal:
             for a in scenario.domain().agents.values():
                 if a.is_human:
-                    agents.append(HumanAgent(a.name, scenario, transport))
+                    human_model = execution_model("analytic", scenario)
+                    agents.append(HumanAgent(a.name, scenario, transport, execution=human_model))
                 else:
                     model = execution_model(args.simulator, scenario)
                     agents.append(RobotAgent(a.name, scenario, transport, execution=model))

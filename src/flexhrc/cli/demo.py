@@ -1,4 +1,10 @@
-"""``flexhrc demo table``, ``flexhrc run SCENARIO.yaml`` and ``flexhrc replay LOG``."""
+"""``flexhrc demo table``, ``flexhrc run FILE|NAME`` and ``flexhrc replay LOG``.
+
+``demo table`` runs the shipped table scenario (:mod:`flexhrc.scenario.table`: tabletop
+placement, legs fix, check) for the table its options describe; ``run`` runs any scenario file
+(``flexhrc: 1``, :mod:`flexhrc.scenario`) or shipped scenario by name, and still accepts the
+older ``scenario: table_assembly`` files.
+"""
 
 from __future__ import annotations
 
@@ -38,6 +44,10 @@ TRACE_TYPES = {
     "human_action_unmatched",
     "human_sensed",
     "human_sensing_missed",
+    "human_gives_up",
+    "process_activated",
+    "process_ended",
+    "precondition_failed",
 }
 PLOT_SUFFIXES = (".png", ".svg", ".pdf")
 # scenario settings -> the demo's options (for errors that name what the user typed)
@@ -66,11 +76,14 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
 
     r = sub.add_parser(
         "run",
-        help="run a user-written scenario file (YAML)",
-        description="Run the cooperation a scenario file describes "
-        "(keys: see docs/taskmanager.md).",
+        help="run a scenario: a file (YAML) or a shipped one by name",
+        description="Run the cooperation a scenario describes, end to end: Task Manager, "
+        "simulator, simulated operators, log, plots (format: docs/scenarios.md; shipped: "
+        "flexhrc scenario list).",
     )
-    r.add_argument("scenario", metavar="SCENARIO.yaml", help="the scenario file")
+    r.add_argument(
+        "scenario", metavar="FILE|NAME", help="a scenario file, or a shipped scenario's name"
+    )
     _run_options(r)
     r.set_defaults(func=cmd_run)
 
@@ -117,6 +130,13 @@ def _scenario_options(p: argparse.ArgumentParser) -> None:
         help="bolt K cannot be reached by either arm (the robot asks the human, paper Fig. 12)",
     )
     p.add_argument("--no-human", action="store_true", help="the robot works alone")
+    p.add_argument(
+        "--segments",
+        choices=["all", "legs"],
+        default="all",
+        help="all: tabletop placement by both arms, legs fix, the operator's check (paper "
+        "VI-D); legs: the legs fix alone (Figs. 9-12)",
+    )
     _run_options(p)
 
 
@@ -141,7 +161,8 @@ def _run_options(p: argparse.ArgumentParser) -> None:
         action="append",
         default=None,
         metavar="K",
-        help="script the operator: it takes bolt K (repeatable), whatever the profile",
+        help="script the operator: it takes the K-th cooperation step it could do (for the "
+        "table: bolt K; repeatable), whatever the profile",
     )
     p.add_argument(
         "--fail",
@@ -151,9 +172,17 @@ def _run_options(p: argparse.ArgumentParser) -> None:
         help="inject a failure of the N-th robot ACTION (e.g. transport:1)",
     )
     p.add_argument(
+        "--reaction",
+        choices=["conflicts", "paper"],
+        default="conflicts",
+        help="when the operator does something not suggested: stop only the robot actions "
+        "that conflict with it (conflicts, default) or every robot action, arms to rest "
+        "(paper, V-B)",
+    )
+    p.add_argument(
         "--simulator",
         choices=["auto", "analytic", "kinematic"],
-        default="auto",
+        default=None,
         help="how branches are simulated: kinematic (task-priority control on the robot model; "
         "what auto picks when the sim extra is installed) or analytic (distances and speeds)",
     )
@@ -202,7 +231,7 @@ def _simulators(args: argparse.Namespace, actions: Any = None) -> tuple[Any, Any
     domain's action names --disturb may name."""
     from flexhrc.scenarios.simulators import choose_simulator, resolve_simulator_name
 
-    name = resolve_simulator_name(args.simulator)
+    name = resolve_simulator_name(args.simulator or "auto")
     if name == "analytic" and args.disturb:
         raise FlexhrcError("--disturb needs --simulator kinematic (use --fail with analytic)")
     specs = [_disturbance(spec, actions) for spec in args.disturb]  # before building anything
@@ -313,7 +342,9 @@ def _trace_printer(args: argparse.Namespace) -> Any:
         elif kind == "infeasible":
             line = f"{ev['element']} infeasible: {ev['reason']}"
         elif kind == "human_decides":
-            line = f"{ev.get('agent', 'human')} goes for {ev['element']}: {'; '.join(ev['actions'])}"
+            line = (
+                f"{ev.get('agent', 'human')} goes for {ev['element']}: {'; '.join(ev['actions'])}"
+            )
         elif kind == "human_gives_up":
             what = ev.get("object") or ev.get("step")
             line = f"{ev.get('agent', 'human')} leaves {what}: the {ev['holder']} got there first"
@@ -324,6 +355,14 @@ def _trace_printer(args: argparse.Namespace) -> Any:
             )
         elif kind == "human_sensing_missed":
             line = f"wrist sensor missed {ev['action']}; scene perception reports it"
+        elif kind == "process_activated":
+            line = f"{ev['node']} reached: its processes start ({', '.join(ev['processes'])})"
+        elif kind == "process_ended":
+            line = f"{ev['process']} ended ({ev['reason']}); {ev['node']} can be met"
+        elif kind == "precondition_failed":
+            line = f"{ev['element']}: {ev['reason']} at dispatch; re-planning"
+        elif kind == "human_action_unmatched":
+            line = f"human did {ev['action']}: it advances no feasible hyper-arc"
         elif kind == "waiting":
             line = f"waiting: {ev['reason']}"
         elif kind == "outcome":
@@ -355,7 +394,10 @@ def cmd_demo_table(args: argparse.Namespace) -> int:
         raise FlexhrcError("--human-takes needs a human: drop --no-human")
     if args.no_human and args.human is not None:
         raise FlexhrcError(f"--human {args.human} needs a human: drop --no-human")
-    return _run_table(args, scenario, args.human or "passive", inputs=[])
+    from flexhrc.scenario.table import TableTask
+
+    task = TableTask(scenario, segments=args.segments)
+    return _run_table(args, task, args.human or "passive", inputs=[])
 
 
 def _flag_error(exc: Any) -> str:
@@ -431,6 +473,7 @@ def _run_table(
             human_takes=args.human_takes,
             human_sensing=sensing,
             sink=writer.write if writer is not None else None,
+            reaction=args.reaction,
         )
         with _stop_on_signals(run) as caught:
             result = run.run()
@@ -515,12 +558,11 @@ SCENARIO_KEYS = {
 
 
 def cmd_run(args: argparse.Namespace) -> int:
+    from flexhrc import scenario as scenario_mod
     from flexhrc.files import read_text
     from flexhrc.representation.formats.yaml_format import read_yaml
-    from flexhrc.scenarios.table_assembly import ScenarioError, TableScenario
-    from flexhrc.taskmanager.runner import PROFILES
 
-    path = Path(args.scenario)
+    path = scenario_mod.resolve(args.scenario)
     read_text(path)  # missing, a folder, unreadable, binary, not UTF-8: one clear error
     try:
         doc = read_yaml(path)
@@ -528,6 +570,98 @@ def cmd_run(args: argparse.Namespace) -> int:
         raise FormatError("nested too deeply to be a scenario file", path) from None
     if not isinstance(doc, dict):
         raise FormatError("a scenario file must be a mapping", path, 1)
+    if "scenario" in doc and "flexhrc" not in doc:
+        return _run_legacy(args, path, doc)
+    return _run_scenario(args, scenario_mod.load(path), path)
+
+
+def _run_scenario(args: argparse.Namespace, sc: Any, path: Path) -> int:
+    """A ``flexhrc: 1`` scenario file, end to end."""
+    from flexhrc.files import EventLogWriter, atomic_output
+    from flexhrc.scenario import prepare
+    from flexhrc.taskmanager.runner import table_i
+
+    if args.human is not None and not sc.humans:
+        raise FlexhrcError(f"--human {args.human} needs an operator, but {path} has no humans")
+    if args.human_takes and not sc.humans:
+        raise FlexhrcError(f"--human-takes needs an operator, but {path} has no humans")
+    for k in args.human_takes or []:
+        if k < 1:
+            raise FlexhrcError(f"--human-takes {k}: steps are counted from 1")
+    robot_actions = _robot_actions(sc.domain)
+    failures = _failures(args.fail, robot_actions)
+    check_outputs(
+        [("--log", args.log, None), ("--plot", args.plot, PLOT_SUFFIXES)],
+        inputs=[path, args.har_model],
+    )
+    if args.plot:
+        _need_matplotlib()
+    args.simulator = args.simulator or sc.simulator
+    simulator, execution = _simulators(args, robot_actions)
+    sensing = _human_sensing(args)
+    writer = EventLogWriter(args.log) if args.log else None
+    try:
+        run = prepare(
+            sc,
+            profile=args.human,
+            seed=args.seed,
+            simulator=simulator,
+            execution=execution,
+            reaction=args.reaction,
+            trace=_trace_printer(args),
+            sink=writer.write if writer is not None else None,
+            failures=failures,
+            human_takes=args.human_takes,
+            human_sensing=sensing,
+            realtime=args.realtime or 0.0,
+        )
+        with _stop_on_signals(run) as caught:
+            result = run.run()
+    finally:
+        if writer is not None:
+            writer.close()
+    if args.plot:
+        from flexhrc.taskmanager.timeline import plot_timeline
+
+        who = ", ".join(f"{name} {prof}" for name, prof in run.operator_profiles()) or "no operator"
+        with atomic_output(args.plot) as tmp:
+            plot_timeline(result.events, tmp, f"{sc.name}, {who}, seed {args.seed}")
+    for f in run.unfired_failures():
+        progress(
+            f"warning: --fail {f.action}:{f.nth} never happened: the run had "
+            f"{plural(run.executions_of(f.action), f.action + ' action')}"
+        )
+    data = {"scenario": sc.name, **result.summary}
+
+    def text() -> str:
+        out = ["", table_i(data), ""]
+        by = ", ".join(f"{a}: {n}" for a, n in data["by_agent"].items())
+        out.append(
+            f"{sc.name}: outcome {data['outcome']}"
+            + (f" ({data['reason']})" if data["reason"] else "")
+            + f"; hyper-arcs solved by {by}; {plural(data['decisions'], 'decision tree')}, "
+            f"{plural(data['branches_simulated'], 'branch', 'branches')} simulated "
+            f"({data['simulator']} simulator); "
+            f"{data['robot_actions']} robot and {plural(data['human_actions'], 'human action')}"
+        )
+        if args.log:
+            out.append(f"event log: {args.log}")
+        if args.plot:
+            out.append(f"timeline: {args.plot}")
+        return "\n".join(out)
+
+    emit(args, data, text)
+    if caught:
+        print("interrupted", file=sys.stderr)
+        return EXIT_SIGNAL[signal.Signals(caught[0])]
+    return 0 if data["outcome"] == "solved" else 1
+
+
+def _run_legacy(args: argparse.Namespace, path: Path, doc: Any) -> int:
+    """The older ``scenario: table_assembly`` files (the legs fix of one table)."""
+    from flexhrc.scenarios.table_assembly import ScenarioError, TableScenario
+    from flexhrc.taskmanager.runner import PROFILES
+
     lines: dict[str, int] = getattr(doc, "lines", {})
 
     def line(key: str) -> int | None:

@@ -8,10 +8,22 @@ flexhrc scene detect FILE.npy [--intrinsics fx,fy,cx,cy] [--rules RULES.yaml] [-
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
 
-from flexhrc.cli.common import add_json_flag, emit, log
+from flexhrc.cli.common import (
+    add_json_flag,
+    check_outputs,
+    emit,
+    float_range,
+    int_range,
+    plural,
+    progress,
+    seed_type,
+)
 from flexhrc.errors import FlexhrcError, FormatError
+
+MAX_NOISE_M = 0.1  # beyond 10 cm of depth noise nothing on a table is recognisable
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -24,12 +36,32 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.set_defaults(func=lambda a: (p.print_help(), 2)[1])
 
     b = sub.add_parser("bench", help="generate scenes, perceive them, score against the truth")
-    b.add_argument("--scenes", type=int, default=50)
-    b.add_argument("--seed", type=int, default=0)
-    b.add_argument("--noise", type=float, default=0.002, metavar="SIGMA_M", help="depth noise (m)")
-    b.add_argument("--dropout", type=float, default=0.0, help="fraction of missing pixels")
-    b.add_argument("--width", type=int, default=400, help="depth image width (px)")
-    b.add_argument("--height", type=int, default=300, help="depth image height (px)")
+    b.add_argument(
+        "--scenes",
+        type=int_range(1, 100_000),
+        default=50,
+        help="number of scenes generated (default 50)",
+    )
+    b.add_argument("--seed", type=seed_type, default=0, help="seed of the scenes (default 0)")
+    b.add_argument(
+        "--noise",
+        type=float_range(0.0, MAX_NOISE_M),
+        default=0.002,
+        metavar="SIGMA_M",
+        help=f"depth noise, standard deviation in metres (default 0.002, at most {MAX_NOISE_M:g})",
+    )
+    b.add_argument(
+        "--dropout",
+        type=float_range(0.0, 1.0, hi_open=True),
+        default=0.0,
+        help="fraction of missing pixels, in [0, 1) (default 0)",
+    )
+    b.add_argument(
+        "--width", type=int_range(16, 4096), default=400, help="depth image width (px, 400)"
+    )
+    b.add_argument(
+        "--height", type=int_range(16, 4096), default=300, help="depth image height (px, 300)"
+    )
     b.add_argument(
         "--renderer",
         choices=["raycast", "pybullet"],
@@ -40,9 +72,15 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     b.set_defaults(func=_bench)
 
     g = sub.add_parser("generate", help="write a synthetic scene (point cloud or depth image)")
-    g.add_argument("-o", "--output", required=True, metavar="FILE.npy")
-    g.add_argument("--seed", type=int, default=0)
-    g.add_argument("--noise", type=float, default=0.002, metavar="SIGMA_M")
+    g.add_argument("-o", "--output", required=True, metavar="FILE.npy", help="the file written")
+    g.add_argument("--seed", type=seed_type, default=0, help="seed of the scene (default 0)")
+    g.add_argument(
+        "--noise",
+        type=float_range(0.0, MAX_NOISE_M),
+        default=0.002,
+        metavar="SIGMA_M",
+        help="depth noise, standard deviation in metres (default 0.002)",
+    )
     g.add_argument("--depth", action="store_true", help="write the depth image, not the cloud")
     add_json_flag(g)
     g.set_defaults(func=_generate)
@@ -67,7 +105,7 @@ def _bench(args: argparse.Namespace) -> int:
             height=args.height,
             dropout=args.dropout,
             renderer=args.renderer,
-            progress=(lambda m: log(args, m)) if args.json else None,
+            progress=progress,  # one line per scene, on stderr
         )
     except ValueError as exc:
         raise FlexhrcError(str(exc)) from None
@@ -75,9 +113,10 @@ def _bench(args: argparse.Namespace) -> int:
     def text() -> str:
         return "\n".join(
             [
-                f"{res['scenes']} scenes ({res['renderer']}), seed {res['seed']}, "
+                f"{plural(int(res['scenes']), 'scene')} ({res['renderer']}), seed {res['seed']}, "
                 f"noise {res['noise_m']} m, "
-                f"{res['objects']} objects, {res['points_per_frame']} points/frame (median)",
+                f"{plural(int(res['objects']), 'object')}, {res['points_per_frame']} points/frame "
+                "(median)",
                 f"  detection_rate    {res['detection_rate']:.4f}",
                 f"  position_error_m  {res['position_error_m']} (median)",
                 f"  size_error_rel    {res['size_error_rel']} (median)",
@@ -94,13 +133,15 @@ def _bench(args: argparse.Namespace) -> int:
 def _generate(args: argparse.Namespace) -> int:
     import numpy as np
 
+    from flexhrc.files import atomic_output
     from flexhrc.perception.scene import depth_to_cloud, generate_scene, render_depth
 
+    check_outputs([("-o", args.output, (".npy",))])
     rng = np.random.default_rng(args.seed)
     scene = generate_scene(rng)
     depth = render_depth(scene, noise=args.noise, rng=rng)
     out = depth if args.depth else depth_to_cloud(depth, scene.intrinsics, scene.extrinsics)
-    with open(args.output, "wb") as fh:
+    with atomic_output(args.output) as tmp, open(tmp, "wb") as fh:
         np.save(fh, out)
     i = scene.intrinsics
     data = {
@@ -131,18 +172,20 @@ def _generate(args: argparse.Namespace) -> int:
 def _detect(args: argparse.Namespace) -> int:
     import numpy as np
 
+    from flexhrc.perception._io import load_npy
     from flexhrc.perception.scene import CameraIntrinsics, RuleSet, ScenePerception
 
     path = Path(args.file)
-    if not path.is_file():
-        raise FlexhrcError(f"{path}: no such file")
-    try:
-        arr = np.load(path, allow_pickle=False)
-    except ValueError as exc:
-        raise FormatError(f"not a NumPy array file: {exc}", path) from None
+    arr = load_npy(path)
     rules = RuleSet.load(args.rules) if args.rules else RuleSet.default()
     perception = ScenePerception(rules=rules)
+    if not np.issubdtype(arr.dtype, np.number) or arr.dtype.kind == "c":
+        raise FormatError(f"expected real numbers, got an array of {arr.dtype}", path)
+    if arr.ndim == 2 and arr.size and not np.isfinite(arr).any():
+        raise FormatError("no finite value: every point or pixel is NaN or infinite", path)
     if arr.ndim == 2 and arr.shape[1] == 3:
+        if args.intrinsics:
+            raise FlexhrcError(f"--intrinsics goes with a depth image; {path} is a point cloud")
         objects = perception.process(arr)
     elif arr.ndim == 2:
         if not args.intrinsics:
@@ -151,6 +194,12 @@ def _detect(args: argparse.Namespace) -> int:
             fx, fy, cx, cy = (float(v) for v in args.intrinsics.split(","))
         except ValueError:
             raise FlexhrcError("--intrinsics: expected four numbers fx,fy,cx,cy") from None
+        if not all(math.isfinite(v) for v in (fx, fy, cx, cy)):
+            raise FlexhrcError(f"--intrinsics {args.intrinsics}: the numbers must be finite")
+        if fx <= 0 or fy <= 0:
+            raise FlexhrcError(
+                f"--intrinsics {args.intrinsics}: focal lengths fx, fy must be > 0 (pixels)"
+            )
         intr = CameraIntrinsics(fx, fy, cx, cy, arr.shape[1], arr.shape[0])
         # Without extrinsics the cloud is in the camera frame: "up" is towards the camera (-z).
         perception.up = (0.0, 0.0, -1.0)
@@ -167,7 +216,7 @@ def _detect(args: argparse.Namespace) -> int:
             f"size {np.round(o.size, 3).tolist()} confidence {o.confidence:.2f}"
             for o in objects
         ]
-        return "\n".join([f"{len(objects)} object(s)", *rows])
+        return "\n".join([plural(len(objects), "object"), *rows])
 
     emit(args, data, text)
     return 0

@@ -18,8 +18,12 @@ import math
 import time
 from typing import Any
 
-from flexhrc.cli.common import add_json_flag, emit
+from flexhrc.cli.common import add_json_flag, check_outputs, emit, float_range, needs
 from flexhrc.errors import FlexhrcError
+
+MIN_DT = 1e-3  # a finer step only costs time: the controller is converged at 1 ms
+MAX_TIME_BUDGET = 600.0  # simulated seconds
+MAX_STEPS = 200_000  # time budget / dt: bounds the time and memory of the trajectory
 
 
 def register(subparsers: Any) -> None:
@@ -39,7 +43,12 @@ def register(subparsers: Any) -> None:
     p.add_argument(
         "--target", nargs="+", metavar="X", help="target TCP position X Y Z in metres (world)"
     )
-    p.add_argument("--yaw", type=float, default=0.0, help="grasp yaw about the vertical (rad)")
+    p.add_argument(
+        "--yaw",
+        type=float_range(-2 * math.pi, 2 * math.pi),
+        default=0.0,
+        help="grasp yaw about the vertical (rad, within +-2 pi)",
+    )
     p.add_argument(
         "--obstacle",
         nargs="+",
@@ -51,8 +60,18 @@ def register(subparsers: Any) -> None:
     p.add_argument(
         "--human-hand", nargs="+", metavar="X", help="human hand position X Y Z (kept 15 cm away)"
     )
-    p.add_argument("--time-budget", type=float, default=10.0, help="simulated seconds (10)")
-    p.add_argument("--dt", type=float, default=0.02, help="control step in seconds (0.02)")
+    p.add_argument(
+        "--time-budget",
+        type=float,
+        default=10.0,
+        help=f"simulated seconds before giving up (default 10, at most {MAX_TIME_BUDGET:g})",
+    )
+    p.add_argument(
+        "--dt",
+        type=float,
+        default=0.02,
+        help=f"control step in seconds (default 0.02; between {MIN_DT:g} and 0.1)",
+    )
     p.add_argument(
         "--after",
         action="append",
@@ -69,7 +88,12 @@ def register(subparsers: Any) -> None:
         help="X Y Z target of the --after actions (e.g. where the object is picked)",
     )
     p.add_argument("--trajectory", action="store_true", help="include the trajectory in --json")
-    p.add_argument("--view", metavar="FILE", help="render the motion headless to FILE.png/.gif")
+    p.add_argument(
+        "--view",
+        metavar="FILE",
+        help="render the motion headless to FILE.png (last frame) or FILE.gif (animation), "
+        "with a legend and labels",
+    )
     add_json_flag(p)
     p.set_defaults(func=run)
 
@@ -88,10 +112,25 @@ def run(args: argparse.Namespace) -> int:
     from flexhrc.action.simulator import KinematicSimulator, Pose
 
     t0 = time.perf_counter()
-    if args.time_budget <= 0:
-        raise FlexhrcError(f"--time-budget must be positive, got {args.time_budget}")
-    if args.dt <= 0 or args.dt > 0.1:
+    if not math.isfinite(args.time_budget) or not 0 < args.time_budget <= MAX_TIME_BUDGET:
+        raise FlexhrcError(
+            f"--time-budget must be positive and at most {MAX_TIME_BUDGET:g} s, "
+            f"got {args.time_budget}"
+        )
+    if not math.isfinite(args.dt) or args.dt <= 0 or args.dt > 0.1:
         raise FlexhrcError(f"--dt must be in (0, 0.1] seconds, got {args.dt}")
+    if args.dt < MIN_DT:
+        raise FlexhrcError(f"--dt must be at least {MIN_DT:g} s, got {args.dt:g}")
+    if args.time_budget / args.dt > MAX_STEPS:
+        raise FlexhrcError(
+            f"--time-budget {args.time_budget:g} s at --dt {args.dt:g} s is "
+            f"{args.time_budget / args.dt:.0f} steps; at most {MAX_STEPS} (raise --dt)"
+        )
+    needs(args, "--from", args.from_ is not None, "--after", bool(args.after))
+    needs(args, "--trajectory", args.trajectory, "--json", args.json)
+    from flexhrc.action.view import VIEW_SUFFIXES
+
+    check_outputs([("--view", args.view, VIEW_SUFFIXES)])
     target = None
     if args.target is not None:
         xyz = _floats(args.target, "--target")
@@ -136,9 +175,23 @@ def run(args: argparse.Namespace) -> int:
 
         traj = Trajectory.concatenate([*(b.trajectory for b in before), out.trajectory])
         goal = None if target is None else list(target.position)
-        data["view"] = str(
-            render(traj, args.view, obstacles=obstacles, human_hand=hand, goal=goal, rest=start.q)
+        from flexhrc.files import atomic_output
+
+        title = (
+            f"{out.action} by {out.arm}: {'success' if out.success else 'FAILED'} "
+            f"({out.duration_s:.2f} s simulated)"
         )
+        with atomic_output(args.view) as tmp:
+            render(
+                traj,
+                tmp,
+                obstacles=obstacles,
+                human_hand=hand,
+                goal=goal,
+                rest=start.q,
+                title=title,
+            )
+        data["view"] = str(args.view)
     data["total_wall_s"] = round(time.perf_counter() - t0, 4)
 
     def text() -> str:

@@ -93,6 +93,8 @@ class _Checker:
     def __init__(self, path: Path):
         self.path = path
         self.faults: list[Fault] = []
+        self.names: set[str] = set()  # every object and place named, even a malformed one
+        self.types: set[str] = set()  # every object type named, even of a malformed object
 
     def error(self, message: str, line: int | None, source: str | Path | None = None) -> None:
         self.faults.append(Fault(str(source or self.path), line, message))
@@ -180,6 +182,10 @@ def _build(doc: Any, c: _Checker) -> Scenario | None:
     if "hyperarc_actions" in doc:
         _attach_actions(graph, doc["hyperarc_actions"], c, _line(doc, "hyperarc_actions"))
     _check_semantics(graph, domain, domain_doc, domain_src, world, humans, c)
+    for h in humans:  # an operator's speed is the analytic simulator's human speed
+        agent = domain.agents.get(h.name)
+        if agent is not None:
+            domain.agents[h.name] = replace(agent, params={**agent.params, "speed": h.speed})
     return Scenario(
         name,
         description,
@@ -233,10 +239,11 @@ def _inline_graph(doc: Any, path: Path) -> HierarchicalGraph:
         key = str(key)
         if not isinstance(gd, dict):
             raise FormatError(f"graph {key!r} must be a mapping", path, _line(graphs_d, key))
+        # the YAML graph reader's own helpers: an inline document reads like a graph file
         if "file" in gd:
-            graphs.update(yf._load_external(key, path, gd, graphs_d))
+            graphs.update(yf._load_external(key, path, gd, graphs_d))  # type: ignore[arg-type]
         else:
-            graphs[key] = yf._graph_from_dict(key, gd, path, _line(graphs_d, key))
+            graphs[key] = yf._graph_from_dict(key, gd, path, _line(graphs_d, key))  # type: ignore[arg-type]
     if top not in graphs:
         raise FormatError(f"top graph {top!r} is not defined under 'graphs'", path, _line(doc))
     hierarchy = HierarchicalGraph(graphs, top)
@@ -349,6 +356,7 @@ def _world(w: Any, c: _Checker, line: int | None) -> WorldSpec | None:
             "world.objects must be a mapping {NAME: {type, position, ...}}", _line(w, "objects")
         )
         od = {}
+    c.names.update(str(n) for n in od)
     for name, spec in od.items():
         ln = _line(od, name)
         if not isinstance(spec, Mapping):
@@ -364,7 +372,8 @@ def _world(w: Any, c: _Checker, line: int | None) -> WorldSpec | None:
         if not isinstance(spec.get("type"), str) or not spec.get("type"):
             c.error(f"object {name!r}: needs a type", ln)
             continue
-        pos = spec.get("position")
+        c.types.add(str(spec["type"]))
+        pos: Any = spec.get("position")
         if not _is_pose(pos):
             c.error(
                 f"object {name!r}: malformed pose position: {pos!r} (three finite numbers "
@@ -398,6 +407,7 @@ def _world(w: Any, c: _Checker, line: int | None) -> WorldSpec | None:
     if not isinstance(pd, Mapping):
         c.error("world.places must be a mapping {NAME: [x, y, z]}", _line(w, "places"))
         pd = {}
+    c.names.update(str(n) for n in pd)
     for name, pos in pd.items():
         if not _is_pose(pos):
             c.error(
@@ -535,7 +545,7 @@ def _check_semantics(
     c: _Checker,
 ) -> None:
     # types the scenario declares: objects, places, agents, supertypes
-    declared: set[str] = {"agent", "place"}
+    declared: set[str] = {"agent", "place", *c.types}
     for o in world.objects:
         declared.add(o.type)
     for a in domain.agents.values():
@@ -549,9 +559,11 @@ def _check_semantics(
         *(("action", s) for s in domain.actions.values()),
         *(("process", s) for s in domain.processes.values()),
     ]
+    key_line: dict[tuple[str, str], int | None] = {}
     for what, s in schemas:
         block = (domain_doc or {}).get(f"{what}es" if what == "process" else "actions") or {}
         sd = block.get(s.name) if isinstance(block, Mapping) else None
+        key_line[(what, s.name)] = _line(block, s.name) if sd is not None else s.line
         ln = _line(sd, "parameters") if sd is not None else s.line
         for var, typ in s.parameters:
             needed.add(typ)
@@ -600,7 +612,8 @@ def _check_semantics(
                     )
                     continue
                 for term in lit.args:
-                    if not term.startswith("?") and term not in _constants(world, domain):
+                    known = _constants(world, domain) | c.names
+                    if not term.startswith("?") and term not in known:
                         c.error(
                             f"hyper-arc {h.name!r}: {text!r}: {term!r} is no object, place or "
                             "agent of the scenario",
@@ -629,6 +642,8 @@ def _check_semantics(
     for o in world.objects:
         makeable.update(_chain(o.type, world.supertypes))
     makeable.update(declared)
+    for t in c.types:
+        makeable.update(_chain(t, world.supertypes))
     reported: set[str] = set()
 
     def need(lits: Iterable[Literal], where: str, line: int | None, src: Any) -> None:
@@ -649,8 +664,25 @@ def _check_semantics(
             if n.formula:
                 need(n.formula, f"node {n.name!r}", n.line, g.source or c.path)
     for what, s in schemas:
-        need(s.pre, f"{what} {s.name!r}: precondition", s.line, domain_src)
-        need(s.until, f"{what} {s.name!r}: end condition", s.line, domain_src)
+        ln = key_line.get((what, s.name))
+        need(
+            s.pre,
+            f"{what} {s.name!r}: precondition",
+            _line_in(s, "pre", domain_doc, what) or ln,
+            domain_src,
+        )
+        need(
+            s.until,
+            f"{what} {s.name!r}: end condition",
+            _line_in(s, "until", domain_doc, what) or ln,
+            domain_src,
+        )
+
+
+def _line_in(s: ActionSchema, key: str, domain_doc: Any, what: str) -> int | None:
+    block = (domain_doc or {}).get(f"{what}es" if what == "process" else "actions") or {}
+    sd = block.get(s.name) if isinstance(block, Mapping) else None
+    return _line(sd, key) if sd is not None and key in sd else None
 
 
 def _object_line(c: _Checker, name: str) -> int | None:

@@ -73,13 +73,15 @@ class Scenario:
     robot: Mapping[str, Any] = field(default_factory=dict)
     path: Path | None = None
     warnings: tuple[str, ...] = ()
-    #: extra knowledge-base set-up after the world section (code-built scenarios, e.g. the table)
-    setup: Callable[[KnowledgeBase], None] | None = None
+    #: builds the knowledge base instead of the world section (scenarios built in code)
+    world_factory: Callable[[], KnowledgeBase] | None = None
 
     # -- factories ------------------------------------------------------------------------
     def world(self) -> KnowledgeBase:
         """A fresh knowledge base: the world's objects and places, one object per agent (its
         hand: a robot's ``rest`` or ``base``, an operator's ``hand``), the initial facts."""
+        if self.world_factory is not None:
+            return self.world_factory()
         w = self.world_spec
         kb = KnowledgeBase(supertypes=w.supertypes)
         for agent in self.domain.agents.values():
@@ -97,8 +99,6 @@ class Scenario:
             kb.add_object(name, "place", p)
         for lit in w.facts:
             kb.assert_fact(*lit.key())
-        if self.setup is not None:
-            self.setup(kb)
         return kb
 
     knowledge = world  # the name the table scenario used
@@ -115,13 +115,13 @@ class Scenario:
     def make_simulator(self, choice: str | None = None) -> Any:
         """The branch simulator: ``analytic`` (durations from the domain, distances over
         speeds) or ``kinematic`` (task-priority control on the robot model; sim extra)."""
-        from flexhrc.scenario.simulate import ScenarioSimulator
+        from flexhrc.taskmanager.simulator import AnalyticSimulator
 
         choice = choice or self.simulator
         if choice not in SIMULATORS:
             raise FlexhrcError(f"unknown simulator {choice!r}; choose one of analytic, kinematic")
         if choice == "analytic":
-            return ScenarioSimulator()
+            return AnalyticSimulator()
         try:
             from flexhrc.action.bridge import KinematicTaskSimulator
         except ImportError as exc:
@@ -129,7 +129,7 @@ class Scenario:
                 f"--simulator kinematic needs the sim extra ({exc.name} is missing): "
                 "pip install 'flexhrc[sim]'"
             ) from None
-        return KinematicTaskSimulator(human=ScenarioSimulator())
+        return KinematicTaskSimulator()
 
     def summary_line(self) -> str:
         stats = self.graph.stats()

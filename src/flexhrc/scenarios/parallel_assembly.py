@@ -62,7 +62,7 @@ class ParallelScenario:
         for k in range(1, self.legs + 1):
             bolt = f"bolt_{k}"
             # leg k belongs to socket k (a kit): the sockets never compete for legs
-            g.add_node(Node(f"leg_{k}", 0, parse_conjunction(f"leg(?leg) & kit(?leg, {bolt})")))
+            g.add_node(Node(f"leg_{k}", 0, parse_conjunction(f"kit(?leg, {bolt}) & leg(?leg)")))
             if not self.chain or k == 1:
                 g.add_node(Node(f"socket_{k}", 0, parse_conjunction(f"place({bolt})")))
             g.add_node(Node(f"connected_{k}", 0, parse_conjunction(f"filled({bolt})")))

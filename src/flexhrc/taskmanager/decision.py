@@ -266,7 +266,10 @@ def unmet_precondition(
         if i >= from_index and schema.pre:
             pre = [apply_substitution(lit, binding) for lit in schema.pre]
             if not holds(pre, current):
-                return f"pre({step}) does not hold: {' & '.join(str(x) for x in pre)}"
+                # name the literals that fail (all of them when they share free variables)
+                bad = [x for x in pre if x.is_ground and (x.key() in current) == x.negated]
+                bad = bad or [x for x in pre if not x.is_ground] or pre
+                return f"pre({step}) does not hold: {' & '.join(str(x) for x in bad)}"
         if schema.add or schema.delete:
             if state is None:
                 state = set(current)

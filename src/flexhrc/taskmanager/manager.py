@@ -537,6 +537,7 @@ class TaskManager:
             return out
         self.waiting_for_consistency = False
         self._meet_nodes()
+        self._drop_obsolete(out)
         for _ in range(10_000):
             if self.done:
                 return out
@@ -545,6 +546,24 @@ class TaskManager:
             if not started:
                 break
         return out
+
+    def _drop_obsolete(self, out: list[Directive]) -> None:
+        """Executions whose hyper-arc is no longer feasible (an alternative was solved, its
+        graph instance closed) are given up: robots stop and rest, operators are told nothing
+        more (their next action will not be recognised)."""
+        for ex in list(self.executions.values()):
+            if self.graph.is_feasible(ex.element):
+                continue
+            if ex.owner == "robot":
+                self._abort(ex, out, reason=f"{ex.element} is no longer feasible")
+            else:
+                self.executions.pop(ex.element, None)
+                self._emit(
+                    "abort",
+                    element=ex.element,
+                    reason=f"{ex.element} is no longer feasible",
+                    agents=list(ex.agents),
+                )
 
     def _conflicts(self, element: str) -> bool:
         if element in self.executions:
@@ -760,6 +779,10 @@ class TaskManager:
         ex.next_index += 1
         if ex.next_index >= len(ex.branch.steps):
             del self.executions[ex.element]
+            if not self.graph.is_feasible(ex.element):
+                # meanwhile an alternative was solved: this transition no longer counts
+                self._emit("obsolete", element=ex.element, agents=list(ex.branch.agents))
+                return
             ex.command = None
             if row:
                 row.status = "solved"
@@ -789,7 +812,7 @@ class TaskManager:
         if row:
             row.status = "feasible"
             row.done_by = [None] * len(row.actions)
-        self._emit("abort", element=ex.element, reason=reason)
+        self._emit("abort", element=ex.element, reason=reason, agents=list(ex.branch.agents))
         for agent in ex.branch.agents:
             if self.domain.agent(agent).is_human:
                 continue
@@ -855,18 +878,32 @@ class TaskManager:
         return humans[0] if humans else "human"
 
     def _stop_every_robot(self, out: list[Directive], reason: str) -> None:
-        """Paper V-B: every robot action stops and every arm goes to rest."""
+        """Paper V-B: every robot action stops and every arm goes to rest. An execution whose
+        hyper-arc's outcome already holds (S(parent) under its grounding: only releasing and
+        resting are left) finishes: stopping it would undo nothing."""
+        finishing: set[str] = set()
         for other in list(self.executions.values()):
-            if other.owner == "robot":
-                self._abort(other, out, reason=reason)
+            if other.owner != "robot":
+                continue
+            if self._outcome_holds(other):
+                finishing.update(other.agents)
+                continue
+            self._abort(other, out, reason=reason)
         for agent, cmd in list(self.busy.items()):
-            if cmd.process or self.domain.agent(agent).is_human:
+            if cmd.process or self.domain.agent(agent).is_human or agent in finishing:
                 continue
             if cmd.element is None and cmd.action.name == "rest":
                 continue
             self._stop_agent(agent, cmd, reason, out)
             self._release(agent)
             self._rest(agent, out)
+
+    def _outcome_holds(self, ex: Execution) -> bool:
+        formula = self._formulas.get(self._parent(ex.element), ())
+        if not formula:
+            return False
+        grounded = tuple(apply_substitution(lit, ex.branch.grounding) for lit in formula)
+        return holds(grounded, self.kb.facts)
 
     def _match_running_human(self, action: HumanAction) -> Execution | None:
         for ex in self.executions.values():
@@ -995,7 +1032,12 @@ class TaskManager:
             if other.element == name or shared or uses_object:
                 if other.owner == "human":
                     self.executions.pop(other.element, None)
-                    self._emit("abort", element=other.element, reason="human changed plan")
+                    self._emit(
+                        "abort",
+                        element=other.element,
+                        reason="human changed plan",
+                        agents=list(other.agents),
+                    )
                 else:
                     self._abort(other, out, reason=f"human does {name}")
 

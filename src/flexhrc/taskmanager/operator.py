@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import math
 import random
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -173,6 +174,7 @@ class SimulatedOperator:
         actions = tm.actions_of(hyperarc)
         constraints = tm.constraints_of(hyperarc)
         reserved = tm.reserved_objects()
+        in_use = self._in_use(tm, kb)
         # a object a robot only plans to use is still free to take; prefer the others
         for avoid in (reserved, set()):
             tree = DecisionTree.build(
@@ -185,7 +187,12 @@ class SimulatedOperator:
                 reserved=avoid,
                 binding=tm.binding_of(hyperarc),
             )
-            branches = [b for b in tree.branches if not self._held_by_other(kb, tm.domain, b.steps)]
+            branches = [
+                b
+                for b in tree.branches
+                if not self._held_by_other(kb, tm.domain, b.steps)
+                and not in_use & {a for s in b.steps for a in s.args}
+            ]
             if branches:
                 break
         else:
@@ -194,7 +201,7 @@ class SimulatedOperator:
             return list(self.rng.choice(branches).steps)
         hand = kb.position(self.name) if self.name in kb.objects else (1.1, 0.0, 0.1)
 
-        def distance(steps: list[GroundAction]) -> tuple[float, str]:
+        def distance(steps: Sequence[GroundAction]) -> tuple[float, str]:
             first = next(
                 (a for s in steps for a in s.args if a in kb.objects and a not in tm.domain.agents),
                 None,
@@ -203,7 +210,26 @@ class SimulatedOperator:
                 return (0.0, "")
             return (math.dist(hand, kb.position(first)), first)
 
-        return list(min((b.steps for b in branches), key=distance))
+        return list(min(branches, key=lambda b: distance(b.steps)).steps)
+
+    def _in_use(self, tm: TaskManager, kb: KnowledgeBase) -> set[str]:
+        """Objects another agent works on right now: those a robot's current command changes
+        (its effects name them — a mere approach does not: that part is still free to take,
+        the Task Manager then stops the robot), and those of another operator's execution."""
+        agents = tm.domain.agents
+        out: set[str] = set()
+        for cmd in tm.busy.values():
+            schema, binding = cmd.action.schema, cmd.action.binding
+            for lit in (*schema.add, *schema.delete):
+                for term in lit.args:
+                    value = binding.get(term, term)
+                    if value in kb.objects and value not in agents:
+                        out.add(value)
+        for ex in tm.executions.values():
+            if ex.owner == "human" and self.name not in ex.agents:
+                for step in ex.branch.steps[ex.next_index :]:
+                    out.update(a for a in step.args if a in kb.objects and a not in agents)
+        return out
 
     # -- following the Task Manager ----------------------------------------------------------
     def follow(self, element: str, actions: list[GroundAction]) -> None:

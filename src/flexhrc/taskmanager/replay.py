@@ -19,6 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from flexhrc.errors import FormatError
+from flexhrc.taskmanager.runner import OUTCOMES
 
 #: Every event type a cooperation run writes (runner and Task Manager).
 EVENT_TYPES = frozenset(
@@ -48,10 +49,15 @@ EVENT_TYPES = frozenset(
         "human_sensing_missed",
         "outcome",
         "summary",
+        # section V in full (processes, preconditions at dispatch), the physical side
+        "process_activated",
+        "process_ended",
+        "process_failed",
+        "precondition_failed",
+        "fixed",
+        "obsolete",
     }
 )
-#: How a run may end (``outcome`` events).
-OUTCOMES = ("solved", "failed", "interrupted")
 #: How an action may end (``action_end`` events).
 STATUSES = ("done", "failed", "timed_out", "stopped")
 CUT_SHORT = "cut_short"
@@ -121,6 +127,14 @@ def check_log(lines: Sequence[tuple[int, dict[str, Any]]], source: str | Path) -
             for key, v in timing.items():
                 if not _number(v) or v < 0:
                     raise fail(f"summary: timing {key!r} must be a finite time >= 0", line)
+            # the runner writes the summary at the end, stamped with the makespan it reports
+            total = timing.get("total_s")
+            if total is not None and abs(float(total) - last_t) > 1e-6:
+                raise fail(
+                    f"summary: the run ended at {total} s but its events reach {last_t} s "
+                    "(an edited log?)",
+                    line,
+                )
         elif kind == "decision":
             branches = ev.get("branches")
             if not isinstance(branches, list) or not all(isinstance(b, dict) for b in branches):
@@ -171,6 +185,10 @@ def summarise_log(events: Iterable[dict[str, Any]]) -> dict[str, Any]:
     robot_actions = human_actions = 0
     robot_s = human_s = 0.0
     legs: dict[str, int] = {}
+    solved_by: dict[str, int] = {}
+    solved: list[dict[str, Any]] = []
+    humans = {"human"}
+    fixed_events = any(ev.get("type") == "fixed" for ev in events)
     decisions = branches = 0
     outcome: str | None = None
     reason = None
@@ -183,6 +201,8 @@ def summarise_log(events: Iterable[dict[str, Any]]) -> dict[str, Any]:
             simulator = ev.get("simulator")
             for agent in ev.get("agents", []):
                 legs.setdefault(agent, 0)
+                solved_by.setdefault(agent, 0)
+            humans = set(ev.get("humans", ["human"]))
         elif kind == "decision":
             decisions += 1
             branches += len(ev.get("branches", []))
@@ -190,7 +210,7 @@ def summarise_log(events: Iterable[dict[str, Any]]) -> dict[str, Any]:
             outcome, reason = ev["outcome"], ev.get("reason")
         elif kind == "action_end":
             dt = float(ev["t"]) - float(ev["start"])
-            human = "human" in ev["agents"]
+            human = any(a in humans for a in ev["agents"])
             if human:
                 human_s += dt
             else:
@@ -201,9 +221,17 @@ def summarise_log(events: Iterable[dict[str, Any]]) -> dict[str, Any]:
                 human_actions += 1
             else:
                 robot_actions += 1
-            if ev["action"].startswith("screw("):
-                for agent in ev["agents"]:
+            if not fixed_events and ev["action"].startswith("screw("):
+                for agent in ev["agents"]:  # logs written before 'fixed' events existed
                     legs[agent] = legs.get(agent, 0) + 1
+        elif kind == "fixed":
+            for agent in ev["agents"]:
+                legs[agent] = legs.get(agent, 0) + 1
+        elif kind == "solved":
+            agents = list(ev.get("agents", []))
+            solved.append({"hyperarc": ev["element"], "agent": "+".join(agents), "t": ev["t"]})
+            for agent in agents:
+                solved_by[agent] = solved_by.get(agent, 0) + 1
     closing: dict[str, Any] = next(
         (ev for ev in reversed(events) if ev.get("type") == "summary"), {}
     )
@@ -219,6 +247,7 @@ def summarise_log(events: Iterable[dict[str, Any]]) -> dict[str, Any]:
         "outcome": outcome,
         "reason": reason,
         "complete": complete,
+        "compute_recorded": bool(compute),
         "simulator": simulator or closing.get("simulator"),
         "events": len(events),
         "robot_actions": robot_actions,
@@ -234,4 +263,6 @@ def summarise_log(events: Iterable[dict[str, Any]]) -> dict[str, Any]:
             "total_s": round(end, 6),
         },
         "legs_by_agent": legs,
+        "solved_hyperarcs": solved,
+        "by_agent": solved_by,
     }

@@ -1,19 +1,29 @@
 """A whole cooperation on a simulated clock: Task Manager + simulated arms + simulated human.
 
 :class:`CooperationRun` is a discrete-event loop. The Task Manager's :class:`Command` goes to a
-simulated robot arm, which finishes it after the time the execution model gives (or fails, when
-a failure is injected, or times out); its :class:`Suggest` goes to the simulated human; a
-:class:`Stop` cancels an arm's command. The simulated human follows suggestions and, depending on
-its profile, also acts on its own:
+simulated robot arm (or both, for a joint command), which finishes it after the time the
+execution model gives (or fails, when a failure is injected, or times out); its
+:class:`Suggest` goes to the simulated operator it names; a :class:`Stop` cancels a command.
+The operators are generic :class:`~flexhrc.taskmanager.operator.SimulatedOperator` s: they
+follow suggestions and, per profile, act on their own on the hyper-arcs the domain lets a human
+do:
 
 * ``passive`` — only when asked;
-* ``takeover`` — takes every leg it can (paper Fig. 10);
-* ``cooperative`` — takes the next leg now and then (seeded; Fig. 11);
-* ``random`` — acts at random moments on random legs (seeded).
+* ``takeover`` — takes every cooperation step it can (paper Fig. 10);
+* ``cooperative`` — takes a step now and then (seeded; Fig. 11);
+* ``random`` — acts at random moments with random objects (seeded).
 
-``human_takes`` scripts the operator instead: it takes exactly the listed bolts (tests, demos).
+``human_takes`` scripts the (first) operator instead: it takes exactly the K-th cooperation
+steps listed (1-based; for the table: bolt K). ``humans`` names several operators, each with
+its own profile.
 
-Nothing sleeps (unless ``realtime``), so a 4-leg assembly takes milliseconds of wall time. Every
+The physical side of an action comes from the domain, not from code: ``carries: ?obj`` moves
+the object to where the hand ends (its ``moves_to`` target), ``fixes: ?obj`` fixes it in place
+(a ``fixed`` event; ``legs_by_agent`` counts the objects each agent fixed — the name is the
+table demo's), ``undo: ACTION`` is what an operator does when its action turned out to advance
+nothing (put the part back).
+
+Nothing sleeps (unless ``realtime``), so a whole assembly takes milliseconds of wall time. Every
 decision, command, acknowledgement and human action is recorded in :attr:`RunResult.events`
 (JSON-serialisable dicts, written as JSON lines by :meth:`RunResult.save_log`) and handed, as it
 happens, to the ``sink`` — e.g. :meth:`flexhrc.files.EventLogWriter.write`, so a run killed
@@ -26,7 +36,6 @@ from __future__ import annotations
 import heapq
 import itertools
 import json
-import random
 import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
@@ -153,7 +162,6 @@ class CooperationRun:
         # None: the Task Manager is told what the operator did; else an object with
         # sense(action) -> result with .recognised (task action or None) and .to_dict()
         self.human_sensing = human_sensing
-        self.rng = random.Random(seed)
         self.failures = list(failures or [])
         self._failure_counts: dict[int, int] = {}
         self.timeout_factor = timeout_factor
@@ -227,6 +235,7 @@ class CooperationRun:
             "start",
             profile=self.profile,
             agents=list(self.domain.agents),
+            humans=list(self.operators),
             simulator=self.simulator_name,
         )
         if not self._interrupted():
@@ -375,6 +384,7 @@ class CooperationRun:
         fixed = binding.get(schema.fixes) if schema.fixes else None
         if fixed in self.kb.objects:
             self.kb.set_fixed(fixed)
+            self._event("fixed", object=fixed, agents=list(action.agents), action=str(action))
             for a in action.agents:
                 self.legs_by_agent[a] = self.legs_by_agent.get(a, 0) + 1
 
@@ -532,6 +542,10 @@ class CooperationRun:
         self._human_next(op)
 
     # -- results --------------------------------------------------------------------------
+    def operator_profiles(self) -> list[tuple[str, str]]:
+        """(operator, profile) of this run."""
+        return [(op.name, op.profile) for op in self.operators.values()]
+
     def unfired_failures(self) -> list[InjectedFailure]:
         """Injected failures whose N-th execution never came (e.g. ``transport:99``)."""
         return [f for f in self.failures if self._failure_counts.get(id(f), 0) < f.nth]
@@ -598,9 +612,14 @@ def table_i(summary: dict[str, Any]) -> str:
     head = f"Computation ({sim} simulator)" if sim else "Computation (wall clock)"
     total = sum(v for _, v in compute)
     lines = [f"{head:<34}{'time [s]':>12}{'time [%]':>10}"]
-    for name, v in compute:
-        lines.append(f"{name:<34}{v:>12.4f}{100 * v / total if total else 0:>10.2f}")
-    lines.append(f"{'Compute total (wall clock)':<34}{total:>12.4f}{100.0:>10.2f}")
+    if summary.get("compute_recorded", True):
+        for name, v in compute:
+            lines.append(f"{name:<34}{v:>12.4f}{100 * v / total if total else 0:>10.2f}")
+        lines.append(f"{'Compute total (wall clock)':<34}{total:>12.4f}{100.0:>10.2f}")
+    else:  # a log cut short before its closing summary: the compute was never written down
+        for name, _ in compute:
+            lines.append(f"{name:<34}{'n/a':>12}{'':>10}")
+        lines.append("(not recorded: the log ends before the run's closing summary)")
     lines.append("")
     lines.append(f"{'Simulated time (simulated clock)':<34}{'time [s]':>12}")
     for name, v in simulated:

@@ -6,6 +6,8 @@ a branch is ``J(b) = success(b) / sum(t_i)`` (eq. 21).
 
 :class:`AnalyticSimulator` is the default: straight-line distances at nominal speeds, fixed times
 for grasping and screwing, a reach sphere per robot arm, and an optional seeded failure model.
+An action whose domain entry declares ``duration`` (seconds) and ``moves_to`` (the parameter its
+hand goes to) is timed from those alone, so a scenario file needs no code for its actions.
 The kinematic simulator of :mod:`flexhrc.action` implements the same :class:`Simulator`
 protocol; it is chosen at the edge (:mod:`flexhrc.scenarios.simulators`), never imported here.
 Simulations never modify the knowledge base: positions are tracked on the side.
@@ -20,7 +22,7 @@ from dataclasses import dataclass, field
 from typing import Protocol
 
 from flexhrc.knowledge import KnowledgeBase
-from flexhrc.taskmanager.domain import Domain, GroundAction
+from flexhrc.taskmanager.domain import Agent, Domain, GroundAction
 
 Vec3 = tuple[float, float, float]
 
@@ -128,6 +130,8 @@ class AnalyticSimulator:
         domain: Domain,
     ) -> tuple[bool, float, str | None]:
         """Simulate one action from ``positions`` (updated in place): success, time, reason."""
+        if action.schema.duration is not None or action.schema.moves_to is not None:
+            return self._declared_step(action, positions, kb, domain)
         t = self.timing
         kind = action.schema.kind
         agents = [domain.agent(a) for a in action.agents]
@@ -144,6 +148,74 @@ class AnalyticSimulator:
         if self.failure_rate and self._rng.random() < self.failure_rate:
             return False, max(durations, default=0.0), f"{action} failed (simulated fault)"
         return True, max(durations, default=0.0), None
+
+    def _declared_step(
+        self,
+        action: GroundAction,
+        positions: dict[str, Vec3],
+        kb: KnowledgeBase,
+        domain: Domain,
+    ) -> tuple[bool, float, str | None]:
+        """An action whose domain declares ``duration`` and/or ``moves_to``: each agent's hand
+        travels to the ``moves_to`` object or place at its speed (a robot arm's ``speed``,
+        default :attr:`Timing.robot_speed`; an operator's ``speed``, default
+        :attr:`Timing.human_speed`), then works ``duration`` s; a robot target beyond the arm's
+        ``reach`` from its ``base`` (or leaving it out of ``reachable_by``) fails. A joint action
+        lasts as long as its slowest agent. No scenario-specific code is needed."""
+        schema = action.schema
+        target_name = action.binding.get(schema.moves_to) if schema.moves_to else None
+        target: Vec3 | None = None
+        if target_name is not None and target_name in kb.objects:
+            target = positions.get(target_name) or kb.position(target_name)
+        longest = 0.0
+        for name in action.agents:
+            agent = domain.agent(name)
+            ok, travel, why = self._travel(agent, target, target_name, positions, kb)
+            if not ok:
+                return False, 0.0, why
+            longest = max(longest, travel)
+        total = longest + (schema.duration or 0.0)
+        robots = [a for a in action.agents if not domain.agent(a).is_human]
+        if robots and self.failure_rate and self._rng.random() < self.failure_rate:
+            return False, total, f"{action} failed (simulated fault)"
+        return True, total, None
+
+    def _travel(
+        self,
+        agent: Agent,
+        target: Vec3 | None,
+        target_name: str | None,
+        positions: dict[str, Vec3],
+        kb: KnowledgeBase,
+    ) -> tuple[bool, float, str | None]:
+        params: Mapping[str, object] = agent.params
+        if agent.is_human:
+            speed = float(params.get("speed", self.timing.human_speed))  # type: ignore[arg-type]
+        else:
+            speed = float(params.get("speed", self.timing.robot_speed))  # type: ignore[arg-type]
+        here = positions.get(agent.name) or (
+            kb.position(agent.name) if agent.name in kb.objects else None
+        )
+        if target is None or here is None:
+            return True, 0.0, None
+        if not agent.is_human:
+            rec = kb.objects.get(target_name or "")
+            allowed = rec.attrs.get("reachable_by") if rec is not None else None
+            if allowed is not None and agent.name not in allowed:
+                return False, 0.0, f"{target_name} cannot be reached by {agent.name} (blocked)"
+            if "base" in params:
+                base = tuple(float(v) for v in params["base"])  # type: ignore[attr-defined]
+                reach = float(params.get("reach", 0.85))  # type: ignore[arg-type]
+                d = math.dist(base, target)
+                if d > reach:
+                    return (
+                        False,
+                        0.0,
+                        f"{target_name} is out of reach of {agent.name} "
+                        f"({d:.2f} m > {reach:.2f} m)",
+                    )
+        positions[agent.name] = target
+        return True, math.dist(here, target) / max(speed, 1e-6), None
 
     def _arm_step(
         self,

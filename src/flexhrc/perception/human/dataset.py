@@ -22,16 +22,21 @@ from __future__ import annotations
 import csv
 import re
 from collections import Counter
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from flexhrc.errors import FlexhrcError, FormatError, UnknownNameError
+from flexhrc.perception._io import load_npy
 
 #: Sampling rate of the HMP dataset (Hz).
 HMP_RATE_HZ = 32.0
+#: Fewer samples than this cannot be resampled into a template: an error.
+MIN_TRIAL_SAMPLES = 4
+#: Trials shorter than this (seconds) are suspicious: a warning.
+MIN_TRIAL_S = 0.5
 
 #: The seven HMP actions with at least 20 trials (the evaluation set of the issue).
 HMP_SEVEN: tuple[str, ...] = (
@@ -77,51 +82,52 @@ def decode_hmp(coded: np.ndarray) -> np.ndarray:
 
 
 def _read_hmp_txt(path: Path) -> np.ndarray:
+    from flexhrc.files import read_text
+
     rows: list[list[int]] = []
-    with path.open(encoding="ascii", errors="replace") as fh:
-        for lineno, line in enumerate(fh, start=1):
-            text = line.strip()
-            if not text:
-                continue
-            parts = text.split()
-            if len(parts) != 3:
-                raise FormatError(f"expected 3 integers, got {len(parts)} fields", path, lineno)
-            try:
-                values = [int(p) for p in parts]
-            except ValueError:
-                raise FormatError(f"not an integer in {text!r}", path, lineno) from None
-            if any(v < 0 or v > 63 for v in values):
-                raise FormatError(f"HMP codes must be in 0..63, got {text!r}", path, lineno)
-            rows.append(values)
+    for lineno, line in enumerate(read_text(path).split("\n"), start=1):
+        text = line.strip()
+        if not text:
+            continue
+        parts = text.split()
+        if len(parts) != 3:
+            raise FormatError(f"expected 3 integers, got {len(parts)} fields", path, lineno)
+        try:
+            values = [int(p) for p in parts]
+        except ValueError:
+            raise FormatError(f"not an integer in {text!r}", path, lineno) from None
+        if any(v < 0 or v > 63 for v in values):
+            raise FormatError(f"HMP codes must be in 0..63, got {text!r}", path, lineno)
+        rows.append(values)
     if not rows:
         raise FormatError("no samples", path)
     return decode_hmp(np.asarray(rows))
 
 
 def _read_csv(path: Path) -> np.ndarray:
+    from flexhrc.files import read_text
+
     rows: list[list[float]] = []
     columns: slice = slice(0, 3)
-    with path.open(newline="", encoding="utf-8") as fh:
-        for lineno, row in enumerate(csv.reader(fh), start=1):
-            cells = [c.strip() for c in row]
-            if not cells or all(not c for c in cells) or cells[0].startswith("#"):
-                continue
-            if lineno == 1 and not _is_number(cells[0]):
-                header = [c.lower() for c in cells]
-                if header[:1] == ["t"]:
-                    columns = slice(1, 4)
-                if len(header[columns]) != 3:
-                    raise FormatError("header must name three acceleration columns", path, lineno)
-                continue
-            values = cells[columns]
-            if len(values) != 3:
-                raise FormatError(
-                    f"expected 3 acceleration values, got {len(values)}", path, lineno
-                )
-            try:
-                rows.append([float(v) for v in values])
-            except ValueError:
-                raise FormatError(f"not a number in {','.join(cells)!r}", path, lineno) from None
+    text = read_text(path)
+    for lineno, row in enumerate(csv.reader(text.splitlines()), start=1):
+        cells = [c.strip() for c in row]
+        if not cells or all(not c for c in cells) or cells[0].startswith("#"):
+            continue
+        if lineno == 1 and not _is_number(cells[0]):
+            header = [c.lower() for c in cells]
+            if header[:1] == ["t"]:
+                columns = slice(1, 4)
+            if len(header[columns]) != 3:
+                raise FormatError("header must name three acceleration columns", path, lineno)
+            continue
+        values = cells[columns]
+        if len(values) != 3:
+            raise FormatError(f"expected 3 acceleration values, got {len(values)}", path, lineno)
+        try:
+            rows.append([float(v) for v in values])
+        except ValueError:
+            raise FormatError(f"not a number in {','.join(cells)!r}", path, lineno) from None
     if not rows:
         raise FormatError("no samples", path)
     arr = np.asarray(rows)
@@ -141,21 +147,24 @@ def _is_number(text: str) -> bool:
 def read_trial_file(path: str | Path) -> np.ndarray:
     """Read one trial file (HMP ``.txt``, ``.csv`` or ``.npy``) as an ``(n, 3)`` array in g."""
     path = Path(path)
-    if not path.is_file():
-        raise FlexhrcError(f"{path}: no such file")
     suffix = path.suffix.lower()
     if suffix == ".txt":
         return _read_hmp_txt(path)
     if suffix == ".csv":
         return _read_csv(path)
     if suffix == ".npy":
-        try:
-            arr = np.load(path, allow_pickle=False)
-        except ValueError as exc:
-            raise FormatError(f"not a NumPy array file: {exc}", path) from None
+        arr = load_npy(path)
         if arr.ndim != 2 or arr.shape[1] != 3 or not np.issubdtype(arr.dtype, np.number):
             raise FormatError(f"expected a numeric (n, 3) array, got {arr.shape}", path)
-        return arr.astype(float)
+        if len(arr) == 0:
+            raise FormatError("no samples", path)
+        arr = arr.astype(float)
+        if not np.all(np.isfinite(arr)):
+            bad = int(np.argmax(~np.all(np.isfinite(arr), axis=1)))
+            raise FormatError(f"non-finite acceleration value (sample {bad})", path)
+        return arr
+    if not path.exists():
+        raise FlexhrcError(f"{path}: no such file")
     raise FormatError(f"unknown trial format {suffix!r} (use .txt, .csv or .npy)", path)
 
 
@@ -173,12 +182,18 @@ def load_dataset(
     actions: Sequence[str] | None = None,
     min_trials: int = 1,
     rate_hz: float = HMP_RATE_HZ,
+    warn: Callable[[str], None] | None = None,
 ) -> list[Trial]:
     """Load every trial under ``root`` (one sub-folder per action, names lower-cased).
 
     ``actions`` restricts (and checks) the action names; ``min_trials`` drops actions with fewer
-    trials (the issue's seven HMP actions are those with ``min_trials=20``).
+    trials (the issue's seven HMP actions are those with ``min_trials=20``). ``warn`` hears of
+    what is dropped or suspicious (an empty action folder, an action below ``min_trials``, one
+    with a single trial, a trial shorter than :data:`MIN_TRIAL_S`); trials too short to
+    recognise anything (fewer than :data:`MIN_TRIAL_SAMPLES`) are an error.
     """
+    if isinstance(min_trials, bool) or not isinstance(min_trials, int) or min_trials < 1:
+        raise FlexhrcError(f"min_trials must be a whole number >= 1, got {min_trials!r}")
     root = Path(root)
     if not root.is_dir():
         raise FlexhrcError(f"{root}: not a directory")
@@ -194,10 +209,31 @@ def load_dataset(
             )
         folders = {a: folders[a] for a in wanted}
     trials: list[Trial] = []
+    say = warn or (lambda _message: None)
     for action, folder in folders.items():
         files = sorted(p for p in folder.iterdir() if p.suffix.lower() in _TRIAL_SUFFIXES)
-        batch = [Trial(action, read_trial_file(f), volunteer_of(f), rate_hz, str(f)) for f in files]
-        if len(batch) >= max(min_trials, 1):
+        batch = []
+        for f in files:
+            samples = read_trial_file(f)
+            if len(samples) < MIN_TRIAL_SAMPLES:
+                raise FormatError(
+                    f"too short: {len(samples)} sample(s); a trial needs at least "
+                    f"{MIN_TRIAL_SAMPLES}",
+                    f,
+                )
+            if len(samples) < MIN_TRIAL_S * rate_hz:
+                say(f"warning: {f}: only {len(samples) / rate_hz:.2f} s of signal")
+            batch.append(Trial(action, samples, volunteer_of(f), rate_hz, str(f)))
+        if not batch:
+            say(f"warning: {folder}: no trial files (.txt, .csv, .npy); action {action} skipped")
+        elif len(batch) < min_trials:
+            say(
+                f"warning: {folder}: {len(batch)} trial(s), fewer than the {min_trials} asked "
+                f"for; action {action} skipped"
+            )
+        else:
+            if len(batch) == 1:
+                say(f"warning: {folder}: a single trial; its template is that one recording")
             trials.extend(batch)
     if not trials:
         raise FlexhrcError(
@@ -213,7 +249,10 @@ def summarise(trials: Iterable[Trial]) -> dict[str, int]:
 
 def save_csv(path: str | Path, samples: np.ndarray, rate_hz: float = HMP_RATE_HZ) -> None:
     """Write a trial in the user CSV format (``t,ax,ay,az`` in s and g)."""
+    from flexhrc.files import atomic_output
+
     samples = np.asarray(samples, dtype=float)
     t = np.arange(len(samples)) / rate_hz
     data = np.column_stack([t, samples])
-    np.savetxt(path, data, delimiter=",", header="t,ax,ay,az", comments="", fmt="%.6f")
+    with atomic_output(path) as tmp:
+        np.savetxt(tmp, data, delimiter=",", header="t,ax,ay,az", comments="", fmt="%.6f")

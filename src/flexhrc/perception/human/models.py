@@ -348,17 +348,44 @@ class GMMGMRRecognizer:
 
     @classmethod
     def load(cls, path: str | Path) -> GMMGMRRecognizer:
+        import io
+        import zipfile
+
+        from flexhrc.files import read_bytes
+
         path = Path(path)
-        if not path.is_file():
+        if not path.exists():
             raise FlexhrcError(f"{path}: no such model file")
+        raw = read_bytes(path)  # a folder, unreadable: one clear error
+        if not raw:
+            raise FormatError("not a flexhrc HAR model (empty file)", path)
         try:
-            with np.load(path, allow_pickle=False) as data:
+            with np.load(io.BytesIO(raw), allow_pickle=False) as data:
                 meta = json.loads(str(data["meta"]))
                 arrays = {k: data[k] for k in data.files if k != "meta"}
-        except (ValueError, KeyError, OSError, json.JSONDecodeError) as exc:
-            raise FormatError(f"not a flexhrc HAR model ({exc})", path) from None
+        except (
+            ValueError,
+            KeyError,
+            OSError,
+            EOFError,
+            zipfile.BadZipFile,
+            json.JSONDecodeError,
+            AttributeError,
+        ) as exc:
+            raise FormatError(f"not a flexhrc HAR model ({type(exc).__name__})", path) from None
+        if not isinstance(meta, dict):
+            raise FormatError("not a flexhrc HAR model (no metadata)", path)
         if meta.get("format") != "flexhrc-hmp-gmr" or meta.get("version") != FORMAT_VERSION:
             raise FormatError("not a flexhrc HAR model (format/version mismatch)", path)
+        try:
+            return cls._from_saved(meta, arrays)
+        except (KeyError, TypeError, ValueError, IndexError) as exc:
+            raise FormatError(
+                f"damaged flexhrc HAR model ({type(exc).__name__}: {exc})", path
+            ) from None
+
+    @classmethod
+    def _from_saved(cls, meta: dict, arrays: dict[str, np.ndarray]) -> GMMGMRRecognizer:
         p = meta["params"]
         groups = tuple(tuple(g) for g in p["groups"])
         rec = cls(

@@ -117,11 +117,14 @@ class RuleSet:
     def load(cls, path: str | Path) -> RuleSet:
         import yaml
 
+        from flexhrc.files import read_text
+
         path = Path(path)
+        text = read_text(path)  # missing, folder, unreadable, binary, not UTF-8: one error
         try:
-            data = yaml.safe_load(path.read_text(encoding="utf-8"))
-        except OSError as exc:
-            raise FormatError(f"cannot read: {exc.strerror}", path) from None
+            data = yaml.safe_load(text)
+        except RecursionError:
+            raise FormatError("nested too deeply to be a rules file", path) from None
         except yaml.YAMLError as exc:
             mark = getattr(exc, "problem_mark", None)
             raise FormatError(

@@ -1,0 +1,263 @@
+"""Paper 000 section V in full: preconditions, carried groundings, processes P(n), joint actions,
+matching an unsuggested action against the whole action list, the two reactions."""
+
+from __future__ import annotations
+
+import importlib.util
+
+import pytest
+
+from flexhrc import scenario
+from flexhrc.taskmanager import AnalyticSimulator, Command, HumanAction, Stop, TaskManager
+from flexhrc.taskmanager.manager import Ack
+
+from .helpers import base, write
+from .invariants import check_invariants
+
+
+def manager(sc, events):
+    kb = sc.world()
+    tm = TaskManager(sc.online_graph(), sc.domain, kb, AnalyticSimulator(), log=events.append)
+    return tm, kb
+
+
+def robot_only(doc):
+    doc["humans"] = []
+    del doc["domain"]["agents"]["human"]
+    doc["world"]["facts"] = [f for f in doc["world"]["facts"] if f != "free(human)"]
+    return doc
+
+
+def test_a_branch_failing_a_precondition_is_pruned_with_its_reason(tmp_path):
+    doc = robot_only(base())
+    doc["domain"]["actions"]["pick"]["pre"] = ["on_table(?p)", "free(?who)", "clean(?p)"]
+    doc["world"]["facts"] += ["clean(b)"]
+    sc = scenario.load(write(tmp_path, doc))
+    events: list = []
+    tm, _ = manager(sc, events)
+    out = tm.start(0.0)
+    decision = next(e for e in events if e["type"] == "decision")
+    assert [b["grounding"]["?p"] for b in decision["branches"]] == ["b"]
+    assert decision["pruned"] == [
+        {
+            "grounding": {"?p": "a", "?who": "arm"},
+            "agents": ["arm"],
+            "success": False,
+            "durations": [],
+            "utility": 0.0,
+            "reason": "pre(pick(arm, a)) does not hold: clean(a)",
+        }
+    ]
+    assert isinstance(out[0], Command) and str(out[0].action) == "pick(arm, b)"
+
+
+def test_preconditions_are_checked_again_at_dispatch(tmp_path):
+    doc = robot_only(base())
+    doc["domain"]["actions"]["put"]["pre"] = ["holding(?who, ?p)", "open(?to)"]
+    doc["world"]["facts"] += ["open(tray)"]
+    sc = scenario.load(write(tmp_path, doc))
+    events: list = []
+    tm, kb = manager(sc, events)
+    (pick,) = tm.start(0.0)
+    kb.retract_fact("open", "tray")  # meanwhile someone closed the tray (a percept)
+    out = tm.on_ack(2.0, Ack(pick.id, "done"))
+    failed = next(e for e in events if e["type"] == "precondition_failed")
+    assert failed["element"] == "put_first"
+    assert failed["reason"] == "pre(put(arm, a, tray)) does not hold: open(tray)"
+    assert not any(isinstance(d, Command) and d.action.name == "put" for d in out)
+    assert {"?p": "a", "?who": "arm"} in tm.failed["put_first"]
+
+
+def test_the_grounding_of_a_hyper_arc_carries_to_its_parent_and_beyond(tmp_path):
+    doc = robot_only(base())
+    g = doc["graphs"]["two_parts"]
+    g["nodes"][2] = {"name": "done", "state": "inspected(?p)"}
+    g["hyperarcs"][1] = {
+        "name": "inspect",
+        "children": ["first_in"],
+        "parent": "done",
+        "weight": 1,
+        "actions": ["look(?who, ?p)"],
+    }
+    doc["domain"]["actions"]["look"] = {
+        "parameters": {"?who": "agent", "?p": "part"},
+        "agents": {"choice": "?who"},
+        "add": ["inspected(?p)"],
+        "duration": 1.0,
+    }
+    # c lies in the tray from the start: first_in's formula holds for it, but first_in is
+    # reached by put_first, so only the part put_first moved counts
+    doc["world"]["objects"]["c"] = {"type": "part", "position": [0.55, 0.0, 0.0]}
+    doc["world"]["facts"] += ["in(c, tray)"]
+    doc["world"]["facts"].remove("on_table(b)")
+    sc = scenario.load(write(tmp_path, doc))
+    result = scenario.run(sc)
+    assert result.outcome == "solved"
+    solved = {e["element"]: e["grounding"] for e in result.events if e["type"] == "solved"}
+    assert solved["put_first"]["?p"] == "a"
+    assert solved["inspect"]["?p"] == "a"  # not c, although in(c, tray) holds too
+    check_invariants(sc, result.events)
+
+
+def test_node_processes_keep_both_arms_busy_until_their_end_condition():
+    sc = scenario.load("table_assembly")
+    result = scenario.run(sc, seed=0)
+    ev = result.events
+    activated = next(e for e in ev if e["type"] == "process_activated")
+    assert activated["node"] == "tabletop" and activated["processes"] == ["hold(?top)"]
+    hold = next(e for e in ev if e["type"] == "command" and e.get("process"))
+    assert hold["action"] == "hold(tabletop)" and hold["agents"] == ["left", "right"]
+    ended = next(e for e in ev if e["type"] == "process_ended")
+    assert ended["reason"] == "its end condition holds" and ended["t"] > hold["t"]
+    met = next(
+        e for e in ev if e["type"] == "query" and "tabletop" in e["report"].get("met_nodes", [])
+    )
+    assert met["t"] == ended["t"]  # n is met when its processes have ended (eq. 5)
+    first_leg = next(e for e in ev if e["type"] == "command" and e["element"] == "robot_1")
+    assert first_leg["t"] >= ended["t"]
+
+
+def test_the_tabletop_placement_is_one_joint_command_on_both_arms():
+    sc = scenario.load("table_assembly")
+    result = scenario.run(sc, seed=0)
+    cmds = [e for e in result.events if e["type"] == "command"]
+    assert cmds[0]["action"] == "place_tabletop(tabletop, assembly_pose)"
+    assert cmds[0]["agents"] == ["left", "right"]
+    assert [e for e in cmds if e["element"] == "place_tabletop"] == [cmds[0]]
+
+
+@pytest.mark.skipif(importlib.util.find_spec("pinocchio") is None, reason="sim extra")
+def test_the_joint_placement_runs_on_both_arms_with_the_relative_pose_objective():
+    from flexhrc.action import control
+    from flexhrc.action.bridge import KinematicTaskSimulator
+
+    sc = scenario.load("table_assembly")
+    kin = KinematicTaskSimulator()
+    kb = sc.world()
+    schema = sc.domain.actions["place_tabletop"]
+    from flexhrc.taskmanager.domain import GroundAction
+
+    step = GroundAction(schema, ("tabletop", "assembly_pose"), ("left", "right"))
+    seen: list[str] = []
+    original = control.RelativePose.evaluate
+
+    def spy(self, ctx):
+        seen.append("relative_pose")
+        return original(self, ctx)
+
+    control.RelativePose.evaluate = spy  # type: ignore[method-assign]
+    try:
+        sim = kin.simulate([step], kb, sc.domain)
+        report = kin.execute(step, {}, kb, sc.domain)
+    finally:
+        control.RelativePose.evaluate = original  # type: ignore[method-assign]
+    assert sim.success, sim.reason
+    assert report.status == "done", report.reason
+    assert seen  # the carry kept the two hands' relative pose
+    arms = [r.command.arm for r in kin.execution.log]
+    actions = [r.command.action for r in kin.execution.log]
+    assert arms == ["both"] * 4 and actions == ["approach", "grasp", "transport", "ungrasp"]
+
+
+def test_an_unsuggested_action_matches_anywhere_in_the_action_list(tmp_path):
+    doc = base()
+    # the operator already holds b: its put is the second action of put_first
+    doc["world"]["facts"] = ["on_table(a)", "holding(human, b)", "free(arm)"]
+    sc = scenario.load(write(tmp_path, doc))
+    events: list = []
+    tm, _ = manager(sc, events)
+    tm.start(0.0)
+    tm.on_human_action(1.0, HumanAction("put", ("human", "b", "tray")))
+    rec = next(e for e in events if e["type"] == "recognised")
+    assert rec["element"] == "put_first" and rec["index"] == 1
+    solved = next(e for e in events if e["type"] == "solved")
+    assert solved["element"] == "put_first" and solved["grounding"]["?p"] == "b"
+    assert solved["agents"] == ["human"]
+
+
+def _independent(tmp_path, reaction):
+    """The arm works on put_a, the operator was asked put_b; it does pick(human, c) instead."""
+    doc = base()
+    nodes, arcs = [], []
+    for p, w in (("a", 1), ("b", 2), ("c", 3)):
+        nodes += [
+            {"name": f"{p}_ready", "state": f"on_table({p})"},
+            {"name": f"{p}_in", "state": f"in({p}, tray)"},
+        ]
+        arcs.append(
+            {"name": f"put_{p}", "children": [f"{p}_ready"], "parent": f"{p}_in", "weight": w,
+             "actions": [f"pick(?who, {p})", f"put(?who, {p}, tray)"]}
+        )  # fmt: skip
+    nodes.append({"name": "done", "state": "in(a, tray) & in(b, tray) & in(c, tray)"})
+    arcs.append({"name": "finish", "children": ["a_in", "b_in", "c_in"], "parent": "done"})
+    doc["graphs"]["two_parts"] = {"root": "done", "nodes": nodes, "hyperarcs": arcs}
+    doc["world"]["objects"]["c"] = {"type": "part", "position": [0.4, 0.0, 0.0]}
+    doc["world"]["facts"] += ["on_table(c)"]
+    doc["domain"]["agents"]["human"]["hand"] = [3.0, 0.0, 0.1]  # far away: the robot is asked
+    doc["domain"]["actions"]["rest"] = {"parameters": {"?r": "robot"}, "agents": {"choice": "?r"}}
+    sc = scenario.load(write(tmp_path, doc))
+    kb = sc.world()
+    tm = TaskManager(sc.online_graph(), sc.domain, kb, AnalyticSimulator(), reaction=reaction)
+    first = tm.start(0.0)
+    assert [type(d).__name__ for d in first] == ["Command", "Suggest"]
+    assert first[0].element == "put_a" and first[1].element == "put_b"
+    return tm, tm.on_human_action(1.0, HumanAction("pick", ("human", "c")))
+
+
+def test_reaction_conflicts_keeps_robot_actions_that_do_not_conflict(tmp_path):
+    tm, out = _independent(tmp_path, "conflicts")
+    assert not any(isinstance(d, Stop) for d in out)
+    assert tm.executions["put_a"].owner == "robot" and tm.executions["put_a"].command.id == 1
+    assert tm.executions["put_c"].owner == "human"
+
+
+def test_reaction_paper_stops_every_robot_action_and_rests(tmp_path):
+    tm, out = _independent(tmp_path, "paper")
+    stops = [d for d in out if isinstance(d, Stop)]
+    assert [s.agent for s in stops] == ["arm"]
+    rests = [d for d in out if isinstance(d, Command) and d.action.name == "rest"]
+    assert [str(r.action) for r in rests] == ["rest(arm)"]
+    assert "put_c" in tm.executions and tm.executions["put_c"].owner == "human"
+    assert "put_a" not in tm.executions or tm.executions["put_a"].command.id != 1
+
+
+def test_two_named_operators_share_the_work_never_one_object(tmp_path):
+    doc = base()
+    doc["domain"]["agents"]["bob"] = {"kind": "human", "types": ["human"], "hand": [1.0, -0.3, 0.1]}
+    doc["world"]["facts"] += ["free(bob)"]
+    doc["humans"] = [
+        {"name": "human", "profile": "takeover", "speed": 1.0},
+        {"name": "bob", "profile": "takeover", "speed": 1.2},
+    ]
+    sc = scenario.load(write(tmp_path, doc))
+    for seed in range(10):
+        result = scenario.run(sc, seed=seed)
+        assert result.outcome == "solved", result.reason
+        check_invariants(sc, result.events)
+
+
+@pytest.mark.parametrize("profile", ["passive", "takeover", "cooperative", "random"])
+def test_the_check_segment_is_done_by_the_operator(profile):
+    sc = scenario.load("table_assembly")
+    result = scenario.run(sc, profile=profile, seed=4)
+    last = result.summary["solved_hyperarcs"][-1]
+    assert last["hyperarc"] == "check_connections" and last["agent"] == "human"
+    checks = [
+        e["action"]
+        for e in result.events
+        if e["type"] == "action_end" and e["action"].startswith("check(")
+    ]
+    assert checks == [f"check(human, bolt_{k})" for k in range(1, 5)]
+
+
+@pytest.mark.parametrize("profile", ["passive", "takeover", "cooperative", "random"])
+def test_whoever_picked_the_ball_drops_it_the_agent_carries_too(profile):
+    from ..conftest import REPO
+
+    sc = scenario.load(REPO / "examples" / "scenarios" / "ball_in_box.yaml")
+    for seed in range(5):
+        result = scenario.run(sc, profile=profile, seed=seed)
+        assert result.outcome == "solved", result.reason
+        (pick, drop) = result.summary["solved_hyperarcs"]
+        assert drop["hyperarc"] == "drop_in" and drop["agent"] == pick["agent"]
+        check_invariants(sc, result.events)
