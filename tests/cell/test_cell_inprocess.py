@@ -27,11 +27,11 @@ def run_cli(*args: str, timeout: float = 120) -> subprocess.CompletedProcess[str
     )
 
 
-def test_default_cell_is_the_demo_cooperation() -> None:
+def test_default_cell_is_the_run_cooperation() -> None:
     cell = run_cli("cell", "table_assembly", "--json", "--quiet")
-    demo = run_cli("demo", "table", "--json", "--quiet")
+    run = run_cli("run", "table_assembly", "--json", "--quiet")
     assert cell.returncode == 0, cell.stderr
-    c, d = json.loads(cell.stdout), json.loads(demo.stdout)
+    c, d = json.loads(cell.stdout), json.loads(run.stdout)
     assert set(d) - {"wall_s"} <= set(c)  # the keys of `flexhrc run --json`
     for key in ("outcome", "robot_actions", "human_actions", "decisions", "legs_by_agent",
                 "by_agent", "simulator"):  # fmt: skip
@@ -53,7 +53,10 @@ def _cell(scenario: Any) -> tuple[Cell, list[Any], InProcessBus]:
 
 
 def test_snapshot_is_json_and_human_input_drives_the_manager() -> None:
-    scenario = load_scenario("table_assembly")
+    from flexhrc.cell.scenario_ref import CellScenario
+    from flexhrc.scenarios.table_assembly import TableScenario
+
+    scenario = CellScenario("legs", TableScenario())  # the legs fix: bolt 1 is the first step
     cell, agents, bus = _cell(scenario)
     snaps: list[dict[str, Any]] = []
     told = []
@@ -234,3 +237,46 @@ def test_a_lost_command_is_sent_again_and_executed_once() -> None:
     assert data["cell"]["resent"] == 1
     executed = [i for a in agents if isinstance(a, RobotAgent) for i in a.executed]
     assert len(executed) == len(set(executed)) == data["robot_actions"]
+
+
+def test_external_agents_that_never_come_and_a_taken_port_are_clear_errors() -> None:
+    pytest.importorskip("zenoh")
+    from flexhrc.transport.zenoh import ZenohTransport, free_tcp_port, loopback_config
+
+    port = free_tcp_port()
+    args = ["cell", "table_assembly", "--transport", "zenoh", "--listen", f"tcp/127.0.0.1:{port}"]
+    res = run_cli(*args, "--agents", "external", "--wait", "1")
+    assert res.returncode == 2 and "no agent process for human, left, right" in res.stderr
+    assert "flexhrc agent robot|human" in res.stderr and "Traceback" not in res.stderr
+    with ZenohTransport(loopback_config(port)):
+        res = run_cli(*args)
+    assert res.returncode == 2 and "cannot open a Zenoh session" in res.stderr
+    assert "Traceback" not in res.stderr
+
+
+def test_percepts_are_inputs_stored_and_checked() -> None:
+    from flexhrc.cell import protocol as P
+
+    scenario = load_scenario("table_assembly")
+    cell, agents, bus = _cell(scenario)
+    sent: list[bool] = []
+
+    def pump(timeout: float) -> None:
+        if cell.started and not sent:  # a perception process reports an object it found
+            good = P.message(
+                "percept", id="cam:1", object="box9", object_type="obstacle", pose=[1, 1, 0]
+            )
+            bus.publish(P.PERCEPT_TOPIC, good)
+            bus.publish(P.PERCEPT_TOPIC, good)  # the same percept twice
+            bus.publish(P.PERCEPT_TOPIC, {**good, "id": "cam:2", "pose": [1, float("nan"), 0]})
+            sent.append(True)
+        bus.flush()
+        for a in agents:
+            a.poll()
+
+    data = cell.run(pump=pump)
+    assert data["outcome"] == "solved"
+    assert [e.body["object"] for e in cell.events if e.kind == "percept"] == ["box9"]
+    assert "box9" in cell.kb.objects
+    assert data["cell"]["dropped"] == 2
+    assert any("duplicate percept" in d for d in cell.dropped)

@@ -37,20 +37,21 @@ from .helpers import (
 pytestmark = pytest.mark.slow
 
 
-def reference(scenario: Path) -> dict[str, Any]:
+def reference(scenario: Path | str) -> dict[str, Any]:
     """The same cooperation in one process (in-process bus, agents inside), uninterrupted."""
     p = flexhrc("cell", str(scenario), "--json", "--quiet")
     return finish(p)
 
 
 def test_multiprocess_cell_solves_the_table_assembly(tmp_path: Path) -> None:
-    scenario = tmp_path / "table.yaml"
-    scenario.write_text(TABLE_HUMAN_BOLT)
+    """The shipped table assembly (tabletop by both arms, legs, the operator's check) with the
+    manager, two robot agents and one operator as four processes."""
+    scenario = "table_assembly"
     port = free_tcp_port()
     store = tmp_path / "cell.db"
-    procs = [cell(str(scenario), port, store, log=tmp_path / "cell.err")]
-    procs += [robot(str(scenario), arm, port, tmp_path / f"{arm}.err") for arm in ("left", "right")]
-    procs.append(human(str(scenario), "human", port, tmp_path / "human.err"))
+    procs = [cell(scenario, port, store, log=tmp_path / "cell.err")]
+    procs += [robot(scenario, arm, port, tmp_path / f"{arm}.err") for arm in ("left", "right")]
+    procs.append(human(scenario, "human", port, tmp_path / "human.err"))
     try:
         data = finish(procs[0])
         for p in procs[1:]:
@@ -58,16 +59,18 @@ def test_multiprocess_cell_solves_the_table_assembly(tmp_path: Path) -> None:
     finally:
         kill_all(procs)
     assert data["outcome"] == "solved", (tmp_path / "cell.err").read_text()[-2000:]
-    # the keys of `flexhrc run --json`
-    for key in ("reason", "robot_actions", "human_actions", "decisions", "timing"):
-        assert key in data
-    assert data["human_actions"] == 2  # the operator process screwed the unreachable bolt
-    assert data["legs_by_agent"]["human"] == 1
-    assert data["legs_by_agent"]["left"] + data["legs_by_agent"]["right"] == 3
-    # the same decisions as one process: the discrete-event loop orders answers by time
-    ref = reference(scenario)
-    assert data["knowledge"] == ref["knowledge"]
+    # the same cooperation as `flexhrc run` in one process: same keys, same decisions (the
+    # discrete-event loop orders the answers by their simulated time)
+    ref = finish(flexhrc("run", scenario, "--json", "--quiet"))
+    assert set(ref) - {"wall_s"} <= set(data)
+    for key in ("robot_actions", "human_actions", "decisions", "legs_by_agent", "by_agent"):
+        assert data[key] == ref[key], key
+    assert data["human_actions"] == 4  # the operator process checked the four bolts
+    solved = [(h["hyperarc"], h["agent"]) for h in data["solved_hyperarcs"]]
+    assert solved == [(h["hyperarc"], h["agent"]) for h in ref["solved_hyperarcs"]]
+    assert solved[0] == ("place_tabletop", "left+right")  # a joint command, both arms
     assert data["timing"]["total_s"] == ref["timing"]["total_s"]
+    assert data["knowledge"] == reference(scenario)["knowledge"]
     seqs = [r[0] for r in rows(store)]
     assert seqs == list(range(1, len(seqs) + 1))
 
@@ -209,3 +212,38 @@ def test_malformed_messages_are_dropped_and_logged(tmp_path: Path) -> None:
     ref = reference(scenario)
     assert data["knowledge"]["facts"] == ref["knowledge"]["facts"]
     assert json.dumps(data["legs_by_agent"]) == json.dumps(ref["legs_by_agent"])
+
+
+def test_operator_killed_during_a_suggestion_gets_it_again(tmp_path: Path) -> None:
+    scenario = tmp_path / "table.yaml"
+    scenario.write_text(TABLE_HUMAN_BOLT)
+    port = free_tcp_port()
+    store = tmp_path / "cell.db"
+    analytic = ("--simulator", "analytic")
+    procs = [
+        cell(str(scenario), port, store, "--realtime", "10", *analytic, log=tmp_path / "cell.err")
+    ]
+    procs += [
+        robot(str(scenario), arm, port, tmp_path / f"{arm}.err", *analytic)
+        for arm in ("left", "right")
+    ]
+    operator = human(str(scenario), "human", port, tmp_path / "human.err")
+    procs.append(operator)
+    try:
+        # the operator reported its first step (pick_up) of the suggestion: kill it
+        wait_until(store, lambda r: any(k == "human_action" for _, _, k, _ in r), 60)
+        os.kill(operator.pid, signal.SIGKILL)
+        wait_until(store, lambda r: any(k == "agent_down" for _, _, k, _ in r), 10)
+        procs.append(human(str(scenario), "human", port, tmp_path / "human2.err"))
+        data = finish(procs[0])
+    finally:
+        kill_all(procs)
+    log = (tmp_path / "cell.err").read_text()
+    assert data["outcome"] == "solved", log[-2000:]
+    events = rows(store)
+    reports = [b["action"] for _, _, k, b in events if k == "human_action"]
+    assert len(reports) == 2, reports  # each step once, whichever process reported it
+    assert reports[0].startswith("pick_up(human,") and reports[1].startswith("screw(human,")
+    assert data["legs_by_agent"]["human"] == 1
+    # the new operator process did the suggestion again; its repeated first step was dropped
+    assert "duplicate human_action" in log and data["cell"]["dropped"] == 1

@@ -120,10 +120,14 @@ def _one_cooperation_path(scenario: Scenario, events: list[dict[str, Any]]) -> N
         if ev["type"] != "query":
             continue
         report = ev.get("report", {})
-        for h in report.get("solved_hyperarcs", []):
+        if report.get("met_nodes"):
+            graph.update(met_nodes=report["met_nodes"])
+        for h in report.get("solved_hyperarcs", []):  # one at a time: each must be feasible
             assert graph.is_feasible(h), f"{h} solved while not feasible"
             solved.append(h)
-        graph.update(**{k: v for k, v in report.items()})
+            graph.update(solved_hyperarcs=[h])
+        if report.get("infeasible"):
+            graph.update(infeasible=report["infeasible"])
     assert graph.solved, "replaying the log's reports does not solve the graph"
     by_instance: dict[str, list[str]] = defaultdict(list)
     for h in solved:

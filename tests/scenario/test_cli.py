@@ -99,3 +99,30 @@ def test_the_tutorial_scenario_validates_and_runs_for_every_profile(capsys):
     for profile in ("passive", "takeover", "cooperative", "random"):
         assert main(["run", str(path), "--human", profile, "--json", "--quiet"]) == 0
         assert json.loads(capsys.readouterr().out)["outcome"] == "solved"
+
+
+def test_validate_and_list_speak_json(tmp_path, capsys):
+    from .helpers import base, write
+
+    doc = base()
+    doc["world"]["objects"]["a"]["position"] = [0.4, 0.2]
+    path = write(tmp_path, doc)
+    assert main(["scenario", "validate", str(path), "--json"]) == 2
+    data = json.loads(capsys.readouterr().out)
+    assert data["valid"] is False and data["summary"] is None
+    assert [f["severity"] for f in data["faults"]] == ["error"]
+    assert data["faults"][0]["message"].startswith("object 'a': malformed pose")
+    assert main(["scenario", "list", "--json"]) == 0
+    assert [x["name"] for x in json.loads(capsys.readouterr().out)] == list(scenario.SHIPPED)
+
+
+def test_replay_of_a_scenario_log_gives_the_same_summary(tmp_path, capsys):
+    log = tmp_path / "run.jsonl"
+    args = ["run", "kitchen_drawer", "--human", "cooperative", "--seed", "2", "--json", "--quiet"]
+    assert main([*args, "--log", str(log)]) == 0
+    live = json.loads(capsys.readouterr().out)
+    assert main(["replay", str(log), "--json"]) == 0
+    replayed = json.loads(capsys.readouterr().out)
+    for key in ("outcome", "robot_actions", "human_actions", "decisions", "branches_simulated",
+                "legs_by_agent", "solved_hyperarcs", "by_agent"):  # fmt: skip
+        assert replayed[key] == live[key], key

@@ -73,3 +73,12 @@ def test_the_kitchen_drawer_has_two_layers_of_the_authors_lower_graphs():
         x["hyperarc"] for x in result.summary["solved_hyperarcs"] if x["hyperarc"].count("/") == 2
     ]
     assert "build_drawer/h8/h1" in deep and "build_drawer/h9/h4" in deep
+
+
+def test_the_shipped_table_file_is_what_the_generator_writes():
+    from flexhrc.scenario.table import shipped_documents
+
+    folder = scenario.shipped_path("table_assembly").parent
+    scenario_text, graph_text = shipped_documents()
+    assert (folder / "table_assembly.yaml").read_text() == scenario_text
+    assert (folder / "table_assembly.graph.yaml").read_text() == graph_text

@@ -21,13 +21,16 @@ with the simulated end time ``t``.
 
 from __future__ import annotations
 
+import json
 import logging
 import time
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 from flexhrc.cell import protocol as P
 from flexhrc.errors import FlexhrcError, UnknownNameError
+from flexhrc.files import EventLogWriter
 from flexhrc.knowledge import KnowledgeBase
 from flexhrc.taskmanager.domain import Domain, GroundAction
 from flexhrc.taskmanager.simulator import AnalyticSimulator, ExecutionModel
@@ -52,9 +55,12 @@ def execution_model(choice: str = "auto", scenario: Any = None) -> ExecutionMode
     return chosen
 
 
-def ground(domain: Domain, text: str, agents: tuple[str, ...] | None = None) -> GroundAction:
-    """``approach(left, leg1)`` as the domain's ground action (agents: the schema's agent)."""
-    schema, terms = domain.invocation(text)
+def ground(
+    domain: Domain, text: str, agents: tuple[str, ...] | None = None, *, process: bool = False
+) -> GroundAction:
+    """``approach(left, leg1)`` as the domain's ground action (agents: the schema's agent);
+    ``process=True`` for a round of a node process such as ``hold(tabletop)``."""
+    schema, terms = domain.invocation(text, process=process)
     if any(str(t).startswith("?") for t in terms):
         raise P.ProtocolError(f"action {text!r} is not ground")
     if agents is None:
@@ -168,6 +174,7 @@ class RobotAgent(_Agent):
         execution: ExecutionModel | None = None,
         timeout_factor: float = 3.0,
         trace: Callable[[str], None] | None = None,
+        journal: str | Path | None = None,
     ) -> None:
         super().__init__(name, scenario, transport, execution=execution, trace=trace)
         agent = self.domain.agents.get(name)
@@ -182,8 +189,47 @@ class RobotAgent(_Agent):
         self.running: set[int] = set()
         self.stopped: set[int] = set()
         self.executed: list[int] = []  # command ids in execution order (each once)
+        # commands an earlier process of this agent started but never finished (it died)
+        self.interrupted: set[int] = set()
+        self.journal: EventLogWriter | None = None
+        if journal is not None:
+            self._load_journal(Path(journal))
+            self.journal = EventLogWriter(journal, option="--journal", append=True)
         self._subs.append(transport.subscribe(P.cmd_topic(name), self._on_message))
         self._announce()
+
+    def _load_journal(self, path: Path) -> None:
+        """What earlier processes of this agent did (``--journal``): their acks are answered
+        again, a command they started and never finished is answered ``failed``."""
+        if not path.exists() or path.stat().st_size == 0:
+            return
+        from flexhrc.files import read_text
+
+        started: set[int] = set()
+        for n, line in enumerate(read_text(path).splitlines(), 1):
+            try:
+                rec = json.loads(line)
+                cid = int(rec["id"])
+            except (ValueError, KeyError, TypeError):
+                log.warning("%s:%d: not a journal record (a write cut short?): skipped", path, n)
+                continue
+            if rec.get("event") == "start":
+                started.add(cid)
+            elif rec.get("event") == "ack" and isinstance(rec.get("ack"), dict):
+                self.acks[cid] = rec["ack"]
+        self.interrupted = started - set(self.acks)
+        self.trace(
+            f"journal {path}: {len(self.acks)} commands done, {len(self.interrupted)} interrupted"
+        )
+
+    def _journal(self, record: dict[str, Any]) -> None:
+        if self.journal is not None:
+            self.journal.write(record)
+
+    def close(self) -> None:
+        super().close()
+        if self.journal is not None:
+            self.journal.close()
 
     def _on_message(self, data: Any) -> None:
         self.received += 1
@@ -212,13 +258,33 @@ class RobotAgent(_Agent):
         if cid in self.running or cid in self.stopped:
             self.trace(f"cmd {cid} repeated while running: ignored")
             return
+        if cid in self.interrupted:  # started by a process of this agent that died
+            ack = P.message(
+                "ack",
+                id=cid,
+                agent=self.name,
+                status="failed",
+                reason="interrupted: the agent's process was restarted during it",
+                t=float(msg["t"]),
+                duration=0.0,
+                positions={},
+            )
+            self.interrupted.discard(cid)
+            self.acks[cid] = ack
+            self._journal({"id": cid, "event": "ack", "ack": ack})
+            self.transport.publish(P.ACK_TOPIC, ack)
+            self.trace(f"cmd {cid} was interrupted by a restart: failed")
+            return
         if self.name not in msg["agents"]:
             raise P.ProtocolError(f"command {cid} is for {msg['agents']}, not {self.name}")
-        action = ground(self.domain, msg["action"], tuple(msg["agents"]))
+        action = ground(
+            self.domain, msg["action"], tuple(msg["agents"]), process=bool(msg.get("process"))
+        )
         sync_world(self.kb, msg.get("world") or {})
         positions = {k: o.position for k, o in self.kb.objects.items()}
         before = dict(positions)
         self.executed.append(cid)
+        self._journal({"id": cid, "event": "start", "action": msg["action"]})
         report = self.execution.execute(action, positions, self.kb, self.domain)
         status, duration = report.status, float(report.duration_s)
         reason = None if status == "done" else report.reason
@@ -232,7 +298,7 @@ class RobotAgent(_Agent):
             agent=self.name,
             status=status,
             reason=reason,
-            t=round(float(msg["t"]) + duration, 6),
+            t=float(msg["t"]) + duration,  # unrounded: the cell's clock adds up exactly
             duration=round(duration, 6),
             positions=moved if status == "done" else {},
         )
@@ -244,6 +310,7 @@ class RobotAgent(_Agent):
                 return  # stopped meanwhile
             self.running.discard(cid)
             self.acks[cid] = ack
+            self._journal({"id": cid, "event": "ack", "ack": ack})
             self.transport.publish(P.ACK_TOPIC, ack)
             self.trace(f"cmd {cid} {status}")
 
@@ -312,15 +379,18 @@ class HumanAgent(_Agent):
         delay = 0.0
         self.trace(f"suggestion {sid}: {msg['element']}")
         for i, step in enumerate(steps):
+            before = dict(positions)
             dt = float(self.execution.execute(step, positions, self.kb, self.domain).duration_s)
+            moved = {k: list(map(float, p)) for k, p in positions.items() if before.get(k) != p}
             rep = P.message(
                 "human_action",
                 id=f"{self.name}:{sid}:{i}",
                 agent=self.name,
                 action=str(step),
                 suggestion=sid,
-                start=round(t, 6),
-                t=round(t + dt, 6),
+                start=t,
+                t=t + dt,
+                positions=moved,
             )
             t += dt
             delay += dt / speed if speed > 0 else 0.0

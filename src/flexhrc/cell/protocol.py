@@ -9,6 +9,7 @@ topic               from -> to          message ``type``
 ``ack``             robot -> manager    ``ack``
 ``suggest/<name>``  manager -> human    ``suggestion``
 ``human``           human -> manager    ``human_action``
+``percept``         perception -> mgr   ``percept``
 ``state``           manager -> all      ``state`` (the cell snapshot), ``end``
 ``alive/<agent>``   liveliness tokens   (``alive/manager`` for the manager)
 ==================  ==================  ====================================================
@@ -43,6 +44,7 @@ def suggest_topic(human: str) -> str:
 
 ACK_TOPIC = "ack"
 HUMAN_TOPIC = "human"
+PERCEPT_TOPIC = "percept"
 STATE_TOPIC = "state"
 ALIVE_PREFIX = "alive"
 
@@ -63,6 +65,7 @@ SCHEMAS: dict[str, dict[str, tuple[tuple[type, ...], bool]]] = {
         "expected_s": (_NUM, False),
         "world": ((dict,), False),
         "realtime": (_NUM, False),
+        "process": ((bool,), False),
     },
     "stop": {"id": ((int,), True), "reason": ((str, type(None)), False), "t": (_NUM, False)},
     "ack": {
@@ -90,6 +93,15 @@ SCHEMAS: dict[str, dict[str, tuple[tuple[type, ...], bool]]] = {
         "suggestion": ((str, type(None)), False),
         "start": (_NUM, False),
         "t": (_NUM, True),
+        "positions": ((dict,), False),
+    },
+    "percept": {
+        "id": ((str,), True),
+        "object": ((str,), True),
+        "object_type": ((str,), True),
+        "pose": ((list,), True),
+        "size": ((dict, list, type(None)), False),
+        "t": (_NUM, False),
     },
     "state": {},
     "end": {"outcome": ((str,), True)},
@@ -124,7 +136,7 @@ def parse(data: Any, *, expect: str | tuple[str, ...] | None = None) -> dict[str
                 raise ProtocolError(f"{kind}: missing field {name!r}")
             continue
         value = data[name]
-        if isinstance(value, bool) or not isinstance(value, types):
+        if (isinstance(value, bool) and bool not in types) or not isinstance(value, types):
             want = " or ".join("null" if t is type(None) else t.__name__ for t in types)
             raise ProtocolError(f"{kind}: field {name!r} must be {want}, not {value!r:.40}")
         if isinstance(value, float) and not math.isfinite(value):
@@ -138,7 +150,20 @@ def parse(data: Any, *, expect: str | tuple[str, ...] | None = None) -> dict[str
         key = "agents" if kind == "command" else "actions"
         if not data[key] or not all(isinstance(a, str) for a in data[key]):
             raise ProtocolError(f"{kind}: {key!r} must be a non-empty list of strings")
-    if kind == "ack" and "positions" in data:
+    if kind == "percept":
+        pose = data["pose"]
+        if not 3 <= len(pose) <= 7 or not all(
+            isinstance(x, _NUM) and not isinstance(x, bool) and math.isfinite(x) for x in pose
+        ):
+            raise ProtocolError("percept: 'pose' must be [x, y, z] (+ a quaternion), finite")
+        size = data.get("size")
+        values = list(size.values()) if isinstance(size, dict) else (size or [])
+        if not all(
+            isinstance(x, _NUM) and not isinstance(x, bool) and math.isfinite(x) and x >= 0
+            for x in values
+        ):
+            raise ProtocolError("percept: 'size' values must be finite numbers >= 0")
+    if kind in ("ack", "human_action") and "positions" in data:
         for obj, p in data["positions"].items():
             if (
                 not isinstance(p, list)
@@ -146,5 +171,5 @@ def parse(data: Any, *, expect: str | tuple[str, ...] | None = None) -> dict[str
                 or not all(isinstance(x, _NUM) and not isinstance(x, bool) for x in p)
                 or not all(math.isfinite(x) for x in p)
             ):
-                raise ProtocolError(f"ack: position of {obj!r} must be [x, y, z] finite numbers")
+                raise ProtocolError(f"{kind}: position of {obj!r} must be [x, y, z] finite numbers")
     return data

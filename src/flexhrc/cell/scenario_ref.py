@@ -3,7 +3,10 @@
 One small function, :func:`load_scenario`, so the cell can later delegate to the loader of
 :mod:`flexhrc.scenario` (scenario files, issue 10) without touching anything else. Today:
 
-* ``table_assembly`` (alias ``table``): the FlexHRC+ table assembly, 4 legs, seed 0;
+* ``table_assembly`` (alias ``table``): the FlexHRC+ table assembly — the scenario file shipped
+  with :mod:`flexhrc.scenario` (as ``flexhrc run table_assembly``), else the legs fix of
+  :class:`~flexhrc.scenarios.table_assembly.TableScenario`; the other names shipped with
+  :mod:`flexhrc.scenario` (``ball_in_box``, ``kitchen_drawer`` ...) too;
 * ``parallel_assembly``: independent legs for many arms and operators (benchmarks);
 * a YAML file with the keys of ``flexhrc run`` (``scenario: table_assembly``, ``legs``,
   ``unreachable_bolts`` ...) or ``scenario: parallel_assembly`` with ``arms``, ``humans``,
@@ -79,11 +82,13 @@ def load_scenario(spec: str, *, seed: int = 0) -> CellScenario:
     from flexhrc.scenarios.table_assembly import TableScenario
 
     text = str(spec)
+    loader = _scenario_loader()
     if text in ("table_assembly", "table"):
+        if loader is not None:  # the shipped scenario file, as `flexhrc run table_assembly`
+            return CellScenario("table_assembly", loader("table_assembly"))
         return CellScenario("table_assembly", TableScenario(seed=seed))
     if text == "parallel_assembly":
         return CellScenario("parallel_assembly", ParallelScenario(seed=seed), simulator="analytic")
-    loader = _scenario_loader()
     path = Path(text)
     if path.suffix.lower() not in (".yaml", ".yml") and not path.exists():
         if loader is not None:  # a scenario shipped with flexhrc.scenario

@@ -181,10 +181,10 @@ def log_events(events: list[StoredEvent]) -> list[dict[str, Any]]:
         b = ev.body
         t = round(ev.t, 6)
         if ev.kind == "start":
-            out.append({"t": t, "type": "start", "profile": "cell", **b})
+            out.append({"profile": "cell", **b, "t": t, "type": "start"})
         elif ev.kind == "command":
             commands[int(b["id"])] = (ev.t, b)
-            out.append({"t": t, "type": "command", **b})
+            out.append({**b, "t": t, "type": "command"})
             out.append(
                 {
                     "t": t,
@@ -223,7 +223,7 @@ def log_events(events: list[StoredEvent]) -> list[dict[str, Any]]:
                 }
             )
         elif ev.kind in EVENT_TYPES:
-            out.append({"t": t, "type": ev.kind, **b})
+            out.append({**b, "t": t, "type": ev.kind})
     return out
 
 

@@ -118,6 +118,8 @@ class Cell:
         self.graph = OnlineGraph(scenario.graph())
         self.domain = scenario.domain()
         self.kb = scenario.knowledge()
+        if simulator is None and hasattr(scenario, "make_simulator"):
+            simulator = scenario.make_simulator("auto")  # the scenario's own choice
         self.tm = TaskManager(self.graph, self.domain, self.kb, simulator, log=self._tm_log)
         self.agents = {
             a.name: AgentState(a.name, "human" if a.is_human else "robot")
@@ -149,7 +151,9 @@ class Cell:
         self._subs = [
             transport.subscribe(P.ACK_TOPIC, self._on_ack_message),
             transport.subscribe(P.HUMAN_TOPIC, self._on_human_message),
+            transport.subscribe(P.PERCEPT_TOPIC, self._on_percept_message),
         ]
+        self.percept_ids: set[str] = set()
         if hasattr(transport, "on_drop"):
             transport.on_drop = lambda topic, data, exc: self._drop(
                 f"{topic}: undecodable payload ({len(data)} bytes): {exc}"
@@ -264,6 +268,23 @@ class Cell:
             return
         self._arrive(msg["t"], "human_action", _body(msg))
 
+    def _on_percept_message(self, data: Any) -> None:
+        """A percept of one object from a perception process: applied when it arrives (the
+        knowledge base checks it against what it knows; a contradiction makes the manager wait,
+        paper III)."""
+        try:
+            msg = P.parse(data, expect="percept")
+        except P.ProtocolError as exc:
+            self._drop(f"percept: {exc}")
+            return
+        if msg["id"] in self.percept_ids:
+            self._drop(f"duplicate percept {msg['id']}")
+            return
+        if not self.started:
+            self._drop(f"percept {msg['id']} before the cooperation started")
+            return
+        self._input("percept", _body(msg))  # at the cell's time: a percept never moves the clock
+
     def _arrive(self, t: float, kind: str, body: dict[str, Any]) -> None:
         self._arrivals += 1
         self.pending.append((float(t), self._arrivals, kind, body))
@@ -312,7 +333,7 @@ class Cell:
     def _record(self, kind: str, body: dict[str, Any]) -> None:
         if self.replaying:
             return
-        t = round(self.now, 6)
+        t = self.now  # unrounded, so a resumed clock continues exactly
         seq = self.store.append(kind, body, t) if self.store is not None else len(self.events) + 1
         ev = StoredEvent(seq, t, kind, body)
         self.events.append(ev)
@@ -333,7 +354,7 @@ class Cell:
         if t is not None:
             self.now = max(self.now, float(t))
         if not self.replaying:
-            self.now = max(self.now, round(self._clock(), 6))
+            self.now = max(self.now, self._clock())
         self._record(kind, body)  # committed before the manager acts on it
         directives = self._feed(kind, body)
         self._handle(directives)
@@ -351,24 +372,62 @@ class Cell:
             self.acked.add(cid)
             cmd = self.commands.get(cid)
             if cmd is not None and body["status"] == "done":
-                _apply_robot_world(self.kb, cmd.action, body.get("positions") or {})
+                positions = body.get("positions") or {}
+                for k, p in positions.items():  # where things are now (a percept of the arm)
+                    if k in self.kb.objects and self.kb.position(k) != tuple(p):
+                        self.kb.move(k, p)
+                self._physical(cmd.action, positions)
             return tm.on_ack(now, Ack(cid, str(body["status"]), body.get("reason")))
         if kind == "human_action":
             self.human_ids.add(str(body["id"]))
             action = ground(self.domain, body["action"])
-            _apply_human_world(self.kb, action)
+            self._physical(action, body.get("positions") or {})
             return tm.on_human_action(now, HumanAction(action.name, action.args))
+        if kind == "percept":
+            self.percept_ids.add(str(body["id"]))
+            self.kb.update_object(
+                str(body["object"]), str(body["object_type"]), body["pose"], body.get("size")
+            )
+            return tm.replan(now)
         if kind in ("agent_down", "agent_up"):
             st = self.agents[str(body["agent"])]
             st.available = kind == "agent_up"
             return tm.set_available(now, st.name, st.available)
         raise FlexhrcError(f"unknown input kind {kind!r} in the store")
 
+    def _physical(self, action: GroundAction, positions: dict[str, Any]) -> None:
+        """What an action does to the world besides its facts, as the domain declares it
+        (``moves_to``, ``carries``, ``fixes``): the same rules as ``CooperationRun``."""
+        schema, binding, kb = action.schema, action.binding, self.kb
+        moves_to = getattr(schema, "moves_to", None)
+        carries = getattr(schema, "carries", None)
+        fixes = getattr(schema, "fixes", None)
+        where = None
+        if moves_to and binding.get(moves_to) in kb.objects:
+            where = kb.position(binding[moves_to])
+        for agent in action.agents:
+            if agent in positions and agent in kb.objects and self.domain.agent(agent).is_human:
+                kb.move(agent, positions[agent])
+        carried = binding.get(carries) if carries else None
+        if carried in kb.objects and not kb.object(carried).fixed:
+            hand = positions.get(action.agents[0]) if action.agents else None
+            if hand is None and action.agents and action.agents[0] in kb.objects:
+                hand = kb.position(action.agents[0])
+            target = where or hand
+            if target is not None:
+                kb.move(carried, target)
+        fixed = binding.get(fixes) if fixes else None
+        if fixed in kb.objects:
+            kb.set_fixed(fixed)
+            self._record(
+                "fixed", {"object": fixed, "agents": list(action.agents), "action": str(action)}
+            )
+
     def _handle(self, directives: list[Directive]) -> None:
         for d in directives:
             if isinstance(d, Command):
                 self.commands[d.id] = d
-                body = {**d.to_dict(), "t": round(self.now, 6)}
+                body = {**d.to_dict(), "t": self.now}
                 body.pop("type", None)
                 if not self.replaying:
                     self._record("command", body)
@@ -386,7 +445,7 @@ class Cell:
                     "element": d.element,
                     "actions": [str(a) for a in d.actions],
                     "cost": float(d.cost),
-                    "t": round(self.now, 6),
+                    "t": self.now,
                     "agent": human,
                 }
                 self.suggestions[sid] = msg
@@ -414,10 +473,11 @@ class Cell:
                 agents=list(cmd.agents),
                 action=str(cmd.action),
                 element=cmd.element,
-                t=round(self.now, 6),
-                expected_s=round(float(cmd.expected_s), 6),
+                t=self.now,
+                expected_s=float(cmd.expected_s),
                 world=world_of(self.kb),
                 realtime=self.agent_speed,
+                process=bool(getattr(cmd, "process", False)),
             ),
         )
 
@@ -488,7 +548,7 @@ class Cell:
         # outputs of the last input that the crash kept from the store
         for cmd in sorted(self.tm.busy.values(), key=lambda c: c.id):
             if cmd.id not in self.stored_commands:
-                body = {**cmd.to_dict(), "t": round(self.now, 6)}
+                body = {**cmd.to_dict(), "t": self.now}
                 body.pop("type", None)
                 self._record("command", body)
                 self.stored_commands.add(cmd.id)
@@ -549,7 +609,9 @@ class Cell:
         if self.ordered:
             if self.awaited():
                 return False
-            self.pending.sort()
+            # earliest end first; a tie goes by what the answer is about (the command's id,
+            # the operator and its report), never by which process happened to answer first
+            self.pending.sort(key=_answer_order)
             t, _, kind, body = self.pending.pop(0)
             if self.realtime > 0:
                 lag = (t - self.now) / self.realtime - (time.perf_counter() - self._last_wall)
@@ -581,6 +643,7 @@ class Cell:
                 "start",
                 {
                     "agents": list(self.domain.agents),
+                    "humans": [n for n, st in self.agents.items() if st.kind == "human"],
                     "scenario": getattr(self.scenario, "name", "?"),
                     "seed": self.seed,
                     "realtime": self.realtime,
@@ -653,36 +716,7 @@ class Cell:
         data["decisions"] = tm["decisions"]
         data["branches_simulated"] = tm["branches_simulated"]
         data["timing"].update(tm["timing"])
-        # robot or human by the agents' kinds (operators need not be called "human")
-        counts = {"robot": 0, "human": 0}
-        seconds = {"robot": 0.0, "human": 0.0}
-        legs = {a: 0 for a in self.domain.agents}
-        for ev in log_form:
-            if ev["type"] != "action_end":
-                continue
-            human = any(self.agents[a].kind == "human" for a in ev["agents"] if a in self.agents)
-            kind = "human" if human else "robot"
-            seconds[kind] += float(ev["t"]) - float(ev["start"])
-            if ev["status"] == "done":
-                counts[kind] += 1
-                if ev["action"].startswith("screw("):
-                    for a in ev["agents"]:
-                        legs[a] = legs.get(a, 0) + 1
-        data["robot_actions"], data["human_actions"] = counts["robot"], counts["human"]
-        data["timing"]["robot_actions_s"] = round(seconds["robot"], 6)
-        data["timing"]["human_actions_s"] = round(seconds["human"], 6)
-        data["legs_by_agent"] = legs
-        solved = [
-            {"hyperarc": e.body["element"], "agent": "+".join(e.body["agents"]), "t": e.t}
-            for e in self.events
-            if e.kind == "solved"
-        ]
-        by_agent = {a: 0 for a in self.domain.agents}
-        for item in solved:
-            for a in item["agent"].split("+"):
-                by_agent[a] = by_agent.get(a, 0) + 1
-        data["solved_hyperarcs"] = solved
-        data["by_agent"] = by_agent
+        data["scenario"] = str(getattr(self.scenario, "name", "?"))
         data["wall_s"] = time.perf_counter() - self._wall0
         data["cell"] = {
             "name": self.name,
@@ -702,6 +736,13 @@ class Cell:
             self.token.undeclare()
 
 
+def _answer_order(item: tuple[float, int, str, dict[str, Any]]) -> tuple[Any, ...]:
+    t, _, kind, body = item
+    if kind == "ack":
+        return (t, 0, int(body["id"]), "")
+    return (t, 1, 0, f"{body.get('agent')}:{body.get('id')}")
+
+
 def _simulator_name(simulator: Any) -> str:
     from flexhrc.taskmanager.simulator import simulator_name
 
@@ -710,26 +751,3 @@ def _simulator_name(simulator: Any) -> str:
 
 def _body(msg: dict[str, Any]) -> dict[str, Any]:
     return {k: v for k, v in msg.items() if k not in ("v", "type")}
-
-
-def _apply_robot_world(kb: Any, action: GroundAction, positions: dict[str, Any]) -> None:
-    """The physical side of a finished robot action (as CooperationRun._robot_done)."""
-    for k, p in positions.items():
-        if k in kb.objects and kb.position(k) != tuple(p):
-            kb.move(k, p)
-    if action.schema.kind == "screw":
-        kb.set_fixed(action.args[1])
-
-
-def _apply_human_world(kb: Any, action: GroundAction) -> None:
-    """The physical side of a finished human action (as CooperationRun._human_done)."""
-    kind, who = action.schema.kind, action.agents[0]
-    if kind == "pick_up":
-        kb.move(action.args[1], kb.position(who) if who in kb.objects else (1.2, 0.0, 0.1))
-    elif kind == "screw":
-        leg, bolt = action.args[1], action.args[2]
-        kb.move(leg, kb.position(bolt))
-        kb.set_fixed(leg)
-    elif kind == "put_down":
-        kb.retract_fact("held_by_human", action.args[1])
-        kb.assert_fact("on_table", action.args[1])

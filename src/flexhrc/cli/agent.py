@@ -24,6 +24,12 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
     r.add_argument("scenario", metavar="SCENARIO")
     r.add_argument("--arm", required=True, metavar="NAME", help="which arm (e.g. left)")
     r.add_argument(
+        "--journal",
+        metavar="FILE",
+        help="keep the commands this arm started and finished (JSON lines), so a restarted "
+        "agent process never executes a command id twice",
+    )
+    r.add_argument(
         "--simulator",
         choices=["auto", "analytic", "kinematic"],
         default="auto",
@@ -81,6 +87,10 @@ def cmd_agent(args: argparse.Namespace) -> int:
                 f"({', '.join(HUMAN_PROFILES)}); the profiles that act on their own run inside "
                 "`flexhrc demo table --human PROFILE`"
             )
+    if getattr(args, "journal", None):
+        from flexhrc.files import check_output
+
+        check_output(args.journal, option="--journal")
     transport = open_zenoh(args, listen_default=[])
     stop = {"flag": False}
 
@@ -97,6 +107,7 @@ def cmd_agent(args: argparse.Namespace) -> int:
                 transport,
                 execution=execution_model(args.simulator, scenario),
                 trace=trace,
+                journal=args.journal,
             )
         else:
             agent = HumanAgent(

@@ -20,7 +20,7 @@ from flexhrc.representation import HierarchicalGraph, OnlineGraph
 from flexhrc.taskmanager.domain import Domain
 
 PROFILES = ("passive", "takeover", "cooperative", "random")
-SIMULATORS = ("analytic", "kinematic")
+SIMULATORS = ("analytic", "kinematic")  # what a scenario file may name
 
 Vec3 = tuple[float, float, float]
 
@@ -113,23 +113,13 @@ class Scenario:
         raise FlexhrcError(f"scenario {self.name!r} has no operator {name!r}")
 
     def make_simulator(self, choice: str | None = None) -> Any:
-        """The branch simulator: ``analytic`` (durations from the domain, distances over
-        speeds) or ``kinematic`` (task-priority control on the robot model; sim extra)."""
-        from flexhrc.taskmanager.simulator import AnalyticSimulator
+        """The branch simulator (also the execution model): ``analytic`` (durations from the
+        domain, distances over speeds), ``kinematic`` (task-priority control on the robot model;
+        the ``sim`` extra) or ``auto``; default: the file's ``simulator``. Chosen here, at the
+        edge, and passed down to the Task Manager."""
+        from flexhrc.scenarios.simulators import choose_simulator
 
-        choice = choice or self.simulator
-        if choice not in SIMULATORS:
-            raise FlexhrcError(f"unknown simulator {choice!r}; choose one of analytic, kinematic")
-        if choice == "analytic":
-            return AnalyticSimulator()
-        try:
-            from flexhrc.action.bridge import KinematicTaskSimulator
-        except ImportError as exc:
-            raise FlexhrcError(
-                f"--simulator kinematic needs the sim extra ({exc.name} is missing): "
-                "pip install 'flexhrc[sim]'"
-            ) from None
-        return KinematicTaskSimulator()
+        return choose_simulator(choice or self.simulator)[1]
 
     def summary_line(self) -> str:
         stats = self.graph.stats()

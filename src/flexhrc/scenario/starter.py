@@ -51,8 +51,9 @@ graphs:
 # simulator; carries moves the object with the hand.
 domain:
   agents:
-    human: {kind: human, types: [human], hand: [1.1, 0.0, 0.1]}
-    arm: {kind: robot, types: [robot], base: [0.0, 0.0, 0.4], rest: [0.3, 0.0, 0.5], reach: 0.9}
+    human: {kind: human, types: [human], hand: [1.3, 0.0, 0.1]}   # the operator stands opposite
+    arm: {kind: robot, types: [robot], base: [0.0, 0.0, 0.4], rest: [0.3, 0.0, 0.5], reach: 0.9,
+          speed: 0.8}                                           # the hand's speed, m/s
   actions:
     pick:
       parameters: {"?who": agent, "?p": part}
@@ -98,6 +99,6 @@ world:
 
 # The simulated operators: profile passive | takeover | cooperative | random, speed in m/s.
 humans:
-  - {name: human, profile: cooperative, speed: 1.0}
+  - {name: human, profile: cooperative, speed: 0.6}
 simulator: analytic
 """

@@ -3,7 +3,9 @@
 1. **tabletop placement** (Fig. 8): ``place_tabletop`` — one joint command of both arms
    (approach, grasp, carry with the two-arm relative-pose objective, release) from the stand
    to the assembly pose; the node it reaches, ``tabletop``, has the process ``hold(?top)``: both
-   arms keep the tabletop still until it has settled, and only then is the node met;
+   arms keep the tabletop still until it has settled, and only then is the node met. When the
+   arms cannot (every branch scores 0, e.g. a fixture in the way), the operator is asked:
+   ``human_places_tabletop`` (cost 3; not offered without an operator);
 2. **legs fix** (Figs. 9-12): the first-order graph of :func:`flexhrc.scenarios.table_assembly.
    build_graph` — four cooperation paths per bolt;
 3. **check** (Fig. 13): ``check_connections`` — the operator checks every bolt, in order. Its
@@ -32,8 +34,9 @@ from flexhrc.scenario.model import HumanSpec, Scenario, WorldSpec
 from flexhrc.scenarios.table_assembly import TableScenario, build_graph, tabletop_centre
 from flexhrc.taskmanager.domain import Domain
 
-#: Where the tabletop waits before the robot places it: on a stand nearer the robot (metres).
-STAND_OFFSET = (-0.10, 0.0, 0.02)
+#: Where the tabletop waits before the robot places it: on a stand 25 cm above its assembly pose
+#: (metres), out of the way of anything on the table (the fixtures of --unreachable-bolt).
+STAND_OFFSET = (0.0, 0.0, 0.25)
 
 
 def task_graph(legs: int = 4, *, check: bool = True) -> HierarchicalGraph:
@@ -57,6 +60,16 @@ def task_graph(legs: int = 4, *, check: bool = True) -> HierarchicalGraph:
             ("place_tabletop(?top, assembly_pose)",),
         )
     )
+    if check:  # the operator places it when the arms cannot (the robot's way is cheaper)
+        g.add_hyperarc(
+            Hyperarc(
+                "human_places_tabletop",
+                ("tabletop_on_stand",),
+                "tabletop",
+                3,
+                ("place_by_hand(human, ?top, assembly_pose)",),
+            )
+        )
     for h in fix.hyperarcs.values():
         g.add_hyperarc(Hyperarc(h.name, h.children, h.parent, h.weight, h.actions))
     if check:

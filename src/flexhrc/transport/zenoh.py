@@ -254,7 +254,14 @@ class ZenohTransport(Transport):
             try:
                 session = _zenoh.open(config if config is not None else zenoh_config())
             except Exception as exc:  # zenoh.ZError: port in use, bad locator...
-                raise TransportError(f"cannot open a Zenoh session: {exc}") from None
+                # Zenoh's messages name the Rust source files they come from: keep the words
+                why = re.sub(r"\s+at\s+\S+\.rs:\d+\.?", "", str(exc)).strip()
+                hint = (
+                    " (another process listens there: choose another port)"
+                    if "in use" in why.lower()
+                    else ""
+                )
+                raise TransportError(f"cannot open a Zenoh session: {why}{hint}") from None
         self.session = session
         self._publishers: dict[str, Any] = {}
         self._zsubs: dict[int, Any] = {}
