@@ -76,6 +76,25 @@ class PlainClient:
             time.sleep(0.01)  # DDS delivers only to subscribers it has discovered
         pub.publish(String(data=text))
 
+    def publish_pose(self, obj: str, xyz: list[float], wait_s: float = 10.0) -> None:
+        """An object pose as outside perception sends it (geometry_msgs/PoseStamped, world)."""
+        from geometry_msgs.msg import PoseStamped
+
+        topic = f"objects/{obj}/pose"
+        pub = self.pubs.get(topic)
+        if pub is None:
+            pub = self.pubs[topic] = self.node.create_publisher(
+                PoseStamped, f"{self.base}/{topic}", self.qos
+            )
+        deadline = time.monotonic() + wait_s
+        while pub.get_subscription_count() == 0 and time.monotonic() < deadline:
+            time.sleep(0.01)
+        m = PoseStamped()
+        m.header.frame_id = "world"
+        m.pose.position.x, m.pose.position.y, m.pose.position.z = (float(v) for v in xyz)
+        m.pose.orientation.w = 1.0
+        pub.publish(m)
+
     def close(self) -> None:
         for key in self.tokens:
             self.live.publish(String(data=json.dumps({"key": key, "alive": False})))

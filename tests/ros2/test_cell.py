@@ -108,6 +108,12 @@ def test_manager_two_arms_and_a_plain_rclpy_operator_complete_the_assembly(
             client.publish_raw("ack", text)
         client.publish_raw("human", '{"v": 1, "type": "human_action", "id": "x", '
                            '"agent": "left", "action": "rest(left)", "t": 0.0}')  # fmt: skip
+        # outside perception sees the tabletop 4 mm off: a percept the manager stores and applies
+        with client.lock:
+            objects = {o["id"]: o for o in states[0]["knowledge"]["objects"]}
+        top = objects["tabletop"]["position"]
+        seen = [top[0] + 0.004, top[1], top[2]]
+        client.publish_pose("tabletop", seen)
         _operate_until_the_end(client, suggestions, procs[0], 120.0)
         data = _finish(procs[0], 30, tmp_path)
     finally:
@@ -122,7 +128,14 @@ def test_manager_two_arms_and_a_plain_rclpy_operator_complete_the_assembly(
     assert data["legs_by_agent"]["human"] == 1  # the operator's leg, as the manager followed it
     assert data["legs_by_agent"]["left"] + data["legs_by_agent"]["right"] == 3
     assert data["human_actions"] == len(first["actions"])
-    kinds = [e.kind for e in read_store(tmp_path / "c.db")]
+    events = read_store(tmp_path / "c.db")
+    percepts = [e.body for e in events if e.kind == "percept"]
+    assert len(percepts) == 1 and percepts[0]["object"] == "tabletop"
+    assert percepts[0]["object_type"] == "tabletop"
+    assert percepts[0]["pose"][:3] == pytest.approx(seen) and percepts[0]["pose"][6] == 1.0
+    final = {o["id"]: o for o in data["knowledge"]["objects"]}
+    assert final["tabletop"]["position"] == pytest.approx(seen)
+    kinds = [e.kind for e in events]
     assert kinds.count("human_action") == len(first["actions"]) and "suggestion" in kinds
     assert any(s.get("type") == "end" and s.get("outcome") == "solved" for s in states)
 

@@ -51,7 +51,10 @@ def test_markers_out_poses_and_imu_in(domain_id: int, cell_name: str):
         imu.linear_acceleration.z = 9.8
         imu_pub.publish(imu)
         assert wait_for(lambda: bool(percepts) and bool(samples), 5.0, manager.flush)
-        assert percepts == [{"object": "leg2", "position": [0.41, -0.3, 0.0], "yaw": 0.0, "t": 2.0}]
+        assert percepts == [
+            {"object": "leg2", "position": [0.41, -0.3, 0.0], "orientation": [0.0, 0.0, 0.0, 1.0],
+             "yaw": 0.0, "t": 2.0}
+        ]  # fmt: skip
         assert samples[0][0] == "human" and math.isclose(samples[0][1]["accel"][2], 9.8)
         assert ifaces.dropped == 1  # the pose in the camera frame
         with pytest.raises(ValueError, match="rate"):

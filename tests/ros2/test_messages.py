@@ -77,7 +77,9 @@ def test_marker_array_shows_objects_labels_and_targets_with_stable_ids():
 def test_object_pose_and_imu_readings_become_plain_percepts():
     ps = rm.pose_stamped((0.4, -0.2, 0.0), 3.5, rm.quaternion_from_matrix(_rot_z(0.5)))
     p = rm.percept_from_pose("leg2", ps)
+    q = p.pop("orientation")
     assert p == {"object": "leg2", "position": [0.4, -0.2, 0.0], "yaw": 0.5, "t": 3.5}
+    assert q == pytest.approx([0.0, 0.0, math.sin(0.25), math.cos(0.25)])
     ps.header.frame_id = "camera"
     with pytest.raises(ValueError, match="frame 'camera'"):
         rm.percept_from_pose("leg2", ps)

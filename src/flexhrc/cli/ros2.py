@@ -14,9 +14,11 @@ only when a command runs, so ``flexhrc --help`` works without the extra (docs/ro
 from __future__ import annotations
 
 import argparse
+import itertools
 import math
 import signal
 import sys
+import uuid
 from typing import Any
 
 from flexhrc.cli.common import add_json_flag, emit
@@ -293,6 +295,7 @@ def _targets(cell: Any) -> dict[str, tuple[float, float, float]]:
 
 def cmd_cell(args: argparse.Namespace) -> int:
     from flexhrc.cell import Cell, EventStore, load_scenario
+    from flexhrc.cell import protocol as P
     from flexhrc.cli.cell import branch_simulator, trace_line
     from flexhrc.ros2.extras import ManagerInterfaces
 
@@ -330,8 +333,21 @@ def cmd_cell(args: argparse.Namespace) -> int:
         )
         humans = [a.name for a in cell.domain.agents.values() if a.is_human]
 
+        session = uuid.uuid4().hex[:8]  # percept ids stay unique across restarts and resumes
+        counter = itertools.count(1)
+
         def percept(p: dict[str, Any]) -> None:
-            transport.publish("percept", {"v": 1, "type": "percept", **p})
+            # an object pose from ROS 2 perception enters the cell as its protocol's percept,
+            # so it is stored and applied like any percept (docs/protocol.md)
+            obj = cell.kb.objects.get(p["object"])
+            message = P.message(
+                "percept",
+                id=f"ros2:{session}:{next(counter)}",
+                object=p["object"],
+                object_type=obj.type if obj is not None else "object",
+                pose=[*p["position"], *p["orientation"]],
+            )
+            transport.publish(P.PERCEPT_TOPIC, message)
 
         def imu(who: str, sample: dict[str, Any]) -> None:
             transport.publish(f"imu/{who}", {"v": 1, "type": "imu", "agent": who, **sample})

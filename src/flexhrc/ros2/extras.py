@@ -13,11 +13,11 @@ topic (under ``/flexhrc/<cell>/``)        type                                di
 
 * markers: the knowledge base's objects (legs, tabletop, bolts, obstacles) and, as arrows, the
   targets of the commands running now — RViz shows the cell as the manager believes it is;
-* an object pose from perception that runs outside flexhrc becomes a percept dict
-  (:func:`~flexhrc.ros2.messages.percept_from_pose`) handed to ``on_percept`` — the manager
-  applies it to its knowledge base (``KnowledgeBase.update_object``: a contradicting percept is
-  kept as an inconsistency, as with flexhrc's own scene perception). Objects are those the
-  scenario declares; a pose for another name is not subscribed to;
+* an object pose from perception that runs outside flexhrc becomes a plain dict
+  (:func:`~flexhrc.ros2.messages.percept_from_pose`) handed to ``on_percept`` —
+  ``flexhrc ros2 cell`` sends it to the manager as the cell protocol's ``percept`` (stored, then
+  applied to the knowledge base). Objects are those the scenario declares; a pose for another
+  name is not subscribed to;
 * wrist IMU readings become samples (:func:`~flexhrc.ros2.messages.imu_sample`) handed to
   ``on_imu(operator, sample)``, for human action recognition.
 

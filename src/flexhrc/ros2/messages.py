@@ -310,7 +310,7 @@ def marker_array(
 
 def percept_from_pose(name: str, m: Any) -> dict[str, Any]:
     """An object pose from outside perception (``geometry_msgs/PoseStamped`` in the world
-    frame) as the percept dict the knowledge base takes: ``{"object", "position", "yaw", "t"}``.
+    frame) as a plain dict: ``{"object", "position", "orientation" (x, y, z, w), "yaw", "t"}``.
     Raises ``ValueError`` for a non-finite pose or a frame other than ``world`` (or empty)."""
     if m.header.frame_id not in ("", WORLD_FRAME):
         raise ValueError(
@@ -320,11 +320,13 @@ def percept_from_pose(name: str, m: Any) -> dict[str, Any]:
     q = m.pose.orientation
     position = _finite((p.x, p.y, p.z), f"position of {name}")
     quat = _finite((q.x, q.y, q.z, q.w), f"orientation of {name}")
-    if sum(v * v for v in quat) < 1e-12:
-        quat = [0.0, 0.0, 0.0, 1.0]  # an unset orientation: identity, as RViz reads it
+    norm = math.sqrt(sum(v * v for v in quat))
+    # an unset orientation (all zeros) is the identity, as RViz reads it
+    quat = [0.0, 0.0, 0.0, 1.0] if norm < 1e-6 else [v / norm for v in quat]
     return {
         "object": name,
         "position": [round(v, 6) for v in position],
+        "orientation": [round(v, 9) for v in quat],
         "yaw": round(yaw_from_quaternion(*quat), 6),
         "t": round(stamp_seconds(m.header.stamp), 6),
     }
