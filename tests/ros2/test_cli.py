@@ -30,6 +30,7 @@ def _run(*args: str, code: str | None = None) -> subprocess.CompletedProcess[str
         (["table_assembly", "--arm", "left", "--cell", "my-cell"], "not a valid ROS 2 name"),
         (["table_assembly", "--arm", "left", "--domain-id", "300"], "domain id must be in 0..232"),
         (["table_assembly", "--arm", "left", "--execute", "external"], "--trajectory-topic"),
+        (["parallel_assembly", "--arm", "arm1"], "needs the kinematic simulator"),
     ],
 )
 def test_bad_arm_options_are_one_clear_error(args: list[str], message: str):

@@ -110,16 +110,15 @@ class ArmNode(RobotAgent):
         if not (math.isfinite(tolerance_rad) and tolerance_rad > 0):
             raise FlexhrcError(f"--tolerance must be a positive angle, got {tolerance_rad}")
         if execution is None:
-            try:
-                from flexhrc.action.bridge import KinematicTaskSimulator
-            except ImportError as exc:  # pragma: no cover - the sim extra is missing
-                raise FlexhrcError(
-                    f"the ROS 2 arm needs the sim extra ({exc.name} is missing): "
-                    "pip install 'flexhrc[sim]'"
-                ) from None
-            execution = KinematicTaskSimulator()
+            from flexhrc.cell.components import execution_model
+
+            # the scenario's own kinematic world (as `flexhrc agent robot --simulator kinematic`)
+            execution = execution_model("kinematic", scenario)
         if not hasattr(execution, "execution"):
-            raise FlexhrcError("the ROS 2 arm needs the kinematic simulator (joint motions)")
+            raise FlexhrcError(
+                f"the ROS 2 arm streams joint motions and so needs the kinematic simulator; "
+                f"scenario {getattr(scenario, 'name', '?')!r} runs on the analytic one"
+            )
         self.robot = execution.execution.sim.robot
         self.rate_hz = float(rate_hz)
         self.execute_mode = execute
