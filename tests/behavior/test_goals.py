@@ -8,8 +8,12 @@ from flexhrc.transport import InProcessBus
 
 
 class Harness:
+    """The literal per-tick protocol of the paper (``latched=False``) unless told otherwise;
+    the latched protocol is tested against it below and in test_latched.py."""
+
     def __init__(self, cls, children, **params):
         self.bus = InProcessBus()
+        params.setdefault("latched", False)
         self.params = NetworkParams(**params)
         self.node = cls("G", children, self.bus, self.params)
         self.children = children

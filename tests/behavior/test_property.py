@@ -1,5 +1,6 @@
 """Property: random task trees in random worlds always complete, respect the constraints and are
-reproducible (same seed, same log; event-driven stepping = updating every node) — with one or two
+reproducible (same seed, same log; event-driven stepping = updating every node; the latched
+protocol = the paper's per-tick messages) — with one or two
 arms and objects moved during grasps."""
 
 from hypothesis import HealthCheck, given, settings
@@ -31,7 +32,7 @@ def to_spec(shape, counter):
     return (kind, [to_spec(c, counter) for c in children], 1, None)
 
 
-def make_network(shape, seed, arms, move, event_driven=True):
+def make_network(shape, seed, arms, move, event_driven=True, latched=True):
     task = build_task(to_spec(shape, [0]), "<hypothesis>")
     world = random_world(task.behaviors, seed=seed, arms=arms)
     for arm in world.arms.values():  # faster robot: fewer ticks per run, same logic
@@ -43,7 +44,9 @@ def make_network(shape, seed, arms, move, event_driven=True):
             MoveRule(victim, (0.6, 0.45 - 0.9 * ((seed % 7) / 7), 0.75), during_grasp=0.2)
         )
         world._fired.append(False)
-    return task, BehaviorNetwork(task, world, NetworkParams(seed=seed), event_driven=event_driven)
+    return task, BehaviorNetwork(
+        task, world, NetworkParams(seed=seed, latched=latched), event_driven=event_driven
+    )
 
 
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -59,3 +62,6 @@ def test_random_tasks_complete_respect_constraints_and_are_reproducible(shape, s
     assert [e.to_dict() for e in again.run(max_ticks=20_000).log] == log  # same seed, same log
     _, dense = make_network(shape, seed, arms, move, event_driven=False)
     assert [e.to_dict() for e in dense.run(max_ticks=20_000).log] == log  # skipping is exact
+    # the latched protocol (held activation, standing bids) is exactly the per-tick one
+    _, literal = make_network(shape, seed, arms, move, event_driven=False, latched=False)
+    assert [e.to_dict() for e in literal.run(max_ticks=20_000).log] == log

@@ -33,6 +33,13 @@ from flexhrc.behavior.task import (
     parse_task,
 )
 from flexhrc.behavior.taskfile import TaskDocument, load_task_document
+from flexhrc.behavior.types import (
+    BehaviorFactory,
+    BehaviorTypeBuilder,
+    Visit,
+    behavior_types,
+    register_behavior_type,
+)
 from flexhrc.behavior.validate import allowed_next, check_nearest_first, check_run
 from flexhrc.behavior.validity import ValidityCheck
 from flexhrc.behavior.world import (
@@ -53,8 +60,10 @@ __all__ = [
     "AndNode",
     "Arm",
     "ArmMutex",
+    "BehaviorFactory",
     "BehaviorNetwork",
     "BehaviorNode",
+    "BehaviorTypeBuilder",
     "GoalNode",
     "LogEvent",
     "MoveRule",
@@ -75,8 +84,10 @@ __all__ = [
     "TaskNode",
     "ThenNode",
     "ValidityCheck",
+    "Visit",
     "WorldObject",
     "allowed_next",
+    "behavior_types",
     "build_task",
     "check_nearest_first",
     "check_run",
@@ -85,6 +96,7 @@ __all__ = [
     "parse_prefix",
     "parse_task",
     "random_world",
+    "register_behavior_type",
     "run_task",
     "to_ascii",
     "to_dot",

@@ -63,8 +63,12 @@ class GoalNode(Node):
         self._done_count = 0
         self._dirty = True
         self._child_topics = [activation_topic(c) for c in self.children]
-        self._full = ActivationMsg(name, 1.0)
+        self._latched = params.latched
+        self._full = ActivationMsg(name, 1.0, self._latched)
         self._zero = ActivationMsg(name, 0.0)
+        #: Children currently holding a latched activation from this node.
+        self._holding = [False] * n
+        self._slept = False  # skipped by the executor while settled (see busy())
         for c in self.children:
             transport.subscribe(state_topic(c), self._on_child_state)
 
@@ -91,8 +95,16 @@ class GoalNode(Node):
         return self.state == ACTIVE or self._any_child_engaged or self.tick <= self._fed_until
 
     def update(self, tick: int, now: float) -> None:
+        if self._slept:
+            self._slept = False
+            if tick > self.tick + 1:
+                # Asleep while settled, it would have spread at every loop: activation was last
+                # "sent" in the previous loop, so it stays engaged for that round trip.
+                self._fed_until = max(self._fed_until, tick + 1)
         # Fast path, exactly equivalent to Algorithm 1 for an idle goal: inactive, below τ,
         # nothing new from the children, no activation in flight, nothing to re-publish.
+        if self._held is not None:
+            self.level = self._held
         last = self._last_published
         if (
             self.state == INACTIVE
@@ -111,20 +123,46 @@ class GoalNode(Node):
     def busy(self) -> bool:
         # Stay awake while the round trip of the last activation sent is not over, so the change
         # of `engaged` is published.
+        if self.state == DONE:
+            return False  # a done goal ignores everything (Algorithm 1)
+        if (
+            self._latched
+            and self.state == ACTIVE
+            and self._held is not None
+            and not self._dirty
+            and self.settled()
+        ):
+            # Active, held by its parent, its children held: every loop would send nothing and
+            # publish nothing until a message arrives — asleep (see update()).
+            self._slept = True
+            return False
         return super().busy() or self._dirty or self.tick <= self._fed_until
+
+    def settled(self) -> bool:
+        """Latched spreading has reached a fixed point (every child it feeds holds its level)."""
+        return False
 
     def send(self, i: int, msg: ActivationMsg) -> None:
         """Send activation to child ``i``; a positive level keeps this node engaged for the
         round trip of the message."""
         if msg.level > 0:
             self._fed_until = self.tick + 2
+        if self._latched:
+            if self._holding[i]:
+                return  # the child holds this level already: as good as sending it again
+            self._holding[i] = msg.hold
         self._transport.publish(self._child_topics[i], msg)
+
+    def send_zero(self, i: int) -> None:
+        """Give child ``i`` zero activation (also ends a held level)."""
+        self._holding[i] = False
+        self._transport.publish(self._child_topics[i], self._zero)
 
     def on_deactivate(self) -> None:
         # Cut-off propagates at once: children this node fed lose their activation explicitly.
         for i in range(len(self.children)):
             if self._child_state[i] != DONE:
-                self._transport.publish(self._child_topics[i], self._zero)
+                self.send_zero(i)
 
     def combine(self, potentials: list[float]) -> float:
         """Algorithms 6–7: mean of the children's potentials (OR overrides with the max)."""
@@ -147,12 +185,20 @@ class ThenNode(GoalNode):
 
     kind = "THEN"
 
+    _first = 0  # children before this index are done (done is final), so the scan is O(1)
+
     def spread(self) -> None:
         states = self._child_state
-        for i in range(len(states)):
-            if states[i] != DONE:
-                self.send(i, self._full)
-                return
+        i = self._first
+        while i < len(states) and states[i] == DONE:
+            i += 1
+        self._first = i
+        if i < len(states):
+            self.send(i, self._full)
+
+    def settled(self) -> bool:
+        i = self._first
+        return i < len(self._holding) and self._holding[i] and self._child_state[i] != DONE
 
 
 class AndNode(GoalNode):
@@ -174,17 +220,30 @@ class AndNode(GoalNode):
             level = divided
         #: The level each child receives (1/n, or the fixed level for large ANDs).
         self.child_level = level
-        self._msg = ActivationMsg(name, level)
+        self._msg = ActivationMsg(name, level, self._latched)
+        self._all_held = False  # latched: every child not done holds the level
 
     def spread(self) -> None:
+        self._fed_until = self.tick + 2
+        if self._latched and self._all_held:
+            return
         states = self._child_state
         publish = self._transport.publish
         topics = self._child_topics
         msg = self._msg
-        self._fed_until = self.tick + 2
+        holding = self._holding
         for i in range(len(states)):
-            if states[i] != DONE:
+            if states[i] != DONE and not holding[i]:
                 publish(topics[i], msg)
+                holding[i] = self._latched
+        self._all_held = self._latched
+
+    def on_deactivate(self) -> None:
+        super().on_deactivate()
+        self._all_held = False
+
+    def settled(self) -> bool:
+        return self._all_held
 
 
 class OrNode(GoalNode):
@@ -229,7 +288,7 @@ class OrNode(GoalNode):
         target = self.choose()
         if self.chosen is not None and target != self.chosen:
             # Switch safely: silence the old alternative first (see the module docstring).
-            self._transport.publish(self._child_topics[self.chosen], self._zero)
+            self.send_zero(self.chosen)
             self._leaving, self._left_at = self.chosen, self.tick
             self.chosen = None
         if self.chosen is None:
@@ -244,6 +303,10 @@ class OrNode(GoalNode):
             self.chosen = target
             self.emit("choose", child=self.children[target])
         self.send(self.chosen, self._full)
+
+    def settled(self) -> bool:
+        chosen = self.chosen
+        return chosen is not None and self._leaving is None and self._holding[chosen]
 
 
 GOAL_CLASSES: dict[str, type[GoalNode]] = {"THEN": ThenNode, "AND": AndNode, "OR": OrNode}

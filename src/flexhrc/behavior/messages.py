@@ -1,7 +1,9 @@
 """The messages nodes exchange (paper 002, Sec. III-C) and the topics they travel on.
 
 * :class:`ActivationMsg` — *activation spreading* message, parent → child: sender and the
-  activation level the parent gives the child (Algorithms 2–4).
+  activation level the parent gives the child (Algorithms 2–4). With ``hold=True`` the level is
+  latched (re-applied every tick until the next message; :class:`ActivationRelease` lets it
+  decay) — see :attr:`~flexhrc.behavior.params.NetworkParams.latched`.
 * :class:`StateMsg` — *state* message, child → parent: the child's state, activation level,
   activation potential (bottom-up, Algorithms 5–8) and whether its sub-task has started
   (``progress``: a behaviour in it is running or done — how an OR learns that "a pathway became
@@ -9,7 +11,8 @@
   active or running, or was just given activation — how an OR knows an alternative it switched
   away from has gone quiet).
 * :class:`MutexRequest` / :class:`MutexRelease` / :class:`MutexReply` — the arm mutex protocol
-  (lock request with a bid = activation potential; grant or denial after the bidding window).
+  (lock request with a bid = activation potential; grant or denial after the bidding window);
+  a *standing* request holds until a :class:`MutexWithdraw`.
 * :class:`LogEvent` — trace records every node publishes on :data:`LOG_TOPIC`.
 
 All are ``NamedTuple`` records of plain values so any transport can serialise them with
@@ -24,6 +27,15 @@ from typing import Any, NamedTuple
 class ActivationMsg(NamedTuple):
     sender: str
     level: float
+    #: Latched: the receiver re-applies ``level`` at every update loop until the next message on
+    #: its activation topic — exactly as if the parent sent it again every tick.
+    hold: bool = False
+
+
+class ActivationRelease(NamedTuple):
+    """Ends a held activation: the level the receiver has now decays from here (α per tick)."""
+
+    sender: str
 
 
 class StateMsg(NamedTuple):
@@ -39,6 +51,15 @@ class StateMsg(NamedTuple):
 class MutexRequest(NamedTuple):
     sender: str
     potential: float
+    #: A standing bid counts at every tick until replaced or withdrawn (:class:`MutexWithdraw`),
+    #: exactly as if it were sent again every tick.
+    standing: bool = False
+
+
+class MutexWithdraw(NamedTuple):
+    """Withdraws a standing bid (sent on the mutex's request topic)."""
+
+    sender: str
 
 
 class MutexRelease(NamedTuple):
@@ -70,7 +91,16 @@ class LogEvent(NamedTuple):
 LOG_TOPIC = "bn/log"
 _TYPES = {
     c.__name__: c
-    for c in (ActivationMsg, StateMsg, MutexRequest, MutexRelease, MutexReply, LogEvent)
+    for c in (
+        ActivationMsg,
+        ActivationRelease,
+        StateMsg,
+        MutexRequest,
+        MutexWithdraw,
+        MutexRelease,
+        MutexReply,
+        LogEvent,
+    )
 }
 
 

@@ -12,6 +12,12 @@ ignored (the requesters keep asking). At the end of the window only bids receive
 tick count: waiting behaviours re-bid every tick, so a behaviour that lost its activation during
 the window has dropped out. Equal bids go to the smallest node name (deterministic).
 
+A *standing* request (the latched protocol, :attr:`NetworkParams.latched`) counts as a bid at
+every tick until its sender replaces or withdraws it — exactly the per-tick re-bidding, without
+the messages. A ``window``/``grant`` log event keeps the :data:`LOGGED_BIDS` highest bids (and
+``count``, the number of bidders, when there are more), so a log stays linear in the run for
+an AND of thousands of behaviours.
+
 One mutex per arm lets two arms run two behaviours in parallel.
 """
 
@@ -23,12 +29,16 @@ from flexhrc.behavior.messages import (
     MutexRelease,
     MutexReply,
     MutexRequest,
+    MutexWithdraw,
     release_topic,
     reply_topic,
     request_topic,
 )
 from flexhrc.behavior.params import NetworkParams
 from flexhrc.transport.base import Transport
+
+#: Bids recorded in a ``window``/``grant`` log event (the highest; ``bidders`` counts them all).
+LOGGED_BIDS = 32
 
 
 class ArmMutex:
@@ -42,12 +52,29 @@ class ArmMutex:
         self.window_ticks = params.window_ticks
         self._transport = transport
         self._requests: list[MutexRequest] = []
+        self._standing: dict[str, float] = {}
         self._releases: list[MutexRelease] = []
         self._window_close: int | None = None
         self._grant = MutexReply(arm, True)
         self._deny = MutexReply(arm, False)
-        transport.subscribe(request_topic(arm), self._requests.append)
+        transport.subscribe(request_topic(arm), self._on_request)
         transport.subscribe(release_topic(arm), self._releases.append)
+
+    def _on_request(self, msg: MutexRequest | MutexWithdraw) -> None:
+        if isinstance(msg, MutexWithdraw):
+            self._standing.pop(msg.sender, None)
+        elif msg.standing:
+            self._standing[msg.sender] = msg.potential
+        else:
+            self._requests.append(msg)
+
+    def _bids(self) -> dict[str, float]:
+        """The bids of this tick: standing ones, and the per-tick requests received last tick."""
+        bids = dict(self._standing)
+        for req in self._requests:
+            bids[req.sender] = req.potential  # latest bid per sender
+        self._requests.clear()
+        return bids
 
     def update(self, tick: int, now: float) -> None:
         for rel in self._releases:
@@ -55,22 +82,24 @@ class ArmMutex:
                 self.holder = None
                 self._log(tick, now, "release", by=rel.sender)
         self._releases.clear()
-        bids: dict[str, float] = {}
-        for req in self._requests:
-            bids[req.sender] = req.potential  # latest bid per sender
-        self._requests.clear()
-        if self.holder is not None:
+        closes = self._window_close
+        if self.holder is not None or (closes is not None and tick < closes):
+            self._requests.clear()  # ignored while locked; only the last tick counts in a window
             return
+        if not self._requests and not self._standing:
+            self._window_close = None  # a window closing with no fresh bid grants nothing
+            return
+        bids = self._bids()
         if self._window_close is None:
-            if bids:
-                self._window_close = tick + self.window_ticks
+            self._window_close = tick + self.window_ticks
+            if len(bids) <= LOGGED_BIDS:
                 self._log(tick, now, "window", closes=self._window_close, bidders=sorted(bids))
-            return
-        if tick < self._window_close:
+            else:
+                top = _top(bids)
+                closes = self._window_close
+                self._log(tick, now, "window", closes=closes, bidders=top, count=len(bids))
             return
         self._window_close = None
-        if not bids:
-            return
         winner = min(bids, key=lambda n: (-bids[n], n))
         self.holder = winner
         publish = self._transport.publish
@@ -78,13 +107,16 @@ class ArmMutex:
         for name in bids:
             if name != winner:
                 publish(reply_topic(name), self._deny)
+        logged = bids if len(bids) <= LOGGED_BIDS else {n: bids[n] for n in _top(bids)}
+        extra = {} if len(bids) <= LOGGED_BIDS else {"count": len(bids)}
         self._log(
             tick,
             now,
             "grant",
             to=winner,
             bid=round(bids[winner], 6),
-            bids={n: round(b, 6) for n, b in sorted(bids.items())},
+            bids={n: round(b, 6) for n, b in sorted(logged.items())},
+            **extra,
         )
 
     def _log(self, tick: int, now: float, kind: str, **data: object) -> None:
@@ -92,3 +124,10 @@ class ArmMutex:
 
     def snapshot(self) -> dict[str, object]:
         return {"name": self.name, "kind": self.kind, "holder": self.holder}
+
+
+def _top(bids: dict[str, float]) -> list[str]:
+    """The names of the :data:`LOGGED_BIDS` highest bids, sorted by name."""
+    import heapq
+
+    return sorted(heapq.nsmallest(LOGGED_BIDS, bids, key=lambda n: (-bids[n], n)))

@@ -21,6 +21,7 @@ topic (for the event log).
 
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -29,6 +30,7 @@ from flexhrc.behavior.goals import GOAL_CLASSES, GoalNode
 from flexhrc.behavior.messages import (
     LOG_TOPIC,
     ActivationMsg,
+    ActivationRelease,
     LogEvent,
     StateMsg,
     activation_topic,
@@ -38,6 +40,7 @@ from flexhrc.behavior.mutex import ArmMutex
 from flexhrc.behavior.node import DONE, Node
 from flexhrc.behavior.params import NetworkParams
 from flexhrc.behavior.task import BEHAVIOR, Task
+from flexhrc.behavior.types import BehaviorFactory
 from flexhrc.behavior.world import TabletopWorld
 from flexhrc.errors import UnknownNameError
 from flexhrc.transport.base import SimClock, Transport
@@ -135,7 +138,13 @@ def runs_from_log(log: list[LogEvent]) -> list[Run]:
 
 
 class BehaviorNetwork:
-    """A task turned into communicating nodes, plus one mutex per arm, on a simulated clock."""
+    """A task turned into communicating nodes, plus one mutex per arm, on a simulated clock.
+
+    Every behaviour leaf is a :class:`~flexhrc.behavior.behaviors.PickAndPlace` of the object
+    with its name, unless ``behaviors`` maps the leaf's name to a factory of another
+    :class:`~flexhrc.behavior.behaviors.BehaviorNode` (your own behaviours; see
+    ``docs/behavior.md`` and ``examples/custom_behavior.py``).
+    """
 
     def __init__(
         self,
@@ -144,6 +153,7 @@ class BehaviorNetwork:
         params: NetworkParams | None = None,
         transport: Transport | None = None,
         event_driven: bool = True,
+        behaviors: Mapping[str, BehaviorFactory] | None = None,
     ) -> None:
         self.task = task
         #: Skip quiescent nodes (see :mod:`flexhrc.behavior.node`); ``False`` updates every node
@@ -154,12 +164,18 @@ class BehaviorNetwork:
         self.transport: Transport = transport if transport is not None else InProcessBus()
         self.clock = SimClock(self.params.tick_period)
         self.log: list[LogEvent] = []
+        #: Called with every log event as it is recorded (live trace, streamed ``--log``).
+        self.listeners: list[Callable[[LogEvent], None]] = []
         self.drive = True
         self.finished = False
-        self.transport.subscribe(LOG_TOPIC, self.log.append)
+        self.transport.subscribe(LOG_TOPIC, self._record)
         self.nodes: dict[str, Node] = {}
         for tn in task.walk():
             if tn.kind == BEHAVIOR:
+                factory = (behaviors or {}).get(tn.name)
+                if factory is not None:
+                    self.nodes[tn.name] = factory(tn.name, world, self.transport, self.params)
+                    continue
                 if not world.has_object(tn.name):
                     where = task.source + (f":{tn.line}" if tn.line else "") + ": "
                     where += f"column {tn.column}: " if tn.column else ""
@@ -182,12 +198,18 @@ class BehaviorNetwork:
         self._sensors: dict[str, int] = {}
         for slot, node in enumerate(self._order):
             node.set_waker(self._awake.add, slot)
-            if isinstance(node, PickAndPlace):
+            if isinstance(node, BehaviorNode) and node.object is not None:
                 self._sensors[node.object] = slot
         world.add_sensing_listener(self._on_sensing)
         self._root_topic = activation_topic(task.root.name)
-        self._drive_msg = ActivationMsg(DRIVER, 1.0)
+        self._drive_msg = ActivationMsg(DRIVER, 1.0, self.params.latched)
+        self._driving = False  # latched: the root holds the driver's activation
         self.transport.subscribe(state_topic(task.root.name), self._on_root_state)
+
+    def _record(self, ev: LogEvent) -> None:
+        self.log.append(ev)
+        for listener in self.listeners:
+            listener(ev)
 
     def _on_sensing(self, objects: set[str] | None) -> None:
         if objects is None:
@@ -221,9 +243,16 @@ class BehaviorNetwork:
         now = self.clock.now()
         for ev in self.world.step(now):
             kind = ev.pop("kind")
-            self.log.append(LogEvent(tick, now, "world", kind, ev))
-        if self.drive and not self.finished:
-            self.transport.publish(self._root_topic, self._drive_msg)
+            self._record(LogEvent(tick, now, "world", kind, ev))
+        want = self.drive and not self.finished
+        if not self.params.latched:
+            if want:
+                self.transport.publish(self._root_topic, self._drive_msg)
+        elif want != self._driving:
+            self._driving = want
+            self.transport.publish(
+                self._root_topic, self._drive_msg if want else ActivationRelease(DRIVER)
+            )
         order = self._order
         if self.event_driven:
             awake = sorted(self._awake)
@@ -241,8 +270,12 @@ class BehaviorNetwork:
         self.transport.flush()
         self.clock.advance()
 
-    def run(self, max_ticks: int = 50_000) -> RunResult:
-        """Tick until the root reports done or ``max_ticks`` ticks have run."""
+    def run(self, max_ticks: int | None = None) -> RunResult:
+        """Tick until the root reports done or ``max_ticks`` ticks have run (default
+        :func:`default_max_ticks`: enough for the task's size, so a big task never stops for
+        lack of ticks)."""
+        if max_ticks is None:
+            max_ticks = default_max_ticks(self.task)
         while not self.finished and self.clock.tick < max_ticks:
             self.tick()
         return self.result()
@@ -263,8 +296,17 @@ class BehaviorNetwork:
         )
 
 
+def default_max_ticks(task: Task) -> int:
+    """50 000 ticks plus 1 000 per behaviour: a pick-and-place takes about 100 ticks, so a task
+    that could finish is never cut short, and one that cannot stops in bounded time."""
+    return 50_000 + 1_000 * len(task.behaviors)
+
+
 def run_task(
-    task: Task, world: TabletopWorld, params: NetworkParams | None = None, max_ticks: int = 50_000
+    task: Task,
+    world: TabletopWorld,
+    params: NetworkParams | None = None,
+    max_ticks: int | None = None,
 ) -> RunResult:
     """Build a network for ``task`` in ``world`` and run it to completion (or ``max_ticks``)."""
     return BehaviorNetwork(task, world, params).run(max_ticks)

@@ -40,6 +40,7 @@ from typing import Any
 from flexhrc.behavior.messages import (
     LOG_TOPIC,
     ActivationMsg,
+    ActivationRelease,
     LogEvent,
     StateMsg,
     activation_topic,
@@ -71,6 +72,8 @@ class Node:
         self._alpha = params.falloff
         self._params = params
         self._state_topic = state_topic(name)
+        #: A held (latched) activation level, re-applied at every update loop; None if none.
+        self._held: float | None = None
         self._activation_sub = transport.subscribe(activation_topic(name), self._on_activation)
         self._last_published: tuple[str, float, bool, bool] | None = None
         self.tick = 0
@@ -88,23 +91,33 @@ class Node:
         if self._waker is not None:
             self._waker(self._slot)
 
-    def _on_activation(self, msg: ActivationMsg) -> None:
-        self.level = msg.level
+    def _on_activation(self, msg: ActivationMsg | ActivationRelease) -> None:
+        if isinstance(msg, ActivationRelease):
+            self._held = None
+        else:
+            self.level = msg.level
+            self._held = msg.level if msg.hold else None
         if self._waker is not None:
             self._waker(self._slot)
 
     def busy(self) -> bool:
-        """Must run next tick even with an empty inbox (active, running, or above τ)."""
-        return self.state == ACTIVE or self.state == RUNNING or self.level > self._tau
+        """Must run next tick even with an empty inbox (active, running, or above τ; a done node
+        has nothing left to do)."""
+        state = self.state
+        return state in (ACTIVE, RUNNING) or (self.level > self._tau and state != DONE)
 
     def disconnect_parent(self) -> None:
         """Stop listening to the parent (a broken link); the level then only decays."""
         self._activation_sub.cancel()
+        self._held = None
+        self.wake()  # a held level now decays: the node has work again
 
     # -- Algorithm 1 ---------------------------------------------------------------------------
     def update(self, tick: int, now: float) -> None:
         self.tick = tick
         self.now = now
+        if self._held is not None:
+            self.level = self._held
         if self.state == DONE:
             self.idle_done()
             return

@@ -13,7 +13,14 @@ Where the paper leaves a choice open it is a parameter here:
 * ``mutex_window``: length of the bidding window the arm mutex opens on a lock request;
 * ``validity_threshold``: how far (m) a watched object may move before validity checking resets
   the behaviour;
-* ``tick_period``: simulated seconds per update loop.
+* ``tick_period``: simulated seconds per update loop;
+* ``latched``: the paper's nodes re-send activation and re-bid for a mutex every loop. With
+  ``latched=True`` (default) a message *holds* until its sender changes it: a parent sends a held
+  activation once (and a release or a new level when it would stop or change), a waiting
+  behaviour places a standing bid once (and withdraws it when it would stop bidding). Every node
+  sees exactly what it would have seen with the per-tick messages — the runs are identical
+  (tested) — but a waiting behaviour has nothing to do and sleeps, so a tick costs what changes,
+  not the number of waiting behaviours. ``latched=False`` is the literal per-tick protocol.
 """
 
 from __future__ import annotations
@@ -50,6 +57,7 @@ class NetworkParams:
     mutex_window: float = 0.5
     validity_threshold: float = 0.05
     seed: int = 0
+    latched: bool = True
 
     def __post_init__(self) -> None:
         if not 0 < self.falloff < 1:

@@ -2,16 +2,20 @@
 
 One row per behaviour (in task order); coloured bars show when it was inactive, active, running
 and done. With two arms, running bars of the second arm are hatched and labelled. Resets by
-validity checking are marked with a red cross, object moves with a triangle.
+validity checking are marked with a red cross, object moves with a triangle; the legend names
+every colour, hatch and marker used.
+
+The file is written atomically (a temporary file, then a rename).
 
 matplotlib is optional (``pip install 'flexhrc[viz]'``) and imported only here, lazily.
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
 
-from flexhrc.behavior.network import RunResult
+from flexhrc.behavior.network import Run, RunResult
 from flexhrc.behavior.render import STATE_COLOURS
 from flexhrc.errors import OptionalDependencyError
 
@@ -84,6 +88,19 @@ def gantt(result: RunResult, path: str | Path, title: str | None = None) -> Path
                 label=f"running ({arms[1]})",
             )
         )
+    moved = any(ev.kind == "move" and str(ev.data.get("object")) in rows for ev in result.log)
+    if moved:
+        handles.append(
+            plt.Line2D(
+                [],
+                [],
+                marker="v",
+                color="#cc0000",
+                linestyle="none",
+                markersize=7,
+                label="object moved by the experimenter",
+            )
+        )
     if result.resets:
         handles.append(
             plt.Line2D(
@@ -100,13 +117,90 @@ def gantt(result: RunResult, path: str | Path, title: str | None = None) -> Path
         handles=handles,
         loc="upper center",
         bbox_to_anchor=(0.5, -0.12),
-        ncol=len(handles),
+        ncol=min(len(handles), 4),
         frameon=False,
     )
     order = ", ".join(result.order)
     ax.set_title(title or f"Behaviour states over time — order: {order}", fontsize=10)
     fig.tight_layout()
     out = Path(path)
-    fig.savefig(out, dpi=120)
-    plt.close(fig)
+    from flexhrc.files import OutputPathError, atomic_output
+
+    try:
+        with atomic_output(out) as tmp:
+            fig.savefig(tmp, dpi=120, format=out.suffix.lstrip(".").lower() or None)
+    except OSError as exc:
+        raise OutputPathError(f"--plot {out}: cannot write: {exc.strerror or exc}") from None
+    finally:
+        plt.close(fig)
+    return out
+
+
+ROBOT_COLOURS = ("#3c78d8", "#e69138", "#6aa84f", "#8e7cc3")
+
+
+def team_gantt(
+    runs: list[Run],
+    behaviors: list[str],
+    path: str | Path,
+    title: str | None = None,
+    lost: list[str] | None = None,
+    lost_at: Mapping[str, float] | None = None,
+) -> Path:
+    """Who did what when, for several robots sharing one task: one row per behaviour, one bar per
+    run coloured by robot (arms named ``robot/arm``); a reset run is hatched, a run cut off by
+    its robot's loss is outlined in red. Written atomically, like :func:`gantt`."""
+    plt = _pyplot()
+    from matplotlib.patches import Patch
+
+    robots = sorted({r.arm.split("/", 1)[0] for r in runs})
+    colour = {robot: ROBOT_COLOURS[i % len(ROBOT_COLOURS)] for i, robot in enumerate(robots)}
+    end = max([r.end or r.start for r in runs] + [1e-6])
+    rows = {name: row for row, name in enumerate(reversed(behaviors))}
+    fig, ax = plt.subplots(figsize=(11, max(2.8, 0.9 + 0.42 * len(behaviors))))
+    for r in runs:
+        if r.behavior not in rows:
+            continue
+        robot = r.arm.split("/", 1)[0]
+        stop = r.end if r.end is not None else (lost_at or {}).get(robot, end)
+        kwargs: dict[str, object] = {"color": colour[robot], "edgecolor": "none"}
+        if r.outcome == "reset":
+            kwargs.update(hatch="///", edgecolor="white", alpha=0.6)
+        elif r.outcome == "unfinished":
+            kwargs.update(edgecolor="#cc0000", linewidth=2, alpha=0.5)
+        ax.barh(rows[r.behavior], stop - r.start, left=r.start, height=0.62, **kwargs)
+    ax.set_yticks(range(len(behaviors)))
+    ax.set_yticklabels(list(reversed(behaviors)))
+    ax.set_xlabel("time (s)")
+    ax.set_xlim(0, end)
+    ax.set_ylim(-0.6, len(behaviors) - 0.3)
+    ax.grid(axis="x", color="#bbbbbb", linewidth=0.5, alpha=0.7)
+    ax.set_axisbelow(True)
+    handles = [Patch(color=colour[robot], label=f"running on {robot}") for robot in robots]
+    if any(r.outcome == "reset" for r in runs):
+        handles.append(Patch(facecolor="#999999", hatch="///", edgecolor="white", label="reset"))
+    if any(r.outcome == "unfinished" for r in runs):
+        handles.append(
+            Patch(
+                facecolor="#dddddd", edgecolor="#cc0000", linewidth=2, label="cut off (robot lost)"
+            )
+        )
+    ax.legend(
+        handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=4, frameon=False
+    )
+    heading = title or "Who did what"
+    if lost:
+        heading += f" — lost: {', '.join(lost)}"
+    ax.set_title(heading, fontsize=10)
+    fig.tight_layout()
+    out = Path(path)
+    from flexhrc.files import OutputPathError, atomic_output
+
+    try:
+        with atomic_output(out) as tmp:
+            fig.savefig(tmp, dpi=120, format=out.suffix.lstrip(".").lower() or None)
+    except OSError as exc:
+        raise OutputPathError(f"--plot {out}: cannot write: {exc.strerror or exc}") from None
+    finally:
+        plt.close(fig)
     return out

@@ -21,6 +21,10 @@ STATE_COLOURS = {
 }
 
 
+def _esc(text: str) -> str:
+    return text.replace("\\", "\\\\").replace('"', '\\"')
+
+
 def _label(node: TaskNode, snaps: Mapping[str, Mapping[str, Any]] | None) -> str:
     text = node.name if node.kind == BEHAVIOR else f"{node.kind} ({node.name})"
     if snaps and node.name in snaps:
@@ -49,9 +53,15 @@ def to_dot(
     task: Task | TaskNode,
     snapshots: Mapping[str, Mapping[str, Any]] | None = None,
     name: str = "task",
+    *,
+    legend: bool = False,
+    caption: str | None = None,
 ) -> str:
+    """DOT text; ``legend`` adds a key of the state colours, ``caption`` a title."""
     root = task.root if isinstance(task, Task) else task
     out = [f'digraph "{name}" {{', "  rankdir=TB;", '  node [fontname="Helvetica"];']
+    if caption:
+        out.append(f'  labelloc=t; label="{_esc(caption)}"; fontname="Helvetica";')
     for node in root.walk():
         attrs = []
         if node.kind == BEHAVIOR:
@@ -65,5 +75,14 @@ def to_dot(
     for node in root.walk():
         for child in node.children:
             out.append(f'  "{node.name}" -> "{child.name}";')
+    if legend:
+        out.append('  subgraph cluster_legend { label="state"; fontname="Helvetica"; style=dashed;')
+        keys = [f"legend_{state}" for state in STATE_COLOURS]
+        for key, (state, colour) in zip(keys, STATE_COLOURS.items(), strict=True):
+            out.append(
+                f'    "{key}" [label="{state}", shape=box, style=filled, fillcolor="{colour}"];'
+            )
+        out.append("    " + " -> ".join(f'"{k}"' for k in keys) + " [style=invis];")
+        out.append("  }")
     out.append("}")
     return "\n".join(out) + "\n"

@@ -36,6 +36,11 @@ GOAL_KINDS = (THEN, AND, OR)
 
 _NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_\-.]*\Z")
 
+#: Deepest nesting of goals a task may have. Every algorithm on task trees (parsing, the
+#: validator, rendering, compiling) recurses once per level; the limit keeps that far from
+#: Python's recursion limit and gives one clear error instead of a RecursionError.
+MAX_DEPTH = 200
+
 
 @dataclass(frozen=True)
 class TaskNode:
@@ -53,9 +58,11 @@ class TaskNode:
 
     def walk(self) -> Iterator[TaskNode]:
         """Pre-order traversal (parent before children, children left to right)."""
-        yield self
-        for child in self.children:
-            yield from child.walk()
+        stack = [self]
+        while stack:
+            node = stack.pop()
+            yield node
+            stack.extend(reversed(node.children))
 
     def behaviors(self) -> list[str]:
         return [n.name for n in self.walk() if n.kind == BEHAVIOR]
@@ -116,7 +123,7 @@ def build_task(spec: Any, source: str = "<task>") -> Task:
     counters = {k: 0 for k in GOAL_KINDS}
     seen: dict[str, tuple[int | None, int | None]] = {}
 
-    def make(item: Any) -> TaskNode:
+    def make(item: Any, depth: int = 0) -> TaskNode:
         if item[0] == BEHAVIOR:
             _, name, line, col = item
             if name.upper() in GOAL_KINDS:
@@ -135,11 +142,13 @@ def build_task(spec: Any, source: str = "<task>") -> Task:
             seen[name] = (line, col)
             return TaskNode(BEHAVIOR, name, (), line, col)
         kind, children, line, col = item
+        if depth >= MAX_DEPTH:
+            raise FormatError(_too_deep(col), source, line)
         if not children:
             raise FormatError(_at(f"{kind} goal needs at least one child", col), source, line)
         counters[kind] += 1
         name = f"{kind}_{counters[kind]}"
-        return TaskNode(kind, name, tuple(make(c) for c in children), line, col)
+        return TaskNode(kind, name, tuple(make(c, depth + 1) for c in children), line, col)
 
     root = make(spec)
     goal_names = {n.name for n in root.walk() if n.is_goal}
@@ -151,6 +160,14 @@ def build_task(spec: Any, source: str = "<task>") -> Task:
             _at(f"behaviour name {name!r} clashes with a goal node name", col), source, line
         )
     return Task(root, source)
+
+
+def _too_deep(column: int | None) -> str:
+    return _at(
+        f"goals nested more than {MAX_DEPTH} levels deep; flatten the task "
+        "(e.g. (THEN a (THEN b c)) is (THEN a b c))",
+        column,
+    )
 
 
 def _at(message: str, column: int | None) -> str:
@@ -180,7 +197,7 @@ def parse_prefix(text: str, source: str = "<task>") -> Task:
         raise FormatError("empty task: expected e.g. (THEN a (AND b c))", source, 1)
     pos = 0
 
-    def parse_item() -> Any:
+    def parse_item(depth: int) -> Any:
         nonlocal pos
         tok, ln, col = tokens[pos]
         if tok == ")":
@@ -188,6 +205,8 @@ def parse_prefix(text: str, source: str = "<task>") -> Task:
         if tok != "(":
             pos += 1
             return (BEHAVIOR, tok, ln, col)
+        if depth >= MAX_DEPTH:
+            raise FormatError(_too_deep(col), source, ln)
         pos += 1
         if pos >= len(tokens):
             raise FormatError(f"column {col}: '(' is never closed", source, ln)
@@ -204,9 +223,9 @@ def parse_prefix(text: str, source: str = "<task>") -> Task:
             if tokens[pos][0] == ")":
                 pos += 1
                 return (kind_tok.upper(), children, ln, col)
-            children.append(parse_item())
+            children.append(parse_item(depth + 1))
 
-    spec = parse_item()
+    spec = parse_item(0)
     if pos < len(tokens):
         tok, ln, col = tokens[pos]
         raise FormatError(f"column {col}: unexpected {tok!r} after the end of the task", source, ln)
@@ -216,7 +235,7 @@ def parse_prefix(text: str, source: str = "<task>") -> Task:
 # ----------------------------------------------------------------------------- YAML form
 
 
-def task_spec_from_yaml_node(node: Any, source: str) -> Any:
+def task_spec_from_yaml_node(node: Any, source: str, depth: int = 0) -> Any:
     """Turn a composed YAML node (``yaml.compose``) into a parser spec, keeping line numbers.
 
     Accepted shapes: a behaviour name (scalar); a one-key mapping ``{THEN|AND|OR: [children]}``;
@@ -226,6 +245,8 @@ def task_spec_from_yaml_node(node: Any, source: str) -> Any:
 
     line = node.start_mark.line + 1
     col = node.start_mark.column + 1
+    if depth >= MAX_DEPTH:
+        raise FormatError(_too_deep(col), source, line)
     if isinstance(node, yaml.ScalarNode):
         value = str(node.value).strip()
         if value.startswith("("):
@@ -249,7 +270,8 @@ def task_spec_from_yaml_node(node: Any, source: str) -> Any:
             raise FormatError(
                 f"{kind} expects a list of children", source, value.start_mark.line + 1
             )
-        return (kind, [task_spec_from_yaml_node(v, source) for v in value.value], line, col)
+        children = [task_spec_from_yaml_node(v, source, depth + 1) for v in value.value]
+        return (kind, children, line, col)
     raise FormatError("expected a behaviour name or a {THEN|AND|OR: [...]} mapping", source, line)
 
 
@@ -271,9 +293,6 @@ def parse_task(text: str, source: str = "<task>") -> Task:
 
 
 def load_task(path: str | Path) -> Task:
-    p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise FormatError(f"cannot read: {exc.strerror}", p) from None
-    return parse_task(text, str(p))
+    from flexhrc.files import read_text
+
+    return parse_task(read_text(path), str(path))

@@ -20,16 +20,23 @@
       moves:                       # optional: the experimenter moves objects
         - {object: fork, to: [0.6, 0.4, 0.75], during_grasp: 1.0}
         - {object: cup, to: [0.5, 0.3, 0.75], at: 12.0}
+    types:                         # optional: behaviour types declared from existing ones
+      inspect: {base: visit, offset: [0, 0, 0.25], dwell: 1.5}
+    behaviors:                     # optional: leaves that are not a PickAndPlace of their name
+      look: {type: inspect, object: cup}
+
+(see :mod:`flexhrc.behavior.types` for the built-in types and types declared in Python).
 
 Every error names the file and the line (``file:line: message``).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 from flexhrc.behavior.task import Task, build_task, task_spec_from_yaml_node
+from flexhrc.behavior.types import BehaviorFactory, BehaviorTypeBuilder, behavior_type, derived_type
 from flexhrc.behavior.world import Arm, MoveRule, TabletopWorld, WorldObject, default_arms
 from flexhrc.errors import FlexhrcError, FormatError
 
@@ -39,6 +46,8 @@ class TaskDocument:
     task: Task
     world: TabletopWorld | None
     name: str | None = None
+    #: Leaf name -> factory of its behaviour node, for leaves given a ``type:``.
+    behaviors: dict[str, BehaviorFactory] = field(default_factory=dict)
 
 
 def _line(node: Any) -> int:
@@ -169,6 +178,8 @@ def compose(text: str, source: str) -> Any:
 
     try:
         return yaml.compose(text, Loader=yaml.SafeLoader)
+    except RecursionError:
+        raise FormatError("invalid YAML: nested too deeply", source) from None
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         line = mark.line + 1 if mark is not None else None
@@ -186,10 +197,80 @@ def load_task_document(text: str, source: str = "<task>", arms: int | None = Non
     if isinstance(root, yaml.ScalarNode):
         return TaskDocument(build_task(task_spec_from_yaml_node(root, source), source), None)
     fields = _mapping(root, "task file", source)
-    _check_keys(fields, {"name", "task", "world", "description"}, "task file", source)
+    _check_keys(
+        fields, {"name", "task", "world", "description", "types", "behaviors"}, "task file", source
+    )
     if "task" not in fields:
         raise FormatError("missing 'task' (e.g. task: {THEN: [a, b]})", source, _line(root))
     task = build_task(task_spec_from_yaml_node(fields["task"], source), source)
     world = world_from_yaml_node(fields["world"], source, arms) if "world" in fields else None
     name = str(fields["name"].value) if "name" in fields else None
-    return TaskDocument(task, world, name)
+    types = _types(fields["types"], source) if "types" in fields else {}
+    behaviors = (
+        _behaviors(fields["behaviors"], task, types, source) if "behaviors" in fields else {}
+    )
+    return TaskDocument(task, world, name, behaviors)
+
+
+def _plain(node: Any) -> Any:
+    """A composed YAML node as plain Python values (safe constructors only)."""
+    import yaml
+
+    loader = yaml.SafeLoader("")
+    try:
+        return loader.construct_object(node, deep=True)
+    finally:
+        loader.dispose()
+
+
+def _types(node: Any, source: str) -> dict[str, BehaviorTypeBuilder]:
+    out: dict[str, BehaviorTypeBuilder] = {}
+    for key, spec_node in _mapping(node, "types", source).items():
+        spec = _mapping(spec_node, f"type {key!r}", source)
+        if "base" not in spec:
+            raise FormatError(
+                f"type {key!r}: missing 'base' (e.g. base: visit)", source, _line(spec_node)
+            )
+        base = str(spec["base"].value)
+        defaults = {k: _plain(v) for k, v in spec.items() if k != "base"}
+        try:  # a base declared earlier in this file, or a registered type
+            out[key] = (
+                _derive_local(out[base], defaults) if base in out else derived_type(base, defaults)
+            )
+        except FlexhrcError as exc:
+            raise FormatError(str(exc), source, _line(spec["base"])) from None
+    return out
+
+
+def _derive_local(parent: BehaviorTypeBuilder, defaults: dict[str, Any]) -> BehaviorTypeBuilder:
+    def builder(leaf: str, params: Any) -> BehaviorFactory:
+        return parent(leaf, {**defaults, **params})
+
+    return builder
+
+
+def _behaviors(
+    node: Any, task: Task, types: dict[str, BehaviorTypeBuilder], source: str
+) -> dict[str, BehaviorFactory]:
+    leaves = set(task.behaviors)
+    out: dict[str, BehaviorFactory] = {}
+    for key, spec_node in _mapping(node, "behaviors", source).items():
+        line = _line(spec_node)
+        if key not in leaves:
+            raise FormatError(
+                f"behaviors: {key!r} is not a behaviour of the task "
+                f"(behaviours: {', '.join(task.behaviors)})",
+                source,
+                line,
+            )
+        spec = _mapping(spec_node, f"behaviour {key!r}", source)
+        if "type" not in spec:
+            raise FormatError(f"behaviour {key!r}: missing 'type'", source, line)
+        type_name = str(spec["type"].value)
+        params = {k: _plain(v) for k, v in spec.items() if k != "type"}
+        try:
+            builder = types[type_name] if type_name in types else behavior_type(type_name)
+            out[key] = builder(key, params)
+        except FlexhrcError as exc:
+            raise FormatError(f"behaviour {key!r}: {exc}", source, line) from None
+    return out

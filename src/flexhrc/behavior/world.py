@@ -93,7 +93,7 @@ class PickAndPlaceMotion:
     """Time-parametrised straight-line pick-and-place: reach → grasp → carry → place → return."""
 
     arm: str
-    object: str
+    object: str | None  # None: a move to a pose that carries nothing (start_move)
     start: float
     start_pos: Vec
     grasp_pos: Vec
@@ -144,6 +144,12 @@ class PickAndPlaceMotion:
     @property
     def duration(self) -> float:
         return self.t_end - self.start
+
+
+def _dist(a: Vec, b: Vec) -> float:
+    # numpy's sqrt(sum of squares), so an incremental refresh gives the same float as a full one
+    dx, dy, dz = a[0] - b[0], a[1] - b[1], a[2] - b[2]
+    return math.sqrt(dx * dx + dy * dy + dz * dz)
 
 
 def _lerp(a: Vec, b: Vec, s: float) -> Vec:
@@ -242,6 +248,23 @@ class TabletopWorld:
         self._pot_arm = pot.tolist()
         self._pot_best = pot.max(axis=0).tolist() if len(self.objects) else []
 
+    def _refresh_objects(self, names: set[str]) -> None:
+        """Recompute the potentials of a few objects only (the arms did not move): the common
+        case of one object being carried, at O(changed) instead of O(objects) per tick."""
+        free = self._free_positions()
+        best = self._pot_best
+        per_arm = self._pot_arm
+        floor = self.min_distance
+        for name in names:
+            i = self._index[name]
+            pos = self.objects[name].position
+            top = 0.0
+            for k, arm_pos in enumerate(free):
+                p = 1.0 / max(_dist(pos, arm_pos), floor)
+                per_arm[k][i] = p
+                top = p if p > top else top
+            best[i] = top
+
     def _free_positions(self) -> list[Vec]:
         return [a.free_position for a in self.arms.values()]
 
@@ -266,7 +289,10 @@ class TabletopWorld:
         changed: set[str] | None = None if self._pending_all else set(self._pending)
         self._pending_all = False
         self._pending.clear()
-        self._refresh_potentials()
+        if changed is None or 4 * len(changed) > len(self.objects):
+            self._refresh_potentials()
+        else:
+            self._refresh_objects(changed)
         self.sensing_version += 1
         if changed is None:
             self.sensing_stamp_all = self.sensing_version
@@ -314,12 +340,43 @@ class TabletopWorld:
         self._sensing_changed(set())
         return motion
 
+    def start_move(self, arm: str, pose: Vec, dwell: float, now: float) -> PickAndPlaceMotion:
+        """Move ``arm`` to ``pose``, hold it there ``dwell`` seconds, and return home — for
+        behaviours that carry nothing (look at an object, point, wait for a hand-over). The
+        motion's phases are ``reach``, ``grasp`` (the dwell) and ``return``."""
+        a = self._arm(arm)
+        if a.motion is not None:
+            raise FlexhrcError(f"arm {arm!r} is busy with {a.motion.object!r}")
+        if not (math.isfinite(dwell) and dwell >= 0):
+            raise FlexhrcError(f"dwell must be a finite number >= 0, got {dwell}")
+        pose = vec(pose)
+        t_reach = now + math.dist(a.position, pose) / a.speed
+        t_dwell = t_reach + dwell
+        t_end = t_dwell + math.dist(pose, a.home) / a.speed
+        motion = PickAndPlaceMotion(
+            arm,
+            None,
+            now,
+            a.position,
+            pose,
+            pose,
+            a.home,
+            t_reach,
+            t_dwell,
+            t_dwell,
+            t_dwell,
+            t_end,
+        )
+        a.motion = motion
+        self._sensing_changed(set())
+        return motion
+
     def abort(self, arm: str, now: float) -> None:
         """Stop the arm where it is (the behaviour was reset by validity checking)."""
         a = self._arm(arm)
         if a.motion is not None:
             a.position = a.motion.position_at(now)
-            o = self.objects.get(a.motion.object)
+            o = self.objects.get(a.motion.object) if a.motion.object else None
             if o is not None and o.held_by == arm:
                 o.held_by = None
             a.motion = None
@@ -365,12 +422,20 @@ class TabletopWorld:
             if m is None:
                 continue
             a.position = m.position_at(now)
-            obj = self.objects[m.object]
             phase = m.phase_at(now)
+            if m.object is None:  # a move to a pose (start_move): no object is carried
+                if phase == "finished":
+                    a.motion = None
+                    a.position = a.home
+                    self._sensing_changed(set())
+                self.version += 1
+                continue
+            obj = self.objects[m.object]
             moved_object = False
             if phase in ("carry", "place"):
+                # taking hold counts as a change even where the position stays: ObjectInView
+                moved_object = obj.held_by != a.name or obj.position != a.position
                 obj.held_by = a.name
-                moved_object = obj.position != a.position
                 obj.position = a.position
             elif phase in ("return", "finished"):
                 obj.held_by = None

@@ -7,12 +7,15 @@ positions and facts — from each command or suggestion, exactly as a real arm t
 its controller.
 
 * :class:`RobotAgent` executes a :class:`~flexhrc.taskmanager.manager.Command` with the
-  execution model (the kinematic simulator when the ``sim`` extra is installed, as in
-  :class:`~flexhrc.taskmanager.runner.CooperationRun`) and answers with an ``ack`` carrying
+  execution model — the scenario's simulator (the kinematic one for the older table files when
+  the ``sim`` extra is installed), the same object that plays the real world in
+  :class:`~flexhrc.taskmanager.runner.CooperationRun` — and answers with an ``ack`` carrying
   where things are afterwards. **It never executes one command id twice**: a repeated id (the
-  manager resumed after a crash) gets the stored ack again, or nothing while it is running.
-* :class:`HumanAgent` follows suggestions step by step (profile ``passive``) and reports every
-  finished step as a ``human_action``; a repeated suggestion id gets its reports again.
+  manager resumed after a crash) gets the stored ack again, or nothing while it is running; with
+  a ``journal`` this holds across restarts of the agent's process too.
+* :class:`HumanAgent` follows suggestions step by step (profile ``passive``): it carries out the
+  step the manager names, in the world the message carries, and reports it as a
+  ``human_action``; a repeated step gets its report again.
 
 ``realtime`` (from the message) > 0 makes an agent take ``duration / realtime`` seconds of wall
 time before it answers, so a process can be killed in the middle of an action; 0 answers at once
@@ -348,7 +351,8 @@ class HumanAgent(_Agent):
                 f"(humans: {', '.join(humans) or 'none'})"
             )
         self.profile = profile
-        self.reports: dict[str, list[dict[str, Any]]] = {}  # suggestion id -> reports sent
+        self.reports: dict[str, dict[int, dict[str, Any]]] = {}  # suggestion -> step -> report
+        self.busy: set[tuple[str, int]] = set()  # steps being carried out
         self._subs.append(transport.subscribe(P.suggest_topic(name), self._on_message))
         self._announce()
 
@@ -361,46 +365,51 @@ class HumanAgent(_Agent):
             self._bad(data, exc)
 
     def _suggestion(self, msg: dict[str, Any]) -> None:
-        sid = msg["id"]
-        if sid in self.reports:
-            self.trace(f"suggestion {sid} repeated: {len(self.reports[sid])} reports sent again")
-            for rep in self.reports[sid]:
-                self.transport.publish(P.HUMAN_TOPIC, rep)
+        """Carry out step ``step`` of a suggestion in the world the message carries; the manager
+        sends the next step, with the world as it is then, once it has handled this one."""
+        sid, k = msg["id"], int(msg.get("step", 0))
+        done = self.reports.setdefault(sid, {})
+        if k in done:  # the manager missed the report (it restarted): send it again
+            self.trace(f"suggestion {sid} step {k} repeated: report sent again")
+            self.transport.publish(P.HUMAN_TOPIC, done[k])
+            return
+        if (sid, k) in self.busy:
             return
         steps = [ground(self.domain, a) for a in msg["actions"]]
-        for step in steps:
-            if self.name not in step.agents:
-                raise P.ProtocolError(f"suggestion {sid}: {step} is not for {self.name}")
+        if not 0 <= k < len(steps):
+            raise P.ProtocolError(f"suggestion {sid}: no step {k} in {len(steps)} actions")
+        step = steps[k]
+        if self.name not in step.agents:
+            raise P.ProtocolError(f"suggestion {sid}: {step} is not for {self.name}")
         sync_world(self.kb, msg.get("world") or {})
-        self.reports[sid] = []
-        positions = {k: o.position for k, o in self.kb.objects.items()}
+        positions = {key: o.position for key, o in self.kb.objects.items()}
+        before = dict(positions)
         t = float(msg["t"])
+        dt = float(self.execution.execute(step, positions, self.kb, self.domain).duration_s)
+        moved = {key: list(map(float, p)) for key, p in positions.items() if before.get(key) != p}
+        rep = P.message(
+            "human_action",
+            id=f"{self.name}:{sid}:{k}",
+            agent=self.name,
+            action=str(step),
+            suggestion=sid,
+            step=k,
+            start=t,
+            t=t + dt,
+            positions=moved,
+        )
+        if k == 0:
+            self.trace(f"suggestion {sid}: {msg['element']}")
+        self.busy.add((sid, k))
+
+        def send() -> None:
+            self.busy.discard((sid, k))
+            done[k] = rep
+            self.transport.publish(P.HUMAN_TOPIC, rep)
+            self.trace(f"did {rep['action']}")
+
         speed = float(msg.get("realtime", 0.0))
-        delay = 0.0
-        self.trace(f"suggestion {sid}: {msg['element']}")
-        for i, step in enumerate(steps):
-            before = dict(positions)
-            dt = float(self.execution.execute(step, positions, self.kb, self.domain).duration_s)
-            moved = {k: list(map(float, p)) for k, p in positions.items() if before.get(k) != p}
-            rep = P.message(
-                "human_action",
-                id=f"{self.name}:{sid}:{i}",
-                agent=self.name,
-                action=str(step),
-                suggestion=sid,
-                start=t,
-                t=t + dt,
-                positions=moved,
-            )
-            t += dt
-            delay += dt / speed if speed > 0 else 0.0
-
-            def send(rep: dict[str, Any] = rep) -> None:
-                self.reports[sid].append(rep)
-                self.transport.publish(P.HUMAN_TOPIC, rep)
-                self.trace(f"did {rep['action']}")
-
-            self._later(delay, send)
+        self._later(dt / speed if speed > 0 else 0.0, send)
 
 
 def run_agent(agent: _Agent, transport: Any, *, until: Callable[[], bool] | None = None) -> str:

@@ -85,12 +85,14 @@ SCHEMAS: dict[str, dict[str, tuple[tuple[type, ...], bool]]] = {
         "t": (_NUM, True),
         "world": ((dict,), False),
         "realtime": (_NUM, False),
+        "step": ((int,), False),
     },
     "human_action": {
         "id": ((str,), True),
         "agent": ((str,), True),
         "action": ((str,), True),
         "suggestion": ((str, type(None)), False),
+        "step": ((int,), False),
         "start": (_NUM, False),
         "t": (_NUM, True),
         "positions": ((dict,), False),
@@ -142,6 +144,7 @@ def parse(data: Any, *, expect: str | tuple[str, ...] | None = None) -> dict[str
         if isinstance(value, float) and not math.isfinite(value):
             raise ProtocolError(f"{kind}: field {name!r} must be finite")
         numeric = name in ("t", "duration", "expected_s", "start", "realtime")
+        numeric = numeric or name == "step"
         if numeric and isinstance(value, int | float) and value < 0:
             raise ProtocolError(f"{kind}: field {name!r} must be >= 0, not {value}")
     if kind == "ack" and data["status"] not in ACK_STATUSES:

@@ -135,6 +135,10 @@ class Cell:
         self.acked: set[int] = set()
         self.suggestions: dict[str, dict[str, Any]] = {}
         self.active_suggestion: dict[str, str] = {}
+        # suggestion id -> (the step to do next, when it starts): the operator gets one step at
+        # a time, in the world as it is when that step starts (as CooperationRun's operators)
+        self.suggestion_step: dict[str, tuple[int, float]] = {}
+        self._sent_step: dict[str, int] = {}
         self.human_ids: set[str] = set()
         self.pending: list[tuple[float, int, str, dict[str, Any]]] = []
         self._arrivals = 0
@@ -382,6 +386,10 @@ class Cell:
             self.human_ids.add(str(body["id"]))
             action = ground(self.domain, body["action"])
             self._physical(action, body.get("positions") or {})
+            sid, k = body.get("suggestion"), body.get("step")
+            if isinstance(sid, str) and isinstance(k, int) and sid in self.suggestions:
+                done = self.suggestion_step.get(sid, (0, now))[0]
+                self.suggestion_step[sid] = (max(done, k + 1), now)
             return tm.on_human_action(now, HumanAction(action.name, action.args))
         if kind == "percept":
             self.percept_ids.add(str(body["id"]))
@@ -483,12 +491,21 @@ class Cell:
 
     def _send_suggestion(self, human: str, sid: str) -> None:
         st = self.agents[human]
-        if self.replaying or not st.alive or not st.available:
-            return
         msg = dict(self.suggestions[sid])
+        step, start = self.suggestion_step.get(sid, (0, float(msg["t"])))
+        if self.replaying or not st.alive or not st.available or step >= len(msg["actions"]):
+            return
         msg.pop("agent", None)
-        msg.update(world=world_of(self.kb), realtime=self.agent_speed)
+        msg.update(t=start, step=step, world=world_of(self.kb), realtime=self.agent_speed)
+        self._sent_step[sid] = step
         self.transport.publish(P.suggest_topic(human), P.parse(msg, expect="suggestion"))
+
+    def _continue_suggestions(self) -> None:
+        """The operator finished a step the manager has handled: send it the next one."""
+        for human, sid in sorted(self.active_suggestion.items()):
+            step = self.suggestion_step.get(sid, (0, 0.0))[0]
+            if step > self._sent_step.get(sid, -1):
+                self._send_suggestion(human, sid)
 
     def _resend(self, agent: str) -> None:
         """An agent is (again) reachable: send what it should be doing (after a resume)."""
@@ -623,6 +640,7 @@ class Cell:
         self._last_wall = time.perf_counter()
         self._input(kind, body, t)
         self._refresh_suggestions()
+        self._continue_suggestions()
         return True
 
     def run(

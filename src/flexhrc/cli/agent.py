@@ -21,7 +21,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
     )
     asub = p.add_subparsers(dest="agent_kind", metavar="KIND", required=True)
     r = asub.add_parser("robot", help="a simulated robot arm (kinematic simulator)")
-    r.add_argument("scenario", metavar="SCENARIO")
+    r.add_argument("scenario", metavar="SCENARIO", help="the cell's scenario (name or file)")
     r.add_argument("--arm", required=True, metavar="NAME", help="which arm (e.g. left)")
     r.add_argument(
         "--journal",
@@ -33,12 +33,12 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
         "--simulator",
         choices=["auto", "analytic", "kinematic"],
         default="auto",
-        help="the simulated world (default: kinematic when the sim extra is installed)",
+        help="the simulated world (default: the scenario's simulator)",
     )
     _common(r)
     r.set_defaults(func=cmd_agent)
     h = asub.add_parser("human", help="a simulated operator that follows suggestions")
-    h.add_argument("scenario", metavar="SCENARIO")
+    h.add_argument("scenario", metavar="SCENARIO", help="the cell's scenario (name or file)")
     h.add_argument("--name", required=True, metavar="NAME", help="which operator (e.g. human)")
     h.add_argument("--profile", default="passive", metavar="PROFILE", help="passive (default)")
     _common(h)

@@ -73,7 +73,8 @@ def add_transport_options(p: argparse.ArgumentParser, *, default: str = "inproce
         action="append",
         default=[],
         metavar="ENDPOINT",
-        help=f"Zenoh endpoint to listen on (repeatable; the cell's default {DEFAULT_LISTEN})",
+        help=f"Zenoh endpoint to listen on (repeatable; default {DEFAULT_LISTEN} for the cell, "
+        "a random loopback port for an agent)",
     )
     p.add_argument(
         "--connect",
@@ -105,12 +106,22 @@ def open_zenoh(args: argparse.Namespace, *, listen_default: list[str]) -> Any:
     if not re.fullmatch(r"[A-Za-z0-9_\-]+", args.cell):
         raise FlexhrcError(f"--cell {args.cell!r}: letters, digits, '_' and '-' only")
     try:
-        from flexhrc.transport.zenoh import ZenohTransport, zenoh_config
+        from flexhrc.transport.zenoh import ZenohTransport, normalise_endpoint, zenoh_config
     except ImportError as exc:
         raise FlexhrcError(
             "the zenoh transport needs the zenoh extra: pip install 'flexhrc[zenoh]'"
         ) from exc
     listen = args.listen or (listen_default if not args.connect else [])
+    for ep in listen:
+        proto, _, rest = normalise_endpoint(ep).partition("/")
+        host = rest.rsplit(":", 1)[0].strip("[]")
+        local = proto == "unixsock-stream" or host in ("127.0.0.1", "localhost", "::1")
+        if not local and not getattr(args, "quiet", False):
+            print(
+                f"warning: --listen {ep}: reachable from other hosts; Zenoh's access control "
+                "and TLS are not configured by flexhrc (docs/cell.md)",
+                file=sys.stderr,
+            )
     return ZenohTransport(
         zenoh_config(listen=listen, connect=args.connect), prefix=f"flexhrc/{args.cell}"
     )

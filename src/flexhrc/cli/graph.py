@@ -68,6 +68,10 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
     r.add_argument("--solved", action="append", default=[], metavar="NAME")
     r.set_defaults(func=cmd_render)
 
+    from flexhrc.cli.behave import register_graph_to_task  # THEN/AND/OR tasks (branch behavior)
+
+    register_graph_to_task(gsub)
+
 
 def cmd_validate(args: argparse.Namespace) -> int:
     from flexhrc.representation import load

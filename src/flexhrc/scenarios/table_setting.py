@@ -120,7 +120,7 @@ def load_scenario(name: str, layout: int | None = None, arms: int = 1, seed: int
     if arms not in (1, 2):
         raise FlexhrcError(f"--arms must be 1 or 2, got {arms}")
     if name == "table-setting":
-        return table_setting(layout or 1, arms)
+        return table_setting(1 if layout is None else layout, arms)
     if layout is not None:
         raise FlexhrcError(f"--layout only applies to the table-setting scenario, not {name!r}")
     if name == "table-setting-robustness":

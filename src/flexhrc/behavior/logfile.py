@@ -1,0 +1,222 @@
+"""The behaviour-network event log: written line by line while a network runs, read back to replay.
+
+A log is JSON lines (``flexhrc behave ... --log F``)::
+
+    {"type": "behave_start", "kind": "header", "t": 0.0, "target": ..., "task": "(THEN ...)",
+     "behaviors": [...], "arms": [...], "seed": 0, "tick_period": 0.1, "robots": 1}
+    {"type": "event", "tick": 3, "t": 0.3, "source": "fork", "kind": "state", ...}
+    ...
+    {"type": "behave_end", "kind": "end", "t": 41.2, "outcome": "done", "ticks": 412,
+     "order": [...], "resets": 0, "violations": []}
+
+Every event of :class:`~flexhrc.behavior.messages.LogEvent` is one ``event`` line, appended and
+flushed as it happens (:class:`flexhrc.files.EventLogWriter`), so a run killed mid-way leaves a
+log that :func:`read_log` reads up to its last event and reports as cut short (no end line).
+:meth:`BehaveLog.result` rebuilds the :class:`~flexhrc.behavior.network.RunResult` from the events
+alone — the same runs, order and Gantt chart as the live run.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from flexhrc.behavior.messages import LogEvent
+from flexhrc.behavior.network import RunResult, runs_from_log
+from flexhrc.errors import FormatError
+
+HEADER = "behave_start"
+EVENT = "event"
+END = "behave_end"
+OUTCOMES = ("done", "timeout", "interrupted")
+#: What :class:`BehaveLog` reports for a log without an end line (the run was killed).
+CUT_SHORT = "cut short"
+
+
+def header_record(
+    target: str,
+    task: str,
+    behaviors: list[str],
+    arms: list[str],
+    seed: int,
+    tick_period: float,
+    **extra: Any,
+) -> dict[str, Any]:
+    return {
+        "type": HEADER,
+        "kind": "header",
+        "t": 0.0,
+        "target": target,
+        "task": task,
+        "behaviors": list(behaviors),
+        "arms": list(arms),
+        "seed": seed,
+        "tick_period": tick_period,
+        **extra,
+    }
+
+
+def event_record(ev: LogEvent) -> dict[str, Any]:
+    return {"type": EVENT, **ev.to_dict()}
+
+
+def end_record(
+    result: RunResult, violations: list[str], outcome: str | None = None
+) -> dict[str, Any]:
+    return {
+        "type": END,
+        "kind": "end",
+        "t": result.time,
+        "outcome": outcome or result.outcome,
+        "ticks": result.ticks,
+        "order": list(result.order),
+        "resets": result.resets,
+        "violations": list(violations),
+    }
+
+
+@dataclass
+class BehaveLog:
+    """A log read back: its header, its events and its end line (None if the run was cut short)."""
+
+    path: Path
+    header: dict[str, Any]
+    events: list[LogEvent]
+    end: dict[str, Any] | None
+    lines: int = 0
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def outcome(self) -> str:
+        return str(self.end["outcome"]) if self.end is not None else CUT_SHORT
+
+    @property
+    def time(self) -> float:
+        if self.end is not None:
+            return float(self.end["t"])
+        return self.events[-1].t if self.events else 0.0
+
+    @property
+    def ticks(self) -> int:
+        if self.end is not None:
+            return int(self.end["ticks"])
+        return self.events[-1].tick + 1 if self.events else 0
+
+    def result(self) -> RunResult:
+        """The run as the live network reported it, rebuilt from the events."""
+        runs = runs_from_log(self.events)
+        return RunResult(
+            outcome=self.outcome,
+            ticks=self.ticks,
+            time=self.time,
+            order=[r.behavior for r in runs if r.outcome == "done"],
+            runs=runs,
+            resets=sum(1 for r in runs if r.outcome == "reset"),
+            log=list(self.events),
+            behaviors=list(self.header["behaviors"]),
+            arms=list(self.header["arms"]),
+        )
+
+    def states_at(self, t: float) -> dict[str, str]:
+        """Every node's state at time ``t`` (the last state event at or before ``t``)."""
+        states: dict[str, str] = {}
+        for ev in self.events:
+            if ev.t > t:
+                break
+            if ev.kind == "state":
+                states[ev.source] = str(ev.data["to"])
+        return states
+
+
+def _fail(path: Path, line: int, message: str) -> FormatError:
+    return FormatError(message, path, line)
+
+
+def _number(rec: dict[str, Any], key: str, path: Path, line: int, integer: bool = False) -> float:
+    value = rec.get(key)
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise _fail(path, line, f"{key!r} must be a number, got {value!r}")
+    if not math.isfinite(value) or value < 0:
+        raise _fail(path, line, f"{key!r} must be finite and >= 0, got {value!r}")
+    if integer and not float(value).is_integer():
+        raise _fail(path, line, f"{key!r} must be an integer, got {value!r}")
+    return float(value)
+
+
+def _strings(rec: dict[str, Any], key: str, path: Path, line: int) -> list[str]:
+    value = rec.get(key)
+    if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+        raise _fail(path, line, f"{key!r} must be a list of names")
+    return value
+
+
+def read_log(path: str | Path) -> BehaveLog:
+    """Read and check a behaviour log; every problem names the file and line."""
+    from flexhrc.files import read_text
+
+    p = Path(path)
+    text = read_text(p)
+    header: dict[str, Any] | None = None
+    events: list[LogEvent] = []
+    end: dict[str, Any] | None = None
+    last_t = 0.0
+    n = 0
+    for n, raw in enumerate(text.splitlines(), start=1):
+        if not raw.strip():
+            continue
+        try:
+            rec = json.loads(raw)
+        except (ValueError, RecursionError):
+            raise _fail(p, n, "not a JSON line (a log cut mid-line?)") from None
+        if not isinstance(rec, dict):
+            raise _fail(p, n, "expected a JSON object")
+        kind = rec.get("type")
+        if header is None:
+            if kind != HEADER:
+                raise _fail(
+                    p,
+                    n,
+                    "not a behaviour log (the first line must be a 'behave_start' record; "
+                    "cooperation logs are read by `flexhrc replay`)",
+                )
+            if not isinstance(rec.get("task"), str):
+                raise _fail(p, n, "'task' must be the task's prefix form")
+            _strings(rec, "behaviors", p, n)
+            _strings(rec, "arms", p, n)
+            header = rec
+            continue
+        if end is not None:
+            raise _fail(p, n, "a line after the end of the run")
+        if kind == EVENT:
+            t = _number(rec, "t", p, n)
+            tick = int(_number(rec, "tick", p, n, integer=True))
+            if t + 1e-9 < last_t:
+                raise _fail(p, n, f"time goes backwards ({t} after {last_t})")
+            last_t = t
+            source, ev_kind = rec.get("source"), rec.get("kind")
+            if not isinstance(source, str) or not isinstance(ev_kind, str):
+                raise _fail(p, n, "an event needs a 'source' and a 'kind' (strings)")
+            data = {
+                k: v for k, v in rec.items() if k not in ("type", "tick", "t", "source", "kind")
+            }
+            if ev_kind == "state" and not isinstance(data.get("to"), str):
+                raise _fail(p, n, "a state event needs 'to' (the new state)")
+            if ev_kind in ("start", "done", "reset") and not isinstance(data.get("arm"), str):
+                raise _fail(p, n, f"a {ev_kind} event needs 'arm'")
+            events.append(LogEvent(tick, t, source, ev_kind, data))
+        elif kind == END:
+            _number(rec, "t", p, n)
+            _number(rec, "ticks", p, n, integer=True)
+            if rec.get("outcome") not in OUTCOMES:
+                raise _fail(
+                    p, n, f"unknown outcome {rec.get('outcome')!r} (one of {', '.join(OUTCOMES)})"
+                )
+            end = rec
+        else:
+            raise _fail(p, n, f"unknown record type {kind!r}")
+    if header is None:
+        raise FormatError("empty log", p)
+    return BehaveLog(p, header, events, end, n)
