@@ -65,22 +65,22 @@ def _finish(manager: subprocess.Popen[str], timeout: float, logs: Path) -> dict:
 def _operate_until_the_end(
     client: PlainClient, suggestions: list, manager: subprocess.Popen[str], timeout: float
 ) -> None:
-    """The operator: do what is asked, step by step, on the cell's clock (2 s a step)."""
-    answered: set[str] = set()
+    """The operator: carry out the step each suggestion names (2 s on the cell's clock) and
+    report it; the manager then sends the next step (docs/protocol.md)."""
+    answered: set[tuple[str, int]] = set()
     deadline = time.monotonic() + timeout
     while manager.poll() is None and time.monotonic() < deadline:
         with client.lock:
-            todo = [s for s in suggestions if s["id"] not in answered]
+            todo = [s for s in suggestions if (s["id"], s.get("step", 0)) not in answered]
         for s in todo:
-            answered.add(s["id"])
+            k = int(s.get("step", 0))
+            answered.add((s["id"], k))
             t = float(s["t"])
-            for i, action in enumerate(s["actions"]):
-                client.publish("human", {
-                    "v": 1, "type": "human_action", "id": f"plain:{s['id']}:{i}",
-                    "agent": "human", "action": action, "suggestion": s["id"],
-                    "start": t, "t": t + 2.0,
-                })  # fmt: skip
-                t += 2.0
+            client.publish("human", {
+                "v": 1, "type": "human_action", "id": f"plain:{s['id']}:{k}", "agent": "human",
+                "action": s["actions"][k], "suggestion": s["id"], "step": k,
+                "start": t, "t": t + 2.0,
+            })  # fmt: skip
         time.sleep(0.02)
 
 

@@ -30,14 +30,16 @@ def test_the_operator_node_reports_each_suggested_step_and_exits_at_the_end(
             assert wait_for(lambda: "alive/human" in alive, 30.0, bus.flush)
             assert bus.wait_matched("suggest/human", minimum=1, timeout=10.0)
             actions = ["pick_up(human, leg2)", "screw(human, leg2, bolt_1)"]
-            bus.publish("suggest/human", {
-                "v": 1, "type": "suggestion", "id": "s1", "element": "human_1",
-                "actions": actions, "cost": 3, "t": 1.5, "realtime": 0,
-            })  # fmt: skip
-            assert wait_for(lambda: len(reports) == 2, 10.0, bus.flush)
+            for k in range(2):  # the manager names one step at a time
+                bus.publish("suggest/human", {
+                    "v": 1, "type": "suggestion", "id": "s1", "element": "human_1",
+                    "actions": actions, "cost": 3, "t": 1.5 + 2 * k, "step": k, "realtime": 0,
+                })  # fmt: skip
+                assert wait_for(lambda k=k: len(reports) == k + 1, 10.0, bus.flush)
             assert [r["action"] for r in reports] == actions
+            assert [r["step"] for r in reports] == [0, 1]
             assert all(r["suggestion"] == "s1" and r["agent"] == "human" for r in reports)
-            assert reports[0]["start"] == 1.5 and reports[1]["t"] > reports[0]["t"] > 1.5
+            assert reports[0]["start"] == 1.5 and reports[1]["t"] > reports[1]["start"] == 3.5
             bus.publish("state", {"v": 1, "type": "end", "outcome": "solved"})
             out, _ = proc.communicate(timeout=20)
     finally:
