@@ -1,4 +1,14 @@
-"""Reproduce the FlexHRC+ paper's Fig. 6 experiment on the authors' own graph files.
+"""Reproduce the FlexHRC+ paper's Fig. 6 experiment on the authors' own graph files, and
+measure flexhrc against the public C++ ANDOR side by side (issue 9, item 6).
+
+Parity (first, unless ``--no-parity``): the C++ library built with ``g++ -O2``
+(``../shared/anchors/andor-cpp/build.sh``; built on first use into ``~/.cache/flexhrc-cppref``)
+and flexhrc run on the same files with the same random-client protocol, alternating, in one
+run: per seed one fresh C++ process and one fresh ``python -m flexhrc graph play --json``
+process, so flexhrc's offline time is a cold first call as ``graph play`` reports it. Both
+sides time themselves from inside (process start-up is excluded on both). Medians over 5 seeds;
+printed with the ratio flexhrc / C++ and the targets of issue 9. Without the C++ binary (or
+``../shared``) the parity table says so and is skipped.
 
 For every file: offline time (load + validate + build, including the initial cost computation)
 and online time per query, medians over 10 random traversals (the authors' random test client:
@@ -8,7 +18,8 @@ on this kind of machine, ``../shared/anchors/andor-cpp-reference.md``) and the p
 figures, with the ratio and the target of issue #2; plotted to PNG on log scales.
 
     python benchmarks/andor_paper.py [--anchors DIR] [--runs 10] [--out out/andor_paper.png]
-                                     [--json out/andor_paper.json]
+                                     [--json out/andor_paper.json] [--seeds 5]
+                                     [--cpp PATH] [--no-parity] [--parity-only]
 
 Needs ``../shared/anchors/andor-graphs`` (or ``--anchors``); the plot needs matplotlib.
 """
@@ -18,7 +29,10 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
+import shutil
 import statistics
+import subprocess
 import sys
 import time
 from dataclasses import dataclass
@@ -32,6 +46,22 @@ from flexhrc.representation.online import OnlineGraph  # noqa: E402
 from flexhrc.representation.play import play  # noqa: E402
 
 DEFAULT_ANCHORS = ROOT.parent / "shared" / "anchors" / "andor-graphs"
+CPP_SOURCES = ROOT.parent / "shared" / "anchors" / "andor-cpp"
+CPP_BINARY = Path.home() / ".cache" / "flexhrc-cppref" / "andor_bench"
+
+# Issue 9, item 6: (label, file under the anchors, metric, target ratio flexhrc / C++).
+PARITY: list[tuple[str, str, str, float]] = [
+    ("kitchen", "TRO-IKEAKitchenAssembly/KitchenAssembly.txt", "offline_s", 1.5),
+    ("kitchen", "TRO-IKEAKitchenAssembly/KitchenAssembly.txt", "online_s_per_query_median", 1.0),
+    (
+        "hierarchical 10 legs",
+        "TRO-TableAssembly/10Leg/TableAssembly_hierarchical.txt",
+        "online_s_per_query_median",
+        3.0,
+    ),
+    ("ball FOL (7 nodes)", "TRO-BallBoxPlacement/FOL_BallPlacment.txt", "offline_s", 5.0),
+]
+METRIC = {"offline_s": "offline", "online_s_per_query_median": "per query"}
 
 # C++ ANDOR (commit 1499895, g++ -O2, this kind of machine): offline s, per-query median s.
 # From ../shared/anchors/andor-cpp-reference.md. None: not measured / did not finish.
@@ -209,6 +239,96 @@ def plot(rows: list[Row], out: Path) -> None:
     fig.savefig(out, dpi=110)
 
 
+def find_cpp(explicit: Path | None, sources: Path = CPP_SOURCES) -> Path | None:
+    """The C++ driver: --cpp, else the cache, else built from ../shared (g++ -O2)."""
+    if explicit is not None:
+        return explicit if explicit.is_file() else None
+    if CPP_BINARY.is_file():
+        return CPP_BINARY
+    build = sources / "build.sh"
+    if build.is_file() and shutil.which("g++"):
+        print(f"building the C++ reference: {build}", file=sys.stderr, flush=True)
+        proc = subprocess.run(["bash", str(build)], capture_output=True, text=True)
+        if proc.returncode == 0 and CPP_BINARY.is_file():
+            return CPP_BINARY
+        print(f"C++ build failed: {proc.stderr.strip()[-400:]}", file=sys.stderr)
+    return None
+
+
+def _run_json(cmd: list[str], env: dict[str, str] | None = None) -> dict[str, float]:
+    proc = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=600)
+    if proc.returncode not in (0, 1):
+        raise SystemExit(f"{' '.join(cmd)} failed: {proc.stderr.strip()[-400:]}")
+    data: dict[str, float] = json.loads(proc.stdout)
+    return data
+
+
+def parity(anchors: Path, cpp: Path, seeds: int) -> tuple[list[dict[str, object]], int]:
+    """Both sides on the same files, alternating per seed; medians. Returns rows, failures."""
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join(p for p in (str(ROOT / "src"), env.get("PYTHONPATH")) if p)
+    files = sorted({rel for _, rel, _, _ in PARITY})
+    ours: dict[str, list[dict[str, float]]] = {rel: [] for rel in files}
+    theirs: dict[str, list[dict[str, float]]] = {rel: [] for rel in files}
+    for seed in range(1, seeds + 1):
+        for rel in files:
+            path = str(anchors / rel)
+            print(f"  seed {seed}: {rel}", file=sys.stderr, flush=True)
+            theirs[rel].append(_run_json([str(cpp), path, "--seed", str(seed)]))
+            ours[rel].append(
+                _run_json(
+                    [
+                        sys.executable,
+                        "-m",
+                        "flexhrc",
+                        "graph",
+                        "play",
+                        path,
+                        "--policy",
+                        "random",
+                        "--seed",
+                        str(seed),
+                        "--json",
+                    ],
+                    env,
+                )
+            )
+    rows: list[dict[str, object]] = []
+    failures = 0
+    for label, rel, metric, target in PARITY:
+        a = statistics.median(r[metric] for r in ours[rel])
+        b = statistics.median(r[metric] for r in theirs[rel])
+        ratio_ = a / b
+        ok = ratio_ <= target
+        failures += not ok
+        rows.append(
+            {
+                "graph": label,
+                "metric": METRIC[metric],
+                "flexhrc_s": a,
+                "cpp_s": b,
+                "ratio": ratio_,
+                "target": target,
+                "pass": ok,
+            }
+        )
+    return rows, failures
+
+
+def print_parity(rows: list[dict[str, object]], seeds: int) -> None:
+    print(f"parity with the C++ ANDOR (g++ -O2), side by side, medians of {seeds} seeds")
+    head = f"{'graph':<22}{'metric':<11}{'flexhrc':>10}{'C++':>10}{'ratio':>8}  target  verdict"
+    print(head)
+    print("-" * len(head))
+    for r in rows:
+        print(
+            f"{r['graph']!s:<22}{r['metric']!s:<11}{fmt(float(r['flexhrc_s'])):>10}"  # type: ignore[arg-type]
+            f"{fmt(float(r['cpp_s'])):>10}{float(r['ratio']):>7.2f}x  "  # type: ignore[arg-type]
+            f"<= {float(r['target']):.1f}x  {'PASS' if r['pass'] else 'FAIL'}"  # type: ignore[arg-type]
+        )
+    print()
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
@@ -217,7 +337,35 @@ def main() -> int:
     ap.add_argument("--runs", type=int, default=10)
     ap.add_argument("--out", type=Path, default=ROOT / "out" / "andor_paper.png")
     ap.add_argument("--json", type=Path, default=None)
+    ap.add_argument("--seeds", type=int, default=5, help="seeds of the parity runs (default 5)")
+    ap.add_argument("--cpp", type=Path, default=None, help="the C++ andor_bench binary")
+    ap.add_argument("--no-parity", action="store_true", help="skip the side-by-side parity")
+    ap.add_argument("--parity-only", action="store_true", help="only the parity table")
     args = ap.parse_args()
+    if args.seeds < 1:
+        ap.error("--seeds must be at least 1")
+    parity_failures = 0
+    parity_rows: list[dict[str, object]] = []
+    if not args.no_parity:
+        if not args.anchors.is_dir():
+            print(f"parity: skipped, {args.anchors} is not present", file=sys.stderr)
+        else:
+            cpp = find_cpp(args.cpp, args.anchors.parent / "andor-cpp")
+            if cpp is None:
+                print(
+                    "parity: skipped, no C++ reference binary (build it with "
+                    "../shared/anchors/andor-cpp/build.sh, or give --cpp)",
+                    file=sys.stderr,
+                )
+            else:
+                print(f"parity: {cpp} against flexhrc, {args.seeds} seeds", file=sys.stderr)
+                parity_rows, parity_failures = parity(args.anchors, cpp, args.seeds)
+                print_parity(parity_rows, args.seeds)
+    if args.parity_only:
+        if args.json and parity_rows:
+            args.json.parent.mkdir(parents=True, exist_ok=True)
+            args.json.write_text(json.dumps({"parity": parity_rows}, indent=2))
+        return 1 if parity_failures else 0
     files = corpus(args.anchors)
     if not files:
         print(f"no graph files under {args.anchors}", file=sys.stderr)
@@ -271,13 +419,15 @@ def main() -> int:
             print(f"  {name:<28} slope {s:.2f}  ({verdict})")
     if args.json:
         args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(json.dumps([r.__dict__ for r in rows], indent=2))
+        args.json.write_text(
+            json.dumps({"parity": parity_rows, "corpus": [r.__dict__ for r in rows]}, indent=2)
+        )
     try:
         plot(rows, args.out)
         print(f"\nplot: {args.out}")
     except ImportError:
         print("\n(matplotlib not installed: no plot)", file=sys.stderr)
-    return 1 if failures else 0
+    return 1 if failures or parity_failures else 0
 
 
 if __name__ == "__main__":

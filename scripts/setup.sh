@@ -7,7 +7,9 @@ cd "$(dirname "$0")/.."
 
 PY=${PYTHON:-python3}
 VENV=${VENV:-.venv}
-DEBIAN_PACKAGES=(graphviz)   # `dot` renders AND/OR graphs and behaviour networks to SVG/PNG
+# graphviz: `dot` renders AND/OR graphs and behaviour networks to SVG/PNG;
+# chromium: the headless browser the operator panel's tests drive (through Playwright)
+DEBIAN_PACKAGES=(graphviz chromium)
 
 missing=()
 for pkg in "${DEBIAN_PACKAGES[@]}"; do

@@ -95,7 +95,13 @@ def test_robot_killed_mid_action_is_lost_replanned_and_used_again(tmp_path: Path
         killed_cmd = next(b["id"] for _, _, k, b in got if k == "command")
         killed_at = time.time()
         os.kill(left.pid, signal.SIGKILL)
-        got = wait_until(store, lambda r: any(k == "agent_down" for _, _, k, _ in r), 10)
+
+        def lost_and_failed(r: list[Any]) -> bool:  # agent_down, then its command's ack
+            return any(k == "agent_down" for _, _, k, _ in r) and any(
+                k == "ack" and b.get("reason") == "agent lost" for _, _, k, b in r
+            )
+
+        got = wait_until(store, lost_and_failed, 10)
         down = next(b for _, _, k, b in got if k == "agent_down")
         assert down["agent"] == "left"
         assert down["wall"] - killed_at < 2.0  # the liveliness token went with the process
@@ -111,6 +117,13 @@ def test_robot_killed_mid_action_is_lost_replanned_and_used_again(tmp_path: Path
     events = rows(store)
     kinds = [k for _, _, k, _ in events]
     assert kinds.index("agent_down") < kinds.index("agent_up")
+    # re-planned with the others: the next command, for the same element, goes to the right arm
+    # (and the lost arm is not even sent to rest)
+    down_seq = next(s for s, _, k, _ in events if k == "agent_down")
+    after_loss = [b for s, _, k, b in events if k == "command" and s > down_seq]
+    assert after_loss[0]["agents"] == ["right"] and after_loss[0]["element"] == "robot_1"
+    lost_ids = [b["id"] for _, _, k, b in events if k == "ack" and b.get("reason") == "agent lost"]
+    assert lost_ids == [killed_cmd]
     up_seq = next(s for s, _, k, _ in events if k == "agent_up")
     after = [b for s, _, k, b in events if k == "command" and s > up_seq and "left" in b["agents"]]
     assert after, "the restarted left arm was never used again"

@@ -95,3 +95,18 @@ def test_replay_of_a_store_prints_the_log_summary(tmp_path: Path) -> None:
     )  # fmt: skip
     assert resumed.returncode == 0 and json.loads(resumed.stdout)["outcome"] == "solved"
     assert len(read_store(store)) == n
+
+
+def test_replay_of_a_broken_store_is_one_clear_error(tmp_path: Path) -> None:
+    junk = tmp_path / "junk.db"
+    junk.write_bytes(b"SQLite format 3\x00" + b"\x07" * 500)
+    empty = tmp_path / "empty.db"
+    EventStore(empty).close()
+    for path, message in ((junk, "not a flexhrc event store"), (empty, "empty store")):
+        res = subprocess.run(
+            [sys.executable, "-m", "flexhrc", "replay", str(path)],
+            capture_output=True, text=True, env=subprocess_env(), timeout=60,
+        )  # fmt: skip
+        assert res.returncode == 2, res.stderr
+        assert message in res.stderr and str(path) in res.stderr
+        assert "Traceback" not in res.stderr

@@ -139,6 +139,7 @@ class Cell:
         # a time, in the world as it is when that step starts (as CooperationRun's operators)
         self.suggestion_step: dict[str, tuple[int, float]] = {}
         self._sent_step: dict[str, int] = {}
+        self._down_reason: dict[str, str] = {}
         self.human_ids: set[str] = set()
         self.pending: list[tuple[float, int, str, dict[str, Any]]] = []
         self._arrivals = 0
@@ -330,7 +331,8 @@ class Cell:
                 return
             cmd = lost[0]
             agent = next(a for a in cmd.agents if not self.agents[a].available)
-            body = {"id": cmd.id, "agent": agent, "status": "failed", "reason": AGENT_LOST}
+            reason = self._down_reason.get(agent, AGENT_LOST)
+            body = {"id": cmd.id, "agent": agent, "status": "failed", "reason": reason}
             self._input("ack", body)
 
     # -- store, feed, send --------------------------------------------------------------------
@@ -399,6 +401,9 @@ class Cell:
             return tm.replan(now)
         if kind in ("agent_down", "agent_up"):
             st = self.agents[str(body["agent"])]
+            # why it is gone, for the acks of its running commands (a panel's stop button)
+            by = body.get("by")
+            self._down_reason[st.name] = f"stopped by the {by}" if by else AGENT_LOST
             st.available = kind == "agent_up"
             return tm.set_available(now, st.name, st.available)
         raise FlexhrcError(f"unknown input kind {kind!r} in the store")

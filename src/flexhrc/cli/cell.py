@@ -56,6 +56,9 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
         help="how long to wait for external agents to appear (default 30 s)",
     )
     p.add_argument("--quiet", action="store_true", help="no live trace")
+    from flexhrc.cli.panel import add_web_options
+
+    add_web_options(p)  # the operator panel (docs/panel.md)
     add_json_flag(p)
     p.set_defaults(func=cmd_cell)
 
@@ -180,6 +183,10 @@ def cmd_cell(args: argparse.Namespace) -> int:
         raise FlexhrcError("--listen and --connect go with --transport zenoh")
     if args.resume and not args.store:
         raise FlexhrcError("--resume needs --store FILE.db")
+    from flexhrc.cli.panel import check_web, serve
+
+    web = check_web(args)  # a non-loopback --web without --token is refused before any work
+    server = None
     scenario = load_scenario(args.scenario, seed=args.seed)
     store = EventStore(args.store, resume=args.resume) if args.store else None
     stream = sys.stderr if args.json else sys.stdout
@@ -228,6 +235,11 @@ def cmd_cell(args: argparse.Namespace) -> int:
             if args.transport == "inprocess":
                 for st in cell.agents.values():
                     st.alive = st.seen = True
+        if web is not None:  # polled by the loop like an agent; with external agents it is
+            from flexhrc.web.live import CellPanel  # the operator (holds their tokens)
+
+            agents.append(CellPanel(cell, operator=not internal))
+            server = serve(web, args.token, agents[-1])
 
         def pump(timeout: float) -> None:
             wait = getattr(transport, "wait", None)
@@ -253,6 +265,8 @@ def cmd_cell(args: argparse.Namespace) -> int:
         if args.transport == "zenoh":
             time.sleep(0.2)  # let the end message leave before the session closes
     finally:
+        if server is not None:
+            server.stop(grace=0.3)  # the page gets the last state first
         if store is not None:
             store.close()
         if "transport" in locals():

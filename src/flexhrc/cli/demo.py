@@ -400,6 +400,16 @@ def cmd_demo_table(args: argparse.Namespace) -> int:
     return _run_table(args, task, args.human or "passive", inputs=[])
 
 
+def _bolt_steps(bolts: list[int] | None, scenario: Any) -> list[int | str] | None:
+    """``--human-takes K`` means bolt K: in the legs segment alone that is the K-th cooperation
+    step; with the tabletop placement before it, the step is named by its node."""
+    if not bolts:
+        return None
+    if getattr(scenario, "segments", "legs") == "legs":
+        return list(bolts)
+    return [f"connected_{k}" for k in bolts]
+
+
 def _flag_error(exc: Any) -> str:
     """A scenario error in the words of the demo's options."""
     flag = DEMO_FLAGS.get(exc.key, exc.key)
@@ -470,7 +480,7 @@ def _run_table(
             failures=failures,
             trace=_trace_printer(args),
             realtime=args.realtime or 0.0,
-            human_takes=args.human_takes,
+            human_takes=_bolt_steps(args.human_takes, scenario),
             human_sensing=sensing,
             sink=writer.write if writer is not None else None,
             reaction=args.reaction,

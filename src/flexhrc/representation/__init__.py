@@ -11,6 +11,7 @@ from flexhrc.representation.graph import AndOrGraph, Hyperarc, Node
 from flexhrc.representation.hierarchy import HierarchicalGraph, qualify, split_qualified
 from flexhrc.representation.online import (
     Event,
+    GraphArgumentError,
     InfeasibleUpdateError,
     OnlineGraph,
     QueryResult,
@@ -20,6 +21,7 @@ from flexhrc.representation.online import (
 __all__ = [
     "AndOrGraph",
     "Event",
+    "GraphArgumentError",
     "HierarchicalGraph",
     "Hyperarc",
     "InfeasibleUpdateError",

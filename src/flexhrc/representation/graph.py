@@ -254,6 +254,82 @@ class AndOrGraph:
             if n != self.root and n in produced
         ]
 
+    def lint(self) -> list[FormatError]:
+        """Oddities of a valid graph that usually mean a mistake (call after :meth:`validate`).
+
+        * the root is a leaf although the graph has hyper-arcs: the graph is solved as soon as
+          its root is met (a file cut short after its node lines looks like this);
+        * nodes on no hyper-arc: they can never contribute to the root;
+        * a node shared between the children of one hyper-arc (reachable from two of them):
+          the dynamic-programming costs then count it once per branch, while the paper's
+          cooperation path counts it once (``docs/andor.md``, "Costs").
+        """
+        src = self.source
+        out: list[FormatError] = []
+        if not self.hyperarcs:
+            return out
+        produced = {h.parent for h in self.hyperarcs.values()}
+        used = set(produced)
+        for h in self.hyperarcs.values():
+            used.update(h.children)
+        if self.root not in produced:
+            out.append(
+                FormatError(
+                    f"the root {self.root!r} is a leaf (no hyper-arc produces it): the graph is "
+                    "solved as soon as it is met — is the file cut short?",
+                    src,
+                    self.root_line,
+                )
+            )
+        idle = [n for n in self.nodes if n not in used and n != self.root]
+        for n in idle[:20]:
+            out.append(
+                FormatError(
+                    f"node {n!r} is on no hyper-arc: it can never contribute to the root",
+                    src,
+                    self.nodes[n].line,
+                )
+            )
+        if len(idle) > 20:
+            out.append(FormatError(f"... and {len(idle) - 20} more nodes on no hyper-arc", src))
+        out += self._shared_children()
+        return out
+
+    def _shared_children(self) -> list[FormatError]:
+        # below(n): the nodes n depends on (n included), as a bit set over node positions;
+        # computed bottom-up, so no recursion and one pass
+        order = self.topological_order()
+        pos = {n: i for i, n in enumerate(self.nodes)}
+        names = list(self.nodes)
+        incoming: dict[str, list[Hyperarc]] = {}
+        for h in self.hyperarcs.values():
+            incoming.setdefault(h.parent, []).append(h)
+        below: dict[str, int] = {}
+        out: list[FormatError] = []
+        for n in order:
+            bits = 1 << pos[n]
+            for h in incoming.get(n, ()):
+                acc = 0
+                for c in h.children:
+                    b = below[c]
+                    common = acc & b
+                    if common and len(out) < 20:
+                        shared = names[(common & -common).bit_length() - 1]
+                        out.append(
+                            FormatError(
+                                f"hyper-arc {h.name!r}: node {shared!r} is shared between its "
+                                f"children (reachable from {c!r} and from an earlier child): "
+                                "the costs count it once per branch, not once as the paper's "
+                                "cooperation path does (see docs/andor.md)",
+                                self.source,
+                                h.line,
+                            )
+                        )
+                    acc |= b
+                bits |= acc
+            below[n] = bits
+        return out
+
     def _find_cycle(self) -> list[str] | None:
         """A cycle child -> hyper-arc -> parent -> ... as a list of names, or None."""
         out: dict[str, list[Hyperarc]] = {n: [] for n in self.nodes}

@@ -15,6 +15,7 @@ of the top graph. This is the one naming syntax used by the CLI, JSON and the ev
 
 from __future__ import annotations
 
+from collections import deque
 from collections.abc import Iterator
 from dataclasses import dataclass
 
@@ -66,9 +67,9 @@ class HierarchicalGraph:
     def used_keys(self) -> list[str]:
         """Definition keys reachable from the top graph, top first, in discovery order."""
         seen: dict[str, None] = {self.top: None}
-        stack = [self.top]
+        stack = deque([self.top])
         while stack:
-            g = self.graphs[stack.pop(0)]
+            g = self.graphs[stack.popleft()]
             for h in g.hyperarcs.values():
                 if h.lower is not None and h.lower not in seen:
                     seen[h.lower] = None
@@ -78,14 +79,18 @@ class HierarchicalGraph:
     def instances(self) -> Iterator[InstanceInfo]:
         """Every graph instance, depth-first from the top, in hyper-arc order."""
 
-        def walk(key: str, path: str, depth: int, upper: str | None) -> Iterator[InstanceInfo]:
-            yield InstanceInfo(path, key, depth, upper)
-            for h in self.graphs[key].hyperarcs.values():
-                if h.lower is not None:
-                    sub = f"{path}{SEP}{h.name}" if path else h.name
-                    yield from walk(h.lower, sub, depth + 1, qualify(path, h.name))
-
-        return walk(self.top, "", 0, None)
+        # an explicit stack, not recursion: hierarchies may be nested arbitrarily deep
+        stack: list[InstanceInfo] = [InstanceInfo("", self.top, 0, None)]
+        while stack:
+            info = stack.pop()
+            yield info
+            path = info.path
+            subs = [
+                InstanceInfo(qualify(path, h.name), h.lower, info.depth + 1, qualify(path, h.name))
+                for h in self.graphs[info.key].hyperarcs.values()
+                if h.lower is not None
+            ]
+            stack.extend(reversed(subs))
 
     def validate(self) -> list[FormatError]:
         """Validate every definition and every transition (M1/M2 mappings, recursion).
@@ -94,9 +99,10 @@ class HierarchicalGraph:
         """
         self._check_recursion()
         warnings: list[FormatError] = []
-        for key in self.used_keys():
+        used = self.used_keys()
+        for key in used:
             warnings += self.graphs[key].validate()
-        for key in self.used_keys():
+        for key in used:
             g = self.graphs[key]
             for h in g.hyperarcs.values():
                 if h.lower is not None:
@@ -105,33 +111,38 @@ class HierarchicalGraph:
         return warnings
 
     def _check_recursion(self) -> None:
-        state: dict[str, int] = {}
-
-        def visit(key: str, trail: list[str]) -> None:
-            state[key] = 1
+        # depth-first with an explicit stack: 1 = on the current trail, 2 = finished
+        state: dict[str, int] = {self.top: 1}
+        trail: list[str] = [self.top]
+        stack: list[Iterator[Hyperarc]] = [iter(self.graphs[self.top].hyperarcs.values())]
+        while stack:
+            key = trail[-1]
             g = self.graphs[key]
-            for h in g.hyperarcs.values():
-                if h.lower is None:
-                    continue
-                if h.lower not in self.graphs:
-                    raise FormatError(
-                        f"hyper-arc {h.name!r} refers to unknown lower graph {h.lower!r}",
-                        g.source,
-                        h.line,
-                    )
-                if state.get(h.lower) == 1:
-                    chain = " -> ".join([*trail, key, h.lower])
-                    raise FormatError(
-                        f"hyper-arc {h.name!r}: lower graphs refer to each other in a cycle "
-                        f"({chain})",
-                        g.source,
-                        h.line,
-                    )
-                if h.lower not in state:
-                    visit(h.lower, [*trail, key])
-            state[key] = 2
-
-        visit(self.top, [])
+            h = next(stack[-1], None)
+            if h is None:
+                state[key] = 2
+                stack.pop()
+                trail.pop()
+                continue
+            if h.lower is None:
+                continue
+            if h.lower not in self.graphs:
+                raise FormatError(
+                    f"hyper-arc {h.name!r} refers to unknown lower graph {h.lower!r}",
+                    g.source,
+                    h.line,
+                )
+            if state.get(h.lower) == 1:
+                chain = " -> ".join([*trail, h.lower])
+                raise FormatError(
+                    f"hyper-arc {h.name!r}: lower graphs refer to each other in a cycle ({chain})",
+                    g.source,
+                    h.line,
+                )
+            if h.lower not in state:
+                state[h.lower] = 1
+                trail.append(h.lower)
+                stack.append(iter(self.graphs[h.lower].hyperarcs.values()))
 
     def _check_transition(self, upper: AndOrGraph, h: Hyperarc) -> None:
         assert h.lower is not None
@@ -185,6 +196,14 @@ class HierarchicalGraph:
                 src,
                 line,
             )
+
+    def lint(self) -> list[FormatError]:
+        """Structural oddities that loading accepts but a user wants to hear about (run by
+        ``flexhrc graph validate``, not by :func:`load`): see :meth:`AndOrGraph.lint`."""
+        out: list[FormatError] = []
+        for key in self.used_keys():
+            out += self.graphs[key].lint()
+        return out
 
     # -- statistics -----------------------------------------------------------------------
     def stats(self) -> dict[str, object]:

@@ -17,22 +17,28 @@ its own instance — and keeps the statuses of every node and hyper-arc:
 Costs (eqs. 9-11, 19) are computed by dynamic programming instead of enumerating cooperation
 paths (see ``docs/andor.md``): ``inside(x)`` is the cheapest remaining cost of achieving x from
 what is already met, maintained incrementally (a change propagates to ancestors only while the
-value changes); ``outside(x)`` is the cheapest remaining cost from x to the root, computed on
-demand for the ancestors of feasible elements and memoised until the next cost change. Met and
-solved elements weigh 0 (eq. 11); hyper-arcs that can no longer be taken weigh infinity; the
-weight of a hyper-arc with a lower graph is the lower instance's optimal remaining cost (eq. 19).
-The suggestion cost of a feasible element is ``inside + outside`` = the cheapest cooperation path
-through it (eq. 10); for elements of a lower instance the upper path is added (Algorithm 6,
-line 27). The DP equals exhaustive enumeration when no node is shared between AND branches; with
+value changes); ``outside(x)`` is the cheapest remaining cost from x to the root of its graph
+instance, kept exact by a top-down pass over what each query changed (a heap in top-down order,
+so every element is recomputed once, after everything above it); each lower instance has one
+*offset*, its root's outside cost in the whole hierarchy (the upper path through its hyper-arc,
+Algorithm 6 line 27), so a change above an instance moves one number, not its every element.
+Met and solved elements weigh 0 (eq. 11); hyper-arcs that can no longer be taken weigh
+infinity; the weight of a hyper-arc with a lower graph is the lower instance's optimal remaining
+cost (eq. 19). The suggestion cost of a feasible element is ``inside + outside + offset`` = the
+cheapest cooperation path through it (eq. 10). A query costs what it changes: there is no
+whole-graph pass, and no recursion anywhere (explicit stacks and queues). The DP equals
+exhaustive enumeration when no node is shared between AND branches; with
 sharing it counts the shared part once per branch (``flexhrc.representation.paths`` has the exact,
 exponential reference).
 """
 
 from __future__ import annotations
 
+import json
 import math
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
+from heapq import heapify, heappop, heappush
 from pathlib import Path
 from typing import Any, Literal
 
@@ -47,6 +53,10 @@ Kind = Literal["node", "hyperarc"]
 
 class InfeasibleUpdateError(FlexhrcError):
     """An update reported an element that is not feasible; nothing was changed."""
+
+
+class GraphArgumentError(FlexhrcError, TypeError):
+    """An argument of the graph API has the wrong type (a ``TypeError`` too)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -147,20 +157,30 @@ class OnlineGraph:
     def __init__(self, graph: HierarchicalGraph | AndOrGraph, *, validate: bool = True):
         if isinstance(graph, AndOrGraph):
             graph = HierarchicalGraph.single(graph)
+        elif not isinstance(graph, HierarchicalGraph):
+            hint = (
+                ": load the file first, OnlineGraph(flexhrc.representation.load(path))"
+                if isinstance(graph, str | Path)
+                else ""
+            )
+            raise GraphArgumentError(
+                f"OnlineGraph needs an AndOrGraph or a HierarchicalGraph, got "
+                f"{type(graph).__name__}{hint}"
+            )
         if validate:
             graph.validate()
         self.hierarchy = graph
         self._build()
         self._query = 0
-        self.events: list[Event] = []
-        self._gen = 1
-        self._costs_gen = 0
+        self._log: list[tuple[int, str, int]] = []  # (query, type, element id)
+        self._events: list[Event] = []  # Event objects of _log, made on demand
         self._costs: dict[int, float] = {}
         self._outcome: str = "running"
         self._reason: str | None = None
         for k in range(len(self._i_key)):
             if self._i_upper[k] < 0:
                 self._activate(k)
+        self._settle()
         self._finish()
 
     # ------------------------------------------------------------------ construction ----
@@ -172,11 +192,12 @@ class OnlineGraph:
         kinds: list[int] = []
         weight: list[float] = []
         inst_of: list[int] = []
+        lrank: list[int] = []  # position in the instance's top-down order (outside pass)
         children: list[tuple[int, ...]] = []  # hyper-arcs: child node ids
         parent: list[int] = []  # hyper-arcs: parent node id
         lower: list[int] = []  # hyper-arcs: lower instance id or -1
-        incoming: list[list[int]] = []  # nodes: hyper-arcs producing it
-        outgoing: list[list[int]] = []  # nodes: hyper-arcs consuming it
+        incoming: list[tuple[int, ...]] = []  # nodes: hyper-arcs producing it
+        outgoing: list[tuple[int, ...]] = []  # nodes: hyper-arcs consuming it
         root_of: list[int] = []  # nodes: instance id if this node is an instance root
         i_path: list[str] = []
         i_key: list[str] = []
@@ -184,52 +205,70 @@ class OnlineGraph:
         i_upper: list[int] = []
         i_parent: list[int] = []
         i_leaves: list[list[int]] = []
-        i_topo: list[list[int]] = []  # element ids, children before parents
+        i_down: list[list[int]] = []  # element ids, parents before children
+        i_lowers: list[list[int]] = []  # hyper-arcs of the instance that have a lower graph
         i_depth: list[int] = []
         i_span: list[tuple[int, int]] = []
+        i_tmpl: list[_Template] = []
 
-        def instantiate(key: str, path: str, depth: int, upper: int, parent_inst: int) -> int:
+        # depth-first, in hyper-arc order, with an explicit stack (no recursion limit)
+        stack: list[tuple[str, str, int, int, int]] = [(H.top, "", 0, -1, -1)]
+        while stack:
+            key, path, depth, upper, parent_inst = stack.pop()
             t = templates.get(key)
             if t is None:
                 t = templates[key] = _Template(H.graphs[key])
             k = len(i_key)
             base = len(names)
+            if upper >= 0:
+                lower[upper] = k
             i_path.append(path)
             i_key.append(key)
             i_root.append(base + t.root)
             i_upper.append(upper)
             i_parent.append(parent_inst)
-            i_leaves.append([base + x for x in t.leaves])
-            i_topo.append([base + x for x in t.topo])
+            shift = base.__add__
+            # read only: the top instance (base 0) shares the template's lists
+            i_leaves.append(list(map(shift, t.leaves)) if base else t.leaves)
+            i_down.append(list(map(shift, t.down)) if base else t.down)
+            i_lowers.append([base + x for x, _ in t.lower])
             i_depth.append(depth)
             i_span.append((base, base + t.size))
+            i_tmpl.append(t)
             prefix = f"{path}{SEP}" if path else ""
-            names.extend([prefix + x for x in t.names])
+            names.extend([prefix + x for x in t.names] if prefix else t.names)
             local.extend(t.names)
             kinds.extend(t.kinds)
             weight.extend(t.weights)
             inst_of.extend([k] * t.size)
-            shift = base.__add__
-            children.extend([tuple(map(shift, ch)) for ch in t.children])
-            parent.extend([base + p if p >= 0 else -1 for p in t.parent])
+            lrank.extend(t.lrank)
+            if base:
+                # half of these are empty (nodes have no children, hyper-arcs no incoming or
+                # outgoing arcs): share the empty tuple instead of shifting nothing
+                children.extend([tuple(map(shift, ch)) if ch else () for ch in t.children])
+                parent.extend([base + p if p >= 0 else -1 for p in t.parent])
+                incoming.extend([tuple(map(shift, hs)) if hs else () for hs in t.incoming])
+                outgoing.extend([tuple(map(shift, hs)) if hs else () for hs in t.outgoing])
+            else:
+                children.extend(t.children)
+                parent.extend(t.parent)
+                incoming.extend(t.incoming)  # never mutated: shared with the template
+                outgoing.extend(t.outgoing)
             lower.extend([-1] * t.size)
-            incoming.extend([list(map(shift, hs)) for hs in t.incoming])
-            outgoing.extend([list(map(shift, hs)) for hs in t.outgoing])
             root_of.extend([-1] * t.size)
             root_of[base + t.root] = k
-            for x, sub_key in t.lower:
-                sub = f"{prefix}{t.names[x]}"
-                lower[base + x] = instantiate(sub_key, sub, depth + 1, base + x, k)
-            return k
+            for x, sub_key in reversed(t.lower):
+                stack.append((sub_key, f"{prefix}{t.names[x]}", depth + 1, base + x, k))
 
-        instantiate(H.top, "", 0, -1, -1)
         n = len(names)
         self._names = names
         self._local = local
         self._kind = kinds
-        self._index = dict(zip(names, range(n), strict=True))
+        self._index_cache: dict[str, int] | None = None
         self._w = weight
         self._inst = inst_of
+        self._lrank = lrank
+        self._rank_span = max([t.size for t in templates.values()]) + 1
         self._children = children
         self._parent = parent
         self._lower = lower
@@ -242,7 +281,14 @@ class OnlineGraph:
         self._i_upper = i_upper
         self._i_parent = i_parent
         self._i_leaves = i_leaves
+        self._i_down = i_down
+        self._i_lowers = i_lowers
+        self._i_depth = i_depth
         self._i_span = i_span
+        self._i_tmpl = i_tmpl
+        # an instance is pristine until one of its elements (or of the instances below it) is
+        # marked infeasible: then its costs at activation are not its definition's any more
+        self._i_pristine = [True] * len(i_key)
         self._i_name = [H.graphs[k].name for k in i_key]
         # mutable state
         self._done = [False] * n  # met (nodes) / solved (hyper-arcs)
@@ -251,16 +297,29 @@ class OnlineGraph:
         self._active = [False] * len(i_key)
         self._closed = [False] * len(i_key)
         self._feasible: dict[int, None] = {}
-        self._live: dict[int, None] = {}  # active, not closed lower instances
         self._inside = [0.0] * n
+        # outside costs relative to the element's instance root, kept exact for the elements
+        # of active instances; the instance's own offset (its root's outside cost in the whole
+        # hierarchy) is separate, so a change above an instance does not touch its elements
         self._out_val = [0.0] * n
-        self._out_gen = [0] * n
-        # initial inside costs, deepest instances first (their roots weigh their upper arcs)
-        # (every instance of one definition starts with the same values: compute them once)
+        self._i_off = [0.0] * len(i_key)
+        self._i_feas: list[dict[int, None]] = [{} for _ in i_key]  # feasible, per instance
+        self._off_dirty: set[int] = set()
+        # work lists of one query: outside costs to recompute (a heap in top-down order),
+        # elements whose cost may have changed, lower instances whose root became unreachable
+        self._heap: list[int] = []
+        self._queued: set[int] = set()
+        self._touched: set[int] = set()
+        self._dead: list[int] = []
+        # initial inside costs, deepest instances first (their roots weigh their upper arcs);
+        # every instance of one definition starts with the same values: compute them once
         calc = self._calc_inside
         ins = self._inside
         first: dict[str, int] = {}
-        for k in sorted(range(len(i_key)), key=lambda k: -i_depth[k]):
+        order = range(len(i_key) - 1, -1, -1) if len(i_key) > 1 else (0,)
+        # instances are numbered depth-first: every instance comes after the one above it,
+        # so the reverse order has the lower instances first
+        for k in order:
             lo, hi = i_span[k]
             seen = first.get(i_key[k])
             if seen is not None:
@@ -268,8 +327,17 @@ class OnlineGraph:
                 ins[lo:hi] = ins[slo:shi]
                 continue
             first[i_key[k]] = k
-            for e in i_topo[k]:
+            for e in reversed(i_down[k]):
                 ins[e] = calc(e)
+
+    @property
+    def _index(self) -> dict[str, int]:
+        # qualified name -> element id, built on the first lookup by name (offline time matters)
+        idx = self._index_cache
+        if idx is None:
+            names = self._names
+            idx = self._index_cache = dict(zip(names, range(len(names)), strict=True))
+        return idx
 
     # ------------------------------------------------------------------ cost helpers ----
     def _calc_inside(self, e: int) -> float:
@@ -300,79 +368,273 @@ class OnlineGraph:
                 best = v
         return own + best
 
-    def _propagate(self, start: int) -> None:
-        """Recompute inside(start) and push changes to its ancestors (and upper arcs)."""
-        ins = self._inside
-        stack = [start]
-        changed = False
-        while stack:
-            e = stack.pop()
-            v = self._calc_inside(e)
-            if v == ins[e]:
-                continue
-            ins[e] = v
-            changed = True
-            if self._kind[e]:
-                stack.append(self._parent[e])
-            else:
-                stack.extend(self._out[e])
-                k = self._root_of[e]
-                if k >= 0 and self._i_upper[k] >= 0:
-                    stack.append(self._i_upper[k])
-        if changed:
-            self._gen += 1
-
-    def _outside(self, e: int) -> float:
-        """Cheapest remaining cost from element e (node or hyper-arc) to the top root."""
-        gen = self._gen
-        if self._out_gen[e] == gen:
-            return self._out_val[e]
+    def _calc_outside(self, e: int) -> float:
+        """Cheapest remaining cost from element e (node or hyper-arc) to the top root, from
+        the outside costs of the elements above it (which the top-down pass has settled)."""
+        out = self._out_val
         if self._kind[e]:
             p = self._parent[e]
             if self._blocked[p]:
-                val = INF
+                return INF
+            return (0.0 if self._done[p] else self._w[p]) + out[p]
+        if self._root_of[e] >= 0:
+            return 0.0  # relative to the instance root: see _calc_offset
+        ins = self._inside
+        val = INF
+        done, blocked, lower, w = self._done, self._blocked, self._lower, self._w
+        for h in self._out[e]:
+            if blocked[h]:
+                continue
+            if done[h]:
+                own = 0.0
+            elif lower[h] >= 0:
+                own = ins[self._i_root[lower[h]]]
             else:
-                val = (0.0 if self._done[p] else self._w[p]) + self._outside(p)
-        else:
-            k = self._root_of[e]
-            if k >= 0:
-                u = self._i_upper[k]
-                if u < 0:
-                    val = 0.0
-                elif self._blocked[u]:
-                    val = INF
-                else:
-                    # the lower path replaces w(u) in the upper path (Algorithm 6, line 27)
-                    val = self._outside(u)
-                    ins = self._inside
-                    for c in self._children[u]:
-                        val += ins[c]
-            else:
-                val = INF
-                ins = self._inside
-                for h in self._out[e]:
-                    if self._blocked[h]:
-                        continue
-                    own = 0.0 if self._done[h] else self._w[h]
-                    if self._lower[h] >= 0 and not self._done[h]:
-                        own = ins[self._i_root[self._lower[h]]]
-                    for c in self._children[h]:
-                        if c != e:
-                            own += ins[c]
-                    if own < val:
-                        cand = own + self._outside(h)
-                        if cand < val:
-                            val = cand
-        self._out_val[e] = val
-        self._out_gen[e] = gen
+                own = w[h]
+            for c in self._children[h]:
+                if c != e:
+                    own += ins[c]
+            cand = own + out[h]
+            if cand < val:
+                val = cand
         return val
+
+    def _calc_offset(self, k: int) -> float:
+        """Outside cost of the root of instance k in the whole hierarchy: the lower path
+        replaces w(u) in the upper path through its hyper-arc u (Algorithm 6, line 27)."""
+        u = self._i_upper[k]
+        if u < 0:
+            return 0.0
+        if self._blocked[u]:
+            return INF
+        val = self._out_val[u] + self._i_off[self._inst[u]]
+        ins = self._inside
+        for c in self._children[u]:
+            val += ins[c]
+        return val
+
+    def _push(self, e: int) -> None:
+        """Queue the outside cost of e for the top-down pass of this query."""
+        if e not in self._queued:
+            self._queued.add(e)
+            rank = self._i_depth[self._inst[e]] * self._rank_span + self._lrank[e]
+            heappush(self._heap, (rank << 32) | e)
+
+    def _status_changed(self, e: int) -> None:
+        """Outside costs that read the status (met/solved/blocked) of e."""
+        push = self._push
+        self._touched.add(e)
+        if self._kind[e]:
+            for c in self._children[e]:
+                push(c)
+            if self._lower[e] >= 0:
+                self._off_dirty.add(self._lower[e])
+        else:
+            for h in self._in[e]:
+                push(h)
+
+    def _settle(self) -> None:
+        """The top-down pass: recompute queued outside costs, parents before children, and
+        queue the elements below each one that changed. Touches only what the query changed.
+
+        _calc_outside is inlined (hot path).
+        """
+        heap = self._heap
+        if not heap:
+            if self._off_dirty:
+                self._settle_offsets()
+            return
+        out, kind, inst, active = self._out_val, self._kind, self._inst, self._active
+        touched, queued = self._touched, self._queued
+        idepth, lrank, span = self._i_depth, self._lrank, self._rank_span
+        lower, children, incoming, outgoing = self._lower, self._children, self._in, self._out
+        parent, done, blocked, w = self._parent, self._done, self._blocked, self._w
+        ins, roots, root_of = self._inside, self._i_root, self._root_of
+        dirty = self._off_dirty
+        mask = (1 << 32) - 1
+        while heap:
+            e = heappop(heap) & mask
+            queued.discard(e)
+            if not active[inst[e]]:
+                continue  # computed in full when the instance becomes active
+            if kind[e]:
+                p = parent[e]
+                v = INF if blocked[p] else (0.0 if done[p] else w[p]) + out[p]
+                if v == out[e]:
+                    continue
+                out[e] = v
+                touched.add(e)
+                for c in children[e]:
+                    if c not in queued and not (done[c] and not incoming[c]):
+                        queued.add(c)
+                        heappush(heap, (((idepth[inst[c]] * span + lrank[c]) << 32) | c))
+                if lower[e] >= 0:
+                    dirty.add(lower[e])
+                continue
+            if root_of[e] >= 0:
+                continue  # 0, relative to the instance root
+            v = INF
+            for h in outgoing[e]:
+                if blocked[h]:
+                    continue
+                if done[h]:
+                    own = 0.0
+                elif lower[h] >= 0:
+                    own = ins[roots[lower[h]]]
+                else:
+                    own = w[h]
+                for c in children[h]:
+                    if c != e:
+                        own += ins[c]
+                own += out[h]
+                if own < v:
+                    v = own
+            if v == out[e]:
+                continue
+            out[e] = v
+            touched.add(e)
+            for h in incoming[e]:
+                if h not in queued and not blocked[h]:
+                    queued.add(h)
+                    heappush(heap, (((idepth[inst[h]] * span + lrank[h]) << 32) | h))
+        self._settle_offsets()
+
+    def _settle_offsets(self) -> None:
+        """Recompute the dirty instance offsets, upper instances first; an offset that
+        changes moves the costs of its instance's feasible elements and the offsets below."""
+        dirty = self._off_dirty
+        if not dirty:
+            return
+        depth, active, off = self._i_depth, self._active, self._i_off
+        if len(dirty) == 1:
+            k = dirty.pop()
+            if not self._i_lowers[k]:  # the common case: one instance, nothing below it
+                if active[k]:
+                    v = self._calc_offset(k)
+                    if v != off[k]:
+                        off[k] = v
+                        costs, ins, out = self._costs, self._inside, self._out_val
+                        for e in self._i_feas[k]:
+                            c = ins[e] + out[e] + v
+                            if c < INF:
+                                costs[e] = c
+                            else:
+                                costs.pop(e, None)
+                return
+            dirty.add(k)
+        heap = [(depth[k], k) for k in dirty]
+        dirty.clear()
+        heapify(heap)
+        seen: set[int] = set()
+        costs, ins, out = self._costs, self._inside, self._out_val
+        while heap:
+            _, k = heappop(heap)
+            if k in seen or not active[k]:
+                continue
+            seen.add(k)
+            v = self._calc_offset(k)
+            if v == off[k]:
+                continue
+            off[k] = v
+            for e in self._i_feas[k]:
+                c = ins[e] + out[e] + v
+                if c < INF:
+                    costs[e] = c
+                else:
+                    costs.pop(e, None)
+            for h in self._i_lowers[k]:
+                heappush(heap, (depth[k] + 1, self._lower[h]))
+
+    def _fill_outside(self, k: int) -> None:
+        """Outside costs of every element of instance k, top-down (k just became active)."""
+        out, calc = self._out_val, self._calc_outside
+        for e in self._i_down[k]:
+            out[e] = calc(e)
+
+    def _propagate(self, start: int) -> None:
+        """Recompute inside(start) and push changes to its ancestors (and upper arcs).
+
+        The hot path of every query: _calc_inside is inlined here, and so is what a changed
+        inside(x) re-queues (the outside costs of x's AND siblings, lower-instance offsets).
+        """
+        if self._calc_inside(start) == self._inside[start]:
+            return  # the common case (a weight-0 leaf met, say): nothing to set up
+        ins = self._inside
+        kind, parent, outgoing = self._kind, self._parent, self._out
+        root_of, upper = self._root_of, self._i_upper
+        done, blocked, lower, w = self._done, self._blocked, self._lower, self._w
+        children, incoming, roots = self._children, self._in, self._i_root
+        touched, dirty = self._touched, self._off_dirty
+        heap, queued, inst = self._heap, self._queued, self._inst
+        idepth, lrank, span = self._i_depth, self._lrank, self._rank_span
+        stack = [start]
+        while stack:
+            e = stack.pop()
+            if kind[e]:  # hyper-arc
+                if blocked[e]:
+                    v = INF
+                else:
+                    if done[e]:
+                        v = 0.0
+                    elif lower[e] >= 0:
+                        v = ins[roots[lower[e]]]  # eq. 19
+                    else:
+                        v = w[e]
+                    for c in children[e]:
+                        v += ins[c]
+                if v == ins[e]:
+                    continue
+                ins[e] = v
+                touched.add(e)
+                stack.append(parent[e])
+                continue
+            if blocked[e]:
+                v = INF
+            else:
+                v = 0.0 if done[e] else w[e]
+                arcs = incoming[e]
+                if arcs:
+                    best = INF
+                    for h in arcs:
+                        x = ins[h]
+                        if x < best:
+                            best = x
+                    v += best
+            if v == ins[e]:
+                continue
+            ins[e] = v
+            # outside costs that read inside(e): its AND siblings, lower-instance offsets
+            touched.add(e)
+            for h in outgoing[e]:
+                for s in children[h]:
+                    # a met leaf's outside cost is never read again (statuses are for good)
+                    if s != e and s not in queued and not (done[s] and not incoming[s]):
+                        queued.add(s)
+                        heappush(heap, (((idepth[inst[s]] * span + lrank[s]) << 32) | s))
+                if lower[h] >= 0:
+                    dirty.add(lower[h])
+            stack.extend(outgoing[e])
+            k = root_of[e]
+            if k >= 0:
+                u = upper[k]
+                if u >= 0:
+                    for s in children[u]:  # inside(e) is the weight of u (eq. 19)
+                        if s not in queued and not (done[s] and not incoming[s]):
+                            queued.add(s)
+                            heappush(heap, (((idepth[inst[s]] * span + lrank[s]) << 32) | s))
+                    if v == INF and self._active[k]:
+                        self._dead.append(k)
+                    stack.append(u)
 
     # -------------------------------------------------------------- feasibility rules ----
     def _add_feasible(self, e: int) -> None:
         self._feasible[e] = None
+        self._i_feas[self._inst[e]][e] = None
+        self._touched.add(e)
 
     def _drop_feasible(self, e: int) -> None:
         self._feasible.pop(e, None)
+        self._i_feas[self._inst[e]].pop(e, None)
         self._costs.pop(e, None)
 
     def _node_feasible(self, n: int) -> bool:
@@ -393,57 +655,100 @@ class OnlineGraph:
         )
 
     def _activate(self, k: int) -> None:
-        """Instance k becomes active: its feasible leaves join the feasible set."""
+        """Instance k becomes active: its outside costs are computed, its feasible leaves join
+        the feasible set."""
         if self._active[k] or self._closed[k]:
             return
         self._active[k] = True
         if k:
-            self._live[k] = None
-        for n in self._i_leaves[k]:
-            if self._node_feasible(n):
-                self._add_feasible(n)
+            # its offset now; a later change this query above it re-dirties it (_settle and
+            # _propagate do), and its elements' costs are computed from _touched at the end
+            self._i_off[k] = self._calc_offset(k)
+        if self._i_pristine[k]:
+            # as its definition left it: the outside costs every pristine instance of this
+            # definition starts with, computed once; every leaf is feasible
+            t = self._i_tmpl[k]
+            lo, hi = self._i_span[k]
+            if t.pristine_out is None:
+                self._fill_outside(k)
+                if k:  # the top definition has one instance: nothing to share
+                    t.pristine_out = self._out_val[lo:hi]
+            else:
+                self._out_val[lo:hi] = t.pristine_out
+            leaves = self._i_leaves[k]
+            fresh = dict.fromkeys(leaves)
+            self._feasible.update(fresh)
+            self._i_feas[k].update(fresh)
+            self._touched.update(leaves)
+        else:
+            self._fill_outside(k)
+            for n in self._i_leaves[k]:
+                if self._node_feasible(n):
+                    self._add_feasible(n)
+        if k and self._inside[self._i_root[k]] == INF:
+            self._dead.append(k)
 
     def _close(self, k: int) -> None:
-        """Instance k will never be used again (solved, or its upper arc is infeasible)."""
-        if self._closed[k]:
-            return
-        self._closed[k] = True
-        self._active[k] = False
-        self._live.pop(k, None)
-        inst = self._inst
-        for e in [e for e in self._feasible if inst[e] == k]:
-            self._drop_feasible(e)
-        for e in self._i_hyperarcs(k):
-            if self._lower[e] >= 0:
-                self._close(self._lower[e])
-
-    def _i_hyperarcs(self, k: int) -> Iterator[int]:
-        # element ids of one instance are contiguous: its nodes, then its hyper-arcs
-        kind = self._kind
-        return (e for e in range(self._i_span[k][0], self._i_span[k][1]) if kind[e])
+        """Instance k will never be used again (solved, or its upper arc is infeasible); so
+        are the instances below it."""
+        todo = [k]
+        feasible = self._feasible
+        while todo:
+            k = todo.pop()
+            if self._closed[k]:
+                continue
+            self._closed[k] = True
+            self._active[k] = False
+            if feasible:
+                lo, hi = self._i_span[k]
+                for e in [e for e in range(lo, hi) if e in feasible]:
+                    self._drop_feasible(e)
+            for h in self._i_lowers[k]:
+                todo.append(self._lower[h])
 
     def _meet(self, n: int) -> None:
-        self._done[n] = True
-        self._drop_feasible(n)
-        self._propagate(n)
-        for h in self._out[n]:
-            self._unmet[h] -= 1
-            if self._arc_enabled(h):
-                if self._lower[h] >= 0:
-                    self._activate(self._lower[h])
+        # hot path: _drop_feasible, _status_changed, _arc_enabled, _add_feasible inlined
+        done = self._done
+        done[n] = True
+        k = self._inst[n]
+        self._feasible.pop(n, None)
+        self._i_feas[k].pop(n, None)
+        self._costs.pop(n, None)
+        touched = self._touched  # (n itself is not feasible any more: no cost to refresh)
+        if self._w[n]:
+            for h in self._in[n]:  # their outside costs read w(n), which met(n) zeroes
+                self._push(h)
+        if self._inside[n]:  # a met node's inside cost is 0: nothing moves if it was already
+            self._propagate(n)
+        unmet, blocked, lower = self._unmet, self._blocked, self._lower
+        for h in self._out[n]:  # n was feasible: its instance (h's) is active
+            unmet[h] -= 1
+            if unmet[h] == 0 and not done[h] and not blocked[h]:
+                if lower[h] >= 0:
+                    self._activate(lower[h])
                 else:
-                    self._add_feasible(h)
-        k = self._root_of[n]
-        if k >= 0 and self._i_upper[k] >= 0:
-            u = self._i_upper[k]
-            if not self._done[u] and not self._blocked[u]:
+                    self._feasible[h] = None
+                    self._i_feas[k][h] = None
+                    touched.add(h)
+        r = self._root_of[n]
+        if r >= 0:
+            u = self._i_upper[r]
+            if u >= 0 and not done[u] and not blocked[u]:
                 self._solve(u)  # eq. 18: the lower graph is solved, so is its upper arc
 
     def _solve(self, h: int) -> None:
+        lower = self._lower[h]
+        # the outside costs of h's children read its own weight, which solved(h) zeroes: the
+        # weight, or for a lower graph its root's inside cost (0 when eq. 18 solves h)
+        own = self._inside[self._i_root[lower]] if lower >= 0 else self._w[h]
         self._done[h] = True
         self._drop_feasible(h)
-        if self._lower[h] >= 0:
-            self._close(self._lower[h])
+        self._touched.add(h)
+        if own:
+            for c in self._children[h]:
+                self._push(c)
+        if lower >= 0:
+            self._close(lower)
         p = self._parent[h]
         if self._node_feasible(p):
             self._add_feasible(p)
@@ -452,20 +757,31 @@ class OnlineGraph:
             for other in self._out[c]:
                 if other != h and not self._blocked[other] and not self._done[other]:
                     self._block(other)
-        self._propagate(h)
+        if self._inside[h]:  # a solved hyper-arc's inside cost is 0
+            self._propagate(h)
 
     def _block(self, e: int) -> None:
-        self._blocked[e] = True
-        self._drop_feasible(e)
-        if self._kind[e]:
-            if self._lower[e] >= 0:
-                self._close(self._lower[e])
-        else:
-            for h in self._out[e]:
-                if not self._blocked[h] and not self._done[h]:
-                    self._block(h)
-        self._propagate(e)
-        self._gen += 1
+        # a blocked node blocks the hyper-arcs that consume it (one level: arcs block nothing)
+        todo = [e]
+        while todo:
+            e = todo.pop()
+            if self._blocked[e]:
+                continue
+            self._blocked[e] = True
+            k = self._inst[e]
+            while k >= 0 and self._i_pristine[k]:
+                self._i_pristine[k] = False
+                k = self._i_parent[k]
+            self._drop_feasible(e)
+            self._status_changed(e)
+            if self._kind[e]:
+                if self._lower[e] >= 0:
+                    self._close(self._lower[e])
+            else:
+                for h in self._out[e]:
+                    if not self._blocked[h] and not self._done[h]:
+                        todo.append(h)
+            self._propagate(e)
 
     # ------------------------------------------------------------------ public API ------
     @property
@@ -483,15 +799,34 @@ class OnlineGraph:
 
     @property
     def queries(self) -> int:
+        """Number of answered queries (a rejected update is not counted)."""
         return self._query
 
+    @property
+    def events(self) -> list[Event]:
+        """The event history: every accepted status change, in order."""
+        evs, log = self._events, self._log
+        if len(evs) != len(log):
+            names = self._names
+            del evs[len(log) :]
+            evs.extend(Event(q, t, names[e]) for q, t, e in log[len(evs) :])  # type: ignore[arg-type]
+        return evs
+
     def element_id(self, name: str) -> int:
+        if not isinstance(name, str):
+            raise GraphArgumentError(
+                f"an element name must be a string, got {type(name).__name__} {name!r}"
+            )
         try:
             return self._index[name]
         except KeyError:
             raise UnknownNameError(_unknown(name, self._index)) from None
 
     def element_name(self, e: int) -> str:
+        if isinstance(e, bool) or not isinstance(e, int):
+            raise GraphArgumentError(f"an element id must be an int, got {type(e).__name__}")
+        if not 0 <= e < len(self._names):
+            raise UnknownNameError(f"no element with id {e} (0..{len(self._names) - 1})")
         return self._names[e]
 
     def kind(self, name: str) -> Kind:
@@ -501,12 +836,19 @@ class OnlineGraph:
         return self._w[self.element_id(name)]
 
     def is_met(self, node: str) -> bool:
+        """Whether node ``node`` is met; a hyper-arc name raises :class:`UnknownNameError`."""
         e = self.element_id(node)
-        return not self._kind[e] and self._done[e]
+        if self._kind[e]:
+            raise UnknownNameError(f"{node!r} is a hyper-arc, not a node: ask is_solved()")
+        return self._done[e]
 
     def is_solved(self, hyperarc: str) -> bool:
+        """Whether hyper-arc ``hyperarc`` is solved; a node name raises
+        :class:`UnknownNameError`."""
         e = self.element_id(hyperarc)
-        return bool(self._kind[e]) and self._done[e]
+        if not self._kind[e]:
+            raise UnknownNameError(f"{hyperarc!r} is a node, not a hyper-arc: ask is_met()")
+        return self._done[e]
 
     def is_feasible(self, name: str) -> bool:
         return self.element_id(name) in self._feasible
@@ -538,6 +880,20 @@ class OnlineGraph:
         """The current answer without reporting anything (query 0 of the protocol)."""
         return self.update()
 
+    def _ids(self, names: Iterable[str], what: str) -> list[int]:
+        if type(names) is tuple or type(names) is list:  # the common case, cheap
+            index = self._index
+            try:
+                return [index[name] for name in names]
+            except (KeyError, TypeError):
+                pass  # the checks below name the culprit
+        if isinstance(names, str | bytes) or not isinstance(names, Iterable):
+            raise GraphArgumentError(
+                f"{what} must be a list of element names, got {type(names).__name__}"
+                + (f" {names!r}: wrap it in a list" if isinstance(names, str) else "")
+            )
+        return [self.element_id(name) for name in names]
+
     def update(
         self,
         met_nodes: Iterable[str] = (),
@@ -548,36 +904,87 @@ class OnlineGraph:
 
         Items are applied as soon as they are feasible, so one query may report a chain (e.g.
         a hyper-arc and then its parent). An item that is unknown, or never becomes feasible,
-        raises an error and leaves the state unchanged. Reporting an element that is already
-        met/solved is ignored (listed in :attr:`QueryResult.ignored`). ``infeasible`` marks
-        elements as impossible (e.g. a robot action failed): hyper-arcs can no longer be solved,
-        nodes no longer met, and every path through them is dropped.
+        raises an error and leaves the state unchanged (and the query is not counted).
+        Reporting an element that is already met/solved is ignored (listed in
+        :attr:`QueryResult.ignored`). ``infeasible`` marks elements as impossible (e.g. a robot
+        action failed): hyper-arcs can no longer be solved, nodes no longer met, and every path
+        through them is dropped. Wrong argument types raise :class:`GraphArgumentError` (a
+        ``TypeError``).
         """
-        items: list[tuple[str, int, str]] = []
-        for name in met_nodes:
-            e = self.element_id(name)
-            if self._kind[e]:
-                raise UnknownNameError(f"{name!r} is a hyper-arc, not a node: report it as solved")
-            items.append(("met", e, name))
-        for name in solved_hyperarcs:
-            e = self.element_id(name)
-            if not self._kind[e]:
-                raise UnknownNameError(f"{name!r} is a node, not a hyper-arc: report it as met")
-            items.append(("solved", e, name))
-        blocks = [self.element_id(name) for name in infeasible]
+        # the common query (the Task Manager's, the test client's): one element, nothing else
+        if (
+            not infeasible
+            and self._outcome == "running"
+            and (type(met_nodes) is tuple or type(met_nodes) is list)
+            and (type(solved_hyperarcs) is tuple or type(solved_hyperarcs) is list)
+            and len(met_nodes) + len(solved_hyperarcs) == 1
+        ):
+            name = met_nodes[0] if met_nodes else solved_hyperarcs[0]
+            index = self._index_cache or self._index
+            e = index.get(name, -1) if type(name) is str else -1
+            if e in self._feasible and bool(self._kind[e]) != bool(met_nodes):
+                query = self._query + 1
+                # _apply, inlined
+                if met_nodes:
+                    self._log.append((query, "met", e))
+                    self._meet(e)
+                else:
+                    self._log.append((query, "solved", e))
+                    self._solve(e)
+                if self._dead:
+                    self._apply_dead()
+                if self._heap or self._off_dirty:
+                    self._settle()
+                self._query = query
+                self._finish()
+                return QueryResult(
+                    query,
+                    self._outcome == "solved",
+                    self._outcome == "failed",
+                    self._reason,
+                    dict(self._costs),
+                    self,
+                    [],
+                )
+        if met_nodes is None or solved_hyperarcs is None or infeasible is None:
+            what = (
+                "met_nodes"
+                if met_nodes is None
+                else ("solved_hyperarcs" if solved_hyperarcs is None else "infeasible")
+            )
+            raise GraphArgumentError(f"{what} must be a list of element names, got None")
+        kinds = self._kind
+        items: list[tuple[str, int]] = []
+        if met_nodes:
+            for e in self._ids(met_nodes, "met_nodes"):
+                if kinds[e]:
+                    raise UnknownNameError(
+                        f"{self._names[e]!r} is a hyper-arc, not a node: report it as solved"
+                    )
+                items.append(("met", e))
+        if solved_hyperarcs:
+            for e in self._ids(solved_hyperarcs, "solved_hyperarcs"):
+                if not kinds[e]:
+                    raise UnknownNameError(
+                        f"{self._names[e]!r} is a node, not a hyper-arc: report it as met"
+                    )
+                items.append(("solved", e))
+        blocks = self._ids(infeasible, "infeasible") if infeasible else []
         if self._outcome != "running" and (items or blocks):
             raise FlexhrcError(f"the cooperation is already {self._outcome}; nothing to update")
-        self._query += 1
+        query = self._query + 1
         ignored: list[str] = []
         if items or blocks:
             if len(items) == 1 and not blocks and items[0][1] in self._feasible:
-                kind, e, name = items[0]
-                self._apply(kind, e)
+                kind, e = items[0]
+                self._apply(query, kind, e)
+                self._settle()
             else:
-                ignored = self._apply_many(items, blocks)
+                ignored = self._apply_many(query, items, blocks)
+        self._query = query
         self._finish()
         return QueryResult(
-            self._query,
+            query,
             self._outcome == "solved",
             self._outcome == "failed",
             self._reason,
@@ -590,48 +997,51 @@ class OnlineGraph:
         """Mark elements infeasible (for good) and answer with the new state."""
         return self.update(infeasible=names)
 
-    def _apply(self, kind: str, e: int) -> None:
-        self.events.append(Event(self._query, kind, self._names[e]))  # type: ignore[arg-type]
+    def _apply(self, query: int, kind: str, e: int) -> None:
+        self._log.append((query, kind, e))
         if kind == "met":
             self._meet(e)
         elif kind == "solved":
             self._solve(e)
         else:
             self._block(e)
-        self._check_failed_instances()
+        if self._dead:
+            self._apply_dead()
 
-    def _apply_many(self, items: list[tuple[str, int, str]], blocks: list[int]) -> list[str]:
+    def _apply_many(self, query: int, items: list[tuple[str, int]], blocks: list[int]) -> list[str]:
         snapshot = self._snapshot()
-        n_events = len(self.events)
+        n_events = len(self._log)
         ignored: list[str] = []
+        names = self._names
         try:
             for e in blocks:
                 if not self._blocked[e] and not (self._done[e]):
-                    self._apply("infeasible", e)
+                    self._apply(query, "infeasible", e)
                 else:
-                    ignored.append(self._names[e])
+                    ignored.append(names[e])
             pending = []
-            for kind, e, name in items:
+            for kind, e in items:
                 if self._done[e]:
-                    ignored.append(name)
+                    ignored.append(names[e])
                 else:
-                    pending.append((kind, e, name))
+                    pending.append((kind, e))
             while pending:
                 rest = []
-                for kind, e, name in pending:
+                for kind, e in pending:
                     if self._done[e]:  # solved as a consequence (eq. 18)
                         continue
                     if e in self._feasible or (kind == "solved" and self._arc_enabled(e)):
-                        self._apply(kind, e)
+                        self._apply(query, kind, e)
                     else:
-                        rest.append((kind, e, name))
+                        rest.append((kind, e))
                 if len(rest) == len(pending):
-                    bad = ", ".join(f"{name} ({self._why_not(e)})" for _, e, name in rest)
+                    bad = ", ".join(f"{names[e]} ({self._why_not(e)})" for _, e in rest)
                     raise InfeasibleUpdateError(f"not feasible, nothing changed: {bad}")
                 pending = rest
+            self._settle()
         except BaseException:
             self._restore(snapshot)
-            del self.events[n_events:]
+            del self._log[n_events:]
             raise
         return ignored
 
@@ -649,42 +1059,37 @@ class OnlineGraph:
             return f"children not met: {', '.join(missing)}"
         return "no incoming hyper-arc is solved"
 
-    def _check_failed_instances(self) -> None:
-        """A lower instance that can no longer be solved — nothing feasible left, or its root
-        unreachable — makes its upper hyper-arc infeasible (eq. 17)."""
-        inst = self._inst
-        alive: set[int] = set()
-        for e in self._feasible:
-            k = inst[e]
-            while k >= 0 and k not in alive:
-                alive.add(k)
-                k = self._i_parent[k]
-        ins, roots = self._inside, self._i_root
-        for k in [k for k in self._live if k not in alive or ins[roots[k]] == INF]:
-            if self._active[k] and not self._closed[k]:
+    def _apply_dead(self) -> None:
+        """A lower instance whose root can no longer be reached makes its upper hyper-arc
+        infeasible (eq. 17)."""
+        dead = self._dead
+        while dead:
+            k = dead.pop()
+            if self._active[k]:
                 u = self._i_upper[k]
                 if not self._blocked[u] and not self._done[u]:
                     self._block(u)
 
     def _finish(self) -> None:
-        top_root = self._i_root[0]
-        if self._done[top_root]:
+        """Costs of the elements this query touched; the outcome."""
+        touched = self._touched
+        if self._done[self._i_root[0]]:
             self._outcome, self._reason = "solved", None
             self._costs = {}
+            touched.clear()
             return
-        gen = self._gen
-        costs = self._costs
-        if self._costs_gen != gen:
-            costs.clear()
-            self._costs_gen = gen
-        ins = self._inside
-        outside = self._outside
-        for e in self._feasible:
-            if e not in costs:
-                c = ins[e] + outside(e)
-                if c < INF:
-                    costs[e] = c
-        if not costs:
+        if touched:
+            costs, feasible = self._costs, self._feasible
+            ins, out, off, inst = self._inside, self._out_val, self._i_off, self._inst
+            for e in touched:
+                if e in feasible:
+                    c = ins[e] + out[e] + off[inst[e]]
+                    if c < INF:
+                        costs[e] = c
+                    else:
+                        costs.pop(e, None)
+            touched.clear()
+        if not self._costs:
             self._outcome = "failed"
             self._reason = (
                 "no feasible node or hyper-arc is left"
@@ -693,16 +1098,14 @@ class OnlineGraph:
             )
 
     # ---------------------------------------------------------------- snapshot/state ----
-    _STATE = ("_done", "_blocked", "_unmet", "_active", "_closed", "_inside")
+    _STATE = ("_done", "_blocked", "_unmet", "_active", "_closed", "_inside", "_out_val", "_i_off")
 
     def _snapshot(self) -> tuple[Any, ...]:
         return (
             *(list(getattr(self, a)) for a in self._STATE),
             dict(self._feasible),
-            dict(self._live),
             dict(self._costs),
-            self._gen,
-            self._costs_gen,
+            [dict(d) for d in self._i_feas],
             self._outcome,
             self._reason,
         )
@@ -711,17 +1114,12 @@ class OnlineGraph:
         for a, v in zip(self._STATE, snap, strict=False):
             setattr(self, a, v)
         rest = snap[len(self._STATE) :]
-        (
-            self._feasible,
-            self._live,
-            self._costs,
-            gen,
-            self._costs_gen,
-            self._outcome,
-            self._reason,
-        ) = rest
-        self._gen = max(gen, self._gen) + 1  # invalidate memoised outside costs
-        self._costs_gen = -1
+        (self._feasible, self._costs, self._i_feas, self._outcome, self._reason) = rest
+        self._heap.clear()
+        self._queued.clear()
+        self._touched.clear()
+        self._dead.clear()
+        self._off_dirty.clear()
 
     def state(self) -> dict[str, Any]:
         """A plain, comparable description of the whole state (for tests and debugging)."""
@@ -754,10 +1152,10 @@ class OnlineGraph:
 
     # ------------------------------------------------------------------ history ---------
     def save_events(self, path: str | Path) -> None:
-        """Write the event history as JSON lines (one event per line)."""
-        from flexhrc.jsonl import write_jsonl
+        """Write the event history as JSON lines (one event per line), atomically."""
+        from flexhrc.files import atomic_write_text
 
-        write_jsonl(path, (ev.to_dict() for ev in self.events))
+        atomic_write_text(path, "".join(json.dumps(ev.to_dict()) + "\n" for ev in self.events))
 
     @staticmethod
     def load_events(path: str | Path) -> list[Event]:
@@ -767,11 +1165,9 @@ class OnlineGraph:
         events = []
         for line, d in read_jsonl_lines(path, required=("query", "type", "element")):
             try:
-                ev = Event(int(d["query"]), d["type"], str(d["element"]))
+                ev = _event(d)
             except (ValueError, TypeError) as exc:
                 raise FormatError(f"malformed event: {exc}", path, line) from None
-            if ev.type not in ("met", "solved", "infeasible"):
-                raise FormatError(f"unknown event type {ev.type!r}", path, line)
             events.append(ev)
         return events
 
@@ -779,7 +1175,21 @@ class OnlineGraph:
     def replay(
         cls, graph: HierarchicalGraph | AndOrGraph, events: Iterable[Event | Mapping[str, Any]]
     ) -> OnlineGraph:
-        """Rebuild the state reached by a recorded event history."""
+        """Rebuild the state reached by a recorded event history.
+
+        Every event is checked first (a mapping with ``query``, ``type`` and ``element``; a
+        known type): a bad one raises :class:`GraphArgumentError` naming its position.
+        """
+        if isinstance(events, str | bytes | Mapping) or not isinstance(events, Iterable):
+            raise GraphArgumentError(
+                f"events must be a list of events, got {type(events).__name__}"
+            )
+        checked: list[Event] = []
+        for i, raw in enumerate(events):
+            try:
+                checked.append(raw if isinstance(raw, Event) and _valid(raw) else _event(raw))
+            except (ValueError, TypeError) as exc:
+                raise GraphArgumentError(f"event {i}: {exc}") from None
         online = cls(graph)
         batch: list[Event] = []
         current: int | None = None
@@ -792,12 +1202,7 @@ class OnlineGraph:
                     infeasible=[ev.element for ev in batch if ev.type == "infeasible"],
                 )
 
-        for raw in events:
-            ev = (
-                raw
-                if isinstance(raw, Event)
-                else Event(int(raw["query"]), raw["type"], raw["element"])
-            )
+        for ev in checked:
             if current is not None and ev.query != current:
                 flush()
                 batch = []
@@ -807,18 +1212,54 @@ class OnlineGraph:
         return online
 
 
+EVENT_TYPES = ("met", "solved", "infeasible")
+
+
+def _valid(ev: Event) -> bool:
+    if ev.type not in EVENT_TYPES:
+        raise ValueError(
+            f"unknown event type {ev.type!r} (expected one of {', '.join(EVENT_TYPES)})"
+        )
+    return True
+
+
+def _event(raw: object) -> Event:
+    """An :class:`Event` from a mapping, or ValueError/TypeError saying what is wrong."""
+    if isinstance(raw, Event):
+        _valid(raw)
+        return raw
+    if not isinstance(raw, Mapping):
+        raise TypeError(
+            f"expected a mapping with query, type and element, got {type(raw).__name__}"
+        )
+    missing = [k for k in ("query", "type", "element") if k not in raw]
+    if missing:
+        raise ValueError(f"missing {', '.join(missing)}")
+    q, t, el = raw["query"], raw["type"], raw["element"]
+    if isinstance(q, bool) or not isinstance(q, int) or q < 0:
+        raise ValueError(f"query must be a non-negative integer, got {q!r}")
+    if t not in EVENT_TYPES:
+        raise ValueError(f"unknown event type {t!r} (expected one of {', '.join(EVENT_TYPES)})")
+    if not isinstance(el, str) or not el:
+        raise ValueError(f"element must be a non-empty name, got {el!r}")
+    return Event(q, t, el)
+
+
 class _Template:
     """Index structure of one graph definition, shared by all of its instances."""
 
     __slots__ = (
         "children",
+        "down",
         "incoming",
         "kinds",
         "leaves",
         "lower",
+        "lrank",
         "names",
         "outgoing",
         "parent",
+        "pristine_out",
         "root",
         "size",
         "topo",
@@ -841,12 +1282,15 @@ class _Template:
             tuple(map(get, h.children)) for h in arc_list
         ]
         self.parent = [-1] * nn + [idx[h.parent] for h in arc_list]
-        self.incoming: list[list[int]] = [[] for _ in range(self.size)]
-        self.outgoing: list[list[int]] = [[] for _ in range(self.size)]
+        incoming: list[list[int]] = [[] for _ in range(self.size)]
+        outgoing: list[list[int]] = [[] for _ in range(self.size)]
         for j, h in enumerate(arc_list, nn):
-            self.incoming[idx[h.parent]].append(j)
+            incoming[idx[h.parent]].append(j)
             for c in h.children:
-                self.outgoing[idx[c]].append(j)
+                outgoing[idx[c]].append(j)
+        # tuples: never changed once built, and the empty ones are all the same object
+        self.incoming: list[tuple[int, ...]] = [tuple(x) if x else () for x in incoming]
+        self.outgoing: list[tuple[int, ...]] = [tuple(x) if x else () for x in outgoing]
         self.root = idx[g.root]  # type: ignore[index]
         self.leaves = [i for i in range(nn) if not self.incoming[i]]
         self.topo: list[int] = []
@@ -854,6 +1298,11 @@ class _Template:
             i = idx[name]
             self.topo.extend(self.incoming[i])
             self.topo.append(i)
+        self.pristine_out: list[float] | None = None  # set by OnlineGraph._activate
+        self.down = self.topo[::-1]  # parents before children: the outside pass
+        self.lrank = [0] * self.size
+        for r, x in enumerate(self.down):
+            self.lrank[x] = r
         self.lower = [(j, h.lower) for j, h in enumerate(arc_list, nn) if h.lower is not None]
 
 

@@ -35,26 +35,29 @@ def _paths(online: OnlineGraph, k: int, limit: int) -> list[frozenset[int]]:
     root = g._i_root[k]
     out: list[frozenset[int]] = []
 
-    def expand(todo: tuple[int, ...], chosen: frozenset[int]) -> Iterator[frozenset[int]]:
-        if not todo:
-            yield chosen
-            return
-        n, rest = todo[0], todo[1:]
-        if n in chosen:
-            yield from expand(rest, chosen)
-            return
-        if g._blocked[n]:
-            return
-        arcs = g._in[n]
-        if not arcs:
-            yield from expand(rest, chosen | {n})
-            return
-        for h in arcs:
-            if g._blocked[h]:
+    def expand(start: tuple[int, ...]) -> Iterator[frozenset[int]]:
+        # depth-first over partial solution graphs, with an explicit stack (no recursion
+        # limit on deep graphs): (nodes still to expand, elements chosen so far)
+        stack: list[tuple[tuple[int, ...], frozenset[int]]] = [(start, frozenset())]
+        while stack:
+            todo, chosen = stack.pop()
+            while todo and todo[0] in chosen:
+                todo = todo[1:]
+            if not todo:
+                yield chosen
                 continue
-            yield from expand(rest + g._children[h], chosen | {n, h})
+            n, rest = todo[0], todo[1:]
+            if g._blocked[n]:
+                continue
+            arcs = g._in[n]
+            if not arcs:
+                stack.append((rest, chosen | {n}))
+                continue
+            for h in reversed(arcs):
+                if not g._blocked[h]:
+                    stack.append((rest + g._children[h], chosen | {n, h}))
 
-    for p in expand((root,), frozenset()):
+    for p in expand((root,)):
         out.append(p)
         if len(out) > limit:
             raise PathLimitError(
@@ -108,6 +111,13 @@ def exact_costs(online: OnlineGraph, limit: int = DEFAULT_LIMIT) -> dict[str, fl
             val = (min(through) - wu + offset(j)) if through and wu < INF else INF
         offsets[k] = val
         return val
+
+    # instances are numbered depth-first from the top (an instance after the one above it):
+    # fill the memos deepest first / top first so neither helper recurses more than a level
+    for k in reversed(range(n_inst)):
+        instance_best(k)
+    for k in range(n_inst):
+        offset(k)
 
     result: dict[str, float] = {}
     for e in g._feasible:

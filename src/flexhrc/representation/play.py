@@ -59,16 +59,35 @@ def play(
     record_steps: bool = False,
     max_queries: int = 1_000_000,
     clock: Callable[[], float] = time.perf_counter,
+    on_offline: Callable[[HierarchicalGraph], None] | None = None,
+    on_event: Callable[[dict[str, Any]], None] | None = None,
 ) -> PlayReport:
-    """Load (offline phase) and traverse (online phase) a graph; time both."""
+    """Load (offline phase) and traverse (online phase) a graph; time both.
+
+    ``on_offline(hierarchy)`` is called once the graph is loaded, ``on_event(event)`` after
+    every query for each event it recorded (``{"query", "type", "element"}``, the numbering of
+    :attr:`OnlineGraph.events`) — both outside the timed parts, e.g. to stream a log.
+    Step numbers (``record_steps``) are the same query numbers.
+    """
     if policy not in POLICIES:
         raise FlexhrcError(f"unknown policy {policy!r}; choose one of {', '.join(POLICIES)}")
-    from flexhrc.representation.formats import load
+    if isinstance(seed, bool) or not isinstance(seed, int):
+        raise FlexhrcError(f"seed must be an integer, got {seed!r}")
+    if isinstance(max_queries, bool) or not isinstance(max_queries, int) or max_queries < 1:
+        raise FlexhrcError(f"max_queries must be a positive integer, got {max_queries!r}")
+    from flexhrc.representation.formats import load, reader_for
 
+    if not isinstance(source, HierarchicalGraph):
+        # the reader's code is loaded before the clock starts, as the C++ binary's is at
+        # process start-up: offline time is the work of loading the graph, not of Python
+        # compiling a module (which it does on every run under PYTHONDONTWRITEBYTECODE)
+        reader_for(source)
     t0 = clock()
     hierarchy = source if isinstance(source, HierarchicalGraph) else load(source)
     online = OnlineGraph(hierarchy, validate=isinstance(source, HierarchicalGraph))
     offline = clock() - t0
+    if on_offline is not None:
+        on_offline(hierarchy)
 
     rng = random.Random(seed)
     kinds = online._kind
@@ -79,6 +98,8 @@ def play(
     t = clock()
     answer = online.update()
     times.append(clock() - t)
+    log = online._log
+    n_logged = 0
     while answer.outcome == "running":
         if len(times) >= max_queries:
             raise FlexhrcError(f"no end after {max_queries} queries")
@@ -92,7 +113,7 @@ def play(
         if record_steps:
             steps.append(
                 {
-                    "query": len(times),
+                    "query": online.queries + 1,  # the query that reports it, as in events
                     "element": name,
                     "kind": "hyperarc" if kinds[e] else "node",
                     "cost": ids[e],
@@ -104,6 +125,11 @@ def play(
         else:
             answer = online.update(met_nodes=(name,))
         times.append(clock() - t)
+        if on_event is not None:
+            names = online._names
+            for q, typ, x in log[n_logged:]:
+                on_event({"query": q, "type": typ, "element": names[x]})
+            n_logged = len(log)
     return PlayReport(
         outcome=answer.outcome,
         queries=len(times),

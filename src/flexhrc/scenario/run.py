@@ -28,7 +28,7 @@ def prepare(
     trace: Callable[[dict[str, Any]], None] | None = None,
     sink: Callable[[dict[str, Any]], None] | None = None,
     failures: Iterable[InjectedFailure] = (),
-    human_takes: Iterable[int] | None = None,
+    human_takes: Iterable[int | str] | None = None,
     human_sensing: Any = None,
     execution: Any = None,
     realtime: float = 0.0,

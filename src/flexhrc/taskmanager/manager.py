@@ -840,7 +840,8 @@ class TaskManager:
                 self.kb.move(obj, (p[0], p[1], 0.0))
 
     def _rest(self, agent: str, out: list[Directive]) -> None:
-        if agent in self.busy or "rest" not in self.domain.actions:
+        # an agent that left the cell is sent nowhere (it would never answer)
+        if agent in self.busy or agent in self.unavailable or "rest" not in self.domain.actions:
             return
         schema = self.domain.actions["rest"]
         if len(schema.parameters) != 1:

@@ -69,7 +69,7 @@ class SimulatedOperator:
     name: str
     profile: str = "passive"
     seed: int = 0
-    takes: set[int] | None = None
+    takes: set[int | str] | None = None
     rng: random.Random = field(init=False)
     plan: OperatorPlan | None = None
     steps_seen: list[str] = field(default_factory=list)  # target nodes, in order of appearance
@@ -135,7 +135,9 @@ class SimulatedOperator:
             self.decided.add(step)
             k = self.steps_seen.index(step) + 1
             if self.takes is not None:
-                act, delay = k in self.takes, 0.0
+                # a step is named by its place in order (1-based) or by its node's name
+                act = k in self.takes or step in self.takes or _local(step) in self.takes
+                delay = 0.0
             elif self.profile == "takeover":
                 act, delay = True, 0.0
             elif self.profile == "cooperative":
@@ -255,3 +257,8 @@ class SimulatedOperator:
 
 
 __all__ = ["PROFILES", "Intention", "OperatorPlan", "SimulatedOperator"]
+
+
+def _local(qualified: str) -> str:
+    """A node's own name, without the instance path of its lower graph (``h1/Leg`` -> ``Leg``)."""
+    return qualified.rsplit("/", 1)[-1]

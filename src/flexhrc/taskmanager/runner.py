@@ -120,7 +120,7 @@ class CooperationRun:
         trace: Callable[[dict[str, Any]], None] | None = None,
         realtime: float = 0.0,
         max_time_s: float = 3600.0,
-        human_takes: Iterable[int] | None = None,
+        human_takes: Iterable[int | str] | None = None,
         human_sensing: Any = None,
         sink: Callable[[dict[str, Any]], None] | None = None,
         humans: Iterable[tuple[str, str]] | None = None,

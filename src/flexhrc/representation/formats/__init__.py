@@ -11,28 +11,50 @@ structural fault is reported with its file and line.
 
 from __future__ import annotations
 
+import os
+from collections.abc import Callable
 from pathlib import Path
 
 from flexhrc.errors import FormatError
 from flexhrc.representation.hierarchy import HierarchicalGraph
+from flexhrc.representation.online import GraphArgumentError
+
+
+def reader_for(path: str | Path) -> Callable[[str | Path], HierarchicalGraph]:
+    """The reader of a graph file, chosen by its extension (its module imported now)."""
+    if str(path).lower().endswith((".yaml", ".yml")):
+        from flexhrc.representation.formats.yaml_format import load_yaml
+
+        return load_yaml
+    from flexhrc.representation.formats.andor_text import load_andor_text
+
+    return load_andor_text
 
 
 def load(path: str | Path, *, validate: bool = True) -> HierarchicalGraph:
-    """Load a graph file (ANDOR text or YAML) with every lower graph it refers to."""
-    path = Path(path)
-    if not path.exists():
-        raise FormatError("no such file", path)
-    if path.is_dir():
-        raise FormatError("is a directory, expected a graph file (.txt or .yaml)", path)
-    suffix = path.suffix.lower()
-    if suffix in (".yaml", ".yml"):
-        from flexhrc.representation.formats.yaml_format import load_yaml
+    """Load a graph file (ANDOR text or YAML) with every lower graph it refers to.
 
-        hierarchy = load_yaml(path)
-    else:
-        from flexhrc.representation.formats.andor_text import load_andor_text
-
-        hierarchy = load_andor_text(path)
+    Every fault is one :class:`FormatError` naming the file (and line): a missing, unreadable,
+    binary or non-UTF-8 file, a syntax or structure error, a lower graph that is missing or
+    lies outside the top file's folder.
+    """
+    if type(path) is not str and not isinstance(path, str | os.PathLike):
+        raise GraphArgumentError(
+            f"load() needs a file path (str or Path), got {type(path).__name__}"
+        )
+    name = os.fspath(path)
+    try:
+        # no stat or Path first: on the cold first call of a small graph those cost more than
+        # parsing it; the reader's own open() says whether the file is there
+        hierarchy = reader_for(name)(name)
+    except FormatError:
+        if not os.path.lexists(name):
+            raise FormatError("no such file", path) from None
+        if os.path.isdir(name):
+            raise FormatError(
+                "is a directory, expected a graph file (.txt or .yaml)", path
+            ) from None
+        raise
     if validate:
         hierarchy.validate()
     return hierarchy
@@ -58,4 +80,4 @@ def save(hierarchy: HierarchicalGraph, path: str | Path) -> Path:
     return dump_andor_text(hierarchy, path)
 
 
-__all__ = ["load", "save"]
+__all__ = ["load", "reader_for", "save"]

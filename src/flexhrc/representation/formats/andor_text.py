@@ -26,6 +26,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from flexhrc.errors import FormatError
+from flexhrc.files import read_text
 from flexhrc.representation.graph import AndOrGraph, Hyperarc, Node
 from flexhrc.representation.hierarchy import HierarchicalGraph
 
@@ -33,16 +34,22 @@ SUFFIX = ".txt"
 
 
 def _lines(path: str | Path) -> list[tuple[int, list[str]]]:
+    text = None
     try:
-        with open(path, encoding="utf-8") as fh:
-            text = fh.read()
-    except UnicodeDecodeError as exc:
-        raise FormatError(f"not a UTF-8 text file ({exc.reason})", path) from None
+        with open(path, "rb") as fh:
+            data = fh.read()
+        if b"\x00" not in data:
+            text = data.decode("utf-8").removeprefix("\ufeff")
+    except (OSError, UnicodeDecodeError):
+        pass
+    if text is None:
+        # the shared reader says why (missing, folder, unreadable, binary, not UTF-8)
+        text = read_text(path)
     out = []
     for i, raw in enumerate(text.splitlines(), 1):
-        s = raw.split("#", 1)[0].strip() if "#" in raw else raw.strip()
-        if s:
-            out.append((i, s.split()))
+        toks = (raw.split("#", 1)[0] if "#" in raw else raw).split()
+        if toks:
+            out.append((i, toks))
     return out
 
 
@@ -72,8 +79,10 @@ def parse_graph(path: str | Path) -> tuple[AndOrGraph, list[tuple[str, int]]]:
         raise FormatError("empty file: expected '<graph name> <number of nodes> <root>'", path, 1)
     lineno, head = lines[0]
     if len(head) != 3:
+        # the line is not quoted: this may be any file, not ours to show
         raise FormatError(
-            f"header must be '<graph name> <number of nodes> <root node>', got {' '.join(head)!r}",
+            "not an ANDOR graph file: the header must be '<graph name> <number of nodes> "
+            f"<root node>' (3 fields), the first line has {len(head)}",
             path,
             lineno,
         )
@@ -82,7 +91,10 @@ def parse_graph(path: str | Path) -> tuple[AndOrGraph, list[tuple[str, int]]]:
         count = int(count_tok)
     except ValueError:
         raise FormatError(
-            f"number of nodes {count_tok!r} is not an integer", path, lineno
+            "not an ANDOR graph file: the second field of the first line (number of nodes) "
+            "is not an integer",
+            path,
+            lineno,
         ) from None
     if count < 1:
         raise FormatError(f"number of nodes must be at least 1, got {count}", path, lineno)
@@ -106,9 +118,11 @@ def parse_graph(path: str | Path) -> tuple[AndOrGraph, list[tuple[str, int]]]:
         if "/" in n or n in nodes:
             _name(n, "node", path, ln)
             graph.add_node(Node(n, line=ln))  # raises the duplicate-name error
-        nodes[n] = Node(n, _weight(toks[1], "node", n, path, ln), line=ln)
+        w = toks[1]
+        nodes[n] = Node(n, float(w) if w.isdigit() else _weight(w, "node", n, path, ln), line=ln)
     refs: list[tuple[str, int]] = []
     renamed: list[FormatError] = []
+    arcs = graph.hyperarcs
     i = count + 1
     while i < len(lines):
         ln, toks = lines[i]
@@ -139,7 +153,7 @@ def parse_graph(path: str | Path) -> tuple[AndOrGraph, list[tuple[str, int]]]:
                     f"hyper-arc {hname!r} declares {k} children but {found} follow", path, where
                 )
             children.append(lines[i + j][1][0])
-        weight = _weight(w_tok, "hyper-arc", hname, path, ln)
+        weight = float(w_tok) if w_tok.isdigit() else _weight(w_tok, "hyper-arc", hname, path, ln)
         lower_ref = None if lower == "-" else lower
         if lower_ref is not None:
             refs.append((lower_ref, ln))
@@ -158,9 +172,8 @@ def parse_graph(path: str | Path) -> tuple[AndOrGraph, list[tuple[str, int]]]:
                 )
             )
             hname = new_name
-        graph.add_hyperarc(
-            Hyperarc(hname, tuple(children), parent, weight, lower=lower_ref, line=ln)
-        )
+        # add_hyperarc's checks are done above (name, weight, at least one child, repeats)
+        arcs[hname] = Hyperarc(hname, tuple(children), parent, weight, lower=lower_ref, line=ln)
         i += k + 1
     graph.load_warnings = renamed
     return graph, refs
@@ -175,11 +188,27 @@ def _resolve(ref: str, including_dir: str, top_dir: str) -> str | None:
     return None
 
 
+def _inside(path: str, folder: str) -> bool:
+    """Whether ``path`` (normalised, lexically under ``folder``) stays under ``folder`` once
+    symbolic links are resolved. Only the components below ``folder`` are looked at (a link
+    there is resolved in full): a few ``lstat`` calls instead of ``realpath``'s one per
+    component of the whole path."""
+    cur = folder
+    for part in path[len(folder) :].strip(os.sep).split(os.sep):
+        cur = os.path.join(cur, part)
+        if os.path.islink(cur):
+            real, top = os.path.realpath(path), os.path.realpath(folder)
+            return real.startswith(top.rstrip(os.sep) + os.sep)
+    return True
+
+
 def load_andor_text(path: str | Path) -> HierarchicalGraph:
-    """Load a top file and every lower graph it refers to, recursively."""
-    top_file = os.path.normpath(os.path.abspath(path))
-    if not os.path.isfile(top_file):
-        raise FormatError("no such file", path)
+    """Load a top file and every lower graph it refers to (iteratively: no depth limit).
+
+    A lower graph must lie in the top file's folder or below it: a reference that resolves
+    elsewhere (``../../etc/passwd``) is refused.
+    """
+    top_file = os.path.abspath(path)  # normalised too
     top_dir = os.path.dirname(top_file)
     graphs: dict[str, AndOrGraph] = {}
     key_of: dict[str, str] = {}
@@ -192,13 +221,12 @@ def load_andor_text(path: str | Path) -> HierarchicalGraph:
         rel = rel.replace(os.sep, "/")
         return rel[: -len(SUFFIX)] if rel.endswith(SUFFIX) else rel
 
-    def load(p: str) -> str:
-        if p in key_of:
-            return key_of[p]
-        key = key_for(p)
-        key_of[p] = key
+    top = key_of[top_file] = key_for(top_file)
+    todo = [top_file]
+    while todo:
+        p = todo.pop()
         graph, refs = parse_graph(p)
-        graphs[key] = graph
+        graphs[key_of[p]] = graph
         here = os.path.dirname(p)
         remap: dict[str, str] = {}
         for ref, ln in refs:
@@ -214,14 +242,21 @@ def load_andor_text(path: str | Path) -> HierarchicalGraph:
                     p,
                     ln,
                 )
-            remap[ref] = load(target)
+            if target not in key_of:
+                if not target.startswith(prefix) or not _inside(target, top_dir):
+                    raise FormatError(
+                        f"lower graph {ref!r} resolves to a file outside the top graph's folder "
+                        f"{top_dir}; lower graphs must lie in that folder or below it",
+                        p,
+                        ln,
+                    )
+                key_of[target] = key_for(target)
+                todo.append(target)
+            remap[ref] = key_of[target]
         if any(k != v for k, v in remap.items()):
             for h in list(graph.hyperarcs.values()):
                 if h.lower is not None and remap[h.lower] != h.lower:
                     graph.hyperarcs[h.name] = replace(h, lower=remap[h.lower])
-        return key
-
-    top = load(top_file)
     return HierarchicalGraph(graphs, top)
 
 

@@ -30,8 +30,11 @@ def _w(x: float) -> str:
     return str(int(x)) if float(x).is_integer() else f"{x:g}"
 
 
-def to_dot(hierarchy: HierarchicalGraph, online: OnlineGraph | None = None) -> str:
-    """The hierarchy as DOT text (statuses of ``online`` shown for the top graph)."""
+def to_dot(
+    hierarchy: HierarchicalGraph, online: OnlineGraph | None = None, *, legend: bool = True
+) -> str:
+    """The hierarchy as DOT text (statuses of ``online`` shown for the top graph), with a
+    legend of the shapes (and, with ``online``, the status colours) unless ``legend=False``."""
     lines = [
         "digraph andor {",
         "  rankdir=BT;",
@@ -82,8 +85,36 @@ def to_dot(hierarchy: HierarchicalGraph, online: OnlineGraph | None = None) -> s
                     f"  {_q(f'g{ci}:h:{h.name}')} -> {_q(f'g{li}:{lower_root}')} "
                     f'[style=dashed, color=gray40, constraint=false, label="expands"];'
                 )
+    if legend:
+        lines += _legend(online is not None)
     lines.append("}")
     return "\n".join(lines) + "\n"
+
+
+def _legend(statuses: bool) -> list[str]:
+    """A cluster that explains the drawing: shapes always, colours when statuses are shown."""
+    items = [
+        ("lg_node", 'label="node (weight)"'),
+        ("lg_root", 'label="root", peripheries=2'),
+        ("lg_arc", 'shape=box, height=0.2, fontsize=8, label="hyper-arc (weight)"'),
+        ("lg_lower", 'shape=box, height=0.2, fontsize=8, peripheries=2, label="has a lower graph"'),
+    ]
+    if statuses:
+        items += [
+            ("lg_done", 'style=filled, fillcolor=palegreen, label="met / solved"'),
+            ("lg_feasible", 'style=filled, fillcolor=orange, label="feasible (cost)"'),
+            ("lg_blocked", 'style=dashed, fontcolor=gray50, color=gray50, label="infeasible"'),
+        ]
+    out = [
+        "  subgraph cluster_legend {",
+        '    label="legend — AND: all arrows into one box; OR: several boxes into one node"; '
+        "style=rounded; color=gray80; fontsize=9;",
+        "    rank=same;",
+    ]
+    # graphviz lays a rank=same row out right to left here (rankdir=BT): reverse it
+    out += [f"    {name} [{attrs}];" for name, attrs in reversed(items)]
+    out.append("  }")
+    return out
 
 
 def _status_attrs(online: OnlineGraph, name: str, costs: dict[str, float]) -> list[str]:
@@ -100,10 +131,12 @@ def _status_attrs(online: OnlineGraph, name: str, costs: dict[str, float]) -> li
 
 def render(dot_text: str, out: str | Path) -> Path:
     """Write ``out`` (.dot as is; .svg/.png/.pdf through graphviz's ``dot``)."""
+    from flexhrc.files import atomic_output, atomic_write_text
+
     out = Path(out)
     fmt = out.suffix.lower().lstrip(".")
     if fmt == "dot" or fmt == "gv":
-        out.write_text(dot_text, encoding="utf-8")
+        atomic_write_text(out, dot_text)
         return out
     if fmt not in ("svg", "png", "pdf"):
         raise FlexhrcError(
@@ -115,9 +148,13 @@ def render(dot_text: str, out: str | Path) -> Path:
             "rendering to SVG/PNG needs graphviz's 'dot' program, which is not installed "
             "(Debian/Ubuntu: apt-get install graphviz); use -o FILE.dot to write DOT text instead"
         )
-    proc = subprocess.run(
-        [exe, f"-T{fmt}", "-o", str(out)], input=dot_text, text=True, capture_output=True
-    )
-    if proc.returncode != 0:
-        raise FlexhrcError(f"graphviz failed: {proc.stderr.strip()}")
+    try:
+        with atomic_output(out) as tmp:  # graphviz writes beside it; renamed when done
+            proc = subprocess.run(
+                [exe, f"-T{fmt}", "-o", str(tmp)], input=dot_text, text=True, capture_output=True
+            )
+            if proc.returncode != 0:
+                raise FlexhrcError(f"graphviz failed: {proc.stderr.strip()}")
+    except OSError as exc:
+        raise FlexhrcError(f"{out}: cannot write: {exc.strerror or exc}") from None
     return out

@@ -32,13 +32,15 @@ Every error names the file and line.
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import Any
 
 import yaml
 
 from flexhrc.errors import FormatError
-from flexhrc.logic import parse_conjunction
+from flexhrc.files import read_text
+from flexhrc.logic import parse_conjunction, parse_literal
 from flexhrc.representation.graph import AndOrGraph, Hyperarc, Node
 from flexhrc.representation.hierarchy import HierarchicalGraph
 
@@ -80,12 +82,14 @@ _Loader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _constru
 def read_yaml(path: str | Path) -> Any:
     """Parse a YAML file; mappings remember their line numbers. Syntax errors name the line."""
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise FormatError(f"cannot read: {exc.strerror}", path) from None
+    text = read_text(path)  # missing, folder, unreadable, binary, not UTF-8: one clear error
     try:
         return yaml.load(text, Loader=_Loader)
+    except RecursionError:
+        # PyYAML composes nested collections recursively; past Python's limit, say so
+        raise FormatError(
+            "YAML nested too deeply (thousands of levels of lists or mappings)", path
+        ) from None
     except FormatError as exc:
         raise FormatError(exc.message, path, exc.line) from None
     except yaml.MarkedYAMLError as exc:
@@ -204,13 +208,16 @@ def _graph_from_dict(key: str, d: _LineDict, path: Path, key_line: int | None) -
                 for c, v in lm.items()
             }
         lower = hd.get("lower")
+        actions = _str_list(hd.get("actions", []), f"hyper-arc {hname!r}: actions", path, ln)
+        for a in actions:  # A(h), eq. 4: each action is a literal, checked like S(n)
+            parse_literal(a, str(path), _line(hd, "actions"))
         g.add_hyperarc(
             Hyperarc(
                 hname,
                 children,
                 _name(hd["parent"], "parent", path, _line(hd, "parent")),
                 _weight(hd.get("weight", 0), f"hyper-arc {hname!r}", path, _line(hd, "weight")),
-                _str_list(hd.get("actions", []), f"hyper-arc {hname!r}: actions", path, ln),
+                actions,
                 None if lower in (None, "-") else _key(lower, path, _line(hd, "lower")),
                 leaf_map,
                 line=ln,
@@ -219,9 +226,14 @@ def _graph_from_dict(key: str, d: _LineDict, path: Path, key_line: int | None) -
     return g
 
 
-def load_yaml(path: str | Path) -> HierarchicalGraph:
-    """Load a YAML graph file (and the files it refers to)."""
+def load_yaml(path: str | Path, _including: tuple[str, ...] = ()) -> HierarchicalGraph:
+    """Load a YAML graph file (and the files it refers to).
+
+    ``file:`` references must stay in the top file's folder (or below it) and must not
+    include a file that is already being loaded (a file including itself, directly or not).
+    """
     path = Path(path)
+    _including = (*_including, os.path.realpath(path))
     doc = read_yaml(path)
     _expect(doc, dict, "the document", path, 1)
     _check_keys(doc, {"flexhrc", "top", "graphs", "description"}, "the document", path)
@@ -242,7 +254,7 @@ def load_yaml(path: str | Path) -> HierarchicalGraph:
         _expect(gd, dict, f"graph {key!r}", path, _line(graphs_d, key))
         if "file" in gd:
             _check_keys(gd, {"file"}, f"graph {key!r}", path)
-            graphs.update(_load_external(key, path, gd, graphs_d))
+            graphs.update(_load_external(key, path, gd, _including))
         else:
             graphs[key] = _graph_from_dict(key, gd, path, _line(graphs_d, key))
     if top not in graphs:
@@ -261,15 +273,42 @@ def load_yaml(path: str | Path) -> HierarchicalGraph:
     return HierarchicalGraph(graphs, top)
 
 
-def _load_external(
-    key: str, path: Path, gd: _LineDict, graphs_d: _LineDict
-) -> dict[str, AndOrGraph]:
-    target = path.parent / str(gd["file"])
-    if not target.is_file():
-        raise FormatError(f"graph {key!r}: file {gd['file']!r} not found", path, _line(gd, "file"))
-    from flexhrc.representation.formats import load
+MAX_INCLUDE_DEPTH = 100
 
-    sub = load(target, validate=False)
+
+def _load_external(
+    key: str, path: Path, gd: _LineDict, including: tuple[str, ...]
+) -> dict[str, AndOrGraph]:
+    line = _line(gd, "file")
+    target = path.parent / str(gd["file"])
+    real = os.path.realpath(target)
+    top_dir = os.path.dirname(including[0])
+    if not (real.startswith(top_dir.rstrip(os.sep) + os.sep)):
+        raise FormatError(
+            f"graph {key!r}: file {gd['file']!r} lies outside the top graph's folder {top_dir}; "
+            "graph files must lie in that folder or below it",
+            path,
+            line,
+        )
+    if real in including:
+        chain = " -> ".join(os.path.basename(p) for p in (*including, real))
+        raise FormatError(
+            f"graph {key!r}: file {gd['file']!r} includes itself ({chain})", path, line
+        )
+    if len(including) > MAX_INCLUDE_DEPTH:
+        raise FormatError(
+            f"graph {key!r}: files include each other more than {MAX_INCLUDE_DEPTH} levels deep",
+            path,
+            line,
+        )
+    if not target.is_file():
+        raise FormatError(f"graph {key!r}: file {gd['file']!r} not found", path, line)
+    if str(target).lower().endswith((".yaml", ".yml")):
+        sub = load_yaml(target, including)
+    else:
+        from flexhrc.representation.formats import load
+
+        sub = load(target, validate=False)
     out: dict[str, AndOrGraph] = {}
     # the external top graph takes this key; its own lower graphs keep theirs, prefixed
     for k, g in sub.graphs.items():

@@ -1,0 +1,203 @@
+"""The AND/OR graph engine at scale (issue 9, item 5).
+
+* a 10 000-node random AND/OR tree (1-2 alternatives per node, 1-3 children per hyper-arc,
+  weights 1-9) played to the end by the random test client: per-query median (target <= 1 ms),
+  90th percentile and maximum, over 3 seeds;
+* a 10 000-node chain (review case A13): build, first answer, then 200 queries;
+* the table assembly with 500 legs (review case A2), played to the end (cheapest policy).
+
+Per-query time is the time of ``OnlineGraph.update`` (the answer with every feasible element's
+cost included), as in ``flexhrc graph play``; the client's own choice is outside the timer.
+
+    python benchmarks/andor_scale.py [--nodes 10000] [--seeds 3] [--json out/andor_scale.json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import random
+import statistics
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "src"))
+
+from flexhrc.representation import AndOrGraph, HierarchicalGraph, OnlineGraph  # noqa: E402
+from flexhrc.representation.play import play  # noqa: E402
+
+TARGET_PER_QUERY_S = 1e-3
+
+
+def random_tree(n_nodes: int, seed: int = 0) -> AndOrGraph:
+    """A random AND/OR tree: 1-2 alternatives per node, 1-3 children per hyper-arc."""
+    rng = random.Random(seed)
+    g = AndOrGraph("tree", root="n0")
+    g.add_node("n0", float(rng.randint(1, 9)))
+    queue, count, arcs, i = ["n0"], 1, 0, 0
+    while count < n_nodes and i < len(queue):
+        p = queue[i]
+        i += 1
+        for _ in range(rng.choice((1, 1, 2))):
+            kids = []
+            for _ in range(rng.randint(1, 3)):
+                if count >= n_nodes:
+                    break
+                name = f"n{count}"
+                count += 1
+                g.add_node(name, float(rng.randint(1, 9)))
+                kids.append(name)
+                queue.append(name)
+            if kids:
+                g.add_hyperarc(f"h{arcs}", kids, p, float(rng.randint(1, 9)))
+                arcs += 1
+    return g
+
+
+def chain(n: int) -> AndOrGraph:
+    g = AndOrGraph("chain", root=f"n{n - 1}")
+    for i in range(n):
+        g.add_node(f"n{i}", 1.0)
+    for i in range(1, n):
+        g.add_hyperarc(f"h{i}", [f"n{i - 1}"], f"n{i}", 1.0)
+    return g
+
+
+def percentile(xs: list[float], q: float) -> float:
+    s = sorted(xs)
+    return s[min(len(s) - 1, int(q * len(s)))]
+
+
+def tree_play(n_nodes: int, seeds: int) -> dict[str, float]:
+    g = random_tree(n_nodes, seed=1)
+    h = HierarchicalGraph.single(g)
+    medians, p90s, maxes, queries, walls = [], [], [], [], []
+    for seed in range(1, seeds + 1):
+        times: list[float] = []
+        clock = time.perf_counter
+        t0 = clock()
+        report = play(h, "random", seed, clock=_recording(times, clock))
+        walls.append(clock() - t0)
+        assert report.outcome == "solved", report.outcome
+        per_query = _query_times(times)
+        medians.append(report.online_s_per_query_median)
+        p90s.append(percentile(per_query, 0.9))
+        maxes.append(max(per_query))
+        queries.append(report.queries)
+        print(
+            f"  seed {seed}: {report.queries} queries, "
+            f"median {report.online_s_per_query_median * 1e3:.3f} ms",
+            file=sys.stderr,
+            flush=True,
+        )
+    return {
+        "nodes": len(g.nodes),
+        "hyperarcs": len(g.hyperarcs),
+        "leaves": len(g.leaves()),
+        "queries": statistics.median(queries),
+        "per_query_median_s": statistics.median(medians),
+        "per_query_p90_s": statistics.median(p90s),
+        "per_query_max_s": statistics.median(maxes),
+        "wall_s": statistics.median(walls),
+    }
+
+
+def _recording(times: list[float], clock):  # type: ignore[no-untyped-def]
+    # play() reads the clock twice per query; keep the readings to get every query's time
+    def tick() -> float:
+        t = clock()
+        times.append(t)
+        return t
+
+    return tick
+
+
+def _query_times(ticks: list[float]) -> list[float]:
+    # ticks: t0, t_offline_end, then (start, end) per query
+    pairs = ticks[2:]
+    return [b - a for a, b in zip(pairs[::2], pairs[1::2], strict=False)]
+
+
+def chain_run(n: int, queries: int = 200) -> dict[str, float]:
+    g = chain(n)
+    t0 = time.perf_counter()
+    online = OnlineGraph(g)
+    answer = online.query()
+    build = time.perf_counter() - t0
+    times = []
+    for _ in range(queries):
+        e = next(iter(answer.element_ids))
+        name = online.element_name(e)
+        t = time.perf_counter()
+        if online.kind(name) == "node":
+            answer = online.update(met_nodes=[name])
+        else:
+            answer = online.update(solved_hyperarcs=[name])
+        times.append(time.perf_counter() - t)
+    return {"nodes": n, "offline_s": build, "per_query_median_s": statistics.median(times)}
+
+
+def table_run(legs: int) -> dict[str, float]:
+    from flexhrc.scenarios.table_assembly import build_graph
+
+    t0 = time.perf_counter()
+    h = build_graph(legs)
+    report = play(h, "cheapest")
+    wall = time.perf_counter() - t0
+    assert report.outcome == "solved"
+    return {
+        "legs": legs,
+        "queries": report.queries,
+        "offline_s": report.offline_s,
+        "per_query_median_s": report.online_s_per_query_median,
+        "wall_s": wall,
+    }
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--nodes", type=int, default=10_000)
+    ap.add_argument("--seeds", type=int, default=3)
+    ap.add_argument("--legs", type=int, default=500)
+    ap.add_argument("--json", type=Path, default=None)
+    args = ap.parse_args()
+    if args.nodes < 2 or args.seeds < 1 or args.legs < 1:
+        ap.error("--nodes must be >= 2, --seeds and --legs >= 1")
+    print(f"random tree, {args.nodes} nodes ...", file=sys.stderr, flush=True)
+    tree = tree_play(args.nodes, args.seeds)
+    print(f"chain, {args.nodes} nodes ...", file=sys.stderr, flush=True)
+    ch = chain_run(args.nodes)
+    print(f"table assembly, {args.legs} legs ...", file=sys.stderr, flush=True)
+    table = table_run(args.legs)
+    ok = tree["per_query_median_s"] <= TARGET_PER_QUERY_S
+    print(
+        f"random AND/OR tree: {tree['nodes']} nodes, {tree['hyperarcs']} hyper-arcs, "
+        f"{tree['leaves']} leaves; played to the end, {tree['queries']:.0f} queries "
+        f"(median of {args.seeds} seeds)"
+    )
+    print(
+        f"  per query: median {tree['per_query_median_s'] * 1e3:.3f} ms "
+        f"({'PASS' if ok else 'FAIL'} <= {TARGET_PER_QUERY_S * 1e3:.0f} ms), "
+        f"p90 {tree['per_query_p90_s'] * 1e3:.3f} ms, max {tree['per_query_max_s'] * 1e3:.1f} ms; "
+        f"whole play {tree['wall_s']:.1f} s wall"
+    )
+    print(
+        f"chain: {ch['nodes']} nodes, build + first answer {ch['offline_s'] * 1e3:.1f} ms, "
+        f"per query median {ch['per_query_median_s'] * 1e3:.2f} ms (every query changes the "
+        "cost of every node above it)"
+    )
+    print(
+        f"table assembly, {table['legs']} legs: {table['queries']} queries, offline "
+        f"{table['offline_s'] * 1e3:.1f} ms, per query median "
+        f"{table['per_query_median_s'] * 1e6:.0f} µs, {table['wall_s']:.1f} s wall"
+    )
+    if args.json:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        args.json.write_text(json.dumps({"tree": tree, "chain": ch, "table": table}, indent=2))
+    return 0 if ok else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

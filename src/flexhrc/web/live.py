@@ -1,0 +1,402 @@
+"""The panel over a live cell (:class:`flexhrc.cell.Cell`): ``flexhrc cell SCENARIO ... --web``.
+
+The cell is single-threaded: one loop receives, stores, feeds and sends. The panel's server runs
+on its own thread, so :class:`CellPanel` never touches the cell from there. It is one more
+component the cell's loop polls (like the simulated agents): in :meth:`CellPanel.poll`, on the
+cell's thread, it
+
+* carries out the inputs the page queued — a human action through :meth:`Cell.human_input`
+  (stored as an input like any operator's report), a *take*, a stop or resume of an arm — each
+  first checked against a copy of the Task Manager so a refused input changes nothing, and
+  answers the waiting HTTP request;
+* takes a new snapshot when the cell moved on and tells the page.
+
+Over Zenoh with ``--agents external`` the panel *is* the operator: it holds the liveliness token
+of each human agent, so the cell waits for the person at the page (and says so on it) instead of
+for an operator process.
+
+Stops are stored inputs (``agent_down``/``agent_up`` with ``"by": "operator"``), so a resumed
+cell keeps them. A *take* is carried out on the manager and stored as a ``human_take`` event;
+the cell's store does not yet list it among the inputs it replays (see ``docs/panel.md``).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import queue
+import threading
+import time
+from collections.abc import Callable, Mapping
+from concurrent.futures import Future
+from concurrent.futures import TimeoutError as FutureTimeout
+from typing import Any
+
+from flexhrc.cell import protocol as P
+from flexhrc.cell.components import ground
+from flexhrc.errors import FlexhrcError
+from flexhrc.taskmanager.manager import HumanAction
+from flexhrc.web import operator
+from flexhrc.web.backend import PanelInputError, json_safe, parse_action
+from flexhrc.web.local import TIMELINE_LIMIT
+from flexhrc.web.snapshot import feasible_costs, graph_snapshot, suggestions
+
+ANSWER_TIMEOUT_S = 10.0  # an HTTP request waits this long for the cell's loop to take its input
+
+
+class CellPanel:
+    """A :class:`~flexhrc.web.backend.PanelBackend` for a :class:`~flexhrc.cell.Cell`.
+
+    ``operator=True`` (external agents): the panel stands in for the scenario's human agents
+    (declares their liveliness tokens). Call :meth:`poll` from the cell's loop and
+    :meth:`close` at the end.
+    """
+
+    def __init__(self, cell: Any, *, operator: bool = False):
+        self.cell = cell
+        self.halted: set[str] = set()
+        self._inbox: queue.SimpleQueue[tuple[str, Any, Future[dict[str, Any]]]] = (
+            queue.SimpleQueue()
+        )
+        self._listeners: dict[int, Callable[[], None]] = {}
+        self._next_listener = 0
+        self._lock = threading.Lock()
+        self._seen: tuple[Any, ...] | None = None
+        self._version = 0
+        self._timeline: list[dict[str, Any]] = []
+        self._timeline_from = 0
+        self._commands: dict[int, dict[str, Any]] = {}
+        self._tokens: list[Any] = []
+        for ev in cell.events:  # a resumed cell: the operator's stops are in its store
+            if ev.body.get("by") == "operator" and ev.kind in ("agent_down", "agent_up"):
+                name = str(ev.body.get("agent"))
+                (self.halted.add if ev.kind == "agent_down" else self.halted.discard)(name)
+        self._snapshot = self._build()
+        declare = getattr(cell.transport, "declare_token", None)
+        if operator and declare is not None:  # the person at the page is the operator
+            for name, st in cell.agents.items():
+                if st.kind == "human":
+                    self._tokens.append(declare(P.alive_key(name)))
+
+    # -- the backend contract (any thread) --------------------------------------------------
+    def snapshot(self) -> dict[str, Any]:
+        return self._snapshot
+
+    def subscribe(self, callback: Callable[[], None]) -> Callable[[], None]:
+        with self._lock:
+            key = self._next_listener
+            self._next_listener += 1
+            self._listeners[key] = callback
+
+        def cancel() -> None:
+            with self._lock:
+                self._listeners.pop(key, None)
+
+        return cancel
+
+    def submit(self, body: Mapping[str, str]) -> dict[str, Any]:
+        if "action" in body:
+            return self._ask("action", body["action"])
+        if "take" in body:
+            return self._ask("take", body["take"])
+        raise PanelInputError('send {"action": ...} or {"take": ...}')
+
+    def stop_robot(self, name: str) -> dict[str, Any]:
+        return self._ask("stop", name)
+
+    def resume_robot(self, name: str) -> dict[str, Any]:
+        return self._ask("resume", name)
+
+    def _ask(self, kind: str, arg: Any) -> dict[str, Any]:
+        answer: Future[dict[str, Any]] = Future()
+        self._inbox.put((kind, arg, answer))
+        try:
+            return answer.result(timeout=ANSWER_TIMEOUT_S)
+        except FutureTimeout:
+            raise PanelInputError(
+                f"the cell did not take the input within {ANSWER_TIMEOUT_S:g} s (busy or ended)",
+                503,
+            ) from None
+
+    # -- on the cell's thread ---------------------------------------------------------------
+    def poll(self) -> None:
+        """Carry out queued inputs; refresh the snapshot if the cell moved on (cell thread)."""
+        while True:
+            try:
+                kind, arg, answer = self._inbox.get_nowait()
+            except queue.Empty:
+                break
+            try:
+                answer.set_result(self._apply(kind, arg))
+            except PanelInputError as exc:
+                answer.set_exception(exc)
+            except FlexhrcError as exc:
+                answer.set_exception(PanelInputError(str(exc), 409))
+        self.refresh()
+
+    def next_due(self) -> float | None:
+        return None
+
+    def refresh(self, *, force: bool = False) -> None:
+        c = self.cell
+        seen = (len(c.events), len(c.pending), c.now, c.tm.outcome, c.started, self._alive())
+        if seen == self._seen and not force:
+            return
+        self._seen = seen
+        snap = self._build()
+        if not force and {**snap, "version": None} == {**self._snapshot, "version": None}:
+            return  # nothing the page shows changed (e.g. an answer queued, not yet handled)
+        self._version += 1
+        snap["version"] = self._version
+        self._snapshot = snap
+        with self._lock:
+            listeners = list(self._listeners.values())
+        for cb in listeners:
+            cb()
+
+    def close(self) -> None:
+        """Answer what is still queued (the cell has ended), drop the operator's tokens."""
+        self.refresh(force=True)
+        while True:
+            try:
+                _, _, answer = self._inbox.get_nowait()
+            except queue.Empty:
+                break
+            answer.set_exception(
+                PanelInputError(f"the cooperation has ended ({self.cell.tm.outcome})", 409)
+            )
+        with self._lock:
+            for token in self._tokens:
+                with contextlib.suppress(Exception):  # the session may already be closed
+                    token.undeclare()
+            self._tokens.clear()
+
+    # -- inputs -------------------------------------------------------------------------------
+    def _apply(self, kind: str, arg: Any) -> dict[str, Any]:
+        c = self.cell
+        if not c.started:
+            raise PanelInputError("the cell has not started yet (waiting for its agents)", 409)
+        if c.tm.done:
+            raise PanelInputError(f"the cooperation has ended ({c.tm.outcome})", 409)
+        if kind == "action":
+            return self._human_action(str(arg))
+        if kind == "take":
+            return self._take(str(arg))
+        if kind in ("stop", "resume"):
+            return self._robot(str(arg), stop=kind == "stop")
+        raise PanelInputError(f"unknown input {kind!r}")
+
+    def _human_action(self, text: str) -> dict[str, Any]:
+        c = self.cell
+        name, args = parse_action(text)
+        schema = c.domain.actions.get(name)
+        if schema is None:
+            raise PanelInputError(
+                f"unknown action {name!r}; actions: {', '.join(sorted(c.domain.actions))}", 404
+            )
+        if len(args) != len(schema.parameters):
+            raise PanelInputError(
+                f"{name} takes {len(schema.parameters)} argument(s), got {len(args)}", 400
+            )
+        for a in args:
+            if a not in c.domain.agents and a not in c.kb.objects:
+                raise PanelInputError(f"unknown agent or object {a!r} in {text!r}", 404)
+        step = ground(c.domain, f"{name}({', '.join(args)})")
+        people = [a for a in step.agents if c.agents.get(a) and c.agents[a].kind == "human"]
+        if not people or len(people) != len(step.agents):
+            raise PanelInputError(f"{step} is not an operator's action", 409)
+        action = HumanAction(step.name, step.args)
+        now = c.now
+        trial = operator.dry_run(c.tm, lambda tm: tm.on_human_action(now, action))
+        if any(ev.get("type") == "human_action_unmatched" for ev in trial):
+            raise PanelInputError(
+                f"{action} advances no feasible part of the task now; "
+                "press 'done' on a suggested action or 'I'll do this' on a hyper-arc",
+                409,
+            )
+        c.human_input(str(action), people[0])  # stored and fed by the cell's own loop
+        self.refresh(force=True)
+        return {"ok": True, "action": str(action), "outcome": c.tm.outcome}
+
+    def _take(self, element: str) -> dict[str, Any]:
+        c = self.cell
+        now = c.now
+        operator.dry_run(c.tm, lambda tm: operator.take(tm, now, element))  # raises if not
+        c._record("human_take", {"element": element})
+        c._handle(operator.take(c.tm, now, element))
+        c._publish_state()
+        self.refresh(force=True)
+        ex = c.tm.executions.get(element)
+        return {
+            "ok": True,
+            "take": element,
+            "actions": [str(a) for a in ex.branch.steps] if ex else [],
+        }
+
+    def _robot(self, name: str, *, stop: bool) -> dict[str, Any]:
+        c = self.cell
+        st = c.agents.get(name)
+        if st is None:
+            robots = ", ".join(n for n, s in c.agents.items() if s.kind == "robot")
+            raise PanelInputError(f"unknown robot {name!r}; robots: {robots}", 404)
+        if st.kind != "robot":
+            raise PanelInputError(f"{name!r} is an operator, not a robot", 400)
+        if stop:
+            if name in self.halted or not st.available:
+                raise PanelInputError(f"robot {name!r} is already stopped or lost", 409)
+            cmd = c.tm.busy.get(name)
+            if cmd is not None and st.alive:  # the arm itself stops at once
+                c.transport.publish(
+                    P.cmd_topic(name),
+                    P.message("stop", id=cmd.id, reason="stopped by the operator", t=c.now),
+                )
+            self.halted.add(name)
+            # stored as an input: the manager plans without the arm, its command fails
+            c._input("agent_down", {"agent": name, "wall": time.time(), "by": "operator"})
+        else:
+            if name not in self.halted:
+                raise PanelInputError(f"robot {name!r} is not stopped", 409)
+            self.halted.discard(name)
+            c._input("agent_up", {"agent": name, "wall": time.time(), "by": "operator"})
+        self.refresh(force=True)
+        return {"ok": True, ("stopped" if stop else "resumed"): name}
+
+    # -- the state ----------------------------------------------------------------------------
+    def _alive(self) -> tuple[tuple[str, bool, bool], ...]:
+        return tuple((n, st.alive, st.available) for n, st in self.cell.agents.items())
+
+    def _update_timeline(self) -> None:
+        events = self.cell.events
+        for ev in events[self._timeline_from :]:
+            body = ev.body
+            if ev.kind == "command":
+                self._commands[int(body["id"])] = {"start": ev.t, **body}
+            elif ev.kind == "ack":
+                cmd = self._commands.pop(int(body["id"]), None)
+                if cmd is not None:
+                    entry = {
+                        "start": round(float(cmd["start"]), 3),
+                        "end": round(ev.t, 3),
+                        "agents": list(cmd.get("agents", [])),
+                        "action": str(cmd.get("action")),
+                        "status": str(body.get("status")),
+                    }
+                    if body.get("reason"):
+                        entry["reason"] = str(body["reason"])
+                    self._timeline.append(entry)
+            elif ev.kind == "stop":
+                cmd = self._commands.pop(int(body["id"]), None)
+                if cmd is not None:
+                    self._timeline.append(
+                        {
+                            "start": round(float(cmd["start"]), 3),
+                            "end": round(ev.t, 3),
+                            "agents": list(cmd.get("agents", [])),
+                            "action": str(cmd.get("action")),
+                            "status": "stopped",
+                            "reason": str(body.get("reason")),
+                        }
+                    )
+            elif ev.kind == "human_action":
+                t = round(ev.t, 3)
+                start = body.get("start")
+                self._timeline.append(
+                    {
+                        "start": round(float(start), 3) if isinstance(start, int | float) else t,
+                        "end": t,
+                        "agents": [str(body.get("agent"))],
+                        "action": str(body.get("action")),
+                        "status": "done",
+                    }
+                )
+        self._timeline_from = len(events)
+        del self._timeline[:-TIMELINE_LIMIT]
+
+    def _agents(self) -> list[dict[str, Any]]:
+        c = self.cell
+        asked = {
+            a: str(ex.branch.steps[ex.next_index])
+            for ex in c.tm.executions.values()
+            if ex.owner == "human" and ex.next_index < len(ex.branch.steps)
+            for a in ex.branch.steps[ex.next_index].agents
+        }
+        out = []
+        for name, st in c.agents.items():
+            item: dict[str, Any] = {"name": name, "kind": st.kind, "alive": bool(st.alive)}
+            if st.kind == "human":
+                item["action"] = asked.get(name)
+                item["status"] = (
+                    "lost" if not st.available else "asked" if name in asked else "free"
+                )
+            else:
+                cmd = c.tm.busy.get(name)
+                item["action"] = str(cmd.action) if cmd else None
+                item["command"] = cmd.id if cmd else None
+                if name in self.halted:
+                    item["status"] = "stopped"
+                elif not st.available:
+                    item["status"] = "lost"
+                else:
+                    item["status"] = "busy" if cmd else "idle"
+            out.append(item)
+        return out
+
+    def _waiting(self) -> str | None:
+        c = self.cell
+        if c.tm.done:
+            return None
+        missing = [n for n, st in c.agents.items() if not st.alive and st.kind == "robot"]
+        if not c.started:
+            if missing:
+                return f"waiting for the agents' processes: {', '.join(missing)}"
+            return "starting"
+        if not c.kb.consistent:
+            reasons = "; ".join(i.reason for i in c.kb.inconsistencies)
+            return f"knowledge base inconsistent: {reasons}"
+        lost = [n for n, st in c.agents.items() if not st.available and n not in self.halted]
+        asked = [
+            str(ex.branch.steps[ex.next_index])
+            for ex in c.tm.executions.values()
+            if ex.owner == "human" and ex.next_index < len(ex.branch.steps)
+        ]
+        parts = []
+        if asked and not c.pending:
+            parts.append(f"waiting for the operator: {', '.join(asked)}")
+        if lost:
+            parts.append(f"agent(s) lost: {', '.join(lost)}")
+        if self.halted:
+            parts.append(f"stopped by the operator: {', '.join(sorted(self.halted))}")
+        if not parts and not c.tm.busy and not c.pending:
+            parts.append("waiting: no agent has anything to do")
+        return "; ".join(parts) or None
+
+    def _build(self) -> dict[str, Any]:
+        c = self.cell
+        self._update_timeline()
+        tm = c.tm
+        running = {e: ex.owner for e, ex in tm.executions.items()}
+        kb = c.kb.to_dict()
+        return json_safe(
+            {
+                "v": 1,
+                "cell": c.name,
+                "scenario": getattr(c.scenario, "name", None),
+                "outcome": tm.outcome,
+                "reason": tm.reason,
+                "waiting": self._waiting(),
+                "time": round(c.now, 3),
+                "version": self._version,
+                "suggestions": suggestions(tm),
+                "takeable": operator.takeable(tm),
+                "agents": self._agents(),
+                "graph": graph_snapshot(tm.graph, feasible_costs(tm.graph), running),
+                "timeline": list(self._timeline),
+                "objects": kb["objects"],
+                "facts": kb["facts"],
+                "consistent": kb["consistent"],
+                "events": len(c.events),
+                "dropped": len(c.dropped),
+            }
+        )
+
+
+__all__ = ["CellPanel"]

@@ -1,0 +1,114 @@
+"""The inputs an operator at a panel has, on any :class:`~flexhrc.taskmanager.TaskManager`.
+
+A recognised human action (paper 000, section V) tells the manager what the person *did*. A
+person at a panel can also say what they *will* do — "I'll do this" on a feasible hyper-arc —
+and stop an arm. :func:`take` is the first: the robot leaves that part as it does when the
+manager recognises an unsuggested human action (every robot execution sharing a child node or an
+object with it is aborted, its arm sent to rest), and the hyper-arc's actions, grounded for the
+operator by a decision tree (eq. 21), are suggested to the operator. :func:`takeable` lists the
+hyper-arcs an operator may take now. :func:`dry_run` tries an input on a copy of the manager, so
+a panel refuses what the manager would not match without changing anything.
+"""
+
+from __future__ import annotations
+
+import copy
+from collections.abc import Callable
+from typing import Any
+
+from flexhrc.taskmanager.decision import DecisionTree
+from flexhrc.taskmanager.manager import Directive, TaskManager
+from flexhrc.web.backend import PanelInputError
+
+
+def humans(tm: TaskManager) -> list[str]:
+    return [a.name for a in tm.domain.agents.values() if a.is_human]
+
+
+def human_branches(tm: TaskManager, element: str) -> DecisionTree:
+    """The operators' ways of doing a feasible hyper-arc now (groundings x operators), with the
+    objects of the operators' other executions left out."""
+    reserved = set().union(*(ex.objects for ex in tm.executions.values() if ex.owner == "human"))
+    return DecisionTree.build(
+        element,
+        tm.actions_of(element),
+        tm.constraints_of(element),
+        tm.domain,
+        tm.kb,
+        exclude=tm.failed.get(element, ()),
+        available_agents=[h for h in humans(tm) if h not in tm.unavailable],
+        reserved=reserved,
+        binding=tm.binding_of(element),
+    )
+
+
+def takeable(tm: TaskManager) -> list[str]:
+    """Feasible hyper-arcs an operator may take now (those not already an operator's)."""
+    if tm.done:
+        return []
+    out = []
+    for name, _cost in sorted(tm.feasible_hyperarcs().items(), key=lambda kv: (kv[1], kv[0])):
+        ex = tm.executions.get(name)
+        if ex is not None and ex.owner == "human":
+            continue
+        if tm.actions_of(name) and human_branches(tm, name).branches:
+            out.append(name)
+    return out
+
+
+def take(tm: TaskManager, now: float, element: str) -> list[Directive]:
+    """The operator will do ``element``. Raises :class:`PanelInputError` (nothing changed) when
+    it is not a feasible hyper-arc an operator can do now."""
+    try:
+        kind = tm.graph.kind(element)
+    except KeyError:
+        raise PanelInputError(f"unknown hyper-arc {element!r}", 404) from None
+    if tm.done:
+        raise PanelInputError(f"the cooperation has ended ({tm.outcome})", 409)
+    if kind != "hyperarc":
+        raise PanelInputError(f"{element!r} is a node; take a hyper-arc", 400)
+    feasible = tm.feasible_hyperarcs()
+    if element not in feasible:
+        raise PanelInputError(f"{element!r} is not feasible now", 409)
+    ex = tm.executions.get(element)
+    if ex is not None and ex.owner == "human":
+        raise PanelInputError(f"{element!r} is already the operator's", 409)
+    if not tm.actions_of(element):
+        raise PanelInputError(f"{element!r} has no action to do", 409)
+    tree = human_branches(tm, element)
+    if not tree.branches:
+        raise PanelInputError(
+            f"no operator can do {element!r} now (no grounding, or its actions are a robot's)",
+            409,
+        )
+
+    def body() -> list[Directive]:
+        best = tree.evaluate(tm.simulator, tm.kb, tm.domain) or tree.branches[0]
+        out: list[Directive] = []
+        objects = {k: v for k, v in best.grounding.items() if v not in tm.domain.agents}
+        tm._take_over(element, best, objects, out)  # the robot leaves that part
+        tm._emit("taken", element=element, grounding=dict(best.grounding))
+        tm._launch(element, best, feasible[element], out)
+        out += tm._plan()
+        return out
+
+    return tm._entry(now, body)
+
+
+def dry_run(
+    tm: TaskManager, apply: Callable[[TaskManager], object], *, share: tuple[Any, ...] = ()
+) -> list[dict[str, Any]]:
+    """Apply an input to a deep copy of ``tm``; returns the events the copy logged. The log
+    callback is replaced (the copy never writes to the real log); the simulator, the domain and
+    the objects in ``share`` are shared, not copied."""
+    events: list[dict[str, Any]] = []
+    memo: dict[int, Any] = {id(tm.simulator): tm.simulator, id(tm.domain): tm.domain}
+    memo[id(vars(tm)["_log"])] = events.append
+    for obj in share:
+        memo[id(obj)] = obj
+    clone = copy.deepcopy(tm, memo)
+    apply(clone)
+    return events
+
+
+__all__ = ["dry_run", "human_branches", "humans", "take", "takeable"]

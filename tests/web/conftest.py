@@ -1,0 +1,64 @@
+"""Fixtures of the panel's browser tests: Debian's chromium driven by Playwright.
+
+Playwright's own browser download is never used (``executable_path`` points at the system
+chromium that ``scripts/setup.sh`` installs); without chromium or Playwright the browser tests
+skip with the reason.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+from collections.abc import Iterator
+from typing import Any
+
+import pytest
+
+CHROMIUM = os.environ.get("FLEXHRC_CHROMIUM") or shutil.which("chromium") or "/usr/bin/chromium"
+
+
+@pytest.fixture(scope="module")
+def browser() -> Iterator[Any]:
+    sync_api = pytest.importorskip("playwright.sync_api")
+    if not os.path.exists(CHROMIUM):
+        pytest.skip(f"no chromium at {CHROMIUM} (apt-get install chromium; scripts/setup.sh does)")
+    with sync_api.sync_playwright() as pw:
+        b = pw.chromium.launch(
+            executable_path=CHROMIUM,
+            headless=True,
+            args=["--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage"],
+            timeout=30_000,
+        )
+        try:
+            yield b
+        finally:
+            b.close()
+
+
+@pytest.fixture
+def open_page(browser: Any) -> Iterator[Any]:
+    """``open_page(url)`` -> a new page in its own context, with JS errors collected."""
+    contexts: list[Any] = []
+    errors: list[str] = []
+    requests: list[str] = []
+
+    def make(url: str) -> Any:
+        ctx = browser.new_context(viewport={"width": 1280, "height": 900})
+        ctx.on("request", lambda r: requests.append(r.url))
+        contexts.append(ctx)
+        page = ctx.new_page()
+        page.set_default_timeout(10_000)
+        page.on("pageerror", lambda e: errors.append(str(e)))
+        page.on(  # the panel's own security policy must not block any of its own parts
+            "console",
+            lambda m: errors.append(m.text) if "Content Security Policy" in m.text else None,
+        )
+        page.goto(url)
+        return page
+
+    yield make
+    for ctx in contexts:
+        ctx.close()
+    assert not errors, errors
+    # offline: everything the page loaded came from the panel itself, on loopback
+    assert requests and all(u.startswith("http://127.0.0.1:") for u in requests), requests
