@@ -285,3 +285,62 @@ def test_an_unsuggested_human_action_from_the_plain_client_is_followed(
     assert set(done_by_hand[2:]) <= suggested  # the rest: only what the operator was asked
     assert data["legs_by_agent"]["human"] >= 1
     assert sum(data["legs_by_agent"].values()) == 4
+
+
+def _free_port() -> int:
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def _http(url: str, body: dict | None = None) -> dict:
+    import urllib.error
+    import urllib.request
+
+    data = None if body is None else json.dumps(body).encode()
+    req = urllib.request.Request(url, data=data, headers={"Content-Type": "application/json"})
+    try:
+        with urllib.request.urlopen(req, timeout=5) as r:
+            return json.loads(r.read())
+    except urllib.error.HTTPError as exc:
+        return {"status": exc.code, **json.loads(exc.read() or b"{}")}
+
+
+def test_the_ros2_managers_panel_is_the_operator(
+    tmp_path: Path, ros_env: dict[str, str], cell_name: str
+):
+    """`flexhrc ros2 cell --web`: the person at the page is the operator of the ROS 2 cell."""
+    scenario = tmp_path / "table.yaml"
+    scenario.write_text("scenario: table_assembly\nunreachable_bolts: [2]\n")
+    common = [str(scenario), "--cell", cell_name]
+    port = _free_port()
+    base = f"http://127.0.0.1:{port}"
+    procs: list[subprocess.Popen[str]] = []
+    done: list[str] = []
+    try:
+        procs.append(_node(ros_env, "cell", *common, "--json", "--web", f"127.0.0.1:{port}",
+                           log=tmp_path / "manager.log"))  # fmt: skip
+        for arm in ("left", "right"):
+            procs.append(_node(ros_env, "arm", *common, "--arm", arm, log=tmp_path / f"{arm}.log"))
+        deadline = time.monotonic() + 120
+        while procs[0].poll() is None and time.monotonic() < deadline:
+            try:
+                state = _http(f"{base}/api/state")
+            except OSError:  # the server is not up yet, or already gone
+                time.sleep(0.05)
+                continue
+            asked = [s["next"] for s in state.get("suggestions", [])
+                     if s.get("owner") == "human" and s.get("next")]  # fmt: skip
+            if asked and asked[0] not in done[-1:]:
+                answer = _http(f"{base}/api/human", {"action": asked[0]})
+                if answer.get("ok"):
+                    done.append(asked[0])
+            time.sleep(0.05)
+        data = _finish(procs[0], 30, tmp_path)
+    finally:
+        _stop_all(procs)
+    assert data["outcome"] == "solved", data.get("reason")
+    assert done and all("human" in a for a in done)
+    assert data["legs_by_agent"]["human"] == 1 and data["human_actions"] == len(done)

@@ -104,6 +104,9 @@ def register(subparsers: Any) -> None:
         metavar="HZ",
         help="MarkerArray rate for RViz (default 2 Hz)",
     )
+    from flexhrc.cli.panel import add_web_options
+
+    add_web_options(cell)  # the operator panel (docs/panel.md): the person at the page operates
     add_json_flag(cell)
     cell.set_defaults(func=cmd_cell)
 
@@ -305,6 +308,9 @@ def cmd_cell(args: argparse.Namespace) -> int:
         raise FlexhrcError(f"--markers-rate must be in (0, 100] Hz, got {args.markers_rate}")
     if args.resume and not args.store:
         raise FlexhrcError("--resume needs --store FILE.db")
+    from flexhrc.cli.panel import check_web, serve
+
+    web = check_web(args)  # a non-loopback --web without --token is refused before any work
     scenario = load_scenario(args.scenario, seed=args.seed)
     progress = _progress(args)
     stream = sys.stderr if args.json else sys.stdout
@@ -316,6 +322,7 @@ def cmd_cell(args: argparse.Namespace) -> int:
 
     store = EventStore(args.store, resume=args.resume) if args.store else None
     transport: Any = None
+    server: Any = None
     try:
         transport = _transport(args, "manager")
         cell = Cell(
@@ -361,9 +368,18 @@ def cmd_cell(args: argparse.Namespace) -> int:
             rate_hz=args.markers_rate,
         )
 
+        panel: Any = None
+        if web is not None:  # the page stands in for the scenario's operators (their tokens)
+            from flexhrc.web.live import CellPanel
+
+            panel = CellPanel(cell, operator=True)
+            server = serve(web, args.token, panel)
+
         def pump(timeout: float) -> None:
             transport.wait(timeout)
             transport.flush()
+            if panel is not None:
+                panel.poll()
             interfaces.targets = _targets(cell)
             interfaces.poll()
 
@@ -374,9 +390,13 @@ def cmd_cell(args: argparse.Namespace) -> int:
         data = cell.run(pump=pump, agents_timeout=args.wait, progress=progress)
         interfaces.targets = {}
         interfaces.publish_markers()
+        if panel is not None:
+            panel.close()
         cell.close()
         # (closing the transport waits until the end message is acknowledged)
     finally:
+        if server is not None:
+            server.stop(grace=0.3)  # the page gets the last state first
         if store is not None:
             store.close()
         if transport is not None:
