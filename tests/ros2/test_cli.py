@@ -50,6 +50,8 @@ def test_bad_arm_options_are_one_clear_error(args: list[str], message: str):
         (["--wait", "-1"], "--wait must be a positive"),
         (["--store", "/nonexistent/dir/c.db"], "/nonexistent/dir"),
         (["--cell", "a-b"], "not a valid ROS 2 name"),
+        (["--web", "0.0.0.0:8080"], "--token"),
+        (["--token", "abcdefgh12"], "--token is only used with --web"),
     ],
 )
 def test_bad_cell_options_are_one_clear_error(args: list[str], message: str):
