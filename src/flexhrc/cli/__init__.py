@@ -40,6 +40,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "cell",
     "agent",
     "panel",
+    "ros2",
 )
 
 

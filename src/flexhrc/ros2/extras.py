@@ -1,0 +1,124 @@
+"""The manager node's standard ROS 2 interfaces beside the JSON protocol.
+
+:class:`ManagerInterfaces` runs inside the cell's manager process (``flexhrc ros2 cell``), on the
+same :class:`~flexhrc.ros2.transport.Ros2Transport`:
+
+========================================  ==================================  =================
+topic (under ``/flexhrc/<cell>/``)        type                                direction
+========================================  ==================================  =================
+``markers``                               ``visualization_msgs/MarkerArray``  out, ``rate_hz``
+``objects/<object>/pose``                 ``geometry_msgs/PoseStamped``       in (perception)
+``human/<operator>/imu``                  ``sensor_msgs/Imu``                 in (wrist IMU)
+========================================  ==================================  =================
+
+* markers: the knowledge base's objects (legs, tabletop, bolts, obstacles) and, as arrows, the
+  targets of the commands running now — RViz shows the cell as the manager believes it is;
+* an object pose from perception that runs outside flexhrc becomes a plain dict
+  (:func:`~flexhrc.ros2.messages.percept_from_pose`) handed to ``on_percept`` —
+  ``flexhrc ros2 cell`` sends it to the manager as the cell protocol's ``percept`` (stored, then
+  applied to the knowledge base). Objects are those the scenario declares; a pose for another
+  name is not subscribed to;
+* wrist IMU readings become samples (:func:`~flexhrc.ros2.messages.imu_sample`) handed to
+  ``on_imu(operator, sample)``, for human action recognition.
+
+A message with a non-finite number or a frame other than ``world`` is dropped and logged (counted
+in ``dropped``); it never reaches the manager.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from collections.abc import Callable, Iterable
+from typing import Any
+
+from flexhrc.ros2 import messages as rm
+from flexhrc.ros2._deps import msg
+
+log = logging.getLogger("flexhrc.ros2.extras")
+
+__all__ = ["ManagerInterfaces"]
+
+
+class ManagerInterfaces:
+    """Markers out, object poses and wrist IMU in (see the module docstring)."""
+
+    def __init__(
+        self,
+        transport: Any,
+        kb: Any,
+        *,
+        objects: Iterable[str] | None = None,
+        operators: Iterable[str] = (),
+        on_percept: Callable[[dict[str, Any]], None] | None = None,
+        on_imu: Callable[[str, dict[str, Any]], None] | None = None,
+        rate_hz: float = 2.0,
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
+        if not (math.isfinite(rate_hz) and 0 < rate_hz <= 100):
+            raise ValueError(f"marker rate must be in (0, 100] Hz, got {rate_hz}")
+        self.transport = transport
+        self.kb = kb
+        self.targets: dict[str, tuple[float, float, float]] = {}
+        self.on_percept = on_percept
+        self.on_imu = on_imu
+        self.period = 1.0 / rate_hz
+        self.clock = clock
+        self.dropped = 0
+        self.percepts = 0
+        self.imu_samples = 0
+        self._last = -math.inf
+        self._markers = transport.create_publisher(
+            msg("visualization_msgs.msg", "MarkerArray"), "markers"
+        )
+        PoseStamped = msg("geometry_msgs.msg", "PoseStamped")
+        Imu = msg("sensor_msgs.msg", "Imu")
+        names = sorted(objects if objects is not None else kb.objects)
+        for name in names:
+            transport.create_subscription(
+                PoseStamped, f"objects/{name}/pose", lambda m, n=name: self._pose(n, m)
+            )
+        for op in operators:
+            transport.create_subscription(Imu, f"human/{op}/imu", lambda m, o=op: self._imu(o, m))
+
+    def _pose(self, name: str, m: Any) -> None:
+        try:
+            percept = rm.percept_from_pose(name, m)
+        except ValueError as exc:
+            self.dropped += 1
+            log.warning("dropped a pose of %s: %s", name, exc)
+            return
+        self.percepts += 1
+        if self.on_percept is not None:
+            self.on_percept(percept)
+
+    def _imu(self, operator: str, m: Any) -> None:
+        try:
+            sample = rm.imu_sample(m)
+        except ValueError as exc:
+            self.dropped += 1
+            log.warning("dropped an IMU reading of %s: %s", operator, exc)
+            return
+        self.imu_samples += 1
+        if self.on_imu is not None:
+            self.on_imu(operator, sample)
+
+    def set_target(self, agent: str, position: Iterable[float] | None) -> None:
+        """Where ``agent`` is going now (an arrow in the markers); None: nowhere."""
+        if position is None:
+            self.targets.pop(agent, None)
+        else:
+            x, y, z = (float(v) for v in position)
+            self.targets[agent] = (x, y, z)
+
+    def publish_markers(self) -> None:
+        self._markers.publish(
+            rm.marker_array(self.kb.objects.values(), time.time(), targets=self.targets)
+        )
+        self._last = self.clock()
+
+    def poll(self) -> None:
+        """Publish the markers when they are due."""
+        if self.clock() - self._last >= self.period:
+            self.publish_markers()

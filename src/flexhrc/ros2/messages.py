@@ -1,0 +1,343 @@
+"""Standard ROS 2 messages built from flexhrc's data, and read back into it.
+
+Only message packages that ship as PyPI wheels are used (``std_msgs``, ``geometry_msgs``,
+``sensor_msgs``, ``trajectory_msgs``, ``visualization_msgs``), so nothing needs compiling:
+
+* :func:`joint_state` — ``sensor_msgs/JointState`` of one arm (``<arm>_joint1..7``, radians);
+* :func:`pose_stamped` — ``geometry_msgs/PoseStamped`` of an end effector or an object;
+* :func:`joint_trajectory` — a kinematic-simulator :class:`~flexhrc.action.simulator.Trajectory`
+  as ``trajectory_msgs/JointTrajectory`` (what a ``joint_trajectory_controller`` executes);
+* :func:`marker_array` — the knowledge base's objects and targets as
+  ``visualization_msgs/MarkerArray`` for RViz;
+* :func:`percept_from_pose` and :func:`imu_sample` — object poses and wrist IMU readings coming
+  from perception that runs outside flexhrc, as plain dicts.
+
+Every function checks its numbers: NaN or infinity raises a ``ValueError`` naming the field.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping, Sequence
+from typing import Any
+
+from flexhrc.ros2._deps import msg
+
+Vec3 = tuple[float, float, float]
+
+__all__ = [
+    "imu_sample",
+    "joint_names",
+    "joint_state",
+    "joint_trajectory",
+    "marker_array",
+    "percept_from_pose",
+    "pose_stamped",
+    "quaternion_from_matrix",
+    "stamp",
+    "stamp_seconds",
+    "yaw_from_quaternion",
+]
+
+WORLD_FRAME = "world"
+
+
+def joint_names(arm: str, dof: int = 7) -> list[str]:
+    """Joint names of one arm, as in the shipped URDF (``left_joint1`` ... ``left_joint7``)."""
+    return [f"{arm}_joint{i}" for i in range(1, dof + 1)]
+
+
+def _finite(values: Iterable[float], what: str) -> list[float]:
+    out = [float(v) for v in values]
+    for v in out:
+        if not math.isfinite(v):
+            raise ValueError(f"{what}: {v} is not a finite number")
+    return out
+
+
+def stamp(seconds: float) -> Any:
+    """``builtin_interfaces/Time`` for ``seconds`` (wall or simulated time)."""
+    if not math.isfinite(seconds) or seconds < 0:
+        raise ValueError(f"time stamp must be a finite non-negative number, not {seconds}")
+    t = msg("builtin_interfaces.msg", "Time")()
+    sec = int(seconds)
+    t.sec = sec
+    t.nanosec = min(round((seconds - sec) * 1e9), 999_999_999)
+    return t
+
+
+def stamp_seconds(t: Any) -> float:
+    return float(t.sec) + float(t.nanosec) * 1e-9
+
+
+def _header(frame_id: str, seconds: float) -> Any:
+    h = msg("std_msgs.msg", "Header")()
+    h.frame_id = frame_id
+    h.stamp = stamp(seconds)
+    return h
+
+
+def joint_state(
+    names: Sequence[str],
+    positions: Sequence[float],
+    seconds: float,
+    velocities: Sequence[float] | None = None,
+) -> Any:
+    """``sensor_msgs/JointState`` (no efforts: the kinematic simulator has none)."""
+    if len(names) != len(positions):
+        raise ValueError(f"{len(names)} joint names but {len(positions)} positions")
+    m = msg("sensor_msgs.msg", "JointState")()
+    m.header = _header("", seconds)
+    m.name = list(names)
+    m.position = _finite(positions, "joint position")
+    if velocities is not None:
+        if len(velocities) != len(names):
+            raise ValueError(f"{len(names)} joint names but {len(velocities)} velocities")
+        m.velocity = _finite(velocities, "joint velocity")
+    return m
+
+
+def quaternion_from_matrix(R: Any) -> tuple[float, float, float, float]:
+    """Unit quaternion ``(x, y, z, w)`` of a 3x3 rotation matrix (Shepperd's method: the
+    largest diagonal term is the divisor, so it stays accurate near 180 degrees)."""
+    r = [[float(R[i][j]) for j in range(3)] for i in range(3)]
+    trace = r[0][0] + r[1][1] + r[2][2]
+    if trace > 0:
+        s = 2.0 * math.sqrt(trace + 1.0)
+        w, x, y, z = (
+            0.25 * s,
+            (r[2][1] - r[1][2]) / s,
+            (r[0][2] - r[2][0]) / s,
+            (r[1][0] - r[0][1]) / s,
+        )
+    elif r[0][0] > r[1][1] and r[0][0] > r[2][2]:
+        s = 2.0 * math.sqrt(1.0 + r[0][0] - r[1][1] - r[2][2])
+        w, x, y, z = (
+            (r[2][1] - r[1][2]) / s,
+            0.25 * s,
+            (r[0][1] + r[1][0]) / s,
+            (r[0][2] + r[2][0]) / s,
+        )
+    elif r[1][1] > r[2][2]:
+        s = 2.0 * math.sqrt(1.0 + r[1][1] - r[0][0] - r[2][2])
+        w, x, y, z = (
+            (r[0][2] - r[2][0]) / s,
+            (r[0][1] + r[1][0]) / s,
+            0.25 * s,
+            (r[1][2] + r[2][1]) / s,
+        )
+    else:
+        s = 2.0 * math.sqrt(1.0 + r[2][2] - r[0][0] - r[1][1])
+        w, x, y, z = (
+            (r[1][0] - r[0][1]) / s,
+            (r[0][2] + r[2][0]) / s,
+            (r[1][2] + r[2][1]) / s,
+            0.25 * s,
+        )
+    n = math.sqrt(x * x + y * y + z * z + w * w)
+    return (x / n, y / n, z / n, w / n)
+
+
+def yaw_from_quaternion(x: float, y: float, z: float, w: float) -> float:
+    """Rotation about the world z axis (radians) of a quaternion."""
+    return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+
+
+def pose_stamped(
+    position: Sequence[float],
+    seconds: float,
+    orientation: Sequence[float] = (0.0, 0.0, 0.0, 1.0),
+    frame_id: str = WORLD_FRAME,
+) -> Any:
+    """``geometry_msgs/PoseStamped``; ``orientation`` is a quaternion ``(x, y, z, w)``."""
+    p = _finite(position, "position")
+    q = _finite(orientation, "orientation")
+    if len(p) != 3 or len(q) != 4:
+        raise ValueError("a pose needs 3 position values and a 4-value quaternion")
+    m = msg("geometry_msgs.msg", "PoseStamped")()
+    m.header = _header(frame_id, seconds)
+    m.pose.position.x, m.pose.position.y, m.pose.position.z = p
+    o = m.pose.orientation
+    o.x, o.y, o.z, o.w = q
+    return m
+
+
+def joint_trajectory(
+    names: Sequence[str],
+    times: Sequence[float],
+    positions: Sequence[Sequence[float]],
+    seconds: float,
+    *,
+    max_points: int = 50,
+) -> Any:
+    """``trajectory_msgs/JointTrajectory`` through at most ``max_points`` samples of a motion
+    (always its first and last), each with its ``time_from_start`` and finite-difference
+    velocities (zero at both ends, so a controller starts and ends at rest)."""
+    n = len(times)
+    if n == 0 or n != len(positions):
+        raise ValueError(f"a trajectory needs as many times ({n}) as positions ({len(positions)})")
+    if max_points < 2:
+        raise ValueError("max_points must be at least 2")
+    keep = (
+        sorted({round(i * (n - 1) / (max_points - 1)) for i in range(max_points)})
+        if n > max_points
+        else list(range(n))
+    )
+    Point = msg("trajectory_msgs.msg", "JointTrajectoryPoint")
+    Duration = msg("builtin_interfaces.msg", "Duration")
+    m = msg("trajectory_msgs.msg", "JointTrajectory")()
+    m.header = _header("", seconds)
+    m.joint_names = list(names)
+    t0 = float(times[0])
+    rows = [(float(times[i]) - t0, _finite(positions[i], "trajectory position")) for i in keep]
+    for k, (t, q) in enumerate(rows):
+        if len(q) != len(names):
+            raise ValueError(f"{len(names)} joint names but a point with {len(q)} positions")
+        p = Point()
+        p.positions = q
+        if 0 < k < len(rows) - 1:
+            (ta, qa), (tb, qb) = rows[k - 1], rows[k + 1]
+            dt = tb - ta
+            p.velocities = [(b - a) / dt if dt > 0 else 0.0 for a, b in zip(qa, qb, strict=True)]
+        else:
+            p.velocities = [0.0] * len(q)
+        d = Duration()
+        d.sec = int(t)
+        d.nanosec = min(round((t - int(t)) * 1e9), 999_999_999)
+        p.time_from_start = d
+        m.points.append(p)
+    return m
+
+
+_SHAPES = {"leg": "CYLINDER", "obstacle": "SPHERE", "tabletop": "CUBE", "place": "CYLINDER"}
+_COLOURS = {
+    "leg": (0.80, 0.55, 0.25, 1.0),
+    "tabletop": (0.60, 0.40, 0.20, 0.8),
+    "place": (0.20, 0.50, 0.90, 0.6),
+    "obstacle": (0.90, 0.20, 0.20, 0.5),
+    "target": (0.10, 0.90, 0.20, 0.9),
+}
+
+
+def marker_array(
+    objects: Iterable[Any],
+    seconds: float,
+    *,
+    targets: Mapping[str, Sequence[float]] | None = None,
+    frame_id: str = WORLD_FRAME,
+    namespace: str = "flexhrc",
+) -> Any:
+    """Knowledge-base objects (:class:`~flexhrc.knowledge.base.ObjectRecord`) as markers:
+    legs as cylinders, the tabletop as a box, places (bolts, the middle pose) as discs,
+    obstacles as spheres, each with a text label; ``targets`` (name -> position, e.g. where
+    each arm is going) as green arrows pointing down at them. Arms and people are left out
+    (the joint states show the arms). Marker ids are stable per name, so RViz updates them."""
+    Marker = msg("visualization_msgs.msg", "Marker")
+    out = msg("visualization_msgs.msg", "MarkerArray")()
+    header = _header(frame_id, seconds)
+    mid = 0
+
+    def add(m: Any) -> None:
+        nonlocal mid
+        m.header = header
+        m.ns = namespace
+        m.id = mid
+        m.action = Marker.ADD
+        m.pose.orientation.w = 1.0
+        mid += 1
+        out.markers.append(m)
+
+    for o in sorted(objects, key=lambda r: r.id):
+        shape = _SHAPES.get(o.type)
+        if shape is None:
+            continue
+        x, y, z = _finite(o.position, f"position of {o.id}")
+        m = Marker()
+        m.type = getattr(Marker, shape)
+        size = o.size or {}
+        if o.type == "leg":
+            length = float(size.get("length", 0.3))
+            dia = float(size.get("diameter", 0.04))
+            # a leg lies on the table until it is fixed: then it stands under its bolt
+            if o.fixed:
+                m.scale.x = m.scale.y = dia
+                m.scale.z = length
+                z = z - length / 2
+            else:
+                m.scale.x = m.scale.y = dia
+                m.scale.z = length
+                m.pose.orientation.y = math.sqrt(0.5)
+                m.pose.orientation.w = math.sqrt(0.5)
+                z = z + dia / 2
+        elif o.type == "tabletop":
+            m.scale.x = float(size.get("width", 0.3))
+            m.scale.y = float(size.get("depth", 0.4))
+            m.scale.z = float(size.get("height", 0.02))
+        elif o.type == "obstacle":
+            r = float(o.attrs.get("radius", size.get("radius", 0.05)))
+            m.scale.x = m.scale.y = m.scale.z = 2 * r
+        else:  # a place
+            m.scale.x = m.scale.y = 0.03
+            m.scale.z = 0.002
+        m.pose.position.x, m.pose.position.y, m.pose.position.z = x, y, z
+        if m.pose.orientation.w == 0.0:
+            m.pose.orientation.w = 1.0
+        r_, g_, b_, a_ = _COLOURS[o.type]
+        m.color.r, m.color.g, m.color.b, m.color.a = r_, g_, b_, a_
+        add(m)
+        label = Marker()
+        label.type = Marker.TEXT_VIEW_FACING
+        label.text = o.id
+        label.scale.z = 0.025
+        label.pose.position.x, label.pose.position.y, label.pose.position.z = x, y, z + 0.05
+        label.color.r = label.color.g = label.color.b = label.color.a = 1.0
+        add(label)
+    for name, pos in sorted((targets or {}).items()):
+        x, y, z = _finite(pos, f"target of {name}")
+        arrow = Marker()
+        arrow.type = Marker.ARROW
+        start, end = msg("geometry_msgs.msg", "Point")(), msg("geometry_msgs.msg", "Point")()
+        start.x, start.y, start.z = x, y, z + 0.12
+        end.x, end.y, end.z = x, y, z
+        arrow.points = [start, end]
+        arrow.scale.x, arrow.scale.y, arrow.scale.z = 0.01, 0.02, 0.03
+        r_, g_, b_, a_ = _COLOURS["target"]
+        arrow.color.r, arrow.color.g, arrow.color.b, arrow.color.a = r_, g_, b_, a_
+        arrow.text = name
+        add(arrow)
+    return out
+
+
+def percept_from_pose(name: str, m: Any) -> dict[str, Any]:
+    """An object pose from outside perception (``geometry_msgs/PoseStamped`` in the world
+    frame) as a plain dict: ``{"object", "position", "orientation" (x, y, z, w), "yaw", "t"}``.
+    Raises ``ValueError`` for a non-finite pose or a frame other than ``world`` (or empty)."""
+    if m.header.frame_id not in ("", WORLD_FRAME):
+        raise ValueError(
+            f"pose of {name!r} is in frame {m.header.frame_id!r}; flexhrc expects {WORLD_FRAME!r}"
+        )
+    p = m.pose.position
+    q = m.pose.orientation
+    position = _finite((p.x, p.y, p.z), f"position of {name}")
+    quat = _finite((q.x, q.y, q.z, q.w), f"orientation of {name}")
+    norm = math.sqrt(sum(v * v for v in quat))
+    # an unset orientation (all zeros) is the identity, as RViz reads it
+    quat = [0.0, 0.0, 0.0, 1.0] if norm < 1e-6 else [v / norm for v in quat]
+    return {
+        "object": name,
+        "position": [round(v, 6) for v in position],
+        "orientation": [round(v, 9) for v in quat],
+        "yaw": round(yaw_from_quaternion(*quat), 6),
+        "t": round(stamp_seconds(m.header.stamp), 6),
+    }
+
+
+def imu_sample(m: Any) -> dict[str, Any]:
+    """A wrist IMU reading (``sensor_msgs/Imu``) as ``{"t", "accel", "gyro"}`` (m/s^2, rad/s),
+    the samples flexhrc's human action recognition windows."""
+    a, g = m.linear_acceleration, m.angular_velocity
+    return {
+        "t": round(stamp_seconds(m.header.stamp), 6),
+        "accel": _finite((a.x, a.y, a.z), "linear_acceleration"),
+        "gyro": _finite((g.x, g.y, g.z), "angular_velocity"),
+    }

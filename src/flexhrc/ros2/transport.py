@@ -1,0 +1,595 @@
+"""A :class:`~flexhrc.transport.Transport` over ROS 2 topics (``std_msgs/String``, JSON payloads).
+
+The cell's components talk through :class:`~flexhrc.transport.Transport` only; this
+implementation carries the same JSON payloads as the Zenoh transport
+(:mod:`flexhrc.transport.zenoh`) on ROS 2 topics, so the cell's manager loop and its agents run
+unchanged as ROS 2 nodes, and any ROS 2 program (``ros2 topic echo``, an ``rclpy`` or ``rclcpp``
+node) can watch and drive a cell. The API mirrors :class:`~flexhrc.transport.zenoh.ZenohTransport`
+method for method, so code written for one runs on the other:
+
+* ``Ros2Transport(prefix="flexhrc/cell1", ...)``: topic ``cmd/left`` is the ROS 2 topic
+  ``/flexhrc/cell1/cmd/left`` (type ``std_msgs/msg/String``; ``data`` holds compact JSON);
+* ``deliver="flush"`` (default): payloads received on the ROS executor thread are queued and
+  handed to the callbacks inside :meth:`Ros2Transport.flush`, on the caller's thread, in arrival
+  order (:meth:`Ros2Transport.wait` blocks until something is queued); ``deliver="thread"`` calls
+  the callbacks on the executor thread at once;
+* :meth:`Ros2Transport.declare_token` / :meth:`Ros2Transport.watch_liveliness`: liveliness
+  tokens. ROS 2 has no liveliness tokens of Zenoh's kind and DDS drops a killed participant only
+  after its lease (20 s by default), so a token is a heartbeat: the declaring transport publishes
+  ``{"key": KEY, "alive": true, "lease_s": L}`` every ``heartbeat_s`` on the topic
+  ``/<prefix>/liveliness``, ``{"alive": false}`` when it is withdrawn or closed, and a watcher
+  declares the token gone when nothing was heard for ``lease_s`` (1 s by default) — so a process
+  killed with SIGKILL is noticed within about ``lease_s + heartbeat_s``;
+* a payload that is not strict JSON is dropped and logged, counted in ``dropped``, and handed to
+  ``on_drop(topic, data, error)``; it never reaches a callback.
+
+Discovery: DDS matches a new publisher to existing subscribers asynchronously (milliseconds on
+one host), and a message published before the match is lost. :meth:`publish` therefore waits —
+at most ``match_timeout_s`` — until every subscriber the ROS graph already knows for that topic
+is matched, so a command sent right after an agent announced itself reaches it. It waits again
+only when more subscribers are known than at its last wait: one that died unannounced (DDS keeps
+it in the graph until its lease ends) costs one wait, not one per message.
+
+QoS: reliable, volatile, keep-last ``depth`` (100) — compatible with a ROS 2 tool's defaults
+(``ros2 topic pub``, a default ``create_subscription``). Needs the ``ros2`` extra; importing this
+module without ``rclpy`` raises :class:`~flexhrc.errors.OptionalDependencyError`.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import logging
+import os
+import re
+import threading
+import time
+import uuid
+from collections import deque
+from collections.abc import Callable
+from typing import Any, Literal
+
+from flexhrc.errors import FlexhrcError
+from flexhrc.ros2._deps import require
+from flexhrc.transport.base import Callback, Subscription, Transport
+
+rclpy = require("rclpy")
+_String = require("std_msgs.msg", "the ROS 2 bridge").String
+_qos = require("rclpy.qos")
+_executors = require("rclpy.executors")
+_signals = require("rclpy.signals")
+_Duration = require("rclpy.duration").Duration
+
+__all__ = [
+    "LIVELINESS_TOPIC",
+    "Ros2Transport",
+    "Ros2TransportError",
+    "domain_id_from_env",
+    "json_decode",
+    "json_encode",
+    "key_matches",
+    "ros_topic",
+]
+
+log = logging.getLogger("flexhrc.ros2.transport")
+
+LIVELINESS_TOPIC = "liveliness"
+LivelinessCallback = Callable[[str, bool], None]
+DropCallback = Callable[[str, bytes, Exception], None]
+
+_TOKEN = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+
+
+class Ros2TransportError(FlexhrcError):
+    """A ROS 2 transport that cannot be set up or used: a bad topic name, a closed transport."""
+
+
+def json_encode(payload: Any) -> str:
+    """Compact JSON; NaN and infinity are refused (they are not JSON)."""
+    return json.dumps(payload, separators=(",", ":"), allow_nan=False)
+
+
+def _refuse_constant(name: str) -> Any:
+    raise ValueError(f"{name} is not valid JSON")
+
+
+def json_decode(data: str) -> Any:
+    """Inverse of :func:`json_encode`; raises ``ValueError`` on anything that is not strict JSON."""
+    return json.loads(data, parse_constant=_refuse_constant)
+
+
+def ros_topic(prefix: str, topic: str) -> str:
+    """The absolute ROS 2 topic name of ``topic`` under ``prefix``: ``("flexhrc/c1", "ack")`` ->
+    ``"/flexhrc/c1/ack"``. Every ``/``-separated part must be a ROS name token (letters, digits,
+    underscores; not starting with a digit); a bad name raises :class:`Ros2TransportError`."""
+    if not isinstance(topic, str) or not topic.strip("/"):
+        raise Ros2TransportError(f"topic must be a non-empty string, not {topic!r}")
+    parts = [p for p in prefix.strip("/").split("/") if p] + topic.strip("/").split("/")
+    for part in parts:
+        if not _TOKEN.match(part):
+            raise Ros2TransportError(
+                f"topic {topic!r} (prefix {prefix!r}): {part!r} is not a valid ROS 2 name part "
+                "(letters, digits and '_', not starting with a digit)"
+            )
+    return "/" + "/".join(parts)
+
+
+def key_matches(pattern: str, key: str) -> bool:
+    """Zenoh-style key expression match: ``*`` is one chunk, ``**`` any number of chunks."""
+    return _match(pattern.strip("/").split("/"), key.strip("/").split("/"))
+
+
+def _match(pat: list[str], key: list[str]) -> bool:
+    if not pat:
+        return not key
+    head, rest = pat[0], pat[1:]
+    if head == "**":
+        return any(_match(rest, key[i:]) for i in range(len(key) + 1))
+    if not key:
+        return False
+    return (head == "*" or head == key[0]) and _match(rest, key[1:])
+
+
+def domain_id_from_env(value: str | int | None = None) -> int:
+    """The ROS domain id: ``value`` when given, else ``$ROS_DOMAIN_ID``, else 0. Must be 0..232
+    (the range DDS maps onto UDP ports)."""
+    raw: str | int | None = value if value is not None else os.environ.get("ROS_DOMAIN_ID")
+    if raw is None or raw == "":
+        return 0
+    try:
+        n = int(raw)
+    except (TypeError, ValueError):
+        raise Ros2TransportError(f"ROS domain id must be an integer 0..232, not {raw!r}") from None
+    if not 0 <= n <= 232:
+        raise Ros2TransportError(f"ROS domain id must be in 0..232, got {n}")
+    return n
+
+
+class _Token:
+    """A declared liveliness token; ``undeclare()`` withdraws it (idempotent)."""
+
+    def __init__(self, key: str, owner: Ros2Transport) -> None:
+        self.key = key
+        self._owner = owner
+        self.active = True
+
+    def undeclare(self) -> None:
+        if self.active:
+            self.active = False
+            self._owner._withdraw(self)
+
+
+class _Watch:
+    def __init__(self, pattern: str, sub: Subscription, history: bool, started: float) -> None:
+        self.pattern = pattern
+        self.sub = sub
+        self.history = history
+        self.started = started
+        self.alive: dict[str, float] = {}  # key -> deadline (monotonic)
+        self.silent: set[str] = set()  # alive before the watch began, history=False
+
+
+class Ros2Transport(Transport):
+    """Publish/subscribe over ROS 2 topics (see the module docstring for the full API)."""
+
+    def __init__(
+        self,
+        *,
+        prefix: str = "",
+        node_name: str | None = None,
+        domain_id: int | str | None = None,
+        encode: Callable[[Any], str] = json_encode,
+        decode: Callable[[str], Any] = json_decode,
+        deliver: Literal["flush", "thread"] = "flush",
+        on_drop: DropCallback | None = None,
+        lease_s: float = 1.0,
+        heartbeat_s: float = 0.1,
+        match_timeout_s: float = 2.0,
+        depth: int = 100,
+    ) -> None:
+        if deliver not in ("flush", "thread"):
+            raise ValueError(f"deliver must be 'flush' or 'thread', not {deliver!r}")
+        for name, value in (("lease_s", lease_s), ("heartbeat_s", heartbeat_s)):
+            if not (isinstance(value, int | float) and 0 < value < 3600):
+                raise Ros2TransportError(
+                    f"{name} must be a positive number of seconds, not {value!r}"
+                )
+        if heartbeat_s >= lease_s:
+            raise Ros2TransportError(
+                f"heartbeat_s ({heartbeat_s}) must be shorter than lease_s ({lease_s})"
+            )
+        if not (isinstance(match_timeout_s, int | float) and 0 <= match_timeout_s < 3600):
+            raise Ros2TransportError(f"match_timeout_s must be >= 0, not {match_timeout_s!r}")
+        if not (isinstance(depth, int) and 1 <= depth <= 100_000):
+            raise Ros2TransportError(f"depth must be an integer 1..100000, not {depth!r}")
+        self.prefix = ros_topic("", prefix).lstrip("/") if prefix.strip("/") else ""
+        self.encode = encode
+        self.decode = decode
+        self.deliver = deliver
+        self.on_drop = on_drop
+        self.lease_s = float(lease_s)
+        self.heartbeat_s = float(heartbeat_s)
+        self.match_timeout_s = float(match_timeout_s)
+        self.published = 0
+        self.delivered = 0
+        self.dropped = 0
+        self.domain_id = domain_id_from_env(domain_id)
+        self._qos = _qos.QoSProfile(
+            depth=depth,
+            reliability=_qos.ReliabilityPolicy.RELIABLE,
+            durability=_qos.DurabilityPolicy.VOLATILE,
+            history=_qos.HistoryPolicy.KEEP_LAST,
+        )
+        self.context = rclpy.Context()
+        rclpy.init(
+            context=self.context,
+            domain_id=self.domain_id,
+            signal_handler_options=_signals.SignalHandlerOptions.NO,
+        )
+        name = node_name or f"flexhrc_{uuid.uuid4().hex[:10]}"
+        if not _TOKEN.match(name):
+            self.context.shutdown()
+            raise Ros2TransportError(f"node name {name!r} is not a valid ROS 2 node name")
+        self.node = rclpy.create_node(
+            name, context=self.context, start_parameter_services=False, enable_rosout=False
+        )
+        self._lock = threading.RLock()
+        self._cond = threading.Condition()
+        self._queue: deque[tuple[Subscription, Any]] = deque()
+        self._publishers: dict[str, Any] = {}
+        self._typed: dict[str, Any] = {}  # ROS name -> a publisher of a standard message
+        self._waited: dict[str, int] = {}  # ROS name -> subscribers known at the last wait
+        self._rsubs: dict[int, Any] = {}
+        self._tokens: list[_Token] = []
+        self._watches: list[_Watch] = []
+        self._closed = False
+        self._live_topic = ros_topic(self.prefix, LIVELINESS_TOPIC)
+        self._live_pub = self.node.create_publisher(_String, self._live_topic, self._qos)
+        self._live_sub = self.node.create_subscription(
+            _String, self._live_topic, self._on_liveliness, self._qos
+        )
+        self._timer = self.node.create_timer(self.heartbeat_s, self._tick)
+        self._executor = _executors.SingleThreadedExecutor(context=self.context)
+        self._executor.add_node(self.node)
+        self._thread = threading.Thread(target=self._spin, name=f"ros2-{name}", daemon=True)
+        self._thread.start()
+
+    # -- names ------------------------------------------------------------------------------
+    def ros_name(self, topic: str) -> str:
+        """The ROS 2 topic that carries ``topic`` (an absolute name, ``/...``, is kept as is)."""
+        if topic.startswith("/"):
+            return ros_topic("", topic)
+        return ros_topic(self.prefix, topic)
+
+    # -- spinning ---------------------------------------------------------------------------
+    def _spin(self) -> None:
+        while not self._closed:
+            try:
+                self._executor.spin_once(timeout_sec=0.05)
+            except Exception as exc:
+                if self._closed or not self.context.ok():
+                    return
+                log.exception("ROS 2 executor: %s", exc)
+
+    # -- publish ----------------------------------------------------------------------------
+    def publish(self, topic: str, payload: Any) -> None:
+        self._send(topic, self.encode(payload))
+
+    def publish_bytes(self, topic: str, data: bytes) -> None:
+        """Send ``data`` as is (decoded as UTF-8 with replacement: ROS strings are text) — for
+        custom codecs and for tests of malformed input."""
+        self._send(topic, bytes(data).decode("utf-8", errors="replace"))
+
+    def _publisher(self, name: str) -> Any:
+        with self._lock:
+            pub = self._publishers.get(name)
+            if pub is None:
+                pub = self.node.create_publisher(_String, name, self._qos)
+                self._publishers[name] = pub
+            return pub
+
+    def _send(self, topic: str, text: str) -> None:
+        self._check_open()
+        name = self.ros_name(topic)
+        pub = self._publisher(name)
+        # wait for discovered-but-unmatched subscribers only when there are more of them than
+        # at the last wait: a subscriber that died (DDS forgets it only after its lease) then
+        # costs one wait, not one per message
+        known = self.node.count_subscribers(name)
+        if known > pub.get_subscription_count() and known > self._waited.get(name, -1):
+            self.wait_matched(topic, timeout=self.match_timeout_s, _pub=pub)
+            self._waited[name] = self.node.count_subscribers(name)
+        msg = _String()
+        msg.data = text
+        with self._lock:
+            self.published += 1
+        pub.publish(msg)
+
+    def wait_matched(
+        self, topic: str, minimum: int = 0, timeout: float = 2.0, _pub: Any = None
+    ) -> bool:
+        """Wait until this transport's publisher of ``topic`` (its JSON one, or the typed one
+        :meth:`create_publisher` made) is matched with every subscriber
+        the ROS graph knows for it, and with at least ``minimum`` of them; returns whether that
+        happened within ``timeout`` seconds."""
+        if _pub is None:
+            name = self.ros_name(topic)
+            _pub = self._typed.get(name) or self._publisher(name)
+        pub = _pub
+        name = pub.topic_name
+        deadline = time.monotonic() + timeout
+        while True:
+            matched = pub.get_subscription_count()
+            known = self.node.count_subscribers(name)
+            if matched >= max(known, minimum):
+                return True
+            if time.monotonic() >= deadline:
+                return False
+            time.sleep(0.002)
+
+    # -- subscribe --------------------------------------------------------------------------
+    def subscribe(self, topic: str, callback: Callback, *, raw: bool = False) -> Subscription:
+        """Deliver every later payload of ``topic`` to ``callback`` (decoded unless ``raw``,
+        when it gets the UTF-8 bytes)."""
+        self._check_open()
+        name = self.ros_name(topic)
+        sub = Subscription(topic, callback, self)
+
+        def on_msg(msg: Any) -> None:
+            text = msg.data
+            if raw:
+                self._hand(sub, text.encode("utf-8"))
+                return
+            try:
+                payload = self.decode(text)
+            except Exception as exc:
+                self._drop(topic, text.encode("utf-8", errors="replace"), exc)
+                return
+            self._hand(sub, payload)
+
+        rsub = self.node.create_subscription(_String, name, on_msg, self._qos)
+        with self._lock:
+            self._rsubs[id(sub)] = rsub
+        return sub
+
+    def unsubscribe(self, subscription: Subscription) -> None:
+        subscription.active = False
+        with self._lock:
+            rsub = self._rsubs.pop(id(subscription), None)
+            self._watches = [w for w in self._watches if w.sub is not subscription]
+        if rsub is not None and not self._closed:
+            with contextlib.suppress(Exception):
+                self.node.destroy_subscription(rsub)
+
+    # -- liveliness -------------------------------------------------------------------------
+    def declare_token(self, key: str) -> _Token:
+        """Declare a liveliness token at ``key`` (under the prefix); withdraw with
+        ``undeclare()``. Heartbeats start at the next tick (within ``heartbeat_s``)."""
+        self._check_open()
+        ros_topic(self.prefix, key)  # same name rules as topics
+        token = _Token(key.strip("/"), self)
+        with self._lock:
+            self._tokens.append(token)
+        # the first heartbeat goes at the next tick (<= heartbeat_s), not now: subscriptions a
+        # component creates right after its token are then announced to the others first, so
+        # whoever reacts to the token finds them (a message sent before the match is lost)
+        return token
+
+    def watch_liveliness(
+        self, key_expr: str, callback: LivelinessCallback, *, history: bool = True
+    ) -> Subscription:
+        """Call ``callback(key, alive)`` when a token matching ``key_expr`` (``*``, ``**``
+        wildcards) appears or goes. With ``history`` (default) the tokens already alive are
+        reported too (at their next heartbeat); without it, tokens heard within the first lease
+        after the call are taken as already there and not reported."""
+        self._check_open()
+
+        def relay(event: tuple[str, bool]) -> None:
+            callback(*event)
+
+        sub = Subscription(key_expr, relay, self)
+        with self._lock:
+            self._watches.append(_Watch(key_expr.strip("/"), sub, history, time.monotonic()))
+        return sub
+
+    def _withdraw(self, token: _Token) -> None:
+        with self._lock:
+            if token in self._tokens:
+                self._tokens.remove(token)
+        if not self._closed:
+            self._beat(token.key, False)
+
+    def _beat(self, key: str, alive: bool) -> None:
+        msg = _String()
+        msg.data = json_encode({"key": key, "alive": alive, "lease_s": self.lease_s})
+        with contextlib.suppress(Exception):
+            self._live_pub.publish(msg)
+
+    def _tick(self) -> None:
+        with self._lock:
+            keys = [t.key for t in self._tokens if t.active]
+        for key in keys:
+            self._beat(key, True)
+        now = time.monotonic()
+        lost: list[tuple[_Watch, str]] = []
+        with self._lock:
+            for w in self._watches:
+                for key, deadline in list(w.alive.items()):
+                    if now > deadline:
+                        del w.alive[key]
+                        if key in w.silent:
+                            w.silent.discard(key)
+                        else:
+                            lost.append((w, key))
+        for w, key in lost:
+            self._hand(w.sub, (key, False))
+
+    def _on_liveliness(self, msg: Any) -> None:
+        try:
+            data = json_decode(msg.data)
+            key = str(data["key"])
+            alive = bool(data["alive"])
+            lease = float(data.get("lease_s", self.lease_s))
+            if not 0 < lease < 3600:
+                raise ValueError(f"lease_s {lease} out of range")
+        except Exception as exc:
+            self._drop(LIVELINESS_TOPIC, msg.data.encode("utf-8", errors="replace"), exc)
+            return
+        now = time.monotonic()
+        events: list[tuple[_Watch, bool]] = []
+        with self._lock:
+            for w in self._watches:
+                if not key_matches(w.pattern, key):
+                    continue
+                known = key in w.alive
+                if alive:
+                    w.alive[key] = now + lease
+                    if known:
+                        continue
+                    if not w.history and now - w.started < self.lease_s:
+                        w.silent.add(key)
+                        continue
+                    events.append((w, True))
+                elif known:
+                    del w.alive[key]
+                    if key in w.silent:
+                        w.silent.discard(key)
+                        continue
+                    events.append((w, False))
+        for w, state in events:
+            self._hand(w.sub, (key, state))
+
+    def alive(self, key_expr: str = "**") -> list[str]:
+        """Keys of the tokens currently alive and matching ``key_expr``, as seen by the
+        watchers of this transport (a watch on it must exist)."""
+        with self._lock:
+            keys = {k for w in self._watches for k in w.alive if key_matches(key_expr, k)}
+        return sorted(keys)
+
+    # -- delivery ---------------------------------------------------------------------------
+    def _hand(self, sub: Subscription, payload: Any) -> None:
+        if not sub.active:
+            return
+        if self.deliver == "thread":
+            self.delivered += 1
+            try:
+                sub.callback(payload)
+            except Exception:
+                log.exception("callback for %s raised", sub.topic)
+            return
+        with self._cond:
+            self._queue.append((sub, payload))
+            self._cond.notify_all()
+
+    def _drop(self, topic: str, data: bytes, exc: Exception) -> None:
+        self.dropped += 1
+        log.warning("dropped an undecodable payload on %s (%d bytes): %s", topic, len(data), exc)
+        if self.on_drop is not None:
+            try:
+                self.on_drop(topic, data, exc)
+            except Exception:
+                log.exception("on_drop raised")
+
+    def pending(self) -> int:
+        """Payloads received and waiting for the next :meth:`flush` (``deliver="flush"``)."""
+        with self._cond:
+            return len(self._queue)
+
+    def wait(self, timeout: float | None = None) -> bool:
+        """Block until a payload is waiting for :meth:`flush` or ``timeout`` seconds pass;
+        returns whether one is waiting. Always ``False`` with ``deliver="thread"``."""
+        if self.deliver == "thread":
+            return False
+        with self._cond:
+            if not self._queue and not self._closed:
+                self._cond.wait(timeout)
+            return bool(self._queue)
+
+    def flush(self) -> int:
+        """Deliver, on this thread and in arrival order, the payloads received before the call."""
+        if self.deliver == "thread":
+            return 0
+        with self._cond:
+            batch = list(self._queue)
+            self._queue.clear()
+        count = 0
+        for sub, payload in batch:
+            if sub.active:
+                sub.callback(payload)
+                count += 1
+        self.delivered += count
+        return count
+
+    # -- typed topics (for the bridge's standard messages) ----------------------------------
+    def create_publisher(self, msg_type: Any, topic: str, qos: Any = None) -> Any:
+        """A plain ROS 2 publisher of ``msg_type`` on ``topic`` (under the prefix unless it is
+        absolute)."""
+        self._check_open()
+        name = self.ros_name(topic)
+        pub = self.node.create_publisher(msg_type, name, qos or self._qos)
+        with self._lock:
+            self._typed.setdefault(name, pub)
+        return pub
+
+    def create_subscription(
+        self, msg_type: Any, topic: str, callback: Callable[[Any], None], qos: Any = None
+    ) -> Any:
+        """A plain ROS 2 subscription; ``callback(msg)`` is queued like any payload
+        (``deliver="flush"``: it runs inside :meth:`flush`)."""
+        self._check_open()
+        sub = Subscription(topic, callback, self)
+        rsub = self.node.create_subscription(
+            msg_type, self.ros_name(topic), lambda m: self._hand(sub, m), qos or self._qos
+        )
+        with self._lock:
+            self._rsubs[id(sub)] = rsub
+        return sub
+
+    # -- lifetime ---------------------------------------------------------------------------
+    def _check_open(self) -> None:
+        if self._closed:
+            raise Ros2TransportError("the ROS 2 transport is closed")
+
+    @property
+    def closed(self) -> bool:
+        return self._closed
+
+    def close(self) -> None:
+        """Withdraw tokens (watchers see them go at once), stop the executor, destroy the node
+        and shut its ROS context down. Idempotent."""
+        if self._closed:
+            return
+        with self._lock:
+            tokens = list(self._tokens)
+            self._tokens.clear()
+        for token in tokens:
+            token.active = False
+            self._beat(token.key, False)
+        # what was published last (an ack, the cell's end, the withdrawals) must reach its
+        # subscribers before the participant goes: wait until they acknowledged it, briefly
+        with self._lock:
+            pubs = [self._live_pub, *self._publishers.values()]
+        deadline = time.monotonic() + 1.0
+        for pub in pubs:
+            left = deadline - time.monotonic()
+            if left <= 0:
+                break
+            with contextlib.suppress(Exception):
+                pub.wait_for_all_acked(_Duration(seconds=left))
+        self._closed = True
+        self._thread.join(timeout=2.0)
+        try:
+            self._executor.shutdown(timeout_sec=1.0)
+            self.node.destroy_node()
+        except Exception:
+            pass
+        with contextlib.suppress(Exception):
+            self.context.try_shutdown()
+        with self._cond:
+            self._cond.notify_all()
+
+    def __enter__(self) -> Ros2Transport:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

@@ -1,0 +1,199 @@
+"""The ROS 2 transport: the Transport contract, JSON on std_msgs/String, liveliness by
+heartbeats (a SIGKILLed process is noticed within its lease), bad input dropped."""
+
+from __future__ import annotations
+
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+
+import pytest
+
+from flexhrc.errors import FlexhrcError
+from flexhrc.ros2.transport import Ros2Transport, Ros2TransportError, key_matches, ros_topic
+from flexhrc.transport import Transport
+from tests.ros2.conftest import wait_for
+
+
+@pytest.fixture
+def pair(domain_id: int, cell_name: str):
+    a = Ros2Transport(prefix=f"flexhrc/{cell_name}", domain_id=domain_id)
+    b = Ros2Transport(prefix=f"flexhrc/{cell_name}", domain_id=domain_id)
+    yield a, b
+    a.close()
+    b.close()
+
+
+def test_topic_names_map_under_the_prefix_and_bad_names_are_refused():
+    assert ros_topic("flexhrc/c1", "cmd/left") == "/flexhrc/c1/cmd/left"
+    assert ros_topic("", "ack") == "/ack"
+    for bad in ("cmd/left-arm", "", "cmd//x", "1st", "a b"):
+        with pytest.raises(Ros2TransportError, match=r"ROS 2 name|non-empty"):
+            ros_topic("flexhrc/c1", bad)
+    assert issubclass(Ros2TransportError, FlexhrcError)
+
+
+def test_key_expressions_match_like_zenoh():
+    assert key_matches("alive/*", "alive/left")
+    assert not key_matches("alive/*", "alive/left/x")
+    assert key_matches("alive/**", "alive/left/x")
+    assert key_matches("**", "anything/at/all")
+    assert not key_matches("alive/left", "alive/right")
+
+
+def test_bad_settings_are_one_clear_error(domain_id: int):
+    with pytest.raises(Ros2TransportError, match="heartbeat_s"):
+        Ros2Transport(domain_id=domain_id, lease_s=0.1, heartbeat_s=0.5)
+    with pytest.raises(Ros2TransportError, match="domain id"):
+        Ros2Transport(domain_id=999)
+    with pytest.raises(Ros2TransportError, match="domain id"):
+        Ros2Transport(domain_id="abc")
+    with pytest.raises(ValueError, match="deliver"):
+        Ros2Transport(domain_id=domain_id, deliver="later")  # type: ignore[arg-type]
+
+
+def test_json_payloads_cross_between_two_participants_in_order(pair):
+    a, b = pair
+    assert isinstance(a, Transport)
+    got: list[object] = []
+    b.subscribe("state", got.append)
+    # DDS delivers only to subscribers it has discovered: wait for the match (not a sleep)
+    assert a.wait_matched("state", minimum=1, timeout=5.0)
+    msgs = [{"v": 1, "n": i, "text": "é"} for i in range(20)]
+    for m in msgs:
+        a.publish("state", m)
+    assert wait_for(lambda: len(got) == 20, 5.0, b.flush)
+    assert got == msgs
+    assert a.published == 20 and b.delivered == 20
+
+
+def test_malformed_payloads_are_dropped_and_never_reach_a_callback(pair):
+    a, b = pair
+    got: list[object] = []
+    drops: list[tuple[str, bytes]] = []
+    b.on_drop = lambda topic, data, exc: drops.append((topic, data))
+    b.subscribe("ack", got.append)
+    assert a.wait_matched("ack", minimum=1, timeout=5.0)
+    for junk in (b"{not json", b"NaN", b"\xff\xfe", b""):
+        a.publish_bytes("ack", junk)
+    a.publish("ack", {"ok": True})
+    assert wait_for(lambda: got == [{"ok": True}], 5.0, b.flush)
+    assert b.dropped == 4 and len(drops) == 4 and drops[0] == ("ack", b"{not json")
+    with pytest.raises(ValueError):
+        a.publish("ack", {"x": float("nan")})
+
+
+def test_unsubscribe_stops_deliveries_and_close_is_final(pair):
+    a, b = pair
+    got: list[object] = []
+    sub = b.subscribe("t", got.append)
+    assert a.wait_matched("t", minimum=1, timeout=5.0)
+    a.publish("t", 1)
+    assert wait_for(lambda: got == [1], 5.0, b.flush)
+    sub.cancel()
+    a.publish("t", 2)
+    time.sleep(0.1)  # nothing may arrive: give it the chance to
+    b.flush()
+    assert got == [1]
+    a.close()
+    a.close()
+    with pytest.raises(Ros2TransportError, match="closed"):
+        a.publish("t", 3)
+
+
+def test_thread_delivery_calls_back_on_the_executor_thread(domain_id: int, cell_name: str):
+    with (
+        Ros2Transport(prefix=cell_name, domain_id=domain_id, deliver="thread") as a,
+        Ros2Transport(prefix=cell_name, domain_id=domain_id) as b,
+    ):
+        got: list[object] = []
+        a.subscribe("t", got.append)
+        assert b.wait_matched("t", minimum=1, timeout=5.0)
+        b.publish("t", "x")
+        assert wait_for(lambda: got == ["x"], 5.0)
+        assert a.flush() == 0 and a.wait(0.01) is False
+
+
+def test_liveliness_token_seen_and_withdrawn(pair):
+    a, b = pair
+    events: list[tuple[str, bool]] = []
+    b.watch_liveliness("alive/*", lambda k, alive: events.append((k, alive)))
+    token = a.declare_token("alive/left")
+    a.declare_token("other/x")  # does not match the watch
+    assert wait_for(lambda: events == [("alive/left", True)], 5.0, b.flush)
+    assert b.alive("alive/*") == ["alive/left"]
+    token.undeclare()
+    token.undeclare()
+    t0 = time.monotonic()
+    assert wait_for(lambda: events[-1] == ("alive/left", False), 5.0, b.flush)
+    assert time.monotonic() - t0 < 0.5  # an explicit withdrawal, not the lease
+    assert events.count(("alive/left", True)) == 1  # heartbeats do not repeat the event
+
+
+def test_history_false_ignores_tokens_already_alive(pair):
+    a, b = pair
+    a.declare_token("alive/old")
+    seen: list[str] = []
+    b.watch_liveliness("alive/*", lambda k, alive: seen.append(k))
+    assert wait_for(lambda: seen == ["alive/old"], 5.0, b.flush)
+    late: list[str] = []
+    b.watch_liveliness("alive/*", lambda k, alive: late.append(k), history=False)
+    time.sleep(b.lease_s + 0.2)
+    b.flush()
+    assert late == []
+    a.declare_token("alive/new")
+    assert wait_for(lambda: late == ["alive/new"], 5.0, b.flush)
+
+
+_AGENT = textwrap.dedent(
+    """
+    import sys, time
+    from flexhrc.ros2.transport import Ros2Transport
+    t = Ros2Transport(prefix=sys.argv[1])
+    t.subscribe("cmd", lambda p: t.publish("ack", {"id": p["id"], "status": "done"}))
+    t.subscribe("late", lambda p: None)  # published to only after this process is killed
+    t.declare_token("alive/echo")
+    print("ready", flush=True)
+    while True:
+        t.wait(0.1)
+        t.flush()
+    """
+)
+
+
+@pytest.mark.slow
+def test_another_process_answers_and_its_sigkill_is_noticed_within_the_lease(
+    domain_id: int, cell_name: str, ros_env: dict[str, str]
+):
+    with Ros2Transport(prefix=cell_name, domain_id=domain_id) as bus:
+        events: list[tuple[str, bool, float]] = []
+        acks: list[dict] = []
+        bus.watch_liveliness("alive/*", lambda k, a: events.append((k, a, time.monotonic())))
+        bus.subscribe("ack", acks.append)
+        proc = subprocess.Popen(
+            [sys.executable, "-c", _AGENT, cell_name], env=ros_env, stdout=subprocess.PIPE
+        )
+        try:
+            assert wait_for(lambda: any(e[1] for e in events), 20.0, bus.flush), "no heartbeat"
+            bus.publish("cmd", {"id": 7})
+            assert wait_for(lambda: acks == [{"id": 7, "status": "done"}], 5.0, bus.flush)
+            proc.send_signal(signal.SIGKILL)
+            killed = time.monotonic()
+            assert wait_for(lambda: events[-1][1] is False, 5.0, bus.flush)
+            assert events[-1][0] == "alive/echo"
+            assert events[-1][2] - killed < bus.lease_s + 0.5
+            # DDS still lists the dead process's subscriber (until its 20 s lease); Fast DDS
+            # matches a new publisher with it from its discovery data, so publishing to it
+            # never blocks on the match
+            assert bus.node.count_subscribers(bus.ros_name("late")) == 1
+            waits: list[str] = []
+            real_wait = bus.wait_matched
+            bus.wait_matched = lambda topic, **kw: waits.append(topic) or real_wait(topic, **kw)  # type: ignore[method-assign]
+            for i in range(5):
+                bus.publish("late", {"n": i})
+            assert len(waits) <= 1
+        finally:
+            proc.kill()
+            proc.wait(5)
