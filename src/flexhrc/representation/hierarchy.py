@@ -102,11 +102,14 @@ class HierarchicalGraph:
         used = self.used_keys()
         for key in used:
             warnings += self.graphs[key].validate()
+        leaves: dict[str, list[str]] = {}  # of each lower definition, computed once
         for key in used:
             g = self.graphs[key]
             for h in g.hyperarcs.values():
                 if h.lower is not None:
-                    self._check_transition(g, h)
+                    if h.lower not in leaves:
+                        leaves[h.lower] = self.graphs[h.lower].leaves()
+                    self._check_transition(g, h, leaves[h.lower])
         self.warnings = warnings
         return warnings
 
@@ -144,10 +147,8 @@ class HierarchicalGraph:
                 trail.append(h.lower)
                 stack.append(iter(self.graphs[h.lower].hyperarcs.values()))
 
-    def _check_transition(self, upper: AndOrGraph, h: Hyperarc) -> None:
+    def _check_transition(self, upper: AndOrGraph, h: Hyperarc, leaves: list[str]) -> None:
         assert h.lower is not None
-        lower = self.graphs[h.lower]
-        leaves = lower.leaves()
         src, line = upper.source, h.line
         if h.leaf_map is None:
             # Implicit M1 (ANDOR text): the children of h as a whole correspond to the leaves

@@ -239,19 +239,21 @@ class OnlineGraph:
             kinds.extend(t.kinds)
             weight.extend(t.weights)
             inst_of.extend([k] * t.size)
-            lrank.extend(t.lrank)
             lower.extend([-1] * t.size)
             root_of.extend([-1] * t.size)
             root_of[base + t.root] = k
             if base:
                 # placeholders until _materialise (None: a premature read fails loudly)
                 names.extend([None] * t.size)  # type: ignore[list-item]
+                lrank.extend([0] * t.size)
                 children.extend([()] * t.size)
                 parent.extend([-1] * t.size)
                 incoming.extend([()] * t.size)
                 outgoing.extend([()] * t.size)
             else:
                 # the top instance shares the template's lists (never mutated)
+                t.complete()
+                lrank.extend(t.lrank)
                 names.extend(t.names)
                 children.extend(t.children)
                 parent.extend(t.parent)
@@ -344,7 +346,9 @@ class OnlineGraph:
         for k in reversed(chain):
             mat[k] = True
             t = self._i_tmpl[k]
+            t.complete()
             lo, hi = self._i_span[k]
+            self._lrank[lo:hi] = t.lrank
             shift = lo.__add__
             prefix = self._i_path[k] + SEP
             qualified = [prefix + x for x in t.names]
@@ -730,14 +734,8 @@ class OnlineGraph:
         if self._i_pristine[k]:
             # as its definition left it: the outside costs every pristine instance of this
             # definition starts with, computed once; every leaf is feasible
-            t = self._i_tmpl[k]
             lo, hi = self._i_span[k]
-            if t.pristine_out is None:
-                self._fill_outside(k)
-                if k:  # the top definition has one instance: nothing to share
-                    t.pristine_out = self._out_val[lo:hi]
-            else:
-                self._out_val[lo:hi] = t.pristine_out
+            self._out_val[lo:hi] = self._i_tmpl[k].pristine_outside()
             leaves = self._i_leaves[k]
             fresh = dict.fromkeys(leaves)
             self._feasible.update(fresh)
@@ -1324,6 +1322,7 @@ class _Template:
         "idx",
         "incoming",
         "inside",
+        "own",
         "kinds",
         "leaves",
         "lower",
@@ -1356,14 +1355,10 @@ class _Template:
         ]
         self.parent = [-1] * nn + [idx[h.parent] for h in arc_list]
         incoming: list[list[int]] = [[] for _ in range(self.size)]
-        outgoing: list[list[int]] = [[] for _ in range(self.size)]
         for j, h in enumerate(arc_list, nn):
             incoming[idx[h.parent]].append(j)
-            for c in h.children:
-                outgoing[idx[c]].append(j)
         # tuples: never changed once built, and the empty ones are all the same object
         self.incoming: list[tuple[int, ...]] = [tuple(x) if x else () for x in incoming]
-        self.outgoing: list[tuple[int, ...]] = [tuple(x) if x else () for x in outgoing]
         self.root = idx[g.root]  # type: ignore[index]
         self.leaves = [i for i in range(nn) if not self.incoming[i]]
         self.topo: list[int] = []
@@ -1371,11 +1366,12 @@ class _Template:
             i = idx[name]
             self.topo.extend(self.incoming[i])
             self.topo.append(i)
-        self.pristine_out: list[float] | None = None  # set by OnlineGraph._activate
-        self.down = self.topo[::-1]  # parents before children: the outside pass
-        self.lrank = [0] * self.size
-        for r, x in enumerate(self.down):
-            self.lrank[x] = r
+        # what only a materialised instance needs: set by complete()
+        self.outgoing: list[tuple[int, ...]] = []
+        self.down: list[int] = []
+        self.lrank: list[int] = []
+        self.pristine_out: list[float] | None = None  # set by pristine_outside
+        self.own: list[float] = []  # set by pristine_inside
         self.lower = [(j, h.lower) for j, h in enumerate(arc_list, nn) if h.lower is not None]
         self.n_children = [len(c) for c in self.children]
         self.inside: list[float] | None = None  # set by pristine_inside
@@ -1389,6 +1385,7 @@ class _Template:
         own = list(w)
         for (j, _), v in zip(self.lower, lower_roots, strict=True):
             own[j] = v  # eq. 19: a hyper-arc with a lower graph weighs its optimal cost
+        self.own = own
         ins = [0.0] * self.size
         inf = INF
         for e in self.topo:
@@ -1407,6 +1404,51 @@ class _Template:
                     v += best
             ins[e] = v
         self.inside = ins
+
+    def complete(self) -> None:
+        """The parts an instance needs once it is materialised: the consumers of every node,
+        the top-down order (parents before children: the outside pass) and its ranks."""
+        if self.down or not self.size:
+            return
+        outgoing: list[list[int]] = [[] for _ in range(self.size)]
+        for j, ch in enumerate(self.children):
+            for c in ch:
+                outgoing[c].append(j)
+        # tuples: never changed once built, and the empty ones are all the same object
+        self.outgoing = [tuple(x) if x else () for x in outgoing]
+        self.down = self.topo[::-1]
+        lrank = [0] * self.size
+        for r, x in enumerate(self.down):
+            lrank[x] = r
+        self.lrank = lrank
+
+    def pristine_outside(self) -> list[float]:
+        """Outside costs (to the instance root) of an instance nothing of which is met yet,
+        parents before children: the values of ``OnlineGraph._calc_outside`` then."""
+        out = self.pristine_out
+        if out is None:
+            self.complete()
+            kinds, parent, w, own = self.kinds, self.parent, self.weights, self.own
+            children, outgoing, ins, root = self.children, self.outgoing, self.inside, self.root
+            assert ins is not None
+            out = [0.0] * self.size
+            for e in self.down:
+                if kinds[e]:
+                    p = parent[e]
+                    out[e] = w[p] + out[p]
+                elif e != root:
+                    v = INF
+                    for h in outgoing[e]:
+                        x = own[h]
+                        for c in children[h]:
+                            if c != e:
+                                x += ins[c]
+                        x += out[h]
+                        if x < v:
+                            v = x
+                    out[e] = v
+            self.pristine_out = out
+        return out
 
     def root_inside(self) -> float:
         assert self.inside is not None

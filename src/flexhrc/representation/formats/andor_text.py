@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import os
 from dataclasses import replace
+from itertools import repeat
 from pathlib import Path
 
 from flexhrc.errors import FormatError
@@ -33,7 +34,10 @@ from flexhrc.representation.hierarchy import HierarchicalGraph
 SUFFIX = ".txt"
 
 
-def _lines(path: str | Path) -> list[tuple[int, list[str]]]:
+def _rows(path: str | Path) -> tuple[list[list[str]], list[int] | range]:
+    """The non-blank lines of a file split into tokens (comments dropped), and their line
+    numbers. Each file is read once and split once; a file without comments or blank lines
+    (the common case) is tokenised by one comprehension, its line numbers a ``range``."""
     text = None
     try:
         with open(path, "rb") as fh:
@@ -45,16 +49,18 @@ def _lines(path: str | Path) -> list[tuple[int, list[str]]]:
     if text is None:
         # the shared reader says why (missing, folder, unreadable, binary, not UTF-8)
         text = read_text(path)
-    out = []
-    for i, raw in enumerate(text.splitlines(), 1):
-        toks = (raw.split("#", 1)[0] if "#" in raw else raw).split()
-        if toks:
-            out.append((i, toks))
-    return out
+    if "#" not in text:
+        rows = [raw.split() for raw in text.splitlines()]
+        if [] not in rows:
+            return rows, range(1, len(rows) + 1)
+    else:
+        rows = [raw.split("#", 1)[0].split() for raw in text.splitlines()]
+    nums = [i for i, toks in enumerate(rows, 1) if toks]
+    return [toks for toks in rows if toks], nums
 
 
 def _weight(tok: str, kind: str, name: str, path: str | Path, line: int) -> float:
-    if tok.isdigit():  # the common case, cheap
+    if tok.isdigit() and tok.isascii():  # the common case, cheap ("²" is a digit too)
         return float(tok)
     what = f"{kind} {name!r}"
     try:
@@ -73,11 +79,17 @@ def _name(tok: str, what: str, path: str | Path, line: int) -> str:
 
 
 def parse_graph(path: str | Path) -> tuple[AndOrGraph, list[tuple[str, int]]]:
-    """Parse one file. Returns the graph and its lower-graph references (name, line)."""
-    lines = _lines(path)
-    if not lines:
+    """Parse one file. Returns the graph and its lower-graph references (name, line).
+
+    The structural checks of :meth:`AndOrGraph.validate` are folded in (cheap membership
+    tests on the way); on any fault the full validation runs and names it, so the messages
+    are the same. A graph that passes is marked validated and is not checked again.
+    """
+    rows, nums = _rows(path)
+    if not rows:
         raise FormatError("empty file: expected '<graph name> <number of nodes> <root>'", path, 1)
-    lineno, head = lines[0]
+    head = rows[0]
+    lineno = nums[0]
     if len(head) != 3:
         # the line is not quoted: this may be any file, not ours to show
         raise FormatError(
@@ -100,32 +112,52 @@ def parse_graph(path: str | Path) -> tuple[AndOrGraph, list[tuple[str, int]]]:
         raise FormatError(f"number of nodes must be at least 1, got {count}", path, lineno)
     graph = AndOrGraph(name, root, source=path)
     graph.root_line = lineno
-    if len(lines) - 1 < count:
+    n_rows = len(rows)
+    if n_rows - 1 < count:
         raise FormatError(
-            f"header announces {count} nodes but the file has only {len(lines) - 1} more lines",
+            f"header announces {count} nodes but the file has only {n_rows - 1} more lines",
             path,
             lineno,
         )
     nodes = graph.nodes
-    for i in range(1, count + 1):
-        ln, toks = lines[i]
-        if len(toks) != 2:
-            hint = " (the header announces more nodes than are listed?)" if len(toks) == 5 else ""
-            raise FormatError(
-                f"node line must be '<name> <weight>', got {' '.join(toks)!r}{hint}", path, ln
-            )
-        n = toks[0]
-        if "/" in n or n in nodes:
-            _name(n, "node", path, ln)
-            graph.add_node(Node(n, line=ln))  # raises the duplicate-name error
-        w = toks[1]
-        nodes[n] = Node(n, float(w) if w.isdigit() else _weight(w, "node", n, path, ln), line=ln)
+    node_rows = rows[1 : count + 1]
+    names: tuple[str, ...] = ()
+    weights: tuple[str, ...] = ()
+    if set(map(len, node_rows)) == {2}:
+        names, weights = zip(*node_rows)  # type: ignore[assignment]
+        digits = "".join(weights)
+    if names and "/" not in "".join(names) and digits.isdigit() and digits.isascii():
+        # the common case, in bulk: plain names, integer weights
+        nodes.update(
+            zip(names, map(Node, names, map(float, weights), repeat(None), repeat(()), nums[1:]))
+        )
+    if len(nodes) != count:  # not the common case, or a repeated name: one by one, to say why
+        nodes.clear()
+        for i in range(1, count + 1):
+            toks = rows[i]
+            ln = nums[i]
+            if len(toks) != 2:
+                hint = (
+                    " (the header announces more nodes than are listed?)" if len(toks) == 5 else ""
+                )
+                raise FormatError(
+                    f"node line must be '<name> <weight>', got {' '.join(toks)!r}{hint}", path, ln
+                )
+            n, w = toks
+            if "/" in n or n in nodes:
+                _name(n, "node", path, ln)
+                graph.add_node(Node(n, line=ln))  # raises the duplicate-name error
+            nodes[n] = Node(n, _weight(w, "node", n, path, ln), line=ln)
     refs: list[tuple[str, int]] = []
     renamed: list[FormatError] = []
     arcs = graph.hyperarcs
+    consumed: set[str] = set()
+    produced: set[str] = set()
+    sound = True  # every parent and child known, no child twice, no parent among its children
     i = count + 1
-    while i < len(lines):
-        ln, toks = lines[i]
+    while i < n_rows:
+        toks = rows[i]
+        ln = nums[i]
         if len(toks) != 5:
             extra = " (a node line after the announced number of nodes?)" if len(toks) == 2 else ""
             raise FormatError(
@@ -135,7 +167,8 @@ def parse_graph(path: str | Path) -> tuple[AndOrGraph, list[tuple[str, int]]]:
                 ln,
             )
         hname, k_tok, parent, w_tok, lower = toks
-        _name(hname, "hyper-arc", path, ln)
+        if "/" in hname:
+            _name(hname, "hyper-arc", path, ln)
         try:
             k = int(k_tok)
         except ValueError:
@@ -144,24 +177,27 @@ def parse_graph(path: str | Path) -> tuple[AndOrGraph, list[tuple[str, int]]]:
             ) from None
         if k < 1:
             raise FormatError(f"hyper-arc {hname!r}: needs at least one child, got {k}", path, ln)
-        children = []
-        for j in range(1, k + 1):
-            if i + j >= len(lines) or len(lines[i + j][1]) != 1:
-                found = j - 1
-                where = lines[i + j][0] if i + j < len(lines) else ln
-                raise FormatError(
-                    f"hyper-arc {hname!r} declares {k} children but {found} follow", path, where
-                )
-            children.append(lines[i + j][1][0])
-        weight = float(w_tok) if w_tok.isdigit() else _weight(w_tok, "hyper-arc", hname, path, ln)
+        block = rows[i + 1 : i + 1 + k]
+        if len(block) < k or sum(map(len, block)) != k:  # (no row is empty)
+            found = next((j for j, r in enumerate(block) if len(r) != 1), len(block))
+            where = nums[i + 1 + found] if i + 1 + found < n_rows else ln
+            raise FormatError(
+                f"hyper-arc {hname!r} declares {k} children but {found} follow", path, where
+            )
+        children = (block[0][0],) if k == 1 else tuple([r[0] for r in block])
+        weight = (
+            float(w_tok)
+            if w_tok.isdigit() and w_tok.isascii()
+            else _weight(w_tok, "hyper-arc", hname, path, ln)
+        )
         lower_ref = None if lower == "-" else lower
         if lower_ref is not None:
             refs.append((lower_ref, ln))
-        if hname in graph.hyperarcs:
+        if hname in arcs:
             # The C++ library addresses hyper-arcs by position, so its files may repeat a name
             # (the authors' 3Leg/TableAssemblyPLCommented.txt does). Names are our addresses:
             # keep the file loadable, rename the repeat and say so.
-            first = graph.hyperarcs[hname].line
+            first = arcs[hname].line
             new_name = f"{hname}@L{ln}"
             renamed.append(
                 FormatError(
@@ -172,10 +208,43 @@ def parse_graph(path: str | Path) -> tuple[AndOrGraph, list[tuple[str, int]]]:
                 )
             )
             hname = new_name
+        if sound:
+            if k == 1:
+                c = children[0]
+                sound = c != parent and c in nodes and parent in nodes
+            else:
+                distinct = set(children)
+                sound = (
+                    len(distinct) == k
+                    and parent not in distinct
+                    and nodes.keys() >= distinct
+                    and parent in nodes
+                )
+        consumed.update(children)
+        produced.add(parent)
         # add_hyperarc's checks are done above (name, weight, at least one child, repeats)
-        arcs[hname] = Hyperarc(hname, tuple(children), parent, weight, lower=lower_ref, line=ln)
+        arcs[hname] = Hyperarc(hname, children, parent, weight, (), lower_ref, None, ln)
         i += k + 1
     graph.load_warnings = renamed
+    if sound and root in nodes and root not in consumed:
+        # what validate() checks last: no cycle (Kahn's order, cached for later users), and
+        # the dead ends it warns about
+        if len(graph.topological_order()) == len(nodes):
+            dead = produced - consumed
+            dead.discard(root)
+            warnings = [
+                FormatError(
+                    f"node {n!r} is produced by a hyper-arc but used by none: it cannot "
+                    f"contribute to the root {root!r}",
+                    path,
+                    nodes[n].line,
+                )
+                for n in (nodes if dead else ())  # in node order, as validate() lists them
+                if n in dead
+            ]
+            graph.mark_validated([*renamed, *warnings])
+            return graph, refs
+    graph.validate()  # raises the precise error
     return graph, refs
 
 
