@@ -188,9 +188,10 @@ class OnlineGraph:
         """Lay out every instance (ids, weights, kinds: cheap copies of its template) and
         *materialise* only the top one: the index structures of a lower instance (qualified
         names, child/parent/incoming/outgoing ids) are shifted copies of its template's, built
-        when the instance becomes active or one of its elements is named
-        (:meth:`_materialise`). Most instances of a large hierarchy are never needed before
-        the cooperation reaches them, and many never are (an OR branch not taken)."""
+        when the instance above it becomes active (one level ahead: see :meth:`_activate`) or
+        one of its elements is named (:meth:`_materialise`). Most instances of a deep
+        hierarchy are not needed before the cooperation reaches them, and many never are (an
+        OR branch not taken)."""
         H = self.hierarchy
         templates: dict[str, _Template] = {}
         names: list[str] = []
@@ -724,8 +725,14 @@ class OnlineGraph:
         the feasible set."""
         if self._active[k] or self._closed[k]:
             return
-        if not self._i_mat[k]:
+        mat = self._i_mat
+        if not mat[k]:
             self._materialise(k)
+        # one level ahead: the instances just below k can become active from now on, and the
+        # query that activates one should not pay for building it
+        for h in self._i_lowers[k]:
+            if not mat[self._lower[h]]:
+                self._materialise(self._lower[h])
         self._active[k] = True
         if k:
             # its offset now; a later change this query above it re-dirties it (_settle and
@@ -1322,7 +1329,6 @@ class _Template:
         "idx",
         "incoming",
         "inside",
-        "own",
         "kinds",
         "leaves",
         "lower",
@@ -1330,6 +1336,7 @@ class _Template:
         "n_children",
         "names",
         "outgoing",
+        "own",
         "parent",
         "pristine_out",
         "root",

@@ -124,12 +124,16 @@ def parse_graph(path: str | Path) -> tuple[AndOrGraph, list[tuple[str, int]]]:
     names: tuple[str, ...] = ()
     weights: tuple[str, ...] = ()
     if set(map(len, node_rows)) == {2}:
-        names, weights = zip(*node_rows)  # type: ignore[assignment]
+        names, weights = zip(*node_rows, strict=True)
         digits = "".join(weights)
     if names and "/" not in "".join(names) and digits.isdigit() and digits.isascii():
         # the common case, in bulk: plain names, integer weights
         nodes.update(
-            zip(names, map(Node, names, map(float, weights), repeat(None), repeat(()), nums[1:]))
+            zip(
+                names,
+                map(Node, names, map(float, weights), repeat(None), repeat(()), nums[1:]),
+                strict=False,  # nums runs on past the node lines
+            )
         )
     if len(nodes) != count:  # not the common case, or a repeated name: one by one, to say why
         nodes.clear()
@@ -226,24 +230,28 @@ def parse_graph(path: str | Path) -> tuple[AndOrGraph, list[tuple[str, int]]]:
         arcs[hname] = Hyperarc(hname, children, parent, weight, (), lower_ref, None, ln)
         i += k + 1
     graph.load_warnings = renamed
-    if sound and root in nodes and root not in consumed:
-        # what validate() checks last: no cycle (Kahn's order, cached for later users), and
-        # the dead ends it warns about
-        if len(graph.topological_order()) == len(nodes):
-            dead = produced - consumed
-            dead.discard(root)
-            warnings = [
-                FormatError(
-                    f"node {n!r} is produced by a hyper-arc but used by none: it cannot "
-                    f"contribute to the root {root!r}",
-                    path,
-                    nodes[n].line,
-                )
-                for n in (nodes if dead else ())  # in node order, as validate() lists them
-                if n in dead
-            ]
-            graph.mark_validated([*renamed, *warnings])
-            return graph, refs
+    # what validate() checks last: the root, no cycle (Kahn's order, cached for later users),
+    # and the dead ends it warns about
+    if (
+        sound
+        and root in nodes
+        and root not in consumed
+        and len(graph.topological_order()) == len(nodes)
+    ):
+        dead = produced - consumed
+        dead.discard(root)
+        warnings = [
+            FormatError(
+                f"node {n!r} is produced by a hyper-arc but used by none: it cannot "
+                f"contribute to the root {root!r}",
+                path,
+                nodes[n].line,
+            )
+            for n in (nodes if dead else ())  # in node order, as validate() lists them
+            if n in dead
+        ]
+        graph.mark_validated([*renamed, *warnings])
+        return graph, refs
     graph.validate()  # raises the precise error
     return graph, refs
 
