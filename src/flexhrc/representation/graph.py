@@ -382,12 +382,8 @@ class AndOrGraph:
         key = (len(self.nodes), len(self.hyperarcs))
         if self._topo is not None and self._topo[0] == key:
             return self._topo[1]
-        order = self._topological_order()
-        self._topo = (key, order)
-        return order
-
-    def _topological_order(self) -> list[str]:
-        indeg = {n: 0 for n in self.nodes}
+        # Kahn's algorithm (one function: this runs on every load)
+        indeg = dict.fromkeys(self.nodes, 0)
         consumers: dict[str, list[str]] = {n: [] for n in self.nodes}
         for h in self.hyperarcs.values():
             for c in h.children:
@@ -401,6 +397,7 @@ class AndOrGraph:
                 if indeg[p] == 0:
                     order.append(p)
             i += 1
+        self._topo = (key, order)
         return order
 
 

@@ -97,6 +97,14 @@ class HierarchicalGraph:
 
         Raises :class:`FormatError` on the first fault; returns the warnings.
         """
+        if (
+            len(self.graphs) == 1
+            and self.top_graph.hyperarcs
+            and not any([h.lower is not None for h in self.top_graph.hyperarcs.values()])
+        ):
+            # one graph, no transition: nothing to check beyond the graph itself
+            self.warnings = self.top_graph.validate()
+            return self.warnings
         self._check_recursion()
         warnings: list[FormatError] = []
         used = self.used_keys()

@@ -302,14 +302,23 @@ def _inside(path: str, folder: str, plain: set[str]) -> bool:
     return True
 
 
+def _is_normal(path: str) -> bool:
+    """Whether an absolute path is already what ``os.path.abspath`` would make of it."""
+    return not path.endswith(os.sep) and f"{os.sep}." not in path and 2 * os.sep not in path
+
+
 def load_andor_text(path: str | Path) -> HierarchicalGraph:
     """Load a top file and every lower graph it refers to (iteratively: no depth limit).
 
     A lower graph must lie in the top file's folder or below it: a reference that resolves
     elsewhere (``../../etc/passwd``) is refused.
     """
-    top_file = os.path.abspath(path)  # normalised too
-    top_dir = os.path.dirname(top_file)
+    top_file = os.fspath(path)
+    sep = os.sep
+    if not (top_file.startswith(sep) and _is_normal(top_file)):
+        top_file = os.path.abspath(top_file)  # normalised too
+    # os.path.dirname of a normalised absolute path, without its Python-level calls
+    top_dir = top_file[: top_file.rfind(sep)] or sep
     graphs: dict[str, AndOrGraph] = {}
     key_of: dict[str, str] = {}
     resolved: dict[tuple[str, str], str | None] = {}
@@ -329,7 +338,7 @@ def load_andor_text(path: str | Path) -> HierarchicalGraph:
         p = todo.pop()
         graph, refs = parse_graph(p)
         graphs[key_of[p]] = graph
-        here = os.path.dirname(p)
+        here = p[: p.rfind(sep)] or sep
         remap: dict[str, str] = {}
         for ref, ln in refs:
             if ref in remap:
