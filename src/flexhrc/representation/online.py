@@ -39,6 +39,7 @@ import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from heapq import heapify, heappop, heappush
+from operator import attrgetter
 from pathlib import Path
 from typing import Any, Literal
 
@@ -1375,6 +1376,9 @@ def _event(raw: object) -> Event:
     return Event(q, t, el)
 
 
+_WEIGHT = attrgetter("weight")
+
+
 class _Template:
     """Index structure of one graph definition, shared by all of its instances."""
 
@@ -1402,40 +1406,53 @@ class _Template:
 
     def __init__(self, g: AndOrGraph):
         node_names = list(g.nodes)
-        arc_list = list(g.hyperarcs.values())
         nn = len(node_names)
-        idx = {name: i for i, name in enumerate(node_names)}
-        self.names = node_names + [h.name for h in arc_list]
-        self.size = len(self.names)
-        self.kinds = [0] * nn + [1] * len(arc_list)
-        self.weights = [float(n.weight) for n in g.nodes.values()] + [
-            float(h.weight) for h in arc_list
-        ]
+        idx = dict(zip(node_names, range(nn), strict=True))
         get = idx.__getitem__
-        self.children: list[tuple[int, ...]] = [()] * nn + [
-            tuple(map(get, h.children)) for h in arc_list
-        ]
-        self.parent = [-1] * nn + [idx[h.parent] for h in arc_list]
-        incoming: list[list[int]] = [[] for _ in range(self.size)]
-        for j, h in enumerate(arc_list, nn):
-            incoming[idx[h.parent]].append(j)
+        names = node_names
+        weights = list(map(float, map(_WEIGHT, g.nodes.values())))
+        children: list[tuple[int, ...]] = [()] * nn
+        parent = [-1] * nn
+        incoming: list[list[int]] = [[] for _ in node_names]
+        lower: list[tuple[int, str]] = []
+        # one pass over the hyper-arcs (a first call of each comprehension costs more than
+        # the loop it would save, on the small graphs whose offline time is mostly that)
+        j = nn
+        for h in g.hyperarcs.values():
+            names.append(h.name)
+            weights.append(float(h.weight))
+            children.append(tuple(map(get, h.children)))
+            p = idx[h.parent]
+            parent.append(p)
+            incoming[p].append(j)
+            incoming.append([])
+            if h.lower is not None:
+                lower.append((j, h.lower))
+            j += 1
+        self.names = names
+        self.size = j
+        self.kinds = [0] * nn + [1] * (j - nn)
+        self.weights = weights
+        self.children = children
+        self.parent = parent
         # tuples: never changed once built, and the empty ones are all the same object
         self.incoming: list[tuple[int, ...]] = [tuple(x) if x else () for x in incoming]
         self.root = idx[g.root]  # type: ignore[index]
-        self.leaves = [i for i in range(nn) if not self.incoming[i]]
-        self.topo: list[int] = []
+        self.leaves = [i for i in range(nn) if not incoming[i]]
+        topo: list[int] = []
         for name in g.topological_order():
             i = idx[name]
-            self.topo.extend(self.incoming[i])
-            self.topo.append(i)
+            topo.extend(incoming[i])
+            topo.append(i)
+        self.topo = topo
         # what only a materialised instance needs: set by complete()
         self.outgoing: list[tuple[int, ...]] = []
         self.down: list[int] = []
         self.lrank: list[int] = []
         self.pristine_out: list[float] | None = None  # set by pristine_outside
         self.own: list[float] = []  # set by pristine_inside
-        self.lower = [(j, h.lower) for j, h in enumerate(arc_list, nn) if h.lower is not None]
-        self.n_children = [len(c) for c in self.children]
+        self.lower = lower
+        self.n_children = list(map(len, children))
         self.inside: list[float] | None = None  # set by pristine_inside
         self.idx: dict[str, int] | None = None  # set by local_index
 
