@@ -250,18 +250,10 @@ class OnlineGraph:
         OR branch not taken)."""
         H = self.hierarchy
         templates: dict[str, _Template] = {}
-        names: list[str] = []
         local: list[str] = []
         kinds: list[int] = []
         weight: list[float] = []
         inst_of: list[int] = []
-        lrank: list[int] = []  # position in the instance's top-down order (outside pass)
-        children: list[tuple[int, ...]] = []  # hyper-arcs: child node ids
-        parent: list[int] = []  # hyper-arcs: parent node id
-        lower: list[int] = []  # hyper-arcs: lower instance id or -1
-        incoming: list[tuple[int, ...]] = []  # nodes: hyper-arcs producing it
-        outgoing: list[tuple[int, ...]] = []  # nodes: hyper-arcs consuming it
-        root_of: list[int] = []  # nodes: instance id if this node is an instance root
         i_path: list[str] = []
         i_key: list[str] = []
         i_root: list[int] = []
@@ -281,8 +273,6 @@ class OnlineGraph:
                 t = templates[key] = _Template(H.graphs[key])
             k = len(i_key)
             base = len(kinds)
-            if upper >= 0:
-                lower[upper] = k
             i_path.append(path)
             i_key.append(key)
             i_root.append(base + t.root)
@@ -296,31 +286,29 @@ class OnlineGraph:
             kinds.extend(t.kinds)
             weight.extend(t.weights)
             inst_of.extend([k] * t.size)
-            lower.extend([-1] * t.size)
-            root_of.extend([-1] * t.size)
-            root_of[base + t.root] = k
-            if base:
-                # placeholders until _materialise (None: a premature read fails loudly)
-                names.extend([None] * t.size)  # type: ignore[list-item]
-                lrank.extend([0] * t.size)
-                children.extend([()] * t.size)
-                parent.extend([-1] * t.size)
-                incoming.extend([()] * t.size)
-                outgoing.extend([()] * t.size)
-            else:
-                # the top instance shares the template's lists (never mutated)
-                t.complete()
-                lrank.extend(t.lrank)
-                names.extend(t.names)
-                children.extend(t.children)
-                parent.extend(t.parent)
-                incoming.extend(t.incoming)
-                outgoing.extend(t.outgoing)
             prefix = f"{path}{SEP}" if path else ""
             for x, sub_key in reversed(t.lower):
                 stack.append((sub_key, f"{prefix}{t.names[x]}", depth + 1, base + x, k))
 
         n = len(kinds)
+        lower = [-1] * n  # hyper-arcs: lower instance id or -1
+        root_of = [-1] * n  # nodes: instance id if this node is an instance root
+        for k, r in enumerate(i_root):
+            root_of[r] = k
+            u = i_upper[k]
+            if u >= 0:
+                lower[u] = k
+        # the top instance's structures are its template's; the others' are placeholders
+        # until _materialise (None names: a premature read fails loudly)
+        t0 = i_tmpl[0]
+        t0.complete()
+        rest = n - t0.size
+        names: list[str] = t0.names + [None] * rest  # type: ignore[list-item]
+        lrank = t0.lrank + [0] * rest  # position in the instance's top-down order
+        children = t0.children + [()] * rest  # hyper-arcs: child node ids
+        parent = t0.parent + [-1] * rest  # hyper-arcs: parent node id
+        incoming = t0.incoming + [()] * rest  # nodes: hyper-arcs producing it
+        outgoing = t0.outgoing + [()] * rest  # nodes: hyper-arcs consuming it
         n_inst = len(i_key)
         self._names = names
         self._local = local
