@@ -189,7 +189,6 @@ class OnlineGraph:
         "_inside",
         "_inst",
         "_kind",
-        "_local",
         "_log",
         "_lower",
         "_lrank",
@@ -250,7 +249,6 @@ class OnlineGraph:
         OR branch not taken)."""
         H = self.hierarchy
         templates: dict[str, _Template] = {}
-        local: list[str] = []
         kinds: list[int] = []
         weight: list[float] = []
         inst_of: list[int] = []
@@ -282,7 +280,6 @@ class OnlineGraph:
             i_depth.append(depth)
             i_span.append((base, base + t.size))
             i_tmpl.append(t)
-            local.extend(t.names)
             kinds.extend(t.kinds)
             weight.extend(t.weights)
             inst_of.extend([k] * t.size)
@@ -311,7 +308,6 @@ class OnlineGraph:
         outgoing = t0.outgoing + [()] * rest  # nodes: hyper-arcs consuming it
         n_inst = len(i_key)
         self._names = names
-        self._local = local
         self._kind = kinds
         self._index_cache: dict[str, int] | None = None
         self._w = weight
@@ -985,7 +981,9 @@ class OnlineGraph:
         return self.hierarchy.graphs[self._i_key[self._inst[self.element_id(name)]]]
 
     def local_name(self, name: str) -> str:
-        return self._local[self.element_id(name)]
+        e = self.element_id(name)
+        k = self._inst[e]
+        return self._i_tmpl[k].names[e - self._i_span[k][0]]
 
     def elements(self) -> list[str]:
         self._materialise_all()
