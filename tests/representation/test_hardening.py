@@ -207,7 +207,15 @@ def test_b1_unreadable_is_reported_without_permissions(tmp_path, capsys, monkeyp
             raise PermissionError(13, "Permission denied", str(path))
         return real_open(path, *a, **kw)
 
+    real_os_open = os.open
+
+    def deny_fd(path, *a, **kw):  # the ANDOR text reader reads with os.open
+        if str(path) == str(f):
+            raise PermissionError(13, "Permission denied", str(path))
+        return real_os_open(path, *a, **kw)
+
     monkeypatch.setattr("builtins.open", deny)
+    monkeypatch.setattr("os.open", deny_fd)
     monkeypatch.setattr(
         "pathlib.Path.read_bytes",
         lambda self: (_ for _ in ()).throw(PermissionError(13, "Permission denied")),

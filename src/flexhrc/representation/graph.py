@@ -85,6 +85,8 @@ class AndOrGraph:
         self.root_line: int | None = None
         self.load_warnings: list[FormatError] = []  # set by readers (e.g. renamed duplicates)
         self._topo: tuple[tuple[int, int], list[str]] | None = None  # cache, keyed by size
+        # set by a reader that did validate()'s checks while parsing: (size, warnings)
+        self._validated: tuple[tuple[int, int], list[FormatError]] | None = None
 
     # -- building -------------------------------------------------------------------------
     def add_node(self, node: Node | str, weight: float = 0.0, **kw: object) -> Node:
@@ -96,6 +98,7 @@ class AndOrGraph:
             raise FormatError(f"duplicate node name {node.name!r}{where}", self.source, node.line)
         _check_weight(node.weight, f"node {node.name!r}", self.source, node.line)
         self.nodes[node.name] = node
+        self._validated = None
         return node
 
     def add_hyperarc(
@@ -122,6 +125,7 @@ class AndOrGraph:
                 f"hyper-arc {hyperarc.name!r} has no child node", self.source, hyperarc.line
             )
         self.hyperarcs[hyperarc.name] = hyperarc
+        self._validated = None
         return hyperarc
 
     # -- queries --------------------------------------------------------------------------
@@ -183,6 +187,11 @@ class AndOrGraph:
         consumes ("dead ends": they can never contribute to the root). The authors' own
         ``PL_BallPlacement.txt`` has one.
         """
+        done = self._validated
+        if done is not None:
+            if done[0] == (len(self.nodes), len(self.hyperarcs)):
+                return list(done[1])
+            self._validated = None  # changed since: check again
         src = self.source
         consumed: set[str] = set()
         for h in self.hyperarcs.values():
@@ -253,6 +262,11 @@ class AndOrGraph:
             for n in tops
             if n != self.root and n in produced
         ]
+
+    def mark_validated(self, warnings: list[FormatError]) -> None:
+        """Record that a reader has made every check of :meth:`validate` while building the
+        graph (with these warnings): validating it again, unchanged, returns them at once."""
+        self._validated = ((len(self.nodes), len(self.hyperarcs)), warnings)
 
     def lint(self) -> list[FormatError]:
         """Oddities of a valid graph that usually mean a mistake (call after :meth:`validate`).
@@ -368,12 +382,8 @@ class AndOrGraph:
         key = (len(self.nodes), len(self.hyperarcs))
         if self._topo is not None and self._topo[0] == key:
             return self._topo[1]
-        order = self._topological_order()
-        self._topo = (key, order)
-        return order
-
-    def _topological_order(self) -> list[str]:
-        indeg = {n: 0 for n in self.nodes}
+        # Kahn's algorithm (one function: this runs on every load)
+        indeg = dict.fromkeys(self.nodes, 0)
         consumers: dict[str, list[str]] = {n: [] for n in self.nodes}
         for h in self.hyperarcs.values():
             for c in h.children:
@@ -387,6 +397,7 @@ class AndOrGraph:
                 if indeg[p] == 0:
                     order.append(p)
             i += 1
+        self._topo = (key, order)
         return order
 
 

@@ -97,16 +97,27 @@ class HierarchicalGraph:
 
         Raises :class:`FormatError` on the first fault; returns the warnings.
         """
+        if (
+            len(self.graphs) == 1
+            and self.top_graph.hyperarcs
+            and not any([h.lower is not None for h in self.top_graph.hyperarcs.values()])
+        ):
+            # one graph, no transition: nothing to check beyond the graph itself
+            self.warnings = self.top_graph.validate()
+            return self.warnings
         self._check_recursion()
         warnings: list[FormatError] = []
         used = self.used_keys()
         for key in used:
             warnings += self.graphs[key].validate()
+        leaves: dict[str, list[str]] = {}  # of each lower definition, computed once
         for key in used:
             g = self.graphs[key]
             for h in g.hyperarcs.values():
                 if h.lower is not None:
-                    self._check_transition(g, h)
+                    if h.lower not in leaves:
+                        leaves[h.lower] = self.graphs[h.lower].leaves()
+                    self._check_transition(g, h, leaves[h.lower])
         self.warnings = warnings
         return warnings
 
@@ -144,10 +155,8 @@ class HierarchicalGraph:
                 trail.append(h.lower)
                 stack.append(iter(self.graphs[h.lower].hyperarcs.values()))
 
-    def _check_transition(self, upper: AndOrGraph, h: Hyperarc) -> None:
+    def _check_transition(self, upper: AndOrGraph, h: Hyperarc, leaves: list[str]) -> None:
         assert h.lower is not None
-        lower = self.graphs[h.lower]
-        leaves = lower.leaves()
         src, line = upper.source, h.line
         if h.leaf_map is None:
             # Implicit M1 (ANDOR text): the children of h as a whole correspond to the leaves

@@ -39,6 +39,7 @@ import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from heapq import heapify, heappop, heappush
+from operator import attrgetter
 from pathlib import Path
 from typing import Any, Literal
 
@@ -154,6 +155,60 @@ class OnlineGraph:
     True
     """
 
+    # slots: no per-instance dict to grow while ~50 attributes are set (offline time)
+    __slots__ = (
+        "__weakref__",
+        "_active",
+        "_blocked",
+        "_children",
+        "_closed",
+        "_costs",
+        "_dead",
+        "_done",
+        "_events",
+        "_feasible",
+        "_heap",
+        "_i_depth",
+        "_i_down",
+        "_i_feas",
+        "_i_key",
+        "_i_leaves",
+        "_i_lowers",
+        "_i_mat",
+        "_i_name",
+        "_i_off",
+        "_i_parent",
+        "_i_path",
+        "_i_pristine",
+        "_i_root",
+        "_i_span",
+        "_i_tmpl",
+        "_i_upper",
+        "_in",
+        "_index_cache",
+        "_inside",
+        "_inst",
+        "_kind",
+        "_log",
+        "_lower",
+        "_lrank",
+        "_names",
+        "_off_dirty",
+        "_out",
+        "_out_val",
+        "_outcome",
+        "_parent",
+        "_query",
+        "_queued",
+        "_rank_span",
+        "_reason",
+        "_root_of",
+        "_touched",
+        "_unmet",
+        "_w",
+        "hierarchy",
+    )
+
     def __init__(self, graph: HierarchicalGraph | AndOrGraph, *, validate: bool = True):
         if isinstance(graph, AndOrGraph):
             graph = HierarchicalGraph.single(graph)
@@ -185,27 +240,23 @@ class OnlineGraph:
 
     # ------------------------------------------------------------------ construction ----
     def _build(self) -> None:
+        """Lay out every instance (ids, weights, kinds: cheap copies of its template) and
+        *materialise* only the top one: the index structures of a lower instance (qualified
+        names, child/parent/incoming/outgoing ids) are shifted copies of its template's, built
+        when the instance above it becomes active (one level ahead: see :meth:`_activate`) or
+        one of its elements is named (:meth:`_materialise`). Most instances of a deep
+        hierarchy are not needed before the cooperation reaches them, and many never are (an
+        OR branch not taken)."""
         H = self.hierarchy
         templates: dict[str, _Template] = {}
-        names: list[str] = []
-        local: list[str] = []
         kinds: list[int] = []
         weight: list[float] = []
         inst_of: list[int] = []
-        lrank: list[int] = []  # position in the instance's top-down order (outside pass)
-        children: list[tuple[int, ...]] = []  # hyper-arcs: child node ids
-        parent: list[int] = []  # hyper-arcs: parent node id
-        lower: list[int] = []  # hyper-arcs: lower instance id or -1
-        incoming: list[tuple[int, ...]] = []  # nodes: hyper-arcs producing it
-        outgoing: list[tuple[int, ...]] = []  # nodes: hyper-arcs consuming it
-        root_of: list[int] = []  # nodes: instance id if this node is an instance root
         i_path: list[str] = []
         i_key: list[str] = []
         i_root: list[int] = []
         i_upper: list[int] = []
         i_parent: list[int] = []
-        i_leaves: list[list[int]] = []
-        i_down: list[list[int]] = []  # element ids, parents before children
         i_lowers: list[list[int]] = []  # hyper-arcs of the instance that have a lower graph
         i_depth: list[int] = []
         i_span: list[tuple[int, int]] = []
@@ -219,50 +270,44 @@ class OnlineGraph:
             if t is None:
                 t = templates[key] = _Template(H.graphs[key])
             k = len(i_key)
-            base = len(names)
-            if upper >= 0:
-                lower[upper] = k
+            base = len(kinds)
             i_path.append(path)
             i_key.append(key)
             i_root.append(base + t.root)
             i_upper.append(upper)
             i_parent.append(parent_inst)
-            shift = base.__add__
-            # read only: the top instance (base 0) shares the template's lists
-            i_leaves.append(list(map(shift, t.leaves)) if base else t.leaves)
-            i_down.append(list(map(shift, t.down)) if base else t.down)
             i_lowers.append([base + x for x, _ in t.lower])
             i_depth.append(depth)
             i_span.append((base, base + t.size))
             i_tmpl.append(t)
-            prefix = f"{path}{SEP}" if path else ""
-            names.extend([prefix + x for x in t.names] if prefix else t.names)
-            local.extend(t.names)
             kinds.extend(t.kinds)
             weight.extend(t.weights)
             inst_of.extend([k] * t.size)
-            lrank.extend(t.lrank)
-            if base:
-                # half of these are empty (nodes have no children, hyper-arcs no incoming or
-                # outgoing arcs): share the empty tuple instead of shifting nothing
-                children.extend([tuple(map(shift, ch)) if ch else () for ch in t.children])
-                parent.extend([base + p if p >= 0 else -1 for p in t.parent])
-                incoming.extend([tuple(map(shift, hs)) if hs else () for hs in t.incoming])
-                outgoing.extend([tuple(map(shift, hs)) if hs else () for hs in t.outgoing])
-            else:
-                children.extend(t.children)
-                parent.extend(t.parent)
-                incoming.extend(t.incoming)  # never mutated: shared with the template
-                outgoing.extend(t.outgoing)
-            lower.extend([-1] * t.size)
-            root_of.extend([-1] * t.size)
-            root_of[base + t.root] = k
+            prefix = f"{path}{SEP}" if path else ""
             for x, sub_key in reversed(t.lower):
                 stack.append((sub_key, f"{prefix}{t.names[x]}", depth + 1, base + x, k))
 
-        n = len(names)
+        n = len(kinds)
+        lower = [-1] * n  # hyper-arcs: lower instance id or -1
+        root_of = [-1] * n  # nodes: instance id if this node is an instance root
+        for k, r in enumerate(i_root):
+            root_of[r] = k
+            u = i_upper[k]
+            if u >= 0:
+                lower[u] = k
+        # the top instance's structures are its template's; the others' are placeholders
+        # until _materialise (None names: a premature read fails loudly)
+        t0 = i_tmpl[0]
+        t0.complete()
+        rest = n - t0.size
+        names: list[str] = t0.names + [None] * rest  # type: ignore[list-item]
+        lrank = t0.lrank + [0] * rest  # position in the instance's top-down order
+        children = t0.children + [()] * rest  # hyper-arcs: child node ids
+        parent = t0.parent + [-1] * rest  # hyper-arcs: parent node id
+        incoming = t0.incoming + [()] * rest  # nodes: hyper-arcs producing it
+        outgoing = t0.outgoing + [()] * rest  # nodes: hyper-arcs consuming it
+        n_inst = len(i_key)
         self._names = names
-        self._local = local
         self._kind = kinds
         self._index_cache: dict[str, int] | None = None
         self._w = weight
@@ -280,29 +325,34 @@ class OnlineGraph:
         self._i_root = i_root
         self._i_upper = i_upper
         self._i_parent = i_parent
-        self._i_leaves = i_leaves
-        self._i_down = i_down
+        t0 = i_tmpl[0]
+        # element ids of each instance's leaves / top-down order: set by _materialise
+        self._i_leaves: list[list[int]] = [t0.leaves] + [[] for _ in range(n_inst - 1)]
+        self._i_down: list[list[int]] = [t0.down] + [[] for _ in range(n_inst - 1)]
+        self._i_mat = [True] + [False] * (n_inst - 1)
         self._i_lowers = i_lowers
         self._i_depth = i_depth
         self._i_span = i_span
         self._i_tmpl = i_tmpl
         # an instance is pristine until one of its elements (or of the instances below it) is
         # marked infeasible: then its costs at activation are not its definition's any more
-        self._i_pristine = [True] * len(i_key)
+        self._i_pristine = [True] * n_inst
         self._i_name = [H.graphs[k].name for k in i_key]
         # mutable state
         self._done = [False] * n  # met (nodes) / solved (hyper-arcs)
         self._blocked = [False] * n  # can no longer be taken (infeasible for good)
-        self._unmet = [len(c) for c in children]  # hyper-arcs: children not yet met
-        self._active = [False] * len(i_key)
-        self._closed = [False] * len(i_key)
+        # hyper-arcs: children not yet met (the template's counts: nothing is met yet)
+        self._unmet: list[int] = []
+        for t in i_tmpl:
+            self._unmet.extend(t.n_children)
+        self._active = [False] * n_inst
+        self._closed = [False] * n_inst
         self._feasible: dict[int, None] = {}
-        self._inside = [0.0] * n
         # outside costs relative to the element's instance root, kept exact for the elements
         # of active instances; the instance's own offset (its root's outside cost in the whole
         # hierarchy) is separate, so a change above an instance does not touch its elements
         self._out_val = [0.0] * n
-        self._i_off = [0.0] * len(i_key)
+        self._i_off = [0.0] * n_inst
         self._i_feas: list[dict[int, None]] = [{} for _ in i_key]  # feasible, per instance
         self._off_dirty: set[int] = set()
         # work lists of one query: outside costs to recompute (a heap in top-down order),
@@ -311,32 +361,88 @@ class OnlineGraph:
         self._queued: set[int] = set()
         self._touched: set[int] = set()
         self._dead: list[int] = []
-        # initial inside costs, deepest instances first (their roots weigh their upper arcs);
-        # every instance of one definition starts with the same values: compute them once
-        calc = self._calc_inside
-        ins = self._inside
-        first: dict[str, int] = {}
-        order = range(len(i_key) - 1, -1, -1) if len(i_key) > 1 else (0,)
-        # instances are numbered depth-first: every instance comes after the one above it,
-        # so the reverse order has the lower instances first
-        for k in order:
-            lo, hi = i_span[k]
-            seen = first.get(i_key[k])
-            if seen is not None:
-                slo, shi = i_span[seen]
-                ins[lo:hi] = ins[slo:shi]
-                continue
-            first[i_key[k]] = k
-            for e in reversed(i_down[k]):
-                ins[e] = calc(e)
+        # initial inside costs: every instance of one definition starts with the same values,
+        # its template's, computed once in the template's own ids. Instances are numbered
+        # depth-first (each after the one above it), so in reverse order every definition is
+        # met after all the definitions below its first instance.
+        for k in range(n_inst - 1, -1, -1):
+            t = i_tmpl[k]
+            if t.inside is None:
+                t.pristine_inside([i_tmpl[lower[base]].root_inside() for base in i_lowers[k]])
+        ins: list[float] = []
+        for t in i_tmpl:
+            ins.extend(t.inside)  # type: ignore[arg-type]
+        self._inside = ins
+
+    def _materialise(self, k: int) -> None:
+        """Build the index structures of instance k (and of the instances above it) from its
+        template: qualified names and shifted child/parent/incoming/outgoing ids."""
+        chain = []
+        mat, up = self._i_mat, self._i_parent
+        while k >= 0 and not mat[k]:
+            chain.append(k)
+            k = up[k]
+        names, children, parent = self._names, self._children, self._parent
+        incoming, outgoing, index = self._in, self._out, self._index_cache
+        for k in reversed(chain):
+            mat[k] = True
+            t = self._i_tmpl[k]
+            t.complete()
+            lo, hi = self._i_span[k]
+            self._lrank[lo:hi] = t.lrank
+            shift = lo.__add__
+            prefix = self._i_path[k] + SEP
+            qualified = [prefix + x for x in t.names]
+            names[lo:hi] = qualified
+            # half of these are empty (nodes have no children, hyper-arcs no incoming or
+            # outgoing arcs): share the empty tuple instead of shifting nothing
+            children[lo:hi] = [tuple(map(shift, ch)) if ch else () for ch in t.children]
+            parent[lo:hi] = [lo + p if p >= 0 else -1 for p in t.parent]
+            incoming[lo:hi] = [tuple(map(shift, hs)) if hs else () for hs in t.incoming]
+            outgoing[lo:hi] = [tuple(map(shift, hs)) if hs else () for hs in t.outgoing]
+            self._i_leaves[k] = list(map(shift, t.leaves))
+            self._i_down[k] = list(map(shift, t.down))
+            if index is not None:
+                index.update(zip(qualified, range(lo, hi), strict=True))
+
+    def _materialise_all(self) -> None:
+        mat = self._i_mat
+        for k in range(len(mat)):
+            if not mat[k]:
+                self._materialise(k)
+
+    def _resolve(self, name: str) -> int:
+        """Element id of a qualified name in any instance, materialising its instance (the
+        index knows only materialised ones); -1 if there is no such element."""
+        parts = name.split(SEP)
+        k = 0
+        for part in parts[:-1]:
+            x = self._i_tmpl[k].local_index().get(part, -1)
+            if x < 0:
+                return -1
+            k = self._lower[self._i_span[k][0] + x]
+            if k < 0:
+                return -1
+        x = self._i_tmpl[k].local_index().get(parts[-1], -1)
+        if x < 0:
+            return -1
+        self._materialise(k)
+        e = self._i_span[k][0] + x
+        return e if self._names[e] == name else -1
 
     @property
     def _index(self) -> dict[str, int]:
         # qualified name -> element id, built on the first lookup by name (offline time matters)
+        # (of the materialised instances; _materialise adds the others as they come)
         idx = self._index_cache
         if idx is None:
-            names = self._names
-            idx = self._index_cache = dict(zip(names, range(len(names)), strict=True))
+            names, span = self._names, self._i_span
+            idx = {}
+            for k, m in enumerate(self._i_mat):
+                if m:
+                    lo, hi = span[k]
+                    idx.update(zip(names[lo:hi], range(lo, hi), strict=True))
+            self._index_cache = idx
         return idx
 
     # ------------------------------------------------------------------ cost helpers ----
@@ -659,6 +765,14 @@ class OnlineGraph:
         the feasible set."""
         if self._active[k] or self._closed[k]:
             return
+        mat = self._i_mat
+        if not mat[k]:
+            self._materialise(k)
+        # one level ahead: the instances just below k can become active from now on, and the
+        # query that activates one should not pay for building it
+        for h in self._i_lowers[k]:
+            if not mat[self._lower[h]]:
+                self._materialise(self._lower[h])
         self._active[k] = True
         if k:
             # its offset now; a later change this query above it re-dirties it (_settle and
@@ -667,14 +781,8 @@ class OnlineGraph:
         if self._i_pristine[k]:
             # as its definition left it: the outside costs every pristine instance of this
             # definition starts with, computed once; every leaf is feasible
-            t = self._i_tmpl[k]
             lo, hi = self._i_span[k]
-            if t.pristine_out is None:
-                self._fill_outside(k)
-                if k:  # the top definition has one instance: nothing to share
-                    t.pristine_out = self._out_val[lo:hi]
-            else:
-                self._out_val[lo:hi] = t.pristine_out
+            self._out_val[lo:hi] = self._i_tmpl[k].pristine_outside()
             leaves = self._i_leaves[k]
             fresh = dict.fromkeys(leaves)
             self._feasible.update(fresh)
@@ -817,16 +925,22 @@ class OnlineGraph:
             raise GraphArgumentError(
                 f"an element name must be a string, got {type(name).__name__} {name!r}"
             )
-        try:
-            return self._index[name]
-        except KeyError:
-            raise UnknownNameError(_unknown(name, self._index)) from None
+        e = self._index.get(name, -1)
+        if e < 0:
+            e = self._resolve(name)  # an element of an instance not materialised yet
+        if e < 0:
+            self._materialise_all()  # every name, for the message's suggestions
+            e = self._index.get(name, -1)
+            if e < 0:
+                raise UnknownNameError(_unknown(name, self._index))
+        return e
 
     def element_name(self, e: int) -> str:
         if isinstance(e, bool) or not isinstance(e, int):
             raise GraphArgumentError(f"an element id must be an int, got {type(e).__name__}")
         if not 0 <= e < len(self._names):
             raise UnknownNameError(f"no element with id {e} (0..{len(self._names) - 1})")
+        self._materialise(self._inst[e])
         return self._names[e]
 
     def kind(self, name: str) -> Kind:
@@ -867,9 +981,12 @@ class OnlineGraph:
         return self.hierarchy.graphs[self._i_key[self._inst[self.element_id(name)]]]
 
     def local_name(self, name: str) -> str:
-        return self._local[self.element_id(name)]
+        e = self.element_id(name)
+        k = self._inst[e]
+        return self._i_tmpl[k].names[e - self._i_span[k][0]]
 
     def elements(self) -> list[str]:
+        self._materialise_all()
         return list(self._names)
 
     def optimal_cost(self) -> float:
@@ -1245,19 +1362,26 @@ def _event(raw: object) -> Event:
     return Event(q, t, el)
 
 
+_WEIGHT = attrgetter("weight")
+
+
 class _Template:
     """Index structure of one graph definition, shared by all of its instances."""
 
     __slots__ = (
         "children",
         "down",
+        "idx",
         "incoming",
+        "inside",
         "kinds",
         "leaves",
         "lower",
         "lrank",
+        "n_children",
         "names",
         "outgoing",
+        "own",
         "parent",
         "pristine_out",
         "root",
@@ -1268,42 +1392,138 @@ class _Template:
 
     def __init__(self, g: AndOrGraph):
         node_names = list(g.nodes)
-        arc_list = list(g.hyperarcs.values())
         nn = len(node_names)
-        idx = {name: i for i, name in enumerate(node_names)}
-        self.names = node_names + [h.name for h in arc_list]
-        self.size = len(self.names)
-        self.kinds = [0] * nn + [1] * len(arc_list)
-        self.weights = [float(n.weight) for n in g.nodes.values()] + [
-            float(h.weight) for h in arc_list
-        ]
+        idx = dict(zip(node_names, range(nn), strict=True))
         get = idx.__getitem__
-        self.children: list[tuple[int, ...]] = [()] * nn + [
-            tuple(map(get, h.children)) for h in arc_list
-        ]
-        self.parent = [-1] * nn + [idx[h.parent] for h in arc_list]
-        incoming: list[list[int]] = [[] for _ in range(self.size)]
-        outgoing: list[list[int]] = [[] for _ in range(self.size)]
-        for j, h in enumerate(arc_list, nn):
-            incoming[idx[h.parent]].append(j)
-            for c in h.children:
-                outgoing[idx[c]].append(j)
+        names = node_names
+        weights = list(map(float, map(_WEIGHT, g.nodes.values())))
+        children: list[tuple[int, ...]] = [()] * nn
+        parent = [-1] * nn
+        incoming: list[list[int]] = [[] for _ in node_names]
+        lower: list[tuple[int, str]] = []
+        # one pass over the hyper-arcs (a first call of each comprehension costs more than
+        # the loop it would save, on the small graphs whose offline time is mostly that)
+        j = nn
+        for h in g.hyperarcs.values():
+            names.append(h.name)
+            weights.append(float(h.weight))
+            children.append(tuple(map(get, h.children)))
+            p = idx[h.parent]
+            parent.append(p)
+            incoming[p].append(j)
+            incoming.append([])
+            if h.lower is not None:
+                lower.append((j, h.lower))
+            j += 1
+        self.names = names
+        self.size = j
+        self.kinds = [0] * nn + [1] * (j - nn)
+        self.weights = weights
+        self.children = children
+        self.parent = parent
         # tuples: never changed once built, and the empty ones are all the same object
         self.incoming: list[tuple[int, ...]] = [tuple(x) if x else () for x in incoming]
-        self.outgoing: list[tuple[int, ...]] = [tuple(x) if x else () for x in outgoing]
         self.root = idx[g.root]  # type: ignore[index]
-        self.leaves = [i for i in range(nn) if not self.incoming[i]]
-        self.topo: list[int] = []
+        self.leaves = [i for i in range(nn) if not incoming[i]]
+        topo: list[int] = []
         for name in g.topological_order():
             i = idx[name]
-            self.topo.extend(self.incoming[i])
-            self.topo.append(i)
-        self.pristine_out: list[float] | None = None  # set by OnlineGraph._activate
-        self.down = self.topo[::-1]  # parents before children: the outside pass
-        self.lrank = [0] * self.size
+            topo.extend(incoming[i])
+            topo.append(i)
+        self.topo = topo
+        # what only a materialised instance needs: set by complete()
+        self.outgoing: list[tuple[int, ...]] = []
+        self.down: list[int] = []
+        self.lrank: list[int] = []
+        self.pristine_out: list[float] | None = None  # set by pristine_outside
+        self.own: list[float] = []  # set by pristine_inside
+        self.lower = lower
+        self.n_children = list(map(len, children))
+        self.inside: list[float] | None = None  # set by pristine_inside
+        self.idx: dict[str, int] | None = None  # set by local_index
+
+    def pristine_inside(self, lower_roots: list[float]) -> None:
+        """Inside costs of an instance nothing of which is met yet (eqs. 9, 19), children
+        before parents; ``lower_roots``: the inside cost of each lower graph's root, in the
+        order of :attr:`lower`."""
+        w, kinds, children, incoming = self.weights, self.kinds, self.children, self.incoming
+        own = list(w)
+        for (j, _), v in zip(self.lower, lower_roots, strict=True):
+            own[j] = v  # eq. 19: a hyper-arc with a lower graph weighs its optimal cost
+        self.own = own
+        ins = [0.0] * self.size
+        inf = INF
+        for e in self.topo:
+            v = own[e]
+            if kinds[e]:
+                for c in children[e]:
+                    v += ins[c]
+            else:
+                arcs = incoming[e]
+                if arcs:
+                    best = inf
+                    for h in arcs:
+                        x = ins[h]
+                        if x < best:
+                            best = x
+                    v += best
+            ins[e] = v
+        self.inside = ins
+
+    def complete(self) -> None:
+        """The parts an instance needs once it is materialised: the consumers of every node,
+        the top-down order (parents before children: the outside pass) and its ranks."""
+        if self.down or not self.size:
+            return
+        outgoing: list[list[int]] = [[] for _ in range(self.size)]
+        for j, ch in enumerate(self.children):
+            for c in ch:
+                outgoing[c].append(j)
+        # tuples: never changed once built, and the empty ones are all the same object
+        self.outgoing = [tuple(x) if x else () for x in outgoing]
+        self.down = self.topo[::-1]
+        lrank = [0] * self.size
         for r, x in enumerate(self.down):
-            self.lrank[x] = r
-        self.lower = [(j, h.lower) for j, h in enumerate(arc_list, nn) if h.lower is not None]
+            lrank[x] = r
+        self.lrank = lrank
+
+    def pristine_outside(self) -> list[float]:
+        """Outside costs (to the instance root) of an instance nothing of which is met yet,
+        parents before children: the values of ``OnlineGraph._calc_outside`` then."""
+        out = self.pristine_out
+        if out is None:
+            self.complete()
+            kinds, parent, w, own = self.kinds, self.parent, self.weights, self.own
+            children, outgoing, ins, root = self.children, self.outgoing, self.inside, self.root
+            assert ins is not None
+            out = [0.0] * self.size
+            for e in self.down:
+                if kinds[e]:
+                    p = parent[e]
+                    out[e] = w[p] + out[p]
+                elif e != root:
+                    v = INF
+                    for h in outgoing[e]:
+                        x = own[h]
+                        for c in children[h]:
+                            if c != e:
+                                x += ins[c]
+                        x += out[h]
+                        if x < v:
+                            v = x
+                    out[e] = v
+            self.pristine_out = out
+        return out
+
+    def root_inside(self) -> float:
+        assert self.inside is not None
+        return self.inside[self.root]
+
+    def local_index(self) -> dict[str, int]:
+        """Local name -> template id (a name used by a node and a hyper-arc: the hyper-arc)."""
+        if self.idx is None:
+            self.idx = dict(zip(self.names, range(self.size), strict=True))
+        return self.idx
 
 
 def _num(x: float) -> float | int | None:

@@ -69,12 +69,14 @@ def _paths(online: OnlineGraph, k: int, limit: int) -> list[frozenset[int]]:
 
 def count_paths(online: OnlineGraph, limit: int = DEFAULT_LIMIT) -> dict[str, int]:
     """Number of cooperation paths of every graph instance (instance path -> count)."""
+    online._materialise_all()  # enumeration walks every instance's structure
     return {online._i_path[k]: len(_paths(online, k, limit)) for k in range(len(online._i_key))}
 
 
 def exact_costs(online: OnlineGraph, limit: int = DEFAULT_LIMIT) -> dict[str, float]:
     """Suggestion cost of every feasible element by enumerating paths (finite costs only)."""
     g = online
+    g._materialise_all()  # enumeration walks every instance's structure
     n_inst = len(g._i_key)
     paths = [_paths(g, k, limit) for k in range(n_inst)]
     best: list[float | None] = [None] * n_inst  # cheapest remaining path cost of an instance

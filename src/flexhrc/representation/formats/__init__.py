@@ -19,16 +19,25 @@ from flexhrc.errors import FormatError
 from flexhrc.representation.hierarchy import HierarchicalGraph
 from flexhrc.representation.online import GraphArgumentError
 
+_READERS: dict[bool, Callable[[str | Path], HierarchicalGraph]] = {}  # is YAML -> reader
+
 
 def reader_for(path: str | Path) -> Callable[[str | Path], HierarchicalGraph]:
     """The reader of a graph file, chosen by its extension (its module imported now)."""
-    if str(path).lower().endswith((".yaml", ".yml")):
+    yaml = str(path).lower().endswith((".yaml", ".yml"))
+    reader = _READERS.get(yaml)
+    if reader is not None:
+        return reader
+    if yaml:
         from flexhrc.representation.formats.yaml_format import load_yaml
 
-        return load_yaml
-    from flexhrc.representation.formats.andor_text import load_andor_text
+        reader = load_yaml
+    else:
+        from flexhrc.representation.formats.andor_text import load_andor_text
 
-    return load_andor_text
+        reader = load_andor_text
+    _READERS[yaml] = reader
+    return reader
 
 
 def load(path: str | Path, *, validate: bool = True) -> HierarchicalGraph:
@@ -46,7 +55,8 @@ def load(path: str | Path, *, validate: bool = True) -> HierarchicalGraph:
     try:
         # no stat or Path first: on the cold first call of a small graph those cost more than
         # parsing it; the reader's own open() says whether the file is there
-        hierarchy = reader_for(name)(name)
+        reader = _READERS.get(name.lower().endswith((".yaml", ".yml"))) or reader_for(name)
+        hierarchy = reader(name)
     except FormatError:
         if not os.path.lexists(name):
             raise FormatError("no such file", path) from None

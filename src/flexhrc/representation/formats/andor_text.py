@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import os
 from dataclasses import replace
+from itertools import repeat
 from pathlib import Path
 
 from flexhrc.errors import FormatError
@@ -33,11 +34,22 @@ from flexhrc.representation.hierarchy import HierarchicalGraph
 SUFFIX = ".txt"
 
 
-def _lines(path: str | Path) -> list[tuple[int, list[str]]]:
+def _rows(path: str | Path) -> tuple[list[list[str]], list[int] | range]:
+    """The non-blank lines of a file split into tokens (comments dropped), and their line
+    numbers. Each file is read once and split once; a file without comments or blank lines
+    (the common case) is tokenised by one comprehension, its line numbers a ``range``."""
     text = None
     try:
-        with open(path, "rb") as fh:
-            data = fh.read()
+        # os-level reads: 4 system calls where open() makes 9 (fstat twice, a tty check,
+        # seeks), which shows on the cold first call of a small graph
+        fd = os.open(path, os.O_RDONLY | os.O_CLOEXEC)
+        try:
+            chunks = []
+            while chunk := os.read(fd, 1 << 16):
+                chunks.append(chunk)
+        finally:
+            os.close(fd)
+        data = chunks[0] if len(chunks) == 1 else b"".join(chunks)
         if b"\x00" not in data:
             text = data.decode("utf-8").removeprefix("\ufeff")
     except (OSError, UnicodeDecodeError):
@@ -45,16 +57,18 @@ def _lines(path: str | Path) -> list[tuple[int, list[str]]]:
     if text is None:
         # the shared reader says why (missing, folder, unreadable, binary, not UTF-8)
         text = read_text(path)
-    out = []
-    for i, raw in enumerate(text.splitlines(), 1):
-        toks = (raw.split("#", 1)[0] if "#" in raw else raw).split()
-        if toks:
-            out.append((i, toks))
-    return out
+    if "#" not in text:
+        rows = [raw.split() for raw in text.splitlines()]
+        if [] not in rows:
+            return rows, range(1, len(rows) + 1)
+    else:
+        rows = [raw.split("#", 1)[0].split() for raw in text.splitlines()]
+    nums = [i for i, toks in enumerate(rows, 1) if toks]
+    return [toks for toks in rows if toks], nums
 
 
 def _weight(tok: str, kind: str, name: str, path: str | Path, line: int) -> float:
-    if tok.isdigit():  # the common case, cheap
+    if tok.isdigit() and tok.isascii():  # the common case, cheap ("²" is a digit too)
         return float(tok)
     what = f"{kind} {name!r}"
     try:
@@ -73,11 +87,17 @@ def _name(tok: str, what: str, path: str | Path, line: int) -> str:
 
 
 def parse_graph(path: str | Path) -> tuple[AndOrGraph, list[tuple[str, int]]]:
-    """Parse one file. Returns the graph and its lower-graph references (name, line)."""
-    lines = _lines(path)
-    if not lines:
+    """Parse one file. Returns the graph and its lower-graph references (name, line).
+
+    The structural checks of :meth:`AndOrGraph.validate` are folded in (cheap membership
+    tests on the way); on any fault the full validation runs and names it, so the messages
+    are the same. A graph that passes is marked validated and is not checked again.
+    """
+    rows, nums = _rows(path)
+    if not rows:
         raise FormatError("empty file: expected '<graph name> <number of nodes> <root>'", path, 1)
-    lineno, head = lines[0]
+    head = rows[0]
+    lineno = nums[0]
     if len(head) != 3:
         # the line is not quoted: this may be any file, not ours to show
         raise FormatError(
@@ -100,32 +120,56 @@ def parse_graph(path: str | Path) -> tuple[AndOrGraph, list[tuple[str, int]]]:
         raise FormatError(f"number of nodes must be at least 1, got {count}", path, lineno)
     graph = AndOrGraph(name, root, source=path)
     graph.root_line = lineno
-    if len(lines) - 1 < count:
+    n_rows = len(rows)
+    if n_rows - 1 < count:
         raise FormatError(
-            f"header announces {count} nodes but the file has only {len(lines) - 1} more lines",
+            f"header announces {count} nodes but the file has only {n_rows - 1} more lines",
             path,
             lineno,
         )
     nodes = graph.nodes
-    for i in range(1, count + 1):
-        ln, toks = lines[i]
-        if len(toks) != 2:
-            hint = " (the header announces more nodes than are listed?)" if len(toks) == 5 else ""
-            raise FormatError(
-                f"node line must be '<name> <weight>', got {' '.join(toks)!r}{hint}", path, ln
+    node_rows = rows[1 : count + 1]
+    names: tuple[str, ...] = ()
+    weights: tuple[str, ...] = ()
+    if set(map(len, node_rows)) == {2}:
+        names, weights = zip(*node_rows, strict=True)
+        digits = "".join(weights)
+    if names and "/" not in "".join(names) and digits.isdigit() and digits.isascii():
+        # the common case, in bulk: plain names, integer weights
+        nodes.update(
+            zip(
+                names,
+                map(Node, names, map(float, weights), repeat(None), repeat(()), nums[1:]),
+                strict=False,  # nums runs on past the node lines
             )
-        n = toks[0]
-        if "/" in n or n in nodes:
-            _name(n, "node", path, ln)
-            graph.add_node(Node(n, line=ln))  # raises the duplicate-name error
-        w = toks[1]
-        nodes[n] = Node(n, float(w) if w.isdigit() else _weight(w, "node", n, path, ln), line=ln)
+        )
+    if len(nodes) != count:  # not the common case, or a repeated name: one by one, to say why
+        nodes.clear()
+        for i in range(1, count + 1):
+            toks = rows[i]
+            ln = nums[i]
+            if len(toks) != 2:
+                hint = (
+                    " (the header announces more nodes than are listed?)" if len(toks) == 5 else ""
+                )
+                raise FormatError(
+                    f"node line must be '<name> <weight>', got {' '.join(toks)!r}{hint}", path, ln
+                )
+            n, w = toks
+            if "/" in n or n in nodes:
+                _name(n, "node", path, ln)
+                graph.add_node(Node(n, line=ln))  # raises the duplicate-name error
+            nodes[n] = Node(n, _weight(w, "node", n, path, ln), line=ln)
     refs: list[tuple[str, int]] = []
     renamed: list[FormatError] = []
     arcs = graph.hyperarcs
+    consumed: set[str] = set()
+    produced: set[str] = set()
+    sound = True  # every parent and child known, no child twice, no parent among its children
     i = count + 1
-    while i < len(lines):
-        ln, toks = lines[i]
+    while i < n_rows:
+        toks = rows[i]
+        ln = nums[i]
         if len(toks) != 5:
             extra = " (a node line after the announced number of nodes?)" if len(toks) == 2 else ""
             raise FormatError(
@@ -135,7 +179,8 @@ def parse_graph(path: str | Path) -> tuple[AndOrGraph, list[tuple[str, int]]]:
                 ln,
             )
         hname, k_tok, parent, w_tok, lower = toks
-        _name(hname, "hyper-arc", path, ln)
+        if "/" in hname:
+            _name(hname, "hyper-arc", path, ln)
         try:
             k = int(k_tok)
         except ValueError:
@@ -144,24 +189,27 @@ def parse_graph(path: str | Path) -> tuple[AndOrGraph, list[tuple[str, int]]]:
             ) from None
         if k < 1:
             raise FormatError(f"hyper-arc {hname!r}: needs at least one child, got {k}", path, ln)
-        children = []
-        for j in range(1, k + 1):
-            if i + j >= len(lines) or len(lines[i + j][1]) != 1:
-                found = j - 1
-                where = lines[i + j][0] if i + j < len(lines) else ln
-                raise FormatError(
-                    f"hyper-arc {hname!r} declares {k} children but {found} follow", path, where
-                )
-            children.append(lines[i + j][1][0])
-        weight = float(w_tok) if w_tok.isdigit() else _weight(w_tok, "hyper-arc", hname, path, ln)
+        block = rows[i + 1 : i + 1 + k]
+        if len(block) < k or sum(map(len, block)) != k:  # (no row is empty)
+            found = next((j for j, r in enumerate(block) if len(r) != 1), len(block))
+            where = nums[i + 1 + found] if i + 1 + found < n_rows else ln
+            raise FormatError(
+                f"hyper-arc {hname!r} declares {k} children but {found} follow", path, where
+            )
+        children = (block[0][0],) if k == 1 else tuple([r[0] for r in block])
+        weight = (
+            float(w_tok)
+            if w_tok.isdigit() and w_tok.isascii()
+            else _weight(w_tok, "hyper-arc", hname, path, ln)
+        )
         lower_ref = None if lower == "-" else lower
         if lower_ref is not None:
             refs.append((lower_ref, ln))
-        if hname in graph.hyperarcs:
+        if hname in arcs:
             # The C++ library addresses hyper-arcs by position, so its files may repeat a name
             # (the authors' 3Leg/TableAssemblyPLCommented.txt does). Names are our addresses:
             # keep the file loadable, rename the repeat and say so.
-            first = graph.hyperarcs[hname].line
+            first = arcs[hname].line
             new_name = f"{hname}@L{ln}"
             renamed.append(
                 FormatError(
@@ -172,34 +220,91 @@ def parse_graph(path: str | Path) -> tuple[AndOrGraph, list[tuple[str, int]]]:
                 )
             )
             hname = new_name
+        if sound:
+            if k == 1:
+                c = children[0]
+                sound = c != parent and c in nodes and parent in nodes
+            else:
+                distinct = set(children)
+                sound = (
+                    len(distinct) == k
+                    and parent not in distinct
+                    and nodes.keys() >= distinct
+                    and parent in nodes
+                )
+        consumed.update(children)
+        produced.add(parent)
         # add_hyperarc's checks are done above (name, weight, at least one child, repeats)
-        arcs[hname] = Hyperarc(hname, tuple(children), parent, weight, lower=lower_ref, line=ln)
+        arcs[hname] = Hyperarc(hname, children, parent, weight, (), lower_ref, None, ln)
         i += k + 1
     graph.load_warnings = renamed
+    # what validate() checks last: the root, no cycle (Kahn's order, cached for later users),
+    # and the dead ends it warns about
+    if (
+        sound
+        and root in nodes
+        and root not in consumed
+        and len(graph.topological_order()) == len(nodes)
+    ):
+        dead = produced - consumed
+        dead.discard(root)
+        warnings = [
+            FormatError(
+                f"node {n!r} is produced by a hyper-arc but used by none: it cannot "
+                f"contribute to the root {root!r}",
+                path,
+                nodes[n].line,
+            )
+            for n in (nodes if dead else ())  # in node order, as validate() lists them
+            if n in dead
+        ]
+        graph.mark_validated([*renamed, *warnings])
+        return graph, refs
+    graph.validate()  # raises the precise error
     return graph, refs
 
 
-def _resolve(ref: str, including_dir: str, top_dir: str) -> str | None:
+def _resolve(ref: str, including_dir: str, top_dir: str, is_dir: dict[str, bool]) -> str | None:
+    """The file a reference names: next to the including file first, then in the top folder.
+    ``is_dir`` remembers, for one load, which folders exist, so the candidates of every
+    reference into a folder that is not there cost no ``stat`` (the kitchen's files name
+    ``BaseCabinet/X`` from inside ``BaseCabinet/``)."""
     for base in (including_dir, top_dir):
         # references usually omit the extension: try that first (one stat instead of two)
         for cand in (os.path.join(base, ref + SUFFIX), os.path.join(base, ref)):
-            if os.path.isfile(cand):
+            folder = os.path.dirname(cand)
+            there = is_dir.get(folder)
+            if there is None:
+                there = is_dir[folder] = os.path.isdir(folder)
+            if there and os.path.isfile(cand):
                 return os.path.normpath(cand)
     return None
 
 
-def _inside(path: str, folder: str) -> bool:
+def _inside(path: str, folder: str, plain: set[str]) -> bool:
     """Whether ``path`` (normalised, lexically under ``folder``) stays under ``folder`` once
     symbolic links are resolved. Only the components below ``folder`` are looked at (a link
     there is resolved in full): a few ``lstat`` calls instead of ``realpath``'s one per
-    component of the whole path."""
+    component of the whole path; ``plain`` remembers, for one load, the folders found not to
+    be links."""
     cur = folder
-    for part in path[len(folder) :].strip(os.sep).split(os.sep):
+    parts = path[len(folder) :].strip(os.sep).split(os.sep)
+    last = len(parts) - 1
+    for i, part in enumerate(parts):
         cur = os.path.join(cur, part)
+        if cur in plain:
+            continue
         if os.path.islink(cur):
             real, top = os.path.realpath(path), os.path.realpath(folder)
             return real.startswith(top.rstrip(os.sep) + os.sep)
+        if i < last:
+            plain.add(cur)
     return True
+
+
+def _is_normal(path: str) -> bool:
+    """Whether an absolute path is already what ``os.path.abspath`` would make of it."""
+    return not path.endswith(os.sep) and f"{os.sep}." not in path and 2 * os.sep not in path
 
 
 def load_andor_text(path: str | Path) -> HierarchicalGraph:
@@ -208,11 +313,17 @@ def load_andor_text(path: str | Path) -> HierarchicalGraph:
     A lower graph must lie in the top file's folder or below it: a reference that resolves
     elsewhere (``../../etc/passwd``) is refused.
     """
-    top_file = os.path.abspath(path)  # normalised too
-    top_dir = os.path.dirname(top_file)
+    top_file = os.fspath(path)
+    sep = os.sep
+    if not (top_file.startswith(sep) and _is_normal(top_file)):
+        top_file = os.path.abspath(top_file)  # normalised too
+    # os.path.dirname of a normalised absolute path, without its Python-level calls
+    top_dir = top_file[: top_file.rfind(sep)] or sep
     graphs: dict[str, AndOrGraph] = {}
     key_of: dict[str, str] = {}
     resolved: dict[tuple[str, str], str | None] = {}
+    is_dir: dict[str, bool] = {}
+    plain: set[str] = set()
 
     prefix = top_dir + os.sep
 
@@ -227,14 +338,14 @@ def load_andor_text(path: str | Path) -> HierarchicalGraph:
         p = todo.pop()
         graph, refs = parse_graph(p)
         graphs[key_of[p]] = graph
-        here = os.path.dirname(p)
+        here = p[: p.rfind(sep)] or sep
         remap: dict[str, str] = {}
         for ref, ln in refs:
             if ref in remap:
                 continue
             target = resolved.get((here, ref), "")
             if target == "":
-                target = resolved[(here, ref)] = _resolve(ref, here, top_dir)
+                target = resolved[(here, ref)] = _resolve(ref, here, top_dir, is_dir)
             if target is None:
                 raise FormatError(
                     f"lower graph file {ref!r} not found (looked for {ref}{SUFFIX} next to this "
@@ -243,7 +354,7 @@ def load_andor_text(path: str | Path) -> HierarchicalGraph:
                     ln,
                 )
             if target not in key_of:
-                if not target.startswith(prefix) or not _inside(target, top_dir):
+                if not target.startswith(prefix) or not _inside(target, top_dir, plain):
                     raise FormatError(
                         f"lower graph {ref!r} resolves to a file outside the top graph's folder "
                         f"{top_dir}; lower graphs must lie in that folder or below it",
