@@ -63,7 +63,13 @@ def test_flexhrc_agent_perception_joins_a_cell_over_zenoh(tmp_path) -> None:
         log=tmp_path / "perception.err",
     )  # fmt: skip
     procs.append(eye)
-    time.sleep(3.0)  # the camera is up before the arms join (the cell waits for the arms)
+    # the camera is up before the arms join (the cell waits for the arms, not for it)
+    log = tmp_path / "perception.err"
+    deadline = time.monotonic() + 90
+    while "ready" not in (log.read_text() if log.exists() else "") and time.monotonic() < deadline:
+        assert eye.poll() is None, log.read_text()
+        time.sleep(0.2)
+    time.sleep(0.5)  # its subscriptions reach the cell's router
     procs += [robot(scenario, arm, port, tmp_path / f"{arm}.err") for arm in ("left", "right")]
     procs.append(human(scenario, "human", port, tmp_path / "human.err"))
     try:
