@@ -519,3 +519,16 @@ def test_a_read_only_folder_is_refused_before_the_run(tmp_path):  # B8: --plot r
         f"error: --plot {rodir / 't.png'}: cannot write in {rodir}: Permission denied"
     )
     assert proc.stdout == ""  # refused before the run: no trace, no table
+
+
+def test_replay_of_a_behaviour_log_points_at_behave_replay(tmp_path, capsys):
+    from flexhrc.cli import main
+
+    log = tmp_path / "b.jsonl"
+    assert main(["behave", "(THEN a b)", "--log", str(log)]) == 0
+    capsys.readouterr()
+    assert main(["replay", str(log)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [
+        f"error: {log}:1: a behaviour network's log: read it with 'flexhrc behave replay'"
+    ]

@@ -98,6 +98,8 @@ def check_log(lines: Sequence[tuple[int, dict[str, Any]]], source: str | Path) -
 
     for n, (line, ev) in enumerate(lines):
         kind, t = ev["type"], ev["t"]
+        if kind == "behave_start":  # the header of a behaviour network's log
+            raise fail("a behaviour network's log: read it with 'flexhrc behave replay'", line)
         if not isinstance(kind, str) or kind not in EVENT_TYPES:
             raise fail(f"unknown event type {kind!r} (not a flexhrc cooperation log?)", line)
         if not _number(t) or t < 0:
