@@ -45,13 +45,13 @@ import re
 import threading
 import time
 import uuid
-from collections import deque
 from collections.abc import Callable
 from typing import Any, Literal
 
 from flexhrc.errors import FlexhrcError
 from flexhrc.ros2._deps import require
 from flexhrc.transport.base import Callback, Subscription, Transport
+from flexhrc.transport.delivery import DropCallback, QueuedDelivery
 
 rclpy = require("rclpy")
 _String = require("std_msgs.msg", "the ROS 2 bridge").String
@@ -75,7 +75,6 @@ log = logging.getLogger("flexhrc.ros2.transport")
 
 LIVELINESS_TOPIC = "liveliness"
 LivelinessCallback = Callable[[str, bool], None]
-DropCallback = Callable[[str, bytes, Exception], None]
 
 _TOKEN = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 
@@ -169,7 +168,7 @@ class _Watch:
         self.silent: set[str] = set()  # alive before the watch began, history=False
 
 
-class Ros2Transport(Transport):
+class Ros2Transport(QueuedDelivery, Transport):
     """Publish/subscribe over ROS 2 topics (see the module docstring for the full API)."""
 
     def __init__(
@@ -205,14 +204,11 @@ class Ros2Transport(Transport):
         self.prefix = ros_topic("", prefix).lstrip("/") if prefix.strip("/") else ""
         self.encode = encode
         self.decode = decode
-        self.deliver = deliver
-        self.on_drop = on_drop
+        self._init_delivery(deliver, on_drop, log)
         self.lease_s = float(lease_s)
         self.heartbeat_s = float(heartbeat_s)
         self.match_timeout_s = float(match_timeout_s)
         self.published = 0
-        self.delivered = 0
-        self.dropped = 0
         self.domain_id = domain_id_from_env(domain_id)
         self._qos = _qos.QoSProfile(
             depth=depth,
@@ -234,8 +230,6 @@ class Ros2Transport(Transport):
             name, context=self.context, start_parameter_services=False, enable_rosout=False
         )
         self._lock = threading.RLock()
-        self._cond = threading.Condition()
-        self._queue: deque[tuple[Subscription, Any]] = deque()
         self._publishers: dict[str, Any] = {}
         self._typed: dict[str, Any] = {}  # ROS name -> a publisher of a standard message
         self._waited: dict[str, int] = {}  # ROS name -> subscribers known at the last wait
@@ -465,60 +459,6 @@ class Ros2Transport(Transport):
         with self._lock:
             keys = {k for w in self._watches for k in w.alive if key_matches(key_expr, k)}
         return sorted(keys)
-
-    # -- delivery ---------------------------------------------------------------------------
-    def _hand(self, sub: Subscription, payload: Any) -> None:
-        if not sub.active:
-            return
-        if self.deliver == "thread":
-            self.delivered += 1
-            try:
-                sub.callback(payload)
-            except Exception:
-                log.exception("callback for %s raised", sub.topic)
-            return
-        with self._cond:
-            self._queue.append((sub, payload))
-            self._cond.notify_all()
-
-    def _drop(self, topic: str, data: bytes, exc: Exception) -> None:
-        self.dropped += 1
-        log.warning("dropped an undecodable payload on %s (%d bytes): %s", topic, len(data), exc)
-        if self.on_drop is not None:
-            try:
-                self.on_drop(topic, data, exc)
-            except Exception:
-                log.exception("on_drop raised")
-
-    def pending(self) -> int:
-        """Payloads received and waiting for the next :meth:`flush` (``deliver="flush"``)."""
-        with self._cond:
-            return len(self._queue)
-
-    def wait(self, timeout: float | None = None) -> bool:
-        """Block until a payload is waiting for :meth:`flush` or ``timeout`` seconds pass;
-        returns whether one is waiting. Always ``False`` with ``deliver="thread"``."""
-        if self.deliver == "thread":
-            return False
-        with self._cond:
-            if not self._queue and not self._closed:
-                self._cond.wait(timeout)
-            return bool(self._queue)
-
-    def flush(self) -> int:
-        """Deliver, on this thread and in arrival order, the payloads received before the call."""
-        if self.deliver == "thread":
-            return 0
-        with self._cond:
-            batch = list(self._queue)
-            self._queue.clear()
-        count = 0
-        for sub, payload in batch:
-            if sub.active:
-                sub.callback(payload)
-                count += 1
-        self.delivered += count
-        return count
 
     # -- typed topics (for the bridge's standard messages) ----------------------------------
     def create_publisher(self, msg_type: Any, topic: str, qos: Any = None) -> Any:

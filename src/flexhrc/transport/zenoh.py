@@ -76,12 +76,12 @@ import logging
 import re
 import socket
 import threading
-from collections import deque
 from collections.abc import Callable, Sequence
 from typing import Any, Literal
 
 from flexhrc.errors import FlexhrcError, OptionalDependencyError
 from flexhrc.transport.base import Callback, Subscription, Transport
+from flexhrc.transport.delivery import DropCallback, QueuedDelivery
 
 try:
     import zenoh as _zenoh
@@ -103,7 +103,6 @@ __all__ = [
 log = logging.getLogger("flexhrc.transport.zenoh")
 
 LivelinessCallback = Callable[[str, bool], None]
-DropCallback = Callable[[str, bytes, Exception], None]
 
 _ENDPOINT = re.compile(r"^(?P<proto>tcp|udp|tls|quic|ws|unixsock-stream)/(?P<rest>.+)$")
 _HOSTPORT = re.compile(r"^(?P<host>\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9_.\-]+):(?P<port>\d{1,5})$")
@@ -225,7 +224,7 @@ class _Token:
                 self._token.undeclare()
 
 
-class ZenohTransport(Transport):
+class ZenohTransport(QueuedDelivery, Transport):
     """Publish/subscribe over a Zenoh session (see the module docstring for the full API)."""
 
     def __init__(
@@ -244,11 +243,8 @@ class ZenohTransport(Transport):
         self.prefix = _check_topic(prefix.strip("/")) if prefix.strip("/") else ""
         self.encode = encode
         self.decode = decode
-        self.deliver = deliver
-        self.on_drop = on_drop
+        self._init_delivery(deliver, on_drop, log)
         self.published = 0
-        self.delivered = 0
-        self.dropped = 0
         self._owns_session = session is None
         if session is None:
             try:
@@ -266,8 +262,6 @@ class ZenohTransport(Transport):
         self._publishers: dict[str, Any] = {}
         self._zsubs: dict[int, Any] = {}
         self._tokens: list[_Token] = []
-        self._queue: deque[tuple[Subscription, Any]] = deque()
-        self._cond = threading.Condition()
         self._lock = threading.Lock()
         self._closed = False
 
@@ -362,60 +356,6 @@ class ZenohTransport(Transport):
         if zsub is not None:
             with contextlib.suppress(Exception):  # the session may already be closed
                 zsub.undeclare()
-
-    # -- delivery ---------------------------------------------------------------------------
-    def _hand(self, sub: Subscription, payload: Any) -> None:
-        if not sub.active:
-            return
-        if self.deliver == "thread":
-            self.delivered += 1
-            try:
-                sub.callback(payload)
-            except Exception:  # never let a callback kill Zenoh's thread
-                log.exception("callback for %s raised", sub.topic)
-            return
-        with self._cond:
-            self._queue.append((sub, payload))
-            self._cond.notify_all()
-
-    def _drop(self, topic: str, data: bytes, exc: Exception) -> None:
-        self.dropped += 1
-        log.warning("dropped an undecodable payload on %s (%d bytes): %s", topic, len(data), exc)
-        if self.on_drop is not None:
-            try:
-                self.on_drop(topic, data, exc)
-            except Exception:
-                log.exception("on_drop raised")
-
-    def pending(self) -> int:
-        """Payloads received and waiting for the next :meth:`flush` (``deliver="flush"``)."""
-        with self._cond:
-            return len(self._queue)
-
-    def wait(self, timeout: float | None = None) -> bool:
-        """Block until a payload is waiting for :meth:`flush` or ``timeout`` seconds pass;
-        returns whether one is waiting. Always ``False`` with ``deliver="thread"``."""
-        if self.deliver == "thread":
-            return False
-        with self._cond:
-            if not self._queue and not self._closed:
-                self._cond.wait(timeout)
-            return bool(self._queue)
-
-    def flush(self) -> int:
-        """Deliver, on this thread and in arrival order, the payloads received before the call."""
-        if self.deliver == "thread":
-            return 0
-        with self._cond:
-            batch = list(self._queue)
-            self._queue.clear()
-        count = 0
-        for sub, payload in batch:
-            if sub.active:
-                sub.callback(payload)
-                count += 1
-        self.delivered += count
-        return count
 
     # -- lifetime ---------------------------------------------------------------------------
     def _check_open(self) -> None:
