@@ -46,6 +46,36 @@ def test_the_perception_agent_sends_percepts_the_cell_applies() -> None:
     assert any("percepts sent" in line for line in lines)
 
 
+def test_an_ack_that_overtakes_its_command_is_applied_when_the_command_arrives() -> None:
+    # over Zenoh an arm's ack and the manager's command come from two publishers: the ack may
+    # arrive first (CI saw it); its physical effect must not be lost
+    from flexhrc.cell import protocol as P
+
+    scenario = load_scenario("table_assembly")
+    bus = InProcessBus()
+    eye = PerceptionAgent(scenario, bus)
+    lines: list[str] = []
+    eye.trace = lines.append
+    try:
+        ack = P.message("ack", id=1, agent="left", status="done", t=2.0)
+        bus.publish(P.ACK_TOPIC, ack)
+        bus.flush()
+        assert eye.perception.stats.frames == 0 and not lines  # it waits for its command
+        cmd = P.message(
+            "command", id=1, agents=["left"], action="place_tabletop(tabletop, assembly_pose)",
+            t=0.0,
+        )  # fmt: skip
+        bus.publish(P.cmd_topic("left"), cmd)
+        bus.flush()
+        assert eye.perception.stats.frames == 1
+        assert any("after place_tabletop(tabletop, assembly_pose)" in line for line in lines)
+        bus.publish(P.ACK_TOPIC, ack)  # a duplicate is not applied twice
+        bus.flush()
+        assert eye.perception.stats.frames == 1 and eye.dropped == 0
+    finally:
+        eye.close()
+
+
 @pytest.mark.slow
 def test_flexhrc_agent_perception_joins_a_cell_over_zenoh(tmp_path) -> None:
     pytest.importorskip("zenoh")

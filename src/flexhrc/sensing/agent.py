@@ -64,6 +64,9 @@ class PerceptionAgent:
         self.dropped = 0
         self.sent = 0
         self._seen_acks: set[int] = set()
+        # an arm's ack can overtake the manager's command on its way here (two publishers,
+        # no order between them): it waits for its command
+        self._early_acks: dict[int, dict[str, Any]] = {}
         self._seen_humans: set[str] = set()
         robots = [a.name for a in self.domain.agents.values() if not a.is_human]
         self._subs = [transport.subscribe(P.cmd_topic(r), self._on_command) for r in robots]
@@ -92,7 +95,11 @@ class PerceptionAgent:
                     self.domain, msg["action"], tuple(msg["agents"]),
                     process=bool(msg.get("process")),
                 )  # fmt: skip
-                self.commands[int(msg["id"])] = (action, dict(msg.get("world") or {}))
+                cid = int(msg["id"])
+                self.commands[cid] = (action, dict(msg.get("world") or {}))
+                early = self._early_acks.pop(cid, None)
+                if early is not None:
+                    self._done(cid, early)
         except FlexhrcError as exc:
             self._bad(exc)
 
@@ -115,11 +122,18 @@ class PerceptionAgent:
             self._bad(exc)
             return
         cid = int(msg["id"])
-        known = self.commands.get(cid)
-        if known is None or cid in self._seen_acks or msg["status"] != "done":
+        if cid in self._seen_acks or msg["status"] != "done":
             return
+        if cid not in self.commands:
+            log.debug("%s: ack %d came before its command", self.name, cid)
+            self._early_acks.setdefault(cid, msg)
+            return
+        self._done(cid, msg)
+
+    def _done(self, cid: int, msg: dict[str, Any]) -> None:
+        """The arm reports command ``cid`` done: its physical effect, then a look."""
         self._seen_acks.add(cid)
-        action, world = known
+        action, world = self.commands[cid]
         # the arm acted where the manager believed things were, when it sent the command
         physical_effect(self.world, action, action.agents[0], self._believed(world), self._board)
         for obj, p in (msg.get("positions") or {}).items():  # what the manager now believes
