@@ -82,6 +82,19 @@ def ground(
     return GroundAction(schema, tuple(str(t) for t in terms), tuple(agents))
 
 
+def check_agent_name(domain: Domain, name: str, kind: str, option: str) -> None:
+    """``name`` is a ``kind`` (``robot`` or ``human``) agent of the domain, or one
+    :class:`~flexhrc.errors.UnknownNameError` naming ``option`` and the agents there are."""
+    agent = domain.agents.get(name)
+    if agent is not None and agent.is_human == (kind == "human"):
+        return
+    names = [a.name for a in domain.agents.values() if a.is_human == (kind == "human")]
+    raise UnknownNameError(
+        f"{option} {name!r}: no {kind} agent of that name in the scenario "
+        f"({kind}s: {', '.join(names) or 'none'})"
+    )
+
+
 def world_of(kb: KnowledgeBase) -> dict[str, Any]:
     """The part of the knowledge base an agent needs to act: positions and facts."""
     return {
@@ -186,13 +199,7 @@ class RobotAgent(_Agent):
         journal: str | Path | None = None,
     ) -> None:
         super().__init__(name, scenario, transport, execution=execution, trace=trace)
-        agent = self.domain.agents.get(name)
-        if agent is None or agent.is_human:
-            arms = [a.name for a in self.domain.agents.values() if not a.is_human]
-            raise UnknownNameError(
-                f"--arm {name!r}: no robot agent of that name in the scenario "
-                f"(robots: {', '.join(arms)})"
-            )
+        check_agent_name(self.domain, name, "robot", "--arm")
         self.timeout_factor = timeout_factor
         self.acks: dict[int, dict[str, Any]] = {}  # command id -> its ack (sent again on repeat)
         self.running: set[int] = set()
@@ -350,13 +357,7 @@ class HumanAgent(_Agent):
         super().__init__(
             name, scenario, transport, execution=execution or AnalyticSimulator(), trace=trace
         )
-        agent = self.domain.agents.get(name)
-        if agent is None or not agent.is_human:
-            humans = [a.name for a in self.domain.agents.values() if a.is_human]
-            raise UnknownNameError(
-                f"--name {name!r}: no human agent of that name in the scenario "
-                f"(humans: {', '.join(humans) or 'none'})"
-            )
+        check_agent_name(self.domain, name, "human", "--name")
         self.profile = profile
         self.reports: dict[str, dict[int, dict[str, Any]]] = {}  # suggestion -> step -> report
         self.busy: set[tuple[str, int]] = set()  # steps being carried out

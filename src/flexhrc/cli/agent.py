@@ -3,12 +3,11 @@
 from __future__ import annotations
 
 import argparse
-import signal
 import sys
 from typing import Any
 
 from flexhrc.cli.cell import add_transport_options, open_zenoh, quiet_library_logs
-from flexhrc.cli.common import emit
+from flexhrc.cli.common import TermFlag, emit
 from flexhrc.errors import FlexhrcError
 
 
@@ -75,7 +74,7 @@ def _common(p: argparse.ArgumentParser) -> None:
 def cmd_agent(args: argparse.Namespace) -> int:
     quiet_library_logs()
     from flexhrc.cell import HumanAgent, RobotAgent, load_scenario
-    from flexhrc.cell.components import execution_model, run_agent
+    from flexhrc.cell.components import check_agent_name, execution_model, run_agent
 
     if not args.connect and not args.listen:
         raise FlexhrcError("--connect ENDPOINT is needed (the cell's --listen endpoint)")
@@ -87,15 +86,8 @@ def cmd_agent(args: argparse.Namespace) -> int:
             print(f"[{name}] {line}", file=sys.stderr, flush=True)
 
     # check the names before opening the network
-    agents = scenario.domain().agents
-    if name not in agents:
-        kind = "robot" if args.agent_kind == "robot" else "human"
-        names = [a.name for a in agents.values() if (a.kind == kind)]
-        opt = "--arm" if args.agent_kind == "robot" else "--name"
-        raise FlexhrcError(
-            f"{opt} {name!r}: no {kind} agent of that name in the scenario "
-            f"({kind}s: {', '.join(names) or 'none'})"
-        )
+    opt = "--arm" if args.agent_kind == "robot" else "--name"
+    check_agent_name(scenario.domain(), name, args.agent_kind, opt)
     if args.agent_kind == "human":
         from flexhrc.cell.components import HUMAN_PROFILES
 
@@ -109,12 +101,7 @@ def cmd_agent(args: argparse.Namespace) -> int:
 
         check_output(args.journal, option="--journal")
     transport = open_zenoh(args, listen_default=[])
-    stop = {"flag": False}
-
-    def on_term(signum: int, frame: Any) -> None:
-        stop["flag"] = True
-
-    signal.signal(signal.SIGTERM, on_term)
+    stop = TermFlag()
     agent: Any = None
     try:
         if args.agent_kind == "robot":
@@ -137,7 +124,7 @@ def cmd_agent(args: argparse.Namespace) -> int:
                 trace=trace,
             )
         trace(f"ready ({args.agent_kind}, cell {args.cell!r})")
-        outcome = run_agent(agent, transport, until=lambda: stop["flag"])
+        outcome = run_agent(agent, transport, until=stop)
         trace(f"cell ended: {outcome}")
     finally:
         if agent is not None:
@@ -177,17 +164,12 @@ def cmd_agent_perception(args: argparse.Namespace) -> int:
             print(f"[perception] {line}", file=sys.stderr, flush=True)
 
     transport = open_zenoh(args, listen_default=[])
-    stop = {"flag": False}
-
-    def on_term(signum: int, frame: Any) -> None:
-        stop["flag"] = True
-
-    signal.signal(signal.SIGTERM, on_term)
+    stop = TermFlag()
     agent: Any = None
     try:
         agent = PerceptionAgent(scenario, transport, trace=trace)
         trace(f"ready (cell {args.cell!r})")
-        outcome = run_agent(agent, transport, until=lambda: stop["flag"])
+        outcome = run_agent(agent, transport, until=stop)
         trace(f"cell ended: {outcome}")
     finally:
         if agent is not None:

@@ -16,12 +16,11 @@ from __future__ import annotations
 import argparse
 import itertools
 import math
-import signal
 import sys
 import uuid
 from typing import Any
 
-from flexhrc.cli.common import add_json_flag, emit
+from flexhrc.cli.common import TermFlag, add_json_flag, emit
 from flexhrc.errors import FlexhrcError
 
 
@@ -178,20 +177,6 @@ def _transport(args: argparse.Namespace, role: str) -> Any:
     )
 
 
-class _Stop:
-    """SIGTERM ends a node's loop, so its liveliness token is withdrawn on the way out."""
-
-    def __init__(self) -> None:
-        self.requested = False
-        signal.signal(signal.SIGTERM, self._handle)
-
-    def _handle(self, signum: int, frame: Any) -> None:
-        self.requested = True
-
-    def __call__(self) -> bool:
-        return self.requested
-
-
 def _progress(args: argparse.Namespace) -> Any:
     def progress(line: str) -> None:
         if not args.quiet:
@@ -202,7 +187,7 @@ def _progress(args: argparse.Namespace) -> Any:
 
 def cmd_arm(args: argparse.Namespace) -> int:
     from flexhrc.cell import load_scenario
-    from flexhrc.cell.components import run_agent
+    from flexhrc.cell.components import check_agent_name, run_agent
     from flexhrc.ros2.arm import ArmNode
     from flexhrc.ros2.transport import ros_topic
 
@@ -210,13 +195,7 @@ def cmd_arm(args: argparse.Namespace) -> int:
     ros_topic("", args.arm)
     if not (math.isfinite(args.rate) and 30 <= args.rate <= 1000):
         raise FlexhrcError(f"--rate must be between 30 and 1000 Hz, got {args.rate}")
-    agents = scenario.domain().agents
-    if args.arm not in agents or agents[args.arm].is_human:
-        robots = [a.name for a in agents.values() if not a.is_human]
-        raise FlexhrcError(
-            f"--arm {args.arm!r}: no robot agent of that name in the scenario "
-            f"(robots: {', '.join(robots)})"
-        )
+    check_agent_name(scenario.domain(), args.arm, "robot", "--arm")
     if args.execute == "external" and not (args.trajectory_topic and args.joint_states_topic):
         raise FlexhrcError(
             "--execute external needs --trajectory-topic and --joint-states-topic "
@@ -224,7 +203,7 @@ def cmd_arm(args: argparse.Namespace) -> int:
         )
     say = _progress(args)
     transport = _transport(args, f"arm_{args.arm}")
-    stop = _Stop()
+    stop = TermFlag()
     node: ArmNode | None = None
     try:
         node = ArmNode(
@@ -262,14 +241,20 @@ def cmd_arm(args: argparse.Namespace) -> int:
 
 def cmd_human(args: argparse.Namespace) -> int:
     from flexhrc.cell import HumanAgent, load_scenario
-    from flexhrc.cell.components import run_agent
+    from flexhrc.cell.components import HUMAN_PROFILES, check_agent_name, run_agent
     from flexhrc.ros2.transport import ros_topic
 
     scenario = load_scenario(args.scenario, seed=args.seed)
     ros_topic("", args.name)
+    check_agent_name(scenario.domain(), args.name, "human", "--name")  # before the network
+    if args.profile not in HUMAN_PROFILES:
+        raise FlexhrcError(
+            f"--profile {args.profile!r}: unknown operator profile; choose one of "
+            f"{', '.join(HUMAN_PROFILES)}"
+        )
     say = _progress(args)
     transport = _transport(args, f"human_{args.name}")
-    stop = _Stop()
+    stop = TermFlag()
     agent: Any = None
     try:
         agent = HumanAgent(
