@@ -43,6 +43,19 @@ def test_bad_arm_options_are_one_clear_error(args: list[str], message: str):
 @pytest.mark.parametrize(
     ("args", "message"),
     [
+        (["--name", "left"], "--name 'left': no human agent"),
+        (["--name", "human", "--profile", "lazy"], "--profile 'lazy': unknown operator profile"),
+    ],
+)
+def test_bad_human_options_are_one_clear_error(args: list[str], message: str):
+    out = _run("ros2", "human", "table_assembly", *args)
+    assert out.returncode == 2, out.stderr
+    assert message in out.stderr and "Traceback" not in out.stderr
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
         (["--realtime", "nan"], "finite number >= 0"),
         (["--realtime", "-1"], "finite number >= 0"),
         (["--resume"], "--resume needs --store"),
