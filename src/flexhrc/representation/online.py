@@ -39,7 +39,6 @@ import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from heapq import heapify, heappop, heappush
-from operator import attrgetter
 from pathlib import Path
 from typing import Any, Literal
 
@@ -1362,9 +1361,6 @@ def _event(raw: object) -> Event:
     return Event(q, t, el)
 
 
-_WEIGHT = attrgetter("weight")
-
-
 class _Template:
     """Index structure of one graph definition, shared by all of its instances."""
 
@@ -1391,54 +1387,28 @@ class _Template:
     )
 
     def __init__(self, g: AndOrGraph):
-        node_names = list(g.nodes)
-        nn = len(node_names)
-        idx = dict(zip(node_names, range(nn), strict=True))
-        get = idx.__getitem__
-        names = node_names
-        weights = list(map(float, map(_WEIGHT, g.nodes.values())))
-        children: list[tuple[int, ...]] = [()] * nn
-        parent = [-1] * nn
-        incoming: list[list[int]] = [[] for _ in node_names]
-        lower: list[tuple[int, str]] = []
-        # one pass over the hyper-arcs (a first call of each comprehension costs more than
-        # the loop it would save, on the small graphs whose offline time is mostly that)
-        j = nn
-        for h in g.hyperarcs.values():
-            names.append(h.name)
-            weights.append(float(h.weight))
-            children.append(tuple(map(get, h.children)))
-            p = idx[h.parent]
-            parent.append(p)
-            incoming[p].append(j)
-            incoming.append([])
-            if h.lower is not None:
-                lower.append((j, h.lower))
-            j += 1
-        self.names = names
-        self.size = j
-        self.kinds = [0] * nn + [1] * (j - nn)
-        self.weights = weights
-        self.children = children
-        self.parent = parent
-        # tuples: never changed once built, and the empty ones are all the same object
-        self.incoming: list[tuple[int, ...]] = [tuple(x) if x else () for x in incoming]
-        self.root = idx[g.root]  # type: ignore[index]
-        self.leaves = [i for i in range(nn) if not incoming[i]]
-        topo: list[int] = []
-        for name in g.topological_order():
-            i = idx[name]
-            topo.extend(incoming[i])
-            topo.append(i)
-        self.topo = topo
+        # the flat form of the definition: the reader's (no object per element), or made now
+        ix = g.indexed()
+        nn = ix.n_nodes
+        size = len(ix.names)
+        self.names = ix.names
+        self.size = size
+        self.kinds = [0] * nn + [1] * (size - nn)
+        self.weights = ix.weights
+        self.children = ix.children
+        self.parent = ix.parent
+        self.incoming = ix.incoming
+        self.root = ix.root
+        self.leaves = ix.leaves
+        self.topo = ix.topo  # the order of the inside pass: children before parents
+        self.outgoing = ix.outgoing
         # what only a materialised instance needs: set by complete()
-        self.outgoing: list[tuple[int, ...]] = []
         self.down: list[int] = []
         self.lrank: list[int] = []
         self.pristine_out: list[float] | None = None  # set by pristine_outside
         self.own: list[float] = []  # set by pristine_inside
-        self.lower = lower
-        self.n_children = list(map(len, children))
+        self.lower = ix.lower
+        self.n_children = list(map(len, ix.children))
         self.inside: list[float] | None = None  # set by pristine_inside
         self.idx: dict[str, int] | None = None  # set by local_index
 
@@ -1475,12 +1445,6 @@ class _Template:
         the top-down order (parents before children: the outside pass) and its ranks."""
         if self.down or not self.size:
             return
-        outgoing: list[list[int]] = [[] for _ in range(self.size)]
-        for j, ch in enumerate(self.children):
-            for c in ch:
-                outgoing[c].append(j)
-        # tuples: never changed once built, and the empty ones are all the same object
-        self.outgoing = [tuple(x) if x else () for x in outgoing]
         self.down = self.topo[::-1]
         lrank = [0] * self.size
         for r, x in enumerate(self.down):

@@ -23,12 +23,13 @@ from __future__ import annotations
 
 import os
 from dataclasses import replace
-from itertools import repeat
+from itertools import islice, repeat
+from operator import contains
 from pathlib import Path
 
 from flexhrc.errors import FormatError
 from flexhrc.files import read_text
-from flexhrc.representation.graph import AndOrGraph, Hyperarc, Node
+from flexhrc.representation.graph import AndOrGraph, Hyperarc, Indexed, Node, dp_order
 from flexhrc.representation.hierarchy import HierarchicalGraph
 
 SUFFIX = ".txt"
@@ -94,6 +95,9 @@ def parse_graph(path: str | Path) -> tuple[AndOrGraph, list[tuple[str, int]]]:
     are the same. A graph that passes is marked validated and is not checked again.
     """
     rows, nums = _rows(path)
+    fast = _parse_flat(path, rows, nums)
+    if fast is not None:
+        return fast
     if not rows:
         raise FormatError("empty file: expected '<graph name> <number of nodes> <root>'", path, 1)
     head = rows[0]
@@ -264,6 +268,127 @@ def parse_graph(path: str | Path) -> tuple[AndOrGraph, list[tuple[str, int]]]:
     return graph, refs
 
 
+_ARC_FIELDS = {1, 5}
+_NO_LOWER = {"-"}
+
+
+def _plain_ints(*columns: tuple[str, ...]) -> bool:
+    """Whether every token is a plain non-negative integer (ASCII digits only)."""
+    digits = "".join(["".join(c) for c in columns])
+    return digits.isdigit() and digits.isascii()
+
+
+def _parse_flat(
+    path: str | Path, rows: list[list[str]], nums: list[int] | range
+) -> tuple[AndOrGraph, list[tuple[str, int]]] | None:
+    """The common case — a well-formed file of plain names and integer weights, no repeated
+    hyper-arc name — parsed straight into the flat form (:class:`Indexed`: no object per
+    element), with every check of :meth:`AndOrGraph.validate` on the way. None at the first
+    thing out of the ordinary: :func:`parse_graph` then parses the file again, element by
+    element, and names the fault (or renames the repeat) exactly as it always has."""
+    if not rows or len(rows[0]) != 3:
+        return None
+    name, count_tok, root_name = rows[0]
+    if not (count_tok.isdigit() and count_tok.isascii()):
+        return None
+    nn = int(count_tok)
+    n_rows = len(rows)
+    if nn < 1 or n_rows <= nn:
+        return None
+    node_rows = rows[1 : nn + 1]
+    if set(map(len, node_rows)) != {2}:
+        return None
+    names_t, weights_t = zip(*node_rows, strict=True)
+    digits = "".join(weights_t)
+    if not (digits.isdigit() and digits.isascii()) or "/" in "".join(names_t):
+        return None
+    names = list(names_t)
+    idx = dict(zip(names, range(nn), strict=True))
+    root = idx.get(root_name, -1)
+    if len(idx) != nn or root < 0:
+        return None
+    weights = list(map(float, weights_t))
+    lines: list[int] = list(nums[: nn + 1])
+    del lines[0]
+    # the hyper-arc lines, column by column (C loops, not a Python loop per line): a header
+    # has 5 fields, a child line 1, and each header is followed by exactly its k children
+    body = rows[nn + 1 :]
+    lens = list(map(len, body))
+    if not body or lens[0] != 5 or not set(lens) <= _ARC_FIELDS:
+        return None
+    pos = [i for i, n in enumerate(lens) if n == 5]
+    headers = list(map(body.__getitem__, pos))
+    hnames, k_toks, p_names, w_toks, lows = zip(*headers, strict=True)
+    if not _plain_ints(k_toks, w_toks) or "/" in "".join(hnames) or len(set(hnames)) < len(pos):
+        return None  # a repeated name: parse_graph renames it (with a warning)
+    ks = list(map(int, k_toks))
+    pos.append(len(body))
+    if list(map(int.__sub__, pos[1:], pos)) != list(map((1).__add__, ks)) or 0 in ks:
+        return None  # a count of children that the lines do not follow
+    del pos[-1]
+    get = idx.__getitem__
+    try:
+        parent = list(map(get, p_names))
+        flat = list(map(get, [r[0] for r in body if len(r) == 1]))
+    except KeyError:
+        return None  # an unknown node
+    it = iter(flat)
+    children: list[tuple[int, ...]] = [tuple(islice(it, k)) for k in ks]
+    if sum(map(len, map(set, children))) != len(flat) or any(map(contains, children, parent)):
+        return None  # a child listed twice, a parent among its children
+    n_arcs = len(ks)
+    size = nn + n_arcs
+    arc_ids = range(nn, size)
+    incoming: list[list[int]] = [[] for _ in range(nn)]
+    for j, p in zip(arc_ids, parent, strict=True):
+        incoming[p].append(j)
+    outgoing: list[list[int]] = [[] for _ in range(nn)]
+    for j, ch in zip(arc_ids, children, strict=True):
+        for c in ch:
+            outgoing[c].append(j)
+    names += hnames
+    weights += map(float, w_toks)
+    arc_lines = nums[nn + 1 :]
+    lines += map(arc_lines.__getitem__, pos)
+    children[:0] = [()] * nn
+    parent[:0] = [-1] * nn
+    lower: list[tuple[int, str]] = []
+    refs: list[tuple[str, int]] = []
+    if set(lows) != _NO_LOWER:
+        for j, low, ln in zip(arc_ids, lows, lines[nn:], strict=True):
+            if low != "-":
+                lower.append((j, low))
+                refs.append((low, ln))
+    if outgoing[root]:
+        return None  # the root is a child
+    empty: list[tuple[int, ...]] = [()] * n_arcs
+    # tuples: never changed once built, and the empty ones are all the same object
+    out = [tuple(x) if x else () for x in outgoing] + empty
+    inc = [tuple(x) if x else () for x in incoming] + empty
+    topo = dp_order(nn, parent, children, inc, out)
+    if len(topo) != size:
+        return None  # a cycle
+    leaves = topo[: inc.count(()) - n_arcs]  # dp_order starts with them, in id order
+    ix = Indexed(names, nn, weights, children, parent, inc, out, lower, root, topo, leaves, lines)
+    graph = AndOrGraph.from_indexed(name, root_name, path, ix)
+    graph.root_line = nums[0]
+    # dead ends (produced, consumed by none, not the root): warnings, in node order
+    dead = set(parent[nn:])
+    dead.difference_update(flat)
+    dead.discard(root)
+    warnings = [
+        FormatError(
+            f"node {names[n]!r} is produced by a hyper-arc but used by none: it cannot "
+            f"contribute to the root {root_name!r}",
+            path,
+            lines[n],
+        )
+        for n in sorted(dead)
+    ]
+    graph.mark_validated(warnings)
+    return graph, refs
+
+
 def _resolve(ref: str, including_dir: str, top_dir: str, is_dir: dict[str, bool]) -> str | None:
     """The file a reference names: next to the including file first, then in the top folder.
     ``is_dir`` remembers, for one load, which folders exist, so the candidates of every
@@ -278,6 +403,71 @@ def _resolve(ref: str, including_dir: str, top_dir: str, is_dir: dict[str, bool]
                 there = is_dir[folder] = os.path.isdir(folder)
             if there and os.path.isfile(cand):
                 return os.path.normpath(cand)
+    return None
+
+
+_REGULAR, _FOLDER, _OTHER = 0, 1, 2
+
+
+def _listing(folder: str, listings: dict[str, dict[str, int] | None]) -> dict[str, int] | None:
+    """Entry name -> regular file / folder / anything else (a symbolic link, a device) of a
+    folder, from one ``scandir`` (the kinds come with the names: no ``stat`` per entry);
+    None if it cannot be listed. Remembered for one load."""
+    if folder in listings:
+        return listings[folder]
+    entries: dict[str, int] | None
+    try:
+        with os.scandir(folder) as it:
+            entries = {
+                e.name: _OTHER
+                if e.is_symlink()
+                else _REGULAR
+                if e.is_file()
+                else _FOLDER
+                if e.is_dir()
+                else _OTHER
+                for e in it
+            }
+    except OSError:
+        entries = None
+    listings[folder] = entries
+    return entries
+
+
+def _find_listed(
+    ref: str, here: str, top_dir: str, listings: dict[str, dict[str, int] | None]
+) -> str | None:
+    """What :func:`_resolve` and :func:`_inside` find, from folder listings: the file a plain
+    reference (no ``.``/``..``/empty component, not absolute) names, when it is a regular
+    file reached from the top folder through real folders only (no link: then it is inside
+    the top folder). None when the listings cannot say for sure (a link on the way, a
+    reference that is not plain, nothing found): the ``stat``-based lookup decides then."""
+    parts = ref.split("/")
+    if os.sep != "/" or ref.startswith("/") or "" in parts or "." in parts or ".." in parts:
+        return None
+    n = len(top_dir)
+    below = here[n + 1 :].split(os.sep) if len(here) > n else []
+    for base in (below, []) if below else ([],):
+        for last in (parts[-1] + SUFFIX, parts[-1]):
+            folder = top_dir
+            kind: int | None = _FOLDER
+            for part in [*base, *parts[:-1]]:
+                entries = _listing(folder, listings)
+                if entries is None:
+                    return None
+                kind = entries.get(part)
+                if kind != _FOLDER:
+                    break
+                folder = f"{folder}{os.sep}{part}"
+            else:
+                entries = _listing(folder, listings)
+                if entries is None:
+                    return None
+                kind = entries.get(last)
+                if kind == _REGULAR:
+                    return f"{folder}{os.sep}{last}"
+            if kind == _OTHER:
+                return None  # a link or a device on the way: let stat and realpath judge
     return None
 
 
@@ -324,6 +514,8 @@ def load_andor_text(path: str | Path) -> HierarchicalGraph:
     resolved: dict[tuple[str, str], str | None] = {}
     is_dir: dict[str, bool] = {}
     plain: set[str] = set()
+    listings: dict[str, dict[str, int] | None] = {}
+    fast = top_dir != sep
 
     prefix = top_dir + os.sep
 
@@ -345,6 +537,15 @@ def load_andor_text(path: str | Path) -> HierarchicalGraph:
                 continue
             target = resolved.get((here, ref), "")
             if target == "":
+                listed = _find_listed(ref, here, top_dir, listings) if fast else None
+                if listed is not None:
+                    # a regular file under the top folder, no link on the way: inside it
+                    if listed not in key_of:
+                        key_of[listed] = key_for(listed)
+                        todo.append(listed)
+                    resolved[(here, ref)] = listed
+                    remap[ref] = key_of[listed]
+                    continue
                 target = resolved[(here, ref)] = _resolve(ref, here, top_dir, is_dir)
             if target is None:
                 raise FormatError(
@@ -365,6 +566,10 @@ def load_andor_text(path: str | Path) -> HierarchicalGraph:
                 todo.append(target)
             remap[ref] = key_of[target]
         if any(k != v for k, v in remap.items()):
+            ix = graph._ix
+            if ix is not None:  # the flat form: its references are keys from now on
+                ix.lower[:] = [(j, remap[ref]) for j, ref in ix.lower]
+                continue
             for h in list(graph.hyperarcs.values()):
                 if h.lower is not None and remap[h.lower] != h.lower:
                     graph.hyperarcs[h.name] = replace(h, lower=remap[h.lower])
