@@ -80,6 +80,7 @@ class Indexed:
     :attr:`AndOrGraph.nodes` / :attr:`AndOrGraph.hyperarcs`)."""
 
     __slots__ = (
+        "_outgoing",
         "children",
         "incoming",
         "leaves",
@@ -87,7 +88,6 @@ class Indexed:
         "lower",
         "n_nodes",
         "names",
-        "outgoing",
         "parent",
         "root",
         "topo",
@@ -102,7 +102,7 @@ class Indexed:
         children: list[tuple[int, ...]],
         parent: list[int],
         incoming: list[tuple[int, ...]],
-        outgoing: list[tuple[int, ...]],
+        outgoing: list[tuple[int, ...]] | None,
         lower: list[tuple[int, str]],
         root: int,
         topo: list[int],
@@ -115,7 +115,7 @@ class Indexed:
         self.children = children  # hyper-arcs: child node ids (nodes: ())
         self.parent = parent  # hyper-arcs: parent node id (nodes: -1)
         self.incoming = incoming  # nodes: hyper-arcs producing it (hyper-arcs: ())
-        self.outgoing = outgoing  # nodes: hyper-arcs consuming it (hyper-arcs: ())
+        self._outgoing = outgoing  # see outgoing
         self.lower = lower  # (hyper-arc id, lower graph key), in hyper-arc order
         self.root = root  # -1: none (not validated)
         # every element after what it depends on (a hyper-arc after its children, a node after
@@ -127,6 +127,24 @@ class Indexed:
     @property
     def size(self) -> int:
         return len(self.names)
+
+    @property
+    def outgoing(self) -> list[tuple[int, ...]]:
+        """Nodes: the hyper-arcs consuming it (hyper-arcs: ()); made on first use (loading
+        does not need it)."""
+        out = self._outgoing
+        if out is None:
+            out = self._outgoing = consumers(self.n_nodes, self.children)
+        return out
+
+
+def consumers(n_nodes: int, children: list[tuple[int, ...]]) -> list[tuple[int, ...]]:
+    """Per element: the hyper-arcs that have it among their children (only nodes have any)."""
+    out: list[tuple[int, ...]] = [()] * len(children)
+    for j in range(n_nodes, len(children)):
+        for c in children[j]:
+            out[c] += (j,)
+    return out
 
 
 def dp_order(
@@ -238,9 +256,7 @@ class AndOrGraph:
         ix = self._ix
         assert ix is not None
         names, weights, lines, nn = ix.names, ix.weights, ix.lines, ix.n_nodes
-        self._nodes = {
-            names[i]: Node(names[i], weights[i], None, (), lines[i]) for i in range(nn)
-        }
+        self._nodes = {names[i]: Node(names[i], weights[i], None, (), lines[i]) for i in range(nn)}
         lower = dict(ix.lower)
         children, parent = ix.children, ix.parent
         arcs: dict[str, Hyperarc] = {}

@@ -1370,6 +1370,7 @@ class _Template:
         "idx",
         "incoming",
         "inside",
+        "ix",
         "kinds",
         "leaves",
         "lower",
@@ -1401,8 +1402,9 @@ class _Template:
         self.root = ix.root
         self.leaves = ix.leaves
         self.topo = ix.topo  # the order of the inside pass: children before parents
-        self.outgoing = ix.outgoing
+        self.ix = ix
         # what only a materialised instance needs: set by complete()
+        self.outgoing: list[tuple[int, ...]] = []
         self.down: list[int] = []
         self.lrank: list[int] = []
         self.pristine_out: list[float] | None = None  # set by pristine_outside
@@ -1445,6 +1447,7 @@ class _Template:
         the top-down order (parents before children: the outside pass) and its ranks."""
         if self.down or not self.size:
             return
+        self.outgoing = self.ix.outgoing
         self.down = self.topo[::-1]
         lrank = [0] * self.size
         for r, x in enumerate(self.down):

@@ -23,13 +23,20 @@ from __future__ import annotations
 
 import os
 from dataclasses import replace
-from itertools import islice, repeat
-from operator import contains
+from itertools import accumulate, chain, compress, filterfalse, islice, repeat
+from operator import contains, itemgetter, lt
 from pathlib import Path
 
 from flexhrc.errors import FormatError
 from flexhrc.files import read_text
-from flexhrc.representation.graph import AndOrGraph, Hyperarc, Indexed, Node, dp_order
+from flexhrc.representation.graph import (
+    AndOrGraph,
+    Hyperarc,
+    Indexed,
+    Node,
+    consumers,
+    dp_order,
+)
 from flexhrc.representation.hierarchy import HierarchicalGraph
 
 SUFFIX = ".txt"
@@ -268,16 +275,6 @@ def parse_graph(path: str | Path) -> tuple[AndOrGraph, list[tuple[str, int]]]:
     return graph, refs
 
 
-_ARC_FIELDS = {1, 5}
-_NO_LOWER = {"-"}
-
-
-def _plain_ints(*columns: tuple[str, ...]) -> bool:
-    """Whether every token is a plain non-negative integer (ASCII digits only)."""
-    digits = "".join(["".join(c) for c in columns])
-    return digits.isdigit() and digits.isascii()
-
-
 def _parse_flat(
     path: str | Path, rows: list[list[str]], nums: list[int] | range
 ) -> tuple[AndOrGraph, list[tuple[str, int]]] | None:
@@ -285,107 +282,123 @@ def _parse_flat(
     hyper-arc name — parsed straight into the flat form (:class:`Indexed`: no object per
     element), with every check of :meth:`AndOrGraph.validate` on the way. None at the first
     thing out of the ordinary: :func:`parse_graph` then parses the file again, element by
-    element, and names the fault (or renames the repeat) exactly as it always has."""
+    element, and names the fault (or renames the repeat) exactly as it always has.
+
+    The work is done column by column (``map``, ``zip``, ``compress``: loops in C), not line by
+    line: what a Python loop per element would cost is most of the offline time otherwise."""
     if not rows or len(rows[0]) != 3:
         return None
     name, count_tok, root_name = rows[0]
     if not (count_tok.isdigit() and count_tok.isascii()):
         return None
     nn = int(count_tok)
-    n_rows = len(rows)
-    if nn < 1 or n_rows <= nn:
+    lens = list(map(len, rows))
+    # node lines have 2 fields; a hyper-arc header 5, then its k child lines 1 each
+    blens = lens[nn + 1 :]
+    if not nn or lens.count(2) != nn or not blens or blens[0] != 5:
+        return None
+    n_arcs = blens.count(5)
+    n_edges = blens.count(1)
+    if n_arcs + n_edges != len(blens):
         return None
     node_rows = rows[1 : nn + 1]
-    if set(map(len, node_rows)) != {2}:
+    names = list(map(itemgetter(0), node_rows))
+    w_nodes = list(map(itemgetter(1), node_rows))
+    body = rows[nn + 1 :]
+    headers = list(compress(body, map((5).__eq__, blens)))
+    hnames, k_toks, p_names, w_toks, lows = zip(*headers, strict=True)
+    digits = "".join(w_nodes) + "".join(k_toks) + "".join(w_toks)
+    if (
+        not (digits.isdigit() and digits.isascii())
+        or "/" in "".join(names)
+        or "/" in "".join(hnames)
+        or len(set(hnames)) < n_arcs
+    ):
+        return None  # a repeated hyper-arc name: parse_graph renames it (with a warning)
+    ks = list(map(int, k_toks))
+    # each header is followed by exactly its k children: the headers sit where the counts say
+    pos = list(compress(range(len(blens)), map((5).__eq__, blens)))
+    if pos != list(accumulate(map((1).__add__, ks[:-1]), initial=0)) or 0 in ks:
         return None
-    names_t, weights_t = zip(*node_rows, strict=True)
-    digits = "".join(weights_t)
-    if not (digits.isdigit() and digits.isascii()) or "/" in "".join(names_t):
+    if pos[-1] + ks[-1] + 1 != len(blens):
         return None
-    names = list(names_t)
     idx = dict(zip(names, range(nn), strict=True))
     root = idx.get(root_name, -1)
     if len(idx) != nn or root < 0:
         return None
-    weights = list(map(float, weights_t))
-    lines: list[int] = list(nums[: nn + 1])
-    del lines[0]
-    # the hyper-arc lines, column by column (C loops, not a Python loop per line): a header
-    # has 5 fields, a child line 1, and each header is followed by exactly its k children
-    body = rows[nn + 1 :]
-    lens = list(map(len, body))
-    if not body or lens[0] != 5 or not set(lens) <= _ARC_FIELDS:
-        return None
-    pos = [i for i, n in enumerate(lens) if n == 5]
-    headers = list(map(body.__getitem__, pos))
-    hnames, k_toks, p_names, w_toks, lows = zip(*headers, strict=True)
-    if not _plain_ints(k_toks, w_toks) or "/" in "".join(hnames) or len(set(hnames)) < len(pos):
-        return None  # a repeated name: parse_graph renames it (with a warning)
-    ks = list(map(int, k_toks))
-    pos.append(len(body))
-    if list(map(int.__sub__, pos[1:], pos)) != list(map((1).__add__, ks)) or 0 in ks:
-        return None  # a count of children that the lines do not follow
-    del pos[-1]
     get = idx.__getitem__
     try:
         parent = list(map(get, p_names))
-        flat = list(map(get, [r[0] for r in body if len(r) == 1]))
+        flat = list(map(get, chain.from_iterable(compress(body, map((1).__eq__, blens)))))
     except KeyError:
         return None  # an unknown node
     it = iter(flat)
-    children: list[tuple[int, ...]] = [tuple(islice(it, k)) for k in ks]
-    if sum(map(len, map(set, children))) != len(flat) or any(map(contains, children, parent)):
+    children: list[tuple[int, ...]] = list(map(tuple, map(islice, repeat(it), ks)))
+    if sum(map(len, map(set, children))) != n_edges or any(map(contains, children, parent)):
         return None  # a child listed twice, a parent among its children
-    n_arcs = len(ks)
     size = nn + n_arcs
     arc_ids = range(nn, size)
-    incoming: list[list[int]] = [[] for _ in range(nn)]
-    for j, p in zip(arc_ids, parent, strict=True):
-        incoming[p].append(j)
-    outgoing: list[list[int]] = [[] for _ in range(nn)]
-    for j, ch in zip(arc_ids, children, strict=True):
-        for c in ch:
-            outgoing[c].append(j)
-    names += hnames
-    weights += map(float, w_toks)
-    arc_lines = nums[nn + 1 :]
-    lines += map(arc_lines.__getitem__, pos)
+    # produced node -> the last hyper-arc into it
+    last = dict(zip(parent, arc_ids, strict=True))
+    if root in flat:
+        return None  # the root is a child
+    leaves = list(filterfalse(last.__contains__, range(nn)))
+    inc: list[tuple[int, ...]] = [()] * size
     children[:0] = [()] * nn
     parent[:0] = [-1] * nn
+    if all(map(lt, map(last.get, flat, repeat(-1)), chain.from_iterable(map(repeat, arc_ids, ks)))):
+        # the authors list hyper-arcs children first (every child is a leaf or made by an
+        # earlier hyper-arc): that order is a topological one — no cycle, and the cost pass
+        # can follow it (each node right after the last hyper-arc into it)
+        topo = leaves[:]
+        for j in arc_ids:
+            p = parent[j]
+            inc[p] += (j,)
+            topo.append(j)
+            if last[p] == j:
+                topo.append(p)
+    else:
+        for j in arc_ids:
+            inc[parent[j]] += (j,)
+        topo = dp_order(nn, parent, children, inc, consumers(nn, children))
+        if len(topo) != size:
+            return None  # a cycle
+    weights = list(map(float, w_nodes))
+    weights += map(float, w_toks)
+    names += hnames
+    if type(nums) is range:  # no blank line: line numbers are row numbers
+        lines: list[int] = list(range(2, nn + 2))
+        lines += map((nn + 2).__add__, pos)
+    else:
+        lines = nums[1 : nn + 1]
+        lines += map(nums[nn + 1 :].__getitem__, pos)
     lower: list[tuple[int, str]] = []
     refs: list[tuple[str, int]] = []
-    if set(lows) != _NO_LOWER:
-        for j, low, ln in zip(arc_ids, lows, lines[nn:], strict=True):
+    if lows.count("-") != n_arcs:
+        for j, low in zip(arc_ids, lows, strict=True):
             if low != "-":
                 lower.append((j, low))
-                refs.append((low, ln))
-    if outgoing[root]:
-        return None  # the root is a child
-    empty: list[tuple[int, ...]] = [()] * n_arcs
-    # tuples: never changed once built, and the empty ones are all the same object
-    out = [tuple(x) if x else () for x in outgoing] + empty
-    inc = [tuple(x) if x else () for x in incoming] + empty
-    topo = dp_order(nn, parent, children, inc, out)
-    if len(topo) != size:
-        return None  # a cycle
-    leaves = topo[: inc.count(()) - n_arcs]  # dp_order starts with them, in id order
-    ix = Indexed(names, nn, weights, children, parent, inc, out, lower, root, topo, leaves, lines)
+                refs.append((low, lines[j]))
+    ix = Indexed(names, nn, weights, children, parent, inc, None, lower, root, topo, leaves, lines)
     graph = AndOrGraph.from_indexed(name, root_name, path, ix)
     graph.root_line = nums[0]
     # dead ends (produced, consumed by none, not the root): warnings, in node order
-    dead = set(parent[nn:])
+    dead = set(last)
     dead.difference_update(flat)
     dead.discard(root)
-    warnings = [
-        FormatError(
-            f"node {names[n]!r} is produced by a hyper-arc but used by none: it cannot "
-            f"contribute to the root {root_name!r}",
-            path,
-            lines[n],
-        )
-        for n in sorted(dead)
-    ]
-    graph.mark_validated(warnings)
+    graph.mark_validated(
+        [
+            FormatError(
+                f"node {names[n]!r} is produced by a hyper-arc but used by none: it cannot "
+                f"contribute to the root {root_name!r}",
+                path,
+                lines[n],
+            )
+            for n in sorted(dead)
+        ]
+        if dead
+        else []
+    )
     return graph, refs
 
 
