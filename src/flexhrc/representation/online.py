@@ -39,6 +39,7 @@ import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from heapq import heapify, heappop, heappush
+from itertools import islice
 from pathlib import Path
 from typing import Any, Literal
 
@@ -390,15 +391,15 @@ class OnlineGraph:
             lo, hi = self._i_span[k]
             self._lrank[lo:hi] = t.lrank
             shift = lo.__add__
-            prefix = self._i_path[k] + SEP
-            qualified = [prefix + x for x in t.names]
+            qualified = list(map((self._i_path[k] + SEP).__add__, t.names))
             names[lo:hi] = qualified
-            # half of these are empty (nodes have no children, hyper-arcs no incoming or
-            # outgoing arcs): share the empty tuple instead of shifting nothing
-            children[lo:hi] = [tuple(map(shift, ch)) if ch else () for ch in t.children]
-            parent[lo:hi] = [lo + p if p >= 0 else -1 for p in t.parent]
-            incoming[lo:hi] = [tuple(map(shift, hs)) if hs else () for hs in t.incoming]
-            outgoing[lo:hi] = [tuple(map(shift, hs)) if hs else () for hs in t.outgoing]
+            # nodes have no children and no parent, hyper-arcs no incoming or outgoing arcs:
+            # their placeholders (the empty tuple, -1) are already right
+            mid = lo + t.n_nodes
+            children[mid:hi] = [tuple(map(shift, ch)) for ch in t.arc_children]
+            parent[mid:hi] = map(shift, t.arc_parent)
+            incoming[lo:mid] = [tuple(map(shift, hs)) if hs else () for hs in t.node_incoming]
+            outgoing[lo:mid] = [tuple(map(shift, hs)) if hs else () for hs in t.node_outgoing]
             self._i_leaves[k] = list(map(shift, t.leaves))
             self._i_down[k] = list(map(shift, t.down))
             if index is not None:
@@ -1365,6 +1366,8 @@ class _Template:
     """Index structure of one graph definition, shared by all of its instances."""
 
     __slots__ = (
+        "arc_children",
+        "arc_parent",
         "children",
         "down",
         "idx",
@@ -1376,7 +1379,10 @@ class _Template:
         "lower",
         "lrank",
         "n_children",
+        "n_nodes",
         "names",
+        "node_incoming",
+        "node_outgoing",
         "outgoing",
         "own",
         "parent",
@@ -1390,7 +1396,7 @@ class _Template:
     def __init__(self, g: AndOrGraph):
         # the flat form of the definition: the reader's (no object per element), or made now
         ix = g.indexed()
-        nn = ix.n_nodes
+        nn = self.n_nodes = ix.n_nodes
         size = len(ix.names)
         self.names = ix.names
         self.size = size
@@ -1423,22 +1429,20 @@ class _Template:
         for (j, _), v in zip(self.lower, lower_roots, strict=True):
             own[j] = v  # eq. 19: a hyper-arc with a lower graph weighs its optimal cost
         self.own = own
-        ins = [0.0] * self.size
-        inf = INF
-        for e in self.topo:
+        # a leaf's inside cost is its weight; the order starts with the leaves
+        ins = own[:]
+        for e in islice(self.topo, len(self.leaves), None):
             v = own[e]
             if kinds[e]:
-                for c in children[e]:
-                    v += ins[c]
+                ch = children[e]
+                if len(ch) == 1:
+                    v += ins[ch[0]]
+                else:
+                    for c in ch:  # (in order, as _calc_inside adds them: the same float)
+                        v += ins[c]
             else:
                 arcs = incoming[e]
-                if arcs:
-                    best = inf
-                    for h in arcs:
-                        x = ins[h]
-                        if x < best:
-                            best = x
-                    v += best
+                v += ins[arcs[0]] if len(arcs) == 1 else min([ins[h] for h in arcs])
             ins[e] = v
         self.inside = ins
 
@@ -1448,6 +1452,11 @@ class _Template:
         if self.down or not self.size:
             return
         self.outgoing = self.ix.outgoing
+        nn = self.n_nodes
+        self.arc_children = self.children[nn:]
+        self.arc_parent = self.parent[nn:]
+        self.node_incoming = self.incoming[:nn]
+        self.node_outgoing = self.outgoing[:nn]
         self.down = self.topo[::-1]
         lrank = [0] * self.size
         for r, x in enumerate(self.down):
