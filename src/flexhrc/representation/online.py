@@ -34,6 +34,7 @@ exponential reference).
 
 from __future__ import annotations
 
+import gc
 import json
 import math
 from collections.abc import Iterable, Mapping
@@ -225,18 +226,24 @@ class OnlineGraph:
         if validate:
             graph.validate()
         self.hierarchy = graph
-        self._build()
         self._query = 0
         self._log: list[tuple[int, str, int]] = []  # (query, type, element id)
         self._events: list[Event] = []  # Event objects of _log, made on demand
         self._costs: dict[int, float] = {}
         self._outcome: str = "running"
         self._reason: str | None = None
-        for k in range(len(self._i_key)):
-            if self._i_upper[k] < 0:
-                self._activate(k)
-        self._settle()
-        self._finish()
+        # the build makes thousands of lists and tuples and no reference cycle: the cyclic
+        # garbage collector's passes meanwhile would only scan them
+        collecting = gc.isenabled()
+        gc.disable()
+        try:
+            self._build()
+            self._activate(0)  # the top instance (the only one without an upper hyper-arc)
+            self._settle()
+            self._finish()
+        finally:
+            if collecting:
+                gc.enable()
 
     # ------------------------------------------------------------------ construction ----
     def _build(self) -> None:

@@ -23,8 +23,7 @@ from __future__ import annotations
 
 import os
 from dataclasses import replace
-from itertools import accumulate, chain, compress, filterfalse, islice, repeat
-from operator import contains, itemgetter, lt
+from itertools import repeat
 from pathlib import Path
 
 from flexhrc.errors import FormatError
@@ -284,107 +283,101 @@ def _parse_flat(
     thing out of the ordinary: :func:`parse_graph` then parses the file again, element by
     element, and names the fault (or renames the repeat) exactly as it always has.
 
-    The work is done column by column (``map``, ``zip``, ``compress``: loops in C), not line by
-    line: what a Python loop per element would cost is most of the offline time otherwise."""
+    Lean on purpose (few statements, few distinct operations): most files are small, and the
+    offline time of a small graph is mostly the fixed cost of the code that runs once."""
     if not rows or len(rows[0]) != 3:
         return None
     name, count_tok, root_name = rows[0]
     if not (count_tok.isdigit() and count_tok.isascii()):
         return None
     nn = int(count_tok)
-    lens = list(map(len, rows))
-    # node lines have 2 fields; a hyper-arc header 5, then its k child lines 1 each
-    blens = lens[nn + 1 :]
-    if not nn or lens.count(2) != nn or not blens or blens[0] != 5:
-        return None
-    n_arcs = blens.count(5)
-    n_edges = blens.count(1)
-    if n_arcs + n_edges != len(blens):
+    n_rows = len(rows)
+    if not 0 < nn < n_rows - 1:
         return None
     node_rows = rows[1 : nn + 1]
-    names = list(map(itemgetter(0), node_rows))
-    w_nodes = list(map(itemgetter(1), node_rows))
-    body = rows[nn + 1 :]
-    headers = list(compress(body, map((5).__eq__, blens)))
-    hnames, k_toks, p_names, w_toks, lows = zip(*headers, strict=True)
-    digits = "".join(w_nodes) + "".join(k_toks) + "".join(w_toks)
-    if (
-        not (digits.isdigit() and digits.isascii())
-        or "/" in "".join(names)
-        or "/" in "".join(hnames)
-        or len(set(hnames)) < n_arcs
-    ):
-        return None  # a repeated hyper-arc name: parse_graph renames it (with a warning)
-    ks = list(map(int, k_toks))
-    # each header is followed by exactly its k children: the headers sit where the counts say
-    pos = list(compress(range(len(blens)), map((5).__eq__, blens)))
-    if pos != list(accumulate(map((1).__add__, ks[:-1]), initial=0)) or 0 in ks:
+    if set(map(len, node_rows)) != _TWO:
         return None
-    if pos[-1] + ks[-1] + 1 != len(blens):
+    names_t, weights_t = zip(*node_rows, strict=True)
+    digits = "".join(weights_t)
+    if not (digits.isdigit() and digits.isascii()) or "/" in "".join(names_t):
         return None
+    names = list(names_t)
     idx = dict(zip(names, range(nn), strict=True))
     root = idx.get(root_name, -1)
     if len(idx) != nn or root < 0:
         return None
     get = idx.__getitem__
-    try:
-        parent = list(map(get, p_names))
-        flat = list(map(get, chain.from_iterable(compress(body, map((1).__eq__, blens)))))
-    except KeyError:
-        return None  # an unknown node
-    it = iter(flat)
-    children: list[tuple[int, ...]] = list(map(tuple, map(islice, repeat(it), ks)))
-    if sum(map(len, map(set, children))) != n_edges or any(map(contains, children, parent)):
-        return None  # a child listed twice, a parent among its children
-    size = nn + n_arcs
-    arc_ids = range(nn, size)
-    # produced node -> the last hyper-arc into it
-    last = dict(zip(parent, arc_ids, strict=True))
-    if root in flat:
-        return None  # the root is a child
-    leaves = list(filterfalse(last.__contains__, range(nn)))
-    inc: list[tuple[int, ...]] = [()] * size
-    children[:0] = [()] * nn
-    parent[:0] = [-1] * nn
-    if all(map(lt, map(last.get, flat, repeat(-1)), chain.from_iterable(map(repeat, arc_ids, ks)))):
-        # the authors list hyper-arcs children first (every child is a leaf or made by an
-        # earlier hyper-arc): that order is a topological one — no cycle, and the cost pass
-        # can follow it (each node right after the last hyper-arc into it)
-        topo = leaves[:]
-        for j in arc_ids:
-            p = parent[j]
-            inc[p] += (j,)
-            topo.append(j)
-            if last[p] == j:
-                topo.append(p)
-    else:
-        for j in arc_ids:
-            inc[parent[j]] += (j,)
-        topo = dp_order(nn, parent, children, inc, consumers(nn, children))
-        if len(topo) != size:
-            return None  # a cycle
-    weights = list(map(float, w_nodes))
-    weights += map(float, w_toks)
-    names += hnames
-    if type(nums) is range:  # no blank line: line numbers are row numbers
-        lines: list[int] = list(range(2, nn + 2))
-        lines += map((nn + 2).__add__, pos)
-    else:
-        lines = nums[1 : nn + 1]
-        lines += map(nums[nn + 1 :].__getitem__, pos)
+    weights = list(map(float, weights_t))
+    lines = list(nums[1 : nn + 1])
+    children: list[tuple[int, ...]] = [()] * nn
+    parent = [-1] * nn
+    inc: list[tuple[int, ...]] = [()] * nn
+    last: dict[int, int] = {}  # produced node -> the last hyper-arc into it
+    consumed: set[int] = set()
+    arc_names: set[str] = set()
     lower: list[tuple[int, str]] = []
     refs: list[tuple[str, int]] = []
-    if lows.count("-") != n_arcs:
-        for j, low in zip(arc_ids, lows, strict=True):
+    in_order = True  # every child a leaf or made by an earlier hyper-arc
+    i = nn + 1
+    j = nn
+    try:
+        while i < n_rows:
+            # a row of the wrong length, a child line missing: ValueError, IndexError
+            hname, k_tok, p_name, w_tok, low = rows[i]
+            if not (k_tok.isdigit() and w_tok.isdigit() and (k_tok + w_tok).isascii()):
+                return None
+            k = int(k_tok)
+            if k == 1:
+                ((c_name,),) = rows[i + 1 : i + 2]
+                ch: tuple[int, ...] = (get(c_name),)
+            else:
+                ch = tuple([get(c) for (c,) in rows[i + 1 : i + 1 + k]])
+                if len(ch) != k or len(set(ch)) != k:
+                    return None
+            p = get(p_name)  # an unknown node: KeyError
+            if p in ch or hname in arc_names or "/" in hname:
+                return None  # a repeated hyper-arc name: parse_graph renames it (and warns)
+            arc_names.add(hname)
+            if p in consumed:
+                in_order = False
+            consumed.update(ch)
+            names.append(hname)
+            weights.append(float(w_tok))
+            ln = nums[i]
+            lines.append(ln)
+            children.append(ch)
+            parent.append(p)
+            inc[p] += (j,)
+            last[p] = j
             if low != "-":
                 lower.append((j, low))
-                refs.append((low, lines[j]))
+                refs.append((low, ln))
+            i += k + 1
+            j += 1
+    except (KeyError, IndexError, ValueError):
+        return None
+    if root in consumed:
+        return None  # the root is a child
+    leaves = [x for x in range(nn) if x not in last]
+    inc += [()] * (j - nn)
+    if in_order:
+        # the authors list hyper-arcs children first: that order is a topological one (no
+        # cycle), and the cost pass follows it, each node right after its last hyper-arc
+        topo = leaves[:]
+        for h in range(nn, j):
+            topo.append(h)
+            p = parent[h]
+            if last[p] == h:
+                topo.append(p)
+    else:
+        topo = dp_order(nn, parent, children, inc, consumers(nn, children))
+        if len(topo) != j:
+            return None  # a cycle
     ix = Indexed(names, nn, weights, children, parent, inc, None, lower, root, topo, leaves, lines)
     graph = AndOrGraph.from_indexed(name, root_name, path, ix)
     graph.root_line = nums[0]
     # dead ends (produced, consumed by none, not the root): warnings, in node order
-    dead = set(last)
-    dead.difference_update(flat)
+    dead = last.keys() - consumed
     dead.discard(root)
     graph.mark_validated(
         [
@@ -400,6 +393,9 @@ def _parse_flat(
         else []
     )
     return graph, refs
+
+
+_TWO = {2}
 
 
 def _resolve(ref: str, including_dir: str, top_dir: str, is_dir: dict[str, bool]) -> str | None:
