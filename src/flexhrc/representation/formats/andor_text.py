@@ -65,7 +65,7 @@ def _rows(path: str | Path) -> tuple[list[list[str]], list[int] | range]:
         # the shared reader says why (missing, folder, unreadable, binary, not UTF-8)
         text = read_text(path)
     if "#" not in text:
-        rows = [raw.split() for raw in text.splitlines()]
+        rows = list(map(str.split, text.splitlines()))
         if [] not in rows:
             return rows, range(1, len(rows) + 1)
     else:
@@ -443,6 +443,28 @@ def _listing(folder: str, listings: dict[str, dict[str, int] | None]) -> dict[st
     return entries
 
 
+def _listed_folder(
+    folder: str, top_dir: str, listings: dict[str, dict[str, int] | None]
+) -> dict[str, int] | None:
+    """The entries of ``folder`` (the top folder or below it) when it is reached from the top
+    folder through real folders only; ``{}`` when it is not there (or is a file); None when
+    that cannot be said from listings (a link on the way, a folder that cannot be listed)."""
+    entries = _listing(top_dir, listings)
+    cur = top_dir
+    for part in folder[len(top_dir) + 1 :].split(os.sep) if folder != top_dir else ():
+        if entries is None:
+            return None
+        kind = entries.get(part)
+        if kind == _OTHER:
+            return None
+        cur = f"{cur}{os.sep}{part}"
+        if kind != _FOLDER:
+            listings[folder] = {}
+            return {}
+        entries = _listing(cur, listings)
+    return entries
+
+
 def _find_listed(
     ref: str, here: str, top_dir: str, listings: dict[str, dict[str, int] | None]
 ) -> str | None:
@@ -452,32 +474,27 @@ def _find_listed(
     the top folder). None when the listings cannot say for sure (a link on the way, a
     reference that is not plain, nothing found): the ``stat``-based lookup decides then."""
     parts = ref.split("/")
-    if os.sep != "/" or ref.startswith("/") or "" in parts or "." in parts or ".." in parts:
+    if ref[0] == "/" or "" in parts or "." in parts or ".." in parts:
         return None
-    n = len(top_dir)
-    below = here[n + 1 :].split(os.sep) if len(here) > n else []
-    for base in (below, []) if below else ([],):
-        for last in (parts[-1] + SUFFIX, parts[-1]):
-            folder = top_dir
-            kind: int | None = _FOLDER
-            for part in [*base, *parts[:-1]]:
-                entries = _listing(folder, listings)
-                if entries is None:
-                    return None
-                kind = entries.get(part)
-                if kind != _FOLDER:
-                    break
-                folder = f"{folder}{os.sep}{part}"
-            else:
-                entries = _listing(folder, listings)
-                if entries is None:
-                    return None
-                kind = entries.get(last)
-                if kind == _REGULAR:
-                    return f"{folder}{os.sep}{last}"
+    last = parts.pop()
+    sub = f"{os.sep}{os.sep.join(parts)}" if parts else ""
+    for base in (here, top_dir) if here != top_dir else (top_dir,):
+        folder = base + sub
+        entries = listings.get(folder, _UNSEEN)
+        if entries is _UNSEEN:
+            entries = _listed_folder(folder, top_dir, listings)
+        if entries is None:
+            return None
+        for name in (last + SUFFIX, last):  # references usually omit the extension
+            kind = entries.get(name)
+            if kind == _REGULAR:
+                return f"{folder}{os.sep}{name}"
             if kind == _OTHER:
-                return None  # a link or a device on the way: let stat and realpath judge
+                return None  # a link or a device: let stat and realpath judge
     return None
+
+
+_UNSEEN: dict[str, int] = {}
 
 
 def _inside(path: str, folder: str, plain: set[str]) -> bool:
@@ -524,7 +541,7 @@ def load_andor_text(path: str | Path) -> HierarchicalGraph:
     is_dir: dict[str, bool] = {}
     plain: set[str] = set()
     listings: dict[str, dict[str, int] | None] = {}
-    fast = top_dir != sep
+    fast = top_dir != sep and sep == "/"  # (references are written with "/")
 
     prefix = top_dir + os.sep
 
