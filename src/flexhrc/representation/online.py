@@ -255,44 +255,52 @@ class OnlineGraph:
         hierarchy are not needed before the cooperation reaches them, and many never are (an
         OR branch not taken)."""
         H = self.hierarchy
+        graphs = H.graphs
         templates: dict[str, _Template] = {}
         kinds: list[int] = []
         weight: list[float] = []
         inst_of: list[int] = []
-        i_path: list[str] = []
-        i_key: list[str] = []
-        i_root: list[int] = []
-        i_upper: list[int] = []
-        i_parent: list[int] = []
+        # one record per instance: (path, key, root, upper hyper-arc, parent instance, depth,
+        # span, template), split into columns below
+        recs: list[tuple[str, str, int, int, int, int, tuple[int, int], _Template]] = []
         i_lowers: list[list[int]] = []  # hyper-arcs of the instance that have a lower graph
-        i_depth: list[int] = []
-        i_span: list[tuple[int, int]] = []
-        i_tmpl: list[_Template] = []
 
         # depth-first, in hyper-arc order, with an explicit stack (no recursion limit)
         stack: list[tuple[str, str, int, int, int]] = [(H.top, "", 0, -1, -1)]
+        pop, push = stack.pop, stack.append
         while stack:
-            key, path, depth, upper, parent_inst = stack.pop()
+            key, path, depth, upper, parent_inst = pop()
             t = templates.get(key)
             if t is None:
-                t = templates[key] = _Template(H.graphs[key])
-            k = len(i_key)
+                t = templates[key] = _Template(graphs[key])
+            k = len(recs)
             base = len(kinds)
-            i_path.append(path)
-            i_key.append(key)
-            i_root.append(base + t.root)
-            i_upper.append(upper)
-            i_parent.append(parent_inst)
-            i_lowers.append([base + x for x, _ in t.lower])
-            i_depth.append(depth)
-            i_span.append((base, base + t.size))
-            i_tmpl.append(t)
-            kinds.extend(t.kinds)
-            weight.extend(t.weights)
-            inst_of.extend([k] * t.size)
-            prefix = f"{path}{SEP}" if path else ""
-            for x, sub_key in reversed(t.lower):
-                stack.append((sub_key, f"{prefix}{t.names[x]}", depth + 1, base + x, k))
+            size = t.size
+            recs.append(
+                (path, key, base + t.root, upper, parent_inst, depth, (base, base + size), t)
+            )
+            kinds += t.kinds
+            weight += t.weights
+            inst_of += [k] * size
+            if t.lower:
+                i_lowers.append(list(map(base.__add__, t.lower_ids)))
+                prefix = f"{path}{SEP}" if path else ""
+                names_t = t.names
+                for x, sub_key in reversed(t.lower):
+                    push((sub_key, prefix + names_t[x], depth + 1, base + x, k))
+            else:
+                i_lowers.append([])
+        i_path: list[str]
+        i_key: list[str]
+        i_root: list[int]
+        i_upper: list[int]
+        i_parent: list[int]
+        i_depth: list[int]
+        i_span: list[tuple[int, int]]
+        i_tmpl: list[_Template]
+        i_path, i_key, i_root, i_upper, i_parent, i_depth, i_span, i_tmpl = map(
+            list, zip(*recs, strict=True)
+        )
 
         n = len(kinds)
         lower = [-1] * n  # hyper-arcs: lower instance id or -1
@@ -1384,6 +1392,7 @@ class _Template:
         "kinds",
         "leaves",
         "lower",
+        "lower_ids",
         "lrank",
         "n_children",
         "n_nodes",
@@ -1423,6 +1432,7 @@ class _Template:
         self.pristine_out: list[float] | None = None  # set by pristine_outside
         self.own: list[float] = []  # set by pristine_inside
         self.lower = ix.lower
+        self.lower_ids = [x for x, _ in ix.lower]
         self.n_children = list(map(len, ix.children))
         self.inside: list[float] | None = None  # set by pristine_inside
         self.idx: dict[str, int] | None = None  # set by local_index
