@@ -314,7 +314,7 @@ def _parse_flat(
     inc: list[tuple[int, ...]] = [()] * nn
     last: dict[int, int] = {}  # produced node -> the last hyper-arc into it
     consumed: set[int] = set()
-    arc_names: set[str] = set()
+    w_toks: list[str] = []
     lower: list[tuple[int, str]] = []
     refs: list[tuple[str, int]] = []
     in_order = True  # every child a leaf or made by an earlier hyper-arc
@@ -322,27 +322,27 @@ def _parse_flat(
     j = nn
     try:
         while i < n_rows:
-            # a row of the wrong length, a child line missing: ValueError, IndexError
+            # a row of the wrong length, a child line missing, a count that is not an
+            # integer: ValueError, IndexError; an unknown node: KeyError
             hname, k_tok, p_name, w_tok, low = rows[i]
-            if not (k_tok.isdigit() and w_tok.isdigit() and (k_tok + w_tok).isascii()):
-                return None
-            k = int(k_tok)
+            k = int(k_tok)  # (int() is what parse_graph applies too)
             if k == 1:
-                ((c_name,),) = rows[i + 1 : i + 2]
+                (c_name,) = rows[i + 1]
                 ch: tuple[int, ...] = (get(c_name),)
-            else:
+            elif k > 1:
                 ch = tuple([get(c) for (c,) in rows[i + 1 : i + 1 + k]])
                 if len(ch) != k or len(set(ch)) != k:
                     return None
-            p = get(p_name)  # an unknown node: KeyError
-            if p in ch or hname in arc_names or "/" in hname:
-                return None  # a repeated hyper-arc name: parse_graph renames it (and warns)
-            arc_names.add(hname)
+            else:
+                return None
+            p = get(p_name)
+            if p in ch:
+                return None
             if p in consumed:
                 in_order = False
             consumed.update(ch)
             names.append(hname)
-            weights.append(float(w_tok))
+            w_toks.append(w_tok)
             ln = nums[i]
             lines.append(ln)
             children.append(ch)
@@ -356,6 +356,15 @@ def _parse_flat(
             j += 1
     except (KeyError, IndexError, ValueError):
         return None
+    digits = "".join(w_toks)
+    hnames = names[nn:]
+    if (
+        not (digits.isdigit() and digits.isascii())
+        or len(set(hnames)) != j - nn
+        or "/" in "".join(hnames)
+    ):
+        return None  # a repeated hyper-arc name: parse_graph renames it (and warns)
+    weights += map(float, w_toks)
     if root in consumed:
         return None  # the root is a child
     leaves = [x for x in range(nn) if x not in last]
