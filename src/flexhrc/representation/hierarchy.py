@@ -177,13 +177,14 @@ class HierarchicalGraph:
                 for j, low in ix.lower:
                     n = leaves.get(low)
                     if n is None:
-                        sub = used[low]
-                        n = leaves[low] = sub.incoming[: sub.n_nodes].count(())
+                        n = leaves[low] = len(used[low].leaves)
                     if n < len(ix.children[j]):
                         return None
         warnings: list[FormatError] = []
         for key in used:
-            warnings += graphs[key].validate()
+            g = graphs[key]
+            done = g._validated  # a flat graph cannot change: the reader's checks hold
+            warnings += done[1] if done is not None and g._ix is not None else g.validate()
         return warnings
 
     def _check_recursion(self) -> None:
