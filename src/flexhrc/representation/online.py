@@ -264,6 +264,9 @@ class OnlineGraph:
         # span, template), split into columns below
         recs: list[tuple[str, str, int, int, int, int, tuple[int, int], _Template]] = []
         i_lowers: list[list[int]] = []  # hyper-arcs of the instance that have a lower graph
+        lower: list[int] = []  # hyper-arcs: lower instance id or -1
+        root_of: list[int] = []  # nodes: instance id if this node is an instance root
+        unmet: list[int] = []
 
         # depth-first, in hyper-arc order, with an explicit stack (no recursion limit)
         stack: list[tuple[str, str, int, int, int]] = [(H.top, "", 0, -1, -1)]
@@ -282,6 +285,13 @@ class OnlineGraph:
             kinds += t.kinds
             weight += t.weights
             inst_of += [k] * size
+            unmet += t.n_children  # hyper-arcs: children not yet met (none is yet)
+            minus = [-1] * size
+            lower += minus
+            root_of += minus
+            root_of[base + t.root] = k
+            if upper >= 0:
+                lower[upper] = k
             if t.lower:
                 i_lowers.append(list(map(base.__add__, t.lower_ids)))
                 prefix = f"{path}{SEP}" if path else ""
@@ -303,13 +313,6 @@ class OnlineGraph:
         )
 
         n = len(kinds)
-        lower = [-1] * n  # hyper-arcs: lower instance id or -1
-        root_of = [-1] * n  # nodes: instance id if this node is an instance root
-        for k, r in enumerate(i_root):
-            root_of[r] = k
-            u = i_upper[k]
-            if u >= 0:
-                lower[u] = k
         # the top instance's structures are its template's; the others' are placeholders
         # until _materialise (None names: a premature read fails loudly)
         t0 = i_tmpl[0]
@@ -356,10 +359,7 @@ class OnlineGraph:
         # mutable state
         self._done = [False] * n  # met (nodes) / solved (hyper-arcs)
         self._blocked = [False] * n  # can no longer be taken (infeasible for good)
-        # hyper-arcs: children not yet met (the template's counts: nothing is met yet)
-        self._unmet: list[int] = []
-        for t in i_tmpl:
-            self._unmet.extend(t.n_children)
+        self._unmet = unmet
         self._active = [False] * n_inst
         self._closed = [False] * n_inst
         self._feasible: dict[int, None] = {}
