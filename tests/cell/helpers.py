@@ -67,10 +67,11 @@ def robot(scenario: str, arm: str, port: int, log: Path, *extra: str) -> subproc
     )
 
 
-def human(scenario: str, name: str, port: int, log: Path) -> subprocess.Popen[str]:
+def human(scenario: str, name: str, port: int, log: Path, *extra: str) -> subprocess.Popen[str]:
     return flexhrc(
-        "agent", "human", scenario, "--name", name, "--connect", f"tcp/127.0.0.1:{port}", log=log
-    )
+        "agent", "human", scenario, "--name", name, "--connect", f"tcp/127.0.0.1:{port}", *extra,
+        log=log,
+    )  # fmt: skip
 
 
 def rows(store: Path) -> list[tuple[int, float, str, dict[str, Any]]]:

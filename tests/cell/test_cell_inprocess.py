@@ -115,9 +115,12 @@ def test_parallel_scenario_uses_every_arm() -> None:
          "--arm 'middle': no robot agent"),
         (["agent", "human", "table", "--name", "left", "--connect", "tcp/127.0.0.1:1"],
          "--name 'left': no human agent"),
-        (["agent", "human", "table", "--name", "human", "--profile", "takeover",
-          "--connect", "tcp/127.0.0.1:1"], "--profile 'takeover'"),
+        (["agent", "human", "table", "--name", "human", "--profile", "lazy",
+          "--connect", "tcp/127.0.0.1:1"], "--profile 'lazy': unknown operator profile"),
         (["agent", "robot", "table", "--arm", "left"], "--connect ENDPOINT is needed"),
+        (["cell", "table", "--transport", "zenoh", "--agents", "external", "--human", "takeover"],
+         "--human goes with --agents internal"),
+        (["cell", "table", "--human", "lazy"], "--human: invalid choice: 'lazy'"),
     ],
 )  # fmt: skip
 def test_bad_arguments_are_one_clear_error(args: list[str], message: str, tmp_path: Path) -> None:

@@ -75,6 +75,33 @@ def test_multiprocess_cell_solves_the_table_assembly(tmp_path: Path) -> None:
     assert seqs == list(range(1, len(seqs) + 1))
 
 
+def test_an_operator_process_that_acts_on_its_own_takes_over_the_legs(tmp_path: Path) -> None:
+    """`flexhrc agent human --profile takeover` as its own process: it answers the manager's
+    options with intents and screws every leg itself; the cooperation is the one of `flexhrc
+    run --human takeover` in one process (the discrete-event loop waits for its decisions)."""
+    scenario = "table_assembly"
+    port = free_tcp_port()
+    store = tmp_path / "cell.db"
+    procs = [cell(scenario, port, store, log=tmp_path / "cell.err")]
+    procs += [robot(scenario, arm, port, tmp_path / f"{arm}.err") for arm in ("left", "right")]
+    procs.append(human(scenario, "human", port, tmp_path / "human.err", "--profile", "takeover"))
+    try:
+        data = finish(procs[0])
+        for p in procs[1:]:
+            assert p.wait(15) == 0
+    finally:
+        kill_all(procs)
+    assert data["outcome"] == "solved", (tmp_path / "cell.err").read_text()[-2000:]
+    got = rows(store)
+    assert got[0][3]["operators"] == {"human": "takeover"}  # announced before the start
+    assert sum(k == "human_decides" for _, _, k, _ in got) == 4
+    ref = finish(flexhrc("run", scenario, "--human", "takeover", "--json", "--quiet"))
+    for key in ("robot_actions", "human_actions", "decisions", "legs_by_agent", "by_agent"):
+        assert data[key] == ref[key], key
+    assert data["timing"]["total_s"] == ref["timing"]["total_s"]
+    assert "decides to do" in (tmp_path / "human.err").read_text()
+
+
 def test_robot_killed_mid_action_is_lost_replanned_and_used_again(tmp_path: Path) -> None:
     scenario = tmp_path / "table.yaml"
     scenario.write_text(TABLE_LEFT_ONLY)

@@ -13,9 +13,14 @@ its controller.
   where things are afterwards. **It never executes one command id twice**: a repeated id (the
   manager resumed after a crash) gets the stored ack again, or nothing while it is running; with
   a ``journal`` this holds across restarts of the agent's process too.
-* :class:`HumanAgent` follows suggestions step by step (profile ``passive``): it carries out the
-  step the manager names, in the world the message carries, and reports it as a
-  ``human_action``; a repeated step gets its report again.
+* :class:`HumanAgent` follows suggestions step by step: it carries out the step the manager
+  names, in the world the message carries, and reports it as a ``human_action``; a repeated step
+  gets its report again. With a profile that acts on its own (``takeover``, ``cooperative``,
+  ``random``: :mod:`flexhrc.taskmanager.operator`) it also answers the manager's ``options``
+  — the cooperation steps it may do alone now, each with its hyper-arcs, costs and ground
+  branches — with an ``intent``: to act (which branch, after how long) or not. The manager then
+  hands it its own plan step by step, as it hands a suggestion. The person decides; the manager
+  only says what is possible and keeps the time order (``docs/protocol.md``).
 
 ``realtime`` (from the message) > 0 makes an agent take ``duration / realtime`` seconds of wall
 time before it answers, so a process can be killed in the middle of an action; 0 answers at once
@@ -36,12 +41,13 @@ from flexhrc.errors import FlexhrcError, UnknownNameError
 from flexhrc.files import EventLogWriter
 from flexhrc.knowledge import KnowledgeBase
 from flexhrc.taskmanager.domain import Domain, GroundAction
+from flexhrc.taskmanager.operator import PROFILES, SimulatedOperator
 from flexhrc.taskmanager.simulator import AnalyticSimulator, ExecutionModel
 from flexhrc.transport import Transport
 
 log = logging.getLogger("flexhrc.cell")
 
-HUMAN_PROFILES = ("passive",)
+HUMAN_PROFILES = PROFILES
 
 
 def execution_model(choice: str = "auto", scenario: Any = None) -> ExecutionModel:
@@ -322,7 +328,8 @@ class RobotAgent(_Agent):
 
 
 class HumanAgent(_Agent):
-    """A simulated operator that carries out the suggestions it gets (profile ``passive``)."""
+    """A simulated operator: it carries out the suggestions it gets and, unless ``passive``,
+    acts on its own as its profile says (see the module docstring)."""
 
     def __init__(
         self,
@@ -331,14 +338,14 @@ class HumanAgent(_Agent):
         transport: Transport,
         *,
         profile: str = "passive",
+        seed: int = 0,
         execution: ExecutionModel | None = None,
         trace: Callable[[str], None] | None = None,
     ) -> None:
         if profile not in HUMAN_PROFILES:
             raise FlexhrcError(
-                f"--profile {profile!r}: an operator agent follows suggestions (passive); the "
-                "profiles that act on their own run inside the process of "
-                "`flexhrc demo table --human PROFILE`"
+                f"--profile {profile!r}: unknown operator profile; choose one of "
+                f"{', '.join(HUMAN_PROFILES)}"
             )
         super().__init__(
             name, scenario, transport, execution=execution or AnalyticSimulator(), trace=trace
@@ -354,7 +361,80 @@ class HumanAgent(_Agent):
         self.reports: dict[str, dict[int, dict[str, Any]]] = {}  # suggestion -> step -> report
         self.busy: set[tuple[str, int]] = set()  # steps being carried out
         self._subs.append(transport.subscribe(P.suggest_topic(name), self._on_message))
+        # the profile's own decisions (the same code as the in-process operators)
+        self.operator = SimulatedOperator(name, profile, seed) if profile != "passive" else None
+        self.intents: dict[str, dict[str, Any]] = {}  # options id -> the intent sent for it
+        self._announced_at = float("-inf")
+        if self.operator is not None:
+            self._subs.append(transport.subscribe(P.options_topic(name), self._on_options))
+            self._announce_profile()
         self._announce()
+
+    def _announce_profile(self) -> None:
+        """Tell the manager this operator acts on its own (before its token, so the manager
+        knows it when the cooperation starts; again if a snapshot shows it was not heard)."""
+        self._announced_at = time.monotonic()
+        msg = P.message("operator", agent=self.name, profile=self.profile)
+        self.transport.publish(P.INTENT_TOPIC, msg)
+
+    def _on_state(self, data: Any) -> None:
+        super()._on_state(data)
+        if self.operator is None or not isinstance(data, dict) or data.get("type") != "state":
+            return
+        known = data.get("operators")
+        heard = isinstance(known, dict) and known.get(self.name) == self.profile
+        if not heard and time.monotonic() - self._announced_at > 1.0:
+            self._announce_profile()
+
+    def _on_options(self, data: Any) -> None:
+        self.received += 1
+        try:
+            self._options(P.parse(data, expect="options"))
+        except FlexhrcError as exc:
+            self._bad(data, exc)
+
+    def _options(self, msg: dict[str, Any]) -> None:
+        """Decide, once per step, whether to act on it alone (:meth:`SimulatedOperator.decide`)
+        and answer with an ``intent``; a repeated ``options`` gets the same answer."""
+        op = self.operator
+        assert op is not None
+        oid = msg["id"]
+        if oid in self.intents:
+            self.transport.publish(P.INTENT_TOPIC, self.intents[oid])
+            return
+        sync_world(self.kb, msg.get("world") or {})
+        t = float(msg["t"])
+        decided: list[str] = []
+        fields: dict[str, Any] = {"act": False}
+        for st in msg["steps"]:
+            step = str(st["step"])
+            arcs = [(float(a["cost"]), str(a["hyperarc"])) for a in st["arcs"]]
+            decided.append(step)
+            intention = op.decide(step, arcs)
+            if intention is None:
+                continue
+            arc = next(a for a in st["arcs"] if a["hyperarc"] == intention.hyperarc)
+            if not arc["branches"]:  # nothing of it is free for this operator: it gives up
+                self.trace(f"gives up {intention.hyperarc} ({step}): nothing free to do it with")
+                break
+            branches = [[ground(self.domain, x) for x in b] for b in arc["branches"]]
+            branch = op.pick_branch(self.kb, self.domain, branches)
+            fields = {
+                "act": True,
+                "step": step,
+                "hyperarc": intention.hyperarc,
+                "actions": [str(a) for a in branch],
+                "delay": round(intention.delay_s, 6),
+            }
+            t += intention.delay_s  # when it starts: the manager keeps the time order
+            self.trace(f"decides to do {intention.hyperarc} ({step}) alone")
+            break
+        intent = P.message(
+            "intent", id=f"{self.name}:{oid}", agent=self.name, options=oid, decided=decided,
+            t=t, **fields,
+        )  # fmt: skip
+        self.intents[oid] = intent
+        self.transport.publish(P.INTENT_TOPIC, intent)
 
     def _on_message(self, data: Any) -> None:
         self.received += 1

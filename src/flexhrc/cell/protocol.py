@@ -9,6 +9,8 @@ topic               from -> to          message ``type``
 ``ack``             robot -> manager    ``ack``
 ``suggest/<name>``  manager -> human    ``suggestion``
 ``human``           human -> manager    ``human_action``
+``options/<name>``  manager -> human    ``options`` (what an operator may do on its own)
+``intent``          human -> manager    ``operator`` (its profile), ``intent`` (its answer)
 ``percept``         perception -> mgr   ``percept``
 ``state``           manager -> all      ``state`` (the cell snapshot), ``end``
 ``alive/<agent>``   liveliness tokens   (``alive/manager`` for the manager)
@@ -42,9 +44,14 @@ def suggest_topic(human: str) -> str:
     return f"suggest/{human}"
 
 
+def options_topic(human: str) -> str:
+    return f"options/{human}"
+
+
 ACK_TOPIC = "ack"
 HUMAN_TOPIC = "human"
 PERCEPT_TOPIC = "percept"
+INTENT_TOPIC = "intent"
 STATE_TOPIC = "state"
 ALIVE_PREFIX = "alive"
 
@@ -86,6 +93,7 @@ SCHEMAS: dict[str, dict[str, tuple[tuple[type, ...], bool]]] = {
         "world": ((dict,), False),
         "realtime": (_NUM, False),
         "step": ((int,), False),
+        "own": ((bool,), False),  # the operator's own plan (its intent), not the manager's ask
     },
     "human_action": {
         "id": ((str,), True),
@@ -104,6 +112,26 @@ SCHEMAS: dict[str, dict[str, tuple[tuple[type, ...], bool]]] = {
         "pose": ((list,), True),
         "size": ((dict, list, type(None)), False),
         "t": (_NUM, False),
+    },
+    # an operator that acts on its own: what it may do (steps -> hyper-arcs -> ground branches)
+    "options": {
+        "id": ((str,), True),
+        "t": (_NUM, True),
+        "steps": ((list,), True),
+        "world": ((dict,), False),
+    },
+    "operator": {"agent": ((str,), True), "profile": ((str,), True)},
+    "intent": {
+        "id": ((str,), True),
+        "agent": ((str,), True),
+        "options": ((str,), True),
+        "act": ((bool,), True),
+        "decided": ((list,), True),
+        "t": (_NUM, True),
+        "step": ((str,), False),
+        "hyperarc": ((str,), False),
+        "actions": ((list,), False),
+        "delay": (_NUM, False),
     },
     "state": {},
     "end": {"outcome": ((str,), True)},
@@ -143,7 +171,7 @@ def parse(data: Any, *, expect: str | tuple[str, ...] | None = None) -> dict[str
             raise ProtocolError(f"{kind}: field {name!r} must be {want}, not {value!r:.40}")
         if isinstance(value, float) and not math.isfinite(value):
             raise ProtocolError(f"{kind}: field {name!r} must be finite")
-        numeric = name in ("t", "duration", "expected_s", "start", "realtime")
+        numeric = name in ("t", "duration", "expected_s", "start", "realtime", "delay")
         numeric = numeric or name == "step"
         if numeric and isinstance(value, int | float) and value < 0:
             raise ProtocolError(f"{kind}: field {name!r} must be >= 0, not {value}")
@@ -153,6 +181,37 @@ def parse(data: Any, *, expect: str | tuple[str, ...] | None = None) -> dict[str
         key = "agents" if kind == "command" else "actions"
         if not data[key] or not all(isinstance(a, str) for a in data[key]):
             raise ProtocolError(f"{kind}: {key!r} must be a non-empty list of strings")
+    if kind == "intent":
+        if not all(isinstance(x, str) for x in data["decided"]):
+            raise ProtocolError("intent: 'decided' must be a list of step names")
+        if data["act"]:
+            for key in ("step", "hyperarc", "actions"):
+                if key not in data:
+                    raise ProtocolError(f"intent: an intent to act needs {key!r}")
+            actions = data["actions"]
+            if not actions or not all(isinstance(a, str) for a in actions):
+                raise ProtocolError("intent: 'actions' must be a non-empty list of strings")
+    if kind == "options":
+        for st in data["steps"]:
+            if not (
+                isinstance(st, dict)
+                and isinstance(st.get("step"), str)
+                and isinstance(st.get("arcs"), list)
+                and all(
+                    isinstance(a, dict)
+                    and isinstance(a.get("hyperarc"), str)
+                    and isinstance(a.get("cost"), _NUM)
+                    and isinstance(a.get("branches"), list)
+                    and all(
+                        isinstance(b, list) and b and all(isinstance(x, str) for x in b)
+                        for b in a["branches"]
+                    )
+                    for a in st["arcs"]
+                )
+            ):
+                raise ProtocolError(
+                    "options: each step must be {step, arcs: [{hyperarc, cost, branches}]}"
+                )
     if kind == "percept":
         pose = data["pose"]
         if not 3 <= len(pose) <= 7 or not all(

@@ -30,8 +30,10 @@ from typing import Any
 from flexhrc.errors import FlexhrcError, FormatError
 from flexhrc.files import check_output
 
-INPUT_KINDS = frozenset({"start", "ack", "human_action", "percept", "agent_up", "agent_down"})
-OUTPUT_KINDS = frozenset({"command", "suggestion", "stop"})
+INPUT_KINDS = frozenset(
+    {"start", "ack", "human_action", "percept", "agent_up", "agent_down", "operator", "intent"}
+)
+OUTPUT_KINDS = frozenset({"command", "suggestion", "stop", "options"})
 
 SCHEMA = "CREATE TABLE IF NOT EXISTS events(seq INTEGER PRIMARY KEY, t REAL, kind TEXT, body TEXT)"
 

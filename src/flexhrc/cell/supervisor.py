@@ -18,6 +18,16 @@ acknowledges each command it was running as ``failed`` with reason ``agent lost`
 so a resume replays them); the manager re-plans with the others. When the token comes back
 (``agent_up``) the agent is used again.
 
+Operators that act on their own. An operator agent with a profile other than ``passive``
+announces it (``operator``). Whenever such an operator is idle and a cooperation step it may do
+alone has become reachable, the cell sends it ``options`` — the steps, their hyper-arcs with costs
+(eq. 10) and the ground branches it can do alone now — and, in the discrete-event loop, waits for
+its ``intent`` as it waits for an arm's ack. An intent to act carries the time the person starts
+(after thinking); at that time the cell checks that the branch is still free and hands it to the
+operator step by step, as a suggestion marked ``own``. The manager learns of it only from the
+reported ``human_action`` s, as of any person who acts without being asked (paper 000, V-C).
+Intents are stored inputs, so a resumed cell decides the same.
+
 Resume. ``Cell(..., resume=True)`` replays the stored inputs into a fresh manager (deterministic:
 the same commands with the same ids come out), then sends every outstanding command again under
 its original id as soon as its agent is alive; agents answer a repeated id with their stored ack
@@ -51,6 +61,7 @@ from flexhrc.taskmanager.manager import (
     Suggest,
     TaskManager,
 )
+from flexhrc.taskmanager.operator import PROFILES, SimulatedOperator
 from flexhrc.taskmanager.simulator import Simulator
 from flexhrc.transport import Transport
 
@@ -70,6 +81,8 @@ STORED_LOG_TYPES = {
     "ack_ignored",
     "agent_available",
     "agent_unavailable",
+    "human_decides",
+    "human_gives_up",
 }
 
 
@@ -133,6 +146,7 @@ class Cell:
         self.commands: dict[int, Command] = {}
         self.stored_commands: set[int] = set()
         self.acked: set[int] = set()
+        self.stopped: set[int] = set()  # commands the manager stopped
         self.suggestions: dict[str, dict[str, Any]] = {}
         self.active_suggestion: dict[str, str] = {}
         # suggestion id -> (the step to do next, when it starts): the operator gets one step at
@@ -153,10 +167,18 @@ class Cell:
         self._panel_inputs = 0
         self._sent_at: dict[int, float] = {}  # command id -> when it was last sent (monotonic)
         self.resent = 0
+        # operators that act on their own: profile, steps they decided on, open ``options``
+        self.operators: dict[str, str] = {}
+        self.decided: dict[str, set[str]] = {}
+        self.awaiting: dict[str, str] = {}  # operator -> id of the options it has to answer
+        self.options: dict[str, dict[str, Any]] = {}
+        self.intent_ids: set[str] = set()
+        self._options_sent_at: dict[str, float] = {}
         self._subs = [
             transport.subscribe(P.ACK_TOPIC, self._on_ack_message),
             transport.subscribe(P.HUMAN_TOPIC, self._on_human_message),
             transport.subscribe(P.PERCEPT_TOPIC, self._on_percept_message),
+            transport.subscribe(P.INTENT_TOPIC, self._on_intent_message),
         ]
         self.percept_ids: set[str] = set()
         if hasattr(transport, "on_drop"):
@@ -210,6 +232,7 @@ class Cell:
                 {k: v for k, v in self.suggestions[sid].items() if k not in ("world", "v")}
                 for sid in self.active_suggestion.values()
             ],
+            "operators": dict(self.operators),
             "timeline": timeline,
             "knowledge": self.kb.to_dict(),
             "dropped": len(self.dropped),
@@ -251,6 +274,10 @@ class Cell:
             self._drop(f"duplicate ack for command {cid}")
         elif msg["agent"] not in cmd.agents:
             self._drop(f"ack for command {cid} from {msg['agent']}, not {'+'.join(cmd.agents)}")
+        elif cid in self.stopped:
+            # the arm finished before it heard the stop: in the cell's time the stop came
+            # first, so that end never happened (as in CooperationRun)
+            log.info("ack for command %d, which was stopped: ignored", cid)
         elif self.tm.busy.get(msg["agent"]) is not cmd:
             self._drop(f"ack for command {cid}, which is no longer running")
         else:
@@ -289,6 +316,41 @@ class Cell:
             self._drop(f"percept {msg['id']} before the cooperation started")
             return
         self._input("percept", _body(msg))  # at the cell's time: a percept never moves the clock
+
+    def _on_intent_message(self, data: Any) -> None:
+        """An operator's profile (``operator``) or its answer to ``options`` (``intent``)."""
+        try:
+            msg = P.parse(data, expect=("operator", "intent"))
+            st = self.agents.get(msg["agent"])
+            if st is None or st.kind != "human":
+                raise P.ProtocolError(f"{msg['agent']!r} is not a human agent of this cell")
+            if msg["type"] == "operator" and msg["profile"] not in PROFILES:
+                raise P.ProtocolError(
+                    f"operator: unknown profile {msg['profile']!r} ({', '.join(PROFILES)})"
+                )
+            if msg["type"] == "intent":
+                for a in msg.get("actions") or []:
+                    ground(self.domain, a)
+        except FlexhrcError as exc:
+            self._drop(f"{data.get('type') if isinstance(data, dict) else 'intent'}: {exc}")
+            return
+        agent = str(msg["agent"])
+        if msg["type"] == "operator":
+            if self.operators.get(agent) == msg["profile"]:
+                return
+            if not self.started:  # goes into the stored start
+                self.operators[agent] = str(msg["profile"])
+            else:
+                self._input("operator", {"agent": agent, "profile": msg["profile"]})
+            return
+        if msg["id"] in self.intent_ids or any(
+            k == "intent" and b["id"] == msg["id"] for *_, k, b in self.pending
+        ):
+            self._drop(f"duplicate intent {msg['id']}")
+        elif self.awaiting.get(agent) != msg["options"]:
+            self._drop(f"intent for options {msg['options']}, which {agent} was not asked")
+        else:
+            self._arrive(msg["t"], "intent", _body(msg))
 
     def _arrive(self, t: float, kind: str, body: dict[str, Any]) -> None:
         self._arrivals += 1
@@ -364,6 +426,7 @@ class Cell:
         self._record(kind, body)  # committed before the manager acts on it
         directives = self._feed(kind, body)
         self._handle(directives)
+        self._settle()
         if not self.replaying:
             self._fail_lost()
             self._publish_state()
@@ -372,7 +435,14 @@ class Cell:
         tm, now = self.tm, self.now
         if kind == "start":
             self.started = True
+            self.operators.update(body.get("operators") or {})
             return tm.start(now)
+        if kind == "operator":
+            self.operators[str(body["agent"])] = str(body["profile"])
+            return []
+        if kind == "intent":
+            self._intent(body)
+            return []
         if kind == "ack":
             cid = int(body["id"])
             self.acked.add(cid)
@@ -407,6 +477,116 @@ class Cell:
             st.available = kind == "agent_up"
             return tm.set_available(now, st.name, st.available)
         raise FlexhrcError(f"unknown input kind {kind!r} in the store")
+
+    # -- operators that act on their own -------------------------------------------------------
+    def _helper(self, human: str) -> SimulatedOperator:
+        """What an operator may do, as the in-process operators see it (no decision is taken
+        here: the profile and its randomness live in the operator's agent)."""
+        return SimulatedOperator(human)
+
+    def _operator_busy(self, human: str) -> bool:
+        if human in self.active_suggestion or human in self.awaiting:
+            return True
+        if any(k == "intent" and b["agent"] == human for *_, k, b in self.pending):
+            return True
+        return any(
+            ex.owner == "human" and human in ex.branch.agents for ex in self.tm.executions.values()
+        )
+
+    def _offer_options(self) -> None:
+        """Send ``options`` to each idle operator that acts on its own and has a newly reachable
+        step it may do alone (it decides once per step, as :meth:`SimulatedOperator.consider`)."""
+        if not self.started or self.tm.done:
+            return
+        for human, profile in sorted(self.operators.items()):
+            st = self.agents.get(human)
+            if profile == "passive" or st is None or not st.available:
+                continue
+            if self._operator_busy(human):
+                continue
+            helper = self._helper(human)
+            seen = self.decided.setdefault(human, set())
+            steps = []
+            for step, arcs in helper.options(self.tm).items():
+                if step in seen:
+                    continue
+                steps.append(
+                    {
+                        "step": step,
+                        "arcs": [
+                            {
+                                "hyperarc": h,
+                                "cost": float(cost),
+                                "branches": [
+                                    [str(a) for a in b]
+                                    for b in helper.candidate_branches(self.tm, self.kb, h)
+                                ],
+                            }
+                            for cost, h in arcs
+                        ],
+                    }
+                )
+            if not steps:
+                continue
+            oid = f"o{len(self.options) + 1}"
+            msg = {"id": oid, "agent": human, "t": self.now, "steps": steps}
+            self.options[oid] = msg
+            self.awaiting[human] = oid
+            self._record("options", msg)
+            self._send_options(human, oid)
+
+    def _send_options(self, human: str, oid: str) -> None:
+        st = self.agents[human]
+        if self.replaying or not st.alive or not st.available:
+            return
+        msg = {k: v for k, v in self.options[oid].items() if k != "agent"}
+        self._options_sent_at[oid] = time.monotonic()
+        self.transport.publish(
+            P.options_topic(human), P.message("options", **msg, world=world_of(self.kb))
+        )
+
+    def _intent(self, body: dict[str, Any]) -> None:
+        """An operator's answer to its ``options``, at the time it starts: it takes the branch
+        it chose if that is still free, else gives up (someone got there first)."""
+        human = str(body["agent"])
+        self.intent_ids.add(str(body["id"]))
+        if self.awaiting.get(human) == body["options"]:
+            del self.awaiting[human]
+        self.decided.setdefault(human, set()).update(str(x) for x in body["decided"])
+        if not body["act"]:
+            return
+        step, hyperarc, actions = str(body["step"]), str(body["hyperarc"]), list(body["actions"])
+        helper = self._helper(human)
+        arcs = [h for _, h in helper.options(self.tm).get(step, [])]
+        free = hyperarc in arcs and any(
+            [str(a) for a in b] == actions
+            for b in helper.candidate_branches(self.tm, self.kb, hyperarc)
+        )
+        if not free or human in self.active_suggestion:
+            self._record("human_gives_up", {"agent": human, "step": step, "element": hyperarc})
+            return
+        sid = f"s{len(self.suggestions) + 1}"
+        self.suggestions[sid] = {
+            "v": P.VERSION,
+            "type": "suggestion",
+            "id": sid,
+            "element": hyperarc,
+            "actions": actions,
+            "t": self.now,
+            "agent": human,
+            "own": True,
+        }
+        self.active_suggestion[human] = sid
+        self._record(
+            "human_decides",
+            {"agent": human, "element": hyperarc, "step": step, "actions": actions, "own": sid},
+        )
+        self._send_suggestion(human, sid)
+
+    def _settle(self) -> None:
+        """After every input (live and while resuming, so both decide alike)."""
+        self._refresh_suggestions()
+        self._offer_options()
 
     def _physical(self, action: GroundAction, positions: dict[str, Any]) -> None:
         """What an action does to the world besides its facts, as the domain declares it
@@ -466,6 +646,13 @@ class Cell:
                 self._record("suggestion", {k: v for k, v in msg.items() if k not in ("v", "type")})
                 self._send_suggestion(human, sid)
             elif isinstance(d, Stop):
+                self.stopped.add(d.command_id)
+                if self.ordered:  # an answer already here that ends after the stop: never was
+                    self.pending = [
+                        x
+                        for x in self.pending
+                        if not (x[2] == "ack" and x[3]["id"] == d.command_id and x[0] > self.now)
+                    ]
                 self._record("stop", {"agent": d.agent, "id": d.command_id, "reason": d.reason})
                 if not self.replaying and self.agents[d.agent].alive:
                     self.transport.publish(
@@ -520,6 +707,9 @@ class Cell:
         sid = self.active_suggestion.get(agent)
         if sid is not None:
             self._send_suggestion(agent, sid)
+        oid = self.awaiting.get(agent)
+        if oid is not None:
+            self._send_options(agent, oid)
 
     def _resend_overdue(self) -> None:
         """Send again a command whose answer is long overdue (a message lost on the way, an
@@ -539,6 +729,13 @@ class Cell:
                 log.info("command %d to %s: no answer after %.1f s, resent", cmd.id, agent, wait)
                 self.resent += 1
                 self._send_command(agent, cmd)
+        pending_intent = {b["agent"] for *_, k, b in self.pending if k == "intent"}
+        for human, oid in sorted(self.awaiting.items()):
+            sent = self._options_sent_at.get(oid)
+            if human not in pending_intent and sent is not None and now - sent > 2.0:
+                log.info("options %s to %s: no answer after 2 s, resent", oid, human)
+                self.resent += 1
+                self._send_options(human, oid)
 
     def _publish_state(self) -> None:
         try:
@@ -563,6 +760,7 @@ class Cell:
                 if ev.is_input:
                     self.now = max(self.now, ev.t)
                     self._handle(self._feed(ev.kind, ev.body))
+                    self._settle()
         finally:
             self.replaying = False
         self.resumed = True
@@ -576,12 +774,33 @@ class Cell:
                 self.stored_commands.add(cmd.id)
 
     def _refresh_suggestions(self) -> None:
-        owners = {
-            a for ex in self.tm.executions.values() if ex.owner == "human" for a in ex.branch.agents
+        runs = {
+            a: ex
+            for ex in self.tm.executions.values()
+            if ex.owner == "human"
+            for a in ex.branch.agents
         }
-        for human in list(self.active_suggestion):
-            if human not in owners:
+        for human, sid in list(self.active_suggestion.items()):
+            ex, msg = runs.get(human), self.suggestions[sid]
+            done = self.suggestion_step.get(sid, (0, 0.0))[0]
+            if not msg.get("own"):
+                if ex is None:
+                    del self.active_suggestion[human]
+                continue
+            if ex is None:
+                if done > 0:
+                    del self.active_suggestion[human]  # it advanced nothing the manager knows
+                continue
+            # the manager's grounding of the rest of the hyper-arc, as CooperationRun follows it
+            rest = [str(a) for a in ex.branch.steps[ex.next_index :]]
+            if rest == msg["actions"][done:]:
+                continue
+            if not rest:
                 del self.active_suggestion[human]
+                continue
+            nid = f"s{len(self.suggestions) + 1}"
+            self.suggestions[nid] = {**msg, "id": nid, "actions": rest, "t": self.now}
+            self.active_suggestion[human] = nid
 
     # -- the loop -----------------------------------------------------------------------------
     def awaited(self) -> list[str]:
@@ -600,6 +819,16 @@ class Cell:
                 st = self.agents.get(a)
                 if st and st.kind == "human" and st.available and a not in pending_human:
                     out.append(a)
+        pending_intent = {b["agent"] for *_, k, b in self.pending if k == "intent"}
+        for human, sid in sorted(self.active_suggestion.items()):
+            msg = self.suggestions[sid]
+            step = self.suggestion_step.get(sid, (0, 0.0))[0]
+            mine = msg.get("own") and step < len(msg["actions"]) and self.agents[human].available
+            if mine and human not in pending_human and human not in out:
+                out.append(human)  # doing its own plan, before the manager knows of it
+        for human in sorted(self.awaiting):
+            if self.agents[human].available and human not in pending_intent:
+                out.append(human)  # deciding whether to act on its own
         return out
 
     def _missing(self) -> list[str]:
@@ -641,7 +870,12 @@ class Cell:
                     time.sleep(min(lag, 5.0))
         else:
             self.pending.sort(key=lambda x: x[1])  # arrival order
-            t, _, kind, body = self.pending.pop(0)
+            # an operator's intent is due when the person starts (after thinking)
+            clock = self._clock()
+            due = [i for i, x in enumerate(self.pending) if x[2] != "intent" or x[0] <= clock]
+            if not due:
+                return False
+            t, _, kind, body = self.pending.pop(due[0])
         self._last_wall = time.perf_counter()
         self._input(kind, body, t)
         self._refresh_suggestions()
@@ -671,6 +905,7 @@ class Cell:
                     "seed": self.seed,
                     "realtime": self.realtime,
                     "simulator": _simulator_name(self.tm.simulator),
+                    "operators": dict(self.operators),
                 },
             )
         elif self.tm.done:  # the stored cooperation had already ended: nothing to add

@@ -37,10 +37,20 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
     )
     _common(r)
     r.set_defaults(func=cmd_agent)
-    h = asub.add_parser("human", help="a simulated operator that follows suggestions")
+    h = asub.add_parser(
+        "human",
+        help="a simulated operator: follows suggestions and, unless passive, acts on its own",
+    )
     h.add_argument("scenario", metavar="SCENARIO", help="the cell's scenario (name or file)")
     h.add_argument("--name", required=True, metavar="NAME", help="which operator (e.g. human)")
-    h.add_argument("--profile", default="passive", metavar="PROFILE", help="passive (default)")
+    h.add_argument(
+        "--profile",
+        default="passive",
+        metavar="PROFILE",
+        help="passive (default: only when asked), takeover (takes every step it can), "
+        "cooperative (takes one now and then), random (at random moments, random objects); "
+        "its choices are seeded by --seed",
+    )
     _common(h)
     h.set_defaults(func=cmd_agent)
     e = asub.add_parser(
@@ -91,9 +101,8 @@ def cmd_agent(args: argparse.Namespace) -> int:
 
         if args.profile not in HUMAN_PROFILES:
             raise FlexhrcError(
-                f"--profile {args.profile!r}: an operator agent follows suggestions "
-                f"({', '.join(HUMAN_PROFILES)}); the profiles that act on their own run inside "
-                "`flexhrc demo table --human PROFILE`"
+                f"--profile {args.profile!r}: unknown operator profile; choose one of "
+                f"{', '.join(HUMAN_PROFILES)}"
             )
     if getattr(args, "journal", None):
         from flexhrc.files import check_output
@@ -123,6 +132,7 @@ def cmd_agent(args: argparse.Namespace) -> int:
                 scenario,
                 transport,
                 profile=args.profile,
+                seed=args.seed,
                 execution=execution_model("analytic", scenario),
                 trace=trace,
             )

@@ -43,6 +43,14 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
     )
     p.add_argument("--seed", type=int, default=0, help="scenario seed (default 0)")
     p.add_argument(
+        "--human",
+        choices=["passive", "takeover", "cooperative", "random"],
+        default="passive",
+        metavar="PROFILE",
+        help="how the internal simulated operators behave: passive (default), takeover, "
+        "cooperative or random (external ones: `flexhrc agent human --profile`)",
+    )
+    p.add_argument(
         "--simulator",
         choices=["auto", "analytic", "kinematic"],
         default="auto",
@@ -183,6 +191,11 @@ def cmd_cell(args: argparse.Namespace) -> int:
         raise FlexhrcError("--listen and --connect go with --transport zenoh")
     if args.resume and not args.store:
         raise FlexhrcError("--resume needs --store FILE.db")
+    if args.human != "passive" and args.agents == "external":
+        raise FlexhrcError(
+            "--human goes with --agents internal (an external operator has its own "
+            "`flexhrc agent human --profile`)"
+        )
     from flexhrc.cli.panel import check_web, serve
 
     web = check_web(args)  # a non-loopback --web without --token is refused before any work
@@ -228,7 +241,15 @@ def cmd_cell(args: argparse.Namespace) -> int:
             for a in scenario.domain().agents.values():
                 if a.is_human:
                     human_model = execution_model("analytic", scenario)
-                    agents.append(HumanAgent(a.name, scenario, transport, execution=human_model))
+                    operator = HumanAgent(
+                        a.name,
+                        scenario,
+                        transport,
+                        profile=args.human,
+                        seed=args.seed,
+                        execution=human_model,
+                    )
+                    agents.append(operator)
                 else:
                     model = execution_model(args.simulator, scenario)
                     agents.append(RobotAgent(a.name, scenario, transport, execution=model))

@@ -112,14 +112,20 @@ def register(subparsers: Any) -> None:
 
     human = sub.add_parser(
         "human",
-        help="a simulated operator node that follows the suggestions",
+        help="a simulated operator node: follows suggestions and, unless passive, acts alone",
         description="The cell's simulated operator (`flexhrc agent human`) as a ROS 2 node: it "
-        "carries out each suggestion on suggest/<name> and reports the human actions on human. "
-        "It exits when the cell ends.",
+        "carries out each suggestion on suggest/<name> and reports the human actions on human; "
+        "with a profile other than passive it answers the options on options/<name> with "
+        "intents on intent. It exits when the cell ends.",
     )
     _add_common(human)
     human.add_argument("--name", required=True, metavar="NAME", help="which operator (e.g. human)")
-    human.add_argument("--profile", default="passive", metavar="PROFILE", help="passive (default)")
+    human.add_argument(
+        "--profile",
+        default="passive",
+        metavar="PROFILE",
+        help="passive (default), takeover, cooperative or random (seeded by --seed)",
+    )
     add_json_flag(human)
     human.set_defaults(func=cmd_human)
 
@@ -271,6 +277,7 @@ def cmd_human(args: argparse.Namespace) -> int:
             scenario,
             transport,
             profile=args.profile,
+            seed=args.seed,
             trace=lambda line: say(f"[{args.name}] {line}"),
         )
         say(f"[{args.name}] ready: cell {args.cell!r}, ROS domain {transport.domain_id}")

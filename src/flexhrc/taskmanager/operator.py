@@ -133,23 +133,39 @@ class SimulatedOperator:
             if step in self.decided:
                 continue
             self.decided.add(step)
-            k = self.steps_seen.index(step) + 1
-            if self.takes is not None:
-                # a step is named by its place in order (1-based) or by its node's name
-                act = k in self.takes or step in self.takes or _local(step) in self.takes
-                delay = 0.0
-            elif self.profile == "takeover":
-                act, delay = True, 0.0
-            elif self.profile == "cooperative":
-                act, delay = self.rng.random() < 0.5, self.rng.uniform(0.5, 2.0)
-            else:  # random
-                act, delay = self.rng.random() < 0.4, self.rng.uniform(0.0, 6.0)
-            if not act:
+            intention = self.decide(step, arcs)
+            if intention is None:
                 continue
-            hyperarc = self.rng.choice(arcs)[1] if self.profile == "random" else arcs[0][1]
             self.plan = OperatorPlan([], 0, False, None)  # thinking
-            return Intention(hyperarc, step, delay)
+            return intention
         return None
+
+    def decide(self, step: str, arcs: Sequence[tuple[float, str]]) -> Intention | None:
+        """The profile's choice, once, for a newly reachable ``step`` whose hyper-arcs this
+        operator may do (``arcs``: (cost, hyper-arc), cheapest first): act on it, after how long
+        and by which hyper-arc — or not. Also used by an operator agent of a live cell, which
+        gets its ``arcs`` from the manager's ``options`` message."""
+        if step not in self.steps_seen:
+            self.steps_seen.append(step)
+        if not arcs:
+            return None
+        k = self.steps_seen.index(step) + 1
+        if self.takes is not None:
+            # a step is named by its place in order (1-based) or by its node's name
+            act = k in self.takes or step in self.takes or _local(step) in self.takes
+            delay = 0.0
+        elif self.profile == "takeover":
+            act, delay = True, 0.0
+        elif self.profile == "cooperative":
+            act, delay = self.rng.random() < 0.5, self.rng.uniform(0.5, 2.0)
+        elif self.profile == "random":
+            act, delay = self.rng.random() < 0.4, self.rng.uniform(0.0, 6.0)
+        else:  # passive: only when asked
+            return None
+        if not act:
+            return None
+        hyperarc = self.rng.choice(list(arcs))[1] if self.profile == "random" else arcs[0][1]
+        return Intention(hyperarc, step, delay)
 
     def start_own(
         self, tm: TaskManager, kb: KnowledgeBase, intention: Intention
@@ -173,6 +189,14 @@ class SimulatedOperator:
     def _choose_branch(
         self, tm: TaskManager, kb: KnowledgeBase, hyperarc: str
     ) -> list[GroundAction] | None:
+        branches = self.candidate_branches(tm, kb, hyperarc)
+        return self.pick_branch(kb, tm.domain, branches) if branches else None
+
+    def candidate_branches(
+        self, tm: TaskManager, kb: KnowledgeBase, hyperarc: str
+    ) -> list[list[GroundAction]]:
+        """The ground branches of ``hyperarc`` this operator can do alone now: objects no other
+        agent works on or holds, those no execution reserves first (if there are any)."""
         actions = tm.actions_of(hyperarc)
         constraints = tm.constraints_of(hyperarc)
         reserved = tm.reserved_objects()
@@ -196,23 +220,27 @@ class SimulatedOperator:
                 and not in_use & {a for s in b.steps for a in s.args}
             ]
             if branches:
-                break
-        else:
-            return None
+                return [list(b.steps) for b in branches]
+        return []
+
+    def pick_branch(
+        self, kb: KnowledgeBase, domain: Domain, branches: Sequence[Sequence[GroundAction]]
+    ) -> list[GroundAction]:
+        """Its own choice among ``branches``: the nearest object to its hand (``random``: any)."""
         if self.profile == "random":
-            return list(self.rng.choice(branches).steps)
+            return list(self.rng.choice(list(branches)))
         hand = kb.position(self.name) if self.name in kb.objects else (1.1, 0.0, 0.1)
 
-        def distance(steps: Sequence[GroundAction]) -> tuple[float, str]:
+        def distance(steps: list[GroundAction]) -> tuple[float, str]:
             first = next(
-                (a for s in steps for a in s.args if a in kb.objects and a not in tm.domain.agents),
+                (a for s in steps for a in s.args if a in kb.objects and a not in domain.agents),
                 None,
             )
             if first is None:
                 return (0.0, "")
             return (math.dist(hand, kb.position(first)), first)
 
-        return list(min(branches, key=lambda b: distance(b.steps)).steps)
+        return min((list(b) for b in branches), key=distance)
 
     def _in_use(self, tm: TaskManager, kb: KnowledgeBase) -> set[str]:
         """Objects another agent works on right now: those a robot's current command changes
