@@ -27,9 +27,12 @@ def run_cli(*args: str, timeout: float = 120) -> subprocess.CompletedProcess[str
     )
 
 
-def test_default_cell_is_the_run_cooperation() -> None:
-    cell = run_cli("cell", "table_assembly", "--json", "--quiet")
-    run = run_cli("run", "table_assembly", "--json", "--quiet")
+# kitchen_drawer: the operator moves parts while an arm works (the run once wrote the arm's
+# stale view of them back when its action ended)
+@pytest.mark.parametrize("scenario", ["table_assembly", "kitchen_drawer"])
+def test_default_cell_is_the_run_cooperation(scenario: str) -> None:
+    cell = run_cli("cell", scenario, "--json", "--quiet")
+    run = run_cli("run", scenario, "--json", "--quiet")
     assert cell.returncode == 0, cell.stderr
     c, d = json.loads(cell.stdout), json.loads(run.stdout)
     assert set(d) - {"wall_s"} <= set(c)  # the keys of `flexhrc run --json`

@@ -225,3 +225,67 @@ def test_the_operator_answers_repeated_options_the_same_way() -> None:
         assert first["decided"][-1] == first["step"]  # it stops deciding once it acts
     else:
         assert first["decided"] == ["connected_1", "connected_2", "connected_3"]
+
+
+def test_a_take_at_the_panel_is_a_stored_input_a_resumed_cell_replays(tmp_path: Path) -> None:
+    """`Cell.human_take` ("I'll do this"): checked, stored as `human_take`, replayed by
+    `--resume` — the resumed cooperation ends as the uninterrupted one with the same take."""
+    from flexhrc.taskmanager.manager import TakeRefused
+
+    def run(store: EventStore | None, crash_after: int | None) -> tuple[dict | None, Cell]:
+        scenario = load_scenario("table_assembly")
+        bus = InProcessBus()
+        cell = Cell(
+            scenario, bus, store=store, liveliness=False, simulator=execution_model("analytic")
+        )
+        agents = _agents(scenario, bus, "passive", 0)
+        taken: list[str] = []
+
+        def pump(timeout: float) -> None:
+            if crash_after is not None and len(cell.events) >= crash_after:
+                raise Crash
+            if not taken and len(cell.events) >= 8:
+                for h in sorted(cell.tm.feasible_hyperarcs()):
+                    try:
+                        cell.tm.check_take(h)
+                    except TakeRefused:
+                        continue
+                    assert cell.human_take(h)  # the actions the operator is asked to do
+                    taken.append(h)
+                    break
+            bus.flush()
+            for a in agents:
+                a.poll()
+
+        try:
+            return cell.run(pump=pump), cell
+        except Crash:
+            return None, cell
+
+    ref, ref_cell = run(None, None)
+    assert ref is not None and ref["outcome"] == "solved"
+    takes = [e.body for e in ref_cell.events if e.kind == "human_take"]
+    assert len(takes) == 1 and ref["human_actions"] > 4  # it did a leg besides the checks
+    with pytest.raises(TakeRefused, match="unknown hyper-arc"):
+        ref_cell.tm.check_take("no_such_arc")
+
+    path = tmp_path / "s.db"
+    store = EventStore(path)
+    _, cell = run(store, 20)
+    cell.close()
+    store.close()
+    assert [e.kind for e in read_store(path)].count("human_take") == 1
+    store = EventStore(path, resume=True)
+    scenario = load_scenario("table_assembly")
+    bus = InProcessBus()
+    again = Cell(
+        scenario, bus, store=store, resume=True, liveliness=False,
+        simulator=execution_model("analytic"),
+    )  # fmt: skip
+    agents = _agents(scenario, bus, "passive", 0)
+    data = again.run(pump=_pump(again, bus, agents))
+    store.close()
+    assert data["outcome"] == "solved"
+    assert data["knowledge"] == ref["knowledge"]
+    assert data["human_actions"] == ref["human_actions"]
+    assert [e.kind for e in read_store(path)].count("human_take") == 1

@@ -344,3 +344,31 @@ def test_the_ros2_managers_panel_is_the_operator(
     assert data["outcome"] == "solved", data.get("reason")
     assert done and all("human" in a for a in done)
     assert data["legs_by_agent"]["human"] == 1 and data["human_actions"] == len(done)
+
+
+def test_an_operator_node_with_a_profile_takes_legs_on_its_own(
+    tmp_path: Path, ros_env: dict[str, str], domain_id: int, cell_name: str
+):
+    """`flexhrc ros2 human --profile takeover`: the operator answers the manager's options
+    (options/<name>) with intents (intent) over ROS 2 and screws legs itself."""
+    common = ["table_assembly", "--cell", cell_name]
+    store = tmp_path / "c.db"
+    procs: list[subprocess.Popen[str]] = []
+    try:
+        for arm in ("left", "right"):
+            procs.append(_node(ros_env, "arm", *common, "--arm", arm, log=tmp_path / f"{arm}.log"))
+        procs.append(_node(ros_env, "human", *common, "--name", "human", "--profile", "takeover",
+                           log=tmp_path / "h.log"))  # fmt: skip
+        manager = _node(ros_env, "cell", *common, "--realtime", "8", "--store", str(store),
+                        "--json", log=tmp_path / "manager.log")  # fmt: skip
+        procs.append(manager)
+        data = _finish(manager, 150, tmp_path)
+    finally:
+        _stop_all(procs)
+    assert data["outcome"] == "solved", data.get("reason")
+    events = read_store(store)
+    profiles = {**events[0].body.get("operators", {})}
+    profiles.update({e.body["agent"]: e.body["profile"] for e in events if e.kind == "operator"})
+    assert profiles == {"human": "takeover"}
+    assert any(e.kind == "human_decides" for e in events)
+    assert data["legs_by_agent"].get("human", 0) >= 1

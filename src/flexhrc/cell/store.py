@@ -31,7 +31,17 @@ from flexhrc.errors import FlexhrcError, FormatError
 from flexhrc.files import check_output
 
 INPUT_KINDS = frozenset(
-    {"start", "ack", "human_action", "percept", "agent_up", "agent_down", "operator", "intent"}
+    {
+        "start",
+        "ack",
+        "human_action",
+        "percept",
+        "agent_up",
+        "agent_down",
+        "operator",
+        "intent",
+        "human_take",
+    }
 )
 OUTPUT_KINDS = frozenset({"command", "suggestion", "stop", "options"})
 

@@ -34,8 +34,10 @@ its original id as soon as its agent is alive; agents answer a repeated id with 
 and never execute it twice.
 
 Boundary for panels and bridges: :meth:`Cell.snapshot` is the whole visible state as a JSON-able
-dict (also published on ``state`` after every event) and :meth:`Cell.human_input` is the one way
-in for a person's input; neither touches the loop.
+dict (also published on ``state`` after every event); a person's inputs come in through
+:meth:`Cell.human_input` (what they did), :meth:`Cell.human_take` (what they will do) and
+:meth:`Cell.halt_agent` / :meth:`Cell.release_agent` (an arm stopped and resumed by hand). Each
+is a stored input, so a resumed cell replays it; call them on the cell's own thread.
 """
 
 from __future__ import annotations
@@ -254,6 +256,38 @@ class Cell:
             )
         )
 
+    def human_take(self, element: str) -> list[str]:
+        """A person says they will do the hyper-arc ``element`` (a panel's "I'll do this"):
+        checked first (:class:`~flexhrc.taskmanager.manager.TakeRefused`, nothing stored), then
+        stored as the input ``human_take`` and handed to the manager
+        (:meth:`~flexhrc.taskmanager.TaskManager.operator_takes`). Returns the actions the
+        operators are now asked to do."""
+        if not self.started:
+            raise FlexhrcError("the cell has not started yet")
+        self.tm.check_take(element)
+        self._input("human_take", {"element": element})
+        ex = self.tm.executions.get(element)
+        return [str(a) for a in ex.branch.steps] if ex is not None else []
+
+    def halt_agent(self, name: str, *, by: str = "operator") -> None:
+        """Take an arm out of the cooperation by hand: it is told to stop its command at once,
+        the command fails (``stopped by the operator``) and the manager plans without it (the
+        stored input ``agent_down``), until :meth:`release_agent`."""
+        st = self.agents.get(name)
+        if st is None:
+            raise FlexhrcError(f"unknown agent {name!r}")
+        cmd = self.tm.busy.get(name)
+        if cmd is not None and st.alive:  # the arm itself stops at once
+            stop = P.message("stop", id=cmd.id, reason=f"stopped by the {by}", t=self.now)
+            self.transport.publish(P.cmd_topic(name), stop)
+        self._input("agent_down", {"agent": name, "wall": time.time(), "by": by})
+
+    def release_agent(self, name: str, *, by: str = "operator") -> None:
+        """Give an arm taken out by :meth:`halt_agent` back to the manager (``agent_up``)."""
+        if name not in self.agents:
+            raise FlexhrcError(f"unknown agent {name!r}")
+        self._input("agent_up", {"agent": name, "wall": time.time(), "by": by})
+
     # -- receiving ----------------------------------------------------------------------------
     def _drop(self, reason: str) -> None:
         self.dropped.append(reason)
@@ -443,6 +477,8 @@ class Cell:
         if kind == "intent":
             self._intent(body)
             return []
+        if kind == "human_take":
+            return tm.operator_takes(now, str(body["element"]))
         if kind == "ack":
             cid = int(body["id"])
             self.acked.add(cid)

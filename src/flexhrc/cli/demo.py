@@ -519,7 +519,7 @@ def _run_table(
 ) -> int:
     from flexhrc.files import EventLogWriter
     from flexhrc.representation import OnlineGraph
-    from flexhrc.taskmanager.runner import CooperationRun, table_i
+    from flexhrc.taskmanager.runner import CooperationRun
 
     # everything that can be wrong is found before the run starts
     domain = scenario.domain()
@@ -564,12 +564,35 @@ def _run_table(
     finally:
         if writer is not None:
             writer.close()
+    who = f"human takes bolts {args.human_takes}" if args.human_takes else f"human {profile}"
+    data = _with_sensing(dict(result.summary), result.events, args)
+    legs = ", ".join(f"{a}: {n}" for a, n in data["legs_by_agent"].items())
+    return _report(
+        args, run, result, data, caught,
+        title=f"table assembly, {plural(scenario.legs, 'leg')}, {who}, seed {args.seed}",
+        subject="", solved_by=f"legs connected by {legs}",
+    )  # fmt: skip
+
+
+def _report(
+    args: argparse.Namespace,
+    run: Any,
+    result: Any,
+    data: dict[str, Any],
+    caught: list[int],
+    *,
+    title: str,
+    subject: str,
+    solved_by: str,
+) -> int:
+    """The end of a cooperation run (`demo table`, `run`): the timeline plot, warnings for
+    failures that never fired, Table I and a summary line (or ``--json``), the exit code."""
+    from flexhrc.taskmanager.runner import table_i
+
     if args.plot:
         from flexhrc.files import atomic_output
         from flexhrc.taskmanager.timeline import plot_timeline
 
-        who = f"human takes bolts {args.human_takes}" if args.human_takes else f"human {profile}"
-        title = f"table assembly, {plural(scenario.legs, 'leg')}, {who}, seed {args.seed}"
         with atomic_output(args.plot) as tmp:
             plot_timeline(result.events, tmp, title)
     for f in run.unfired_failures():
@@ -577,15 +600,13 @@ def _run_table(
             f"warning: --fail {f.action}:{f.nth} never happened: the run had "
             f"{plural(run.executions_of(f.action), f.action + ' action')}"
         )
-    data = _with_sensing(dict(result.summary), result.events, args)
 
     def text() -> str:
         out = ["", table_i(data), ""]
-        legs = ", ".join(f"{a}: {n}" for a, n in data["legs_by_agent"].items())
         out.append(
-            f"outcome {data['outcome']}"
+            f"{subject}outcome {data['outcome']}"
             + (f" ({data['reason']})" if data["reason"] else "")
-            + f"; legs connected by {legs}; {plural(data['decisions'], 'decision tree')}, "
+            + f"; {solved_by}; {plural(data['decisions'], 'decision tree')}, "
             f"{plural(data['branches_simulated'], 'branch', 'branches')} simulated "
             f"({data['simulator']} simulator); "
             f"{data['robot_actions']} robot and {plural(data['human_actions'], 'human action')}"
@@ -764,9 +785,8 @@ def cmd_run(args: argparse.Namespace) -> int:
 
 def _run_scenario(args: argparse.Namespace, sc: Any, path: Path) -> int:
     """A ``flexhrc: 1`` scenario file, end to end."""
-    from flexhrc.files import EventLogWriter, atomic_output
+    from flexhrc.files import EventLogWriter
     from flexhrc.scenario import prepare
-    from flexhrc.taskmanager.runner import table_i
 
     if args.human is not None and not sc.humans:
         raise FlexhrcError(f"--human {args.human} needs an operator, but {path} has no humans")
@@ -809,41 +829,14 @@ def _run_scenario(args: argparse.Namespace, sc: Any, path: Path) -> int:
     finally:
         if writer is not None:
             writer.close()
-    if args.plot:
-        from flexhrc.taskmanager.timeline import plot_timeline
-
-        who = ", ".join(f"{name} {prof}" for name, prof in run.operator_profiles()) or "no operator"
-        with atomic_output(args.plot) as tmp:
-            plot_timeline(result.events, tmp, f"{sc.name}, {who}, seed {args.seed}")
-    for f in run.unfired_failures():
-        progress(
-            f"warning: --fail {f.action}:{f.nth} never happened: the run had "
-            f"{plural(run.executions_of(f.action), f.action + ' action')}"
-        )
+    who = ", ".join(f"{name} {prof}" for name, prof in run.operator_profiles()) or "no operator"
     data = _with_sensing({"scenario": sc.name, **result.summary}, result.events, args)
-
-    def text() -> str:
-        out = ["", table_i(data), ""]
-        by = ", ".join(f"{a}: {n}" for a, n in data["by_agent"].items())
-        out.append(
-            f"{sc.name}: outcome {data['outcome']}"
-            + (f" ({data['reason']})" if data["reason"] else "")
-            + f"; hyper-arcs solved by {by}; {plural(data['decisions'], 'decision tree')}, "
-            f"{plural(data['branches_simulated'], 'branch', 'branches')} simulated "
-            f"({data['simulator']} simulator); "
-            f"{data['robot_actions']} robot and {plural(data['human_actions'], 'human action')}"
-        )
-        if args.log:
-            out.append(f"event log: {args.log}")
-        if args.plot:
-            out.append(f"timeline: {args.plot}")
-        return "\n".join(out)
-
-    emit(args, data, text)
-    if caught:
-        print("interrupted", file=sys.stderr)
-        return EXIT_SIGNAL[signal.Signals(caught[0])]
-    return 0 if data["outcome"] == "solved" else 1
+    by = ", ".join(f"{a}: {n}" for a, n in data["by_agent"].items())
+    return _report(
+        args, run, result, data, caught,
+        title=f"{sc.name}, {who}, seed {args.seed}",
+        subject=f"{sc.name}: ", solved_by=f"hyper-arcs solved by {by}",
+    )  # fmt: skip
 
 
 def _run_legacy(args: argparse.Namespace, path: Path, doc: Any) -> int:

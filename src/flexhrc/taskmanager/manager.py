@@ -70,6 +70,16 @@ REACTIONS = ("conflicts", "paper")
 
 
 # ----------------------------------------------------------------------------- directives --
+class TakeRefused(FlexhrcError):
+    """An operator cannot take that hyper-arc now (:meth:`TaskManager.operator_takes`); nothing
+    changed. ``kind``: ``unknown`` (no such element), ``invalid`` (not a hyper-arc) or
+    ``conflict`` (not possible in the current state)."""
+
+    def __init__(self, message: str, kind: str = "conflict"):
+        super().__init__(message)
+        self.kind = kind
+
+
 @dataclass
 class Command:
     """Execute one ground action (robot agents)."""
@@ -288,6 +298,72 @@ class TaskManager:
             self.unavailable.add(agent)
         self._emit("agent_available" if available else "agent_unavailable", agent=agent)
         return self._entry(now, self._plan)
+
+    def operator_takes(self, now: float, element: str) -> list[Directive]:
+        """A person says they *will* do the feasible hyper-arc ``element`` (a panel's "I'll do
+        this"): the robots leave that part as when an unsuggested human action is recognised
+        (paper 000, V-C: every robot execution sharing a child or an object with it is aborted),
+        and its actions, grounded for the operators by a decision tree (eq. 21), are suggested
+        to them. Raises :class:`TakeRefused` — before anything changes — when it is not a
+        feasible hyper-arc an operator can do now (:meth:`check_take`)."""
+        tree, cost = self.check_take(element)
+
+        def body() -> list[Directive]:
+            best = tree.evaluate(self.simulator, self.kb, self.domain) or tree.branches[0]
+            out: list[Directive] = []
+            objects = {k: v for k, v in best.grounding.items() if v not in self.domain.agents}
+            self._take_over(element, best, objects, out)  # the robot leaves that part
+            self._emit("taken", element=element, grounding=dict(best.grounding))
+            self._launch(element, best, cost, out)
+            out += self._plan()
+            return out
+
+        return self._entry(now, body)
+
+    def check_take(self, element: str) -> tuple[DecisionTree, float]:
+        """Whether an operator can take ``element`` now: its operators' decision tree and its
+        cost, or :class:`TakeRefused` saying why not. Changes nothing."""
+        try:
+            kind = self.graph.kind(element)
+        except KeyError:
+            raise TakeRefused(f"unknown hyper-arc {element!r}", "unknown") from None
+        if self.done:
+            raise TakeRefused(f"the cooperation has ended ({self.outcome})")
+        if kind != "hyperarc":
+            raise TakeRefused(f"{element!r} is a node; take a hyper-arc", "invalid")
+        feasible = self.feasible_hyperarcs()
+        if element not in feasible:
+            raise TakeRefused(f"{element!r} is not feasible now")
+        ex = self.executions.get(element)
+        if ex is not None and ex.owner == "human":
+            raise TakeRefused(f"{element!r} is already the operator's")
+        if not self.actions_of(element):
+            raise TakeRefused(f"{element!r} has no action to do")
+        tree = self.operator_branches(element)
+        if not tree.branches:
+            raise TakeRefused(
+                f"no operator can do {element!r} now (no grounding, or its actions are a robot's)"
+            )
+        return tree, feasible[element]
+
+    def operator_branches(self, element: str) -> DecisionTree:
+        """The operators' ways of doing a feasible hyper-arc now (groundings x available
+        operators), with the objects of the operators' other executions left out."""
+        reserved = set().union(
+            *(ex.objects for ex in self.executions.values() if ex.owner == "human")
+        )
+        humans = [a.name for a in self.domain.agents.values() if a.is_human]
+        return DecisionTree.build(
+            element,
+            self.actions_of(element),
+            self.constraints_of(element),
+            self.domain,
+            self.kb,
+            exclude=self.failed.get(element, ()),
+            available_agents=[h for h in humans if h not in self.unavailable],
+            reserved=reserved,
+            binding=self.binding_of(element),
+        )
 
     @property
     def idle_robots(self) -> list[str]:
@@ -1102,5 +1178,6 @@ __all__ = [
     "ProcessRun",
     "Stop",
     "Suggest",
+    "TakeRefused",
     "TaskManager",
 ]

@@ -293,8 +293,11 @@ class CooperationRun:
 
     def _start_robot(self, cmd: Command) -> None:
         positions = self._positions()
+        before = dict(positions)
         report = self.execution.execute(cmd.action, positions, self.kb, self.domain)
         status, duration = report.status, report.duration_s
+        # what this action moves; the rest may be moved by others while it runs
+        moved = {k: p for k, p in positions.items() if before.get(k) != p}
         reason = None if status == "done" else report.reason
         for f in self.failures:
             if f.action == cmd.action.name and (f.agent is None or f.agent in cmd.agents):
@@ -307,7 +310,7 @@ class CooperationRun:
             status, reason, duration = "timed_out", f"no result after {limit:.1f} s", limit
         pending = _Pending(
             "robot_done",
-            {"cmd": cmd, "status": status, "reason": reason, "positions": positions},
+            {"cmd": cmd, "status": status, "reason": reason, "positions": moved},
         )
         self._by_command[cmd.id] = pending
         self._starts[cmd.id] = self.now

@@ -15,9 +15,10 @@ Over Zenoh with ``--agents external`` the panel *is* the operator: it holds the 
 of each human agent, so the cell waits for the person at the page (and says so on it) instead of
 for an operator process.
 
-Stops are stored inputs (``agent_down``/``agent_up`` with ``"by": "operator"``), so a resumed
-cell keeps them. A *take* is carried out on the manager and stored as a ``human_take`` event;
-the cell's store does not yet list it among the inputs it replays (see ``docs/panel.md``).
+Every input goes through the cell's public entries (:meth:`Cell.human_input`,
+:meth:`Cell.human_take`, :meth:`Cell.halt_agent`, :meth:`Cell.release_agent`): stored inputs
+(``human_action``, ``human_take``, ``agent_down``/``agent_up`` with ``"by": "operator"``), so a
+resumed cell replays them.
 """
 
 from __future__ import annotations
@@ -25,7 +26,6 @@ from __future__ import annotations
 import contextlib
 import queue
 import threading
-import time
 from collections.abc import Callable, Mapping
 from concurrent.futures import Future
 from concurrent.futures import TimeoutError as FutureTimeout
@@ -221,16 +221,9 @@ class CellPanel:
         c = self.cell
         now = c.now
         operator.dry_run(c.tm, lambda tm: operator.take(tm, now, element))  # raises if not
-        c._record("human_take", {"element": element})
-        c._handle(operator.take(c.tm, now, element))
-        c._publish_state()
+        actions = c.human_take(element)  # stored and fed by the cell's own loop
         self.refresh(force=True)
-        ex = c.tm.executions.get(element)
-        return {
-            "ok": True,
-            "take": element,
-            "actions": [str(a) for a in ex.branch.steps] if ex else [],
-        }
+        return {"ok": True, "take": element, "actions": actions}
 
     def _robot(self, name: str, *, stop: bool) -> dict[str, Any]:
         c = self.cell
@@ -243,20 +236,14 @@ class CellPanel:
         if stop:
             if name in self.halted or not st.available:
                 raise PanelInputError(f"robot {name!r} is already stopped or lost", 409)
-            cmd = c.tm.busy.get(name)
-            if cmd is not None and st.alive:  # the arm itself stops at once
-                c.transport.publish(
-                    P.cmd_topic(name),
-                    P.message("stop", id=cmd.id, reason="stopped by the operator", t=c.now),
-                )
             self.halted.add(name)
             # stored as an input: the manager plans without the arm, its command fails
-            c._input("agent_down", {"agent": name, "wall": time.time(), "by": "operator"})
+            c.halt_agent(name, by="operator")
         else:
             if name not in self.halted:
                 raise PanelInputError(f"robot {name!r} is not stopped", 409)
             self.halted.discard(name)
-            c._input("agent_up", {"agent": name, "wall": time.time(), "by": "operator"})
+            c.release_agent(name, by="operator")
         self.refresh(force=True)
         return {"ok": True, ("stopped" if stop else "resumed"): name}
 

@@ -17,7 +17,7 @@ from collections.abc import Callable
 from typing import Any
 
 from flexhrc.taskmanager.decision import DecisionTree
-from flexhrc.taskmanager.manager import Directive, TaskManager
+from flexhrc.taskmanager.manager import Directive, TakeRefused, TaskManager
 from flexhrc.web.backend import PanelInputError
 
 
@@ -26,20 +26,9 @@ def humans(tm: TaskManager) -> list[str]:
 
 
 def human_branches(tm: TaskManager, element: str) -> DecisionTree:
-    """The operators' ways of doing a feasible hyper-arc now (groundings x operators), with the
-    objects of the operators' other executions left out."""
-    reserved = set().union(*(ex.objects for ex in tm.executions.values() if ex.owner == "human"))
-    return DecisionTree.build(
-        element,
-        tm.actions_of(element),
-        tm.constraints_of(element),
-        tm.domain,
-        tm.kb,
-        exclude=tm.failed.get(element, ()),
-        available_agents=[h for h in humans(tm) if h not in tm.unavailable],
-        reserved=reserved,
-        binding=tm.binding_of(element),
-    )
+    """The operators' ways of doing a feasible hyper-arc now
+    (:meth:`TaskManager.operator_branches`)."""
+    return tm.operator_branches(element)
 
 
 def takeable(tm: TaskManager) -> list[str]:
@@ -56,43 +45,17 @@ def takeable(tm: TaskManager) -> list[str]:
     return out
 
 
+_STATUS = {"unknown": 404, "invalid": 400, "conflict": 409}
+
+
 def take(tm: TaskManager, now: float, element: str) -> list[Directive]:
-    """The operator will do ``element``. Raises :class:`PanelInputError` (nothing changed) when
-    it is not a feasible hyper-arc an operator can do now."""
+    """The operator will do ``element`` (:meth:`TaskManager.operator_takes`). Raises
+    :class:`PanelInputError` (nothing changed) when it is not a feasible hyper-arc an operator
+    can do now."""
     try:
-        kind = tm.graph.kind(element)
-    except KeyError:
-        raise PanelInputError(f"unknown hyper-arc {element!r}", 404) from None
-    if tm.done:
-        raise PanelInputError(f"the cooperation has ended ({tm.outcome})", 409)
-    if kind != "hyperarc":
-        raise PanelInputError(f"{element!r} is a node; take a hyper-arc", 400)
-    feasible = tm.feasible_hyperarcs()
-    if element not in feasible:
-        raise PanelInputError(f"{element!r} is not feasible now", 409)
-    ex = tm.executions.get(element)
-    if ex is not None and ex.owner == "human":
-        raise PanelInputError(f"{element!r} is already the operator's", 409)
-    if not tm.actions_of(element):
-        raise PanelInputError(f"{element!r} has no action to do", 409)
-    tree = human_branches(tm, element)
-    if not tree.branches:
-        raise PanelInputError(
-            f"no operator can do {element!r} now (no grounding, or its actions are a robot's)",
-            409,
-        )
-
-    def body() -> list[Directive]:
-        best = tree.evaluate(tm.simulator, tm.kb, tm.domain) or tree.branches[0]
-        out: list[Directive] = []
-        objects = {k: v for k, v in best.grounding.items() if v not in tm.domain.agents}
-        tm._take_over(element, best, objects, out)  # the robot leaves that part
-        tm._emit("taken", element=element, grounding=dict(best.grounding))
-        tm._launch(element, best, feasible[element], out)
-        out += tm._plan()
-        return out
-
-    return tm._entry(now, body)
+        return tm.operator_takes(now, element)
+    except TakeRefused as exc:
+        raise PanelInputError(str(exc), _STATUS.get(exc.kind, 409)) from None
 
 
 def dry_run(

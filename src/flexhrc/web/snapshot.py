@@ -12,7 +12,7 @@ graph instance, and to whom the Task Manager gave them (an arm, the operator, or
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import Any
 
 from flexhrc.representation import OnlineGraph
@@ -29,6 +29,15 @@ def feasible_costs(graph: OnlineGraph) -> dict[str, float]:
     """Suggestion costs of the feasible elements, read without querying the graph (a query
     counts in the graph's history; the panel only looks)."""
     return {s.element: s.cost for s in graph.suggestions()}
+
+
+def _status(graph: OnlineGraph, name: str, done: str, is_done: Callable[[str], bool]) -> str:
+    """A node's or hyper-arc's status as the panel colours it (``done``: met / solved)."""
+    if is_done(name):
+        return done
+    if graph.is_feasible(name):
+        return "feasible"
+    return "infeasible" if graph.is_blocked(name) else "pending"
 
 
 def graph_snapshot(
@@ -48,19 +57,11 @@ def graph_snapshot(
         nodes = []
         for local, node in definition.nodes.items():
             name = _qualify(info.path, local)
-            if graph.is_met(name):
-                status = "met"
-            elif graph.is_feasible(name):
-                status = "feasible"
-            elif graph.is_blocked(name):
-                status = "infeasible"
-            else:
-                status = "pending"
             nodes.append(
                 {
                     "id": name,
                     "name": local,
-                    "status": status,
+                    "status": _status(graph, name, "met", graph.is_met),
                     "cost": costs.get(name),
                     "root": local == definition.root,
                     "weight": node.weight,
@@ -69,19 +70,11 @@ def graph_snapshot(
         arcs = []
         for local, h in definition.hyperarcs.items():
             name = _qualify(info.path, local)
-            if graph.is_solved(name):
-                status = "solved"
-            elif graph.is_feasible(name):
-                status = "feasible"
-            elif graph.is_blocked(name):
-                status = "infeasible"
-            else:
-                status = "pending"
             arcs.append(
                 {
                     "id": name,
                     "name": local,
-                    "status": status,
+                    "status": _status(graph, name, "solved", graph.is_solved),
                     "cost": costs.get(name),
                     "weight": h.weight,
                     "children": [_qualify(info.path, c) for c in h.children],
