@@ -20,8 +20,9 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
+from operator import attrgetter
 from pathlib import Path
 
 from flexhrc.errors import FormatError, UnknownNameError
@@ -68,6 +69,134 @@ class Hyperarc:
         return hash((self.name, self.children, self.parent))
 
 
+_WEIGHT = attrgetter("weight")
+
+
+class Indexed:
+    """One definition as flat arrays over element ids: the nodes 0..n_nodes-1 in definition
+    order, then the hyper-arcs in definition order. What the online engine and the checks
+    read; a reader can build it straight from a file, without a :class:`Node` or
+    :class:`Hyperarc` per element (those are made from it on first use of
+    :attr:`AndOrGraph.nodes` / :attr:`AndOrGraph.hyperarcs`)."""
+
+    __slots__ = (
+        "_outgoing",
+        "children",
+        "incoming",
+        "leaves",
+        "lines",
+        "lower",
+        "n_nodes",
+        "names",
+        "parent",
+        "root",
+        "topo",
+        "weights",
+    )
+
+    def __init__(
+        self,
+        names: list[str],
+        n_nodes: int,
+        weights: list[float],
+        children: list[tuple[int, ...]],
+        parent: list[int],
+        incoming: list[tuple[int, ...]],
+        outgoing: list[tuple[int, ...]] | None,
+        lower: list[tuple[int, str]],
+        root: int,
+        topo: list[int],
+        leaves: list[int],
+        lines: Sequence[int | None],
+    ):
+        self.names = names  # nodes, then hyper-arcs
+        self.n_nodes = n_nodes
+        self.weights = weights
+        self.children = children  # hyper-arcs: child node ids (nodes: ())
+        self.parent = parent  # hyper-arcs: parent node id (nodes: -1)
+        self.incoming = incoming  # nodes: hyper-arcs producing it (hyper-arcs: ())
+        self._outgoing = outgoing  # see outgoing
+        self.lower = lower  # (hyper-arc id, lower graph key), in hyper-arc order
+        self.root = root  # -1: none (not validated)
+        # every element after what it depends on (a hyper-arc after its children, a node after
+        # the hyper-arcs into it): the order of the cost pass, children before parents
+        self.topo = topo
+        self.leaves = leaves  # the nodes no hyper-arc produces, in id order
+        self.lines = lines  # source line of each element
+
+    @property
+    def size(self) -> int:
+        return len(self.names)
+
+    @property
+    def outgoing(self) -> list[tuple[int, ...]]:
+        """Nodes: the hyper-arcs consuming it (hyper-arcs: ()); made on first use (loading
+        does not need it)."""
+        out = self._outgoing
+        if out is None:
+            out = self._outgoing = consumers(self.n_nodes, self.children)
+        return out
+
+
+def consumers(n_nodes: int, children: list[tuple[int, ...]]) -> list[tuple[int, ...]]:
+    """Per element: the hyper-arcs that have it among their children (only nodes have any)."""
+    out: list[tuple[int, ...]] = [()] * len(children)
+    for j in range(n_nodes, len(children)):
+        for c in children[j]:
+            out[c] += (j,)
+    return out
+
+
+def dp_order(
+    n_nodes: int,
+    parent: list[int],
+    children: list[tuple[int, ...]],
+    incoming: list[tuple[int, ...]],
+    outgoing: list[tuple[int, ...]],
+) -> list[int]:
+    """Every element after what it depends on — a hyper-arc once all of its children are
+    placed, a node once every hyper-arc into it is — starting with the leaves in id order
+    (Kahn's algorithm over elements; a cycle leaves elements out, so the list is short)."""
+    wait = list(map(len, incoming[:n_nodes]))
+    wait += map(len, children[n_nodes:])
+    order = [i for i in range(n_nodes) if not wait[i]]
+    for x in order:  # (grows while it is read)
+        if x < n_nodes:
+            for h in outgoing[x]:
+                wait[h] -= 1
+                if not wait[h]:
+                    order.append(h)
+        else:
+            p = parent[x]
+            wait[p] -= 1
+            if not wait[p]:
+                order.append(p)
+    return order
+
+
+def kahn_order(
+    n_nodes: int,
+    parent: list[int],
+    children: list[tuple[int, ...]],
+    outgoing: list[tuple[int, ...]],
+) -> list[int]:
+    """Node ids, children before parents (Kahn's algorithm; a cycle leaves nodes out), in the
+    order :meth:`AndOrGraph.topological_order` gives over names: the nodes with no incoming
+    hyper-arc in id order, then each node once every (hyper-arc, child) edge into it is
+    placed."""
+    indeg = [0] * n_nodes
+    for j in range(n_nodes, len(parent)):
+        indeg[parent[j]] += len(children[j])
+    order = [i for i in range(n_nodes) if not indeg[i]]
+    for n in order:  # (grows while it is read)
+        for h in outgoing[n]:
+            p = parent[h]
+            indeg[p] -= 1
+            if not indeg[p]:
+                order.append(p)
+    return order
+
+
 class AndOrGraph:
     """One AND/OR graph definition: named nodes, named hyper-arcs and a root.
 
@@ -80,13 +209,124 @@ class AndOrGraph:
         self.name = name
         self.root = root
         self.source = str(source) if source is not None else None
-        self.nodes: dict[str, Node] = {}
-        self.hyperarcs: dict[str, Hyperarc] = {}
+        self._nodes: dict[str, Node] | None = {}
+        self._hyperarcs: dict[str, Hyperarc] | None = {}
+        # the flat form a reader built (then _nodes/_hyperarcs are None until first asked for)
+        self._ix: Indexed | None = None
         self.root_line: int | None = None
         self.load_warnings: list[FormatError] = []  # set by readers (e.g. renamed duplicates)
         self._topo: tuple[tuple[int, int], list[str]] | None = None  # cache, keyed by size
         # set by a reader that did validate()'s checks while parsing: (size, warnings)
         self._validated: tuple[tuple[int, int], list[FormatError]] | None = None
+
+    @classmethod
+    def from_indexed(
+        cls, name: str, root: str, source: str | Path | None, ix: Indexed
+    ) -> AndOrGraph:
+        """A graph held in its flat form (a reader's fast path): the :class:`Node` and
+        :class:`Hyperarc` objects are made on first use of :attr:`nodes` / :attr:`hyperarcs`."""
+        g = cls(name, root, source)
+        g._nodes = g._hyperarcs = None
+        g._ix = ix
+        return g
+
+    @property
+    def nodes(self) -> dict[str, Node]:
+        """Node name -> :class:`Node`, in definition order."""
+        d = self._nodes
+        if d is None:
+            self._unpack()
+            d = self._nodes
+            assert d is not None
+        return d
+
+    @property
+    def hyperarcs(self) -> dict[str, Hyperarc]:
+        """Hyper-arc name -> :class:`Hyperarc`, in definition order."""
+        d = self._hyperarcs
+        if d is None:
+            self._unpack()
+            d = self._hyperarcs
+            assert d is not None
+        return d
+
+    def _unpack(self) -> None:
+        """The objects of the flat form; from now on the dicts are the graph (they may be
+        changed in place), so the flat form is dropped."""
+        ix = self._ix
+        assert ix is not None
+        names, weights, lines, nn = ix.names, ix.weights, ix.lines, ix.n_nodes
+        self._nodes = {names[i]: Node(names[i], weights[i], None, (), lines[i]) for i in range(nn)}
+        lower = dict(ix.lower)
+        children, parent = ix.children, ix.parent
+        arcs: dict[str, Hyperarc] = {}
+        for j in range(nn, len(names)):
+            arcs[names[j]] = Hyperarc(
+                names[j],
+                tuple([names[c] for c in children[j]]),
+                names[parent[j]],
+                weights[j],
+                (),
+                lower.get(j),
+                None,
+                lines[j],
+            )
+        self._hyperarcs = arcs
+        self._ix = None
+
+    def _size(self) -> tuple[int, int]:
+        ix = self._ix
+        if ix is not None:
+            return (ix.n_nodes, len(ix.names) - ix.n_nodes)
+        return (len(self.nodes), len(self.hyperarcs))
+
+    def indexed(self) -> Indexed:
+        """The flat form: the reader's, or built now from :attr:`nodes` and
+        :attr:`hyperarcs` (not kept: they may change). Call on a validated graph."""
+        ix = self._ix
+        if ix is not None:
+            return ix
+        nodes, arcs = self.nodes, self.hyperarcs
+        node_names = list(nodes)
+        nn = len(node_names)
+        idx = dict(zip(node_names, range(nn), strict=True))
+        get = idx.__getitem__
+        names = node_names
+        weights = list(map(float, map(_WEIGHT, nodes.values())))
+        lines: list[int | None] = [n.line for n in nodes.values()]
+        children: list[tuple[int, ...]] = [()] * nn
+        parent = [-1] * nn
+        incoming: list[list[int]] = [[] for _ in range(nn)]
+        outgoing: list[list[int]] = [[] for _ in range(nn)]
+        lower: list[tuple[int, str]] = []
+        j = nn
+        for h in arcs.values():
+            names.append(h.name)
+            weights.append(float(h.weight))
+            lines.append(h.line)
+            ch = tuple(map(get, h.children))
+            children.append(ch)
+            for c in ch:
+                outgoing[c].append(j)
+            p = idx[h.parent]
+            parent.append(p)
+            incoming[p].append(j)
+            if h.lower is not None:
+                lower.append((j, h.lower))
+            j += 1
+        # tuples: never changed once built, and the empty ones are all the same object
+        inc = [tuple(x) if x else () for x in incoming] + [()] * (j - nn)
+        out = [tuple(x) if x else () for x in outgoing] + [()] * (j - nn)
+        root = idx.get(self.root, -1) if self.root is not None else -1
+        topo: list[int] = []
+        for name in self.topological_order():
+            i = idx[name]
+            topo.extend(inc[i])
+            topo.append(i)
+        leaves = [i for i in range(nn) if not inc[i]]
+        return Indexed(
+            names, nn, weights, children, parent, inc, out, lower, root, topo, leaves, lines
+        )
 
     # -- building -------------------------------------------------------------------------
     def add_node(self, node: Node | str, weight: float = 0.0, **kw: object) -> Node:
@@ -151,11 +391,14 @@ class AndOrGraph:
 
     def leaves(self) -> list[str]:
         """Nodes that no hyper-arc produces, in definition order (N_L)."""
+        ix = self._ix
+        if ix is not None:
+            return [ix.names[i] for i in ix.leaves]
         produced = {h.parent for h in self.hyperarcs.values()}
         return [n for n in self.nodes if n not in produced]
 
     def __len__(self) -> int:
-        return len(self.nodes)
+        return self._size()[0]
 
     def __repr__(self) -> str:
         return (
@@ -189,7 +432,7 @@ class AndOrGraph:
         """
         done = self._validated
         if done is not None:
-            if done[0] == (len(self.nodes), len(self.hyperarcs)):
+            if done[0] == self._size():
                 return list(done[1])
             self._validated = None  # changed since: check again
         src = self.source
@@ -266,7 +509,7 @@ class AndOrGraph:
     def mark_validated(self, warnings: list[FormatError]) -> None:
         """Record that a reader has made every check of :meth:`validate` while building the
         graph (with these warnings): validating it again, unchanged, returns them at once."""
-        self._validated = ((len(self.nodes), len(self.hyperarcs)), warnings)
+        self._validated = (self._size(), warnings)
 
     def lint(self) -> list[FormatError]:
         """Oddities of a valid graph that usually mean a mistake (call after :meth:`validate`).
@@ -379,9 +622,15 @@ class AndOrGraph:
 
     def topological_order(self) -> list[str]:
         """Nodes ordered children before parents (leaves first); cycles leave nodes out."""
-        key = (len(self.nodes), len(self.hyperarcs))
+        key = self._size()
         if self._topo is not None and self._topo[0] == key:
             return self._topo[1]
+        ix = self._ix
+        if ix is not None:
+            names = ix.names
+            order = [names[i] for i in kahn_order(ix.n_nodes, ix.parent, ix.children, ix.outgoing)]
+            self._topo = (key, order)
+            return order
         # Kahn's algorithm (one function: this runs on every load)
         indeg = dict.fromkeys(self.nodes, 0)
         consumers: dict[str, list[str]] = {n: [] for n in self.nodes}

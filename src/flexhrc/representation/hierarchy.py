@@ -70,6 +70,13 @@ class HierarchicalGraph:
         stack = deque([self.top])
         while stack:
             g = self.graphs[stack.popleft()]
+            ix = g._ix
+            if ix is not None:  # flat: no objects made to read its references
+                for _, low in ix.lower:
+                    if low not in seen:
+                        seen[low] = None
+                        stack.append(low)
+                continue
             for h in g.hyperarcs.values():
                 if h.lower is not None and h.lower not in seen:
                     seen[h.lower] = None
@@ -97,6 +104,10 @@ class HierarchicalGraph:
 
         Raises :class:`FormatError` on the first fault; returns the warnings.
         """
+        fast = self._validate_flat()
+        if fast is not None:
+            self.warnings = fast
+            return fast
         if (
             len(self.graphs) == 1
             and self.top_graph.hyperarcs
@@ -119,6 +130,61 @@ class HierarchicalGraph:
                         leaves[h.lower] = self.graphs[h.lower].leaves()
                     self._check_transition(g, h, leaves[h.lower])
         self.warnings = warnings
+        return warnings
+
+    def _validate_flat(self) -> list[FormatError] | None:
+        """:meth:`validate` over the flat forms of graphs a reader left flat (no object per
+        element is made): the same checks, the same warnings in the same order. None when a
+        graph is not flat or anything is wrong: the element-wise checks then name it."""
+        graphs = self.graphs
+        top = graphs[self.top]._ix
+        if top is None:
+            return None
+        # used_keys(): breadth-first discovery order (the order of the warnings)
+        used = {self.top: top}
+        queue = [top]
+        for ix in queue:  # (grows while it is read)
+            for _, low in ix.lower:
+                if low not in used:
+                    g = graphs.get(low)
+                    sub = g._ix if g is not None else None
+                    if sub is None:
+                        return None
+                    used[low] = sub
+                    queue.append(sub)
+        leaves: dict[str, int] = {}
+        if len(used) > 1 or top.lower:
+            # no cycle of lower graphs: depth-first, 1 = on the trail, 2 = finished
+            state = {self.top: 1}
+            trail = [self.top]
+            stack = [iter(top.lower)]
+            while stack:
+                nxt = next(stack[-1], None)
+                if nxt is None:
+                    state[trail.pop()] = 2
+                    stack.pop()
+                    continue
+                low = nxt[1]
+                st = state.get(low)
+                if st == 1:
+                    return None
+                if st is None:
+                    state[low] = 1
+                    trail.append(low)
+                    stack.append(iter(used[low].lower))
+            # implicit M1: no fewer lower leaves than children (_check_transition)
+            for ix in used.values():
+                for j, low in ix.lower:
+                    n = leaves.get(low)
+                    if n is None:
+                        n = leaves[low] = len(used[low].leaves)
+                    if n < len(ix.children[j]):
+                        return None
+        warnings: list[FormatError] = []
+        for key in used:
+            g = graphs[key]
+            done = g._validated  # a flat graph cannot change: the reader's checks hold
+            warnings += done[1] if done is not None and g._ix is not None else g.validate()
         return warnings
 
     def _check_recursion(self) -> None:

@@ -34,12 +34,13 @@ exponential reference).
 
 from __future__ import annotations
 
+import gc
 import json
 import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from heapq import heapify, heappop, heappush
-from operator import attrgetter
+from itertools import islice
 from pathlib import Path
 from typing import Any, Literal
 
@@ -225,18 +226,24 @@ class OnlineGraph:
         if validate:
             graph.validate()
         self.hierarchy = graph
-        self._build()
         self._query = 0
         self._log: list[tuple[int, str, int]] = []  # (query, type, element id)
         self._events: list[Event] = []  # Event objects of _log, made on demand
         self._costs: dict[int, float] = {}
         self._outcome: str = "running"
         self._reason: str | None = None
-        for k in range(len(self._i_key)):
-            if self._i_upper[k] < 0:
-                self._activate(k)
-        self._settle()
-        self._finish()
+        # the build makes thousands of lists and tuples and no reference cycle: the cyclic
+        # garbage collector's passes meanwhile would only scan them
+        collecting = gc.isenabled()
+        gc.disable()
+        try:
+            self._build()
+            self._activate(0)  # the top instance (the only one without an upper hyper-arc)
+            self._settle()
+            self._finish()
+        finally:
+            if collecting:
+                gc.enable()
 
     # ------------------------------------------------------------------ construction ----
     def _build(self) -> None:
@@ -248,53 +255,64 @@ class OnlineGraph:
         hierarchy are not needed before the cooperation reaches them, and many never are (an
         OR branch not taken)."""
         H = self.hierarchy
+        graphs = H.graphs
         templates: dict[str, _Template] = {}
         kinds: list[int] = []
         weight: list[float] = []
         inst_of: list[int] = []
-        i_path: list[str] = []
-        i_key: list[str] = []
-        i_root: list[int] = []
-        i_upper: list[int] = []
-        i_parent: list[int] = []
+        # one record per instance: (path, key, root, upper hyper-arc, parent instance, depth,
+        # span, template), split into columns below
+        recs: list[tuple[str, str, int, int, int, int, tuple[int, int], _Template]] = []
         i_lowers: list[list[int]] = []  # hyper-arcs of the instance that have a lower graph
-        i_depth: list[int] = []
-        i_span: list[tuple[int, int]] = []
-        i_tmpl: list[_Template] = []
+        lower: list[int] = []  # hyper-arcs: lower instance id or -1
+        root_of: list[int] = []  # nodes: instance id if this node is an instance root
+        unmet: list[int] = []
 
         # depth-first, in hyper-arc order, with an explicit stack (no recursion limit)
         stack: list[tuple[str, str, int, int, int]] = [(H.top, "", 0, -1, -1)]
+        pop, push = stack.pop, stack.append
         while stack:
-            key, path, depth, upper, parent_inst = stack.pop()
+            key, path, depth, upper, parent_inst = pop()
             t = templates.get(key)
             if t is None:
-                t = templates[key] = _Template(H.graphs[key])
-            k = len(i_key)
+                t = templates[key] = _Template(graphs[key])
+            k = len(recs)
             base = len(kinds)
-            i_path.append(path)
-            i_key.append(key)
-            i_root.append(base + t.root)
-            i_upper.append(upper)
-            i_parent.append(parent_inst)
-            i_lowers.append([base + x for x, _ in t.lower])
-            i_depth.append(depth)
-            i_span.append((base, base + t.size))
-            i_tmpl.append(t)
-            kinds.extend(t.kinds)
-            weight.extend(t.weights)
-            inst_of.extend([k] * t.size)
-            prefix = f"{path}{SEP}" if path else ""
-            for x, sub_key in reversed(t.lower):
-                stack.append((sub_key, f"{prefix}{t.names[x]}", depth + 1, base + x, k))
+            size = t.size
+            recs.append(
+                (path, key, base + t.root, upper, parent_inst, depth, (base, base + size), t)
+            )
+            kinds += t.kinds
+            weight += t.weights
+            inst_of += [k] * size
+            unmet += t.n_children  # hyper-arcs: children not yet met (none is yet)
+            minus = [-1] * size
+            lower += minus
+            root_of += minus
+            root_of[base + t.root] = k
+            if upper >= 0:
+                lower[upper] = k
+            if t.lower:
+                i_lowers.append(list(map(base.__add__, t.lower_ids)))
+                prefix = f"{path}{SEP}" if path else ""
+                names_t = t.names
+                for x, sub_key in reversed(t.lower):
+                    push((sub_key, prefix + names_t[x], depth + 1, base + x, k))
+            else:
+                i_lowers.append([])
+        i_path: list[str]
+        i_key: list[str]
+        i_root: list[int]
+        i_upper: list[int]
+        i_parent: list[int]
+        i_depth: list[int]
+        i_span: list[tuple[int, int]]
+        i_tmpl: list[_Template]
+        i_path, i_key, i_root, i_upper, i_parent, i_depth, i_span, i_tmpl = map(
+            list, zip(*recs, strict=True)
+        )
 
         n = len(kinds)
-        lower = [-1] * n  # hyper-arcs: lower instance id or -1
-        root_of = [-1] * n  # nodes: instance id if this node is an instance root
-        for k, r in enumerate(i_root):
-            root_of[r] = k
-            u = i_upper[k]
-            if u >= 0:
-                lower[u] = k
         # the top instance's structures are its template's; the others' are placeholders
         # until _materialise (None names: a premature read fails loudly)
         t0 = i_tmpl[0]
@@ -341,10 +359,7 @@ class OnlineGraph:
         # mutable state
         self._done = [False] * n  # met (nodes) / solved (hyper-arcs)
         self._blocked = [False] * n  # can no longer be taken (infeasible for good)
-        # hyper-arcs: children not yet met (the template's counts: nothing is met yet)
-        self._unmet: list[int] = []
-        for t in i_tmpl:
-            self._unmet.extend(t.n_children)
+        self._unmet = unmet
         self._active = [False] * n_inst
         self._closed = [False] * n_inst
         self._feasible: dict[int, None] = {}
@@ -391,15 +406,15 @@ class OnlineGraph:
             lo, hi = self._i_span[k]
             self._lrank[lo:hi] = t.lrank
             shift = lo.__add__
-            prefix = self._i_path[k] + SEP
-            qualified = [prefix + x for x in t.names]
+            qualified = list(map((self._i_path[k] + SEP).__add__, t.names))
             names[lo:hi] = qualified
-            # half of these are empty (nodes have no children, hyper-arcs no incoming or
-            # outgoing arcs): share the empty tuple instead of shifting nothing
-            children[lo:hi] = [tuple(map(shift, ch)) if ch else () for ch in t.children]
-            parent[lo:hi] = [lo + p if p >= 0 else -1 for p in t.parent]
-            incoming[lo:hi] = [tuple(map(shift, hs)) if hs else () for hs in t.incoming]
-            outgoing[lo:hi] = [tuple(map(shift, hs)) if hs else () for hs in t.outgoing]
+            # nodes have no children and no parent, hyper-arcs no incoming or outgoing arcs:
+            # their placeholders (the empty tuple, -1) are already right
+            mid = lo + t.n_nodes
+            children[mid:hi] = [tuple(map(shift, ch)) for ch in t.arc_children]
+            parent[mid:hi] = map(shift, t.arc_parent)
+            incoming[lo:mid] = [tuple(map(shift, hs)) if hs else () for hs in t.node_incoming]
+            outgoing[lo:mid] = [tuple(map(shift, hs)) if hs else () for hs in t.node_outgoing]
             self._i_leaves[k] = list(map(shift, t.leaves))
             self._i_down[k] = list(map(shift, t.down))
             if index is not None:
@@ -1362,24 +1377,28 @@ def _event(raw: object) -> Event:
     return Event(q, t, el)
 
 
-_WEIGHT = attrgetter("weight")
-
-
 class _Template:
     """Index structure of one graph definition, shared by all of its instances."""
 
     __slots__ = (
+        "arc_children",
+        "arc_parent",
         "children",
         "down",
         "idx",
         "incoming",
         "inside",
+        "ix",
         "kinds",
         "leaves",
         "lower",
+        "lower_ids",
         "lrank",
         "n_children",
+        "n_nodes",
         "names",
+        "node_incoming",
+        "node_outgoing",
         "outgoing",
         "own",
         "parent",
@@ -1391,54 +1410,30 @@ class _Template:
     )
 
     def __init__(self, g: AndOrGraph):
-        node_names = list(g.nodes)
-        nn = len(node_names)
-        idx = dict(zip(node_names, range(nn), strict=True))
-        get = idx.__getitem__
-        names = node_names
-        weights = list(map(float, map(_WEIGHT, g.nodes.values())))
-        children: list[tuple[int, ...]] = [()] * nn
-        parent = [-1] * nn
-        incoming: list[list[int]] = [[] for _ in node_names]
-        lower: list[tuple[int, str]] = []
-        # one pass over the hyper-arcs (a first call of each comprehension costs more than
-        # the loop it would save, on the small graphs whose offline time is mostly that)
-        j = nn
-        for h in g.hyperarcs.values():
-            names.append(h.name)
-            weights.append(float(h.weight))
-            children.append(tuple(map(get, h.children)))
-            p = idx[h.parent]
-            parent.append(p)
-            incoming[p].append(j)
-            incoming.append([])
-            if h.lower is not None:
-                lower.append((j, h.lower))
-            j += 1
-        self.names = names
-        self.size = j
-        self.kinds = [0] * nn + [1] * (j - nn)
-        self.weights = weights
-        self.children = children
-        self.parent = parent
-        # tuples: never changed once built, and the empty ones are all the same object
-        self.incoming: list[tuple[int, ...]] = [tuple(x) if x else () for x in incoming]
-        self.root = idx[g.root]  # type: ignore[index]
-        self.leaves = [i for i in range(nn) if not incoming[i]]
-        topo: list[int] = []
-        for name in g.topological_order():
-            i = idx[name]
-            topo.extend(incoming[i])
-            topo.append(i)
-        self.topo = topo
+        # the flat form of the definition: the reader's (no object per element), or made now
+        ix = g.indexed()
+        nn = self.n_nodes = ix.n_nodes
+        size = len(ix.names)
+        self.names = ix.names
+        self.size = size
+        self.kinds = [0] * nn + [1] * (size - nn)
+        self.weights = ix.weights
+        self.children = ix.children
+        self.parent = ix.parent
+        self.incoming = ix.incoming
+        self.root = ix.root
+        self.leaves = ix.leaves
+        self.topo = ix.topo  # the order of the inside pass: children before parents
+        self.ix = ix
         # what only a materialised instance needs: set by complete()
         self.outgoing: list[tuple[int, ...]] = []
         self.down: list[int] = []
         self.lrank: list[int] = []
         self.pristine_out: list[float] | None = None  # set by pristine_outside
         self.own: list[float] = []  # set by pristine_inside
-        self.lower = lower
-        self.n_children = list(map(len, children))
+        self.lower = ix.lower
+        self.lower_ids = [x for x, _ in ix.lower]
+        self.n_children = list(map(len, ix.children))
         self.inside: list[float] | None = None  # set by pristine_inside
         self.idx: dict[str, int] | None = None  # set by local_index
 
@@ -1451,22 +1446,20 @@ class _Template:
         for (j, _), v in zip(self.lower, lower_roots, strict=True):
             own[j] = v  # eq. 19: a hyper-arc with a lower graph weighs its optimal cost
         self.own = own
-        ins = [0.0] * self.size
-        inf = INF
-        for e in self.topo:
+        # a leaf's inside cost is its weight; the order starts with the leaves
+        ins = own[:]
+        for e in islice(self.topo, len(self.leaves), None):
             v = own[e]
             if kinds[e]:
-                for c in children[e]:
-                    v += ins[c]
+                ch = children[e]
+                if len(ch) == 1:
+                    v += ins[ch[0]]
+                else:
+                    for c in ch:  # (in order, as _calc_inside adds them: the same float)
+                        v += ins[c]
             else:
                 arcs = incoming[e]
-                if arcs:
-                    best = inf
-                    for h in arcs:
-                        x = ins[h]
-                        if x < best:
-                            best = x
-                    v += best
+                v += ins[arcs[0]] if len(arcs) == 1 else min([ins[h] for h in arcs])
             ins[e] = v
         self.inside = ins
 
@@ -1475,12 +1468,12 @@ class _Template:
         the top-down order (parents before children: the outside pass) and its ranks."""
         if self.down or not self.size:
             return
-        outgoing: list[list[int]] = [[] for _ in range(self.size)]
-        for j, ch in enumerate(self.children):
-            for c in ch:
-                outgoing[c].append(j)
-        # tuples: never changed once built, and the empty ones are all the same object
-        self.outgoing = [tuple(x) if x else () for x in outgoing]
+        self.outgoing = self.ix.outgoing
+        nn = self.n_nodes
+        self.arc_children = self.children[nn:]
+        self.arc_parent = self.parent[nn:]
+        self.node_incoming = self.incoming[:nn]
+        self.node_outgoing = self.outgoing[:nn]
         self.down = self.topo[::-1]
         lrank = [0] * self.size
         for r, x in enumerate(self.down):

@@ -11,6 +11,7 @@ structural fault is reported with its file and line.
 
 from __future__ import annotations
 
+import gc
 import os
 from collections.abc import Callable
 from pathlib import Path
@@ -52,6 +53,18 @@ def load(path: str | Path, *, validate: bool = True) -> HierarchicalGraph:
             f"load() needs a file path (str or Path), got {type(path).__name__}"
         )
     name = os.fspath(path)
+    # a reader makes thousands of lists and tuples and no reference cycle: the cyclic garbage
+    # collector's passes meanwhile would only scan them
+    collecting = gc.isenabled()
+    gc.disable()
+    try:
+        return _load(path, name, validate)
+    finally:
+        if collecting:
+            gc.enable()
+
+
+def _load(path: str | Path, name: str, validate: bool) -> HierarchicalGraph:
     try:
         # no stat or Path first: on the cold first call of a small graph those cost more than
         # parsing it; the reader's own open() says whether the file is there

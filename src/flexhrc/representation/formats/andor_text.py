@@ -28,7 +28,14 @@ from pathlib import Path
 
 from flexhrc.errors import FormatError
 from flexhrc.files import read_text
-from flexhrc.representation.graph import AndOrGraph, Hyperarc, Node
+from flexhrc.representation.graph import (
+    AndOrGraph,
+    Hyperarc,
+    Indexed,
+    Node,
+    consumers,
+    dp_order,
+)
 from flexhrc.representation.hierarchy import HierarchicalGraph
 
 SUFFIX = ".txt"
@@ -58,7 +65,7 @@ def _rows(path: str | Path) -> tuple[list[list[str]], list[int] | range]:
         # the shared reader says why (missing, folder, unreadable, binary, not UTF-8)
         text = read_text(path)
     if "#" not in text:
-        rows = [raw.split() for raw in text.splitlines()]
+        rows = list(map(str.split, text.splitlines()))
         if [] not in rows:
             return rows, range(1, len(rows) + 1)
     else:
@@ -94,6 +101,9 @@ def parse_graph(path: str | Path) -> tuple[AndOrGraph, list[tuple[str, int]]]:
     are the same. A graph that passes is marked validated and is not checked again.
     """
     rows, nums = _rows(path)
+    fast = _parse_flat(path, rows, nums)
+    if fast is not None:
+        return fast
     if not rows:
         raise FormatError("empty file: expected '<graph name> <number of nodes> <root>'", path, 1)
     head = rows[0]
@@ -264,6 +274,139 @@ def parse_graph(path: str | Path) -> tuple[AndOrGraph, list[tuple[str, int]]]:
     return graph, refs
 
 
+def _parse_flat(
+    path: str | Path, rows: list[list[str]], nums: list[int] | range
+) -> tuple[AndOrGraph, list[tuple[str, int]]] | None:
+    """The common case — a well-formed file of plain names and integer weights, no repeated
+    hyper-arc name — parsed straight into the flat form (:class:`Indexed`: no object per
+    element), with every check of :meth:`AndOrGraph.validate` on the way. None at the first
+    thing out of the ordinary: :func:`parse_graph` then parses the file again, element by
+    element, and names the fault (or renames the repeat) exactly as it always has.
+
+    Lean on purpose (few statements, few distinct operations): most files are small, and the
+    offline time of a small graph is mostly the fixed cost of the code that runs once."""
+    if not rows or len(rows[0]) != 3:
+        return None
+    name, count_tok, root_name = rows[0]
+    if not (count_tok.isdigit() and count_tok.isascii()):
+        return None
+    nn = int(count_tok)
+    n_rows = len(rows)
+    if not 0 < nn < n_rows - 1:
+        return None
+    node_rows = rows[1 : nn + 1]
+    if set(map(len, node_rows)) != _TWO:
+        return None
+    names_t, weights_t = zip(*node_rows, strict=True)
+    digits = "".join(weights_t)
+    if not (digits.isdigit() and digits.isascii()) or "/" in "".join(names_t):
+        return None
+    names = list(names_t)
+    idx = dict(zip(names, range(nn), strict=True))
+    root = idx.get(root_name, -1)
+    if len(idx) != nn or root < 0:
+        return None
+    get = idx.__getitem__
+    weights = list(map(float, weights_t))
+    lines = list(nums[1 : nn + 1])
+    children: list[tuple[int, ...]] = [()] * nn
+    parent = [-1] * nn
+    inc: list[tuple[int, ...]] = [()] * nn
+    last: dict[int, int] = {}  # produced node -> the last hyper-arc into it
+    consumed: set[int] = set()
+    w_toks: list[str] = []
+    lower: list[tuple[int, str]] = []
+    refs: list[tuple[str, int]] = []
+    in_order = True  # every child a leaf or made by an earlier hyper-arc
+    i = nn + 1
+    j = nn
+    try:
+        while i < n_rows:
+            # a row of the wrong length, a child line missing, a count that is not an
+            # integer: ValueError, IndexError; an unknown node: KeyError
+            hname, k_tok, p_name, w_tok, low = rows[i]
+            k = int(k_tok)  # (int() is what parse_graph applies too)
+            if k == 1:
+                (c_name,) = rows[i + 1]
+                ch: tuple[int, ...] = (get(c_name),)
+            elif k > 1:
+                ch = tuple([get(c) for (c,) in rows[i + 1 : i + 1 + k]])
+                if len(ch) != k or len(set(ch)) != k:
+                    return None
+            else:
+                return None
+            p = get(p_name)
+            if p in ch:
+                return None
+            if p in consumed:
+                in_order = False
+            consumed.update(ch)
+            names.append(hname)
+            w_toks.append(w_tok)
+            ln = nums[i]
+            lines.append(ln)
+            children.append(ch)
+            parent.append(p)
+            inc[p] += (j,)
+            last[p] = j
+            if low != "-":
+                lower.append((j, low))
+                refs.append((low, ln))
+            i += k + 1
+            j += 1
+    except (KeyError, IndexError, ValueError):
+        return None
+    digits = "".join(w_toks)
+    hnames = names[nn:]
+    if (
+        not (digits.isdigit() and digits.isascii())
+        or len(set(hnames)) != j - nn
+        or "/" in "".join(hnames)
+    ):
+        return None  # a repeated hyper-arc name: parse_graph renames it (and warns)
+    weights += map(float, w_toks)
+    if root in consumed:
+        return None  # the root is a child
+    leaves = [x for x in range(nn) if x not in last]
+    inc += [()] * (j - nn)
+    if in_order:
+        # the authors list hyper-arcs children first: that order is a topological one (no
+        # cycle), and the cost pass follows it, each node right after its last hyper-arc
+        topo = leaves[:]
+        for h in range(nn, j):
+            topo.append(h)
+            p = parent[h]
+            if last[p] == h:
+                topo.append(p)
+    else:
+        topo = dp_order(nn, parent, children, inc, consumers(nn, children))
+        if len(topo) != j:
+            return None  # a cycle
+    ix = Indexed(names, nn, weights, children, parent, inc, None, lower, root, topo, leaves, lines)
+    graph = AndOrGraph.from_indexed(name, root_name, path, ix)
+    graph.root_line = nums[0]
+    # dead ends (produced, consumed by none, not the root): warnings, in node order
+    dead = last.keys() - consumed
+    dead.discard(root)
+    graph.mark_validated(
+        [
+            FormatError(
+                f"node {names[n]!r} is produced by a hyper-arc but used by none: it cannot "
+                f"contribute to the root {root_name!r}",
+                path,
+                lines[n],
+            )
+            for n in sorted(dead)
+        ]
+        if dead
+        else []
+    )
+    return graph, refs
+
+
+_TWO = {2}
+
+
 def _resolve(ref: str, including_dir: str, top_dir: str, is_dir: dict[str, bool]) -> str | None:
     """The file a reference names: next to the including file first, then in the top folder.
     ``is_dir`` remembers, for one load, which folders exist, so the candidates of every
@@ -279,6 +422,88 @@ def _resolve(ref: str, including_dir: str, top_dir: str, is_dir: dict[str, bool]
             if there and os.path.isfile(cand):
                 return os.path.normpath(cand)
     return None
+
+
+_REGULAR, _FOLDER, _OTHER = 0, 1, 2
+
+
+def _listing(folder: str, listings: dict[str, dict[str, int] | None]) -> dict[str, int] | None:
+    """Entry name -> regular file / folder / anything else (a symbolic link, a device) of a
+    folder, from one ``scandir`` (the kinds come with the names: no ``stat`` per entry);
+    None if it cannot be listed. Remembered for one load."""
+    if folder in listings:
+        return listings[folder]
+    entries: dict[str, int] | None
+    try:
+        with os.scandir(folder) as it:
+            entries = {
+                e.name: _OTHER
+                if e.is_symlink()
+                else _REGULAR
+                if e.is_file()
+                else _FOLDER
+                if e.is_dir()
+                else _OTHER
+                for e in it
+            }
+    except OSError:
+        entries = None
+    listings[folder] = entries
+    return entries
+
+
+def _listed_folder(
+    folder: str, top_dir: str, listings: dict[str, dict[str, int] | None]
+) -> dict[str, int] | None:
+    """The entries of ``folder`` (the top folder or below it) when it is reached from the top
+    folder through real folders only; ``{}`` when it is not there (or is a file); None when
+    that cannot be said from listings (a link on the way, a folder that cannot be listed)."""
+    entries = _listing(top_dir, listings)
+    cur = top_dir
+    for part in folder[len(top_dir) + 1 :].split(os.sep) if folder != top_dir else ():
+        if entries is None:
+            return None
+        kind = entries.get(part)
+        if kind == _OTHER:
+            return None
+        cur = f"{cur}{os.sep}{part}"
+        if kind != _FOLDER:
+            listings[folder] = {}
+            return {}
+        entries = _listing(cur, listings)
+    return entries
+
+
+def _find_listed(
+    ref: str, here: str, top_dir: str, listings: dict[str, dict[str, int] | None]
+) -> str | None:
+    """What :func:`_resolve` and :func:`_inside` find, from folder listings: the file a plain
+    reference (no ``.``/``..``/empty component, not absolute) names, when it is a regular
+    file reached from the top folder through real folders only (no link: then it is inside
+    the top folder). None when the listings cannot say for sure (a link on the way, a
+    reference that is not plain, nothing found): the ``stat``-based lookup decides then."""
+    parts = ref.split("/")
+    if ref[0] == "/" or "" in parts or "." in parts or ".." in parts:
+        return None
+    last = parts.pop()
+    sub = f"{os.sep}{os.sep.join(parts)}" if parts else ""
+    for base in (here, top_dir) if here != top_dir else (top_dir,):
+        folder = base + sub
+        entries = listings.get(folder, _UNSEEN)
+        if entries is _UNSEEN:
+            entries = _listed_folder(folder, top_dir, listings)
+        if entries is None:
+            return None
+        for name in (last + SUFFIX, last):  # references usually omit the extension
+            kind = entries.get(name)
+            if kind == _REGULAR:
+                return f"{folder}{os.sep}{name}"
+            if kind == _OTHER:
+                return None  # a link or a device: let stat and realpath judge
+    return None
+
+
+_UNSEEN: dict[str, int] = {}
 
 
 def _inside(path: str, folder: str, plain: set[str]) -> bool:
@@ -324,6 +549,8 @@ def load_andor_text(path: str | Path) -> HierarchicalGraph:
     resolved: dict[tuple[str, str], str | None] = {}
     is_dir: dict[str, bool] = {}
     plain: set[str] = set()
+    listings: dict[str, dict[str, int] | None] = {}
+    fast = top_dir != sep and sep == "/"  # (references are written with "/")
 
     prefix = top_dir + os.sep
 
@@ -345,6 +572,15 @@ def load_andor_text(path: str | Path) -> HierarchicalGraph:
                 continue
             target = resolved.get((here, ref), "")
             if target == "":
+                listed = _find_listed(ref, here, top_dir, listings) if fast else None
+                if listed is not None:
+                    # a regular file under the top folder, no link on the way: inside it
+                    if listed not in key_of:
+                        key_of[listed] = key_for(listed)
+                        todo.append(listed)
+                    resolved[(here, ref)] = listed
+                    remap[ref] = key_of[listed]
+                    continue
                 target = resolved[(here, ref)] = _resolve(ref, here, top_dir, is_dir)
             if target is None:
                 raise FormatError(
@@ -365,6 +601,10 @@ def load_andor_text(path: str | Path) -> HierarchicalGraph:
                 todo.append(target)
             remap[ref] = key_of[target]
         if any(k != v for k, v in remap.items()):
+            ix = graph._ix
+            if ix is not None:  # the flat form: its references are keys from now on
+                ix.lower[:] = [(j, remap[ref]) for j, ref in ix.lower]
+                continue
             for h in list(graph.hyperarcs.values()):
                 if h.lower is not None and remap[h.lower] != h.lower:
                     graph.hyperarcs[h.name] = replace(h, lower=remap[h.lower])
