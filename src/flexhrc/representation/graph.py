@@ -221,13 +221,34 @@ class AndOrGraph:
 
     @classmethod
     def from_indexed(
-        cls, name: str, root: str, source: str | Path | None, ix: Indexed
+        cls,
+        name: str,
+        root: str,
+        source: str | Path | None,
+        ix: Indexed,
+        *,
+        root_line: int | None = None,
+        validated: list[FormatError] | None = None,
     ) -> AndOrGraph:
         """A graph held in its flat form (a reader's fast path): the :class:`Node` and
-        :class:`Hyperarc` objects are made on first use of :attr:`nodes` / :attr:`hyperarcs`."""
-        g = cls(name, root, source)
+        :class:`Hyperarc` objects are made on first use of :attr:`nodes` / :attr:`hyperarcs`.
+        ``validated``: the warnings, when the reader has made every check of :meth:`validate`
+        (as :meth:`mark_validated` records them)."""
+        g = cls.__new__(cls)
+        # the attributes of __init__, set once (one per file of a hierarchy: offline time)
+        g.name = name
+        g.root = root
+        g.source = str(source) if source is not None else None
         g._nodes = g._hyperarcs = None
         g._ix = ix
+        g.root_line = root_line
+        g.load_warnings = []
+        g._topo = None
+        g._validated = (
+            None
+            if validated is None
+            else ((ix.n_nodes, len(ix.names) - ix.n_nodes), validated)
+        )
         return g
 
     @property

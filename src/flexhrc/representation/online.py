@@ -160,6 +160,7 @@ class OnlineGraph:
     __slots__ = (
         "__weakref__",
         "_active",
+        "_ahead",
         "_blocked",
         "_children",
         "_closed",
@@ -234,11 +235,15 @@ class OnlineGraph:
         self._reason: str | None = None
         # the build makes thousands of lists and tuples and no reference cycle: the cyclic
         # garbage collector's passes meanwhile would only scan them
+        # instances whose lower instances are built one level ahead at the next query
+        self._ahead: list[int] = []
         collecting = gc.isenabled()
         gc.disable()
         try:
             self._build()
-            self._activate(0)  # the top instance (the only one without an upper hyper-arc)
+            # the top instance (the only one without an upper hyper-arc); the level below it
+            # is built by the first query (see _activate), not by the offline phase
+            self._activate(0, ahead=False)
             self._settle()
             self._finish()
         finally:
@@ -775,19 +780,27 @@ class OnlineGraph:
             and self._active[self._inst[h]]
         )
 
-    def _activate(self, k: int) -> None:
+    def _activate(self, k: int, *, ahead: bool = True) -> None:
         """Instance k becomes active: its outside costs are computed, its feasible leaves join
-        the feasible set."""
+        the feasible set.
+
+        The instances just below k are built one level ahead (``ahead``): they can become
+        active from now on, and the query that activates one should not pay for building it.
+        The offline phase leaves that to the first query (:meth:`_build_ahead`): no lower
+        instance can become active before a query has reported something, and the answer to
+        the first one needs none of them built (a lower instance's costs come from its
+        template)."""
         if self._active[k] or self._closed[k]:
             return
         mat = self._i_mat
         if not mat[k]:
             self._materialise(k)
-        # one level ahead: the instances just below k can become active from now on, and the
-        # query that activates one should not pay for building it
-        for h in self._i_lowers[k]:
-            if not mat[self._lower[h]]:
-                self._materialise(self._lower[h])
+        if ahead:
+            for h in self._i_lowers[k]:
+                if not mat[self._lower[h]]:
+                    self._materialise(self._lower[h])
+        elif self._i_lowers[k]:
+            self._ahead.append(k)
         self._active[k] = True
         if k:
             # its offset now; a later change this query above it re-dirties it (_settle and
@@ -810,6 +823,15 @@ class OnlineGraph:
                     self._add_feasible(n)
         if k and self._inside[self._i_root[k]] == INF:
             self._dead.append(k)
+
+    def _build_ahead(self) -> None:
+        """The look-ahead :meth:`_activate` left to the next query."""
+        mat, lower = self._i_mat, self._lower
+        for k in self._ahead:
+            for h in self._i_lowers[k]:
+                if not mat[lower[h]]:
+                    self._materialise(lower[h])
+        self._ahead.clear()
 
     def _close(self, k: int) -> None:
         """Instance k will never be used again (solved, or its upper arc is infeasible); so
@@ -1043,6 +1065,8 @@ class OnlineGraph:
         through them is dropped. Wrong argument types raise :class:`GraphArgumentError` (a
         ``TypeError``).
         """
+        if self._ahead:
+            self._build_ahead()
         # the common query (the Task Manager's, the test client's): one element, nothing else
         if (
             not infeasible
@@ -1432,7 +1456,7 @@ class _Template:
         self.pristine_out: list[float] | None = None  # set by pristine_outside
         self.own: list[float] = []  # set by pristine_inside
         self.lower = ix.lower
-        self.lower_ids = [x for x, _ in ix.lower]
+        self.lower_ids = [x for x, _ in ix.lower] if ix.lower else []
         self.n_children = list(map(len, ix.children))
         self.inside: list[float] | None = None  # set by pristine_inside
         self.idx: dict[str, int] | None = None  # set by local_index
@@ -1441,26 +1465,26 @@ class _Template:
         """Inside costs of an instance nothing of which is met yet (eqs. 9, 19), children
         before parents; ``lower_roots``: the inside cost of each lower graph's root, in the
         order of :attr:`lower`."""
-        w, kinds, children, incoming = self.weights, self.kinds, self.children, self.incoming
-        own = list(w)
+        children, incoming = self.children, self.incoming
+        own = list(self.weights)
         for (j, _), v in zip(self.lower, lower_roots, strict=True):
             own[j] = v  # eq. 19: a hyper-arc with a lower graph weighs its optimal cost
         self.own = own
         # a leaf's inside cost is its weight; the order starts with the leaves
         ins = own[:]
         for e in islice(self.topo, len(self.leaves), None):
-            v = own[e]
-            if kinds[e]:
-                ch = children[e]
-                if len(ch) == 1:
-                    v += ins[ch[0]]
-                else:
-                    for c in ch:  # (in order, as _calc_inside adds them: the same float)
-                        v += ins[c]
+            ch = children[e]
+            if ch:  # a hyper-arc (a node has no children)
+                v = own[e]
+                for c in ch:  # (in order, as _calc_inside adds them: the same float)
+                    v += ins[c]
+                ins[e] = v
             else:
                 arcs = incoming[e]
-                v += ins[arcs[0]] if len(arcs) == 1 else min([ins[h] for h in arcs])
-            ins[e] = v
+                if len(arcs) == 1:
+                    ins[e] = own[e] + ins[arcs[0]]
+                else:
+                    ins[e] = own[e] + min([ins[h] for h in arcs])
         self.inside = ins
 
     def complete(self) -> None:

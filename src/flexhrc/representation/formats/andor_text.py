@@ -294,10 +294,11 @@ def _parse_flat(
     n_rows = len(rows)
     if not 0 < nn < n_rows - 1:
         return None
-    node_rows = rows[1 : nn + 1]
-    if set(map(len, node_rows)) != _TWO:
+    try:
+        # rows of unequal lengths (strict) or not of two fields (the unpacking): ValueError
+        names_t, weights_t = zip(*rows[1 : nn + 1], strict=True)
+    except ValueError:
         return None
-    names_t, weights_t = zip(*node_rows, strict=True)
     digits = "".join(weights_t)
     if not (digits.isdigit() and digits.isascii()) or "/" in "".join(names_t):
         return None
@@ -307,7 +308,8 @@ def _parse_flat(
     if len(idx) != nn or root < 0:
         return None
     get = idx.__getitem__
-    weights = list(map(float, weights_t))
+    # every weight "0" (the authors' usual node weight): no conversion per node
+    weights = [0.0] * nn if len(digits) == nn and not digits.strip("0") else [*map(float, weights_t)]
     lines = list(nums[1 : nn + 1])
     children: list[tuple[int, ...]] = [()] * nn
     parent = [-1] * nn
@@ -383,12 +385,10 @@ def _parse_flat(
         if len(topo) != j:
             return None  # a cycle
     ix = Indexed(names, nn, weights, children, parent, inc, None, lower, root, topo, leaves, lines)
-    graph = AndOrGraph.from_indexed(name, root_name, path, ix)
-    graph.root_line = nums[0]
     # dead ends (produced, consumed by none, not the root): warnings, in node order
     dead = last.keys() - consumed
     dead.discard(root)
-    graph.mark_validated(
+    warnings = (
         [
             FormatError(
                 f"node {names[n]!r} is produced by a hyper-arc but used by none: it cannot "
@@ -401,10 +401,11 @@ def _parse_flat(
         if dead
         else []
     )
+    graph = AndOrGraph.from_indexed(
+        name, root_name, path, ix, root_line=nums[0], validated=warnings
+    )
     return graph, refs
 
-
-_TWO = {2}
 
 
 def _resolve(ref: str, including_dir: str, top_dir: str, is_dir: dict[str, bool]) -> str | None:
@@ -565,6 +566,8 @@ def load_andor_text(path: str | Path) -> HierarchicalGraph:
         p = todo.pop()
         graph, refs = parse_graph(p)
         graphs[key_of[p]] = graph
+        if not refs:
+            continue  # (most files: a leaf of the hierarchy)
         here = p[: p.rfind(sep)] or sep
         remap: dict[str, str] = {}
         for ref, ln in refs:
@@ -600,7 +603,7 @@ def load_andor_text(path: str | Path) -> HierarchicalGraph:
                 key_of[target] = key_for(target)
                 todo.append(target)
             remap[ref] = key_of[target]
-        if any(k != v for k, v in remap.items()):
+        if list(remap) != list(remap.values()):  # a reference is not its key
             ix = graph._ix
             if ix is not None:  # the flat form: its references are keys from now on
                 ix.lower[:] = [(j, remap[ref]) for j, ref in ix.lower]
