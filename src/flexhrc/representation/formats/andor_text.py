@@ -66,7 +66,7 @@ def _rows(path: str | Path) -> tuple[list[list[str]], list[int] | range]:
         text = read_text(path)
     if "#" not in text:
         rows = list(map(str.split, text.splitlines()))
-        if [] not in rows:
+        if all(rows):  # no blank line (an empty list is false: no comparison per row)
             return rows, range(1, len(rows) + 1)
     else:
         rows = [raw.split("#", 1)[0].split() for raw in text.splitlines()]
