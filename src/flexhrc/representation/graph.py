@@ -245,9 +245,7 @@ class AndOrGraph:
         g.load_warnings = []
         g._topo = None
         g._validated = (
-            None
-            if validated is None
-            else ((ix.n_nodes, len(ix.names) - ix.n_nodes), validated)
+            None if validated is None else ((ix.n_nodes, len(ix.names) - ix.n_nodes), validated)
         )
         return g
 
