@@ -88,6 +88,27 @@ def test_lazy_and_eager_give_the_same_answers(anchors_dir: Path, rel: str) -> No
         assert _walk(OnlineGraph(h, validate=False), _eager(h), seed) > 0
 
 
+def test_offline_builds_the_top_instance_and_the_first_query_the_level_below(
+    anchors_dir: Path,
+) -> None:
+    h = load(anchors_dir / KITCHEN)
+    online = OnlineGraph(h, validate=False)
+    below = [k for k, up in enumerate(online._i_parent) if up == 0]
+    assert below and online._i_mat[0]
+    assert not any(online._i_mat[k] for k in below)  # the offline phase left them
+    first = online.query()
+    assert all(online._i_mat[k] for k in below)  # one level ahead of the active top
+    assert first.to_dict() == _eager(h).query().to_dict()
+
+
+def test_a_first_report_without_query_0_answers_as_the_eager_build(anchors_dir: Path) -> None:
+    h = load(anchors_dir / KITCHEN)
+    lazy, eager = OnlineGraph(h, validate=False), _eager(h)
+    leaf = sorted(_eager(h).query().feasible)[0]
+    assert lazy.update(met_nodes=[leaf]).to_dict() == eager.update(met_nodes=[leaf]).to_dict()
+    assert lazy.state() == eager.state()
+
+
 def test_marking_a_deep_element_infeasible_before_its_instance_is_reached(
     anchors_dir: Path,
 ) -> None:
