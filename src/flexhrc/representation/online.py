@@ -233,10 +233,10 @@ class OnlineGraph:
         self._costs: dict[int, float] = {}
         self._outcome: str = "running"
         self._reason: str | None = None
-        # the build makes thousands of lists and tuples and no reference cycle: the cyclic
-        # garbage collector's passes meanwhile would only scan them
         # instances whose lower instances are built one level ahead at the next query
         self._ahead: list[int] = []
+        # the build makes thousands of lists and tuples and no reference cycle: the cyclic
+        # garbage collector's passes meanwhile would only scan them
         collecting = gc.isenabled()
         gc.disable()
         try:
