@@ -309,7 +309,9 @@ def _parse_flat(
         return None
     get = idx.__getitem__
     # every weight "0" (the authors' usual node weight): no conversion per node
-    weights = [0.0] * nn if len(digits) == nn and not digits.strip("0") else [*map(float, weights_t)]
+    weights = (
+        [0.0] * nn if len(digits) == nn and not digits.strip("0") else [*map(float, weights_t)]
+    )
     lines = list(nums[1 : nn + 1])
     children: list[tuple[int, ...]] = [()] * nn
     parent = [-1] * nn
@@ -407,7 +409,6 @@ def _parse_flat(
     return graph, refs
 
 
-
 def _resolve(ref: str, including_dir: str, top_dir: str, is_dir: dict[str, bool]) -> str | None:
     """The file a reference names: next to the including file first, then in the top folder.
     ``is_dir`` remembers, for one load, which folders exist, so the candidates of every
@@ -483,11 +484,19 @@ def _find_listed(
     file reached from the top folder through real folders only (no link: then it is inside
     the top folder). None when the listings cannot say for sure (a link on the way, a
     reference that is not plain, nothing found): the ``stat``-based lookup decides then."""
-    parts = ref.split("/")
-    if ref[0] == "/" or "" in parts or "." in parts or ".." in parts:
+    # (string tests first: a component "" / "." / ".." needs "/" twice, one at either end,
+    # or a ".")
+    if ref[0] == "/" or ref[-1] == "/" or "//" in ref:
         return None
-    last = parts.pop()
-    sub = f"{os.sep}{os.sep.join(parts)}" if parts else ""
+    if "." in ref:
+        parts = ref.split("/")
+        if "." in parts or ".." in parts:
+            return None
+    sep = os.sep
+    cut = ref.rfind("/")
+    last = ref[cut + 1 :]
+    sub = sep + ref[:cut].replace("/", sep) if cut >= 0 else ""
+    with_suffix = last + SUFFIX
     for base in (here, top_dir) if here != top_dir else (top_dir,):
         folder = base + sub
         entries = listings.get(folder, _UNSEEN)
@@ -495,12 +504,16 @@ def _find_listed(
             entries = _listed_folder(folder, top_dir, listings)
         if entries is None:
             return None
-        for name in (last + SUFFIX, last):  # references usually omit the extension
-            kind = entries.get(name)
+        # references usually omit the extension
+        kind = entries.get(with_suffix)
+        if kind == _REGULAR:
+            return f"{folder}{sep}{with_suffix}"
+        if kind is None:
+            kind = entries.get(last)
             if kind == _REGULAR:
-                return f"{folder}{os.sep}{name}"
-            if kind == _OTHER:
-                return None  # a link or a device: let stat and realpath judge
+                return f"{folder}{sep}{last}"
+        if kind == _OTHER:
+            return None  # a link or a device: let stat and realpath judge
     return None
 
 
@@ -547,18 +560,20 @@ def load_andor_text(path: str | Path) -> HierarchicalGraph:
     top_dir = top_file[: top_file.rfind(sep)] or sep
     graphs: dict[str, AndOrGraph] = {}
     key_of: dict[str, str] = {}
-    resolved: dict[tuple[str, str], str | None] = {}
+    resolved: dict[str, dict[str, str | None]] = {}  # folder -> reference -> file
     is_dir: dict[str, bool] = {}
     plain: set[str] = set()
     listings: dict[str, dict[str, int] | None] = {}
     fast = top_dir != sep and sep == "/"  # (references are written with "/")
 
     prefix = top_dir + os.sep
+    cut = len(prefix)
 
     def key_for(p: str) -> str:
-        rel = p[len(prefix) :] if p.startswith(prefix) else os.path.basename(p)
-        rel = rel.replace(os.sep, "/")
-        return rel[: -len(SUFFIX)] if rel.endswith(SUFFIX) else rel
+        rel = p[cut:] if p.startswith(prefix) else os.path.basename(p)
+        if sep != "/":
+            rel = rel.replace(sep, "/")
+        return rel[:-4] if rel.endswith(SUFFIX) else rel
 
     top = key_of[top_file] = key_for(top_file)
     todo = [top_file]
@@ -569,22 +584,26 @@ def load_andor_text(path: str | Path) -> HierarchicalGraph:
         if not refs:
             continue  # (most files: a leaf of the hierarchy)
         here = p[: p.rfind(sep)] or sep
+        found = resolved.get(here)
+        if found is None:
+            found = resolved[here] = {}
         remap: dict[str, str] = {}
         for ref, ln in refs:
             if ref in remap:
                 continue
-            target = resolved.get((here, ref), "")
+            target = found.get(ref, "")
             if target == "":
                 listed = _find_listed(ref, here, top_dir, listings) if fast else None
                 if listed is not None:
                     # a regular file under the top folder, no link on the way: inside it
-                    if listed not in key_of:
-                        key_of[listed] = key_for(listed)
+                    key = key_of.get(listed)
+                    if key is None:
+                        key = key_of[listed] = key_for(listed)
                         todo.append(listed)
-                    resolved[(here, ref)] = listed
-                    remap[ref] = key_of[listed]
+                    found[ref] = listed
+                    remap[ref] = key
                     continue
-                target = resolved[(here, ref)] = _resolve(ref, here, top_dir, is_dir)
+                target = found[ref] = _resolve(ref, here, top_dir, is_dir)
             if target is None:
                 raise FormatError(
                     f"lower graph file {ref!r} not found (looked for {ref}{SUFFIX} next to this "
