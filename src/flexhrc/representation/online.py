@@ -410,18 +410,29 @@ class OnlineGraph:
             t.complete()
             lo, hi = self._i_span[k]
             self._lrank[lo:hi] = t.lrank
+            # (comprehensions with "+": a call of int.__add__ per id costs twice as much; most
+            # nodes have one incoming and one outgoing hyper-arc: a tuple of one made directly)
             shift = lo.__add__
-            qualified = list(map((self._i_path[k] + SEP).__add__, t.names))
+            prefix = self._i_path[k] + SEP
+            qualified = [prefix + x for x in t.names]
             names[lo:hi] = qualified
             # nodes have no children and no parent, hyper-arcs no incoming or outgoing arcs:
             # their placeholders (the empty tuple, -1) are already right
             mid = lo + t.n_nodes
-            children[mid:hi] = [tuple(map(shift, ch)) for ch in t.arc_children]
-            parent[mid:hi] = map(shift, t.arc_parent)
-            incoming[lo:mid] = [tuple(map(shift, hs)) if hs else () for hs in t.node_incoming]
-            outgoing[lo:mid] = [tuple(map(shift, hs)) if hs else () for hs in t.node_outgoing]
-            self._i_leaves[k] = list(map(shift, t.leaves))
-            self._i_down[k] = list(map(shift, t.down))
+            children[mid:hi] = [
+                (ch[0] + lo,) if len(ch) == 1 else tuple(map(shift, ch)) for ch in t.arc_children
+            ]
+            parent[mid:hi] = [p + lo for p in t.arc_parent]
+            incoming[lo:mid] = [
+                () if not hs else (hs[0] + lo,) if len(hs) == 1 else tuple(map(shift, hs))
+                for hs in t.node_incoming
+            ]
+            outgoing[lo:mid] = [
+                () if not hs else (hs[0] + lo,) if len(hs) == 1 else tuple(map(shift, hs))
+                for hs in t.node_outgoing
+            ]
+            self._i_leaves[k] = [x + lo for x in t.leaves]
+            self._i_down[k] = [x + lo for x in t.down]
             if index is not None:
                 index.update(zip(qualified, range(lo, hi), strict=True))
 
@@ -825,12 +836,19 @@ class OnlineGraph:
             self._dead.append(k)
 
     def _build_ahead(self) -> None:
-        """The look-ahead :meth:`_activate` left to the next query."""
+        """The look-ahead :meth:`_activate` left to the next query (like the build, with the
+        garbage collector paused: it makes many tuples and no reference cycle)."""
         mat, lower = self._i_mat, self._lower
-        for k in self._ahead:
-            for h in self._i_lowers[k]:
-                if not mat[lower[h]]:
-                    self._materialise(lower[h])
+        collecting = gc.isenabled()
+        gc.disable()
+        try:
+            for k in self._ahead:
+                for h in self._i_lowers[k]:
+                    if not mat[lower[h]]:
+                        self._materialise(lower[h])
+        finally:
+            if collecting:
+                gc.enable()
         self._ahead.clear()
 
     def _close(self, k: int) -> None:
