@@ -233,8 +233,8 @@ class OnlineGraph:
         self._costs: dict[int, float] = {}
         self._outcome: str = "running"
         self._reason: str | None = None
-        # instances whose lower instances are built one level ahead at the next query
-        self._ahead: list[int] = []
+        # active instances whose lower instances are not built ahead yet (see _activate)
+        self._ahead: set[int] = set()
         # the build makes thousands of lists and tuples and no reference cycle: the cyclic
         # garbage collector's passes meanwhile would only scan them
         collecting = gc.isenabled()
@@ -242,7 +242,7 @@ class OnlineGraph:
         try:
             self._build()
             # the top instance (the only one without an upper hyper-arc); the level below it
-            # is built by the first query (see _activate), not by the offline phase
+            # is built when the cooperation reaches it (see _activate), not offline
             self._activate(0, ahead=False)
             self._settle()
             self._finish()
@@ -797,21 +797,24 @@ class OnlineGraph:
 
         The instances just below k are built one level ahead (``ahead``): they can become
         active from now on, and the query that activates one should not pay for building it.
-        The offline phase leaves that to the first query (:meth:`_build_ahead`): no lower
-        instance can become active before a query has reported something, and the answer to
-        the first one needs none of them built (a lower instance's costs come from its
-        template)."""
+        The offline phase does not build ahead for the top instance (no answer before a
+        report needs a lower instance built: their costs come from their templates); the
+        query that activates the first instance below it builds that level then
+        (:meth:`_build_ahead`), in one go, as the offline phase would have."""
         if self._active[k] or self._closed[k]:
             return
         mat = self._i_mat
         if not mat[k]:
             self._materialise(k)
+        ahead_of = self._ahead
+        if ahead_of and self._i_parent[k] in ahead_of:
+            self._build_ahead(self._i_parent[k])
         if ahead:
             for h in self._i_lowers[k]:
                 if not mat[self._lower[h]]:
                     self._materialise(self._lower[h])
         elif self._i_lowers[k]:
-            self._ahead.append(k)
+            ahead_of.add(k)
         self._active[k] = True
         if k:
             # its offset now; a later change this query above it re-dirties it (_settle and
@@ -835,21 +838,20 @@ class OnlineGraph:
         if k and self._inside[self._i_root[k]] == INF:
             self._dead.append(k)
 
-    def _build_ahead(self) -> None:
-        """The look-ahead :meth:`_activate` left to the next query (like the build, with the
+    def _build_ahead(self, k: int) -> None:
+        """The look-ahead :meth:`_activate` left for instance k (like the build, with the
         garbage collector paused: it makes many tuples and no reference cycle)."""
+        self._ahead.discard(k)
         mat, lower = self._i_mat, self._lower
         collecting = gc.isenabled()
         gc.disable()
         try:
-            for k in self._ahead:
-                for h in self._i_lowers[k]:
-                    if not mat[lower[h]]:
-                        self._materialise(lower[h])
+            for h in self._i_lowers[k]:
+                if not mat[lower[h]]:
+                    self._materialise(lower[h])
         finally:
             if collecting:
                 gc.enable()
-        self._ahead.clear()
 
     def _close(self, k: int) -> None:
         """Instance k will never be used again (solved, or its upper arc is infeasible); so
@@ -1083,8 +1085,6 @@ class OnlineGraph:
         through them is dropped. Wrong argument types raise :class:`GraphArgumentError` (a
         ``TypeError``).
         """
-        if self._ahead:
-            self._build_ahead()
         # the common query (the Task Manager's, the test client's): one element, nothing else
         if (
             not infeasible
