@@ -21,6 +21,9 @@ if not available():
 
 # discovery on loopback only: nothing leaves the machine, and other hosts' nodes never join
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+# UDP on loopback instead of shared memory, here and in the nodes the tests start: a node a
+# test SIGKILLs cannot leave Fast DDS segments behind in /dev/shm
+os.environ["FASTDDS_BUILTIN_TRANSPORTS"] = "UDPv4"
 
 
 @pytest.fixture

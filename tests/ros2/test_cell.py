@@ -161,8 +161,16 @@ def test_sigkill_of_an_arm_node_mid_action_is_replanned_and_solved(
         for arm in ("left", "right"):
             procs.append(_node(ros_env, "arm", *common, "--arm", arm, log=tmp_path / f"{arm}.log"))
         left = procs[1]
-        # kill the left arm while it executes a command (not between two)
-        assert wait_for(lambda: any(c["type"] == "command" for c in to_left), 90.0, watcher.flush)
+
+        def left_commanded() -> bool:  # the store has it before the arm hears it
+            try:
+                return any(e.kind == "command" and e.body["agents"] == ["left"]
+                           for e in read_store(store))  # fmt: skip
+            except FormatError:  # not created yet
+                return False
+
+        # kill the left arm while it executes its first command (not between two)
+        assert wait_for(left_commanded, 90.0, watcher.flush)
         assert left.poll() is None
         left.send_signal(signal.SIGKILL)
         killed = time.monotonic()
@@ -187,7 +195,11 @@ def test_sigkill_of_an_arm_node_mid_action_is_replanned_and_solved(
     lost_ids = {e.body["id"] for e in lost}
     assert any(e.body["agents"] == ["right"] for e in after)
     assert all(e.body["agents"] == ["right"] or e.body["id"] in lost_ids for e in after)
-    assert data["legs_by_agent"]["left"] == 0
+    # on a loaded machine the kill may come late: a leg the arm had screwed before it was lost
+    # stays its own (the hyper-arc holds even if its rest failed); none after
+    before = [e for e in events if e.kind == "fixed" and e.body["agents"] == ["left"]]
+    assert all(e.seq < down[0].seq for e in before)
+    assert data["legs_by_agent"]["left"] == len(before)
 
 
 def test_the_manager_node_killed_and_resumed_from_its_store_solves_without_repeating(

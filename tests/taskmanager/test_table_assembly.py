@@ -114,6 +114,19 @@ def test_injected_failure_replans_and_completes():
     check_invariants(result, 4)
 
 
+def test_a_failed_rest_after_the_leg_is_screwed_keeps_the_leg():
+    # the arm could not go to rest (lost, stuck) after it screwed its leg: the connection
+    # holds, so the hyper-arc counts as solved instead of being redone with another leg on the
+    # same bolt (the leg already there would be lost to the task)
+    result, _ = run_table("passive", run_kw={"failures": [InjectedFailure("rest", 1)]})
+    assert result.outcome == "solved"
+    failed = first(result.events, "action_failed")
+    assert failed["element"] == "robot_1" and failed.get("kept") is True
+    assert not [e for e in result.events if e["type"] == "abort"]
+    assert [e for e, _ in solved(result)] == ["robot_1", "robot_2", "robot_3", "robot_4"]
+    check_invariants(result, 4)
+
+
 def test_timeout_is_handled_like_a_failure():
     fail = InjectedFailure("screw", 2, status="timed_out", reason="stuck")
     result, _ = run_table("passive", run_kw={"failures": [fail]})

@@ -844,7 +844,20 @@ class TaskManager:
                     if nxt is not None:
                         out.append(nxt)
         else:
-            if ex is not None:
+            if ex is not None and self._only_motions_left(ex):
+                # what failed changes no fact, nor does anything after it (an arm that could not
+                # go to rest): the hyper-arc's result holds; redoing it would undo nothing
+                self._emit(
+                    "action_failed",
+                    element=ex.element,
+                    grounding=ex.branch.grounding,
+                    status=ack.status,
+                    reason=ack.reason,
+                    kept=True,
+                )
+                ex.next_index = len(ex.branch.steps) - 1
+                self._progress(ex, cmd.agents[0])
+            elif ex is not None:
                 self.failed.setdefault(ex.element, []).append(dict(ex.branch.grounding))
                 self._emit(
                     "action_failed",
@@ -885,6 +898,18 @@ class TaskManager:
                 self.bindings[parent] = carried
             self._update_graph(solved_hyperarcs=[ex.element])
             self._meet_nodes()
+
+    @staticmethod
+    def _only_motions_left(ex: Execution) -> bool:
+        """The running step and every one after it change no fact (add and delete empty), and
+        at least one step before them did the hyper-arc's work."""
+        rest = ex.branch.steps[ex.next_index :]
+        done = ex.branch.steps[: ex.next_index]
+        return (
+            bool(rest)
+            and any(s.schema.add or s.schema.delete for s in done)
+            and not any(s.schema.add or s.schema.delete for s in rest)
+        )
 
     def _apply_effects(self, action: GroundAction) -> None:
         schema = action.schema
