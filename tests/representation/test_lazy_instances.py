@@ -88,27 +88,6 @@ def test_lazy_and_eager_give_the_same_answers(anchors_dir: Path, rel: str) -> No
         assert _walk(OnlineGraph(h, validate=False), _eager(h), seed) > 0
 
 
-def test_offline_builds_the_top_instance_and_the_first_activation_the_level_below(
-    anchors_dir: Path,
-) -> None:
-    h = load(anchors_dir / HIER)
-    online, eager = OnlineGraph(h, validate=False), _eager(h)
-    below = [k for k, up in enumerate(online._i_parent) if up == 0]
-    assert below and online._i_mat[0]
-    assert not any(online._i_mat[k] for k in below)  # the offline phase left them
-    answer, other = online.query(), eager.query()
-    assert answer.to_dict() == other.to_dict()
-    # report the cheapest element until an instance below the top is active
-    while not any(online._active[k] for k in below):
-        assert not any(online._i_mat[k] for k in below)
-        name = answer.suggestions[0].element
-        kw = {"met_nodes" if online.kind(name) == "node" else "solved_hyperarcs": [name]}
-        answer, other = online.update(**kw), eager.update(**kw)  # type: ignore[arg-type]
-        assert answer.to_dict() == other.to_dict()
-    assert all(online._i_mat[k] for k in below)  # the whole level, in that query
-    assert online.state() == eager.state()
-
-
 def test_a_first_report_without_query_0_answers_as_the_eager_build(anchors_dir: Path) -> None:
     h = load(anchors_dir / KITCHEN)
     lazy, eager = OnlineGraph(h, validate=False), _eager(h)

@@ -160,7 +160,6 @@ class OnlineGraph:
     __slots__ = (
         "__weakref__",
         "_active",
-        "_ahead",
         "_blocked",
         "_children",
         "_closed",
@@ -233,17 +232,13 @@ class OnlineGraph:
         self._costs: dict[int, float] = {}
         self._outcome: str = "running"
         self._reason: str | None = None
-        # active instances whose lower instances are not built ahead yet (see _activate)
-        self._ahead: set[int] = set()
         # the build makes thousands of lists and tuples and no reference cycle: the cyclic
         # garbage collector's passes meanwhile would only scan them
         collecting = gc.isenabled()
         gc.disable()
         try:
             self._build()
-            # the top instance (the only one without an upper hyper-arc); the level below it
-            # is built when the cooperation reaches it (see _activate), not offline
-            self._activate(0, ahead=False)
+            self._activate(0)  # the top instance (the only one without an upper hyper-arc)
             self._settle()
             self._finish()
         finally:
@@ -791,30 +786,19 @@ class OnlineGraph:
             and self._active[self._inst[h]]
         )
 
-    def _activate(self, k: int, *, ahead: bool = True) -> None:
+    def _activate(self, k: int) -> None:
         """Instance k becomes active: its outside costs are computed, its feasible leaves join
-        the feasible set.
-
-        The instances just below k are built one level ahead (``ahead``): they can become
-        active from now on, and the query that activates one should not pay for building it.
-        The offline phase does not build ahead for the top instance (no answer before a
-        report needs a lower instance built: their costs come from their templates); the
-        query that activates the first instance below it builds that level then
-        (:meth:`_build_ahead`), in one go, as the offline phase would have."""
+        the feasible set."""
         if self._active[k] or self._closed[k]:
             return
         mat = self._i_mat
         if not mat[k]:
             self._materialise(k)
-        ahead_of = self._ahead
-        if ahead_of and self._i_parent[k] in ahead_of:
-            self._build_ahead(self._i_parent[k])
-        if ahead:
-            for h in self._i_lowers[k]:
-                if not mat[self._lower[h]]:
-                    self._materialise(self._lower[h])
-        elif self._i_lowers[k]:
-            ahead_of.add(k)
+        # one level ahead: the instances just below k can become active from now on, and the
+        # query that activates one should not pay for building it
+        for h in self._i_lowers[k]:
+            if not mat[self._lower[h]]:
+                self._materialise(self._lower[h])
         self._active[k] = True
         if k:
             # its offset now; a later change this query above it re-dirties it (_settle and
@@ -837,21 +821,6 @@ class OnlineGraph:
                     self._add_feasible(n)
         if k and self._inside[self._i_root[k]] == INF:
             self._dead.append(k)
-
-    def _build_ahead(self, k: int) -> None:
-        """The look-ahead :meth:`_activate` left for instance k (like the build, with the
-        garbage collector paused: it makes many tuples and no reference cycle)."""
-        self._ahead.discard(k)
-        mat, lower = self._i_mat, self._lower
-        collecting = gc.isenabled()
-        gc.disable()
-        try:
-            for h in self._i_lowers[k]:
-                if not mat[lower[h]]:
-                    self._materialise(lower[h])
-        finally:
-            if collecting:
-                gc.enable()
 
     def _close(self, k: int) -> None:
         """Instance k will never be used again (solved, or its upper arc is infeasible); so
