@@ -145,6 +145,18 @@ def test_lower_graphs_through_links_are_judged_by_stat(tmp_path: Path) -> None:
         load(top / "g2.txt")
 
 
+def test_a_folder_named_like_the_file_falls_back_to_the_bare_name(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    (tmp_path / "low.txt").mkdir()  # "low" + ".txt" is a folder: the file "low" is meant
+    (tmp_path / "low").write_text("low 2 r\np 0\nr 0\nl 1 r 2 -\np\n", encoding="utf-8")
+    f = tmp_path / "g.txt"
+    f.write_text("g 2 t\nx 0\nt 0\nH 1 t 1 low\nx\n", encoding="utf-8")
+    h = load_andor_text(f)
+    assert set(h.graphs) == {"g", "low"}
+    assert h == _slow(monkeypatch, f)
+
+
 @pytest.mark.parametrize("enabled", [True, False])
 def test_the_collector_is_left_as_it_was(tmp_path: Path, enabled: bool) -> None:
     good = _write(tmp_path, "g 3 r\na 0\nb 0\nr 0\nh 2 r 1 -\na\nb\n")

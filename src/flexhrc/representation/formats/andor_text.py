@@ -504,16 +504,18 @@ def _find_listed(
             entries = _listed_folder(folder, top_dir, listings)
         if entries is None:
             return None
-        # references usually omit the extension
+        # references usually omit the extension; a link or a device: let stat and realpath
+        # judge
         kind = entries.get(with_suffix)
         if kind == _REGULAR:
             return f"{folder}{sep}{with_suffix}"
-        if kind is None:
-            kind = entries.get(last)
-            if kind == _REGULAR:
-                return f"{folder}{sep}{last}"
         if kind == _OTHER:
-            return None  # a link or a device: let stat and realpath judge
+            return None
+        kind = entries.get(last)
+        if kind == _REGULAR:
+            return f"{folder}{sep}{last}"
+        if kind == _OTHER:
+            return None
     return None
 
 
@@ -573,7 +575,7 @@ def load_andor_text(path: str | Path) -> HierarchicalGraph:
         rel = p[cut:] if p.startswith(prefix) else os.path.basename(p)
         if sep != "/":
             rel = rel.replace(sep, "/")
-        return rel[:-4] if rel.endswith(SUFFIX) else rel
+        return rel[: -len(SUFFIX)] if rel.endswith(SUFFIX) else rel
 
     top = key_of[top_file] = key_for(top_file)
     todo = [top_file]
