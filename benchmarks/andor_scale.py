@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import random
 import statistics
 import sys
 import time
@@ -25,44 +24,11 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "src"))
 
-from flexhrc.representation import AndOrGraph, HierarchicalGraph, OnlineGraph  # noqa: E402
+from flexhrc.representation import HierarchicalGraph, OnlineGraph  # noqa: E402
 from flexhrc.representation.play import play  # noqa: E402
+from flexhrc.representation.synthetic import chain, random_tree  # noqa: E402
 
 TARGET_PER_QUERY_S = 1e-3
-
-
-def random_tree(n_nodes: int, seed: int = 0) -> AndOrGraph:
-    """A random AND/OR tree: 1-2 alternatives per node, 1-3 children per hyper-arc."""
-    rng = random.Random(seed)
-    g = AndOrGraph("tree", root="n0")
-    g.add_node("n0", float(rng.randint(1, 9)))
-    queue, count, arcs, i = ["n0"], 1, 0, 0
-    while count < n_nodes and i < len(queue):
-        p = queue[i]
-        i += 1
-        for _ in range(rng.choice((1, 1, 2))):
-            kids = []
-            for _ in range(rng.randint(1, 3)):
-                if count >= n_nodes:
-                    break
-                name = f"n{count}"
-                count += 1
-                g.add_node(name, float(rng.randint(1, 9)))
-                kids.append(name)
-                queue.append(name)
-            if kids:
-                g.add_hyperarc(f"h{arcs}", kids, p, float(rng.randint(1, 9)))
-                arcs += 1
-    return g
-
-
-def chain(n: int) -> AndOrGraph:
-    g = AndOrGraph("chain", root=f"n{n - 1}")
-    for i in range(n):
-        g.add_node(f"n{i}", 1.0)
-    for i in range(1, n):
-        g.add_hyperarc(f"h{i}", [f"n{i - 1}"], f"n{i}", 1.0)
-    return g
 
 
 def percentile(xs: list[float], q: float) -> float:
