@@ -42,9 +42,11 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
         "simulated time divided by SPEED",
     )
     p.add_argument("--seed", type=int, default=0, help="scenario seed (default 0)")
+    from flexhrc.taskmanager.operator import PROFILES
+
     p.add_argument(
         "--human",
-        choices=["passive", "takeover", "cooperative", "random"],
+        choices=PROFILES,
         default="passive",
         metavar="PROFILE",
         help="how the internal simulated operators behave: passive (default), takeover, "
