@@ -7,7 +7,7 @@ import sys
 from typing import Any
 
 from flexhrc.cli.cell import add_transport_options, open_zenoh, quiet_library_logs
-from flexhrc.cli.common import TermFlag, emit
+from flexhrc.cli.common import emit, serve_agent
 from flexhrc.errors import FlexhrcError
 
 
@@ -74,7 +74,7 @@ def _common(p: argparse.ArgumentParser) -> None:
 def cmd_agent(args: argparse.Namespace) -> int:
     quiet_library_logs()
     from flexhrc.cell import HumanAgent, RobotAgent, load_scenario
-    from flexhrc.cell.components import check_agent_name, execution_model, run_agent
+    from flexhrc.cell.components import check_agent_name, execution_model
 
     if not args.connect and not args.listen:
         raise FlexhrcError("--connect ENDPOINT is needed (the cell's --listen endpoint)")
@@ -101,11 +101,10 @@ def cmd_agent(args: argparse.Namespace) -> int:
 
         check_output(args.journal, option="--journal")
     transport = open_zenoh(args, listen_default=[])
-    stop = TermFlag()
-    agent: Any = None
-    try:
+
+    def make() -> Any:
         if args.agent_kind == "robot":
-            agent = RobotAgent(
+            return RobotAgent(
                 name,
                 scenario,
                 transport,
@@ -113,23 +112,19 @@ def cmd_agent(args: argparse.Namespace) -> int:
                 trace=trace,
                 journal=args.journal,
             )
-        else:
-            agent = HumanAgent(
-                name,
-                scenario,
-                transport,
-                profile=args.profile,
-                seed=args.seed,
-                execution=execution_model("analytic", scenario),
-                trace=trace,
-            )
-        trace(f"ready ({args.agent_kind}, cell {args.cell!r})")
-        outcome = run_agent(agent, transport, until=stop)
-        trace(f"cell ended: {outcome}")
-    finally:
-        if agent is not None:
-            agent.close()
-        transport.close()
+        return HumanAgent(
+            name,
+            scenario,
+            transport,
+            profile=args.profile,
+            seed=args.seed,
+            execution=execution_model("analytic", scenario),
+            trace=trace,
+        )
+
+    agent, outcome = serve_agent(
+        make, transport, trace, f"ready ({args.agent_kind}, cell {args.cell!r})"
+    )
     data = {
         "agent": name,
         "kind": args.agent_kind,
@@ -146,7 +141,6 @@ def cmd_agent(args: argparse.Namespace) -> int:
 def cmd_agent_perception(args: argparse.Namespace) -> int:
     """``flexhrc agent perception SCENARIO --connect ENDPOINT``."""
     from flexhrc.cell import load_scenario
-    from flexhrc.cell.components import run_agent
 
     if not args.connect and not args.listen:
         raise FlexhrcError("--connect ENDPOINT is needed (the cell's --listen endpoint)")
@@ -164,17 +158,12 @@ def cmd_agent_perception(args: argparse.Namespace) -> int:
             print(f"[perception] {line}", file=sys.stderr, flush=True)
 
     transport = open_zenoh(args, listen_default=[])
-    stop = TermFlag()
-    agent: Any = None
-    try:
-        agent = PerceptionAgent(scenario, transport, trace=trace)
-        trace(f"ready (cell {args.cell!r})")
-        outcome = run_agent(agent, transport, until=stop)
-        trace(f"cell ended: {outcome}")
-    finally:
-        if agent is not None:
-            agent.close()
-        transport.close()
+    agent, _ = serve_agent(
+        lambda: PerceptionAgent(scenario, transport, trace=trace),
+        transport,
+        trace,
+        f"ready (cell {args.cell!r})",
+    )
     if args.json:
         emit(args, agent.summary())
     return 0

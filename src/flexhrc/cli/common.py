@@ -8,7 +8,7 @@ import math
 import sys
 from collections.abc import Callable, Iterable
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 from flexhrc.errors import FlexhrcError
 
@@ -187,3 +187,28 @@ class TermFlag:
 
     def __call__(self) -> bool:
         return self.requested
+
+
+_Agent = TypeVar("_Agent")
+
+
+def serve_agent(
+    make: Callable[[], _Agent], transport: Any, say: Callable[[str], None], ready: str
+) -> tuple[_Agent, str]:
+    """Make an agent on ``transport`` and serve the cell until it ends (or SIGTERM): says
+    ``ready`` once it is up and the cell's outcome at the end; closes the agent and the
+    transport whatever happens. Returns the agent and the outcome (``stopped`` on SIGTERM)."""
+    from flexhrc.cell.components import run_agent
+
+    stop = TermFlag()
+    agent: Any = None
+    try:
+        agent = make()
+        say(ready)
+        outcome = run_agent(agent, transport, until=stop)
+        say(f"cell ended: {outcome}")
+    finally:
+        if agent is not None:
+            agent.close()
+        transport.close()
+    return agent, outcome

@@ -20,7 +20,7 @@ import sys
 import uuid
 from typing import Any
 
-from flexhrc.cli.common import TermFlag, add_json_flag, emit
+from flexhrc.cli.common import add_json_flag, emit, serve_agent
 from flexhrc.errors import FlexhrcError
 
 
@@ -187,7 +187,7 @@ def _progress(args: argparse.Namespace) -> Any:
 
 def cmd_arm(args: argparse.Namespace) -> int:
     from flexhrc.cell import load_scenario
-    from flexhrc.cell.components import check_agent_name, run_agent
+    from flexhrc.cell.components import check_agent_name
     from flexhrc.ros2.arm import ArmNode
     from flexhrc.ros2.transport import ros_topic
 
@@ -201,12 +201,14 @@ def cmd_arm(args: argparse.Namespace) -> int:
             "--execute external needs --trajectory-topic and --joint-states-topic "
             "(the real arm's controller command and its joint states)"
         )
-    say = _progress(args)
+    progress = _progress(args)
+
+    def say(line: str) -> None:
+        progress(f"[{args.arm}] {line}")
+
     transport = _transport(args, f"arm_{args.arm}")
-    stop = TermFlag()
-    node: ArmNode | None = None
-    try:
-        node = ArmNode(
+    node, outcome = serve_agent(
+        lambda: ArmNode(
             args.arm,
             scenario,
             transport,
@@ -215,18 +217,13 @@ def cmd_arm(args: argparse.Namespace) -> int:
             trajectory_topic=args.trajectory_topic,
             joint_states_topic=args.joint_states_topic,
             tolerance_rad=args.tolerance,
-            trace=lambda line: say(f"[{args.arm}] {line}"),
-        )
-        say(
-            f"[{args.arm}] ready: cell {args.cell!r}, ROS domain {transport.domain_id}, "
-            f"commands on {transport.ros_name('cmd/' + args.arm)}"
-        )
-        outcome = run_agent(node, transport, until=stop)
-        say(f"[{args.arm}] cell ended: {outcome}")
-    finally:
-        if node is not None:
-            node.close()
-        transport.close()
+            trace=say,
+        ),
+        transport,
+        say,
+        f"ready: cell {args.cell!r}, ROS domain {transport.domain_id}, "
+        f"commands on {transport.ros_name('cmd/' + args.arm)}",
+    )
     data = {
         "agent": args.arm,
         "outcome": outcome,
@@ -241,7 +238,7 @@ def cmd_arm(args: argparse.Namespace) -> int:
 
 def cmd_human(args: argparse.Namespace) -> int:
     from flexhrc.cell import HumanAgent, load_scenario
-    from flexhrc.cell.components import HUMAN_PROFILES, check_agent_name, run_agent
+    from flexhrc.cell.components import HUMAN_PROFILES, check_agent_name
     from flexhrc.ros2.transport import ros_topic
 
     scenario = load_scenario(args.scenario, seed=args.seed)
@@ -252,26 +249,20 @@ def cmd_human(args: argparse.Namespace) -> int:
             f"--profile {args.profile!r}: unknown operator profile; choose one of "
             f"{', '.join(HUMAN_PROFILES)}"
         )
-    say = _progress(args)
+    progress = _progress(args)
+
+    def say(line: str) -> None:
+        progress(f"[{args.name}] {line}")
+
     transport = _transport(args, f"human_{args.name}")
-    stop = TermFlag()
-    agent: Any = None
-    try:
-        agent = HumanAgent(
-            args.name,
-            scenario,
-            transport,
-            profile=args.profile,
-            seed=args.seed,
-            trace=lambda line: say(f"[{args.name}] {line}"),
-        )
-        say(f"[{args.name}] ready: cell {args.cell!r}, ROS domain {transport.domain_id}")
-        outcome = run_agent(agent, transport, until=stop)
-        say(f"[{args.name}] cell ended: {outcome}")
-    finally:
-        if agent is not None:
-            agent.close()
-        transport.close()
+    agent, outcome = serve_agent(
+        lambda: HumanAgent(
+            args.name, scenario, transport, profile=args.profile, seed=args.seed, trace=say
+        ),
+        transport,
+        say,
+        f"ready: cell {args.cell!r}, ROS domain {transport.domain_id}",
+    )
     if args.json:
         emit(args, {"agent": args.name, "outcome": outcome, "received": agent.received,
                     "dropped": agent.dropped})  # fmt: skip
