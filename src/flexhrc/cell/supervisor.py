@@ -521,9 +521,8 @@ class Cell:
         return SimulatedOperator(human)
 
     def _operator_busy(self, human: str) -> bool:
+        # an intent that has arrived but waits for its time still holds its ``awaiting`` entry
         if human in self.active_suggestion or human in self.awaiting:
-            return True
-        if any(k == "intent" and b["agent"] == human for *_, k, b in self.pending):
             return True
         return any(
             ex.owner == "human" and human in ex.branch.agents for ex in self.tm.executions.values()
