@@ -22,3 +22,4 @@ bench: setup
 
 clean:
 	rm -rf $(VENV) .pytest_cache build *.egg-info src/*.egg-info
+	find src -name '*.so' -delete

@@ -8,7 +8,9 @@ run: per seed one fresh C++ process and one fresh ``python -m flexhrc graph play
 process, so flexhrc's offline time is a cold first call as ``graph play`` reports it. Both
 sides time themselves from inside (process start-up is excluded on both). Medians over 5 seeds;
 printed with the ratio flexhrc / C++ and the targets of issue 9. Without the C++ binary (or
-``../shared``) the parity table says so and is skipped.
+``../shared``) the parity table says so and is skipped. flexhrc reads the ANDOR text files with
+its compiled common case when the install has built it (the table says which reader ran);
+``--pure-python`` measures the pure-Python reader instead.
 
 For every file: offline time (load + validate + build, including the initial cost computation)
 and online time per query, medians over 10 random traversals (the authors' random test client:
@@ -20,6 +22,7 @@ figures, with the ratio and the target of issue #2; plotted to PNG on log scales
     python benchmarks/andor_paper.py [--anchors DIR] [--runs 10] [--out out/andor_paper.png]
                                      [--json out/andor_paper.json] [--seeds 5]
                                      [--cpp PATH] [--no-parity] [--parity-only]
+                                     [--pure-python]
 
 Needs ``../shared/anchors/andor-graphs`` (or ``--anchors``); the plot needs matplotlib.
 """
@@ -263,10 +266,25 @@ def _run_json(cmd: list[str], env: dict[str, str] | None = None) -> dict[str, fl
     return data
 
 
-def parity(anchors: Path, cpp: Path, seeds: int) -> tuple[list[dict[str, object]], int]:
+def reader(pure_python: bool) -> str:
+    """Which ANDOR text reader the flexhrc side uses: the compiled common case (built by the
+    install) or, with ``--pure-python`` or when it is not built, the pure-Python one."""
+    if pure_python:
+        return "pure Python (FLEXHRC_PURE_PYTHON=1)"
+    try:
+        import flexhrc.representation.formats._andor_fast  # noqa: F401
+    except ImportError:
+        return "pure Python (the compiled reader is not built)"
+    return "compiled common case (_andor_fast)"
+
+
+def parity(
+    anchors: Path, cpp: Path, seeds: int, pure_python: bool = False
+) -> tuple[list[dict[str, object]], int]:
     """Both sides on the same files, alternating per seed; medians. Returns rows, failures."""
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join(p for p in (str(ROOT / "src"), env.get("PYTHONPATH")) if p)
+    env["FLEXHRC_PURE_PYTHON"] = "1" if pure_python else "0"
     files = sorted({rel for _, rel, _, _ in PARITY})
     ours: dict[str, list[dict[str, float]]] = {rel: [] for rel in files}
     theirs: dict[str, list[dict[str, float]]] = {rel: [] for rel in files}
@@ -315,8 +333,10 @@ def parity(anchors: Path, cpp: Path, seeds: int) -> tuple[list[dict[str, object]
     return rows, failures
 
 
-def print_parity(rows: list[dict[str, object]], seeds: int) -> None:
+def print_parity(rows: list[dict[str, object]], seeds: int, reader_: str = "") -> None:
     print(f"parity with the C++ ANDOR (g++ -O2), side by side, medians of {seeds} seeds")
+    if reader_:
+        print(f"flexhrc's ANDOR text reader: {reader_}")
     head = f"{'graph':<22}{'metric':<11}{'flexhrc':>10}{'C++':>10}{'ratio':>8}  target  verdict"
     print(head)
     print("-" * len(head))
@@ -341,6 +361,11 @@ def main() -> int:
     ap.add_argument("--cpp", type=Path, default=None, help="the C++ andor_bench binary")
     ap.add_argument("--no-parity", action="store_true", help="skip the side-by-side parity")
     ap.add_argument("--parity-only", action="store_true", help="only the parity table")
+    ap.add_argument(
+        "--pure-python",
+        action="store_true",
+        help="flexhrc without its compiled reader (FLEXHRC_PURE_PYTHON=1) in the parity runs",
+    )
     args = ap.parse_args()
     if args.seeds < 1:
         ap.error("--seeds must be at least 1")
@@ -359,8 +384,10 @@ def main() -> int:
                 )
             else:
                 print(f"parity: {cpp} against flexhrc, {args.seeds} seeds", file=sys.stderr)
-                parity_rows, parity_failures = parity(args.anchors, cpp, args.seeds)
-                print_parity(parity_rows, args.seeds)
+                parity_rows, parity_failures = parity(
+                    args.anchors, cpp, args.seeds, args.pure_python
+                )
+                print_parity(parity_rows, args.seeds, reader(args.pure_python))
     if args.parity_only:
         if args.json and parity_rows:
             args.json.parent.mkdir(parents=True, exist_ok=True)

@@ -8,8 +8,10 @@ cd "$(dirname "$0")/.."
 PY=${PYTHON:-python3}
 VENV=${VENV:-.venv}
 # graphviz: `dot` renders AND/OR graphs and behaviour networks to SVG/PNG;
-# chromium: the headless browser the operator panel's tests drive (through Playwright)
-DEBIAN_PACKAGES=(graphviz chromium)
+# chromium: the headless browser the operator panel's tests drive (through Playwright);
+# gcc, python3-dev: the install compiles the ANDOR reader's common case (optional: without them
+# the pure-Python reader does the reading)
+DEBIAN_PACKAGES=(graphviz chromium gcc python3-dev)
 
 missing=()
 for pkg in "${DEBIAN_PACKAGES[@]}"; do
@@ -31,7 +33,8 @@ if [ ! -x "$VENV/bin/python" ]; then
     "$PY" -m venv "$VENV"
 fi
 stamp="$VENV/.flexhrc-setup"
-want="$(sha256sum pyproject.toml | cut -d' ' -f1)"
+# (setup.py and the C source too: the compiled ANDOR reader is built by the install)
+want="$(cat pyproject.toml setup.py src/flexhrc/representation/formats/_andor_fast.c | sha256sum | cut -d' ' -f1)"
 if [ ! -f "$stamp" ] || [ "$(cat "$stamp")" != "$want" ]; then
     echo "setup: installing flexhrc and its extras into $VENV (first time: a few minutes)" >&2
     "$VENV/bin/python" -m pip install -q --upgrade pip

@@ -33,6 +33,7 @@ def _files(anchors: Path | None) -> list[Path]:
 def _slow(monkeypatch: pytest.MonkeyPatch, f: Path) -> HierarchicalGraph:
     """The hierarchy as the element-wise parse and the stat-based lookup make it."""
     with monkeypatch.context() as m:
+        m.setattr(andor_text, "_parse_compiled", None)
         m.setattr(andor_text, "_parse_flat", lambda *a: None)
         m.setattr(andor_text, "_find_listed", lambda *a: None)
         return load_andor_text(f)
@@ -42,9 +43,13 @@ def _lines(g: AndOrGraph) -> tuple[list[int | None], list[int | None]]:
     return [n.line for n in g.nodes.values()], [h.line for h in g.hyperarcs.values()]
 
 
+@pytest.mark.parametrize("compiled", [True, False], ids=["compiled", "python"])
 def test_flat_and_element_wise_parses_are_the_same(
-    anchors_dir: Path, monkeypatch: pytest.MonkeyPatch
+    anchors_dir: Path, monkeypatch: pytest.MonkeyPatch, compiled: bool
 ) -> None:
+    """The flat form, from the compiled reader (when it is built) or the Python fast path."""
+    if not compiled:
+        monkeypatch.setattr(andor_text, "_parse_compiled", None)
     flat_files = 0
     for f in _files(anchors_dir):
         try:

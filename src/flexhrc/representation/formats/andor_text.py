@@ -21,10 +21,13 @@ file stem.
 
 from __future__ import annotations
 
+import contextlib
 import os
+from collections.abc import Callable
 from dataclasses import replace
 from itertools import repeat
 from pathlib import Path
+from typing import Any
 
 from flexhrc.errors import FormatError
 from flexhrc.files import read_text
@@ -40,12 +43,21 @@ from flexhrc.representation.hierarchy import HierarchicalGraph
 
 SUFFIX = ".txt"
 
+# The common case compiled (``_andor_fast.c``, built on install when a C compiler is there):
+# the same flat form as :func:`_parse_flat`, or None for anything else, which the Python
+# reader then parses and judges. FLEXHRC_PURE_PYTHON=1 turns it off.
+_parse_compiled: Callable[[bytes], tuple[Any, ...] | None] | None
+if os.environ.get("FLEXHRC_PURE_PYTHON", "") not in ("", "0"):
+    _parse_compiled = None
+else:
+    try:
+        from flexhrc.representation.formats._andor_fast import parse as _parse_compiled
+    except ImportError:  # not built: the Python reader does it all
+        _parse_compiled = None
 
-def _rows(path: str | Path) -> tuple[list[list[str]], list[int] | range]:
-    """The non-blank lines of a file split into tokens (comments dropped), and their line
-    numbers. Each file is read once and split once; a file without comments or blank lines
-    (the common case) is tokenised by one comprehension, its line numbers a ``range``."""
-    text = None
+
+def _read(path: str | Path) -> bytes | None:
+    """The bytes of a file, or None when it cannot be read (the Python reader says why)."""
     try:
         # os-level reads: 4 system calls where open() makes 9 (fstat twice, a tty check,
         # seeks), which shows on the cold first call of a small graph
@@ -56,11 +68,20 @@ def _rows(path: str | Path) -> tuple[list[list[str]], list[int] | range]:
                 chunks.append(chunk)
         finally:
             os.close(fd)
-        data = chunks[0] if len(chunks) == 1 else b"".join(chunks)
-        if b"\x00" not in data:
+    except OSError:
+        return None
+    return chunks[0] if len(chunks) == 1 else b"".join(chunks)
+
+
+def _rows(path: str | Path, data: bytes | None) -> tuple[list[list[str]], list[int] | range]:
+    """The non-blank lines of a file (its ``data``, None if it could not be read) split into
+    tokens (comments dropped), and their line numbers. Each file is read once and split once;
+    a file without comments or blank lines (the common case) is tokenised by one
+    comprehension, its line numbers a ``range``."""
+    text = None
+    if data is not None and b"\x00" not in data:
+        with contextlib.suppress(UnicodeDecodeError):
             text = data.decode("utf-8").removeprefix("\ufeff")
-    except (OSError, UnicodeDecodeError):
-        pass
     if text is None:
         # the shared reader says why (missing, folder, unreadable, binary, not UTF-8)
         text = read_text(path)
@@ -100,7 +121,12 @@ def parse_graph(path: str | Path) -> tuple[AndOrGraph, list[tuple[str, int]]]:
     tests on the way); on any fault the full validation runs and names it, so the messages
     are the same. A graph that passes is marked validated and is not checked again.
     """
-    rows, nums = _rows(path)
+    data = _read(path)
+    if data is not None and _parse_compiled is not None:
+        compiled = _parse_compiled(data)
+        if compiled is not None:
+            return _from_compiled(path, compiled)
+    rows, nums = _rows(path, data)
     fast = _parse_flat(path, rows, nums)
     if fast is not None:
         return fast
@@ -271,6 +297,33 @@ def parse_graph(path: str | Path) -> tuple[AndOrGraph, list[tuple[str, int]]]:
         graph.mark_validated([*renamed, *warnings])
         return graph, refs
     graph.validate()  # raises the precise error
+    return graph, refs
+
+
+def _from_compiled(
+    path: str | Path, parsed: tuple[Any, ...]
+) -> tuple[AndOrGraph, list[tuple[str, int]]]:
+    """The graph of what the compiled reader returned (the flat form :func:`_parse_flat`
+    builds, the same warnings)."""
+    (name, root_name, nn, names, weights, children, parent, inc, lower, root, topo, leaves,
+     lines, root_line, dead, refs) = parsed  # fmt: skip
+    ix = Indexed(names, nn, weights, children, parent, inc, None, lower, root, topo, leaves, lines)
+    warnings = (
+        [
+            FormatError(
+                f"node {names[n]!r} is produced by a hyper-arc but used by none: it cannot "
+                f"contribute to the root {root_name!r}",
+                path,
+                lines[n],
+            )
+            for n in dead
+        ]
+        if dead
+        else []
+    )
+    graph = AndOrGraph.from_indexed(
+        name, root_name, path, ix, root_line=root_line, validated=warnings
+    )
     return graph, refs
 
 
