@@ -163,6 +163,24 @@ def test_mutated_files_are_declined_or_read_the_same(corpus: list[Path]) -> None
     assert accepted > 300 and declined > 300, (accepted, declined)
 
 
+def test_a_file_is_read_as_its_bytes_are(corpus: list[Path], tmp_path: Path) -> None:
+    for f in corpus:
+        assert fast.parse_file(f) == fast.parse(f.read_bytes()), f
+        assert fast.parse_file(str(f)) == fast.parse_file(f)
+    big = tmp_path / "big.txt"  # more than one read's worth (64 KiB)
+    n = 6000
+    lines = [f"big {n + 1} r", *(f"n{i} 0" for i in range(n)), "r 0"]
+    lines += [f"h{i} 1 r 1 -\nn{i}" for i in range(n)]
+    big.write_text("\n".join(lines) + "\n")
+    assert big.stat().st_size > 1 << 17
+    assert fast.parse_file(big) == fast.parse(big.read_bytes()) is not None
+    # what it cannot read is the Python reader's to report
+    for bad in (tmp_path / "missing.txt", tmp_path, "a\x00b", b"\xff\xfe"):
+        assert fast.parse_file(bad) is None
+    with pytest.raises(TypeError):
+        fast.parse_file(3)  # type: ignore[arg-type]
+
+
 def test_junk_is_declined() -> None:
     for data in (b"", b"\n\n", b"g 1 r", b"g 0 r\nr 0\nh 1 r 1 -\nr\n", b"\x00" * 10,
                  b"g 1 r\nr 0\n", b"g 99999999999 r\nr 0\nh 1 r 0 -\nx\n"):  # fmt: skip

@@ -18,8 +18,11 @@
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
+#include <errno.h>
+#include <fcntl.h>
 #include <stdint.h>
 #include <string.h>
+#include <unistd.h>
 
 typedef struct {
     const char *s;
@@ -98,6 +101,21 @@ table_add(Table *tb, Py_ssize_t id)
 }
 
 /* ------------------------------------------------------------------ helpers -------- */
+/* The weights of the authors' files are small integers: one float object per value, made at
+ * import (float() would make one per element). */
+#define N_SMALL_FLOATS 256
+static PyObject *small_floats[N_SMALL_FLOATS];
+
+static PyObject *
+weight_obj(int64_t v)
+{
+    if (v < N_SMALL_FLOATS) {
+        Py_INCREF(small_floats[v]);
+        return small_floats[v];
+    }
+    return PyFloat_FromDouble((double)v);
+}
+
 static int
 all_digits(const Tok *t)
 {
@@ -135,13 +153,30 @@ tok_str(const Tok *t)
     return PyUnicode_DecodeASCII(t->s, t->n, NULL);
 }
 
+/* A tuple of ints and strings can be in no reference cycle: the cyclic collector need not track
+ * it (it finds that out itself in its first pass over it, after scanning it once). A graph has
+ * a tuple per node and per hyper-arc: tracked, they alone make a load cross the collector's
+ * threshold and pay a pass. */
+static void
+untrack(PyObject *t)
+{
+    if (t != NULL && PyObject_GC_IsTracked(t)) {
+        PyObject_GC_UnTrack(t);
+    }
+}
+
 /* Tokens and non-blank rows, as str.split() of each line of str.splitlines() gives them for
  * the texts accepted here; 0 for a text this reader leaves to Python. */
 static int
 tokenize(const char *s, Py_ssize_t n, Tok **toks_out, Py_ssize_t *ntok, Row **rows_out,
          Py_ssize_t *nrows)
 {
-    Py_ssize_t cap_t = n / 2 + 2, cap_r = n / 2 + 2;
+    /* a row has at most 5 tokens in a file read here (more: declined below) */
+    Py_ssize_t cap_r = 1;
+    for (const char *q = s; (q = memchr(q, '\n', (size_t)(s + n - q))) != NULL; q++) {
+        cap_r++;
+    }
+    Py_ssize_t cap_t = 5 * cap_r;
     Tok *toks = PyMem_Malloc((size_t)cap_t * sizeof(Tok));
     Row *rows = PyMem_Malloc((size_t)cap_r * sizeof(Row));
     if (toks == NULL || rows == NULL) {
@@ -182,6 +217,9 @@ tokenize(const char *s, Py_ssize_t n, Tok **toks_out, Py_ssize_t *ntok, Row **ro
         }
         if (c < 0x20 || c >= 0x80 || c == '#') {
             goto refuse; /* control characters, non-ASCII, comments: Python's business */
+        }
+        if (nt - row_first == 5) {
+            goto refuse; /* a sixth field: no line of an ANDOR file has one */
         }
         Py_ssize_t start = i;
         while (i < n) {
@@ -369,12 +407,12 @@ build(const Tok *toks, const Row *rows, Py_ssize_t nrows)
     PyObject *o_names = PyList_New(size), *o_weights = PyList_New(size);
     PyObject *o_children = PyList_New(size), *o_parent = PyList_New(size);
     PyObject *o_inc = PyList_New(size), *o_lower = PyList_New(0), *o_refs = PyList_New(0);
-    PyObject *o_topo = PyList_New(0), *o_leaves = PyList_New(0), *o_lines = PyList_New(size);
+    PyObject *o_topo = NULL, *o_leaves = NULL, *o_lines = PyList_New(size);
     PyObject *o_dead = PyList_New(0), *empty = PyTuple_New(0);
     PyObject *o_name = tok_str(&head[0]), *o_root_name = tok_str(&head[2]);
     PyObject *zero = PyFloat_FromDouble(0.0), *minus = PyLong_FromLong(-1);
     if (!o_names || !o_weights || !o_children || !o_parent || !o_inc || !o_lower || !o_refs ||
-        !o_topo || !o_leaves || !o_lines || !o_dead || !empty || !o_name || !o_root_name ||
+        !o_lines || !o_dead || !empty || !o_name || !o_root_name ||
         !zero || !minus) {
         goto fail;
     }
@@ -404,7 +442,7 @@ build(const Tok *toks, const Row *rows, Py_ssize_t nrows)
             PyList_SET_ITEM(o_weights, x, zero);
         }
         else {
-            SET(o_weights, x, PyFloat_FromDouble((double)digits_value(w)));
+            SET(o_weights, x, weight_obj(digits_value(w)));
         }
         Py_INCREF(empty);
         PyList_SET_ITEM(o_children, x, empty);
@@ -421,11 +459,12 @@ build(const Tok *toks, const Row *rows, Py_ssize_t nrows)
             }
             PyTuple_SET_ITEM(t, d, v);
         }
+        untrack(t);
         PyList_SET_ITEM(o_inc, x, t);
     }
     for (Py_ssize_t a = nn; a < size; a++) {
         const Tok *h = &toks[arc_tok[a]];
-        SET(o_weights, a, PyFloat_FromDouble((double)digits_value(&h[3])));
+        SET(o_weights, a, weight_obj(digits_value(&h[3])));
         Py_ssize_t m = child_off[a + 1] - child_off[a];
         PyObject *t = PyTuple_New(m);
         if (t == NULL) goto fail;
@@ -437,6 +476,7 @@ build(const Tok *toks, const Row *rows, Py_ssize_t nrows)
             }
             PyTuple_SET_ITEM(t, d, v);
         }
+        untrack(t);
         PyList_SET_ITEM(o_children, a, t);
         SET(o_parent, a, PyLong_FromSsize_t(parent[a]));
         Py_INCREF(empty);
@@ -444,26 +484,44 @@ build(const Tok *toks, const Row *rows, Py_ssize_t nrows)
         if (!(h[4].n == 1 && h[4].s[0] == '-')) {
             PyObject *low = tok_str(&h[4]);
             if (low == NULL) goto fail;
-            APPEND(o_lower, Py_BuildValue("(nO)", a, low));
-            APPEND(o_refs, Py_BuildValue("(Ol)", low, lines[a]));
+            PyObject *pair = Py_BuildValue("(nO)", a, low);
+            untrack(pair);
+            APPEND(o_lower, pair);
+            pair = Py_BuildValue("(Ol)", low, lines[a]);
+            untrack(pair);
+            APPEND(o_refs, pair);
             Py_DECREF(low);
         }
     }
     /* the leaves in id order, then each hyper-arc and, after the last hyper-arc into it, its
      * parent: a topological order when children come before the hyper-arcs using them */
+    Py_ssize_t n_leaves = 0, n_topo = 0;
+    for (Py_ssize_t x = 0; x < nn; x++) {
+        n_leaves += last[x] < 0;
+    }
+    o_leaves = PyList_New(n_leaves);
+    o_topo = PyList_New(size); /* every node once (a leaf first, else after its last arc) */
+    if (o_leaves == NULL || o_topo == NULL) {
+        goto fail;
+    }
+    n_leaves = 0;
     for (Py_ssize_t x = 0; x < nn; x++) {
         if (last[x] < 0) {
-            APPEND(o_leaves, PyLong_FromSsize_t(x));
-            APPEND(o_topo, PyLong_FromSsize_t(x));
+            SET(o_leaves, n_leaves, PyLong_FromSsize_t(x));
+            n_leaves++;
+            SET(o_topo, n_topo, PyLong_FromSsize_t(x));
+            n_topo++;
         }
         else if (!consumed[x] && x != root) {
             APPEND(o_dead, PyLong_FromSsize_t(x)); /* produced, used by none: a dead end */
         }
     }
     for (Py_ssize_t a = nn; a < size; a++) {
-        APPEND(o_topo, PyLong_FromSsize_t(a));
+        SET(o_topo, n_topo, PyLong_FromSsize_t(a));
+        n_topo++;
         if (last[parent[a]] == a) {
-            APPEND(o_topo, PyLong_FromSsize_t(parent[a]));
+            SET(o_topo, n_topo, PyLong_FromSsize_t(parent[a]));
+            n_topo++;
         }
     }
     result = Py_BuildValue("(NNnNNNNNNnNNNlNN)", o_name, o_root_name, nn, o_names, o_weights,
@@ -538,7 +596,73 @@ parse(PyObject *module, PyObject *arg)
     return r;
 }
 
+/* The bytes of a file; NULL without an exception when it cannot be read (the Python reader
+ * then reads it and says why), with a TypeError when ``path`` is no path at all. */
+static PyObject *
+read_file(PyObject *path)
+{
+    PyObject *encoded = NULL;
+    if (!PyUnicode_FSConverter(path, &encoded)) {
+        if (!PyErr_ExceptionMatches(PyExc_TypeError)) {
+            PyErr_Clear(); /* a path os.open() would refuse too (a NUL in it): Python's */
+        }
+        return NULL;
+    }
+    int fd;
+    do {
+        fd = open(PyBytes_AS_STRING(encoded), O_RDONLY | O_CLOEXEC);
+    } while (fd < 0 && errno == EINTR);
+    Py_DECREF(encoded);
+    if (fd < 0) {
+        return NULL;
+    }
+    Py_ssize_t cap = 1 << 16, len = 0;
+    PyObject *buf = PyBytes_FromStringAndSize(NULL, cap);
+    while (buf != NULL) {
+        if (len == cap) {
+            cap *= 2;
+            if (_PyBytes_Resize(&buf, cap) < 0) {
+                break; /* (buf is NULL now) */
+            }
+        }
+        ssize_t got = read(fd, PyBytes_AS_STRING(buf) + len, (size_t)(cap - len));
+        if (got < 0 && errno == EINTR) {
+            continue;
+        }
+        if (got < 0) {
+            Py_CLEAR(buf);
+            break;
+        }
+        if (got == 0) {
+            _PyBytes_Resize(&buf, len);
+            break;
+        }
+        len += got;
+    }
+    close(fd);
+    PyErr_Clear();
+    return buf;
+}
+
+static PyObject *
+parse_file(PyObject *module, PyObject *path)
+{
+    PyObject *data = read_file(path);
+    if (data == NULL) {
+        if (PyErr_Occurred()) {
+            return NULL;
+        }
+        Py_RETURN_NONE;
+    }
+    PyObject *r = parse(module, data);
+    Py_DECREF(data);
+    return r;
+}
+
 static PyMethodDef methods[] = {
+    {"parse_file", parse_file, METH_O,
+     "parse_file(path) -> what parse() gives for the file's bytes; None when it cannot be "
+     "read."},
     {"parse", parse, METH_O,
      "parse(data) -> (name, root name, number of nodes, names, weights, children, parent, "
      "incoming, lower, root id, topological order, leaves, lines, header line, dead ends, "
@@ -556,5 +680,10 @@ static struct PyModuleDef module_def = {
 PyMODINIT_FUNC
 PyInit__andor_fast(void)
 {
+    for (int v = 0; v < N_SMALL_FLOATS; v++) {
+        if (small_floats[v] == NULL && (small_floats[v] = PyFloat_FromDouble(v)) == NULL) {
+            return NULL;
+        }
+    }
     return PyModule_Create(&module_def);
 }

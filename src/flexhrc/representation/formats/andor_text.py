@@ -44,14 +44,15 @@ from flexhrc.representation.hierarchy import HierarchicalGraph
 SUFFIX = ".txt"
 
 # The common case compiled (``_andor_fast.c``, built on install when a C compiler is there):
-# the same flat form as :func:`_parse_flat`, or None for anything else, which the Python
-# reader then parses and judges. FLEXHRC_PURE_PYTHON=1 turns it off.
-_parse_compiled: Callable[[bytes], tuple[Any, ...] | None] | None
+# a file read and parsed into the same flat form as :func:`_parse_flat`, or None for anything
+# else (a file it cannot read too), which the Python reader then reads, parses and judges.
+# FLEXHRC_PURE_PYTHON=1 turns it off.
+_parse_compiled: Callable[[str | Path], tuple[Any, ...] | None] | None
 if os.environ.get("FLEXHRC_PURE_PYTHON", "") not in ("", "0"):
     _parse_compiled = None
 else:
     try:
-        from flexhrc.representation.formats._andor_fast import parse as _parse_compiled
+        from flexhrc.representation.formats._andor_fast import parse_file as _parse_compiled
     except ImportError:  # not built: the Python reader does it all
         _parse_compiled = None
 
@@ -121,11 +122,11 @@ def parse_graph(path: str | Path) -> tuple[AndOrGraph, list[tuple[str, int]]]:
     tests on the way); on any fault the full validation runs and names it, so the messages
     are the same. A graph that passes is marked validated and is not checked again.
     """
-    data = _read(path)
-    if data is not None and _parse_compiled is not None:
-        compiled = _parse_compiled(data)
+    if _parse_compiled is not None:
+        compiled = _parse_compiled(path)
         if compiled is not None:
             return _from_compiled(path, compiled)
+    data = _read(path)
     rows, nums = _rows(path, data)
     fast = _parse_flat(path, rows, nums)
     if fast is not None:
