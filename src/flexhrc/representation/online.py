@@ -886,13 +886,17 @@ class OnlineGraph:
         p = self._parent[h]
         if self._node_feasible(p):
             self._add_feasible(p)
+        # h's cost first: its inside cost drops to 0, so do the costs above it, up to the
+        # root. The alternatives blocked next (their inside cost INF) then stop where they meet
+        # h's way up (an OR node keeps its cheapest arc: h), instead of each walking the whole
+        # way up and h undoing it; the final costs are the same in either order.
+        if self._inside[h]:  # a solved hyper-arc's inside cost is 0
+            self._propagate(h)
         # Algorithm 2, lines 8-13: alternatives sharing a child with h become infeasible
         for c in self._children[h]:
             for other in self._out[c]:
                 if other != h and not self._blocked[other] and not self._done[other]:
                     self._block(other)
-        if self._inside[h]:  # a solved hyper-arc's inside cost is 0
-            self._propagate(h)
 
     def _block(self, e: int) -> None:
         # a blocked node blocks the hyper-arcs that consume it (one level: arcs block nothing)
