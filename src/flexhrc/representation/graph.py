@@ -138,6 +138,17 @@ class Indexed:
         return out
 
 
+def dead_end(node: str, root: str, source: str | Path | None, line: int | None) -> FormatError:
+    """The warning about a node some hyper-arc produces and none uses (:meth:`AndOrGraph.
+    validate` and the readers that make its checks as they parse: one message)."""
+    return FormatError(
+        f"node {node!r} is produced by a hyper-arc but used by none: it cannot contribute to "
+        f"the root {root!r}",
+        source,
+        line,
+    )
+
+
 def consumers(n_nodes: int, children: list[tuple[int, ...]]) -> list[tuple[int, ...]]:
     """Per element: the hyper-arcs that have it among their children (only nodes have any)."""
     out: list[tuple[int, ...]] = [()] * len(children)
@@ -515,12 +526,7 @@ class AndOrGraph:
             raise FormatError(f"cycle: {' -> '.join(cycle)}", src, h.line)
         produced = {h.parent for h in self.hyperarcs.values()}
         return [*self.load_warnings] + [
-            FormatError(
-                f"node {n!r} is produced by a hyper-arc but used by none: it cannot contribute "
-                f"to the root {self.root!r}",
-                src,
-                self.nodes[n].line,
-            )
+            dead_end(n, self.root, src, self.nodes[n].line)
             for n in tops
             if n != self.root and n in produced
         ]

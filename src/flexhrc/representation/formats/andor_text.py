@@ -37,6 +37,7 @@ from flexhrc.representation.graph import (
     Indexed,
     Node,
     consumers,
+    dead_end,
     dp_order,
 )
 from flexhrc.representation.hierarchy import HierarchicalGraph
@@ -286,12 +287,7 @@ def parse_graph(path: str | Path) -> tuple[AndOrGraph, list[tuple[str, int]]]:
         dead = produced - consumed
         dead.discard(root)
         warnings = [
-            FormatError(
-                f"node {n!r} is produced by a hyper-arc but used by none: it cannot "
-                f"contribute to the root {root!r}",
-                path,
-                nodes[n].line,
-            )
+            dead_end(n, root, path, nodes[n].line)
             for n in (nodes if dead else ())  # in node order, as validate() lists them
             if n in dead
         ]
@@ -309,23 +305,19 @@ def _from_compiled(
     (name, root_name, nn, names, weights, children, parent, inc, lower, root, topo, leaves,
      lines, root_line, dead, refs) = parsed  # fmt: skip
     ix = Indexed(names, nn, weights, children, parent, inc, None, lower, root, topo, leaves, lines)
-    warnings = (
-        [
-            FormatError(
-                f"node {names[n]!r} is produced by a hyper-arc but used by none: it cannot "
-                f"contribute to the root {root_name!r}",
-                path,
-                lines[n],
-            )
-            for n in dead
-        ]
-        if dead
-        else []
-    )
-    graph = AndOrGraph.from_indexed(
+    return _flat_graph(path, name, root_name, ix, root_line, dead), refs
+
+
+def _flat_graph(
+    path: str | Path, name: str, root_name: str, ix: Indexed, root_line: int, dead: list[int]
+) -> AndOrGraph:
+    """A graph held in the flat form a fast path built, every check of ``validate()`` made:
+    its warnings are the dead ends (``dead``: node ids, in id order)."""
+    names, lines = ix.names, ix.lines
+    warnings = [dead_end(names[n], root_name, path, lines[n]) for n in dead] if dead else []
+    return AndOrGraph.from_indexed(
         name, root_name, path, ix, root_line=root_line, validated=warnings
     )
-    return graph, refs
 
 
 def _parse_flat(
@@ -444,23 +436,7 @@ def _parse_flat(
     # dead ends (produced, consumed by none, not the root): warnings, in node order
     dead = last.keys() - consumed
     dead.discard(root)
-    warnings = (
-        [
-            FormatError(
-                f"node {names[n]!r} is produced by a hyper-arc but used by none: it cannot "
-                f"contribute to the root {root_name!r}",
-                path,
-                lines[n],
-            )
-            for n in sorted(dead)
-        ]
-        if dead
-        else []
-    )
-    graph = AndOrGraph.from_indexed(
-        name, root_name, path, ix, root_line=nums[0], validated=warnings
-    )
-    return graph, refs
+    return _flat_graph(path, name, root_name, ix, nums[0], sorted(dead)), refs
 
 
 def _resolve(ref: str, including_dir: str, top_dir: str, is_dir: dict[str, bool]) -> str | None:
