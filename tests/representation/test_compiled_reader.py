@@ -165,7 +165,10 @@ def test_mutated_files_are_declined_or_read_the_same(corpus: list[Path]) -> None
 
 def test_a_file_is_read_as_its_bytes_are(corpus: list[Path], tmp_path: Path) -> None:
     for f in corpus:
-        assert fast.parse_file(f) == fast.parse(f.read_bytes()), f
+        data = f.read_bytes()
+        parsed = fast.parse(data)
+        # what it declines comes back as the bytes it read (the Python reader's to parse)
+        assert fast.parse_file(f) == (data if parsed is None else parsed), f
         assert fast.parse_file(str(f)) == fast.parse_file(f)
     big = tmp_path / "big.txt"  # more than one read's worth (64 KiB)
     n = 6000

@@ -3,6 +3,7 @@
  * uses it when it is built (it is optional; the pure-Python reader is the reference).
  *
  * parse(data: bytes) -> tuple | None
+ * parse_file(path) -> tuple | bytes | None   (the bytes it read and declined; None: unreadable)
  *
  * Reads one ANDOR text file that the pure-Python fast path (andor_text._parse_flat) accepts --
  * plain names, integer weights, no repeated name, children listed before the hyper-arcs that
@@ -163,6 +164,31 @@ untrack(PyObject *t)
     if (t != NULL && PyObject_GC_IsTracked(t)) {
         PyObject_GC_UnTrack(t);
     }
+}
+
+/* An untracked tuple of the ``m`` ids at ``ids`` (``empty`` when there are none); NULL on
+ * failure. */
+static PyObject *
+id_tuple(const Py_ssize_t *ids, Py_ssize_t m, PyObject *empty)
+{
+    if (m == 0) {
+        Py_INCREF(empty);
+        return empty;
+    }
+    PyObject *t = PyTuple_New(m);
+    if (t == NULL) {
+        return NULL;
+    }
+    for (Py_ssize_t d = 0; d < m; d++) {
+        PyObject *v = PyLong_FromSsize_t(ids[d]);
+        if (v == NULL) {
+            Py_DECREF(t);
+            return NULL;
+        }
+        PyTuple_SET_ITEM(t, d, v);
+    }
+    untrack(t);
+    return t;
 }
 
 /* Tokens and non-blank rows, as str.split() of each line of str.splitlines() gives them for
@@ -448,36 +474,13 @@ build(const Tok *toks, const Row *rows, Py_ssize_t nrows)
         PyList_SET_ITEM(o_children, x, empty);
         Py_INCREF(minus);
         PyList_SET_ITEM(o_parent, x, minus);
-        Py_ssize_t m = inc_off[x + 1] - inc_off[x];
-        PyObject *t = m ? PyTuple_New(m) : (Py_INCREF(empty), empty);
-        if (t == NULL) goto fail;
-        for (Py_ssize_t d = 0; d < m; d++) {
-            PyObject *v = PyLong_FromSsize_t(inc_ids[inc_off[x] + d]);
-            if (v == NULL) {
-                Py_DECREF(t);
-                goto fail;
-            }
-            PyTuple_SET_ITEM(t, d, v);
-        }
-        untrack(t);
-        PyList_SET_ITEM(o_inc, x, t);
+        SET(o_inc, x, id_tuple(inc_ids + inc_off[x], inc_off[x + 1] - inc_off[x], empty));
     }
     for (Py_ssize_t a = nn; a < size; a++) {
         const Tok *h = &toks[arc_tok[a]];
         SET(o_weights, a, weight_obj(digits_value(&h[3])));
-        Py_ssize_t m = child_off[a + 1] - child_off[a];
-        PyObject *t = PyTuple_New(m);
-        if (t == NULL) goto fail;
-        for (Py_ssize_t d = 0; d < m; d++) {
-            PyObject *v = PyLong_FromSsize_t(child_ids[child_off[a] + d]);
-            if (v == NULL) {
-                Py_DECREF(t);
-                goto fail;
-            }
-            PyTuple_SET_ITEM(t, d, v);
-        }
-        untrack(t);
-        PyList_SET_ITEM(o_children, a, t);
+        SET(o_children, a,
+            id_tuple(child_ids + child_off[a], child_off[a + 1] - child_off[a], empty));
         SET(o_parent, a, PyLong_FromSsize_t(parent[a]));
         Py_INCREF(empty);
         PyList_SET_ITEM(o_inc, a, empty);
@@ -485,12 +488,15 @@ build(const Tok *toks, const Row *rows, Py_ssize_t nrows)
             PyObject *low = tok_str(&h[4]);
             if (low == NULL) goto fail;
             PyObject *pair = Py_BuildValue("(nO)", a, low);
-            untrack(pair);
-            APPEND(o_lower, pair);
-            pair = Py_BuildValue("(Ol)", low, lines[a]);
-            untrack(pair);
-            APPEND(o_refs, pair);
+            PyObject *ref = Py_BuildValue("(Ol)", low, lines[a]);
             Py_DECREF(low);
+            untrack(pair);
+            untrack(ref);
+            int bad = pair == NULL || ref == NULL || PyList_Append(o_lower, pair) < 0 ||
+                      PyList_Append(o_refs, ref) < 0;
+            Py_XDECREF(pair);
+            Py_XDECREF(ref);
+            if (bad) goto fail;
         }
     }
     /* the leaves in id order, then each hyper-arc and, after the last hyper-arc into it, its
@@ -655,14 +661,18 @@ parse_file(PyObject *module, PyObject *path)
         Py_RETURN_NONE;
     }
     PyObject *r = parse(module, data);
-    Py_DECREF(data);
-    return r;
+    if (r != Py_None) {
+        Py_DECREF(data);
+        return r; /* (or NULL: an error) */
+    }
+    Py_DECREF(r);
+    return data; /* declined: the Python reader takes the bytes from here, no second read */
 }
 
 static PyMethodDef methods[] = {
     {"parse_file", parse_file, METH_O,
-     "parse_file(path) -> what parse() gives for the file's bytes; None when it cannot be "
-     "read."},
+     "parse_file(path) -> what parse() gives for the file's bytes, or the bytes when parse() "
+     "declines them; None when the file cannot be read."},
     {"parse", parse, METH_O,
      "parse(data) -> (name, root name, number of nodes, names, weights, children, parent, "
      "incoming, lower, root id, topological order, leaves, lines, header line, dead ends, "

@@ -45,10 +45,10 @@ from flexhrc.representation.hierarchy import HierarchicalGraph
 SUFFIX = ".txt"
 
 # The common case compiled (``_andor_fast.c``, built on install when a C compiler is there):
-# a file read and parsed into the same flat form as :func:`_parse_flat`, or None for anything
-# else (a file it cannot read too), which the Python reader then reads, parses and judges.
+# a file read and parsed into the same flat form as :func:`_parse_flat`; for anything else the
+# bytes it read (None: it could not read them), which the Python reader then parses and judges.
 # FLEXHRC_PURE_PYTHON=1 turns it off.
-_parse_compiled: Callable[[str | Path], tuple[Any, ...] | None] | None
+_parse_compiled: Callable[[str | Path], tuple[Any, ...] | bytes | None] | None
 if os.environ.get("FLEXHRC_PURE_PYTHON", "") not in ("", "0"):
     _parse_compiled = None
 else:
@@ -123,11 +123,14 @@ def parse_graph(path: str | Path) -> tuple[AndOrGraph, list[tuple[str, int]]]:
     tests on the way); on any fault the full validation runs and names it, so the messages
     are the same. A graph that passes is marked validated and is not checked again.
     """
+    data = None
     if _parse_compiled is not None:
         compiled = _parse_compiled(path)
-        if compiled is not None:
+        if isinstance(compiled, tuple):
             return _from_compiled(path, compiled)
-    data = _read(path)
+        data = compiled  # the bytes it read and left to the Python reader (None: unreadable)
+    if data is None:
+        data = _read(path)
     rows, nums = _rows(path, data)
     fast = _parse_flat(path, rows, nums)
     if fast is not None:
