@@ -95,6 +95,16 @@ def check_agent_name(domain: Domain, name: str, kind: str, option: str) -> None:
     )
 
 
+def check_profile(profile: str) -> None:
+    """``profile`` is one of the operator :data:`HUMAN_PROFILES`, or one
+    :class:`~flexhrc.errors.FlexhrcError` naming ``--profile`` and the choices."""
+    if profile not in HUMAN_PROFILES:
+        raise FlexhrcError(
+            f"--profile {profile!r}: unknown operator profile; choose one of "
+            f"{', '.join(HUMAN_PROFILES)}"
+        )
+
+
 def world_of(kb: KnowledgeBase) -> dict[str, Any]:
     """The part of the knowledge base an agent needs to act: positions and facts."""
     return {
@@ -349,11 +359,7 @@ class HumanAgent(_Agent):
         execution: ExecutionModel | None = None,
         trace: Callable[[str], None] | None = None,
     ) -> None:
-        if profile not in HUMAN_PROFILES:
-            raise FlexhrcError(
-                f"--profile {profile!r}: unknown operator profile; choose one of "
-                f"{', '.join(HUMAN_PROFILES)}"
-            )
+        check_profile(profile)
         super().__init__(
             name, scenario, transport, execution=execution or AnalyticSimulator(), trace=trace
         )

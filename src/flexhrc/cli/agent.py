@@ -89,13 +89,9 @@ def cmd_agent(args: argparse.Namespace) -> int:
     opt = "--arm" if args.agent_kind == "robot" else "--name"
     check_agent_name(scenario.domain(), name, args.agent_kind, opt)
     if args.agent_kind == "human":
-        from flexhrc.cell.components import HUMAN_PROFILES
+        from flexhrc.cell.components import check_profile
 
-        if args.profile not in HUMAN_PROFILES:
-            raise FlexhrcError(
-                f"--profile {args.profile!r}: unknown operator profile; choose one of "
-                f"{', '.join(HUMAN_PROFILES)}"
-            )
+        check_profile(args.profile)
     if getattr(args, "journal", None):
         from flexhrc.files import check_output
 

@@ -238,17 +238,13 @@ def cmd_arm(args: argparse.Namespace) -> int:
 
 def cmd_human(args: argparse.Namespace) -> int:
     from flexhrc.cell import HumanAgent, load_scenario
-    from flexhrc.cell.components import HUMAN_PROFILES, check_agent_name
+    from flexhrc.cell.components import check_agent_name, check_profile
     from flexhrc.ros2.transport import ros_topic
 
     scenario = load_scenario(args.scenario, seed=args.seed)
     ros_topic("", args.name)
     check_agent_name(scenario.domain(), args.name, "human", "--name")  # before the network
-    if args.profile not in HUMAN_PROFILES:
-        raise FlexhrcError(
-            f"--profile {args.profile!r}: unknown operator profile; choose one of "
-            f"{', '.join(HUMAN_PROFILES)}"
-        )
+    check_profile(args.profile)
     progress = _progress(args)
 
     def say(line: str) -> None:
