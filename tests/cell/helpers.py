@@ -21,6 +21,24 @@ TABLE_LEFT_ONLY = (
 TABLE_HUMAN_BOLT = "scenario: table_assembly\nunreachable_bolts: [2]\n"  # the operator screws it
 
 
+class Crash(Exception):
+    """The manager 'dies' here (a test's pump raises it after so many stored events)."""
+
+
+def pump_of(cell: Any, bus: Any, agents: list[Any], limit: int | None = None) -> Any:
+    """The pump of an in-process cell: deliver the bus, let every agent act; raises
+    :class:`Crash` once the cell has stored ``limit`` events."""
+
+    def pump(timeout: float) -> None:
+        if limit is not None and len(cell.events) >= limit:
+            raise Crash
+        bus.flush()
+        for a in agents:
+            a.poll()
+
+    return pump
+
+
 def flexhrc(*args: str, log: Path | None = None) -> subprocess.Popen[str]:
     """Start ``python -m flexhrc ARGS``: stdout piped, stderr to ``log`` (or piped)."""
     err: Any = open(log, "w") if log is not None else subprocess.PIPE  # noqa: SIM115

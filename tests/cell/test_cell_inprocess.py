@@ -15,6 +15,7 @@ from flexhrc.cell.components import execution_model
 from flexhrc.transport import InProcessBus
 
 from ..conftest import subprocess_env
+from .helpers import Crash, pump_of
 
 
 def run_cli(*args: str, timeout: float = 120) -> subprocess.CompletedProcess[str]:
@@ -90,13 +91,7 @@ def test_snapshot_is_json_and_human_input_drives_the_manager() -> None:
 def test_parallel_scenario_uses_every_arm() -> None:
     scenario = load_scenario("parallel_assembly")
     cell, agents, bus = _cell(scenario)
-
-    def pump(timeout: float) -> None:
-        bus.flush()
-        for a in agents:
-            a.poll()
-
-    data = cell.run(pump=pump)
+    data = cell.run(pump=pump_of(cell, bus, agents))
     assert data["outcome"] == "solved"
     arms = [a for a in data["legs_by_agent"] if a.startswith("arm")]
     assert len(arms) == 6 and all(data["legs_by_agent"][a] >= 1 for a in arms)
@@ -140,10 +135,6 @@ def test_scenario_file_errors_name_the_file(tmp_path: Path) -> None:
     assert res.returncode == 2 and "s.yaml" in res.stderr and "legz" in res.stderr
 
 
-class Crash(Exception):
-    pass
-
-
 @pytest.mark.parametrize("crash_after", [6, 33, 50])  # 33: the suggestion is open
 def test_resume_in_one_process_ends_like_the_uninterrupted_run(
     tmp_path: Path, crash_after: int
@@ -156,18 +147,8 @@ def test_resume_in_one_process_ends_like_the_uninterrupted_run(
 
     scenario = TableScenario(unreachable_bolts=(2,))
 
-    def pumped(cell: Cell, agents: list[Any], bus: InProcessBus, limit: int | None) -> Any:
-        def pump(timeout: float) -> None:
-            if limit is not None and len(cell.events) >= limit:
-                raise Crash
-            bus.flush()
-            for a in agents:
-                a.poll()
-
-        return pump
-
     ref_cell, ref_agents, ref_bus = _cell(scenario)
-    ref = ref_cell.run(pump=pumped(ref_cell, ref_agents, ref_bus, None))
+    ref = ref_cell.run(pump=pump_of(ref_cell, ref_bus, ref_agents))
     assert ref["human_actions"] == 2
 
     path = tmp_path / "s.db"
@@ -181,7 +162,7 @@ def test_resume_in_one_process_ends_like_the_uninterrupted_run(
         for a in scenario.domain().agents.values()
     ]
     with pytest.raises(Crash):
-        cell.run(pump=pumped(cell, agents, bus, crash_after))
+        cell.run(pump=pump_of(cell, bus, agents, crash_after))
     store.close()
     n = len(read_store(path))
     store = EventStore(path, resume=True)
@@ -201,7 +182,7 @@ def test_resume_in_one_process_ends_like_the_uninterrupted_run(
         )
         for a in scenario.domain().agents.values()
     ]
-    data = again.run(pump=pumped(again, agents2, bus2, None))
+    data = again.run(pump=pump_of(again, bus2, agents2))
     store.close()
     assert data["outcome"] == "solved" and data["cell"]["resumed"]
     assert data["knowledge"] == ref["knowledge"]
@@ -232,13 +213,7 @@ def test_a_lost_command_is_sent_again_and_executed_once() -> None:
         )
         for a in scenario.domain().agents.values()
     ]
-
-    def pump(timeout: float) -> None:
-        bus.flush()
-        for a in agents:
-            a.poll()
-
-    data = cell.run(pump=pump)
+    data = cell.run(pump=pump_of(cell, bus, agents))
     assert data["outcome"] == "solved" and bus.lost == 1
     assert data["cell"]["resent"] == 1
     executed = [i for a in agents if isinstance(a, RobotAgent) for i in a.executed]

@@ -18,9 +18,7 @@ from flexhrc.cell.components import execution_model
 from flexhrc.cell.store import read_store
 from flexhrc.transport import InProcessBus
 
-
-class Crash(Exception):
-    pass
+from .helpers import Crash, pump_of
 
 
 def _agents(scenario: Any, bus: InProcessBus, profile: str, seed: int) -> list[Any]:
@@ -36,17 +34,6 @@ def _agents(scenario: Any, bus: InProcessBus, profile: str, seed: int) -> list[A
     return out
 
 
-def _pump(cell: Cell, bus: InProcessBus, agents: list[Any], limit: int | None = None) -> Any:
-    def pump(timeout: float) -> None:
-        if limit is not None and len(cell.events) >= limit:
-            raise Crash
-        bus.flush()
-        for a in agents:
-            a.poll()
-
-    return pump
-
-
 def _run(profile: str, seed: int = 0, store: EventStore | None = None) -> tuple[dict, Cell]:
     scenario = load_scenario("table_assembly", seed=seed)
     bus = InProcessBus()
@@ -56,7 +43,7 @@ def _run(profile: str, seed: int = 0, store: EventStore | None = None) -> tuple[
     )  # fmt: skip
     agents = _agents(scenario, bus, profile, seed)
     bus.flush()  # the operator's profile reaches the cell before the start
-    data = cell.run(pump=_pump(cell, bus, agents))
+    data = cell.run(pump=pump_of(cell, bus, agents))
     return data, cell
 
 
@@ -122,7 +109,7 @@ def test_a_resumed_cell_decides_with_its_operator_as_before(
     )  # fmt: skip
     bus.flush()
     with pytest.raises(Crash):
-        cell.run(pump=_pump(cell, bus, agents, crash_after))
+        cell.run(pump=pump_of(cell, bus, agents, crash_after))
     cell.close()
     store.close()
     n = len(read_store(path))
@@ -131,7 +118,7 @@ def test_a_resumed_cell_decides_with_its_operator_as_before(
         scenario, bus, store=store, resume=True, liveliness=False,
         simulator=execution_model("analytic"), seed=1,
     )  # fmt: skip
-    data = again.run(pump=_pump(again, bus, agents))
+    data = again.run(pump=pump_of(again, bus, agents))
     store.close()
     assert data["outcome"] == "solved" and data["cell"]["resumed"]
     assert data["knowledge"] == ref["knowledge"]
@@ -197,7 +184,7 @@ def test_bad_intents_and_options_are_dropped_and_logged() -> None:
                                           "steps": [{"step": "s", "arcs": "all"}]})  # fmt: skip
     bus.flush()
     assert human.dropped == 1 and not human.intents
-    data = cell.run(pump=_pump(cell, bus, agents))
+    data = cell.run(pump=pump_of(cell, bus, agents))
     assert data["outcome"] == "solved"  # the cooperation unaffected
 
 
@@ -283,7 +270,7 @@ def test_a_take_at_the_panel_is_a_stored_input_a_resumed_cell_replays(tmp_path: 
         simulator=execution_model("analytic"),
     )  # fmt: skip
     agents = _agents(scenario, bus, "passive", 0)
-    data = again.run(pump=_pump(again, bus, agents))
+    data = again.run(pump=pump_of(again, bus, agents))
     store.close()
     assert data["outcome"] == "solved"
     assert data["knowledge"] == ref["knowledge"]
