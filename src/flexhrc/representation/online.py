@@ -788,11 +788,7 @@ class OnlineGraph:
 
     def _activate(self, k: int) -> None:
         """Instance k becomes active: its outside costs are computed, its feasible leaves join
-        the feasible set.
-
-        Lean on purpose: in a hierarchy the activations are the median query (the plain meets
-        are a little under half of a play), and each instance is activated once, so this code
-        runs a few times per process — cold — where the per-query time is measured."""
+        the feasible set."""
         if self._active[k] or self._closed[k]:
             return
         mat = self._i_mat
@@ -800,39 +796,23 @@ class OnlineGraph:
             self._materialise(k)
         # one level ahead: the instances just below k can become active from now on, and the
         # query that activates one should not pay for building it
-        lowers = self._i_lowers[k]
-        if lowers:
-            for h in lowers:
-                if not mat[self._lower[h]]:
-                    self._materialise(self._lower[h])
+        for h in self._i_lowers[k]:
+            if not mat[self._lower[h]]:
+                self._materialise(self._lower[h])
         self._active[k] = True
         if k:
-            # its offset now (_calc_offset, inlined; k > 0 has an upper hyper-arc); a later
-            # change this query above it re-dirties it (_settle and _propagate do), and its
-            # elements' costs are computed from _touched at the end
-            u = self._i_upper[k]
-            if self._blocked[u]:
-                off = INF
-            else:
-                off = self._out_val[u] + self._i_off[self._inst[u]]
-                ins = self._inside
-                for c in self._children[u]:
-                    off += ins[c]
-            self._i_off[k] = off
+            # its offset now; a later change this query above it re-dirties it (_settle and
+            # _propagate do), and its elements' costs are computed from _touched at the end
+            self._i_off[k] = self._calc_offset(k)
         if self._i_pristine[k]:
             # as its definition left it: the outside costs every pristine instance of this
-            # definition starts with, computed once; every leaf is feasible (and nothing else
-            # of k yet: a closed instance never comes back)
+            # definition starts with, computed once; every leaf is feasible
             lo, hi = self._i_span[k]
-            t = self._i_tmpl[k]
-            self._out_val[lo:hi] = t.pristine_out or t.pristine_outside()
+            self._out_val[lo:hi] = self._i_tmpl[k].pristine_outside()
             leaves = self._i_leaves[k]
             fresh = dict.fromkeys(leaves)
             self._feasible.update(fresh)
-            if self._i_feas[k]:
-                self._i_feas[k].update(fresh)
-            else:
-                self._i_feas[k] = fresh
+            self._i_feas[k].update(fresh)
             self._touched.update(leaves)
         else:
             self._fill_outside(k)
