@@ -64,6 +64,7 @@ from flexhrc.taskmanager.manager import (
     TaskManager,
 )
 from flexhrc.taskmanager.operator import PROFILES, SimulatedOperator
+from flexhrc.taskmanager.physical import apply_physical
 from flexhrc.taskmanager.simulator import Simulator
 from flexhrc.transport import Transport
 
@@ -624,29 +625,8 @@ class Cell:
         self._offer_options()
 
     def _physical(self, action: GroundAction, positions: dict[str, Any]) -> None:
-        """What an action does to the world besides its facts, as the domain declares it
-        (``moves_to``, ``carries``, ``fixes``): the same rules as ``CooperationRun``."""
-        schema, binding, kb = action.schema, action.binding, self.kb
-        moves_to = getattr(schema, "moves_to", None)
-        carries = getattr(schema, "carries", None)
-        fixes = getattr(schema, "fixes", None)
-        where = None
-        if moves_to and binding.get(moves_to) in kb.objects:
-            where = kb.position(binding[moves_to])
-        for agent in action.agents:
-            if agent in positions and agent in kb.objects and self.domain.agent(agent).is_human:
-                kb.move(agent, positions[agent])
-        carried = binding.get(carries) if carries else None
-        if carried in kb.objects and not kb.object(carried).fixed:
-            hand = positions.get(action.agents[0]) if action.agents else None
-            if hand is None and action.agents and action.agents[0] in kb.objects:
-                hand = kb.position(action.agents[0])
-            target = where or hand
-            if target is not None:
-                kb.move(carried, target)
-        fixed = binding.get(fixes) if fixes else None
-        if fixed in kb.objects:
-            kb.set_fixed(fixed)
+        fixed = apply_physical(self.kb, self.domain, action, positions)
+        if fixed is not None:
             self._record(
                 "fixed", {"object": fixed, "agents": list(action.agents), "action": str(action)}
             )
