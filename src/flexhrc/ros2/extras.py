@@ -11,8 +11,10 @@ topic (under ``/flexhrc/<cell>/``)        type                                di
 ``human/<operator>/imu``                  ``sensor_msgs/Imu``                 in (wrist IMU)
 ========================================  ==================================  =================
 
-* markers: the knowledge base's objects (legs, tabletop, bolts, obstacles) and, as arrows, the
-  targets of the commands running now — RViz shows the cell as the manager believes it is;
+* markers: every object of the knowledge base, by its type and size, and, as arrows, the
+  targets of the commands running now (:meth:`ManagerInterfaces.command_started`); the arrow
+  of a finished command (:meth:`ManagerInterfaces.command_finished`) goes out once as a
+  ``DELETE`` marker, so RViz removes it — RViz shows the cell as the manager believes it is;
 * an object pose from perception that runs outside flexhrc becomes a plain dict
   (:func:`~flexhrc.ros2.messages.percept_from_pose`) handed to ``on_percept`` —
   ``flexhrc ros2 cell`` sends it to the manager as the cell protocol's ``percept`` (stored, then
@@ -55,12 +57,16 @@ class ManagerInterfaces:
         on_imu: Callable[[str, dict[str, Any]], None] | None = None,
         rate_hz: float = 2.0,
         clock: Callable[[], float] = time.monotonic,
+        skip: Iterable[str] = (),
     ) -> None:
         if not (math.isfinite(rate_hz) and 0 < rate_hz <= 100):
             raise ValueError(f"marker rate must be in (0, 100] Hz, got {rate_hz}")
         self.transport = transport
         self.kb = kb
         self.targets: dict[str, tuple[float, float, float]] = {}
+        self.commands: dict[int, tuple[str, tuple[float, float, float]]] = {}
+        self.skip = frozenset(skip)  # the agents' names: not drawn as objects
+        self._finished: set[int] = set()  # commands whose arrows are still to be deleted
         self.on_percept = on_percept
         self.on_imu = on_imu
         self.period = 1.0 / rate_hz
@@ -112,10 +118,29 @@ class ManagerInterfaces:
             x, y, z = (float(v) for v in position)
             self.targets[agent] = (x, y, z)
 
+    def command_started(self, cid: int, label: str, position: Iterable[float] | None) -> None:
+        """Command ``cid`` runs, its arm going to ``position`` (an arrow; None: no arrow)."""
+        if position is not None:
+            x, y, z = (float(v) for v in position)
+            self.commands[int(cid)] = (label, (x, y, z))
+
+    def command_finished(self, cid: int) -> None:
+        """Command ``cid`` ended (answered or stopped): its arrow is deleted with the next
+        markers."""
+        self.commands.pop(int(cid), None)
+        self._finished.add(int(cid))
+
     def publish_markers(self) -> None:
-        self._markers.publish(
-            rm.marker_array(self.kb.objects.values(), time.time(), targets=self.targets)
-        )
+        deleted, self._finished = self._finished, set()
+        markers = rm.marker_array(
+            self.kb.objects.values(), time.time(), targets=self.targets,
+            commands=self.commands, deleted=deleted, skip=self.skip,
+        )  # fmt: skip
+        send = getattr(self.transport, "publish_message", None)
+        if send is not None:  # the DELETE markers go once: to every subscriber already known
+            send(self._markers, markers)
+        else:
+            self._markers.publish(markers)
         self._last = self.clock()
 
     def poll(self) -> None:
