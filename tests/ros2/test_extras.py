@@ -37,6 +37,21 @@ def test_markers_out_poses_and_imu_in(domain_id: int, cell_name: str):
         arrows = [m for m in arrays[-1].markers if m.type == m.ARROW]
         assert len(arrows) == 1 and arrows[0].text == "left"
         assert len(arrays[-1].markers) > 10
+        # a command's arrow while it runs; when it ends, one DELETE of it
+        ifaces.command_started(4, "right", kb.position("leg3"))
+        ifaces.publish_markers()
+        ifaces.command_finished(4)
+        ifaces.publish_markers()
+        ifaces.publish_markers()
+        Marker = msg("visualization_msgs.msg", "Marker")
+
+        def ours() -> list:  # command 4's markers in each array, from its first on
+            seen = [[(m.action, m.type) for m in a.markers
+                     if m.ns == "flexhrc/commands" and m.id == 4] for a in arrays]  # fmt: skip
+            return seen[next((i for i, x in enumerate(seen) if x), len(seen)) :]
+
+        assert wait_for(lambda: len(ours()) >= 3, 5.0, outside.flush)
+        assert ours()[:3] == [[(Marker.ADD, Marker.ARROW)], [(Marker.DELETE, Marker.ARROW)], []]
 
         PoseStamped = msg("geometry_msgs.msg", "PoseStamped")
         Imu = msg("sensor_msgs.msg", "Imu")
