@@ -24,8 +24,9 @@ the command runs. A joint command (``agents: {joint: [left, right]}``) reaches o
 arm, the leader: it plans the motion of all its arms on the model — with the other arms' joints
 as their own nodes last published them (``arm/<other>/joint_states``) — and sends each other
 arm its part on ``arm/<other>/follow`` (``{"v": 1, "type": "follow", "id", "leader", "t",
-"q", "realtime"}``; ``{"type": "follow_stop", "id"}`` when the command is stopped). The
-follower publishes that part as its own trajectory — moved to begin exactly where it is, should
+"q", "realtime"}``; ``{"v": 1, "type": "follow_stop", "id", "by"}`` when the command is
+stopped — either way: a stop that reaches the follower stops the leader too). The follower
+publishes that part as its own trajectory — moved to begin exactly where it is, should
 the leader have planned from an older joint state — and plays it, without acknowledging: the
 leader answers for the command.
 
@@ -83,6 +84,7 @@ class Motion:
     timeout_s: float = math.inf  # wall seconds (external execution)
     t_cell: float = 0.0  # the cell's (simulated) time when the command was sent
     follow: bool = False  # this arm's part of another arm's joint command (no ack of its own)
+    leader: str | None = None  # the arm that leads it (follow)
     followers: tuple[str, ...] = ()  # the other arms of a joint command this arm leads
 
     def sample(self, elapsed: float) -> np.ndarray:
@@ -292,14 +294,25 @@ class ArmNode(RobotAgent):
     def _stop(self, message: dict[str, Any]) -> None:
         cid = int(message["id"])
         motion = self.motion
+        if motion is not None and motion.follow and motion.command_id == cid:
+            # the stop of a joint command came to this arm: it stops, and so does its leader
+            self._halt()
+            if motion.leader is not None:
+                self._tell(motion.leader, cid)
+            return
         super()._stop(message)
         if motion is None or motion.command_id != cid or cid not in self.stopped:
             return
         for other in motion.followers:
-            self.transport.publish(f"arm/{other}/follow", {"v": 1, "type": "follow_stop",
-                                                           "id": cid})  # fmt: skip
+            self._tell(other, cid)
         self._halt()
         self._external_finish = None
+
+    def _tell(self, arm: str, cid: int) -> None:
+        """Stop ``arm``'s part of joint command ``cid`` too."""
+        self.transport.publish(
+            f"arm/{arm}/follow", {"v": 1, "type": "follow_stop", "id": cid, "by": self.name}
+        )
 
     def _send_plan(self, plan: Any) -> None:
         """A command's trajectory, once: to every subscriber already known (and the real
@@ -331,9 +344,11 @@ class ArmNode(RobotAgent):
         except (KeyError, TypeError, ValueError) as exc:
             self._bad(data, FlexhrcError(f"follow: {exc}"))
             return
-        if t is None:  # follow_stop
+        if t is None:  # follow_stop: of this arm's part, or of the joint command it leads
             if self.motion is not None and self.motion.follow and self.motion.command_id == cid:
                 self._halt()
+            elif cid in self.running:
+                self._stop({"id": cid, "reason": f"stopped on {data.get('by', 'another arm')}"})
             return
         if self.motion is not None and not self.motion.follow:
             self._bad(data, FlexhrcError(f"follow {cid}: busy with command "
@@ -346,7 +361,10 @@ class ArmNode(RobotAgent):
         plan = rm.joint_trajectory(self.names, t.tolist(), q.tolist(), time.time())
         self._send_plan(plan)
         self.execution.execution.state.q[self.name] = q[-1].copy()  # type: ignore[attr-defined]
-        self.motion = Motion(cid, t, q, float(t[-1]), speed, self.clock(), follow=True)
+        self.motion = Motion(
+            cid, t, q, float(t[-1]), speed, self.clock(), follow=True,
+            leader=str(data.get("leader")) if data.get("leader") in self.others else None,
+        )  # fmt: skip
         self._publish_state()
 
     def _parse_follow(self, data: Any) -> tuple[int, np.ndarray | None, np.ndarray, float]:
