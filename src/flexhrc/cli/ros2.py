@@ -398,11 +398,12 @@ def cmd_cell(args: argparse.Namespace) -> int:
             transport.close()
 
     def text() -> str:
-        legs = ", ".join(f"{a}: {n}" for a, n in data["legs_by_agent"].items())
+        # hyper-arcs, not legs: the words of any task (the JSON keeps legs_by_agent)
+        by = ", ".join(f"{a}: {n}" for a, n in data.get("by_agent", {}).items())
         return (
             f"outcome {data['outcome']}"
             + (f" ({data['reason']})" if data["reason"] else "")
-            + f"; legs connected by {legs}; {data['decisions']} decision trees; "
+            + f"; hyper-arcs by agent: {by or 'none'}; {data['decisions']} decision trees; "
             f"{data['robot_actions']} robot and {data['human_actions']} human actions; "
             f"{data['cell']['events']} events"
             + (f" in {args.store}" if args.store else "")
