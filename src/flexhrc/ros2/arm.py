@@ -354,8 +354,9 @@ class ArmNode(RobotAgent):
             self._bad(data, FlexhrcError(f"follow {cid}: busy with command "
                                          f"{self.motion.command_id}"))  # fmt: skip
             return
-        if self.motion is not None:  # a former joint command's part: over
+        if self.motion is not None:  # a former joint command's part: over, at its end
             self.motion = None
+            self._publish_state()
         q = mp.blend_start(t, q, self.q)  # begins where this arm is, ends where it was planned
         self.trace(f"follow cmd {cid} of {data.get('leader')} ({float(t[-1]):.2f} s)")
         plan = rm.joint_trajectory(self.names, t.tolist(), q.tolist(), time.time())
