@@ -120,7 +120,9 @@ SCHEMAS: dict[str, dict[str, tuple[tuple[type, ...], bool]]] = {
         "steps": ((list,), True),
         "world": ((dict,), False),
     },
-    "operator": {"agent": ((str,), True), "profile": ((str,), True)},
+    # ``scripted``: it takes exactly the steps it was told to (a test or demo script), whatever
+    # its profile says, so it is offered ``options`` even when ``passive``
+    "operator": {"agent": ((str,), True), "profile": ((str,), True), "scripted": ((bool,), False)},
     "intent": {
         "id": ((str,), True),
         "agent": ((str,), True),
