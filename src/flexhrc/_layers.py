@@ -33,7 +33,7 @@ from pathlib import Path
 
 ROOT = "flexhrc"
 
-#: package (the first name below ``flexhrc``; ``flexhrc`` is the package's own ``__init__``)
+#: package (the first name below ``flexhrc``; ``__init__`` is the package's own ``__init__.py``)
 #: -> floor. Derived from the real imports; a new package gets a line here.
 FLOORS: dict[str, int] = {
     # the ground: errors, checked I/O, JSON lines, the event catalogue
@@ -41,7 +41,7 @@ FLOORS: dict[str, int] = {
     "files": 0,
     "jsonl": 0,
     "events": 0,
-    "flexhrc": 0,
+    "__init__": 0,
     "_layers": 0,
     # terms and literals; the publish/subscribe contract
     "logic": 1,
@@ -70,7 +70,7 @@ SAME_FLOOR: frozenset[tuple[str, str]] = frozenset(
         ("jsonl", "errors"),
         ("jsonl", "files"),
         ("events", "errors"),
-        ("flexhrc", "errors"),
+        ("__init__", "errors"),
         ("__main__", "cli"),
     }
 )
@@ -149,9 +149,9 @@ def imports(pkg_dir: Path | None = None) -> tuple[Import, ...]:
 
 
 def package_of(module: str) -> str:
-    """``flexhrc.cli.behave`` -> ``cli``; the root package is ``flexhrc``."""
+    """``flexhrc.cli.behave`` -> ``cli``; ``flexhrc`` itself -> ``__init__``."""
     parts = module.split(".")
-    return parts[1] if len(parts) > 1 else ROOT
+    return parts[1] if len(parts) > 1 else "__init__"
 
 
 def _is_type_checking(test: ast.expr) -> bool:
@@ -349,8 +349,6 @@ def diagram(pkg_dir: Path | None = None, width: int = 100) -> str:
             kinds[a][b].add(imp.kind)
 
     def shown(pkg: str) -> str:
-        if pkg == ROOT:
-            return "__init__.py"
         return pkg + ("/" if (pkg_dir / pkg).is_dir() else ".py")
 
     def edge(target: str, how: set[str]) -> str:
