@@ -363,10 +363,10 @@ def diagram(pkg_dir: Path | None = None, width: int = 100) -> str:
     for floor in sorted({floor_key(p) for p in count}, reverse=True):
         if out:
             out.append("")
-        known = floor in FLOOR_NAMES
-        out.append(
-            f"floor {floor:<3} {FLOOR_NAMES[floor]}" if known else "floor ?   (not in FLOORS)"
-        )
+        if floor in FLOORS.values():
+            out.append(f"floor {floor:<3} {FLOOR_NAMES.get(floor, '')}".rstrip())
+        else:
+            out.append("floor ?   (not in FLOORS)")
         for pkg in sorted(p for p in count if floor_key(p) == floor):
             noun = "module " if count[pkg] == 1 else "modules"
             head = f"{'':10}{shown(pkg):<16}{count[pkg]:>3} {noun} {_size(size[pkg]):>6} lines  -> "
