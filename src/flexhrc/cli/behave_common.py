@@ -16,6 +16,7 @@ PLOT_SUFFIXES = (".png", ".svg", ".pdf")
 
 
 def is_file(name: str) -> bool:
+    """Whether ``name`` is an existing file (an inline task is not, however long)."""
     try:
         return Path(name).is_file()
     except OSError:  # e.g. an inline task longer than a file name may be
@@ -74,6 +75,7 @@ def resolve_document(
 
 
 def trace_line(ev: Any) -> str | None:
+    """One line of the run's trace for a start, done, reset, move or choice; else None."""
     d = ev.data
     t = f"{ev.t:7.1f}s"
     if ev.kind == "start":
@@ -128,6 +130,7 @@ def summary_lines(result: Any, violations: list[str], plot: str | None = None) -
 
 
 def check_plot(path: str | None, inputs: tuple[str, ...] = ()) -> None:
+    """Refuse a bad ``--plot`` path, or a missing plotting extra, before the run starts."""
     if path is None:
         return
     from flexhrc.behavior.plot import _pyplot
