@@ -678,6 +678,29 @@ def _check_semantics(
             domain_src,
         )
 
+    _check_parents_reached(graph, domain, world, c)
+
+
+def _check_parents_reached(
+    graph: HierarchicalGraph, domain: Domain, world: WorldSpec, c: _Checker
+) -> None:
+    """A hyper-arc whose actions never make its parent's state formula true (see
+    :mod:`flexhrc.scenario.achieve`): the parent is never met, the run ends in a deadlock."""
+    from flexhrc.scenario.achieve import never_achieved
+
+    types: dict[str, set[str]] = {}
+    for o in world.objects:
+        types.setdefault(o.name, set()).update(_chain(o.type, world.supertypes))
+    for p in world.places:
+        types.setdefault(p, set()).add("place")
+    for a in domain.agents.values():
+        types.setdefault(a.name, set()).update(
+            {a.name, a.kind, "agent", *(t for x in a.types for t in _chain(x, world.supertypes))}
+        )
+    facts = [*world.facts, *(Literal(t, (name,)) for name, ts in types.items() for t in ts)]
+    for fault in never_achieved(graph, domain, facts, {k: frozenset(v) for k, v in types.items()}):
+        c.error(fault.message, fault.line, fault.source or c.path)
+
 
 def _line_in(s: ActionSchema, key: str, domain_doc: Any, what: str) -> int | None:
     block = (domain_doc or {}).get(f"{what}es" if what == "process" else "actions") or {}
