@@ -959,9 +959,9 @@ class Cell:
                     idle_since = idle_since or time.monotonic()
                 if idle_since is not None and time.monotonic() - idle_since > 0.5:
                     self.tm.outcome = "failed"
-                    self.tm.reason = (
-                        "deadlock: no agent has anything to do and the task is not solved"
-                    )
+                    from flexhrc.taskmanager.diagnose import stall_reason
+
+                    self.tm.reason = stall_reason(self.tm)
                     self._record("outcome", {"outcome": "failed", "reason": self.tm.reason})
                     break
             self._resend_overdue()
