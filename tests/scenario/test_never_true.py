@@ -175,3 +175,18 @@ def test_the_starter_validates_clean(tmp_path):
     path = tmp_path / "scenario.yaml"
     path.write_text(STARTER, encoding="utf-8")
     assert [str(f) for f in scenario.validate(path) if f.severity == "error"] == []
+
+
+def test_the_error_names_the_graph_file_and_its_line(tmp_path, capsys):
+    # the graph in a file of its own: FILE:LINE is that file's
+    head, rest = COVER.split("graphs:\n", 1)
+    graph_text, domain = rest.split("domain:\n", 1)
+    graph = tmp_path / "cover.graph.yaml"
+    graph.write_text("flexhrc: 1\ngraphs:\n" + graph_text, encoding="utf-8")
+    path = _write(tmp_path, head + "graph: cover.graph.yaml\ndomain:\n" + domain)
+    code, err = _validate(capsys, path)
+    assert code == 2
+    assert err == [
+        f"{graph}:{line_of(graph, '- name: put_cover')}: hyper-arc put_cover: its actions never "
+        "make 'closed(housing)' true (node cover_on)"
+    ]

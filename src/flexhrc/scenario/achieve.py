@@ -96,6 +96,7 @@ def never_achieved(
     for key in keys:
         g = graph.graphs[key]
         elsewhere = [e for k in keys if k != key for effs in adds[k].values() for e in effs]
+        needing: dict[str, set[str]] = {}  # parent node -> hyper-arcs that need it (lazily)
         for h in g.hyperarcs.values():
             parent = g.nodes.get(h.parent)
             if h.lower is not None or parent is None or not parent.formula:
@@ -105,21 +106,26 @@ def never_achieved(
                 own = list(_effects(h, g, domain, apart=False))
             except (FormatError, KeyError):
                 continue  # an unknown action: reported on its own
-            needing = _needing(g, h.parent)
-            before = [
-                e
-                for name, effs in adds[key].items()
-                if name not in needing and (name != h.name or key != graph.top)
-                for e in effs
-            ]
             for lit in parent.formula:
                 if lit.negated or lit.predicate not in makeable:
                     continue
-                if any(_unifies(lit, e.literal, own_types, e.types, constant_types) for e in own):
-                    continue
                 if any(
                     _unifies(lit, e.literal, own_types, e.types, constant_types)
-                    for e in (*initial, *before, *elsewhere, *processes)
+                    for e in (*own, *initial)
+                ):
+                    continue
+                # the rare case: is it anything else's doing? (the graph search only now)
+                if h.parent not in needing:
+                    needing[h.parent] = _needing(g, h.parent)
+                before = (
+                    e
+                    for name, effs in adds[key].items()
+                    if name not in needing[h.parent] and (name != h.name or key != graph.top)
+                    for e in effs
+                )
+                if any(
+                    _unifies(lit, e.literal, own_types, e.types, constant_types)
+                    for e in (*before, *elsewhere, *processes)
                 ):
                     continue
                 out.append(NeverTrue(key, h.name, h.parent, lit, h.line, g.source))
@@ -175,7 +181,8 @@ def _schema_effects(schema: ActionSchema) -> Iterator[_Effect]:
 
 def _needing(g: AndOrGraph, node: str) -> set[str]:
     """Hyper-arcs of g that can run only once ``node`` is met: ``node`` is one of their
-    children, or each of their children... is reached only through such hyper-arcs."""
+    children, or one of their children can be reached only through such hyper-arcs (every
+    hyper-arc into it is one). A leaf (no hyper-arc into it) needs nothing."""
     incoming: dict[str, list[str]] = {}
     for h in g.hyperarcs.values():
         incoming.setdefault(h.parent, []).append(h.name)
