@@ -53,6 +53,7 @@ from flexhrc.cell.components import ground, world_of
 from flexhrc.cell.store import EventStore, StoredEvent, log_events
 from flexhrc.errors import FlexhrcError
 from flexhrc.representation import OnlineGraph
+from flexhrc.taskmanager.diagnose import stall_reason
 from flexhrc.taskmanager.domain import GroundAction
 from flexhrc.taskmanager.manager import (
     Ack,
@@ -1139,9 +1140,7 @@ class Cell:
                 idle_since = None
                 continue
             if not self.pending and self.quiescent is not None and self.quiescent():
-                self._end(
-                    "failed", "deadlock: no agent has anything to do and the task is not solved"
-                )
+                self._end("failed", stall_reason(self.tm))
                 break
             if not self.pending and not self.awaited():
                 # nothing running, nothing to come: stuck, unless a lost agent may come back
@@ -1150,9 +1149,7 @@ class Cell:
                 else:
                     idle_since = idle_since or time.monotonic()
                 if idle_since is not None and time.monotonic() - idle_since >= self.idle_s:
-                    self._end(
-                        "failed", "deadlock: no agent has anything to do and the task is not solved"
-                    )
+                    self._end("failed", stall_reason(self.tm))
                     break
             self._resend_overdue()
             if time.monotonic() > deadline:

@@ -543,7 +543,9 @@ def register_graph_to_task(gsub: argparse._SubParsersAction) -> None:  # type: i
         "to-task",
         help="convert a series-parallel AND/OR graph into a THEN/AND/OR task (flexhrc behave)",
     )
-    t.add_argument("file", help="the AND/OR graph (.yaml or ANDOR .txt)")
+    t.add_argument(
+        "file", help="the AND/OR graph (.yaml or ANDOR .txt), or a scenario file: its graph"
+    )
     t.add_argument(
         "-o", "--output", metavar="OUT", help="write the task here (.txt prefix form or .yaml)"
     )
@@ -554,12 +556,12 @@ def register_graph_to_task(gsub: argparse._SubParsersAction) -> None:  # type: i
 def cmd_graph_to_task(args: argparse.Namespace) -> int:
     from flexhrc.behavior.compile import task_from_graph
     from flexhrc.files import atomic_write_text, check_output
-    from flexhrc.representation import load
+    from flexhrc.scenario import graph_of
 
     if args.output:
         suffixes = (".txt", ".yaml", ".yml")
         check_output(args.output, option="-o", suffixes=suffixes, inputs=(args.file,))
-    task = task_from_graph(load(args.file), str(args.file))
+    task = task_from_graph(graph_of(args.file), str(args.file))
     prefix = task.to_prefix()
     if args.output:
         if Path(args.output).suffix.lower() == ".txt":

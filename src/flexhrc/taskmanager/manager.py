@@ -252,6 +252,7 @@ class TaskManager:
         self.executions: dict[str, Execution] = {}  # element -> execution
         self.busy: dict[str, Command] = {}  # agent -> its running command
         self.failed: dict[str, list[dict[str, str]]] = {}  # element -> failed groundings
+        self.infeasible: dict[str, str] = {}  # element -> why it was marked infeasible
         self.waiting_for_consistency = False
         self.unavailable: set[str] = set()  # agents that left the cell (e.g. a dead process)
         # node -> the substitution its producing hyper-arc was solved with (carried to S(n))
@@ -724,6 +725,7 @@ class TaskManager:
                         pruned=[b.to_dict() for b in tree.pruned],
                         chosen=None,
                     )
+                self.infeasible[name] = reason
                 self._emit("infeasible", element=name, reason=reason)
                 self._update_graph(infeasible=[name])
                 self._meet_nodes()
@@ -745,7 +747,8 @@ class TaskManager:
             if best is None:
                 self.failed.setdefault(name, []).extend(dict(b.grounding) for b in tree.branches)
                 if not self._could_run_later(name, actions, constraints, reserved):
-                    self._emit("infeasible", element=name, reason="every branch scores 0")
+                    self.infeasible[name] = "every branch scores 0"
+                    self._emit("infeasible", element=name, reason=self.infeasible[name])
                     self._update_graph(infeasible=[name])
                     self._meet_nodes()
                     return True
