@@ -100,108 +100,33 @@ SIMULATORS: tuple[str, ...] = tuple(s.value for s in SimulatorName)
 GRAPH_EVENTS: tuple[str, ...] = tuple(e.value for e in GraphEvent)
 
 # -- type tags -----------------------------------------------------------------------------------
+# fmt: off
 LogEventType = Literal[
-    "start",
-    "query",
-    "decision",
-    "waiting",
-    "infeasible",
-    "suggestion",
-    "command",
-    "ack",
-    "ack_ignored",
-    "action_failed",
-    "abort",
-    "stop",
-    "solved",
-    "human_action",
-    "human_action_unmatched",
-    "recognised",
-    "action_start",
-    "action_end",
-    "human_told",
-    "human_decides",
-    "human_gives_up",
-    "human_sensed",
-    "human_sensing_missed",
-    "outcome",
-    "summary",
-    "process_activated",
-    "process_ended",
-    "process_failed",
-    "precondition_failed",
-    "fixed",
-    "obsolete",
-    "percept",
-    "inconsistent",
-    "consistent_again",
-    "repair",
-    "repaired",
-    "operator_answers",
-    "operator_nudges",
-    "operator_nudge_skipped",
-    "false_report",
-    "human_report_ignored",
-    "human_report_unusable",
-    "human_sensing_uncovered",
+    "start", "query", "decision", "waiting", "infeasible", "suggestion", "command", "ack",
+    "ack_ignored", "action_failed", "abort", "stop", "solved", "human_action",
+    "human_action_unmatched", "recognised", "action_start", "action_end", "human_told",
+    "human_decides", "human_gives_up", "human_sensed", "human_sensing_missed", "outcome",
+    "summary", "process_activated", "process_ended", "process_failed", "precondition_failed",
+    "fixed", "obsolete", "percept", "inconsistent", "consistent_again", "repair", "repaired",
+    "operator_answers", "operator_nudges", "operator_nudge_skipped", "false_report",
+    "human_report_ignored", "human_report_unusable", "human_sensing_uncovered",
     # the manager's, the cell's and the panel's own records (not in a cooperation log)
-    "agent_available",
-    "agent_unavailable",
-    "taken",
-    "agent_up",
-    "agent_down",
-    "human_take",
-    "operator",
-    "intent",
-    "options",
-    "dropped",
-    "operator_stop",
-    "operator_resume",
+    "agent_available", "agent_unavailable", "taken", "agent_up", "agent_down", "human_take",
+    "operator", "intent", "options", "dropped", "operator_stop", "operator_resume",
     "operator_takes",
 ]
 MessageType = Literal[
-    "command",
-    "stop",
-    "ack",
-    "suggestion",
-    "human_action",
-    "percept",
-    "options",
-    "operator",
-    "intent",
-    "state",
-    "end",
+    "command", "stop", "ack", "suggestion", "human_action", "percept", "options", "operator",
+    "intent", "state", "end",
 ]
 StoreKind = Literal[
-    "start",
-    "ack",
-    "human_action",
-    "percept",
-    "agent_up",
-    "agent_down",
-    "operator",
-    "intent",
-    "human_take",
-    "command",
-    "suggestion",
-    "stop",
-    "options",
-    "decision",
-    "outcome",
-    "abort",
-    "action_failed",
-    "infeasible",
-    "recognised",
-    "solved",
-    "human_action_unmatched",
-    "ack_ignored",
-    "agent_available",
-    "agent_unavailable",
-    "human_decides",
-    "human_gives_up",
-    "fixed",
-    "summary",
+    "start", "ack", "human_action", "percept", "agent_up", "agent_down", "operator", "intent",
+    "human_take", "command", "suggestion", "stop", "options", "decision", "outcome", "abort",
+    "action_failed", "infeasible", "recognised", "solved", "human_action_unmatched",
+    "ack_ignored", "agent_available", "agent_unavailable", "human_decides", "human_gives_up",
+    "fixed", "summary",
 ]
+# fmt: on
 StoreRole = Literal["input", "output", "record"]
 
 
@@ -232,8 +157,8 @@ class Field:
 
     ``types`` are the JSON types it may hold (``bool`` only when named; a float must be finite);
     ``minimum`` bounds a number from below; ``check`` is a further test of the value. When
-    ``message`` is given it is the whole problem for a missing or wrong value (``{type}`` and
-    ``{value!r}`` are filled in), else the protocol's generic wording is used.
+    ``message`` is given it is the whole problem for a missing or wrong value (``{type}``,
+    ``{value!r}`` and the record's ``{t}`` are filled in), else the protocol's generic wording.
     """
 
     types: tuple[type, ...]
@@ -247,35 +172,39 @@ class Field:
         if name not in data:
             if not self.required:
                 return None
-            return self._say(kind, None) or f"{kind}: missing field {name!r}"
+            return self._say(kind, None, data) or f"{kind}: missing field {name!r}"
         value = data[name]
         if (isinstance(value, bool) and bool not in self.types) or not isinstance(
             value, self.types
         ):
             want = " or ".join("null" if t is NONE else t.__name__ for t in self.types)
             return (
-                self._say(kind, value)
+                self._say(kind, value, data)
                 or f"{kind}: field {name!r} must be {want}, not {value!r:.40}"
             )
         if isinstance(value, float) and not math.isfinite(value):
-            return self._say(kind, value) or f"{kind}: field {name!r} must be finite"
+            return self._say(kind, value, data) or f"{kind}: field {name!r} must be finite"
         if (
             self.minimum is not None
             and isinstance(value, int | float)
             and not isinstance(value, bool)
             and value < self.minimum
         ):
-            return self._say(kind, value) or f"{kind}: field {name!r} must be >= 0, not {value}"
+            return (
+                self._say(kind, value, data) or f"{kind}: field {name!r} must be >= 0, not {value}"
+            )
         if self.check is not None and not self.check(value):
-            return self._say(kind, value) or f"{kind}: field {name!r} is not valid"
+            return self._say(kind, value, data) or f"{kind}: field {name!r} is not valid"
         return None
 
-    def _say(self, kind: str, value: Any) -> str | None:
-        return None if self.message is None else self.message.format(type=kind, value=value)
+    def _say(self, kind: str, value: Any, data: Mapping[str, Any]) -> str | None:
+        if self.message is None:
+            return None
+        return self.message.format(type=kind, value=value, t=data.get("t"))
 
     def describe(self) -> str:
-        want = "|".join("null" if t is NONE else t.__name__ for t in self.types)
-        return want if self.required else f"{want}?"
+        want = " or ".join("null" if t is NONE else t.__name__ for t in self.types)
+        return want if self.required else f"({want})?" if " " in want else f"{want}?"
 
 
 @dataclass(frozen=True)
@@ -324,38 +253,33 @@ class StoreKindSpec:
 
 
 # -- log events ------------------------------------------------------------------------------
-def _t() -> Field:
-    return Field(NUM, True, 0, message="{type}: 't' must be a finite time >= 0, got {value!r}")
-
-
-def _names_field(required: bool = True) -> Field:
-    return Field(
-        (list,), required, check=_names, message="{type}: 'agents' must be a list of agent names"
-    )
-
-
+T = Field(NUM, True, 0, message="{type}: 't' must be a finite time >= 0, got {value!r}")
 S = (str,)
 OPT_S = (str, NONE)
+NAME = Field(S)
+OPT_NAME = Field(OPT_S)
+AGENTS = Field(
+    (list,), True, check=_names, message="{type}: 'agents' must be a list of agent names"
+)
 
 
 def _log(
     kind: LogEventType,
     doc: str,
-    fields: Mapping[str, Field] | None = None,
-    *,
+    flags: str = "replay",
     rules: tuple[Rule, ...] = (),
-    replay: bool = True,
-    trace: bool = False,
-    stored: bool = False,
+    **fields: Field,
 ) -> EventSchema:
+    """A log event; ``flags`` are the words ``replay``, ``trace`` and ``store``."""
+    on = set(flags.split())
     return EventSchema(
         kind,
         doc,
-        MappingProxyType({"t": _t(), **(fields or {})}),
+        MappingProxyType({"t": T, **fields}),
         rules,
-        replay=replay,
-        trace=trace,
-        stored=stored,
+        replay="replay" in on,
+        trace="trace" in on,
+        stored="store" in on,
     )
 
 
@@ -375,227 +299,107 @@ def _summary_timing(ev: Mapping[str, Any]) -> str | None:
     return None
 
 
+_START = "action_end: 'start' must be a finite time between 0 and t = {t}, got {value!r}"
+
+
 def _action_end_start(ev: Mapping[str, Any]) -> str | None:
-    t = ev["t"]
-    start: Any = ev.get("start")
-    if not _finite(start) or not 0 <= start <= t + 1e-9:
-        return f"action_end: 'start' must be a finite time between 0 and t = {t}, got {start!r}"
+    if not ev["start"] <= ev["t"] + 1e-9:
+        return _START.format(t=ev["t"], value=ev["start"])
     return None
 
 
-def _action_fields(kind: str) -> dict[str, Field]:
-    return {
-        "agents": _names_field(),
-        "action": Field(
-            S, True, check=bool, message=f"{kind}: 'action' must be a string", doc="ground action"
-        ),
-        "command": Field((int, NONE), doc="the command's id (none for a person's action)"),
-        "element": Field(OPT_S, doc="its hyper-arc"),
-    }
+def _action(kind: str) -> Field:
+    return Field(S, True, check=bool, message=f"{kind}: 'action' must be a string")
 
 
+def _one_of(kind: str, key: str, values: tuple[str, ...]) -> Field:
+    said = f"{kind}: {key!r} must be one of {', '.join(values)}, got {{value!r}}"
+    return Field(S, True, check=lambda v: v in values, message=said)
+
+
+# fmt: off
 _LOG_SCHEMAS = [
-    _log(
-        "start",
-        "a run begins",
-        {
-            "agents": Field(
-                (list,), True, check=_names, message="start: 'agents' must be a list of agent names"
-            ),
-            "profile": Field(S, True, message="start: 'profile' must be a string"),
-            "humans": Field((list,), doc="the persons among the agents"),
-            "simulator": Field(OPT_S),
-        },
-    ),
-    _log("query", "the Task Manager asked the representation", {"report": Field((dict,))}),
-    _log(
-        "decision",
-        "a hyper-arc's branches simulated, one chosen",
-        {
-            "element": Field(S),
-            "cost": Field((*NUM, NONE)),
-            "branches": Field(
-                (list,),
-                True,
-                check=lambda v: all(isinstance(b, dict) for b in v),
-                message="decision: 'branches' must be a list of branches",
-            ),
-            "chosen": Field((int, NONE), doc="index into branches, none if none can run"),
-        },
-        rules=(_decision_chosen,),
-        trace=True,
-        stored=True,
-    ),
-    _log("waiting", "nothing can be decided now", {"reason": Field(OPT_S)}, trace=True),
-    _log(
-        "infeasible",
-        "a hyper-arc can never be done",
-        {"element": Field(S), "reason": Field(OPT_S)},
-        trace=True,
-        stored=True,
-    ),
-    _log(
-        "suggestion",
-        "a person is asked to do a step",
-        {"element": Field(S), "actions": Field((list,))},
-        trace=True,
-    ),
-    _log(
-        "command",
-        "a robot command is sent",
-        {
-            "id": Field((int,), True, message="command: 'id' must be a whole number"),
-            "agents": _names_field(False),
-            "action": Field(S),
-            "element": Field(OPT_S),
-        },
-        trace=True,
-    ),
-    _log(
-        "ack",
-        "an agent acknowledged a command",
-        {"status": Field(S), "reason": Field(OPT_S)},
-    ),
-    _log("ack_ignored", "an acknowledgement of no running command", stored=True),
-    _log(
-        "action_failed",
-        "an action failed; its hyper-arc is retried or given up",
-        {"element": Field(S), "reason": Field(OPT_S)},
-        trace=True,
-        stored=True,
-    ),
-    _log(
-        "abort",
-        "a running hyper-arc is abandoned",
-        {"element": Field(S), "reason": Field(OPT_S)},
-        trace=True,
-        stored=True,
-    ),
-    _log("stop", "an agent is told to stop a command", {"reason": Field(OPT_S)}, trace=True),
-    _log(
-        "solved",
-        "a hyper-arc is done",
-        {
-            "element": Field(S, True, message="solved: 'element' must be a hyper-arc name"),
-            "agents": Field((list,), doc="who did it"),
-        },
-        stored=True,
-    ),
-    _log("human_action", "a person's action reached the Task Manager", {"action": Field(S)}),
-    _log(
-        "human_action_unmatched",
-        "a person's action that no hyper-arc expects",
-        {"action": Field(S)},
-        trace=True,
-        stored=True,
-    ),
-    _log(
-        "recognised",
-        "a person's action recognised as a step of a hyper-arc",
-        {"action": Field(S), "element": Field(S)},
-        trace=True,
-        stored=True,
-    ),
-    _log("action_start", "an action begins", _action_fields("action_start")),
-    _log(
-        "action_end",
-        "an action ends",
-        {
-            **_action_fields("action_end"),
-            "status": Field(
-                S,
-                True,
-                check=lambda v: v in ACTION_STATUSES,
-                message="action_end: 'status' must be one of "
-                + ", ".join(ACTION_STATUSES)
-                + ", got {value!r}",
-            ),
-        },
-        rules=(_action_end_start,),
-    ),
+    _log("start", "a run begins", agents=AGENTS, humans=Field((list,)), simulator=OPT_NAME,
+         profile=Field(S, True, message="start: 'profile' must be a string")),
+    _log("query", "the Task Manager asked the representation", report=Field((dict,))),
+    _log("decision", "a hyper-arc's branches simulated, one chosen", "replay trace store",
+         (_decision_chosen,), element=NAME, cost=Field((*NUM, NONE)),
+         branches=Field((list,), True, check=lambda v: all(isinstance(b, dict) for b in v),
+                        message="decision: 'branches' must be a list of branches")),
+    _log("waiting", "nothing can be decided now", "replay trace", reason=OPT_NAME),
+    _log("infeasible", "a hyper-arc can never be done", "replay trace store",
+         element=NAME, reason=OPT_NAME),
+    _log("suggestion", "a person is asked to do a step", "replay trace",
+         element=NAME, actions=Field((list,))),
+    _log("command", "a robot command is sent", "replay trace",
+         id=Field((int,), True, message="command: 'id' must be a whole number"),
+         action=NAME, element=OPT_NAME),
+    _log("ack", "an agent acknowledged a command", status=NAME, reason=OPT_NAME),
+    _log("ack_ignored", "an acknowledgement of no running command", "replay store"),
+    _log("action_failed", "an action failed: its hyper-arc is retried or given up",
+         "replay trace store", element=NAME, reason=OPT_NAME),
+    _log("abort", "a running hyper-arc is abandoned", "replay trace store",
+         element=NAME, reason=OPT_NAME),
+    _log("stop", "an agent is told to stop a command", "replay trace", reason=OPT_NAME),
+    _log("solved", "a hyper-arc is done", "replay store", agents=Field((list,)),
+         element=Field(S, True, message="solved: 'element' must be a hyper-arc name")),
+    _log("human_action", "a person's action reached the Task Manager", action=NAME),
+    _log("human_action_unmatched", "a person's action that no hyper-arc expects",
+         "replay trace store", action=NAME),
+    _log("recognised", "a person's action recognised as a step of a hyper-arc",
+         "replay trace store", action=NAME, element=NAME),
+    _log("action_start", "an action begins", agents=AGENTS, action=_action("action_start"),
+         command=Field((int, NONE)), element=OPT_NAME),
+    _log("action_end", "an action ends", "replay", (_action_end_start,), agents=AGENTS,
+         action=_action("action_end"), command=Field((int, NONE)), element=OPT_NAME,
+         status=_one_of("action_end", "status", ACTION_STATUSES),
+         start=Field(NUM, True, 0, message=_START, doc="when it began, <= t")),
     _log("human_told", "a suggestion shown to a person"),
-    _log(
-        "human_decides",
-        "a person decided what to do",
-        {"agent": Field(S), "element": Field(S)},
-        trace=True,
-        stored=True,
-    ),
-    _log("human_gives_up", "a person leaves a step", {"agent": Field(S)}, trace=True, stored=True),
-    _log("human_sensed", "a person's action was sensed", trace=True),
-    _log("human_sensing_missed", "a person's action went unsensed", trace=True),
-    _log(
-        "outcome",
-        "how the run ended",
-        {
-            "outcome": Field(
-                S,
-                True,
-                check=lambda v: v in OUTCOMES,
-                message="outcome: 'outcome' must be one of "
-                + ", ".join(OUTCOMES)
-                + ", got {value!r}",
-            ),
-            "reason": Field(OPT_S, message="outcome: 'reason' must be a string or null"),
-        },
-        trace=True,
-        stored=True,
-    ),
-    _log(
-        "summary",
-        "the run's figures (Table I), last",
-        {"timing": Field((dict,), True, message="summary: 'timing' must be a mapping of times")},
-        rules=(_summary_timing,),
-    ),
-    _log("process_activated", "a node's processes start (section V)", trace=True),
-    _log("process_ended", "a process ended", trace=True),
+    _log("human_decides", "a person decided what to do", "replay trace store",
+         agent=NAME, element=NAME),
+    _log("human_gives_up", "a person leaves a step", "replay trace store", agent=NAME),
+    _log("human_sensed", "a person's action was sensed", "replay trace"),
+    _log("human_sensing_missed", "a person's action went unsensed", "replay trace"),
+    _log("outcome", "how the run ended", "replay trace store",
+         outcome=_one_of("outcome", "outcome", OUTCOMES),
+         reason=Field(OPT_S, message="outcome: 'reason' must be a string or null")),
+    _log("summary", "the run's figures (Table I), last", "replay", (_summary_timing,),
+         timing=Field((dict,), True, message="summary: 'timing' must be a mapping of times")),
+    _log("process_activated", "a node's processes start (section V)", "replay trace"),
+    _log("process_ended", "a process ended", "replay trace"),
     _log("process_failed", "a process failed"),
-    _log("precondition_failed", "an action's precondition is false at dispatch", trace=True),
-    _log(
-        "fixed",
-        "an object is fixed in place by an action",
-        {"object": Field(S), "agents": _names_field()},
-    ),
+    _log("precondition_failed", "an action's precondition is false at dispatch", "replay trace"),
+    _log("fixed", "an object is fixed in place by an action", object=NAME, agents=AGENTS),
     _log("obsolete", "an action's effect is already true: the step is skipped"),
-    _log("percept", "the scene as perceived changed (a percept message in a store)"),
-    _log("inconsistent", "the knowledge base disagrees with a percept", trace=True),
-    _log("consistent_again", "the knowledge base agrees again", trace=True),
-    _log("repair", "a repair of the knowledge base begins", trace=True),
-    _log("repaired", "the knowledge base is repaired", trace=True),
-    _log("operator_answers", "the operator answered a question", trace=True),
-    _log("operator_nudges", "the operator is nudged", trace=True),
+    _log("percept", "the perceived scene changed (or a stored percept message)"),
+    _log("inconsistent", "the knowledge base disagrees with a percept", "replay trace"),
+    _log("consistent_again", "the knowledge base agrees again", "replay trace"),
+    _log("repair", "a repair of the knowledge base begins", "replay trace"),
+    _log("repaired", "the knowledge base is repaired", "replay trace"),
+    _log("operator_answers", "the operator answered a question", "replay trace"),
+    _log("operator_nudges", "the operator is nudged", "replay trace"),
     _log("operator_nudge_skipped", "a nudge was not needed"),
-    _log("false_report", "a person's report contradicts the scene", trace=True),
+    _log("false_report", "a person's report contradicts the scene", "replay trace"),
     _log("human_report_ignored", "a person's report was ignored"),
     _log("human_report_unusable", "a person's report could not be used"),
     _log("human_sensing_uncovered", "no sensing covers a person's action"),
-    # not in a cooperation log: `replay` refuses them
-    _log(
-        "agent_available",
-        "the manager may plan with an agent again",
-        {"agent": Field(S)},
-        replay=False,
-        stored=True,
-    ),
-    _log(
-        "agent_unavailable",
-        "the manager may no longer plan with an agent",
-        {"agent": Field(S)},
-        replay=False,
-        stored=True,
-    ),
-    _log("taken", "the operator took a hyper-arc on its own", {"element": Field(S)}, replay=False),
-    _log("agent_up", "an agent's liveliness token appeared (cell)", replay=False),
-    _log("agent_down", "an agent's liveliness token vanished (cell)", replay=False),
-    _log("human_take", "the operator takes a hyper-arc (cell)", replay=False),
-    _log("operator", "an operator announced its profile (cell)", replay=False),
-    _log("intent", "an operator's answer to its options (cell)", replay=False),
-    _log("options", "what an operator may do on its own (cell)", replay=False),
-    _log("dropped", "a malformed message was dropped (cell trace)", replay=False),
-    _log("operator_stop", "the panel's operator stopped an arm", replay=False),
-    _log("operator_resume", "the panel's operator resumed an arm", replay=False),
-    _log("operator_takes", "the panel's operator takes a hyper-arc", replay=False),
+    # the manager's, the cell's and the panel's own records: `flexhrc replay` refuses them
+    _log("agent_available", "the manager may plan with an agent again", "store", agent=NAME),
+    _log("agent_unavailable", "the manager may no longer plan with an agent", "store",
+         agent=NAME),
+    _log("taken", "the operator took a hyper-arc on its own (manager)", "", element=NAME),
+    _log("agent_up", "an agent's liveliness token appeared (cell)", ""),
+    _log("agent_down", "an agent's liveliness token vanished (cell)", ""),
+    _log("human_take", "the operator takes a hyper-arc (cell)", ""),
+    _log("operator", "an operator announced its profile (cell)", ""),
+    _log("intent", "an operator's answer to its options (cell)", ""),
+    _log("options", "what an operator may do on its own (cell)", ""),
+    _log("dropped", "a malformed message was dropped (cell trace)", ""),
+    _log("operator_stop", "the panel's operator stopped an arm", ""),
+    _log("operator_resume", "the panel's operator resumed an arm", ""),
+    _log("operator_takes", "the panel's operator takes a hyper-arc", ""),
 ]
+# fmt: on
 #: Every log event type, by its tag.
 LOG_EVENTS: Mapping[str, EventSchema] = MappingProxyType({s.type: s for s in _LOG_SCHEMAS})
 #: The types ``flexhrc replay`` accepts in a cooperation log.
@@ -683,131 +487,46 @@ def _percept_shape(m: Mapping[str, Any]) -> str | None:
     return None
 
 
-def _msg(
-    kind: MessageType, doc: str, fields: Mapping[str, Field], rules: tuple[Rule, ...] = ()
-) -> EventSchema:
-    return EventSchema(kind, doc, MappingProxyType(dict(fields)), rules)
+def _msg(kind: MessageType, doc: str, rules: tuple[Rule, ...] = (), **fields: Field) -> EventSchema:
+    return EventSchema(kind, doc, MappingProxyType(fields), rules)
 
 
+ID, INT_ID, TIME, OPT_TIME = Field(S, True), Field((int,), True), _nonneg(NUM, True), _nonneg(NUM)
+# fmt: off
 _MESSAGE_SCHEMAS = [
-    _msg(
-        "command",
-        "manager -> cmd/<agent>: do this action",
-        {
-            "id": Field((int,), True),
-            "agents": Field((list,), True),
-            "action": Field(S, True),
-            "element": Field(OPT_S),
-            "t": _nonneg(NUM, True),
-            "expected_s": _nonneg(NUM),
-            "world": Field((dict,)),
-            "realtime": _nonneg(NUM),
-            "process": Field((bool,)),
-        },
-        (_listed("command", "agents"),),
-    ),
-    _msg(
-        "stop",
-        "manager -> cmd/<agent>: stop that command",
-        {"id": Field((int,), True), "reason": Field(OPT_S), "t": _nonneg(NUM)},
-    ),
-    _msg(
-        "ack",
-        "robot -> ack: how a command ended",
-        {
-            "id": Field((int,), True),
-            "agent": Field(S, True),
-            "status": Field(S, True),
-            "reason": Field(OPT_S),
-            "t": _nonneg(NUM, True),
-            "duration": _nonneg(NUM),
-            "positions": Field((dict,)),
-        },
-        (_ack_status, _positions("ack")),
-    ),
-    _msg(
-        "suggestion",
-        "manager -> suggest/<human>: please do this step",
-        {
-            "id": Field(S, True),
-            "element": Field(S, True),
-            "actions": Field((list,), True),
-            "cost": Field(NUM),
-            "t": _nonneg(NUM, True),
-            "world": Field((dict,)),
-            "realtime": _nonneg(NUM),
-            "step": _nonneg((int,)),
-            "own": Field(
-                (bool,), doc="the operator's own plan (its intent), not the manager's ask"
-            ),
-        },
-        (_listed("suggestion", "actions"),),
-    ),
-    _msg(
-        "human_action",
-        "human -> human: a person did this",
-        {
-            "id": Field(S, True),
-            "agent": Field(S, True),
-            "action": Field(S, True),
-            "suggestion": Field(OPT_S),
-            "step": _nonneg((int,)),
-            "start": _nonneg(NUM),
-            "t": _nonneg(NUM, True),
-            "positions": Field((dict,)),
-        },
-        (_positions("human_action"),),
-    ),
-    _msg(
-        "percept",
-        "perception -> percept: an object seen",
-        {
-            "id": Field(S, True),
-            "object": Field(S, True),
-            "object_type": Field(S, True),
-            "pose": Field((list,), True),
-            "size": Field((dict, list, NONE)),
-            "t": _nonneg(NUM),
-        },
-        (_percept_shape,),
-    ),
+    _msg("command", "manager -> cmd/<agent>: do this action", (_listed("command", "agents"),),
+         id=INT_ID, agents=Field((list,), True), action=Field(S, True), element=OPT_NAME,
+         t=TIME, expected_s=OPT_TIME, world=Field((dict,)), realtime=OPT_TIME,
+         process=Field((bool,))),
+    _msg("stop", "manager -> cmd/<agent>: stop that command",
+         id=INT_ID, reason=OPT_NAME, t=OPT_TIME),
+    _msg("ack", "robot -> ack: how a command ended", (_ack_status, _positions("ack")),
+         id=INT_ID, agent=Field(S, True), status=Field(S, True), reason=OPT_NAME, t=TIME,
+         duration=OPT_TIME, positions=Field((dict,))),
+    _msg("suggestion", "manager -> suggest/<human>: please do this step",
+         (_listed("suggestion", "actions"),),
+         id=ID, element=Field(S, True), actions=Field((list,), True), cost=Field(NUM), t=TIME,
+         world=Field((dict,)), realtime=OPT_TIME, step=_nonneg((int,)),
+         own=Field((bool,), doc="the operator's own plan (its intent), not the manager's ask")),
+    _msg("human_action", "human -> human: a person did this", (_positions("human_action"),),
+         id=ID, agent=Field(S, True), action=Field(S, True), suggestion=OPT_NAME,
+         step=_nonneg((int,)), start=OPT_TIME, t=TIME, positions=Field((dict,))),
+    _msg("percept", "perception -> percept: an object seen", (_percept_shape,),
+         id=ID, object=Field(S, True), object_type=Field(S, True), pose=Field((list,), True),
+         size=Field((dict, list, NONE)), t=OPT_TIME),
     # an operator that acts on its own: what it may do (steps -> hyper-arcs -> ground branches)
-    _msg(
-        "options",
-        "manager -> options/<human>: what the operator may do on its own",
-        {
-            "id": Field(S, True),
-            "t": _nonneg(NUM, True),
-            "steps": Field((list,), True),
-            "world": Field((dict,)),
-        },
-        (_options_steps,),
-    ),
-    _msg(
-        "operator",
-        "human -> intent: its profile",
-        {"agent": Field(S, True), "profile": Field(S, True)},
-    ),
-    _msg(
-        "intent",
-        "human -> intent: its answer to options",
-        {
-            "id": Field(S, True),
-            "agent": Field(S, True),
-            "options": Field(S, True),
-            "act": Field((bool,), True),
-            "decided": Field((list,), True),
-            "t": _nonneg(NUM, True),
-            "step": Field(S),
-            "hyperarc": Field(S),
-            "actions": Field((list,)),
-            "delay": _nonneg(NUM),
-        },
-        (_intent,),
-    ),
-    _msg("state", "manager -> state: the cell snapshot", {}),
-    _msg("end", "manager -> state: the cooperation ended", {"outcome": Field(S, True)}),
+    _msg("options", "manager -> options/<human>: what the operator may do on its own",
+         (_options_steps,), id=ID, t=TIME, steps=Field((list,), True), world=Field((dict,))),
+    _msg("operator", "human -> intent: its profile",
+         agent=Field(S, True), profile=Field(S, True)),
+    _msg("intent", "human -> intent: its answer to options", (_intent,),
+         id=ID, agent=Field(S, True), options=Field(S, True), act=Field((bool,), True),
+         decided=Field((list,), True), t=TIME, step=NAME, hyperarc=NAME,
+         actions=Field((list,)), delay=OPT_TIME),
+    _msg("state", "manager -> state: the cell snapshot"),
+    _msg("end", "manager -> state: the cooperation ended", outcome=Field(S, True)),
 ]
+# fmt: on
 #: Every protocol message type, by its tag.
 MESSAGES: Mapping[str, EventSchema] = MappingProxyType({s.type: s for s in _MESSAGE_SCHEMAS})
 
@@ -858,7 +577,8 @@ class Event:
     ) -> Event:
         """Check ``data`` against its schema in ``catalogue`` (the log events unless given);
         raises :class:`EventError` naming an unknown type or the first broken field."""
-        return cls(str(data.get("type")), MappingProxyType(dict(_checked(data, catalogue))))
+        checked = _checked(data, catalogue)
+        return cls(str(checked["type"]), MappingProxyType(dict(checked)))
 
     def to_dict(self) -> dict[str, Any]:
         return dict(self.data)
@@ -875,7 +595,10 @@ def schema_of(kind: Any, catalogue: Mapping[str, EventSchema] | None = None) -> 
     cat = LOG_EVENTS if catalogue is None else catalogue
     if not isinstance(kind, str) or kind not in cat:
         what = "message" if cat is MESSAGES else "event"
-        raise EventError(f"unknown {what} type {kind!r} (one of {', '.join(sorted(cat))})")
+        raise EventError(
+            f"unknown {what} type {kind!r}: not in the catalogue of flexhrc.events "
+            "(docs/protocol.md)"
+        )
     return cat[kind]
 
 
@@ -909,7 +632,7 @@ def catalogue_markdown() -> str:
                     for m, on in (("replay", s.replay), ("trace", s.trace), ("store", s.stored))
                     if on
                 )
-                out.append(f"| `{s.type}` | {s.doc} | {fields(s)} | {marks} |")
+                out.append(f"| `{s.type}` | {s.doc} | {fields(s)} | {marks or '—'} |")
             else:
                 out.append(f"| `{s.type}` | {s.doc} | {fields(s)} |")
         return out

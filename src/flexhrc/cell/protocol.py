@@ -26,7 +26,7 @@ from __future__ import annotations
 from typing import Any
 
 from flexhrc.errors import FlexhrcError
-from flexhrc.events import MESSAGES
+from flexhrc.events import MESSAGES, MessageType
 
 VERSION = 1
 MANAGER = "manager"
@@ -68,7 +68,7 @@ SCHEMAS: dict[str, dict[str, tuple[tuple[type, ...], bool]]] = {
 }
 
 
-def message(kind: str, **fields: Any) -> dict[str, Any]:
+def message(kind: MessageType, **fields: Any) -> dict[str, Any]:
     """A message of ``kind`` (validated, so a bug on the sending side fails loudly)."""
     msg = {"v": VERSION, "type": kind, **fields}
     parse(msg, expect=kind)
