@@ -60,14 +60,6 @@ def alive_key(agent: str) -> str:
     return f"{ALIVE_PREFIX}/{agent}"
 
 
-# The message schemas live in the one catalogue (flexhrc.events); this view of them, field ->
-# (types, required), is kept for readers of version 1.
-SCHEMAS: dict[str, dict[str, tuple[tuple[type, ...], bool]]] = {
-    kind: {name: (f.types, f.required) for name, f in schema.fields.items()}
-    for kind, schema in MESSAGES.items()
-}
-
-
 def message(kind: MessageType, **fields: Any) -> dict[str, Any]:
     """A message of ``kind`` (validated, so a bug on the sending side fails loudly)."""
     msg = {"v": VERSION, "type": kind, **fields}
