@@ -157,6 +157,20 @@ def test_the_consumers_read_the_catalogue() -> None:
     assert len(events.REPLAY_TYPES) == 43  # the set replay has accepted since section V
 
 
+def test_the_type_tags_are_the_schemas_and_the_module_sits_at_the_bottom() -> None:
+    import ast
+    from typing import get_args
+
+    assert get_args(events.LogEventType) == tuple(LOG_EVENTS)  # same types, same order
+    assert get_args(events.MessageType) == tuple(MESSAGES)
+    assert set(get_args(events.StoreKind)) == set(STORE_KINDS)
+    tree = ast.parse(Path(events.__file__).read_text())
+    imported = {n.module for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)} | {
+        a.name for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names
+    }
+    assert {m for m in imported if m and m.startswith("flexhrc")} == {"flexhrc.errors"}
+
+
 def test_the_docs_list_the_catalogue_as_the_code_declares_it() -> None:
     text = DOCS.read_text()
     assert events.catalogue_markdown() in text, "regenerate: events.catalogue_markdown()"

@@ -15,7 +15,7 @@ names one schema here:
 
 A schema is declared once, as data (:class:`EventSchema`: a ``Literal`` type tag, its
 :class:`Field` s and the rules that span fields), and everything else is derived from it: the
-validators (:meth:`EventSchema.problem`, :func:`from_dict`), the sets of types each consumer
+validators (:meth:`EventSchema.problem`, :meth:`Event.from_dict`), the sets of types each consumer
 reads, and the table of ``docs/protocol.md`` (:func:`catalogue_markdown`). Records keep the
 JSON the emitters have always written — the same keys in the same order — so a log or a store
 written before this catalogue replays unchanged: :class:`Event` is a validated, immutable view
@@ -33,11 +33,11 @@ This module sits at the bottom of the layering: it imports only the standard lib
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from enum import StrEnum
 from types import MappingProxyType
-from typing import Any, Literal, get_args
+from typing import Any, Literal
 
 from flexhrc.errors import FlexhrcError
 
@@ -611,11 +611,6 @@ def _checked(
     return data
 
 
-def from_dict(data: Mapping[str, Any], catalogue: Mapping[str, EventSchema] | None = None) -> Event:
-    """:meth:`Event.from_dict`."""
-    return Event.from_dict(data, catalogue)
-
-
 def catalogue_markdown() -> str:
     """The tables of ``docs/protocol.md`` ("The catalogue"), written from the schemas."""
 
@@ -623,7 +618,7 @@ def catalogue_markdown() -> str:
         shown = [f"`{n}` {f.describe()}" for n, f in s.fields.items() if n != "t"]
         return ", ".join(shown) or "—"
 
-    def rows(schemas: Iterator[EventSchema], flags: bool) -> list[str]:
+    def rows(schemas: Iterable[EventSchema], flags: bool) -> list[str]:
         out = []
         for s in schemas:
             if flags:
@@ -643,7 +638,7 @@ def catalogue_markdown() -> str:
         "",
         "| type | from -> to: what | fields |",
         "|---|---|---|",
-        *rows(iter(MESSAGES.values()), False),
+        *rows(MESSAGES.values(), False),
         "",
         'Log events (every one also carries `"t"`, a finite time >= 0, and `"type"`; a field '
         "not listed is kept but not checked; *replay*: `flexhrc replay` accepts it, *trace*: the "
@@ -651,7 +646,7 @@ def catalogue_markdown() -> str:
         "",
         "| type | what | checked fields | in |",
         "|---|---|---|---|",
-        *rows(iter(LOG_EVENTS.values()), True),
+        *rows(LOG_EVENTS.values(), True),
         "",
         "Store kinds (the `kind` column of the cell's store):",
         "",
@@ -668,20 +663,6 @@ def catalogue_markdown() -> str:
     ]
     return "\n".join(lines) + "\n"
 
-
-def _consistent() -> None:
-    """The Literal tags and the schemas name the same types (checked at import: a type added to
-    one and not the other is a bug of this module, not of a record)."""
-    for tags, cat in (
-        (get_args(LogEventType), set(LOG_EVENTS)),
-        (get_args(MessageType), set(MESSAGES)),
-        (get_args(StoreKind), set(STORE_KINDS)),
-    ):
-        if set(tags) != cat or len(tags) != len(cat):
-            raise AssertionError(f"events: tags and schemas differ: {set(tags) ^ cat}")
-
-
-_consistent()
 
 __all__ = [
     "ACK_STATUSES",
@@ -713,6 +694,5 @@ __all__ = [
     "StoreKind",
     "StoreKindSpec",
     "catalogue_markdown",
-    "from_dict",
     "schema_of",
 ]
