@@ -203,7 +203,10 @@ class Field:
         return self.message.format(type=kind, value=value, t=data.get("t"))
 
     def describe(self) -> str:
-        want = " or ".join("null" if t is NONE else t.__name__ for t in self.types)
+        names = ["null" if t is NONE else t.__name__ for t in self.types]
+        if "float" in names:  # a JSON number
+            names = ["number" if n == "float" else n for n in names if n != "int"]
+        want = " or ".join(names) + (" >= 0" if self.minimum is not None else "")
         return want if self.required else f"({want})?" if " " in want else f"{want}?"
 
 
@@ -494,37 +497,37 @@ def _msg(kind: MessageType, doc: str, rules: tuple[Rule, ...] = (), **fields: Fi
 ID, INT_ID, TIME, OPT_TIME = Field(S, True), Field((int,), True), _nonneg(NUM, True), _nonneg(NUM)
 # fmt: off
 _MESSAGE_SCHEMAS = [
-    _msg("command", "manager -> cmd/<agent>: do this action", (_listed("command", "agents"),),
+    _msg("command", "manager → `cmd/<agent>`: do this action", (_listed("command", "agents"),),
          id=INT_ID, agents=Field((list,), True), action=Field(S, True), element=OPT_NAME,
          t=TIME, expected_s=OPT_TIME, world=Field((dict,)), realtime=OPT_TIME,
          process=Field((bool,))),
-    _msg("stop", "manager -> cmd/<agent>: stop that command",
+    _msg("stop", "manager → `cmd/<agent>`: stop that command",
          id=INT_ID, reason=OPT_NAME, t=OPT_TIME),
-    _msg("ack", "robot -> ack: how a command ended", (_ack_status, _positions("ack")),
+    _msg("ack", "robot → `ack`: how a command ended", (_ack_status, _positions("ack")),
          id=INT_ID, agent=Field(S, True), status=Field(S, True), reason=OPT_NAME, t=TIME,
          duration=OPT_TIME, positions=Field((dict,))),
-    _msg("suggestion", "manager -> suggest/<human>: please do this step",
+    _msg("suggestion", "manager → `suggest/<human>`: please do this step",
          (_listed("suggestion", "actions"),),
          id=ID, element=Field(S, True), actions=Field((list,), True), cost=Field(NUM), t=TIME,
          world=Field((dict,)), realtime=OPT_TIME, step=_nonneg((int,)),
          own=Field((bool,), doc="the operator's own plan (its intent), not the manager's ask")),
-    _msg("human_action", "human -> human: a person did this", (_positions("human_action"),),
+    _msg("human_action", "human → `human`: a person did this", (_positions("human_action"),),
          id=ID, agent=Field(S, True), action=Field(S, True), suggestion=OPT_NAME,
          step=_nonneg((int,)), start=OPT_TIME, t=TIME, positions=Field((dict,))),
-    _msg("percept", "perception -> percept: an object seen", (_percept_shape,),
+    _msg("percept", "perception → `percept`: an object seen", (_percept_shape,),
          id=ID, object=Field(S, True), object_type=Field(S, True), pose=Field((list,), True),
          size=Field((dict, list, NONE)), t=OPT_TIME),
     # an operator that acts on its own: what it may do (steps -> hyper-arcs -> ground branches)
-    _msg("options", "manager -> options/<human>: what the operator may do on its own",
+    _msg("options", "manager → `options/<human>`: what the operator may do on its own",
          (_options_steps,), id=ID, t=TIME, steps=Field((list,), True), world=Field((dict,))),
-    _msg("operator", "human -> intent: its profile",
+    _msg("operator", "human → `intent`: its profile",
          agent=Field(S, True), profile=Field(S, True)),
-    _msg("intent", "human -> intent: its answer to options", (_intent,),
+    _msg("intent", "human → `intent`: its answer to options", (_intent,),
          id=ID, agent=Field(S, True), options=Field(S, True), act=Field((bool,), True),
          decided=Field((list,), True), t=TIME, step=NAME, hyperarc=NAME,
          actions=Field((list,)), delay=OPT_TIME),
-    _msg("state", "manager -> state: the cell snapshot"),
-    _msg("end", "manager -> state: the cooperation ended", outcome=Field(S, True)),
+    _msg("state", "manager → `state`: the cell snapshot"),
+    _msg("end", "manager → `state`: the cooperation ended", outcome=Field(S, True)),
 ]
 # fmt: on
 #: Every protocol message type, by its tag.
@@ -615,7 +618,7 @@ def catalogue_markdown() -> str:
     """The tables of ``docs/protocol.md`` ("The catalogue"), written from the schemas."""
 
     def fields(s: EventSchema) -> str:
-        shown = [f"`{n}` {f.describe()}" for n, f in s.fields.items() if n != "t"]
+        shown = [f"`{n}` {f.describe()}" for n, f in s.fields.items() if f is not T]
         return ", ".join(shown) or "—"
 
     def rows(schemas: Iterable[EventSchema], flags: bool) -> list[str]:
@@ -636,7 +639,7 @@ def catalogue_markdown() -> str:
         'Protocol messages (every one also carries `"v": 1` and `"type"`; `?` marks an '
         "optional field):",
         "",
-        "| type | from -> to: what | fields |",
+        "| type | from → topic: what | fields |",
         "|---|---|---|",
         *rows(MESSAGES.values(), False),
         "",
