@@ -520,8 +520,10 @@ _MESSAGE_SCHEMAS = [
     # an operator that acts on its own: what it may do (steps -> hyper-arcs -> ground branches)
     _msg("options", "manager → `options/<human>`: what the operator may do on its own",
          (_options_steps,), id=ID, t=TIME, steps=Field((list,), True), world=Field((dict,))),
+    # ``scripted``: it takes exactly the steps it was told to (a test or demo script), whatever
+    # its profile says, so it is offered ``options`` even when ``passive``
     _msg("operator", "human → `intent`: its profile",
-         agent=Field(S, True), profile=Field(S, True)),
+         agent=Field(S, True), profile=Field(S, True), scripted=Field((bool,))),
     _msg("intent", "human → `intent`: its answer to options", (_intent,),
          id=ID, agent=Field(S, True), options=Field(S, True), act=Field((bool,), True),
          decided=Field((list,), True), t=TIME, step=NAME, hyperarc=NAME,
