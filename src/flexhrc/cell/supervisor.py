@@ -52,6 +52,7 @@ from flexhrc.cell import protocol as P
 from flexhrc.cell.components import ground, world_of
 from flexhrc.cell.store import EventStore, StoredEvent, log_events
 from flexhrc.errors import FlexhrcError
+from flexhrc.events import STORED_LOG_TYPES  # the manager records the store keeps
 from flexhrc.representation import OnlineGraph
 from flexhrc.taskmanager.diagnose import stall_reason
 from flexhrc.taskmanager.domain import GroundAction
@@ -72,22 +73,6 @@ from flexhrc.transport import Transport
 log = logging.getLogger("flexhrc.cell")
 
 AGENT_LOST = "agent lost"
-# manager log records kept in the store (the others are inputs or outputs stored on their own)
-STORED_LOG_TYPES = {
-    "decision",
-    "outcome",
-    "abort",
-    "action_failed",
-    "infeasible",
-    "recognised",
-    "solved",
-    "human_action_unmatched",
-    "ack_ignored",
-    "agent_available",
-    "agent_unavailable",
-    "human_decides",
-    "human_gives_up",
-}
 
 
 @dataclass

@@ -53,6 +53,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from flexhrc.errors import FlexhrcError
+from flexhrc.events import LogEventType
 from flexhrc.knowledge import KnowledgeBase
 from flexhrc.logic import Literal, Substitution, apply_substitution, is_variable
 from flexhrc.representation import OnlineGraph
@@ -418,8 +419,8 @@ class TaskManager:
             inner = (self.timing.task_representation_s - rep0) + (self.timing.simulator_s - sim0)
             self.timing.task_manager_s += max(0.0, spent - inner)
 
-    def _emit(self, kind: str, **data: Any) -> None:
-        data.pop("type", None)
+    def _emit(self, kind: LogEventType, **data: Any) -> None:
+        data.pop("type", None)  # a misspelt kind is a type error: the tags of flexhrc.events
         self._log({"t": round(self._now, 6), "type": kind, **data})
 
     def _update_graph(self, **kw: Iterable[str]) -> None:
