@@ -299,6 +299,30 @@ def test_a_joint_command_moves_both_arm_nodes_and_a_stop_to_either_halts_both(
             final = np.array(plan.points[-1].positions)
             assert np.abs(states[arm][-1] - final).max() > 1e-3, f"{arm} went on to the end"
         assert not [a for a in acks if a["id"] == 1]  # stopped: not acknowledged
+        # a malformed part is dropped and counted; the arm stays where it is
+        dropped = nodes["right"].dropped
+        for bad in (
+            {
+                "v": 1,
+                "type": "follow",
+                "id": 5,
+                "leader": "left",
+                "times": [0.0, 1.0],
+                "joints": [[0.0] * 3, [0.1] * 3],
+            },  # 3 joints, not 7
+            {
+                "v": 1,
+                "type": "follow",
+                "id": 6,
+                "leader": "left",
+                "times": [1.0, 0.5],
+                "joints": [[0.0] * 7, [0.1] * 7],
+            },  # time runs backwards
+            {"v": 1, "type": "follow", "id": 7, "times": [0.0], "joints": [[0.0] * 7]},
+        ):
+            client.publish("arm/right/follow", bad)  # fmt: skip
+        assert wait_for(lambda: nodes["right"].dropped == dropped + 3, 10.0)
+        assert still("right")
     finally:
         done.set()
         for r in runners:

@@ -23,8 +23,8 @@ the command's simulated duration (the ``duration`` of its ack); the joint states
 the command runs. A joint command (``agents: {joint: [left, right]}``) reaches only its first
 arm, the leader: it plans the motion of all its arms on the model — with the other arms' joints
 as their own nodes last published them (``arm/<other>/joint_states``) — and sends each other
-arm its part on ``arm/<other>/follow`` (``{"v": 1, "type": "follow", "id", "leader", "t",
-"q", "realtime"}``; ``{"v": 1, "type": "follow_stop", "id", "by"}`` when the command is
+arm its part on ``arm/<other>/follow`` (``{"v": 1, "type": "follow", "id", "leader", "times",
+"joints", "realtime"}``; ``{"v": 1, "type": "follow_stop", "id", "by"}`` when the command is
 stopped — either way: a stop that reaches the follower stops the leader too). The follower
 publishes that part as its own trajectory — moved to begin exactly where it is, should
 the leader have planned from an older joint state — and plays it, without acknowledging: the
@@ -265,8 +265,8 @@ class ArmNode(RobotAgent):
             self.transport.publish(
                 f"arm/{other}/follow",
                 {"v": 1, "type": "follow", "id": cid, "leader": self.name,
-                 "t": [round(float(v), 6) for v in t],
-                 "q": [[round(float(v), 9) for v in row] for row in paths[other]],
+                 "times": [round(float(v), 6) for v in t],
+                 "joints": [[round(float(v), 9) for v in row] for row in paths[other]],
                  "realtime": speed},
             )  # fmt: skip
         self.motion = motion
@@ -341,6 +341,9 @@ class ArmNode(RobotAgent):
     def _on_follow(self, data: Any) -> None:
         try:
             cid, t, q, speed = self._parse_follow(data)
+        except FlexhrcError as exc:
+            self._bad(data, exc)
+            return
         except (KeyError, TypeError, ValueError) as exc:
             self._bad(data, FlexhrcError(f"follow: {exc}"))
             return
@@ -369,18 +372,15 @@ class ArmNode(RobotAgent):
         self._publish_state()
 
     def _parse_follow(self, data: Any) -> tuple[int, np.ndarray | None, np.ndarray, float]:
-        if not isinstance(data, dict) or data.get("v") != 1:
-            raise ValueError("not a version-1 message")
-        cid = int(data["id"])
-        if data.get("type") == "follow_stop":
+        m = P.parse(data, expect=("follow", "follow_stop"))  # the catalogue's schema
+        cid = int(m["id"])
+        if m["type"] == "follow_stop":
             return cid, None, np.zeros((0, 0)), 0.0
-        if data.get("type") != "follow":
-            raise ValueError(f"unknown type {data.get('type')!r}")
-        t = np.asarray(data["t"], dtype=float)
-        q = np.asarray(data["q"], dtype=float)
+        t = np.asarray(m["times"], dtype=float)
+        q = np.asarray(m["joints"], dtype=float)
         dof = len(self.names)
         if t.ndim != 1 or len(t) == 0 or q.shape != (len(t), dof):
-            raise ValueError(f"needs t (N) and q (N x {dof})")
+            raise ValueError(f"needs times (N) and joints (N x {dof})")
         if not (np.all(np.isfinite(t)) and np.all(np.isfinite(q))) or np.any(np.diff(t) <= 0):
             raise ValueError("times must be finite and increasing, joints finite")
         speed = float(data.get("realtime", 0.0))
