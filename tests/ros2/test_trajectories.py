@@ -183,11 +183,13 @@ def _run(tmp_path: Path, scenario: str, env: dict[str, str], domain_id: int, cel
     rec = Recorder(cell, domain_id)
     procs: list[subprocess.Popen[str]] = []
     try:
+        # the recorder hears the arms and sees the manager's markers before anything moves: the
+        # manager waits for the operator node, started last (DDS drops what it publishes to a
+        # subscriber it has not discovered yet)
         for arm in ARMS:
             procs.append(_node(env, "arm", *common, "--arm", arm, log=tmp_path / f"{arm}.log"))
-        procs.append(_node(env, "human", *common, "--name", "human", log=tmp_path / "h.log"))
 
-        def arms_heard() -> bool:  # the recorder is matched with the arms before they move
+        def arms_heard() -> bool:
             with rec.lock:
                 return all(len(rec.states[a]) >= 2 for a in ARMS)
 
@@ -195,6 +197,11 @@ def _run(tmp_path: Path, scenario: str, env: dict[str, str], domain_id: int, cel
         manager = _node(env, "cell", *common, "--json", "--realtime", "4", "--store", str(store),
                         "--markers-rate", "20", log=tmp_path / "manager.log")  # fmt: skip
         procs.append(manager)
+        markers = rec.bus.ros_name("markers")
+        assert wait_for(lambda: rec.bus.node.count_publishers(markers) >= 1, 90.0), (
+            "the manager publishes no markers"
+        )
+        procs.append(_node(env, "human", *common, "--name", "human", log=tmp_path / "h.log"))
         data = _finish(manager, 240, tmp_path)
         events = read_store(store)
         commands = [e.body for e in events if e.kind == "command"]
@@ -206,7 +213,10 @@ def _run(tmp_path: Path, scenario: str, env: dict[str, str], domain_id: int, cel
             return plans == wanted and {c["id"] for c in commands} <= rec.deleted()
 
         # the last messages may still be on their way when the manager has exited
-        assert wait_for(all_seen, 30.0), (wanted, {a: len(rec.plans[a]) for a in ARMS})
+        assert wait_for(all_seen, 30.0), (
+            f"trajectories wanted {wanted}, seen { ({a: len(rec.plans[a]) for a in ARMS}) }; "
+            f"no DELETE of commands {sorted({c['id'] for c in commands} - rec.deleted())}"
+        )
     finally:
         rec.close()
         _stop_all(procs)

@@ -13,8 +13,10 @@ topic (under ``/flexhrc/<cell>/``)        type                                di
 
 * markers: every object of the knowledge base, by its type and size, and, as arrows, the
   targets of the commands running now (:meth:`ManagerInterfaces.command_started`); the arrow
-  of a finished command (:meth:`ManagerInterfaces.command_finished`) goes out once as a
-  ``DELETE`` marker, so RViz removes it — RViz shows the cell as the manager believes it is;
+  of a finished command (:meth:`ManagerInterfaces.command_finished`) goes out as a ``DELETE``
+  marker with every array for ``DELETE_LINGER_S`` (2 s) after it finished — at least once —
+  so RViz removes it even if it matched the topic late; RViz shows the cell as the manager
+  believes it is;
 * an object pose from perception that runs outside flexhrc becomes a plain dict
   (:func:`~flexhrc.ros2.messages.percept_from_pose`) handed to ``on_percept`` —
   ``flexhrc ros2 cell`` sends it to the manager as the cell protocol's ``percept`` (stored, then
@@ -40,7 +42,10 @@ from flexhrc.ros2._deps import msg
 
 log = logging.getLogger("flexhrc.ros2.extras")
 
-__all__ = ["ManagerInterfaces"]
+__all__ = ["DELETE_LINGER_S", "ManagerInterfaces"]
+
+#: How long (wall seconds) a finished command's ``DELETE`` marker is sent again with each array.
+DELETE_LINGER_S = 2.0
 
 
 class ManagerInterfaces:
@@ -66,7 +71,8 @@ class ManagerInterfaces:
         self.targets: dict[str, tuple[float, float, float]] = {}
         self.commands: dict[int, tuple[str, tuple[float, float, float]]] = {}
         self.skip = frozenset(skip)  # the agents' names: not drawn as objects
-        self._finished: set[int] = set()  # commands whose arrows are still to be deleted
+        # finished commands -> when their DELETE first went out (None: not yet)
+        self._finished: dict[int, float | None] = {}
         self.on_percept = on_percept
         self.on_imu = on_imu
         self.period = 1.0 / rate_hz
@@ -128,10 +134,16 @@ class ManagerInterfaces:
         """Command ``cid`` ended (answered or stopped): its arrow is deleted with the next
         markers."""
         self.commands.pop(int(cid), None)
-        self._finished.add(int(cid))
+        self._finished.setdefault(int(cid), None)
 
     def publish_markers(self) -> None:
-        deleted, self._finished = self._finished, set()
+        now = self.clock()
+        for cid, first in list(self._finished.items()):
+            if first is None:
+                self._finished[cid] = now
+            elif now - first > DELETE_LINGER_S:
+                del self._finished[cid]
+        deleted = set(self._finished)
         markers = rm.marker_array(
             self.kb.objects.values(), time.time(), targets=self.targets,
             commands=self.commands, deleted=deleted, skip=self.skip,

@@ -517,10 +517,11 @@ class Ros2Transport(QueuedDelivery, Transport):
         for token in tokens:
             token.active = False
             self._beat(token.key, False)
-        # what was published last (an ack, the cell's end, the withdrawals) must reach its
-        # subscribers before the participant goes: wait until they acknowledged it, briefly
+        # what was published last (an ack, the cell's end, the withdrawals, the last markers
+        # with their DELETEs) must reach its subscribers before the participant goes: wait
+        # until they acknowledged it, briefly
         with self._lock:
-            pubs = [self._live_pub, *self._publishers.values()]
+            pubs = [self._live_pub, *self._publishers.values(), *self._typed.values()]
         deadline = time.monotonic() + 1.0
         for pub in pubs:
             left = deadline - time.monotonic()
