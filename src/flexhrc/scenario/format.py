@@ -33,6 +33,7 @@ from flexhrc.scenario.model import (
     WorldSpec,
 )
 from flexhrc.taskmanager.domain import ActionSchema, Domain
+from flexhrc.taskmanager.kinds import unknown_kind
 
 FORMAT_VERSION = 1
 TOP_KEYS = {
@@ -311,6 +312,10 @@ def _precheck_domain(d: Mapping[str, Any], c: _Checker, src: Path) -> None:
         for aname, sd in block.items():
             if not isinstance(sd, Mapping):
                 continue
+            if "kind" in sd:
+                why = unknown_kind(str(sd["kind"]))
+                if why:
+                    c.error(f"{section[:-1]} {aname!r}: {why}", _line(sd, "kind"), src)
             spec = sd.get("agents")
             names: list[str] = []
             if isinstance(spec, str) and not spec.startswith("?"):
