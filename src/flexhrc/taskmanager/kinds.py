@@ -462,9 +462,8 @@ register_action_kind(
     aims_at=_PLACE, colour="#2171b5",
 )  # fmt: skip
 register_action_kind(
-    "hold", phrase="hold {object}", robot_time=_then(_approach, lambda t: t.grasp),
-    motion=[_TO_OBJECT, _GRASP], aims_at=_OBJ, colour="#807dba",
-)  # fmt: skip
+    "hold", phrase="hold {object}", moves=False, aims_at=_OBJ, colour="#807dba"
+)  # keeps a part still where the hands are: no motion (declare the round's duration)
 register_action_kind(
     "release", phrase="release {object}", robot_time=_release, motion=[_RELEASE],
     colour="#c6dbef", aliases=("ungrasp",),
