@@ -30,6 +30,7 @@ def registry(monkeypatch):
     """A scratch copy of the registry: what a test registers is gone afterwards."""
     monkeypatch.setattr(kinds, "_KINDS", dict(kinds._KINDS))
     monkeypatch.setattr(kinds, "_ALIASES", dict(kinds._ALIASES))
+    monkeypatch.setattr(kinds, "_UNREGISTERED", {})
 
 
 def domain(actions: dict) -> Domain:

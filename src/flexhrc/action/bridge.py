@@ -44,6 +44,7 @@ from flexhrc.taskmanager.simulator import (
     SimulationResult,
     StepReport,
     Vec3,
+    simulated_record,
 )
 
 Motion = list[tuple[str, "tuple[float, float, float] | None"]]
@@ -74,10 +75,15 @@ class KinematicTaskSimulator:
         self.grasp_height_m = grasp_height_m
         self.hold_height_m = hold_height_m
         self.wall_s = 0.0
-        #: how each ground action was simulated: ``kinematic`` (on the robot model), ``analytic``
-        #: (timed by the analytic model) or ``none`` (a kind without motion)
-        self.simulated: dict[str, str] = {}
+        self._simulated: dict[tuple[str, tuple[str, ...]], str] = {}
         self._scheduled: list[list[Any]] = []  # [action kind, nth, disturbance kwargs, seen]
+
+    @property
+    def simulated(self) -> dict[str, str]:
+        """How each ground action simulated or executed so far was, by its text:
+        ``kinematic`` (on the robot model), ``analytic`` (timed by the analytic model) or
+        ``none`` (a kind without motion)."""
+        return simulated_record(self._simulated)
 
     # -- geometry -------------------------------------------------------------------------
     def _pos(self, name: str, kb: KnowledgeBase, positions: dict[str, Vec3]) -> Vec3:
@@ -127,7 +133,7 @@ class KinematicTaskSimulator:
         else:
             motions = self.motions(action, kb, positions)
             how = "analytic" if motions is None else "kinematic"
-        self.simulated[str(action)] = how
+        self._simulated[action.name, action.args] = how
         return how, motions
 
     @staticmethod

@@ -106,7 +106,7 @@ class StepContext:
         allowed = rec.attrs.get("reachable_by") if rec is not None else None
         if allowed is not None and arm not in allowed:
             return f"{what} cannot be reached by {arm} (blocked)"
-        reach = float(self.params.get("reach", 0.85))
+        reach = float(self.agent.params.get("reach", 0.85))
         d = math.dist(self.base, p)
         if d > reach:
             return f"{what} at {_fmt(p)} is out of reach of {arm} ({d:.2f} m > {reach:.2f} m)"
@@ -184,6 +184,7 @@ class ActionKind:
 
 _KINDS: dict[str, ActionKind] = {}
 _ALIASES: dict[str, str] = {}
+_UNREGISTERED: dict[str, ActionKind] = {}  # DEFAULT_KIND under a name (made once per name)
 
 
 def register_action_kind(
@@ -218,6 +219,7 @@ def register_action_kind(
         carries_object, aims_at, effect, colour, tuple(aliases),
     )  # fmt: skip
     _KINDS[name] = kind
+    _UNREGISTERED.clear()
     _ALIASES.pop(name, None)
     for alias in aliases:
         _ALIASES[alias] = name
@@ -258,10 +260,16 @@ def unknown_kind(name: str) -> str | None:
 def kind_of(schema: ActionSchema) -> ActionKind:
     """The kind of an action schema: its registered kind, else :data:`DEFAULT_KIND` (under the
     schema's own kind name)."""
-    found = find_action_kind(schema.kind or schema.name)
-    if found is not None:
-        return found
-    return replace(DEFAULT_KIND, name=schema.kind or schema.name)
+    name = schema.kind or schema.name
+    found = find_action_kind(name) or _UNREGISTERED.get(name)
+    if found is None:
+        found = _UNREGISTERED[name] = replace(DEFAULT_KIND, name=name)
+    return found
+
+
+def describe_action(action: GroundAction, kb: KnowledgeBase | None = None) -> str:
+    """The verb phrase of ``action``'s kind, for the panel and the trace (``grasp leg1``)."""
+    return kind_of(action.schema).describe(action, kb)
 
 
 def action_targets(
@@ -269,16 +277,24 @@ def action_targets(
 ) -> tuple[str | None, str | None]:
     """(object, place) of a ground action (see the module docstring); without ``kb`` every
     argument that is not one of the action's agents counts as an object."""
-    schema, binding = action.schema, action.binding
+    schema = action.schema
     if schema.target:
-        names = [binding.get(v) for v in schema.target]
+        names = [action.binding.get(v) for v in schema.target]
         if len(names) >= 2:
             return names[0], names[-1]
         roles = kind_of(schema).aims_at or ("object",)
         return (names[0], None) if roles[0] == "object" else (None, names[0])
-    objs = [a for a in action.args if a not in action.agents and (kb is None or a in kb.objects)]
-    obj = binding.get(schema.carries) if schema.carries else None
-    place = binding.get(schema.moves_to) if schema.moves_to else None
+    agents = action.agents
+    if kb is None:
+        objs = [a for a in action.args if a not in agents]
+    else:
+        objects = kb.objects
+        objs = [a for a in action.args if a in objects and a not in agents]
+    obj = place = None
+    if schema.carries or schema.moves_to:  # a binding only when a role is declared (hot path)
+        binding = action.binding
+        obj = binding.get(schema.carries) if schema.carries else None
+        place = binding.get(schema.moves_to) if schema.moves_to else None
     if obj is None and objs:
         obj = objs[0]
     if place is None and len(objs) >= 2:
@@ -509,6 +525,7 @@ __all__ = [
     "action_kinds",
     "action_targets",
     "declared_effect",
+    "describe_action",
     "find_action_kind",
     "kind_of",
     "register_action_kind",

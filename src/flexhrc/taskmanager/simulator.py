@@ -123,8 +123,13 @@ class AnalyticSimulator:
         self.timing = timing or Timing()
         self.failure_rate = failure_rate
         self._rng = random.Random(seed)
-        #: how each ground action was simulated: ``analytic``, or ``none`` (a kind without motion)
-        self.simulated: dict[str, str] = {}
+        self._simulated: dict[tuple[str, tuple[str, ...]], str] = {}
+
+    @property
+    def simulated(self) -> dict[str, str]:
+        """How each ground action simulated so far was: ``analytic``, or ``none`` (a kind
+        without motion, :mod:`flexhrc.taskmanager.kinds`), by its text (``grasp(left, leg1)``)."""
+        return simulated_record(self._simulated)
 
     # -- one action -----------------------------------------------------------------------
     def step(
@@ -140,22 +145,21 @@ class AnalyticSimulator:
         timing model (:mod:`flexhrc.taskmanager.kinds`): an operator's (default 2 s), or each
         arm's (default 1 s; a joint action lasts as long as its slowest arm)."""
         kind = kind_of(action.schema)
-        self.simulated[str(action)] = "analytic" if kind.moves else "none"
+        self._simulated[action.name, action.args] = "analytic" if kind.moves else "none"
         if action.schema.duration is not None or action.schema.moves_to is not None:
             return self._declared_step(action, positions, kb, domain)
         agents = [domain.agent(a) for a in action.agents]
-        human = next((a for a in agents if a.is_human), None)
-        if human is not None:
-            ctx = StepContext(action, human, positions, kb, self.timing)
-            return kind.human_time(ctx) if kind.human_time else (True, 2.0, None)
-        durations = []
+        for agent in agents:
+            if agent.is_human:
+                ctx = StepContext(action, agent, positions, kb, self.timing)
+                return kind.human_time(ctx) if kind.human_time else (True, 2.0, None)
+        longest = 0.0
         for arm in agents:
             ctx = StepContext(action, arm, positions, kb, self.timing)
             ok, dt, why = kind.robot_time(ctx) if kind.robot_time else (True, 1.0, None)
             if not ok:
                 return False, dt, why
-            durations.append(dt)
-        longest = max(durations, default=0.0)
+            longest = max(longest, dt)
         if kind.fallible and self.failure_rate and self._rng.random() < self.failure_rate:
             return False, longest, f"{action} failed (simulated fault)"
         return True, longest, None
@@ -253,6 +257,12 @@ class AnalyticSimulator:
             if not ok:
                 return SimulationResult(False, durations, why, details)
         return SimulationResult(True, durations, None, details)
+
+
+def simulated_record(seen: Mapping[tuple[str, tuple[str, ...]], str]) -> dict[str, str]:
+    """``{"grasp(left, leg1)": how}`` from ``{("grasp", ("left", "leg1")): how}`` (a simulator
+    keeps the tuples: formatting every simulated step would cost more than the step)."""
+    return {f"{name}({', '.join(args)})": how for (name, args), how in seen.items()}
 
 
 def default_simulator() -> Simulator:
