@@ -64,6 +64,15 @@ def test_the_documented_kinds_and_the_table_words_are_registered():
     assert action_kind("place_tabletop").moves_arm and not action_kind("check").moves_arm
     with pytest.raises(UnknownNameError, match="unknown action kind 'hammer'"):
         action_kind("hammer")
+    table = scenario.load("table_assembly")
+    kb = table.world()
+    for text, agents, words in (
+        ("transport(left, leg1, bolt_1)", ("left",), "carry leg1 to bolt_1"),
+        ("place_tabletop(tabletop, assembly_pose)", ("left", "right"),
+         "place tabletop at assembly_pose (both arms)"),
+        ("check(human, bolt_1)", ("human",), "check bolt_1"),
+    ):  # fmt: skip
+        assert kinds.describe_action(ground(table.domain, text, agents), kb) == words
 
 
 def test_a_schema_without_kind_is_its_name_and_an_unregistered_name_the_default():
