@@ -254,3 +254,21 @@ def test_the_timeline_colours_by_kind(tmp_path):
     ]  # fmt: skip
     out = plot_timeline(events, tmp_path / "t.png", domain=dom)
     assert out.stat().st_size > 0
+
+
+def test_a_robot_kind_without_a_target_it_needs_is_a_warning(tmp_path, capsys):
+    from ..scenario.helpers import base, line_of, write
+
+    doc = base()
+    pick = doc["domain"]["actions"]["pick"]
+    pick["kind"] = "transport"  # carries something somewhere, but pick(?who, ?p) names no place
+    del pick["moves_to"]
+    path = write(tmp_path, doc)
+    code = main(["scenario", "validate", str(path)])
+    out = capsys.readouterr()
+    assert code == 0
+    assert out.out.strip().splitlines()[0] == (
+        f"{path}:{line_of(path, 'kind: transport')}: warning: action 'pick': kind 'transport' "
+        "needs a place to go to but no parameter names one (add it and name it with target: "
+        "[?object, ?place]); its robot motion is timed analytically until then"
+    )
