@@ -1163,6 +1163,8 @@ class Cell:
         data["branches_simulated"] = tm["branches_simulated"]
         data["timing"].update(tm["timing"])
         data["compute_recorded"] = True  # this manager's own compute, not a log's
+        # how each action the manager simulated was simulated (kinematic | analytic | none)
+        data["simulated"] = dict(getattr(self.tm.simulator, "simulated", None) or {})
         data["scenario"] = str(getattr(self.scenario, "name", "?"))
         data["wall_s"] = time.perf_counter() - self._wall0
         data["cell"] = {

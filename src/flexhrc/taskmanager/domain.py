@@ -44,7 +44,7 @@ holds (checked after each round and whenever the state changes), then the node i
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -54,6 +54,22 @@ from flexhrc.logic import Conjunction, is_variable, parse_conjunction, parse_lit
 from flexhrc.logic import Literal as Lit
 
 AgentMode = Literal["single", "choice", "joint"]
+
+
+def _no_kind_check(kind: str) -> str | None:
+    return None
+
+
+#: Why an action kind named in a domain is unknown (None: it is known). The registry of
+#: :mod:`flexhrc.taskmanager.kinds` installs its check when it is imported (the package does),
+#: so the domain names kinds without depending on the module that defines them.
+_kind_check: Callable[[str], str | None] = _no_kind_check
+
+
+def set_kind_check(check: Callable[[str], str | None]) -> None:
+    """Install the check of action-kind names (:func:`flexhrc.taskmanager.kinds.unknown_kind`)."""
+    global _kind_check
+    _kind_check = check
 
 
 @dataclass(frozen=True)
@@ -324,9 +340,7 @@ def _schema(
     moves_to = roles["moves_to"]
     kind = str(sd.get("kind", name))
     if "kind" in sd:
-        from flexhrc.taskmanager.kinds import unknown_kind
-
-        why = unknown_kind(kind)
+        why = _kind_check(kind)
         if why:
             raise FormatError(f"{what} {name!r}: {why}", source, _line(sd, "kind"))
     raw_target = sd.get("target")

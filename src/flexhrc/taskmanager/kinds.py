@@ -37,16 +37,35 @@ from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any, Literal
 
 from flexhrc.errors import FlexhrcError, UnknownNameError
+from flexhrc.taskmanager.domain import set_kind_check
 
 if TYPE_CHECKING:
     from flexhrc.knowledge import KnowledgeBase
     from flexhrc.taskmanager.domain import ActionSchema, Agent, Domain, GroundAction
-    from flexhrc.taskmanager.simulator import Timing
 
 Vec3 = tuple[float, float, float]
 Role = Literal["object", "place"]
 #: (success, seconds, reason of a failure) — what a timing model answers for one agent
 StepTime = tuple[bool, float, str | None]
+
+
+@dataclass
+class Timing:
+    """Nominal speeds (m/s) and fixed durations (s). Robot figures follow the paper's robot
+    (max linear end-effector speed 0.4 m/s); human ones are typical assembly motions."""
+
+    robot_speed: float = 0.4
+    approach_overhead: float = 0.5
+    transport_overhead: float = 0.5
+    grasp: float = 1.0
+    ungrasp: float = 0.8
+    robot_screw: float = 4.0
+    human_speed: float = 1.0
+    human_pick_up: float = 1.0
+    human_put_down: float = 1.5
+    human_screw: float = 6.0
+    place_tabletop: float = 6.0
+    insert: float = 2.0
 
 
 @dataclass
@@ -531,3 +550,6 @@ __all__ = [
     "register_action_kind",
     "unknown_kind",
 ]
+
+
+set_kind_check(unknown_kind)  # Domain.from_dict refuses an unknown ``kind:`` by this registry

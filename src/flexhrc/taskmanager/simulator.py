@@ -24,7 +24,7 @@ from typing import Protocol
 
 from flexhrc.knowledge import KnowledgeBase
 from flexhrc.taskmanager.domain import Agent, Domain, GroundAction
-from flexhrc.taskmanager.kinds import StepContext, kind_of
+from flexhrc.taskmanager.kinds import StepContext, Timing, kind_of
 
 Vec3 = tuple[float, float, float]
 
@@ -78,25 +78,6 @@ class ExecutionModel(Protocol):
         kb: KnowledgeBase,
         domain: Domain,
     ) -> StepReport: ...
-
-
-@dataclass
-class Timing:
-    """Nominal speeds (m/s) and fixed durations (s). Robot figures follow the paper's robot
-    (max linear end-effector speed 0.4 m/s); human ones are typical assembly motions."""
-
-    robot_speed: float = 0.4
-    approach_overhead: float = 0.5
-    transport_overhead: float = 0.5
-    grasp: float = 1.0
-    ungrasp: float = 0.8
-    robot_screw: float = 4.0
-    human_speed: float = 1.0
-    human_pick_up: float = 1.0
-    human_put_down: float = 1.5
-    human_screw: float = 6.0
-    place_tabletop: float = 6.0
-    insert: float = 2.0
 
 
 class AnalyticSimulator:
