@@ -221,9 +221,9 @@ def test_a_joint_command_moves_both_arm_nodes_and_a_stop_to_either_halts_both(
 ):
     """The leader (the joint command's first arm) sends the other arm its part; each publishes
     a trajectory from its own joint state; the cell's stop reaching the follower stops both."""
-    from flexhrc.cell import load_scenario
     from flexhrc.cell.components import run_agent
     from flexhrc.ros2.arm import ArmNode
+    from flexhrc.scenario import load_scenario
 
     sc = load_scenario("table_assembly")  # with the tabletop's joint command
     prefix = f"flexhrc/{cell_name}"

@@ -6,9 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from flexhrc.cell import load_scenario
 from flexhrc.cell.components import execution_model, ground
 from flexhrc.ros2 import motion as mp
+from flexhrc.scenario import load_scenario
 
 
 def test_fit_duration_holds_compresses_and_ends_exactly():
