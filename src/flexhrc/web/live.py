@@ -37,8 +37,7 @@ from flexhrc.errors import FlexhrcError
 from flexhrc.taskmanager.manager import HumanAction
 from flexhrc.web import operator
 from flexhrc.web.backend import PanelInputError, json_safe, parse_action
-from flexhrc.web.local import TIMELINE_LIMIT
-from flexhrc.web.snapshot import feasible_costs, graph_snapshot, suggestions
+from flexhrc.web.snapshot import TIMELINE_LIMIT, feasible_costs, graph_snapshot, suggestions
 
 ANSWER_TIMEOUT_S = 10.0  # an HTTP request waits this long for the cell's loop to take its input
 
@@ -51,8 +50,11 @@ class CellPanel:
     :meth:`close` at the end.
     """
 
-    def __init__(self, cell: Any, *, operator: bool = False):
+    def __init__(
+        self, cell: Any, *, operator: bool = False, on_input: Callable[[], None] | None = None
+    ):
         self.cell = cell
+        self._on_input = on_input
         self.halted: set[str] = set()
         self._inbox: queue.SimpleQueue[tuple[str, Any, Future[dict[str, Any]]]] = (
             queue.SimpleQueue()
@@ -109,6 +111,8 @@ class CellPanel:
     def _ask(self, kind: str, arg: Any) -> dict[str, Any]:
         answer: Future[dict[str, Any]] = Future()
         self._inbox.put((kind, arg, answer))
+        if self._on_input is not None:
+            self._on_input()
         try:
             return answer.result(timeout=ANSWER_TIMEOUT_S)
         except FutureTimeout:
@@ -214,6 +218,11 @@ class CellPanel:
                 409,
             )
         c.human_input(str(action), people[0])  # stored and fed by the cell's own loop
+        if not c.ordered:
+            # on the wall clock the loop handles inputs as they arrive: now, so the answer and
+            # the page already show its effect (the ordered loop waits for its time)
+            while c.pending and c.step():
+                pass
         self.refresh(force=True)
         return {"ok": True, "action": str(action), "outcome": c.tm.outcome}
 
@@ -345,8 +354,13 @@ class CellPanel:
             for ex in c.tm.executions.values()
             if ex.owner == "human" and ex.next_index < len(ex.branch.steps)
         ]
+        if c.ordered:  # the loop holds the arms' answers while the operator is asked
+            robots_working = bool(c.pending)
+        else:  # on the wall clock the arms go on: wait for the operator once they are done
+            answered = {b["id"] for *_, kind, b in c.pending if kind == "ack"}
+            robots_working = any(cmd.id not in answered for cmd in c.tm.busy.values())
         parts = []
-        if asked and not c.pending:
+        if asked and not robots_working:
             parts.append(f"waiting for the operator: {', '.join(asked)}")
         if lost:
             parts.append(f"agent(s) lost: {', '.join(lost)}")
