@@ -1,4 +1,4 @@
-"""The panel over a live cell (:class:`flexhrc.cell.Cell`): ``flexhrc cell SCENARIO ... --web``.
+"""The panel over a cell (:class:`flexhrc.cell.Cell`): ``flexhrc panel`` and ``flexhrc cell --web``.
 
 The cell is single-threaded: one loop receives, stores, feeds and sends. The panel's server runs
 on its own thread, so :class:`CellPanel` never touches the cell from there. It is one more
@@ -13,7 +13,8 @@ cell's thread, it
 
 Over Zenoh with ``--agents external`` the panel *is* the operator: it holds the liveliness token
 of each human agent, so the cell waits for the person at the page (and says so on it) instead of
-for an operator process.
+for an operator process. In ``flexhrc panel`` (:mod:`flexhrc.web.local`) it is the operator of a
+cell in this process, on the wall clock.
 
 Every input goes through the cell's public entries (:meth:`Cell.human_input`,
 :meth:`Cell.human_take`, :meth:`Cell.halt_agent`, :meth:`Cell.release_agent`): stored inputs
