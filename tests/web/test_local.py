@@ -4,12 +4,15 @@ clock, the operator only at the panel (:class:`flexhrc.web.local.LocalPanel`).""
 from __future__ import annotations
 
 import json
+from pathlib import Path
 from typing import Any
 
 import pytest
 
 from flexhrc.cell import protocol as P
 from flexhrc.representation import AndOrGraph, HierarchicalGraph, OnlineGraph
+from flexhrc.scenario import SHIPPED
+from flexhrc.scenario.starter import STARTER, STARTER_NAME
 from flexhrc.web import PanelInputError
 from flexhrc.web.snapshot import graph_snapshot
 from tests.web.helpers import (
@@ -218,3 +221,22 @@ def test_the_panel_runs_the_task_the_name_means_everywhere(local_panel: Any) -> 
     theirs = [h["id"] for inst in graph_snapshot(graph, {}) for h in inst["hyperarcs"]]
     assert mine == theirs and len(theirs) > 8  # the three segments, not the legs fix alone
     assert panel.snapshot()["scenario"] == "table_assembly"
+
+
+@pytest.mark.parametrize("name", [*SHIPPED, "starter"])
+def test_every_shipped_scenario_and_the_starter_is_solved_at_the_panel(
+    name: str, local_panel: Any, tmp_path: Path
+) -> None:
+    """`flexhrc panel NAME` for each shipped scenario and the file `flexhrc scenario new`
+    writes: the arms work, the person presses 'done' on what they are asked, to the end."""
+    if name == "starter":
+        path = tmp_path / STARTER_NAME
+        path.write_text(STARTER)
+        name = str(path)
+    panel = local_panel(name, speed=1000)
+    assert finish(panel) == "solved", panel.snapshot()["reason"]
+    summary = panel.report().summary
+    assert summary["robot_actions"] > 0
+    assert summary["human_actions"] == sum(
+        1 for ev in panel.cell.events if ev.kind == "human_action"
+    )
