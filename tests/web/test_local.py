@@ -235,6 +235,7 @@ def test_every_shipped_scenario_and_the_starter_is_solved_at_the_panel(
         name = str(path)
     panel = local_panel(name, speed=1000)
     assert finish(panel) == "solved", panel.snapshot()["reason"]
+    assert panel.wait(30)  # the loop has returned its summary
     summary = panel.report().summary
     assert summary["robot_actions"] > 0
     assert summary["human_actions"] == sum(

@@ -43,10 +43,6 @@ SIMULATORS = ("auto", "analytic", "kinematic")
 CALL_TIMEOUT_S = 10.0  # a call waits this long for the cell's loop to run it
 
 
-class _Closed(Exception):
-    """Raised in the cell's pump to leave :meth:`Cell.run` when the panel closes early."""
-
-
 def check_speed(speed: float, option: str = "speed") -> float:
     """``speed`` as a finite positive float, or one :class:`FlexhrcError` naming ``option``."""
     if not (speed > 0 and speed < float("inf")):
@@ -146,6 +142,7 @@ class LocalPanel:
             agent_speed=self.speed,  # the arms take the simulated time, paced
             simulator=branches,
             liveliness=False,  # every agent is in this process
+            publish_state=False,  # the page gets the state from the panel, not from the bus
             name=name,
             trace=trace,
             seed=seed,
@@ -239,14 +236,16 @@ class LocalPanel:
         )
 
     def close(self) -> None:
-        """Stop the loop (the cooperation stays as it is), answer what the page still waits
-        for, stop serving, close the store."""
+        """End the cooperation if it still runs (outcome ``interrupted``, stored), answer what
+        the page still waits for, stop serving, close the store."""
+        ended = self.done
+        self.cell.request_stop("the panel was closed")
         self._closing = True
         self._wake.set()
         if self._thread is not None:
             self._thread.join(timeout=10)
         if self.server is not None:
-            self.server.stop(grace=0.3 if self.done else 0.0)  # the page gets the end first
+            self.server.stop(grace=0.3 if ended else 0.0)  # the page gets the end first
         self.backend.close()
         for arm in self.arms:
             arm.close()
@@ -265,8 +264,6 @@ class LocalPanel:
     def _main(self) -> None:
         try:
             self._summary = self.cell.run(pump=self._pump, max_wall_s=float("inf"))
-        except _Closed:
-            pass
         except BaseException as exc:  # surfaced by wait(); the page keeps the last state
             self._error = exc
         finally:
@@ -294,8 +291,6 @@ class LocalPanel:
         """Deliver the bus, let the arms finish what is due, carry out the page's inputs; with
         nothing to do, sleep until the next arm is due or an input comes (at most
         ``timeout``)."""
-        if self._closing:
-            raise _Closed
         self._wake.clear()
         self._serve_calls()
         delivered = self.bus.flush()
