@@ -35,7 +35,7 @@ from typing import Any
 from flexhrc.cell import protocol as P
 from flexhrc.cell.components import ground
 from flexhrc.errors import FlexhrcError
-from flexhrc.taskmanager.manager import HumanAction
+from flexhrc.taskmanager.manager import HumanAction, TakeRefused
 from flexhrc.web import operator
 from flexhrc.web.backend import PanelInputError, json_safe, parse_action
 from flexhrc.web.snapshot import TIMELINE_LIMIT, feasible_costs, graph_snapshot, suggestions
@@ -229,9 +229,10 @@ class CellPanel:
 
     def _take(self, element: str) -> dict[str, Any]:
         c = self.cell
-        now = c.now
-        operator.dry_run(c.tm, lambda tm: operator.take(tm, now, element))  # raises if not
-        actions = c.human_take(element)  # stored and fed by the cell's own loop
+        try:  # checked by the manager first: a refused take stores and changes nothing
+            actions = c.human_take(element)
+        except TakeRefused as exc:
+            raise PanelInputError(str(exc), operator.refusal_status(exc)) from None
         self.refresh(force=True)
         return {"ok": True, "take": element, "actions": actions}
 

@@ -48,6 +48,11 @@ def takeable(tm: TaskManager) -> list[str]:
 _STATUS = {"unknown": 404, "invalid": 400, "conflict": 409}
 
 
+def refusal_status(refused: TakeRefused) -> int:
+    """The HTTP status of a refused take: 404 unknown, 400 not a hyper-arc, 409 not now."""
+    return _STATUS.get(refused.kind, 409)
+
+
 def take(tm: TaskManager, now: float, element: str) -> list[Directive]:
     """The operator will do ``element`` (:meth:`TaskManager.operator_takes`). Raises
     :class:`PanelInputError` (nothing changed) when it is not a feasible hyper-arc an operator
@@ -55,7 +60,7 @@ def take(tm: TaskManager, now: float, element: str) -> list[Directive]:
     try:
         return tm.operator_takes(now, element)
     except TakeRefused as exc:
-        raise PanelInputError(str(exc), _STATUS.get(exc.kind, 409)) from None
+        raise PanelInputError(str(exc), refusal_status(exc)) from None
 
 
 def dry_run(
@@ -74,4 +79,4 @@ def dry_run(
     return events
 
 
-__all__ = ["dry_run", "human_branches", "humans", "take", "takeable"]
+__all__ = ["dry_run", "human_branches", "humans", "refusal_status", "take", "takeable"]
