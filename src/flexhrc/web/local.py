@@ -270,10 +270,10 @@ class LocalPanel:
             self._ended.set()
         # the end stays visible and inputs get their answer ("the cooperation has ended")
         while not self._closing:
+            self._wake.clear()
             self._serve_calls()
             self.backend.poll()
             self._wake.wait(0.5)
-            self._wake.clear()
         self._serve_calls()
 
     def _serve_calls(self) -> None:
