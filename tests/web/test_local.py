@@ -212,7 +212,7 @@ def test_the_state_says_why_it_waits_or_failed(local_panel: Any) -> None:
 
 
 def test_the_panel_runs_the_task_the_name_means_everywhere(local_panel: Any) -> None:
-    from flexhrc.cell import load_scenario
+    from flexhrc.scenario import load_scenario
 
     panel = local_panel("table_assembly", start=False)
     shipped = load_scenario("table_assembly")  # what `flexhrc run` and `flexhrc cell` run

@@ -55,7 +55,7 @@ class PanelConfig:
     """What :func:`serve_panel` runs and where it serves it.
 
     ``scenario`` is a name or a file, as ``flexhrc run`` and ``flexhrc cell`` take it
-    (:func:`flexhrc.cell.load_scenario`), or a scenario already loaded. ``speed`` is simulated
+    (:func:`flexhrc.scenario.load_scenario`), or a scenario already loaded. ``speed`` is simulated
     seconds per wall second; ``simulator`` the branch simulator and the arms' simulated world
     (``auto``: the scenario's choice). ``port`` 0 takes any free port (the server binds it and
     :attr:`LocalPanel.url` says which). An address other than loopback needs ``token``.
@@ -118,8 +118,9 @@ class LocalPanel:
         name: str = "panel",
         trace: Callable[[dict[str, Any]], None] | None = None,
     ) -> None:
-        from flexhrc.cell import Cell, EventStore, RobotAgent, load_scenario
+        from flexhrc.cell import Cell, EventStore, RobotAgent
         from flexhrc.cell.components import execution_model
+        from flexhrc.scenario import load_scenario
         from flexhrc.transport import InProcessBus
 
         self.speed = check_speed(speed)
@@ -333,7 +334,7 @@ def table_legs(
     """The legs fix of the table (paper 000, VI-D, Figs. 9-12) — the task the older file
     ``scenario: table_assembly`` with ``legs`` and ``unreachable_bolts`` names in every command.
     No arm reaches a bolt in ``unreachable_bolts``: the robot asks the operator (Fig. 12)."""
-    from flexhrc.cell.scenario_ref import CellScenario
+    from flexhrc.scenario import CellScenario
     from flexhrc.scenarios.table_assembly import TableScenario
 
     if legs < 1:
