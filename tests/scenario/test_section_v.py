@@ -194,6 +194,9 @@ def _independent(tmp_path, reaction):
     doc["world"]["objects"]["c"] = {"type": "part", "position": [0.4, 0.0, 0.0]}
     doc["world"]["facts"] += ["on_table(c)"]
     doc["domain"]["agents"]["human"]["hand"] = [3.0, 0.0, 0.1]  # far away: the robot is asked
+    # ... except for b, which the arm cannot reach: the operator is needed for it (a person is
+    # not asked for what the busy arm does better)
+    doc["world"]["objects"]["b"]["reachable_by"] = []
     doc["domain"]["actions"]["rest"] = {"parameters": {"?r": "robot"}, "agents": {"choice": "?r"}}
     sc = scenario.load(write(tmp_path, doc))
     kb = sc.world()
