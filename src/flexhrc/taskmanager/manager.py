@@ -15,8 +15,11 @@ The loop of a decision (``_plan``):
    :class:`DecisionTree` (groundings x agents), simulate every branch, keep the best by eq. (21);
 3. if every branch scores 0, that grounding is infeasible: when no grounding is left the element
    is marked infeasible in the graph and the next cheapest is tried;
-4. the best branch's first action goes to its robot arm (:class:`Command`), or — when only the
-   human can do it — to the human as a :class:`Suggest`.
+4. the best branch's first action goes to its robot arm (:class:`Command`), or — when a person
+   is needed for it or strictly best at it — to the person as a :class:`Suggest`. Ties go to the
+   arms, and a step that an arm busy now would do as well waits for that arm rather than going
+   to whoever is free (the tree of eq. 21 ranges over every capable agent, paper Fig. 2); an
+   operator who acts on their own may take it meanwhile.
 
 Section V in full:
 

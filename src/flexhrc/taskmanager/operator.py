@@ -22,6 +22,12 @@ that no running execution reserves first, then the nearest to its hand (``random
 operators never work on one object at once: a step is not taken while its objects are
 reserved, and an action on an object another agent holds (the domain's ``on_stop.holding``
 fact) fails — the operator gives up and the Task Manager continues.
+
+What it can take beyond what it is asked: steps no arm is on (the Task Manager asks a person
+only for what they are needed for or best at, so a step a busy arm does as well waits for that
+arm — and for an operator who gets there first) and steps whose arm is still on its way (its
+current action changes nothing yet, like the table's ``approach``). A step an arm has started
+changing stays the arm's.
 """
 
 from __future__ import annotations
