@@ -794,7 +794,8 @@ class TaskManager:
         The decision tree of eq. (21) ranges over every agent that may do the actions (paper
         000, Fig. 2), not only the idle ones: when the best of them is a busy arm, the person
         is not what the step needs — it waits for the arm (no person is asked to do what a
-        robot does as well just because the robot is busy right now; ties go to the robots)."""
+        robot does as well just because the robot is busy right now; ties go to the robots). The
+        arm's branches are checked and simulated after the rest of its current execution."""
         # an arm in a node process is left out: the process may be waiting for this very step
         busy = [
             a.name
@@ -816,15 +817,25 @@ class TaskManager:
             exclude=self.failed.get(name, ()),
             available_agents=robots,
             reserved=reserved,
+            check_pre=False,  # checked below, after what the busy arm still has to do
             binding=self._child_binding(name),
         )
         for b in tree.branches:
-            # simulated from where the arm will be: after the command it is running now
+            # from where the arm will be: after the rest of what it is doing now
             running = {self.busy[a].id: self.busy[a] for a in b.agents if a in busy}
             if not running:
                 continue
-            before = [c.action for c in running.values()]
-            result = self.simulator.simulate([*before, *b.steps], self.kb, self.domain)
+            before: list[GroundAction] = []
+            for cmd in running.values():
+                ex = self.executions.get(cmd.element) if cmd.element else None
+                if ex is not None and ex.command is cmd:
+                    before += ex.branch.steps[ex.next_index :]
+                else:
+                    before.append(cmd.action)
+            steps = [*before, *b.steps]
+            if unmet_precondition(steps, self.kb.facts, len(before)) is not None:
+                continue
+            result = self.simulator.simulate(steps, self.kb, self.domain)
             total = sum(result.durations[len(before) :])
             if result.success and total > 0 and 1.0 / total >= persons.utility:
                 return True
