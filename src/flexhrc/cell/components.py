@@ -41,7 +41,7 @@ from flexhrc.errors import FlexhrcError, UnknownNameError
 from flexhrc.files import EventLogWriter
 from flexhrc.knowledge import KnowledgeBase
 from flexhrc.taskmanager.domain import Domain, GroundAction
-from flexhrc.taskmanager.operator import PROFILES, SimulatedOperator
+from flexhrc.taskmanager.operator import PROFILES, SimulatedOperator, operator_seed
 from flexhrc.taskmanager.simulator import AnalyticSimulator, ExecutionModel
 from flexhrc.transport import Transport
 
@@ -369,7 +369,14 @@ class HumanAgent(_Agent):
         self.busy: set[tuple[str, int]] = set()  # steps being carried out
         self._subs.append(transport.subscribe(P.suggest_topic(name), self._on_message))
         # the profile's own decisions (the same code as the in-process operators)
-        self.operator = SimulatedOperator(name, profile, seed) if profile != "passive" else None
+        # seeded as the run's operators are (the i-th operator of the domain), so one seed is one
+        # cooperation in ``flexhrc run`` and in a cell
+        index = [a.name for a in self.domain.agents.values() if a.is_human].index(name)
+        self.operator = (
+            SimulatedOperator(name, profile, operator_seed(seed, index))
+            if profile != "passive"
+            else None
+        )
         self.intents: dict[str, dict[str, Any]] = {}  # options id -> the intent sent for it
         self._announced_at = float("-inf")
         if self.operator is not None:
@@ -423,6 +430,7 @@ class HumanAgent(_Agent):
             arc = next(a for a in st["arcs"] if a["hyperarc"] == intention.hyperarc)
             if not arc["branches"]:  # nothing of it is free for this operator: it gives up
                 self.trace(f"gives up {intention.hyperarc} ({step}): nothing free to do it with")
+                t += intention.delay_s  # after thinking, as a run's operator does
                 break
             branches = [[ground(self.domain, x) for x in b] for b in arc["branches"]]
             branch = op.pick_branch(self.kb, self.domain, branches)
