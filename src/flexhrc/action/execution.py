@@ -30,8 +30,8 @@ import numpy as np
 from flexhrc.action.control import Obstacle, parse_obstacle
 from flexhrc.action.simulator import ActionOutcome, KinematicSimulator, Pose, RobotState, SimEvent
 from flexhrc.errors import FlexhrcError, UnknownNameError
+from flexhrc.events import ACK_STATUSES as STATUSES  # what an agent may answer
 
-STATUSES: tuple[str, ...] = ("done", "failed", "timed_out")
 DISTURBANCE_KINDS: tuple[str, ...] = ("object_moved", "slow_arm", "blocked_path")
 #: Actions that need the object to be where the command says.
 _OBJECT_ACTIONS = ("approach", "grasp")

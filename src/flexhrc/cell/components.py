@@ -32,7 +32,7 @@ from __future__ import annotations
 import json
 import logging
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
 
@@ -358,6 +358,7 @@ class HumanAgent(_Agent):
         seed: int = 0,
         execution: ExecutionModel | None = None,
         trace: Callable[[str], None] | None = None,
+        takes: Iterable[int | str] | None = None,
     ) -> None:
         check_profile(profile)
         super().__init__(
@@ -369,12 +370,14 @@ class HumanAgent(_Agent):
         self.busy: set[tuple[str, int]] = set()  # steps being carried out
         self._subs.append(transport.subscribe(P.suggest_topic(name), self._on_message))
         # the profile's own decisions (the same code as the in-process operators)
+        # ``takes``: a script (the K-th steps, 1-based, or node names) instead of the profile
+        self.takes = set(takes) if takes is not None else None
         # seeded as the run's operators are (the i-th operator of the domain), so one seed is one
         # cooperation in ``flexhrc run`` and in a cell
         index = [a.name for a in self.domain.agents.values() if a.is_human].index(name)
         self.operator = (
-            SimulatedOperator(name, profile, operator_seed(seed, index))
-            if profile != "passive"
+            SimulatedOperator(name, profile, operator_seed(seed, index), self.takes)
+            if profile != "passive" or self.takes is not None
             else None
         )
         self.intents: dict[str, dict[str, Any]] = {}  # options id -> the intent sent for it
@@ -388,7 +391,8 @@ class HumanAgent(_Agent):
         """Tell the manager this operator acts on its own (before its token, so the manager
         knows it when the cooperation starts; again if a snapshot shows it was not heard)."""
         self._announced_at = time.monotonic()
-        msg = P.message("operator", agent=self.name, profile=self.profile)
+        extra = {"scripted": True} if self.takes is not None else {}
+        msg = P.message("operator", agent=self.name, profile=self.profile, **extra)
         self.transport.publish(P.INTENT_TOPIC, msg)
 
     def _on_state(self, data: Any) -> None:
@@ -397,6 +401,9 @@ class HumanAgent(_Agent):
             return
         known = data.get("operators")
         heard = isinstance(known, dict) and known.get(self.name) == self.profile
+        if self.takes is not None:
+            scripted = data.get("scripted")
+            heard = heard and isinstance(scripted, list) and self.name in scripted
         if not heard and time.monotonic() - self._announced_at > 1.0:
             self._announce_profile()
 

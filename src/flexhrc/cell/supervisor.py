@@ -44,7 +44,7 @@ from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from typing import Any
 
@@ -52,7 +52,9 @@ from flexhrc.cell import protocol as P
 from flexhrc.cell.components import ground, world_of
 from flexhrc.cell.store import EventStore, StoredEvent, log_events
 from flexhrc.errors import FlexhrcError
+from flexhrc.events import STORED_LOG_TYPES  # the manager records the store keeps
 from flexhrc.representation import OnlineGraph
+from flexhrc.taskmanager.diagnose import stall_reason
 from flexhrc.taskmanager.domain import GroundAction
 from flexhrc.taskmanager.manager import (
     Ack,
@@ -71,22 +73,6 @@ from flexhrc.transport import Transport
 log = logging.getLogger("flexhrc.cell")
 
 AGENT_LOST = "agent lost"
-# manager log records kept in the store (the others are inputs or outputs stored on their own)
-STORED_LOG_TYPES = {
-    "decision",
-    "outcome",
-    "abort",
-    "action_failed",
-    "infeasible",
-    "recognised",
-    "solved",
-    "human_action_unmatched",
-    "ack_ignored",
-    "agent_available",
-    "agent_unavailable",
-    "human_decides",
-    "human_gives_up",
-}
 
 
 @dataclass
@@ -119,6 +105,12 @@ class Cell:
         name: str = "default",
         trace: Callable[[dict[str, Any]], None] | None = None,
         seed: int = 0,
+        reaction: str = "conflicts",
+        observers: Iterable[Callable[[dict[str, Any]], None]] = (),
+        max_time_s: float | None = None,
+        idle_s: float = 0.5,
+        publish_state: bool = True,
+        quiescent: Callable[[], bool] | None = None,
     ) -> None:
         if not realtime >= 0 or realtime != realtime or realtime == float("inf"):
             raise FlexhrcError(f"--realtime must be a finite number >= 0, got {realtime}")
@@ -131,12 +123,25 @@ class Cell:
         self.ordered = (self.realtime == 0) if ordered is None else ordered
         self.agent_speed = self.realtime if agent_speed is None else agent_speed
         self.trace = trace or (lambda ev: None)
+        # the cooperation log as it happens (``flexhrc run --log``, the timeline, replay): every
+        # manager event and the loop's own, in log form (see :func:`observe_record`)
+        self.observers = list(observers)
+        self.max_time_s = max_time_s
+        self.idle_s = idle_s
+        self.publish_state = publish_state  # the snapshot on ``state`` after every event
+        # agents in this process: ``quiescent()`` says none of them has anything left to say,
+        # so an agent the loop waits for (e.g. an operator no one plays) will never answer
+        self.quiescent = quiescent
+        self._stop_reason: str | None = None
+        self._command_start: dict[int, float] = {}
         self.graph = OnlineGraph(scenario.graph())
         self.domain = scenario.domain()
         self.kb = scenario.knowledge()
         if simulator is None and hasattr(scenario, "make_simulator"):
             simulator = scenario.make_simulator("auto")  # the scenario's own choice
-        self.tm = TaskManager(self.graph, self.domain, self.kb, simulator, log=self._tm_log)
+        self.tm = TaskManager(
+            self.graph, self.domain, self.kb, simulator, log=self._tm_log, reaction=reaction
+        )
         self.agents = {
             a.name: AgentState(a.name, "human" if a.is_human else "robot")
             for a in self.domain.agents.values()
@@ -158,6 +163,7 @@ class Cell:
         self._sent_step: dict[str, int] = {}
         self._down_reason: dict[str, str] = {}
         self.human_ids: set[str] = set()
+        self.superseded: dict[str, float] = {}  # suggestion id -> when a new request replaced it
         self.pending: list[tuple[float, int, str, dict[str, Any]]] = []
         self._arrivals = 0
         self.dropped: list[str] = []
@@ -172,6 +178,7 @@ class Cell:
         self.resent = 0
         # operators that act on their own: profile, steps they decided on, open ``options``
         self.operators: dict[str, str] = {}
+        self.scripted: set[str] = set()  # operators that follow a script of steps
         self.decided: dict[str, set[str]] = {}
         self.awaiting: dict[str, str] = {}  # operator -> id of the options it has to answer
         self.options: dict[str, dict[str, Any]] = {}
@@ -236,6 +243,7 @@ class Cell:
                 for sid in self.active_suggestion.values()
             ],
             "operators": dict(self.operators),
+            "scripted": sorted(self.scripted),
             "timeline": timeline,
             "knowledge": self.kb.to_dict(),
             "dropped": len(self.dropped),
@@ -333,6 +341,10 @@ class Cell:
         ):
             self._drop(f"duplicate human_action {msg['id']}")
             return
+        replaced = self.superseded.get(str(msg.get("suggestion")))
+        if replaced is not None and self.ordered and float(msg["t"]) > replaced:
+            log.info("human_action %s of a replaced request: ignored", msg["id"])
+            return
         self._arrive(msg["t"], "human_action", _body(msg))
 
     def _on_percept_message(self, data: Any) -> None:
@@ -371,12 +383,16 @@ class Cell:
             return
         agent = str(msg["agent"])
         if msg["type"] == "operator":
-            if self.operators.get(agent) == msg["profile"]:
+            scripted = bool(msg.get("scripted", False))
+            if self.operators.get(agent) == msg["profile"] and (agent in self.scripted) == scripted:
                 return
             if not self.started:  # goes into the stored start
                 self.operators[agent] = str(msg["profile"])
+                if scripted:
+                    self.scripted.add(agent)
             else:
-                self._input("operator", {"agent": agent, "profile": msg["profile"]})
+                body = {"agent": agent, "profile": msg["profile"]}
+                self._input("operator", {**body, "scripted": True} if scripted else body)
             return
         if msg["id"] in self.intent_ids or any(
             k == "intent" and b["id"] == msg["id"] for *_, k, b in self.pending
@@ -433,7 +449,7 @@ class Cell:
             self._input("ack", body)
 
     # -- store, feed, send --------------------------------------------------------------------
-    def _record(self, kind: str, body: dict[str, Any]) -> None:
+    def _record(self, kind: str, body: dict[str, Any], *, observe: bool = True) -> None:
         if self.replaying:
             return
         t = self.now  # unrounded, so a resumed clock continues exactly
@@ -441,11 +457,84 @@ class Cell:
         ev = StoredEvent(seq, t, kind, body)
         self.events.append(ev)
         self.trace({**body, "t": t, "type": kind})
+        if observe and self.observers:
+            for log_ev in self._log_form(ev):
+                self._observe(log_ev)
+
+    def _observe(self, ev: dict[str, Any]) -> None:
+        for observer in self.observers:
+            observer(ev)
+
+    def _log_form(self, ev: StoredEvent) -> list[dict[str, Any]]:
+        """A stored event as the events of the cooperation log, as it happens (the manager's
+        own events reach the observers from :meth:`_tm_log`)."""
+        b, t = ev.body, round(ev.t, 6)
+        if ev.kind == "command":
+            self._command_start[int(b["id"])] = ev.t
+            return [
+                {
+                    "t": t,
+                    "type": "action_start",
+                    "agents": b["agents"],
+                    "action": b["action"],
+                    "command": b["id"],
+                    "element": b.get("element"),
+                }
+            ]
+        if ev.kind in ("ack", "stop"):
+            cid = int(b["id"])
+            cmd = self.commands.get(cid)
+            if cmd is None or cid not in self._command_start:
+                return []
+            status = "stopped" if ev.kind == "stop" else b["status"]
+            return [
+                {
+                    "t": t,
+                    "type": "action_end",
+                    "agents": list(cmd.agents),
+                    "action": str(cmd.action),
+                    "command": cid,
+                    "status": status,
+                    "start": round(self._command_start.pop(cid), 6),
+                    "reason": b.get("reason"),
+                    "element": cmd.element,
+                }
+            ]
+        if ev.kind == "human_action":
+            return [
+                {
+                    "t": t,
+                    "type": "action_end",
+                    "agents": [b.get("agent")],
+                    "action": b["action"],
+                    "status": "done",
+                    "start": round(min(float(b.get("start", ev.t)), ev.t), 6),
+                }
+            ]
+        if ev.kind == "suggestion":
+            return [
+                {
+                    "t": t,
+                    "type": "human_told",
+                    "element": b["element"],
+                    "agents": [b["agent"]],
+                    "actions": b["actions"],
+                }
+            ]
+        if ev.kind == "start":
+            profiles = list((b.get("operators") or {}).values())
+            profile = profiles[0] if profiles else "passive"
+            return [{"profile": profile, **b, "t": t, "type": "start"}]
+        if ev.kind in ("fixed", "human_decides", "human_gives_up", "outcome", "summary"):
+            return [{**b, "t": t, "type": ev.kind}]
+        return []
 
     def _tm_log(self, ev: dict[str, Any]) -> None:
+        if not self.replaying and self.observers:
+            self._observe(ev)
         if ev.get("type") in STORED_LOG_TYPES:
             body = {k: v for k, v in ev.items() if k not in ("t", "type")}
-            self._record(str(ev["type"]), body)
+            self._record(str(ev["type"]), body, observe=False)
 
     def _clock(self) -> float:
         """Cell time from the wall clock, when agents take real time (unordered loop)."""
@@ -471,9 +560,12 @@ class Cell:
         if kind == "start":
             self.started = True
             self.operators.update(body.get("operators") or {})
+            self.scripted.update(body.get("scripted") or [])
             return tm.start(now)
         if kind == "operator":
             self.operators[str(body["agent"])] = str(body["profile"])
+            if body.get("scripted"):
+                self.scripted.add(str(body["agent"]))
             return []
         if kind == "intent":
             self._intent(body)
@@ -536,7 +628,9 @@ class Cell:
             return
         for human, profile in sorted(self.operators.items()):
             st = self.agents.get(human)
-            if profile == "passive" or st is None or not st.available:
+            if profile == "passive" and human not in self.scripted:
+                continue
+            if st is None or not st.available:
                 continue
             if self._operator_busy(human):
                 continue
@@ -646,6 +740,7 @@ class Cell:
             elif isinstance(d, Suggest):
                 sid = f"s{len(self.suggestions) + 1}"
                 human = next(a for a in d.actions[0].agents if self.agents[a].kind == "human")
+                self._supersede(human)
                 msg = {
                     "v": P.VERSION,
                     "type": "suggestion",
@@ -674,6 +769,53 @@ class Cell:
                         P.cmd_topic(d.agent),
                         P.message("stop", id=d.command_id, reason=d.reason, t=self.now),
                     )
+
+    def _held_elsewhere(self, t: float, body: dict[str, Any]) -> bool:
+        """A person's reported step works on a part another agent holds by the time it ends
+        (the domain's ``on_stop.holding`` fact): the person could not have done it — they give
+        up (``human_gives_up``) and their request ends; the manager is told nothing."""
+        human = str(body["agent"])
+        action = ground(self.domain, body["action"])
+        holder = self._helper(human).holder_of(self.kb, self.domain, action)
+        if holder is None:
+            return False
+        self.now = max(self.now, float(t))
+        obj = next((a for a in action.args if a in self.kb.objects and a != human), None)
+        if self.observers and not self.replaying:
+            start = round(min(float(body.get("start", t)), float(t)), 6)
+            self._observe(
+                {
+                    "t": round(self.now, 6),
+                    "type": "action_end",
+                    "agents": [human],
+                    "action": body["action"],
+                    "status": "failed",
+                    "start": start,
+                    "reason": f"{obj} already held by {holder}",
+                }
+            )
+        self._record("human_gives_up", {"object": obj, "holder": holder, "agent": human})
+        if self.active_suggestion.get(human) == body.get("suggestion"):
+            del self.active_suggestion[human]
+        self._settle()
+        return True
+
+    def _supersede(self, human: str) -> None:
+        """A new request replaces what ``human`` was asked before: a step of the old one still
+        under way is dropped (the person turns to the new request; its end never happens, as
+        with a stopped command)."""
+        old = self.active_suggestion.get(human)
+        if old is None:
+            return
+        self.superseded[old] = self.now
+        if self.ordered:
+            self.pending = [
+                x
+                for x in self.pending
+                if not (
+                    x[2] == "human_action" and x[3].get("suggestion") == old and x[0] > self.now
+                )
+            ]
 
     def _send_command(self, agent: str, cmd: Command) -> None:
         st = self.agents[agent]
@@ -704,6 +846,15 @@ class Cell:
             return
         msg.pop("agent", None)
         msg.update(t=start, step=step, world=world_of(self.kb), realtime=self.agent_speed)
+        if self._sent_step.get(sid) != step and self.observers:  # the person starts this step
+            self._observe(
+                {
+                    "t": round(max(start, self.now), 6),
+                    "type": "action_start",
+                    "agents": [human],
+                    "action": msg["actions"][step],
+                }
+            )
         self._sent_step[sid] = step
         self.transport.publish(P.suggest_topic(human), P.parse(msg, expect="suggestion"))
 
@@ -753,6 +904,8 @@ class Cell:
                 self._send_options(human, oid)
 
     def _publish_state(self) -> None:
+        if not self.publish_state:
+            return
         try:
             self.transport.publish(
                 P.STATE_TOPIC, {"v": P.VERSION, "type": "state", **self.snapshot()}
@@ -846,6 +999,16 @@ class Cell:
                 out.append(human)  # deciding whether to act on its own
         return out
 
+    def request_stop(self, reason: str = "interrupted") -> None:
+        """End the cooperation at the next turn of the loop with the outcome ``interrupted``
+        (safe from a signal handler: it only sets a flag; the loop writes the final events)."""
+        self._stop_reason = reason
+
+    def _end(self, outcome: str, reason: str) -> None:
+        """The loop ends the cooperation itself (interrupted, stuck, out of time)."""
+        self.tm.outcome, self.tm.reason = outcome, reason
+        self._record("outcome", {"outcome": outcome, "reason": reason})
+
     def _missing(self) -> list[str]:
         return [n for n, st in self.agents.items() if not st.alive]
 
@@ -878,7 +1041,11 @@ class Cell:
             # earliest end first; a tie goes by what the answer is about (the command's id,
             # the operator and its report), never by which process happened to answer first
             self.pending.sort(key=_answer_order)
-            t, _, kind, body = self.pending.pop(0)
+            t, _, kind, body = self.pending[0]
+            if self.max_time_s is not None and t > self.max_time_s:
+                self._end("failed", f"time budget {self.max_time_s} s exceeded")
+                return False
+            self.pending.pop(0)
             if self.realtime > 0:
                 lag = (t - self.now) / self.realtime - (time.perf_counter() - self._last_wall)
                 if lag > 0:
@@ -892,6 +1059,8 @@ class Cell:
                 return False
             t, _, kind, body = self.pending.pop(due[0])
         self._last_wall = time.perf_counter()
+        if kind == "human_action" and self._held_elsewhere(t, body):
+            return True
         self._input(kind, body, t)
         self._refresh_suggestions()
         self._continue_suggestions()
@@ -921,6 +1090,7 @@ class Cell:
                     "realtime": self.realtime,
                     "simulator": _simulator_name(self.tm.simulator),
                     "operators": dict(self.operators),
+                    **({"scripted": sorted(self.scripted)} if self.scripted else {}),
                 },
             )
         elif self.tm.done:  # the stored cooperation had already ended: nothing to add
@@ -940,6 +1110,9 @@ class Cell:
         deadline = time.monotonic() + max_wall_s
         idle_since: float | None = None
         while not self.tm.done:
+            if self._stop_reason is not None:
+                self._end("interrupted", self._stop_reason)
+                break
             if resumed_at is not None and time.monotonic() - resumed_at > agents_timeout:
                 # an agent that died while the manager was down never shows its token again
                 resumed_at = None
@@ -951,23 +1124,21 @@ class Cell:
             if self.step():
                 idle_since = None
                 continue
+            if not self.pending and self.quiescent is not None and self.quiescent():
+                self._end("failed", stall_reason(self.tm))
+                break
             if not self.pending and not self.awaited():
                 # nothing running, nothing to come: stuck, unless a lost agent may come back
                 if any(not st.available for st in self.agents.values()):
                     idle_since = None
                 else:
                     idle_since = idle_since or time.monotonic()
-                if idle_since is not None and time.monotonic() - idle_since > 0.5:
-                    self.tm.outcome = "failed"
-                    self.tm.reason = (
-                        "deadlock: no agent has anything to do and the task is not solved"
-                    )
-                    self._record("outcome", {"outcome": "failed", "reason": self.tm.reason})
+                if idle_since is not None and time.monotonic() - idle_since >= self.idle_s:
+                    self._end("failed", stall_reason(self.tm))
                     break
             self._resend_overdue()
             if time.monotonic() > deadline:
-                self.tm.outcome, self.tm.reason = "failed", f"wall time {max_wall_s} s exceeded"
-                self._record("outcome", {"outcome": "failed", "reason": self.tm.reason})
+                self._end("failed", f"wall time {max_wall_s} s exceeded")
                 break
             pump(0.05)
         summary = self.summary()

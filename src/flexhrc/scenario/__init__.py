@@ -21,6 +21,7 @@ The loader API (for the command line, the live cell, notebooks)::
     result = scenario.run(sc, profile="cooperative", seed=3)   # a RunResult
 
     faults = scenario.validate("my_task.yaml") # [Fault(source, line, message, severity)]
+    scenario.graph_of("my_task.yaml")          # the task graph of a scenario or a graph file
 
 Every call of :meth:`Scenario.world` and :meth:`Scenario.online_graph` returns new objects, so a
 loaded scenario can be run many times; nothing in it reads a clock or a file after loading.
@@ -32,7 +33,14 @@ from importlib import resources
 from pathlib import Path
 
 from flexhrc.errors import FlexhrcError, UnknownNameError
-from flexhrc.scenario.format import Fault, ScenarioError, check, parse
+from flexhrc.scenario.format import (
+    Fault,
+    ScenarioError,
+    check,
+    graph_of,
+    is_scenario_file,
+    parse,
+)
 from flexhrc.scenario.model import PROFILES, SIMULATORS, HumanSpec, ObjectSpec, Scenario, WorldSpec
 from flexhrc.scenario.run import prepare, run
 
@@ -93,6 +101,8 @@ __all__ = [
     "WorldSpec",
     "check",
     "describe_shipped",
+    "graph_of",
+    "is_scenario_file",
     "load",
     "prepare",
     "resolve",
