@@ -134,34 +134,21 @@ def test_the_in_process_cell_cooperates_as_run_does(profile: str) -> None:
     assert cell["by_agent"] == run["by_agent"]
 
 
-def test_every_seed_is_one_cooperation_in_a_cell_and_in_run() -> None:
-    """The cell's operator agent decides as the run's operator does (seed, objects, giving up):
-    the same seed gives the same cooperation, for every profile and the ten seeds."""
-    from flexhrc.cell import Cell, HumanAgent, RobotAgent, load_scenario
-    from flexhrc.cell.components import execution_model
-    from flexhrc.transport import InProcessBus
-
-    from ..cell.helpers import pump_of
-
-    sc = scenario.load(GEARBOX)
+def test_every_seed_is_one_cooperation_in_the_cell_command_and_in_run(capsys: Any) -> None:
+    """``flexhrc cell`` wires its own in-process agents; its operator is seeded and decides as
+    the run's (``operator_seed``; objects chosen when it decides; giving up after thinking): the
+    same seed gives the same cooperation, for every profile and the ten seeds."""
     for profile in PROFILES:
         for seed in SEEDS:
-            cs = load_scenario(str(GEARBOX), seed=seed)
-            bus = InProcessBus()
-            cell = Cell(cs, bus, liveliness=False, simulator=execution_model("analytic"), seed=seed)
-            agents: list[Any] = [
-                HumanAgent(a.name, cs, bus, profile=profile, seed=seed,
-                           execution=execution_model("analytic"))
-                if a.is_human
-                else RobotAgent(a.name, cs, bus, execution=execution_model("analytic"))
-                for a in cs.domain().agents.values()
-            ]  # fmt: skip
-            bus.flush()  # the operator's profile reaches the cell before the start
-            got = cell.run(pump=pump_of(cell, bus, agents))
-            want = scenario.run(sc, profile=profile, seed=seed).summary
-            pairs = [(h["hyperarc"], h["agent"]) for h in want["solved_hyperarcs"]]
-            assert [(h["hyperarc"], h["agent"]) for h in got["solved_hyperarcs"]] == pairs, (
+            got: dict[str, Any] = {}
+            for command in ("cell", "run"):
+                args = [command, str(GEARBOX), "--json", "--quiet", "--human", profile]
+                assert main([*args, "--seed", str(seed)]) == 0
+                got[command] = json.loads(capsys.readouterr().out)
+            cell, run = got["cell"], got["run"]
+            pairs = [(h["hyperarc"], h["agent"]) for h in run["solved_hyperarcs"]]
+            assert [(h["hyperarc"], h["agent"]) for h in cell["solved_hyperarcs"]] == pairs, (
                 profile,
                 seed,
             )
-            assert got["by_agent"] == want["by_agent"], (profile, seed)
+            assert cell["by_agent"] == run["by_agent"], (profile, seed)

@@ -41,7 +41,7 @@ from flexhrc.errors import FlexhrcError, UnknownNameError
 from flexhrc.files import EventLogWriter
 from flexhrc.knowledge import KnowledgeBase
 from flexhrc.taskmanager.domain import Domain, GroundAction
-from flexhrc.taskmanager.operator import PROFILES, SimulatedOperator, operator_seed
+from flexhrc.taskmanager.operator import PROFILES, SimulatedOperator
 from flexhrc.taskmanager.simulator import AnalyticSimulator, ExecutionModel
 from flexhrc.transport import Transport
 
@@ -372,11 +372,8 @@ class HumanAgent(_Agent):
         # the profile's own decisions (the same code as the in-process operators)
         # ``takes``: a script (the K-th steps, 1-based, or node names) instead of the profile
         self.takes = set(takes) if takes is not None else None
-        # seeded as the run's operators are (the i-th operator of the domain), so one seed is one
-        # cooperation in ``flexhrc run`` and in a cell
-        index = [a.name for a in self.domain.agents.values() if a.is_human].index(name)
         self.operator = (
-            SimulatedOperator(name, profile, operator_seed(seed, index), self.takes)
+            SimulatedOperator(name, profile, seed, self.takes)
             if profile != "passive" or self.takes is not None
             else None
         )
