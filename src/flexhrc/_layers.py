@@ -53,8 +53,9 @@ FLOORS: dict[str, int] = {
     "behavior": 4,
     "action": 5,
     "scenarios": 6,
-    "scenario": 7,
-    "cell": 8,
+    # the one loop (the engine) stands below the scenario that configures it
+    "cell": 7,
+    "scenario": 8,
     # the front ends around the cell
     "sensing": 9,
     "web": 9,
@@ -84,8 +85,8 @@ FLOOR_NAMES: dict[int, str] = {
     4: "Task Manager, behaviour networks",
     5: "action level (robot, controller, kinematic simulator)",
     6: "ready-made scenarios",
-    7: "scenario files",
-    8: "the cell",
+    7: "the cell: the one loop (the engine)",
+    8: "scenarios: one type, files, loaders, run",
     9: "front ends",
     10: "the command line",
 }

@@ -356,7 +356,7 @@ class ExecutionManager:
         if cmd.action == "grasp" and cmd.object is not None:
             for a in arms:
                 self.held[a] = cmd.object
-        elif cmd.action in ("transport", "hand_over", "screw"):
+        elif cmd.action in ("transport", "insert", "hand_over", "screw"):
             names = {self.held[a] for a in arms if a in self.held}
             for name in names:
                 tcps = [self.sim.robot.arm(a).pose(self.state.q[a])[0] for a in arms]

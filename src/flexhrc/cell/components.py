@@ -52,7 +52,7 @@ HUMAN_PROFILES = PROFILES
 
 def execution_model(choice: str = "auto", scenario: Any = None) -> ExecutionModel:
     """The simulated real world: kinematic (``sim`` extra) or analytic, as the scenario makes it
-    (:meth:`~flexhrc.cell.scenario_ref.CellScenario.make_simulator`), else as
+    (:meth:`~flexhrc.scenario.source.CellScenario.make_simulator`), else as
     :func:`flexhrc.scenarios.simulators.choose_simulator` picks it."""
     make = getattr(scenario, "make_simulator", None)
     if make is not None:

@@ -217,6 +217,11 @@ class LocalCell:
             summary = self.cell.run(pump=self._pump)
         finally:
             self.close()
+        # and how the arms' world played each one (the same object unless told otherwise)
+        summary["simulated"] = {
+            **summary.get("simulated", {}),
+            **(getattr(self.injection.inner, "simulated", None) or {}),
+        }
         return RunResult(self.cell.tm.outcome, self.cell.tm.reason, self.events, summary)
 
     def close(self) -> None:

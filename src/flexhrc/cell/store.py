@@ -221,6 +221,21 @@ def log_events(events: list[StoredEvent]) -> list[dict[str, Any]]:
             )
         elif ev.kind in REPLAY_TYPES:
             out.append({**b, "t": t, "type": ev.kind})
+            stopped = commands.pop(int(b["id"]), None) if ev.kind == "stop" else None
+            if stopped is not None:  # the arm was busy until the stop (its ack never counts)
+                start, cmd = stopped
+                out.append(
+                    {
+                        "t": t,
+                        "type": "action_end",
+                        "agents": cmd["agents"],
+                        "action": cmd.get("action", "?"),
+                        "command": b["id"],
+                        "status": "stopped",
+                        "start": round(min(start, ev.t), 6),
+                        "reason": b.get("reason"),
+                    }
+                )
     return out
 
 

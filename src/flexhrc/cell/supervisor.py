@@ -164,6 +164,7 @@ class Cell:
         self._down_reason: dict[str, str] = {}
         self.human_ids: set[str] = set()
         self.superseded: dict[str, float] = {}  # suggestion id -> when a new request replaced it
+        self._last_suggestion: dict[str, str] = {}  # human -> the suggestion last sent to them
         self.pending: list[tuple[float, int, str, dict[str, Any]]] = []
         self._arrivals = 0
         self.dropped: list[str] = []
@@ -804,7 +805,7 @@ class Cell:
         """A new request replaces what ``human`` was asked before: a step of the old one still
         under way is dropped (the person turns to the new request; its end never happens, as
         with a stopped command)."""
-        old = self.active_suggestion.get(human)
+        old = self._last_suggestion.get(human)
         if old is None:
             return
         self.superseded[old] = self.now
@@ -856,6 +857,7 @@ class Cell:
                 }
             )
         self._sent_step[sid] = step
+        self._last_suggestion[human] = sid
         self.transport.publish(P.suggest_topic(human), P.parse(msg, expect="suggestion"))
 
     def _continue_suggestions(self) -> None:
@@ -1160,6 +1162,9 @@ class Cell:
         data["decisions"] = tm["decisions"]
         data["branches_simulated"] = tm["branches_simulated"]
         data["timing"].update(tm["timing"])
+        data["compute_recorded"] = True  # this manager's own compute, not a log's
+        # how each action the manager simulated was simulated (kinematic | analytic | none)
+        data["simulated"] = dict(getattr(self.tm.simulator, "simulated", None) or {})
         data["scenario"] = str(getattr(self.scenario, "name", "?"))
         data["wall_s"] = time.perf_counter() - self._wall0
         data["cell"] = {

@@ -35,6 +35,7 @@ from flexhrc.scenario.model import (
     WorldSpec,
 )
 from flexhrc.taskmanager.domain import ActionSchema, Domain
+from flexhrc.taskmanager.kinds import find_action_kind, unknown_kind
 
 FORMAT_VERSION = 1
 TOP_KEYS = {
@@ -236,6 +237,7 @@ def _build(doc: Any, c: _Checker) -> Scenario | None:
     if "hyperarc_actions" in doc:
         _attach_actions(graph, doc["hyperarc_actions"], c, _line(doc, "hyperarc_actions"))
     _check_semantics(graph, domain, domain_doc, domain_src, world, humans, c)
+    _check_kind_targets(domain, domain_doc, domain_src, c)
     for h in humans:  # an operator's speed is the analytic simulator's human speed
         agent = domain.agents.get(h.name)
         if agent is not None:
@@ -366,6 +368,10 @@ def _precheck_domain(d: Mapping[str, Any], c: _Checker, src: Path) -> None:
         for aname, sd in block.items():
             if not isinstance(sd, Mapping):
                 continue
+            if "kind" in sd:
+                why = unknown_kind(str(sd["kind"]))
+                if why:
+                    c.error(f"{section[:-1]} {aname!r}: {why}", _line(sd, "kind"), src)
             spec = sd.get("agents")
             names: list[str] = []
             if isinstance(spec, str) and not spec.startswith("?"):
@@ -755,6 +761,33 @@ def _check_parents_reached(
     facts = [*world.facts, *(Literal(t, (name,)) for name, ts in types.items() for t in ts)]
     for fault in never_achieved(graph, domain, facts, {k: frozenset(v) for k, v in types.items()}):
         c.error(fault.message, fault.line, fault.source or c.path)
+
+
+def _check_kind_targets(domain: Domain, domain_doc: Any, src: Any, c: _Checker) -> None:
+    """Warn about a robot action whose kind moves the arm to a target its parameters cannot
+    name (the kinematic simulator would time it analytically; see flexhrc.taskmanager.kinds)."""
+    agent_types = {"agent"}
+    for a in domain.agents.values():
+        agent_types.update((a.name, a.kind, *a.types))
+    for s in domain.actions.values():
+        kind = find_action_kind(s.kind)
+        if kind is None or not kind.motion or s.target:
+            continue
+        if all(a.is_human for a in domain.capable(s)):
+            continue
+        free = [v for v, t in s.parameters if t not in agent_types and v != s.agents.variable]
+        can = {"object": bool(s.carries or free), "place": bool(s.moves_to or len(free) >= 2)}
+        for step in kind.motion:
+            if step.target and not step.optional and not any(can[r] for r in step.target):
+                role = "a place to go to" if step.target[0] == "place" else "an object to aim at"
+                c.warn(
+                    f"action {s.name!r}: kind {s.kind!r} needs {role} but no parameter names "
+                    "one (add it and name it with target: [?object, ?place]); its robot motion "
+                    "is timed analytically until then",
+                    _line_in(s, "kind", domain_doc, "action") or s.line,
+                    src,
+                )
+                break
 
 
 def _line_in(s: ActionSchema, key: str, domain_doc: Any, what: str) -> int | None:

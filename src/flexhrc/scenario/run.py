@@ -15,9 +15,9 @@ from collections.abc import Callable, Iterable
 from typing import Any
 
 from flexhrc.cell.local import InjectedFailure, LocalCell, RunResult
-from flexhrc.cell.scenario_ref import CellScenario
 from flexhrc.errors import FlexhrcError
 from flexhrc.scenario.model import PROFILES, Scenario
+from flexhrc.scenario.source import CellScenario
 from flexhrc.taskmanager.manager import REACTIONS
 
 
