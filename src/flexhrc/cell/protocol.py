@@ -8,10 +8,10 @@ topic               from -> to          message ``type``
 ``cmd/<agent>``     manager -> robot    ``command``, ``stop``
 ``ack``             robot -> manager    ``ack``
 ``suggest/<name>``  manager -> human    ``suggestion``
-``human``           human -> manager    ``human_action``
+``human``           human -> manager    ``human_action``, ``answer`` (to a repair question)
 ``options/<name>``  manager -> human    ``options`` (what an operator may do on its own)
 ``intent``          human -> manager    ``operator`` (its profile), ``intent`` (its answer)
-``percept``         perception -> mgr   ``percept``
+``percept``         perception -> mgr   ``percept``, ``looked`` (a watcher has looked)
 ``state``           manager -> all      ``state`` (the cell snapshot), ``end``
 ``alive/<agent>``   liveliness tokens   (``alive/manager`` for the manager)
 ==================  ==================  ====================================================
@@ -104,6 +104,10 @@ SCHEMAS: dict[str, dict[str, tuple[tuple[type, ...], bool]]] = {
         "start": (_NUM, False),
         "t": (_NUM, True),
         "positions": ((dict,), False),
+        # a wearable sensor's report: false when it missed the action (the manager is not
+        # told); ``sensed`` holds the sensor's figures
+        "recognised": ((bool,), False),
+        "sensed": ((dict,), False),
     },
     "percept": {
         "id": ((str,), True),
@@ -112,6 +116,28 @@ SCHEMAS: dict[str, dict[str, tuple[tuple[type, ...], bool]]] = {
         "pose": ((list,), True),
         "size": ((dict, list, type(None)), False),
         "t": (_NUM, False),
+        "why": ((str,), False),  # what the look followed (``after transport(...)``)
+        "moved": ((bool,), False),  # re-anchored away from where the manager believed it
+        "contradicts": ((str, type(None)), False),  # the belief it contradicts, and why
+    },
+    # the operator's answer to "did you do what was reported?" (a repair, paper 000 III):
+    # ``report`` is the id of the human_action asked about
+    "answer": {
+        "id": ((str,), True),
+        "agent": ((str,), True),
+        "report": ((str,), True),
+        "object": ((str,), True),
+        "question": ((str,), True),
+        "answer": ((str,), True),
+        "t": (_NUM, True),
+    },
+    # a perception agent the ordered loop waits for: it has looked at the world as the
+    # ``state`` with ``upto`` stored events showed it; ``at``: when it looks next by itself
+    "looked": {
+        "agent": ((str,), True),
+        "upto": ((int,), True),
+        "t": (_NUM, True),
+        "at": (_NUM, False),
     },
     # an operator that acts on its own: what it may do (steps -> hyper-arcs -> ground branches)
     "options": {
@@ -175,6 +201,8 @@ def parse(data: Any, *, expect: str | tuple[str, ...] | None = None) -> dict[str
         numeric = numeric or name == "step"
         if numeric and isinstance(value, int | float) and value < 0:
             raise ProtocolError(f"{kind}: field {name!r} must be >= 0, not {value}")
+    if kind == "answer" and data["answer"] not in ("yes", "no"):
+        raise ProtocolError("answer: 'answer' must be 'yes' or 'no'")
     if kind == "ack" and data["status"] not in ACK_STATUSES:
         raise ProtocolError(f"ack: status must be one of {', '.join(ACK_STATUSES)}")
     if kind in ("command", "suggestion"):

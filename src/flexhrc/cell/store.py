@@ -222,6 +222,23 @@ def log_events(events: list[StoredEvent]) -> list[dict[str, Any]]:
                     "element": cmd.get("element"),
                 }
             )
+        elif ev.kind == "stop":
+            # the command never ends: it ends here, stopped (as the runner's log has it)
+            start, cmd = commands.get(int(b["id"]), (ev.t, {"agents": [b.get("agent")]}))
+            out.append({**b, "command": b["id"], "t": t, "type": "stop"})
+            out.append(
+                {
+                    "t": t,
+                    "type": "action_end",
+                    "agents": cmd["agents"],
+                    "action": cmd.get("action", "?"),
+                    "command": b["id"],
+                    "status": "stopped",
+                    "start": round(min(start, ev.t), 6),
+                    "reason": b.get("reason"),
+                    "element": cmd.get("element"),
+                }
+            )
         elif ev.kind == "human_action":
             start = min(float(b.get("start", ev.t)), ev.t)
             out.append(
