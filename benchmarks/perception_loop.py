@@ -24,8 +24,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))
 
 from flexhrc.action.robots import PANDA_Q_REST
 from flexhrc.scenarios.table_assembly import TableScenario
+from flexhrc.sensing.loop import forget_positions, lying_layout
 from flexhrc.sensing.perception import PerceptionComponent
-from flexhrc.sensing.run import forget_positions, lying_layout
 from flexhrc.sensing.setup import perceived_run
 from flexhrc.sensing.world import SimulatedWorkspace
 

@@ -632,7 +632,7 @@ def _bodies_apart(scenario: Any) -> Any:
 
     from flexhrc.errors import FlexhrcError as _Error
     from flexhrc.scenarios.table_assembly import LEG_LENGTHS
-    from flexhrc.sensing.run import lying_layout
+    from flexhrc.sensing.loop import lying_layout
     from flexhrc.sensing.world import SimulatedWorkspace
 
     try:
@@ -667,14 +667,21 @@ def _perceived(
             f"--perception scene needs the sim and perception extras ({exc.name} is missing): "
             "pip install 'flexhrc[sim,perception]'"
         ) from None
+    if run_kw.get("human_takes"):
+        raise FlexhrcError(
+            "--human-takes is not available with --perception scene: the operators of the "
+            "cell decide by their --human profile"
+        )
     if not args.quiet:
         progress("perception: head camera, scene pipeline, anchoring ...")
-    return perceived_run(graph, domain, truth, repair=args.repair, **run_kw)
+    # the cell configured with perception in the loop: no simulated-time budget of its own
+    kw = {k: v for k, v in run_kw.items() if k not in ("human_takes", "max_time_s")}
+    return perceived_run(graph, domain, truth, repair=args.repair, **kw)
 
 
 def _perceived_like(args: argparse.Namespace, run: Any) -> Any:
-    """The perceived twin of a prepared :class:`CooperationRun` (same graph, domain, world,
-    simulator, operators and options)."""
+    """The perceived twin of a prepared cooperation run (same graph, domain, world,
+    simulator, operators and options), as a configuration of the cell."""
     run_kw = dict(
         simulator=run.simulator,
         execution=run.execution,
