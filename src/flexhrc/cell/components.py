@@ -549,6 +549,20 @@ class HumanAgent(_Agent):
         speed = float(msg.get("realtime", 0.0))
         self._later(dt / speed if speed > 0 else 0.0, send)
 
+    def sensing_figures(self) -> dict[str, int]:
+        """What the wrist sensor made of this operator's actions (the ``human_sensing`` key of
+        a run's JSON): ``performed`` = ``recognised`` + ``missed`` + ``false_reports``;
+        ``uncovered`` actions no sensor motion plays are confirmed directly, counted apart."""
+        out = {"performed": 0, "recognised": 0, "missed": 0, "false_reports": 0, "uncovered": 0}
+        for rec in self.sensed:
+            what = str(rec.get("outcome"))
+            if what == "uncovered":
+                out["uncovered"] += 1
+                continue
+            out["performed"] += 1
+            out["false_reports" if what in ("false_report", "unusable") else what] += 1
+        return out
+
     def _sense(self, step: GroundAction, plan: list[GroundAction], t: float) -> dict[str, Any]:
         """The fields a wearable sensor adds to a report: ``sensed`` (its figures), and
         ``recognised`` — false when it missed the action (the manager is not told); a

@@ -536,6 +536,15 @@ class Cell:
             self.human_ids.add(str(body["id"]))
             action = ground(self.domain, body["action"])
             missed = body.get("recognised") is False  # the wrist sensor missed it
+            human = str(body["agent"])
+            holder = None if missed else self._helper(human).holder_of(self.kb, self.domain, action)
+            if holder is not None:
+                # another agent took the part first: the operator does not pull it out of its
+                # hand, gives up and stops its plan (as the runner's operators do)
+                obj = next((a for a in action.args if a in self.kb.objects and a != human), None)
+                self._record("human_gives_up", {"object": obj, "holder": holder, "agent": human})
+                self.active_suggestion.pop(human, None)
+                return []
             if not missed:
                 self._physical(action, body.get("positions") or {})
             sid, k = body.get("suggestion"), body.get("step")
