@@ -677,6 +677,7 @@ class PerceivedCell:
         summary.pop("knowledge", None)
         summary.pop("cell", None)
         summary.pop("scenario", None)  # the caller names it
+        summary["compute_recorded"] = True  # the manager's own timing, not read from a log
         summary["perception"] = self.perception.stats.to_dict()
         summary["perception"]["repaired"] = sum(1 for e in events if e["type"] == "repaired")
         summary["human_sensing"] = self.human_figures()
@@ -737,13 +738,8 @@ class PerceivedCell:
         """``human_sensing``: what the wrist sensor made of the operators' actions."""
         out = {"performed": 0, "recognised": 0, "missed": 0, "false_reports": 0, "uncovered": 0}
         for h in self.humans:
-            for rec in h.sensed:
-                what = rec.get("outcome")
-                if what == "uncovered":
-                    out["uncovered"] += 1
-                    continue
-                out["performed"] += 1
-                out["false_reports" if what in ("false_report", "unusable") else str(what)] += 1
+            for k, n in h.sensing_figures().items():
+                out[k] += n
         if self.human_sensing is None:
             done = sum(1 for ev in self.cell.events if ev.kind == "human_action"
                        and not str(ev.body.get("id", "")).startswith("false:"))  # fmt: skip
