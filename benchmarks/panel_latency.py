@@ -181,7 +181,8 @@ def _cell_run(args: argparse.Namespace) -> list[float]:
 
     from playwright.sync_api import sync_playwright
 
-    from flexhrc.cell import Cell, RobotAgent, load_scenario
+    from flexhrc.cell import Cell, RobotAgent
+    from flexhrc.scenario import load_scenario
     from flexhrc.taskmanager.simulator import AnalyticSimulator
     from flexhrc.transport import InProcessBus
     from flexhrc.web.live import CellPanel

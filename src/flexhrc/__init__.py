@@ -5,9 +5,10 @@ behaviour network). At run time flexhrc tracks where the cooperation stands, tel
 what would be cheapest to do next, decides which robot arm does what by simulating the
 candidates, and adapts when the human does something else or a robot action fails.
 
-Sub-packages follow the loop of the FlexHRC+ architecture (see ``docs/architecture.md``):
-``logic``, ``representation``, ``knowledge``, ``taskmanager``, ``action``, ``perception``,
-``behavior``, ``transport``, ``scenarios`` and ``cli``. Importing :mod:`flexhrc` itself is cheap.
+Sub-packages follow the loop of the FlexHRC+ architecture, on floors that import only downwards
+(see ``docs/architecture.md``): ``logic``, ``transport``, ``knowledge``, ``representation``,
+``perception``, ``taskmanager``, ``behavior``, ``action``, ``scenarios``, ``scenario``, ``cell``,
+``sensing``, ``web``, ``ros2`` and ``cli``. Importing :mod:`flexhrc` itself is cheap.
 """
 
 from flexhrc.errors import FlexhrcError, FormatError

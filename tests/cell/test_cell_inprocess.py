@@ -10,8 +10,9 @@ from typing import Any
 
 import pytest
 
-from flexhrc.cell import Cell, HumanAgent, RobotAgent, load_scenario
+from flexhrc.cell import Cell, HumanAgent, RobotAgent
 from flexhrc.cell.components import execution_model
+from flexhrc.scenario import load_scenario
 from flexhrc.transport import InProcessBus
 
 from ..conftest import subprocess_env
@@ -37,7 +38,7 @@ def test_default_cell_is_the_run_cooperation(scenario: str) -> None:
     assert cell.returncode == 0, cell.stderr
     c, d = json.loads(cell.stdout), json.loads(run.stdout)
     assert set(d) - {"wall_s"} <= set(c)  # the keys of `flexhrc run --json`
-    for key in ("outcome", "robot_actions", "human_actions", "decisions", "legs_by_agent",
+    for key in ("outcome", "robot_actions", "human_actions", "decisions", "fixed_by_agent",
                 "by_agent", "simulator"):  # fmt: skip
         assert c[key] == d[key], key
     assert c["timing"]["total_s"] == d["timing"]["total_s"]
@@ -57,7 +58,7 @@ def _cell(scenario: Any) -> tuple[Cell, list[Any], InProcessBus]:
 
 
 def test_snapshot_is_json_and_human_input_drives_the_manager() -> None:
-    from flexhrc.cell.scenario_ref import CellScenario
+    from flexhrc.scenario.source import CellScenario
     from flexhrc.scenarios.table_assembly import TableScenario
 
     scenario = CellScenario("legs", TableScenario())  # the legs fix: bolt 1 is the first step
@@ -77,7 +78,7 @@ def test_snapshot_is_json_and_human_input_drives_the_manager() -> None:
 
     data = cell.run(pump=pump)
     assert data["outcome"] == "solved"
-    assert data["legs_by_agent"]["human"] == 1
+    assert data["fixed_by_agent"]["human"] == 1
     assert data["solved_hyperarcs"][0]["hyperarc"] == "human_1"
     snap = snaps[-1]
     assert {"outcome", "agents", "suggestions", "events_stored", "timeline", "knowledge"} <= set(
@@ -93,9 +94,9 @@ def test_parallel_scenario_uses_every_arm() -> None:
     cell, agents, bus = _cell(scenario)
     data = cell.run(pump=pump_of(cell, bus, agents))
     assert data["outcome"] == "solved"
-    arms = [a for a in data["legs_by_agent"] if a.startswith("arm")]
-    assert len(arms) == 6 and all(data["legs_by_agent"][a] >= 1 for a in arms)
-    assert sum(data["legs_by_agent"].values()) == 12
+    arms = [a for a in data["fixed_by_agent"] if a.startswith("arm")]
+    assert len(arms) == 6 and all(data["fixed_by_agent"][a] >= 1 for a in arms)
+    assert sum(data["fixed_by_agent"].values()) == 12
 
 
 @pytest.mark.parametrize(

@@ -12,10 +12,11 @@ from typing import Any
 
 import pytest
 
-from flexhrc.cell import Cell, EventStore, HumanAgent, RobotAgent, load_scenario
+from flexhrc.cell import Cell, EventStore, HumanAgent, RobotAgent
 from flexhrc.cell import protocol as P
 from flexhrc.cell.components import execution_model
 from flexhrc.cell.store import read_store
+from flexhrc.scenario import load_scenario
 from flexhrc.transport import InProcessBus
 
 from .helpers import Crash, pump_of

@@ -124,5 +124,5 @@ def test_replay_of_a_scenario_log_gives_the_same_summary(tmp_path, capsys):
     assert main(["replay", str(log), "--json"]) == 0
     replayed = json.loads(capsys.readouterr().out)
     for key in ("outcome", "robot_actions", "human_actions", "decisions", "branches_simulated",
-                "legs_by_agent", "solved_hyperarcs", "by_agent"):  # fmt: skip
+                "fixed_by_agent", "solved_hyperarcs", "by_agent"):  # fmt: skip
         assert replayed[key] == live[key], key

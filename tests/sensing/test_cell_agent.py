@@ -9,8 +9,9 @@ import pytest
 pytest.importorskip("pybullet")
 pytest.importorskip("scipy")
 
-from flexhrc.cell import Cell, HumanAgent, RobotAgent, load_scenario
+from flexhrc.cell import Cell, HumanAgent, RobotAgent
 from flexhrc.cell.components import execution_model
+from flexhrc.scenario import load_scenario
 from flexhrc.sensing.agent import PerceptionAgent
 from flexhrc.transport import InProcessBus
 

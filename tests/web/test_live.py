@@ -11,7 +11,8 @@ from typing import Any
 
 import pytest
 
-from flexhrc.cell import Cell, EventStore, RobotAgent, load_scenario, summarise_store
+from flexhrc.cell import Cell, EventStore, RobotAgent, summarise_store
+from flexhrc.scenario import load_scenario
 from flexhrc.taskmanager.simulator import AnalyticSimulator
 from flexhrc.transport import InProcessBus
 from flexhrc.web import PanelInputError

@@ -17,13 +17,17 @@ Objects lie on the table at the positions of the knowledge base; the hand grasps
 middle pose) to transport and screw it. Human actions are timed by the analytic operator model.
 Knowledge-base objects of type ``obstacle`` (attribute ``radius``) are spheres in both worlds.
 
-Joint actions (``agents: {joint: [left, right]}``) run on both arms at once (``arm="both"``):
-each hand grasps the object ``span_m / 2`` to its own side and, while the object is carried,
-the controller's two-arm relative-pose objective keeps the grasp rigid (paper eq. 1-3 and
-Fig. 8). ``place_tabletop`` is one such joint command: approach, grasp, transport to the
-target place and release, simulated (and executed) as one command of both arms. Actions this
-simulator has no motion for (a check, a hold, anything a scenario declares with ``duration``)
-are timed by the analytic model, as the operator's actions are.
+Which motion an action is comes from its kind (:mod:`flexhrc.taskmanager.kinds`), not from its
+name: each kind lists the controller actions to integrate and the target each aims at (the
+object it handles, the place it goes to). Joint actions (``agents: {joint: [left, right]}``) run
+the same steps on both arms at once (``arm="both"``): each hand grasps the object ``span_m / 2``
+to its own side and, while the object is carried, the controller's two-arm relative-pose
+objective keeps the grasp rigid (paper eq. 1-3 and Fig. 8). The table's ``place_tabletop`` is
+one such joint command: approach, grasp, transport to the target place and release, simulated
+(and executed) as one command of both arms. Actions of a kind without motion (``check``,
+``none``), of a kind the registry has no motion for, of an agent the robot model has no arm
+for, or whose target does not resolve are timed by the analytic model, as the operator's actions
+are. :attr:`KinematicTaskSimulator.simulated` records how each action was simulated.
 """
 
 from __future__ import annotations
@@ -34,15 +38,16 @@ from typing import Any
 
 from flexhrc.knowledge import KnowledgeBase
 from flexhrc.taskmanager.domain import Domain, GroundAction
+from flexhrc.taskmanager.kinds import action_targets, kind_of
 from flexhrc.taskmanager.simulator import (
     AnalyticSimulator,
     SimulationResult,
     StepReport,
     Vec3,
+    simulated_record,
 )
 
-ROBOT_KINDS = ("approach", "grasp", "transport", "screw", "ungrasp", "rest")
-JOINT_KINDS = ("place_tabletop",)  # composite joint commands of both arms
+Motion = list[tuple[str, "tuple[float, float, float] | None"]]
 
 
 class KinematicTaskSimulator:
@@ -70,25 +75,66 @@ class KinematicTaskSimulator:
         self.grasp_height_m = grasp_height_m
         self.hold_height_m = hold_height_m
         self.wall_s = 0.0
+        self._simulated: dict[tuple[str, tuple[str, ...]], str] = {}
         self._scheduled: list[list[Any]] = []  # [action kind, nth, disturbance kwargs, seen]
+
+    @property
+    def simulated(self) -> dict[str, str]:
+        """How each ground action simulated or executed so far was, by its text:
+        ``kinematic`` (on the robot model), ``analytic`` (timed by the analytic model) or
+        ``none`` (a kind without motion)."""
+        return simulated_record(self._simulated)
 
     # -- geometry -------------------------------------------------------------------------
     def _pos(self, name: str, kb: KnowledgeBase, positions: dict[str, Vec3]) -> Vec3:
         return positions.get(name) or kb.position(name)
 
-    def target(
+    def motions(
         self, action: GroundAction, kb: KnowledgeBase, positions: dict[str, Vec3]
-    ) -> tuple[float, float, float] | None:
-        """Where the hand goes for one ground action (None: where it is)."""
-        kind = action.schema.kind
-        objs = [a for a in action.args if a in kb.objects and a not in action.agents]
-        if kind in ("approach", "grasp") and objs:
-            x, y, z = self._pos(objs[0], kb, positions)
-            return (x, y, z + self.grasp_height_m)
-        if kind in ("transport", "screw") and len(objs) >= 2:
-            x, y, z = self._pos(objs[-1], kb, positions)
-            return (x, y, z + self.hold_height_m)
-        return None
+    ) -> Motion | None:
+        """The controller actions of ``action``'s kind, each with where the hand goes (None:
+        where it is); None when the kind has no motion or a target it needs does not resolve."""
+        kind = kind_of(action.schema)
+        if not kind.motion:
+            return None
+        obj, place = action_targets(action, kb)
+        out: Motion = []
+        for step in kind.motion:
+            goal = None
+            for role in step.target:
+                name = obj if role == "object" else place
+                if name is not None and (name in positions or name in kb.objects):
+                    x, y, z = self._pos(name, kb, positions)
+                    lift = self.grasp_height_m if step.height == "grasp" else self.hold_height_m
+                    goal = (x, y, z + lift)
+                    break
+            if goal is None and step.target and not step.optional:
+                return None
+            out.append((step.action, goal))
+        return out
+
+    def how(
+        self,
+        action: GroundAction,
+        kb: KnowledgeBase,
+        positions: dict[str, Vec3],
+        domain: Domain,
+    ) -> tuple[str, Motion | None]:
+        """``(kinematic, motions)`` for an action simulated on the robot model, else
+        ``(analytic | none, None)`` (see the module docstring); recorded in :attr:`simulated`."""
+        kind = kind_of(action.schema)
+        motions = None
+        if not kind.moves:
+            how = "none"
+        elif any(domain.agent(a).is_human for a in action.agents) or not set(action.agents) <= set(
+            self.sim.robot.arm_names
+        ):
+            how = "analytic"
+        else:
+            motions = self.motions(action, kb, positions)
+            how = "analytic" if motions is None else "kinematic"
+        self._simulated[action.name, action.args] = how
+        return how, motions
 
     @staticmethod
     def obstacles(kb: KnowledgeBase) -> list[tuple[float, float, float, float]]:
@@ -118,27 +164,6 @@ class KinematicTaskSimulator:
                 )
         return None
 
-    def _analytic(self, action: GroundAction) -> bool:
-        """Timed by the analytic model: no motion of this simulator for it."""
-        kind = action.schema.kind
-        return kind not in ROBOT_KINDS and kind not in JOINT_KINDS
-
-    def _joint_steps(
-        self, action: GroundAction, kb: KnowledgeBase, positions: dict[str, Vec3]
-    ) -> list[tuple[str, tuple[float, float, float] | None]]:
-        """The motions of a composite joint command, with their targets."""
-        objs = [a for a in action.args if a in kb.objects and a not in action.agents]
-        if not objs:
-            return []
-        x, y, z = self._pos(objs[0], kb, positions)
-        grip = (x, y, z + self.grasp_height_m)
-        if len(objs) >= 2:
-            px, py, pz = self._pos(objs[-1], kb, positions)
-            place = (px, py, pz + self.grasp_height_m)
-        else:
-            place = grip
-        return [("approach", grip), ("grasp", grip), ("transport", place), ("ungrasp", None)]
-
     # -- Simulator protocol ---------------------------------------------------------------
     def simulate(
         self, steps: Sequence[GroundAction], kb: KnowledgeBase, domain: Domain
@@ -159,7 +184,8 @@ class KinematicTaskSimulator:
         obstacles = self.obstacles(kb)
         hand = self.human_hand(kb)
         for action in steps:
-            if any(domain.agent(a).is_human for a in action.agents) or self._analytic(action):
+            _, motions = self.how(action, kb, positions, domain)
+            if motions is None:
                 ok, dt, why = self.human.step(action, positions, kb, domain)
                 durations.append(dt)
                 details.append({"action": str(action), "agents": list(action.agents), "t": dt})
@@ -170,10 +196,6 @@ class KinematicTaskSimulator:
             if problem:
                 return SimulationResult(False, [*durations, 0.0], problem, details)
             arm = self._arm(action)
-            if action.schema.kind in JOINT_KINDS:
-                motions = self._joint_steps(action, kb, positions)
-            else:
-                motions = [(action.schema.kind, self.target(action, kb, positions))]
             total, energy, min_d = 0.0, 0.0, float("inf")
             for kind, target in motions:
                 out = self.sim.simulate(
@@ -197,25 +219,25 @@ class KinematicTaskSimulator:
                     "energy": round(energy, 4),
                 }
             )
-            last_target = motions[-2][1] if len(motions) > 1 else motions[-1][1]
-            self._follow(action, last_target, positions, kb)
+            self._follow(action, motions, positions, kb)
         return SimulationResult(True, durations, None, details)
 
     def _follow(
         self,
         action: GroundAction,
-        target: tuple[float, float, float] | None,
+        motions: Motion,
         positions: dict[str, Vec3],
         kb: KnowledgeBase,
     ) -> None:
-        """Where things are after the action, in knowledge-base terms (objects on places)."""
-        kind = action.schema.kind
-        objs = [a for a in action.args if a in kb.objects and a not in action.agents]
+        """Where things are after the action, in knowledge-base terms (objects on places): the
+        hands at the last target they aimed at, a carried object on its place."""
+        target = next((goal for _, goal in reversed(motions) if goal is not None), None)
         if target is not None:
             for arm in action.agents:
                 positions[arm] = target
-        if kind in ("transport", *JOINT_KINDS) and len(objs) >= 2:
-            positions[objs[0]] = self._pos(objs[-1], kb, positions)
+        obj, place = action_targets(action, kb)
+        if kind_of(action.schema).carries_object and obj and place and place in kb.objects:
+            positions[obj] = self._pos(place, kb, positions)
 
     # -- ExecutionModel protocol ----------------------------------------------------------
     def execute(
@@ -225,7 +247,8 @@ class KinematicTaskSimulator:
         kb: KnowledgeBase,
         domain: Domain,
     ) -> StepReport:
-        if any(domain.agent(a).is_human for a in action.agents) or self._analytic(action):
+        _, motions = self.how(action, kb, positions, domain)
+        if motions is None:
             return self.human.execute(action, positions, kb, domain)
         from flexhrc.action.execution import Command, Disturbance
 
@@ -236,10 +259,6 @@ class KinematicTaskSimulator:
         em.obstacles = [*self.obstacles(kb)]
         em.human_hand = self.human_hand(kb)
         arm = self._arm(action)
-        if action.schema.kind in JOINT_KINDS:
-            motions = self._joint_steps(action, kb, positions)
-        else:
-            motions = [(action.schema.kind, self.target(action, kb, positions))]
         target = motions[-1][1] if motions else None
         for item in self._scheduled:
             if item[0] != action.schema.kind:
@@ -260,8 +279,7 @@ class KinematicTaskSimulator:
             total += report.duration_s
             if report.status != "done":
                 return StepReport(report.status, total, report.reason)
-        last_target = motions[-2][1] if len(motions) > 1 else target
-        self._follow(action, last_target, positions, kb)
+        self._follow(action, motions, positions, kb)
         return StepReport("done", total, None)
 
     def inject(self, disturbance: Any) -> Any:

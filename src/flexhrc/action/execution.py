@@ -30,8 +30,8 @@ import numpy as np
 from flexhrc.action.control import Obstacle, parse_obstacle
 from flexhrc.action.simulator import ActionOutcome, KinematicSimulator, Pose, RobotState, SimEvent
 from flexhrc.errors import FlexhrcError, UnknownNameError
+from flexhrc.events import ACK_STATUSES as STATUSES  # what an agent may answer
 
-STATUSES: tuple[str, ...] = ("done", "failed", "timed_out")
 DISTURBANCE_KINDS: tuple[str, ...] = ("object_moved", "slow_arm", "blocked_path")
 #: Actions that need the object to be where the command says.
 _OBJECT_ACTIONS = ("approach", "grasp")
@@ -356,7 +356,7 @@ class ExecutionManager:
         if cmd.action == "grasp" and cmd.object is not None:
             for a in arms:
                 self.held[a] = cmd.object
-        elif cmd.action in ("transport", "hand_over", "screw"):
+        elif cmd.action in ("transport", "insert", "hand_over", "screw"):
             names = {self.held[a] for a in arms if a in self.held}
             for name in names:
                 tcps = [self.sim.robot.arm(a).pose(self.state.q[a])[0] for a in arms]

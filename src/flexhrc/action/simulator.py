@@ -23,7 +23,8 @@ integrates ``q += qdot dt`` (explicit Euler, simulated time, fixed step ``dt``) 
 
 Actions (:data:`ACTIONS`): ``approach`` (TCP 10 cm above the target), ``grasp`` (down to the
 target, close the gripper), ``transport`` (carry the held object so the TCP ends at the target),
-``screw`` (turn the TCP about the vertical at the target), ``ungrasp`` (open, retreat 10 cm up),
+``insert`` (as transport, at 30 % of the joint speed limits), ``screw`` (turn the TCP about the
+vertical at the target), ``ungrasp`` (open, retreat 10 cm up),
 ``rest`` (joint posture of the arm's rest configuration), ``hand_over`` (bring the held object to
 the middle pose where the human takes it). ``arm="both"`` runs the two arms together: the target is
 the object's centre, each hand grasps it ``span_m / 2`` to its own side, and while transporting
@@ -272,6 +273,8 @@ ACTIONS: dict[str, ActionSpec] = {
     "approach": ActionSpec("approach", goal="above"),
     "grasp": ActionSpec("grasp", goal="target", gripper="close", untargeted_offset=(0, 0, -0.1)),
     "transport": ActionSpec("transport", goal="target"),
+    # a held part goes straight into its place, slowly (a dowel into its hole, a gear on a shaft)
+    "insert": ActionSpec("insert", goal="target", speed_scale=0.3),
     "screw": ActionSpec("screw", goal="screw", untargeted_offset=(0.0, 0.0, 0.0)),
     "ungrasp": ActionSpec("ungrasp", goal="retreat", gripper="open"),
     "rest": ActionSpec("rest", goal="rest"),

@@ -28,11 +28,9 @@ from flexhrc.behavior.task import (
     Task,
     TaskNode,
     build_task,
-    load_task,
     parse_prefix,
-    parse_task,
 )
-from flexhrc.behavior.taskfile import TaskDocument, load_task_document
+from flexhrc.behavior.taskfile import TaskDocument, load_task, load_task_document, parse_task
 from flexhrc.behavior.types import (
     BehaviorFactory,
     BehaviorTypeBuilder,

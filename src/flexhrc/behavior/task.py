@@ -23,7 +23,6 @@ from __future__ import annotations
 import re
 from collections.abc import Iterator
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 from flexhrc.errors import FormatError
@@ -279,20 +278,3 @@ def _spec_of(node: TaskNode, line: int) -> Any:
     if node.kind == BEHAVIOR:
         return (BEHAVIOR, node.name, line, None)
     return (node.kind, [_spec_of(c, line) for c in node.children], line, None)
-
-
-def parse_task(text: str, source: str = "<task>") -> Task:
-    """Parse a task given either as prefix text (first significant character ``(``) or as a YAML
-    document (a ``task:`` key, optionally a ``world:``; see :mod:`flexhrc.behavior.taskfile`)."""
-    significant = re.sub(r"#[^\n]*", "", text).strip()
-    if significant.startswith("("):
-        return parse_prefix(text, source)
-    from flexhrc.behavior.taskfile import load_task_document
-
-    return load_task_document(text, source).task
-
-
-def load_task(path: str | Path) -> Task:
-    from flexhrc.files import read_text
-
-    return parse_task(read_text(path), str(path))

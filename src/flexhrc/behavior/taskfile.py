@@ -32,10 +32,12 @@ Every error names the file and the line (``file:line: message``).
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
-from flexhrc.behavior.task import Task, build_task, task_spec_from_yaml_node
+from flexhrc.behavior.task import Task, build_task, parse_prefix, task_spec_from_yaml_node
 from flexhrc.behavior.types import BehaviorFactory, BehaviorTypeBuilder, behavior_type, derived_type
 from flexhrc.behavior.world import Arm, MoveRule, TabletopWorld, WorldObject, default_arms
 from flexhrc.errors import FlexhrcError, FormatError
@@ -210,6 +212,22 @@ def load_task_document(text: str, source: str = "<task>", arms: int | None = Non
         _behaviors(fields["behaviors"], task, types, source) if "behaviors" in fields else {}
     )
     return TaskDocument(task, world, name, behaviors)
+
+
+def parse_task(text: str, source: str = "<task>") -> Task:
+    """Parse a task given either as prefix text (first significant character ``(``) or as a YAML
+    document (a ``task:`` key, optionally a ``world:``; see the module docstring)."""
+    significant = re.sub(r"#[^\n]*", "", text).strip()
+    if significant.startswith("("):
+        return parse_prefix(text, source)
+    return load_task_document(text, source).task
+
+
+def load_task(path: str | Path) -> Task:
+    """Read a task file, prefix text or YAML (:func:`parse_task`)."""
+    from flexhrc.files import read_text
+
+    return parse_task(read_text(path), str(path))
 
 
 def _plain(node: Any) -> Any:

@@ -5,14 +5,17 @@
 * :class:`~flexhrc.cell.components.RobotAgent`, :class:`~flexhrc.cell.components.HumanAgent` —
   simulated agents that speak the protocol (:mod:`flexhrc.cell.protocol`, ``docs/protocol.md``);
 * :class:`~flexhrc.cell.store.EventStore` — the SQLite event store;
-* :func:`~flexhrc.cell.scenario_ref.load_scenario` — a scenario by name or file.
+* :class:`~flexhrc.cell.local.LocalCell` — the loop in one process with simulated agents
+  (what ``flexhrc run`` and :func:`flexhrc.scenario.run` are made of).
 
-The cell sits on top of the layers: it imports the Task Manager and the transports, nothing
-imports it but the command line (and later the operator panel and the ROS 2 bridge).
+The cell is the one loop that drives the Task Manager. It imports the Task Manager and the
+transports, never :mod:`flexhrc.scenario`: a scenario reaches it as anything with ``graph()``,
+``domain()``, ``knowledge()``, ``make_simulator(choice)`` and ``name``
+(:class:`flexhrc.scenario.source.CellScenario`); scenario, panel, ROS 2 and the command line
+sit above it.
 """
 
 from flexhrc.cell.components import HumanAgent, RobotAgent
-from flexhrc.cell.scenario_ref import load_scenario
 from flexhrc.cell.store import EventStore, read_store, summarise_store
 from flexhrc.cell.supervisor import Cell
 
@@ -21,7 +24,6 @@ __all__ = [
     "EventStore",
     "HumanAgent",
     "RobotAgent",
-    "load_scenario",
     "read_store",
     "summarise_store",
 ]

@@ -32,7 +32,7 @@ from __future__ import annotations
 import json
 import logging
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Protocol
@@ -53,7 +53,7 @@ HUMAN_PROFILES = PROFILES
 
 def execution_model(choice: str = "auto", scenario: Any = None) -> ExecutionModel:
     """The simulated real world: kinematic (``sim`` extra) or analytic, as the scenario makes it
-    (:meth:`~flexhrc.cell.scenario_ref.CellScenario.make_simulator`), else as
+    (:meth:`~flexhrc.scenario.source.CellScenario.make_simulator`), else as
     :func:`flexhrc.scenarios.simulators.choose_simulator` picks it."""
     make = getattr(scenario, "make_simulator", None)
     if make is not None:
@@ -398,6 +398,7 @@ class HumanAgent(_Agent):
         seed: int = 0,
         execution: ExecutionModel | None = None,
         trace: Callable[[str], None] | None = None,
+        takes: Iterable[int | str] | None = None,
         on_executed: OnExecuted | None = None,
         sensing: HumanSensing | None = None,
     ) -> None:
@@ -416,7 +417,13 @@ class HumanAgent(_Agent):
         self.busy: set[tuple[str, int]] = set()  # steps being carried out
         self._subs.append(transport.subscribe(P.suggest_topic(name), self._on_message))
         # the profile's own decisions (the same code as the in-process operators)
-        self.operator = SimulatedOperator(name, profile, seed) if profile != "passive" else None
+        # ``takes``: a script (the K-th steps, 1-based, or node names) instead of the profile
+        self.takes = set(takes) if takes is not None else None
+        self.operator = (
+            SimulatedOperator(name, profile, seed, self.takes)
+            if profile != "passive" or self.takes is not None
+            else None
+        )
         self.intents: dict[str, dict[str, Any]] = {}  # options id -> the intent sent for it
         self._announced_at = float("-inf")
         if self.operator is not None:
@@ -428,7 +435,8 @@ class HumanAgent(_Agent):
         """Tell the manager this operator acts on its own (before its token, so the manager
         knows it when the cooperation starts; again if a snapshot shows it was not heard)."""
         self._announced_at = time.monotonic()
-        msg = P.message("operator", agent=self.name, profile=self.profile)
+        extra = {"scripted": True} if self.takes is not None else {}
+        msg = P.message("operator", agent=self.name, profile=self.profile, **extra)
         self.transport.publish(P.INTENT_TOPIC, msg)
 
     def _on_state(self, data: Any) -> None:
@@ -437,6 +445,9 @@ class HumanAgent(_Agent):
             return
         known = data.get("operators")
         heard = isinstance(known, dict) and known.get(self.name) == self.profile
+        if self.takes is not None:
+            scripted = data.get("scripted")
+            heard = heard and isinstance(scripted, list) and self.name in scripted
         if not heard and time.monotonic() - self._announced_at > 1.0:
             self._announce_profile()
 

@@ -8,11 +8,12 @@ contract of issue 11::
     CREATE TABLE events(seq INTEGER PRIMARY KEY, t REAL, kind TEXT, body TEXT)
 
 ``seq`` counts from 1 without gaps, ``t`` is the cell's clock (simulated seconds), ``body`` is a
-JSON object. Input kinds: ``start``, ``ack`` (body: ``id``, ``status``, ``reason``, ``agent``,
-``positions``), ``human_action``, ``percept``, ``agent_up``, ``agent_down``. Output kinds:
-``command``, ``suggestion``, ``stop``; the manager's ``decision`` and ``outcome`` records and a
-closing ``summary`` are stored too so that ``flexhrc replay FILE.db`` can rebuild the summary of
-``flexhrc replay LOG.jsonl``.
+JSON object. The kinds are catalogued in :data:`flexhrc.events.STORE_KINDS`. Input kinds:
+``start``, ``ack`` (body: ``id``, ``status``, ``reason``, ``agent``, ``positions``),
+``human_action``, ``percept``, ``agent_up``, ``agent_down``, ``operator``, ``intent``,
+``human_take``. Output kinds: ``command``, ``suggestion``, ``stop``, ``options``; the manager's
+``decision``, ``solved``, ``outcome`` ... records and a closing ``summary`` are stored too so
+that ``flexhrc replay FILE.db`` can rebuild the summary of ``flexhrc replay LOG.jsonl``.
 """
 
 from __future__ import annotations
@@ -28,22 +29,8 @@ from pathlib import Path
 from typing import Any
 
 from flexhrc.errors import FlexhrcError, FormatError
+from flexhrc.events import INPUT_KINDS, REPLAY_TYPES
 from flexhrc.files import check_output
-
-INPUT_KINDS = frozenset(
-    {
-        "start",
-        "ack",
-        "human_action",
-        "percept",
-        "agent_up",
-        "agent_down",
-        "operator",
-        "intent",
-        "human_take",
-    }
-)
-OUTPUT_KINDS = frozenset({"command", "suggestion", "stop", "options"})
 
 SCHEMA = "CREATE TABLE IF NOT EXISTS events(seq INTEGER PRIMARY KEY, t REAL, kind TEXT, body TEXT)"
 
@@ -185,8 +172,6 @@ def log_events(events: list[StoredEvent]) -> list[dict[str, Any]]:
     :func:`~flexhrc.taskmanager.replay.summarise_log` and the timeline plot. Cell-only kinds
     (``agent_up``/``agent_down``, ``human_action`` inputs) become the runner's events or are
     left out."""
-    from flexhrc.taskmanager.replay import EVENT_TYPES
-
     out: list[dict[str, Any]] = []
     commands: dict[int, tuple[float, dict[str, Any]]] = {}
     for ev in events:
@@ -222,23 +207,6 @@ def log_events(events: list[StoredEvent]) -> list[dict[str, Any]]:
                     "element": cmd.get("element"),
                 }
             )
-        elif ev.kind == "stop":
-            # the command never ends: it ends here, stopped (as the runner's log has it)
-            start, cmd = commands.get(int(b["id"]), (ev.t, {"agents": [b.get("agent")]}))
-            out.append({**b, "command": b["id"], "t": t, "type": "stop"})
-            out.append(
-                {
-                    "t": t,
-                    "type": "action_end",
-                    "agents": cmd["agents"],
-                    "action": cmd.get("action", "?"),
-                    "command": b["id"],
-                    "status": "stopped",
-                    "start": round(min(start, ev.t), 6),
-                    "reason": b.get("reason"),
-                    "element": cmd.get("element"),
-                }
-            )
         elif ev.kind == "human_action":
             start = min(float(b.get("start", ev.t)), ev.t)
             out.append(
@@ -251,8 +219,23 @@ def log_events(events: list[StoredEvent]) -> list[dict[str, Any]]:
                     "start": round(start, 6),
                 }
             )
-        elif ev.kind in EVENT_TYPES:
+        elif ev.kind in REPLAY_TYPES:
             out.append({**b, "t": t, "type": ev.kind})
+            stopped = commands.pop(int(b["id"]), None) if ev.kind == "stop" else None
+            if stopped is not None:  # the arm was busy until the stop (its ack never counts)
+                start, cmd = stopped
+                out.append(
+                    {
+                        "t": t,
+                        "type": "action_end",
+                        "agents": cmd["agents"],
+                        "action": cmd.get("action", "?"),
+                        "command": b["id"],
+                        "status": "stopped",
+                        "start": round(min(start, ev.t), 6),
+                        "reason": b.get("reason"),
+                    }
+                )
     return out
 
 

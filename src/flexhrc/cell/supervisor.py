@@ -52,8 +52,10 @@ from flexhrc.cell import protocol as P
 from flexhrc.cell.components import ground, world_of
 from flexhrc.cell.store import EventStore, StoredEvent, log_events
 from flexhrc.errors import FlexhrcError
+from flexhrc.events import STORED_LOG_TYPES  # the manager records the store keeps
 from flexhrc.knowledge import Inconsistency
 from flexhrc.representation import OnlineGraph
+from flexhrc.taskmanager.diagnose import stall_reason
 from flexhrc.taskmanager.domain import GroundAction
 from flexhrc.taskmanager.manager import (
     Ack,
@@ -72,23 +74,6 @@ from flexhrc.transport import Transport
 log = logging.getLogger("flexhrc.cell")
 
 AGENT_LOST = "agent lost"
-# manager log records kept in the store (the others are inputs or outputs stored on their own)
-STORED_LOG_TYPES = {
-    "decision",
-    "outcome",
-    "abort",
-    "action_failed",
-    "infeasible",
-    "recognised",
-    "solved",
-    "human_action_unmatched",
-    "ack_ignored",
-    "agent_available",
-    "agent_unavailable",
-    "human_decides",
-    "human_gives_up",
-    "waiting",
-}
 
 
 @dataclass
@@ -122,6 +107,12 @@ class Cell:
         trace: Callable[[dict[str, Any]], None] | None = None,
         seed: int = 0,
         watchers: Iterable[str] = (),
+        reaction: str = "conflicts",
+        observers: Iterable[Callable[[dict[str, Any]], None]] = (),
+        max_time_s: float | None = None,
+        idle_s: float = 0.5,
+        publish_state: bool = True,
+        quiescent: Callable[[], bool] | None = None,
     ) -> None:
         if not realtime >= 0 or realtime != realtime or realtime == float("inf"):
             raise FlexhrcError(f"--realtime must be a finite number >= 0, got {realtime}")
@@ -134,12 +125,25 @@ class Cell:
         self.ordered = (self.realtime == 0) if ordered is None else ordered
         self.agent_speed = self.realtime if agent_speed is None else agent_speed
         self.trace = trace or (lambda ev: None)
+        # the cooperation log as it happens (``flexhrc run --log``, the timeline, replay): every
+        # manager event and the loop's own, in log form (see :func:`observe_record`)
+        self.observers = list(observers)
+        self.max_time_s = max_time_s
+        self.idle_s = idle_s
+        self.publish_state = publish_state  # the snapshot on ``state`` after every event
+        # agents in this process: ``quiescent()`` says none of them has anything left to say,
+        # so an agent the loop waits for (e.g. an operator no one plays) will never answer
+        self.quiescent = quiescent
+        self._stop_reason: str | None = None
+        self._command_start: dict[int, float] = {}
         self.graph = OnlineGraph(scenario.graph())
         self.domain = scenario.domain()
         self.kb = scenario.knowledge()
         if simulator is None and hasattr(scenario, "make_simulator"):
             simulator = scenario.make_simulator("auto")  # the scenario's own choice
-        self.tm = TaskManager(self.graph, self.domain, self.kb, simulator, log=self._tm_log)
+        self.tm = TaskManager(
+            self.graph, self.domain, self.kb, simulator, log=self._tm_log, reaction=reaction
+        )
         self.agents = {
             a.name: AgentState(a.name, "human" if a.is_human else "robot")
             for a in self.domain.agents.values()
@@ -161,6 +165,8 @@ class Cell:
         self._sent_step: dict[str, int] = {}
         self._down_reason: dict[str, str] = {}
         self.human_ids: set[str] = set()
+        self.superseded: dict[str, float] = {}  # suggestion id -> when a new request replaced it
+        self._last_suggestion: dict[str, str] = {}  # human -> the suggestion last sent to them
         self.pending: list[tuple[float, int, str, dict[str, Any]]] = []
         self._arrivals = 0
         self.dropped: list[str] = []
@@ -175,6 +181,7 @@ class Cell:
         self.resent = 0
         # operators that act on their own: profile, steps they decided on, open ``options``
         self.operators: dict[str, str] = {}
+        self.scripted: set[str] = set()  # operators that follow a script of steps
         self.decided: dict[str, set[str]] = {}
         self.awaiting: dict[str, str] = {}  # operator -> id of the options it has to answer
         self.options: dict[str, dict[str, Any]] = {}
@@ -249,6 +256,7 @@ class Cell:
                 for sid in self.active_suggestion.values()
             ],
             "operators": dict(self.operators),
+            "scripted": sorted(self.scripted),
             "timeline": timeline,
             "knowledge": self.kb.to_dict(),
             "dropped": len(self.dropped),
@@ -351,6 +359,10 @@ class Cell:
         ):
             self._drop(f"duplicate human_action {msg['id']}")
             return
+        replaced = self.superseded.get(str(msg.get("suggestion")))
+        if replaced is not None and self.ordered and float(msg["t"]) > replaced:
+            log.info("human_action %s of a replaced request: ignored", msg["id"])
+            return
         self._arrive(msg["t"], "human_action", _body(msg))
 
     def _on_percept_message(self, data: Any) -> None:
@@ -406,12 +418,16 @@ class Cell:
             return
         agent = str(msg["agent"])
         if msg["type"] == "operator":
-            if self.operators.get(agent) == msg["profile"]:
+            scripted = bool(msg.get("scripted", False))
+            if self.operators.get(agent) == msg["profile"] and (agent in self.scripted) == scripted:
                 return
             if not self.started:  # goes into the stored start
                 self.operators[agent] = str(msg["profile"])
+                if scripted:
+                    self.scripted.add(agent)
             else:
-                self._input("operator", {"agent": agent, "profile": msg["profile"]})
+                body = {"agent": agent, "profile": msg["profile"]}
+                self._input("operator", {**body, "scripted": True} if scripted else body)
             return
         if msg["id"] in self.intent_ids or any(
             k == "intent" and b["id"] == msg["id"] for *_, k, b in self.pending
@@ -468,7 +484,7 @@ class Cell:
             self._input("ack", body)
 
     # -- store, feed, send --------------------------------------------------------------------
-    def _record(self, kind: str, body: dict[str, Any]) -> None:
+    def _record(self, kind: str, body: dict[str, Any], *, observe: bool = True) -> None:
         if self.replaying:
             return
         t = self.now  # unrounded, so a resumed clock continues exactly
@@ -476,11 +492,88 @@ class Cell:
         ev = StoredEvent(seq, t, kind, body)
         self.events.append(ev)
         self.trace({**body, "t": t, "type": kind})
+        if observe and self.observers:
+            for log_ev in self._log_form(ev):
+                self._observe(log_ev)
+
+    def _observe(self, ev: dict[str, Any]) -> None:
+        for observer in self.observers:
+            observer(ev)
+
+    def _log_form(self, ev: StoredEvent) -> list[dict[str, Any]]:
+        """A stored event as the events of the cooperation log, as it happens (the manager's
+        own events reach the observers from :meth:`_tm_log`)."""
+        b, t = ev.body, round(ev.t, 6)
+        if ev.kind == "command":
+            self._command_start[int(b["id"])] = ev.t
+            return [
+                {
+                    "t": t,
+                    "type": "action_start",
+                    "agents": b["agents"],
+                    "action": b["action"],
+                    "command": b["id"],
+                    "element": b.get("element"),
+                }
+            ]
+        if ev.kind in ("ack", "stop"):
+            cid = int(b["id"])
+            cmd = self.commands.get(cid)
+            if cmd is None or cid not in self._command_start:
+                return []
+            status = "stopped" if ev.kind == "stop" else b["status"]
+            return [
+                {
+                    "t": t,
+                    "type": "action_end",
+                    "agents": list(cmd.agents),
+                    "action": str(cmd.action),
+                    "command": cid,
+                    "status": status,
+                    "start": round(self._command_start.pop(cid), 6),
+                    "reason": b.get("reason"),
+                    "element": cmd.element,
+                }
+            ]
+        if ev.kind == "human_action":
+            return [
+                {
+                    "t": t,
+                    "type": "action_end",
+                    "agents": [b.get("agent")],
+                    "action": b["action"],
+                    "status": "done",
+                    "start": round(min(float(b.get("start", ev.t)), ev.t), 6),
+                }
+            ]
+        if ev.kind == "suggestion":
+            return [
+                {
+                    "t": t,
+                    "type": "human_told",
+                    "element": b["element"],
+                    "agents": [b["agent"]],
+                    "actions": b["actions"],
+                }
+            ]
+        if ev.kind == "start":
+            profiles = list((b.get("operators") or {}).values())
+            profile = profiles[0] if profiles else "passive"
+            return [{"profile": profile, **b, "t": t, "type": "start"}]
+        if ev.kind in ("fixed", "human_decides", "human_gives_up", "outcome", "summary"):
+            return [{**b, "t": t, "type": ev.kind}]
+        if ev.kind in ("percept", "inconsistent", "consistent_again", "repaired"):
+            return [{**b, "t": t, "type": ev.kind}]  # perception in the loop
+        if ev.kind == "operator_answers":
+            return [{**b, "t": t, "type": ev.kind}]
+        return []
 
     def _tm_log(self, ev: dict[str, Any]) -> None:
+        if not self.replaying and self.observers:
+            self._observe(ev)
         if ev.get("type") in STORED_LOG_TYPES:
             body = {k: v for k, v in ev.items() if k not in ("t", "type")}
-            self._record(str(ev["type"]), body)
+            self._record(str(ev["type"]), body, observe=False)
 
     def _clock(self) -> float:
         """Cell time from the wall clock, when agents take real time (unordered loop)."""
@@ -506,6 +599,7 @@ class Cell:
         if kind == "start":
             self.started = True
             self.operators.update(body.get("operators") or {})
+            self.scripted.update(body.get("scripted") or [])
             if body.get("watchers"):  # the first decision waits for their first look
                 self.begun = False
                 return []
@@ -515,6 +609,8 @@ class Cell:
             return tm.start(now)
         if kind == "operator":
             self.operators[str(body["agent"])] = str(body["profile"])
+            if body.get("scripted"):
+                self.scripted.add(str(body["agent"]))
             return []
         if kind == "intent":
             self._intent(body)
@@ -536,15 +632,6 @@ class Cell:
             self.human_ids.add(str(body["id"]))
             action = ground(self.domain, body["action"])
             missed = body.get("recognised") is False  # the wrist sensor missed it
-            human = str(body["agent"])
-            holder = None if missed else self._helper(human).holder_of(self.kb, self.domain, action)
-            if holder is not None:
-                # another agent took the part first: the operator does not pull it out of its
-                # hand, gives up and stops its plan (as the runner's operators do)
-                obj = next((a for a in action.args if a in self.kb.objects and a != human), None)
-                self._record("human_gives_up", {"object": obj, "holder": holder, "agent": human})
-                self.active_suggestion.pop(human, None)
-                return []
             if not missed:
                 self._physical(action, body.get("positions") or {})
             sid, k = body.get("suggestion"), body.get("step")
@@ -618,7 +705,7 @@ class Cell:
         return self.tm.on_percept(self.now, retracted=[said])
 
     def _deadlock_reason(self) -> str:
-        reason = "deadlock: no agent has anything to do and the task is not solved"
+        reason = stall_reason(self.tm)
         if self.kb.consistent:
             return reason
         reasons = "; ".join(i.reason for i in self.kb.inconsistencies)
@@ -644,7 +731,9 @@ class Cell:
             return
         for human, profile in sorted(self.operators.items()):
             st = self.agents.get(human)
-            if profile == "passive" or st is None or not st.available:
+            if profile == "passive" and human not in self.scripted:
+                continue
+            if st is None or not st.available:
                 continue
             if self._operator_busy(human):
                 continue
@@ -754,6 +843,7 @@ class Cell:
             elif isinstance(d, Suggest):
                 sid = f"s{len(self.suggestions) + 1}"
                 human = next(a for a in d.actions[0].agents if self.agents[a].kind == "human")
+                self._supersede(human)
                 msg = {
                     "v": P.VERSION,
                     "type": "suggestion",
@@ -782,6 +872,53 @@ class Cell:
                         P.cmd_topic(d.agent),
                         P.message("stop", id=d.command_id, reason=d.reason, t=self.now),
                     )
+
+    def _held_elsewhere(self, t: float, body: dict[str, Any]) -> bool:
+        """A person's reported step works on a part another agent holds by the time it ends
+        (the domain's ``on_stop.holding`` fact): the person could not have done it — they give
+        up (``human_gives_up``) and their request ends; the manager is told nothing."""
+        human = str(body["agent"])
+        action = ground(self.domain, body["action"])
+        holder = self._helper(human).holder_of(self.kb, self.domain, action)
+        if holder is None:
+            return False
+        self.now = max(self.now, float(t))
+        obj = next((a for a in action.args if a in self.kb.objects and a != human), None)
+        if self.observers and not self.replaying:
+            start = round(min(float(body.get("start", t)), float(t)), 6)
+            self._observe(
+                {
+                    "t": round(self.now, 6),
+                    "type": "action_end",
+                    "agents": [human],
+                    "action": body["action"],
+                    "status": "failed",
+                    "start": start,
+                    "reason": f"{obj} already held by {holder}",
+                }
+            )
+        self._record("human_gives_up", {"object": obj, "holder": holder, "agent": human})
+        if self.active_suggestion.get(human) == body.get("suggestion"):
+            del self.active_suggestion[human]
+        self._settle()
+        return True
+
+    def _supersede(self, human: str) -> None:
+        """A new request replaces what ``human`` was asked before: a step of the old one still
+        under way is dropped (the person turns to the new request; its end never happens, as
+        with a stopped command)."""
+        old = self._last_suggestion.get(human)
+        if old is None:
+            return
+        self.superseded[old] = self.now
+        if self.ordered:
+            self.pending = [
+                x
+                for x in self.pending
+                if not (
+                    x[2] == "human_action" and x[3].get("suggestion") == old and x[0] > self.now
+                )
+            ]
 
     def _send_command(self, agent: str, cmd: Command) -> None:
         st = self.agents[agent]
@@ -812,7 +949,17 @@ class Cell:
             return
         msg.pop("agent", None)
         msg.update(t=start, step=step, world=world_of(self.kb), realtime=self.agent_speed)
+        if self._sent_step.get(sid) != step and self.observers:  # the person starts this step
+            self._observe(
+                {
+                    "t": round(max(start, self.now), 6),
+                    "type": "action_start",
+                    "agents": [human],
+                    "action": msg["actions"][step],
+                }
+            )
         self._sent_step[sid] = step
+        self._last_suggestion[human] = sid
         self.transport.publish(P.suggest_topic(human), P.parse(msg, expect="suggestion"))
 
     def _continue_suggestions(self) -> None:
@@ -861,6 +1008,8 @@ class Cell:
                 self._send_options(human, oid)
 
     def _publish_state(self) -> None:
+        if not self.publish_state:
+            return
         self._state_seq += 1
         try:
             self.transport.publish(
@@ -970,6 +1119,16 @@ class Cell:
             return False
         return self.suggestion_step.get(sid, (0, 0.0))[0] >= len(self.suggestions[sid]["actions"])
 
+    def request_stop(self, reason: str = "interrupted") -> None:
+        """End the cooperation at the next turn of the loop with the outcome ``interrupted``
+        (safe from a signal handler: it only sets a flag; the loop writes the final events)."""
+        self._stop_reason = reason
+
+    def _end(self, outcome: str, reason: str) -> None:
+        """The loop ends the cooperation itself (interrupted, stuck, out of time)."""
+        self.tm.outcome, self.tm.reason = outcome, reason
+        self._record("outcome", {"outcome": outcome, "reason": reason})
+
     def _missing(self) -> list[str]:
         return [n for n, st in self.agents.items() if not st.alive]
 
@@ -1002,7 +1161,11 @@ class Cell:
             # earliest end first; a tie goes by what the answer is about (the command's id,
             # the operator and its report), never by which process happened to answer first
             self.pending.sort(key=_answer_order)
-            t, _, kind, body = self.pending.pop(0)
+            t, _, kind, body = self.pending[0]
+            if self.max_time_s is not None and t > self.max_time_s:
+                self._end("failed", f"time budget {self.max_time_s} s exceeded")
+                return False
+            self.pending.pop(0)
             if self.realtime > 0:
                 lag = (t - self.now) / self.realtime - (time.perf_counter() - self._last_wall)
                 if lag > 0:
@@ -1019,6 +1182,8 @@ class Cell:
         if kind == "look":  # a watcher looks by itself now: no input, a state to look at
             self.now = max(self.now, t)
             self._publish_state()
+            return True
+        if kind == "human_action" and self._held_elsewhere(t, body):
             return True
         self._input(kind, body, t)
         self._refresh_suggestions()
@@ -1050,6 +1215,7 @@ class Cell:
                     "simulator": _simulator_name(self.tm.simulator),
                     "operators": dict(self.operators),
                     **({"watchers": list(self.watchers)} if self.watchers else {}),
+                    **({"scripted": sorted(self.scripted)} if self.scripted else {}),
                 },
             )
         elif self.tm.done:  # the stored cooperation had already ended: nothing to add
@@ -1069,6 +1235,9 @@ class Cell:
         deadline = time.monotonic() + max_wall_s
         idle_since: float | None = None
         while not self.tm.done:
+            if self._stop_reason is not None:
+                self._end("interrupted", self._stop_reason)
+                break
             if resumed_at is not None and time.monotonic() - resumed_at > agents_timeout:
                 # an agent that died while the manager was down never shows its token again
                 resumed_at = None
@@ -1080,21 +1249,21 @@ class Cell:
             if self.step():
                 idle_since = None
                 continue
+            if not self.pending and self.quiescent is not None and self.quiescent():
+                self._end("failed", self._deadlock_reason())
+                break
             if not self.pending and not self.awaited():
                 # nothing running, nothing to come: stuck, unless a lost agent may come back
                 if any(not st.available for st in self.agents.values()):
                     idle_since = None
                 else:
                     idle_since = idle_since or time.monotonic()
-                if idle_since is not None and time.monotonic() - idle_since > 0.5:
-                    self.tm.outcome = "failed"
-                    self.tm.reason = self._deadlock_reason()
-                    self._record("outcome", {"outcome": "failed", "reason": self.tm.reason})
+                if idle_since is not None and time.monotonic() - idle_since >= self.idle_s:
+                    self._end("failed", self._deadlock_reason())
                     break
             self._resend_overdue()
             if time.monotonic() > deadline:
-                self.tm.outcome, self.tm.reason = "failed", f"wall time {max_wall_s} s exceeded"
-                self._record("outcome", {"outcome": "failed", "reason": self.tm.reason})
+                self._end("failed", f"wall time {max_wall_s} s exceeded")
                 break
             pump(0.05)
         summary = self.summary()
@@ -1116,6 +1285,9 @@ class Cell:
         data["decisions"] = tm["decisions"]
         data["branches_simulated"] = tm["branches_simulated"]
         data["timing"].update(tm["timing"])
+        data["compute_recorded"] = True  # this manager's own compute, not a log's
+        # how each action the manager simulated was simulated (kinematic | analytic | none)
+        data["simulated"] = dict(getattr(self.tm.simulator, "simulated", None) or {})
         data["scenario"] = str(getattr(self.scenario, "name", "?"))
         data["wall_s"] = time.perf_counter() - self._wall0
         data["cell"] = {

@@ -73,8 +73,9 @@ def _common(p: argparse.ArgumentParser) -> None:
 
 def cmd_agent(args: argparse.Namespace) -> int:
     quiet_library_logs()
-    from flexhrc.cell import HumanAgent, RobotAgent, load_scenario
+    from flexhrc.cell import HumanAgent, RobotAgent
     from flexhrc.cell.components import check_agent_name, execution_model
+    from flexhrc.scenario import load_scenario
 
     if not args.connect and not args.listen:
         raise FlexhrcError("--connect ENDPOINT is needed (the cell's --listen endpoint)")
@@ -136,7 +137,7 @@ def cmd_agent(args: argparse.Namespace) -> int:
 
 def cmd_agent_perception(args: argparse.Namespace) -> int:
     """``flexhrc agent perception SCENARIO --connect ENDPOINT``."""
-    from flexhrc.cell import load_scenario
+    from flexhrc.scenario import load_scenario
 
     if not args.connect and not args.listen:
         raise FlexhrcError("--connect ENDPOINT is needed (the cell's --listen endpoint)")

@@ -24,11 +24,18 @@ import time
 from pathlib import Path
 from typing import Any
 
+from flexhrc.cli.behave_common import (
+    check_plot,
+    is_file,
+    live_line,
+    resolve,
+    resolve_document,
+    summary_lines,
+    trace_line,
+)
 from flexhrc.cli.common import add_json_flag, emit, log
-from flexhrc.errors import FlexhrcError, UnknownNameError
+from flexhrc.errors import FlexhrcError
 
-TASK_SUFFIXES = (".yaml", ".yml", ".txt")
-PLOT_SUFFIXES = (".png", ".svg", ".pdf")
 RENDER_SUFFIXES = (".dot", ".gv", ".svg", ".png", ".pdf")
 GRAPH_SUFFIXES = (".yaml", ".yml")
 ACTIONS = ("replay", "render", "compile")
@@ -237,124 +244,6 @@ def _check_args(args: argparse.Namespace) -> None:
         raise FlexhrcError("--at needs --log (the run whose states to show)")
 
 
-# ----------------------------------------------------------------------------- loading
-
-
-def _is_file(name: str) -> bool:
-    try:
-        return Path(name).is_file()
-    except OSError:  # e.g. an inline task longer than a file name may be
-        return False
-
-
-def _exists(path: Path) -> bool:
-    try:
-        return path.exists()
-    except OSError:
-        return False
-
-
-def resolve(target: str, layout: int | None, arms: int | None, seed: int) -> tuple[str, Any, Any]:
-    """(label, task, world) for a scenario name, a task file or an inline prefix string."""
-    label, task, world, _behaviors = resolve_document(target, layout, arms, seed)
-    return label, task, world
-
-
-def resolve_document(
-    target: str, layout: int | None, arms: int | None, seed: int
-) -> tuple[str, Any, Any, dict[str, Any]]:
-    """(label, task, world, behaviour factories of typed leaves) — see :func:`resolve`."""
-    from flexhrc.behavior.task import parse_prefix
-    from flexhrc.behavior.taskfile import load_task_document
-    from flexhrc.behavior.world import random_world
-    from flexhrc.files import read_text
-    from flexhrc.scenarios.table_setting import SCENARIOS, load_scenario
-
-    if target in SCENARIOS:
-        sc = load_scenario(target, layout, arms or 1, seed)
-        label = f"{sc.name}" + (f" (layout {sc.layout})" if sc.layout else "")
-        return label, sc.task, sc.world, {}
-    if layout is not None:
-        raise FlexhrcError("--layout only applies to the table-setting scenario")
-    if target.lstrip().startswith("("):
-        task = parse_prefix(target, "<inline task>")
-        return "inline task", task, random_world(task.behaviors, seed, arms or 1), {}
-    path = Path(target)
-    if path.suffix.lower() in TASK_SUFFIXES or _exists(path):
-        text = read_text(path)
-        stripped = "\n".join(line.split("#", 1)[0] for line in text.splitlines()).strip()
-        behaviors: dict[str, Any] = {}
-        if stripped.startswith("("):
-            task, world = parse_prefix(text, str(path)), None
-        else:
-            doc = load_task_document(text, str(path), arms)
-            task, world, behaviors = doc.task, doc.world, doc.behaviors
-        if world is None:
-            world = random_world(task.behaviors, seed, arms or 1)
-        return str(path), task, world, behaviors
-    raise UnknownNameError(
-        f"unknown scenario {target!r} (known: {', '.join(SCENARIOS)}); "
-        "or give a task file (.yaml/.txt) or an inline task such as '(THEN a (AND b c))'"
-    )
-
-
-# ----------------------------------------------------------------------------- text
-
-
-def _trace_line(ev: Any) -> str | None:
-    d = ev.data
-    t = f"{ev.t:7.1f}s"
-    if ev.kind == "start":
-        return f"{t}  start  {ev.source:<10} on {d['arm']} ({d.get('duration', 0):.1f} s)"
-    if ev.kind == "done":
-        return f"{t}  done   {ev.source:<10} on {d['arm']}"
-    if ev.kind == "reset":
-        return (
-            f"{t}  RESET  {ev.source:<10} on {d['arm']}: {d.get('reason', '')} "
-            f"{d.get('moved', 0):.2f} m, mutex released"
-        )
-    if ev.kind == "move":
-        to = [round(x, 3) for x in d["to"]]
-        return f"{t}  move   {d['object']:<10} moved by the experimenter to {to}"
-    if ev.kind == "choose":
-        return f"{t}  choose {ev.source:<10} activates {d['child']}"
-    return None
-
-
-def _live_line(ev: Any, behaviors: set[str]) -> str | None:
-    """A trace line, or a state change of a behaviour (``--realtime``)."""
-    line = _trace_line(ev)
-    if (
-        line is None
-        and ev.kind == "state"
-        and ev.source in behaviors
-        and ev.data.get("to") in ("active", "inactive")
-        and not ev.data.get("reset")
-    ):
-        line = f"{ev.t:7.1f}s  state  {ev.source:<10} {ev.data.get('frm')} -> {ev.data['to']}"
-    return line
-
-
-def summary_lines(result: Any, violations: list[str], plot: str | None = None) -> list[str]:
-    """The end of a run's report: the same for a live run and for ``behave replay``."""
-    lines = [
-        f"outcome: {result.outcome} after {result.time:.1f} s ({result.ticks} ticks), "
-        f"resets: {result.resets}",
-        f"order: {', '.join(result.order)}",
-    ]
-    if violations:
-        lines.append("constraint violations:")
-        lines += [f"  - {v}" for v in violations]
-    else:
-        lines.append(
-            "constraints: respected (THEN order, every AND child, one alternative per OR, "
-            "one behaviour per arm)"
-        )
-    if plot:
-        lines.append(f"gantt chart: {plot}")
-    return lines
-
-
 # ----------------------------------------------------------------------------- commands
 
 
@@ -399,16 +288,6 @@ def run(args: argparse.Namespace) -> int:
     return _run(args)
 
 
-def _check_plot(path: str | None, inputs: tuple[str, ...] = ()) -> None:
-    if path is None:
-        return
-    from flexhrc.behavior.plot import _pyplot
-    from flexhrc.files import check_output
-
-    check_output(path, option="--plot", suffixes=PLOT_SUFFIXES, inputs=inputs)
-    _pyplot()  # a missing extra is reported before the run, not after it
-
-
 class _Terminated(Exception):
     """SIGTERM during a run: finish the log, then exit like an interrupt."""
 
@@ -421,10 +300,10 @@ def _run(args: argparse.Namespace) -> int:
     from flexhrc.behavior.validate import check_run
     from flexhrc.files import EventLogWriter, check_output
 
-    inputs = (args.target,) if _is_file(args.target) else ()
+    inputs = (args.target,) if is_file(args.target) else ()
     if args.log:
         check_output(args.log, option="--log", inputs=inputs)
-    _check_plot(args.plot, inputs)
+    check_plot(args.plot, inputs)
     if args.log and args.plot and Path(args.log).resolve() == Path(args.plot).resolve():
         raise FlexhrcError("--log and --plot name the same file")
     label, task, world, factories = resolve_document(args.target, args.layout, args.arms, args.seed)
@@ -455,7 +334,7 @@ def _run(args: argparse.Namespace) -> int:
             log(args, f"{label}: {task.to_prefix()} (real time x{realtime:g})")
 
             def live(ev: Any) -> None:
-                line = _live_line(ev, behaviors)
+                line = live_line(ev, behaviors)
                 if line:
                     log(args, line)
 
@@ -494,7 +373,7 @@ def _run(args: argparse.Namespace) -> int:
         lines.append(f"world: {len(world.objects)} objects; arms: {', '.join(world.arm_names)}")
         if realtime is None:
             lines.append("trace:")
-            lines += [s for s in (_trace_line(ev) for ev in result.log) if s]
+            lines += [s for s in (trace_line(ev) for ev in result.log) if s]
         lines.append("")
         lines += summary_lines(result, violations, str(plot_path) if plot_path else None)
         if args.log:
@@ -538,7 +417,7 @@ def _replay(args: argparse.Namespace) -> int:
     from flexhrc.behavior.task import parse_prefix
     from flexhrc.behavior.validate import check_run
 
-    _check_plot(args.plot, (args.operand,))
+    check_plot(args.plot, (args.operand,))
     blog = read_log(args.operand)
     task = parse_prefix(str(blog.header["task"]), f"{args.operand}:1")
     result = blog.result()
@@ -591,7 +470,7 @@ def _render(args: argparse.Namespace) -> int:
     from flexhrc.behavior.render import to_dot
     from flexhrc.files import atomic_output, check_output
 
-    inputs = tuple(p for p in (args.operand, args.log) if p and _is_file(p))
+    inputs = tuple(p for p in (args.operand, args.log) if p and is_file(p))
     check_output(args.output, option="-o", suffixes=RENDER_SUFFIXES, inputs=inputs)
     label, task, _world = resolve(args.operand, args.layout, args.arms, args.seed)
     snapshots = None
@@ -632,7 +511,7 @@ def _compile(args: argparse.Namespace) -> int:
     from flexhrc.files import atomic_write_text, check_output
     from flexhrc.representation.formats.yaml_format import dump_yaml
 
-    inputs = (args.operand,) if _is_file(args.operand) else ()
+    inputs = (args.operand,) if is_file(args.operand) else ()
     check_output(args.output, option="-o", suffixes=GRAPH_SUFFIXES, inputs=inputs)
     _label, task, _world = resolve(args.operand, args.layout, args.arms, args.seed)
     hierarchy = compile_task(task)
@@ -664,7 +543,9 @@ def register_graph_to_task(gsub: argparse._SubParsersAction) -> None:  # type: i
         "to-task",
         help="convert a series-parallel AND/OR graph into a THEN/AND/OR task (flexhrc behave)",
     )
-    t.add_argument("file", help="the AND/OR graph (.yaml or ANDOR .txt)")
+    t.add_argument(
+        "file", help="the AND/OR graph (.yaml or ANDOR .txt), or a scenario file: its graph"
+    )
     t.add_argument(
         "-o", "--output", metavar="OUT", help="write the task here (.txt prefix form or .yaml)"
     )
@@ -675,12 +556,12 @@ def register_graph_to_task(gsub: argparse._SubParsersAction) -> None:  # type: i
 def cmd_graph_to_task(args: argparse.Namespace) -> int:
     from flexhrc.behavior.compile import task_from_graph
     from flexhrc.files import atomic_write_text, check_output
-    from flexhrc.representation import load
+    from flexhrc.scenario import graph_of
 
     if args.output:
         suffixes = (".txt", ".yaml", ".yml")
         check_output(args.output, option="-o", suffixes=suffixes, inputs=(args.file,))
-    task = task_from_graph(load(args.file), str(args.file))
+    task = task_from_graph(graph_of(args.file), str(args.file))
     prefix = task.to_prefix()
     if args.output:
         if Path(args.output).suffix.lower() == ".txt":

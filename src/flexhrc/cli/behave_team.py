@@ -41,16 +41,16 @@ def run_team_command(args: argparse.Namespace) -> int:
 
 
 def _load(args: argparse.Namespace) -> tuple[str, Any, Any, dict[str, Any]]:
-    from flexhrc.cli.behave import resolve_document
+    from flexhrc.cli.behave_common import resolve_document
 
     return resolve_document(args.target, args.layout, None, args.seed)
 
 
 def _check_logs(args: argparse.Namespace, robots: list[str]) -> None:
-    from flexhrc.cli.behave import _check_plot
+    from flexhrc.cli.behave_common import check_plot
     from flexhrc.files import check_output
 
-    _check_plot(args.plot)
+    check_plot(args.plot)
 
     if args.log:
         for robot in robots:
@@ -59,7 +59,7 @@ def _check_logs(args: argparse.Namespace, robots: list[str]) -> None:
 
 def _summary(args: argparse.Namespace, label: str, task: Any, team: dict[str, Any]) -> int:
     from flexhrc.behavior.network import Run
-    from flexhrc.cli.behave import summary_lines
+    from flexhrc.cli.behave_common import summary_lines
 
     if args.plot:
         from flexhrc.behavior.plot import team_gantt
@@ -109,7 +109,7 @@ def _in_process(args: argparse.Namespace) -> int:
     from flexhrc.behavior.params import NetworkParams
     from flexhrc.behavior.peers import robot_names, run_team
     from flexhrc.behavior.validate import check_run
-    from flexhrc.cli.behave import _live_line
+    from flexhrc.cli.behave_common import live_line
     from flexhrc.files import EventLogWriter
 
     robots = robot_names(args.robots)
@@ -138,7 +138,7 @@ def _in_process(args: argparse.Namespace) -> int:
         if realtime is not None:
 
             def live(ev: Any) -> None:
-                line = _live_line(ev, behaviors)
+                line = live_line(ev, behaviors)
                 if line:
                     log(args, f"{robot}: {line}")
 

@@ -10,6 +10,7 @@ from typing import Any
 
 from flexhrc.cli.common import add_json_flag, emit
 from flexhrc.errors import FlexhrcError
+from flexhrc.taskmanager.replay import solved_by_line
 
 DEFAULT_LISTEN = "tcp/127.0.0.1:7447"
 
@@ -180,8 +181,9 @@ def trace_line(ev: dict[str, Any]) -> str | None:
 
 def cmd_cell(args: argparse.Namespace) -> int:
     quiet_library_logs()
-    from flexhrc.cell import Cell, EventStore, HumanAgent, RobotAgent, load_scenario
+    from flexhrc.cell import Cell, EventStore, HumanAgent, RobotAgent
     from flexhrc.cell.components import execution_model
+    from flexhrc.scenario import load_scenario
 
     if not (math.isfinite(args.realtime) and args.realtime >= 0):
         raise FlexhrcError(f"--realtime must be a finite number >= 0, got {args.realtime}")
@@ -296,11 +298,10 @@ def cmd_cell(args: argparse.Namespace) -> int:
             transport.close()
 
     def text() -> str:
-        legs = ", ".join(f"{a}: {n}" for a, n in data["legs_by_agent"].items())
         out = [
             f"outcome {data['outcome']}"
             + (f" ({data['reason']})" if data["reason"] else "")
-            + f"; legs connected by {legs}; {data['decisions']} decision trees; "
+            + f"; {solved_by_line(data)}; {data['decisions']} decision trees; "
             f"{data['robot_actions']} robot and {data['human_actions']} human actions; "
             f"{data['cell']['events']} events"
             + (f" in {args.store}" if args.store else "")

@@ -29,6 +29,7 @@ from flexhrc.cli.common import (
     seed_type,
 )
 from flexhrc.errors import FlexhrcError, FormatError
+from flexhrc.taskmanager.replay import solved_by_line
 
 TRACE_TYPES = {
     "decision",
@@ -519,6 +520,7 @@ def _run_table(
 ) -> int:
     from flexhrc.files import EventLogWriter
     from flexhrc.representation import OnlineGraph
+    from flexhrc.scenario.source import CellScenario
     from flexhrc.taskmanager.runner import CooperationRun
 
     # everything that can be wrong is found before the run starts
@@ -557,8 +559,10 @@ def _run_table(
         graph, truth = OnlineGraph(scenario.graph()), scenario.knowledge()
         if args.perception == "scene":
             run = _perceived(args, graph, domain, truth, run_kw)
-        else:
+        elif sensing is not None:  # the wrist sensor in the loop: not yet an agent of the cell
             run = CooperationRun(graph, domain, truth, **run_kw)
+        else:
+            run = _local_run(CellScenario("table_assembly", scenario), run_kw)
         with _stop_on_signals(run) as caught:
             result = run.run()
     finally:
@@ -566,12 +570,23 @@ def _run_table(
             writer.close()
     who = f"human takes bolts {args.human_takes}" if args.human_takes else f"human {profile}"
     data = _with_sensing(dict(result.summary), result.events, args)
-    legs = ", ".join(f"{a}: {n}" for a, n in data["legs_by_agent"].items())
     return _report(
         args, run, result, data, caught,
         title=f"table assembly, {plural(scenario.legs, 'leg')}, {who}, seed {args.seed}",
-        subject="", solved_by=f"legs connected by {legs}",
+        subject="", solved_by=solved_by_line(data),
     )  # fmt: skip
+
+
+def _local_run(scenario: Any, run_kw: dict[str, Any]) -> Any:
+    """The engine in this process (:class:`~flexhrc.cell.local.LocalCell`) with the options of
+    a ``demo``/``run`` command."""
+    from flexhrc.cell.local import LocalCell
+
+    kw = dict(run_kw)
+    trace, sink = kw.pop("trace", None), kw.pop("sink", None)
+    kw.pop("human_sensing", None)
+    kw["profile"] = kw.pop("human_profile")
+    return LocalCell(scenario, observers=[f for f in (sink, trace) if f is not None], **kw)
 
 
 def _report(
@@ -682,6 +697,20 @@ def _perceived(
 def _perceived_like(args: argparse.Namespace, run: Any) -> Any:
     """The perceived twin of a prepared cooperation run (same graph, domain, world,
     simulator, operators and options), as a configuration of the cell."""
+    cell = getattr(run, "cell", None)
+    if cell is not None:  # a LocalCell: the cell's in-process configuration
+        run_kw = dict(
+            simulator=cell.tm.simulator,
+            execution=run.injection.inner,
+            seed=args.seed,
+            failures=run.injection.failures,
+            observers=cell.observers[1:],  # the streamed log and the trace, not its own list
+            realtime=cell.realtime,
+            human_takes=args.human_takes,
+            humans=run.operator_profiles(),
+            reaction=cell.tm.reaction,
+        )
+        return _perceived(args, cell.graph, cell.domain, cell.kb, run_kw)
     run_kw = dict(
         simulator=run.simulator,
         execution=run.execution,
@@ -838,11 +867,10 @@ def _run_scenario(args: argparse.Namespace, sc: Any, path: Path) -> int:
             writer.close()
     who = ", ".join(f"{name} {prof}" for name, prof in run.operator_profiles()) or "no operator"
     data = _with_sensing({"scenario": sc.name, **result.summary}, result.events, args)
-    by = ", ".join(f"{a}: {n}" for a, n in data["by_agent"].items())
     return _report(
         args, run, result, data, caught,
         title=f"{sc.name}, {who}, seed {args.seed}",
-        subject=f"{sc.name}: ", solved_by=f"hyper-arcs solved by {by}",
+        subject=f"{sc.name}: ", solved_by=solved_by_line(data),
     )  # fmt: skip
 
 
@@ -969,14 +997,13 @@ def cmd_replay(args: argparse.Namespace) -> int:
         progress(f"warning: {path}: {data['reason']}")
 
     def text() -> str:
-        legs = ", ".join(f"{a}: {n}" for a, n in data["legs_by_agent"].items())
         return "\n".join(
             [
                 table_i(data),
                 "",
                 f"outcome {data['outcome']}"
                 + (f" ({data['reason']})" if data["reason"] else "")
-                + f"; legs connected by {legs}; {plural(data['decisions'], 'decision tree')}, "
+                + f"; {solved_by_line(data)}; {plural(data['decisions'], 'decision tree')}, "
                 f"{plural(data['branches_simulated'], 'branch', 'branches')}; "
                 f"{data['robot_actions']} robot and "
                 f"{plural(data['human_actions'], 'human action')}",

@@ -36,7 +36,7 @@ def _path_limit(value: str) -> int:
 
 GRAPH_FILE_HELP = (
     "graph file: ANDOR text (.txt, the FlexHRC+ authors' format) or flexhrc YAML (.yaml); "
-    "lower graphs are looked up in its folder"
+    "lower graphs are looked up in its folder; or a scenario file (flexhrc: 1): its graph"
 )
 NAME_HELP = (
     "names inside a lower-graph instance are qualified by the instance path from the top "
@@ -188,9 +188,10 @@ def _plural(n: Any, one: str, many: str | None = None) -> str:
 
 
 def cmd_validate(args: argparse.Namespace) -> int:
-    from flexhrc.representation import OnlineGraph, load
+    from flexhrc.representation import OnlineGraph
+    from flexhrc.scenario import graph_of
 
-    h = load(args.file)
+    h = graph_of(args.file)
     st = h.stats()
     warnings = [*h.warnings, *h.lint()]
     answer = OnlineGraph(h, validate=False).query()
@@ -214,11 +215,12 @@ def cmd_validate(args: argparse.Namespace) -> int:
 
 def cmd_stats(args: argparse.Namespace) -> int:
     from flexhrc.errors import FlexhrcError
-    from flexhrc.representation import OnlineGraph, load
+    from flexhrc.representation import OnlineGraph
+    from flexhrc.scenario import graph_of
 
     if args.path_limit is not None and not args.paths:
         raise FlexhrcError("--path-limit needs --paths")
-    h = load(args.file)
+    h = graph_of(args.file)
     st: dict[str, Any] = h.stats()
     online = OnlineGraph(h, validate=False)
     st["optimal_cost"] = _num(online.optimal_cost())
@@ -250,11 +252,12 @@ def cmd_stats(args: argparse.Namespace) -> int:
 
 def cmd_suggest(args: argparse.Namespace) -> int:
     from flexhrc.errors import FlexhrcError
-    from flexhrc.representation import OnlineGraph, load
+    from flexhrc.representation import OnlineGraph
+    from flexhrc.scenario import graph_of
 
     if args.path_limit is not None and not args.exact:
         raise FlexhrcError("--path-limit needs --exact (it limits the path enumeration)")
-    online = OnlineGraph(load(args.file), validate=False)
+    online = OnlineGraph(graph_of(args.file), validate=False)
     result = online.update(
         met_nodes=args.met, solved_hyperarcs=args.solved, infeasible=args.infeasible
     )
@@ -309,6 +312,7 @@ def _sources(hierarchy: Any) -> list[str]:
 def cmd_play(args: argparse.Namespace) -> int:
     from flexhrc.files import EventLogWriter, check_output
     from flexhrc.representation.play import play
+    from flexhrc.scenario import graph_of, is_scenario_file
 
     writer: EventLogWriter | None = None
     if args.events is not None:  # "" too: check_output says it is empty
@@ -333,7 +337,8 @@ def cmd_play(args: argparse.Namespace) -> int:
     gc.freeze()
     try:
         report = play(
-            args.file,
+            # a scenario's graph is read first (not timed); a graph file in the offline phase
+            graph_of(args.file) if is_scenario_file(args.file) else args.file,
             args.policy,
             args.seed,
             record_steps=args.steps,
@@ -369,11 +374,12 @@ def cmd_play(args: argparse.Namespace) -> int:
 
 def cmd_render(args: argparse.Namespace) -> int:
     from flexhrc.files import check_output
-    from flexhrc.representation import OnlineGraph, load
+    from flexhrc.representation import OnlineGraph
     from flexhrc.representation.formats.dot import render, to_dot
+    from flexhrc.scenario import graph_of
 
     check_output(args.output, option="-o", suffixes=RENDER_SUFFIXES, inputs=[args.file])
-    h = load(args.file)
+    h = graph_of(args.file)
     check_output(args.output, option="-o", suffixes=RENDER_SUFFIXES, inputs=_sources(h))
     online = None
     if args.met or args.solved:

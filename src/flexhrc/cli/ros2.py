@@ -22,6 +22,7 @@ from typing import Any
 
 from flexhrc.cli.common import add_json_flag, emit, serve_agent
 from flexhrc.errors import FlexhrcError
+from flexhrc.taskmanager.replay import solved_by_line
 
 
 def _finite_nonneg(value: str) -> float:
@@ -186,10 +187,10 @@ def _progress(args: argparse.Namespace) -> Any:
 
 
 def cmd_arm(args: argparse.Namespace) -> int:
-    from flexhrc.cell import load_scenario
     from flexhrc.cell.components import check_agent_name
     from flexhrc.ros2.arm import ArmNode
     from flexhrc.ros2.transport import ros_topic
+    from flexhrc.scenario import load_scenario
 
     scenario = load_scenario(args.scenario, seed=args.seed)
     ros_topic("", args.arm)
@@ -237,9 +238,10 @@ def cmd_arm(args: argparse.Namespace) -> int:
 
 
 def cmd_human(args: argparse.Namespace) -> int:
-    from flexhrc.cell import HumanAgent, load_scenario
+    from flexhrc.cell import HumanAgent
     from flexhrc.cell.components import check_agent_name, check_profile
     from flexhrc.ros2.transport import ros_topic
+    from flexhrc.scenario import load_scenario
 
     scenario = load_scenario(args.scenario, seed=args.seed)
     ros_topic("", args.name)
@@ -276,10 +278,11 @@ def _targets(cell: Any) -> dict[str, tuple[float, float, float]]:
 
 
 def cmd_cell(args: argparse.Namespace) -> int:
-    from flexhrc.cell import Cell, EventStore, load_scenario
+    from flexhrc.cell import Cell, EventStore
     from flexhrc.cell import protocol as P
     from flexhrc.cli.cell import branch_simulator, trace_line
     from flexhrc.ros2.extras import ManagerInterfaces
+    from flexhrc.scenario import load_scenario
 
     if not (math.isfinite(args.wait) and args.wait > 0):
         raise FlexhrcError(f"--wait must be a positive number of seconds, got {args.wait}")
@@ -382,11 +385,10 @@ def cmd_cell(args: argparse.Namespace) -> int:
             transport.close()
 
     def text() -> str:
-        legs = ", ".join(f"{a}: {n}" for a, n in data["legs_by_agent"].items())
         return (
             f"outcome {data['outcome']}"
             + (f" ({data['reason']})" if data["reason"] else "")
-            + f"; legs connected by {legs}; {data['decisions']} decision trees; "
+            + f"; {solved_by_line(data)}; {data['decisions']} decision trees; "
             f"{data['robot_actions']} robot and {data['human_actions']} human actions; "
             f"{data['cell']['events']} events"
             + (f" in {args.store}" if args.store else "")

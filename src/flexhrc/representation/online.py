@@ -45,6 +45,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 from flexhrc.errors import FlexhrcError, UnknownNameError
+from flexhrc.events import GRAPH_EVENTS
 from flexhrc.representation.graph import AndOrGraph
 from flexhrc.representation.hierarchy import SEP, HierarchicalGraph
 
@@ -1359,13 +1360,10 @@ class OnlineGraph:
         return online
 
 
-EVENT_TYPES = ("met", "solved", "infeasible")
-
-
 def _valid(ev: Event) -> bool:
-    if ev.type not in EVENT_TYPES:
+    if ev.type not in GRAPH_EVENTS:
         raise ValueError(
-            f"unknown event type {ev.type!r} (expected one of {', '.join(EVENT_TYPES)})"
+            f"unknown event type {ev.type!r} (expected one of {', '.join(GRAPH_EVENTS)})"
         )
     return True
 
@@ -1385,8 +1383,8 @@ def _event(raw: object) -> Event:
     q, t, el = raw["query"], raw["type"], raw["element"]
     if isinstance(q, bool) or not isinstance(q, int) or q < 0:
         raise ValueError(f"query must be a non-negative integer, got {q!r}")
-    if t not in EVENT_TYPES:
-        raise ValueError(f"unknown event type {t!r} (expected one of {', '.join(EVENT_TYPES)})")
+    if t not in GRAPH_EVENTS:
+        raise ValueError(f"unknown event type {t!r} (expected one of {', '.join(GRAPH_EVENTS)})")
     if not isinstance(el, str) or not el:
         raise ValueError(f"element must be a non-empty name, got {el!r}")
     return Event(q, t, el)

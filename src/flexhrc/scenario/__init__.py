@@ -21,6 +21,7 @@ The loader API (for the command line, the live cell, notebooks)::
     result = scenario.run(sc, profile="cooperative", seed=3)   # a RunResult
 
     faults = scenario.validate("my_task.yaml") # [Fault(source, line, message, severity)]
+    scenario.graph_of("my_task.yaml")          # the task graph of a scenario or a graph file
 
 Every call of :meth:`Scenario.world` and :meth:`Scenario.online_graph` returns new objects, so a
 loaded scenario can be run many times; nothing in it reads a clock or a file after loading.
@@ -28,63 +29,24 @@ loaded scenario can be run many times; nothing in it reads a clock or a file aft
 
 from __future__ import annotations
 
-from importlib import resources
-from pathlib import Path
-
-from flexhrc.errors import FlexhrcError, UnknownNameError
-from flexhrc.scenario.format import Fault, ScenarioError, check, parse
+from flexhrc.scenario.format import Fault, ScenarioError, check, graph_of, is_scenario_file
+from flexhrc.scenario.loader import (
+    SHIPPED,
+    describe_shipped,
+    load,
+    resolve,
+    shipped_path,
+    validate,
+)
 from flexhrc.scenario.model import PROFILES, SIMULATORS, HumanSpec, ObjectSpec, Scenario, WorldSpec
 from flexhrc.scenario.run import prepare, run
-
-#: The scenarios shipped with flexhrc (package data ``flexhrc/scenarios/data/NAME/NAME.yaml``).
-SHIPPED = ("table_assembly", "ball_in_box", "kitchen_drawer")
-
-
-def shipped_path(name: str) -> Path:
-    """The file of a shipped scenario."""
-    if name not in SHIPPED:
-        raise UnknownNameError(
-            f"unknown scenario {name!r}; shipped: {', '.join(SHIPPED)} (or give a .yaml file)"
-        )
-    ref = resources.files("flexhrc.scenarios").joinpath(f"data/{name}/{name}.yaml")
-    return Path(str(ref))
-
-
-def resolve(path_or_name: str | Path) -> Path:
-    """A scenario file from a path or a shipped name."""
-    p = Path(path_or_name)
-    if p.suffix.lower() in (".yaml", ".yml") or p.exists() or "/" in str(path_or_name):
-        return p
-    return shipped_path(str(path_or_name))
-
-
-def load(path_or_name: str | Path) -> Scenario:
-    """Load a scenario file (or a shipped scenario by name); raises :class:`ScenarioError`
-    (a :class:`~flexhrc.errors.FormatError` naming file and line) when it has errors."""
-    return parse(resolve(path_or_name))
-
-
-def validate(path_or_name: str | Path) -> list[Fault]:
-    """Every fault of a scenario file (errors and warnings), each with its file and line."""
-    try:
-        return check(resolve(path_or_name))[1]
-    except FlexhrcError as exc:
-        return [Fault(str(path_or_name), None, str(exc))]
-
-
-def describe_shipped() -> list[tuple[str, str]]:
-    """(name, one-line description) of every shipped scenario."""
-    out = []
-    for name in SHIPPED:
-        sc = load(name)
-        out.append((name, sc.description.strip().splitlines()[0] if sc.description else ""))
-    return out
-
+from flexhrc.scenario.source import CellScenario, load_scenario
 
 __all__ = [
     "PROFILES",
     "SHIPPED",
     "SIMULATORS",
+    "CellScenario",
     "Fault",
     "HumanSpec",
     "ObjectSpec",
@@ -93,7 +55,10 @@ __all__ = [
     "WorldSpec",
     "check",
     "describe_shipped",
+    "graph_of",
+    "is_scenario_file",
     "load",
+    "load_scenario",
     "prepare",
     "resolve",
     "run",

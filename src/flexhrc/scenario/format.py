@@ -15,6 +15,8 @@ from __future__ import annotations
 
 import fnmatch
 import math
+import os
+import re
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -33,6 +35,7 @@ from flexhrc.scenario.model import (
     WorldSpec,
 )
 from flexhrc.taskmanager.domain import ActionSchema, Domain
+from flexhrc.taskmanager.kinds import find_action_kind, unknown_kind
 
 FORMAT_VERSION = 1
 TOP_KEYS = {
@@ -158,6 +161,58 @@ def parse(path: str | Path) -> Scenario:
     return scenario
 
 
+#: keys of a YAML graph file; a ``flexhrc: 1`` file with any other top-level key of a scenario
+#: (``domain``, ``graph``, ``world``, ...) is a scenario file
+GRAPH_FILE_KEYS = {"flexhrc", "top", "graphs", "description"}
+_SCENARIO_KEY = re.compile(
+    r"^(?:" + "|".join(sorted(TOP_KEYS - GRAPH_FILE_KEYS)) + r")\s*:", re.MULTILINE
+)
+
+
+def is_scenario_file(path: str | Path) -> bool:
+    """Whether ``path`` is a scenario file rather than a graph file: a YAML file with a
+    top-level key only scenarios have (``name``, ``graph``, ``domain``, ``world``, ...). A
+    look at the text, not a parse: a large graph file is read once, by its reader."""
+    if not str(path).lower().endswith((".yaml", ".yml")):
+        return False
+    try:
+        with open(path, encoding="utf-8", errors="replace") as f:
+            text = f.read()
+    except OSError:
+        return False  # the graph reader says what is wrong with it
+    return _SCENARIO_KEY.search(text) is not None
+
+
+def graph_of(path: str | Path) -> HierarchicalGraph:
+    """The task graph of a file, whether a graph file or a scenario file.
+
+    A graph file (ANDOR text or YAML) is loaded by :func:`flexhrc.representation.load`; of a
+    scenario file only the graph is read — its inline ``graphs:`` block or the file its
+    ``graph:`` names, with ``hyperarc_actions`` applied — and checked as the graph commands
+    check a graph file (the rest of the scenario is ``validate``'s business). Every fault is a
+    :class:`~flexhrc.errors.FormatError` naming the file and line (a :class:`ScenarioError`
+    for a scenario file).
+    """
+    from flexhrc.representation.formats import load
+    from flexhrc.representation.formats.yaml_format import read_yaml
+
+    if not is_scenario_file(path):
+        return load(path)
+    p = Path(path)
+    c = _Checker(p)
+    doc = read_yaml(p)
+    if not isinstance(doc, Mapping):
+        c.error("a scenario file must be a mapping (flexhrc: 1, name, graph, domain, ...)", 1)
+        raise ScenarioError(c.faults)
+    graph = _graph(doc, c)
+    if graph is not None and "hyperarc_actions" in doc:
+        _attach_actions(graph, doc["hyperarc_actions"], c, _line(doc, "hyperarc_actions"))
+    errors = [f for f in c.faults if f.severity == "error"]
+    if errors or graph is None:
+        raise ScenarioError(errors or [Fault(str(p), None, "no task graph")])
+    return graph
+
+
 # ------------------------------------------------------------------------------- building --
 def _build(doc: Any, c: _Checker) -> Scenario | None:
     path = c.path
@@ -182,6 +237,7 @@ def _build(doc: Any, c: _Checker) -> Scenario | None:
     if "hyperarc_actions" in doc:
         _attach_actions(graph, doc["hyperarc_actions"], c, _line(doc, "hyperarc_actions"))
     _check_semantics(graph, domain, domain_doc, domain_src, world, humans, c)
+    _check_kind_targets(domain, domain_doc, domain_src, c)
     for h in humans:  # an operator's speed is the analytic simulator's human speed
         agent = domain.agents.get(h.name)
         if agent is not None:
@@ -241,7 +297,8 @@ def _inline_graph(doc: Any, path: Path) -> HierarchicalGraph:
             raise FormatError(f"graph {key!r} must be a mapping", path, _line(graphs_d, key))
         # the YAML graph reader's own helpers: an inline document reads like a graph file
         if "file" in gd:
-            graphs.update(yf._load_external(key, path, gd, graphs_d))  # type: ignore[arg-type]
+            including = (os.path.realpath(path),)  # file: references stay in its folder
+            graphs.update(yf._load_external(key, path, gd, including))  # type: ignore[arg-type]
         else:
             graphs[key] = yf._graph_from_dict(key, gd, path, _line(graphs_d, key))  # type: ignore[arg-type]
     if top not in graphs:
@@ -311,6 +368,10 @@ def _precheck_domain(d: Mapping[str, Any], c: _Checker, src: Path) -> None:
         for aname, sd in block.items():
             if not isinstance(sd, Mapping):
                 continue
+            if "kind" in sd:
+                why = unknown_kind(str(sd["kind"]))
+                if why:
+                    c.error(f"{section[:-1]} {aname!r}: {why}", _line(sd, "kind"), src)
             spec = sd.get("agents")
             names: list[str] = []
             if isinstance(spec, str) and not spec.startswith("?"):
@@ -677,6 +738,56 @@ def _check_semantics(
             _line_in(s, "until", domain_doc, what) or ln,
             domain_src,
         )
+
+    _check_parents_reached(graph, domain, world, c)
+
+
+def _check_parents_reached(
+    graph: HierarchicalGraph, domain: Domain, world: WorldSpec, c: _Checker
+) -> None:
+    """A hyper-arc whose actions never make its parent's state formula true (see
+    :mod:`flexhrc.scenario.achieve`): the parent is never met, the run ends in a deadlock."""
+    from flexhrc.scenario.achieve import never_achieved
+
+    types: dict[str, set[str]] = {}
+    for o in world.objects:
+        types.setdefault(o.name, set()).update(_chain(o.type, world.supertypes))
+    for p in world.places:
+        types.setdefault(p, set()).add("place")
+    for a in domain.agents.values():
+        types.setdefault(a.name, set()).update(
+            {a.name, a.kind, "agent", *(t for x in a.types for t in _chain(x, world.supertypes))}
+        )
+    facts = [*world.facts, *(Literal(t, (name,)) for name, ts in types.items() for t in ts)]
+    for fault in never_achieved(graph, domain, facts, {k: frozenset(v) for k, v in types.items()}):
+        c.error(fault.message, fault.line, fault.source or c.path)
+
+
+def _check_kind_targets(domain: Domain, domain_doc: Any, src: Any, c: _Checker) -> None:
+    """Warn about a robot action whose kind moves the arm to a target its parameters cannot
+    name (the kinematic simulator would time it analytically; see flexhrc.taskmanager.kinds)."""
+    agent_types = {"agent"}
+    for a in domain.agents.values():
+        agent_types.update((a.name, a.kind, *a.types))
+    for s in domain.actions.values():
+        kind = find_action_kind(s.kind)
+        if kind is None or not kind.motion or s.target:
+            continue
+        if all(a.is_human for a in domain.capable(s)):
+            continue
+        free = [v for v, t in s.parameters if t not in agent_types and v != s.agents.variable]
+        can = {"object": bool(s.carries or free), "place": bool(s.moves_to or len(free) >= 2)}
+        for step in kind.motion:
+            if step.target and not step.optional and not any(can[r] for r in step.target):
+                role = "a place to go to" if step.target[0] == "place" else "an object to aim at"
+                c.warn(
+                    f"action {s.name!r}: kind {s.kind!r} needs {role} but no parameter names "
+                    "one (add it and name it with target: [?object, ?place]); its robot motion "
+                    "is timed analytically until then",
+                    _line_in(s, "kind", domain_doc, "action") or s.line,
+                    src,
+                )
+                break
 
 
 def _line_in(s: ActionSchema, key: str, domain_doc: Any, what: str) -> int | None:

@@ -14,13 +14,12 @@ from pathlib import Path
 from typing import Any
 
 from flexhrc.errors import FlexhrcError
+from flexhrc.events import PROFILES as PROFILES
+from flexhrc.events import SIMULATORS as SIMULATORS  # what a scenario file may name
 from flexhrc.knowledge import KnowledgeBase
 from flexhrc.logic import Literal
 from flexhrc.representation import HierarchicalGraph, OnlineGraph
 from flexhrc.taskmanager.domain import Domain
-
-PROFILES = ("passive", "takeover", "cooperative", "random")
-SIMULATORS = ("analytic", "kinematic")  # what a scenario file may name
 
 Vec3 = tuple[float, float, float]
 

@@ -1,10 +1,12 @@
-"""Running a scenario end to end: Task Manager, simulator, simulated operators, log.
+"""Running a scenario end to end: the engine in one process, on the simulated clock.
 
-:func:`run` builds a fresh knowledge base and online graph from the :class:`Scenario`, makes
-its operators (one :class:`~flexhrc.taskmanager.operator.SimulatedOperator` per entry of
-``humans``), chooses the simulator, and runs a :class:`~flexhrc.taskmanager.CooperationRun`
-on the simulated clock. The result carries the event log and the summary (``outcome``,
-``reason``, ``solved_hyperarcs``, ``by_agent``, the timing of Table I, ...).
+:func:`run` (and :func:`prepare`, which builds the run without starting it) configures the one
+cooperation loop, :class:`~flexhrc.cell.Cell`, in its in-process form
+(:class:`~flexhrc.cell.local.LocalCell`): an ordered in-process bus, one simulated arm agent per
+robot, one simulated operator per entry of the scenario's ``humans`` (with its profile, or
+``profile`` for all), the scenario's simulator (or ``simulator``). The result carries the event
+log and the summary (``outcome``, ``reason``, ``solved_hyperarcs``, ``by_agent``, the timing of
+Table I, ...).
 """
 
 from __future__ import annotations
@@ -12,10 +14,11 @@ from __future__ import annotations
 from collections.abc import Callable, Iterable
 from typing import Any
 
+from flexhrc.cell.local import InjectedFailure, LocalCell, RunResult
 from flexhrc.errors import FlexhrcError
 from flexhrc.scenario.model import PROFILES, Scenario
+from flexhrc.scenario.source import CellScenario
 from flexhrc.taskmanager.manager import REACTIONS
-from flexhrc.taskmanager.runner import CooperationRun, InjectedFailure, RunResult
 
 
 def prepare(
@@ -33,12 +36,12 @@ def prepare(
     execution: Any = None,
     realtime: float = 0.0,
     max_time_s: float = 3600.0,
-) -> CooperationRun:
-    """The :class:`CooperationRun` of one run of ``scenario`` (call ``.run()`` on it).
+) -> Any:
+    """One run of ``scenario``, ready to go (call ``.run()`` on it).
 
     ``profile`` overrides every operator's profile; ``simulator`` is ``analytic``,
     ``kinematic`` (a name) or a simulator object; it also plays the real world unless
-    ``execution`` is given.
+    ``execution`` is given. ``sink`` and ``trace`` see every event of the log as it happens.
     """
     if profile is not None and profile not in PROFILES:
         raise FlexhrcError(
@@ -52,21 +55,27 @@ def prepare(
         else simulator
     )
     pairs = [(h.name, profile or h.profile) for h in scenario.humans]
-    return CooperationRun(
-        scenario.online_graph(),
-        scenario.domain,
-        scenario.world(),
+    observers = [f for f in (sink, trace) if f is not None]  # the log first: shown = stored
+    if human_sensing is not None:  # the wrist sensor in the loop: not yet an agent of the cell
+        from flexhrc.taskmanager.runner import CooperationRun
+
+        return CooperationRun(
+            scenario.online_graph(), scenario.domain, scenario.world(), simulator=sim,
+            execution=execution, human_profile=pairs[0][1] if pairs else "passive", seed=seed,
+            failures=list(failures), trace=trace, sink=sink, human_takes=human_takes,  # type: ignore[arg-type]
+            human_sensing=human_sensing, humans=pairs, reaction=reaction, realtime=realtime,
+            max_time_s=max_time_s,
+        )  # fmt: skip
+    return LocalCell(
+        CellScenario(scenario.name, scenario),
         simulator=sim,
         execution=execution,
-        human_profile=pairs[0][1] if pairs else "passive",
-        seed=seed,
-        failures=list(failures),
-        trace=trace,
-        sink=sink,
-        human_takes=human_takes,
-        human_sensing=human_sensing,
         humans=pairs,
+        seed=seed,
+        failures=failures,
+        human_takes=human_takes,
         reaction=reaction,
+        observers=observers,
         realtime=realtime,
         max_time_s=max_time_s,
     )
@@ -74,4 +83,5 @@ def prepare(
 
 def run(scenario: Scenario, **kwargs: Any) -> RunResult:
     """Run ``scenario`` to its end; keyword arguments as :func:`prepare`."""
-    return prepare(scenario, **kwargs).run()
+    result: RunResult = prepare(scenario, **kwargs).run()
+    return result

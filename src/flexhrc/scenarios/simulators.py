@@ -12,9 +12,9 @@ import importlib.util
 from typing import Any
 
 from flexhrc.errors import FlexhrcError
+from flexhrc.events import SIMULATORS
 from flexhrc.taskmanager.simulator import AnalyticSimulator
 
-SIMULATORS = ("analytic", "kinematic")
 CHOICES = ("auto", *SIMULATORS)
 
 

@@ -15,7 +15,7 @@ Parts fixed to the assembly are not reported (they stand upright where the knowl
 the bolt's position on the board: the agent checks them itself). The arms are drawn in their
 rest posture: their joint states stay inside the robot agents.
 
-With a ``truth`` (:class:`~flexhrc.sensing.loop.WorkspaceTruth`, in the process of the cell:
+With a ``truth`` (:class:`~flexhrc.sensing.truth.WorkspaceTruth`, in the process of the cell:
 :mod:`flexhrc.sensing.loop`) the agent follows no message to change the world — the agents
 change the truth themselves — and it is a *watcher* of the cell's ordered loop: it answers every
 ``state`` with ``looked``, after looking whenever the world or the manager's belief changed
@@ -34,8 +34,8 @@ from flexhrc.cell.components import ground
 from flexhrc.errors import FlexhrcError
 from flexhrc.knowledge import KnowledgeBase
 from flexhrc.sensing.camera import HeadCamera
-from flexhrc.sensing.loop import WORLD_CHANGING, WorkspaceTruth, physical_effect
 from flexhrc.sensing.perception import PerceptionComponent
+from flexhrc.sensing.truth import WORLD_CHANGING, WorkspaceTruth, physical_effect
 from flexhrc.sensing.world import SimulatedWorkspace
 from flexhrc.taskmanager.domain import GroundAction
 from flexhrc.transport import Transport

@@ -30,41 +30,25 @@ belief follows it, the next look contradicts it, the base is inconsistent and th
 
 from __future__ import annotations
 
-import heapq
-import itertools
 import math
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 from flexhrc.cell import protocol as P
-from flexhrc.cell.components import Executed, HumanAgent, RobotAgent
+from flexhrc.cell.components import HumanAgent, RobotAgent
+from flexhrc.cell.local import FailureInjection, InjectedFailure, RunResult
 from flexhrc.errors import FlexhrcError
 from flexhrc.knowledge import KnowledgeBase
+from flexhrc.sensing.truth import (
+    WORLD_CHANGING,
+    Nudge,
+    WorkspaceTruth,
+    physical_effect,
+)
 from flexhrc.sensing.world import SimulatedWorkspace
 from flexhrc.taskmanager.domain import Domain, GroundAction
 from flexhrc.transport import InProcessBus
-
-#: Actions after which the world looks different (approach and rest only move an arm).
-WORLD_CHANGING = ("grasp", "transport", "screw", "ungrasp", "pick_up", "put_down")
-HOLD_HEIGHT_M = 0.10
-
-
-@dataclass
-class Nudge:
-    """The operator moves the part the ``nth`` robot ``action`` goes for, by ``offset`` (m),
-    ``at_fraction`` of the way through that action."""
-
-    action: str = "approach"
-    nth: int = 1
-    offset: tuple[float, float] = (0.0, 0.08)
-    at_fraction: float = 0.5
-
-    def __post_init__(self) -> None:
-        if self.nth < 1 or not 0.0 <= self.at_fraction <= 1.0:
-            raise FlexhrcError("a nudge needs nth >= 1 and at_fraction in [0, 1]")
-        if not all(math.isfinite(v) for v in self.offset):
-            raise FlexhrcError(f"a nudge offset must be finite, got {self.offset}")
 
 
 @dataclass
@@ -76,196 +60,6 @@ class FalseReport:
     nth: int = 1
     action: str = "pick_up"
     leg: str | None = None
-
-
-@dataclass(order=True)
-class _Effect:
-    at: float
-    seq: int
-    key: Any = field(compare=False)
-    kind: str = field(compare=False)  # effect | nudge
-    apply: Callable[[], str | None] = field(compare=False)
-    cancelled: bool = field(default=False, compare=False)
-
-
-class WorkspaceTruth:
-    """The simulated workspace as it really is, changed by the agents' actions at their ends on
-    the cell's clock (see the module docstring). Give :meth:`on_executed` to every in-process
-    agent; :meth:`advance` brings it to a time before anyone looks."""
-
-    def __init__(self, world: SimulatedWorkspace, nudges: Iterable[Nudge] = ()) -> None:
-        self.world = world
-        tops = [p.name for p in world.parts.values() if p.shape == "box"]
-        self.board = tops[0] if tops else None
-        self.nudges = list(nudges)
-        self.now = 0.0
-        self.events: list[dict[str, Any]] = []  # what the operator did that nobody reports
-        self.whys: list[str] = []  # what changed the world since the last look
-        self.ends: list[tuple[float, str, int | str]] = []  # (end, robot kind, command) done
-        self._queue: list[_Effect] = []
-        self._seq = itertools.count()
-        self._by_key: dict[Any, _Effect] = {}
-        self._counts: dict[str, int] = {}
-
-    # -- the agents' observer -------------------------------------------------------------
-    def on_executed(self, ex: Executed) -> str | None:
-        """An agent carries out ``ex`` now (``ex.start``): a robot's grasp closes on what lies
-        where it believes the part is (nothing there: the action fails); the effect lands at
-        ``ex.end``; a nudge planned on this action is scheduled."""
-        self.advance(ex.start)
-        action, kind = ex.action, ex.action.schema.kind
-        believed = _believed(ex.believed)
-        robot = isinstance(ex.command, int)
-        if robot:
-            n = self._counts[kind] = self._counts.get(kind, 0) + 1
-            for nudge in self.nudges:
-                if nudge.action == kind and nudge.nth == n and len(action.args) > 1:
-                    target = self.world.nearest(believed(action.args[1]), within=0.05)
-                    if target is not None:
-                        at = ex.start + nudge.at_fraction * (ex.end - ex.start)
-                        self._push(at, None, "nudge", self._nudge(target.name, nudge.offset))
-        if ex.status != "done":
-            return None
-        if robot and kind == "grasp":
-            spot = believed(action.args[1])
-            if self.world.nearest(spot, within=self.world.grasp_tolerance_m) is None:
-                obj = action.args[1]
-                return f"nothing to grasp at ({spot[0]:.3f}, {spot[1]:.3f}): {obj} is not there"
-
-        def effect() -> str | None:
-            physical_effect(self.world, action, ex.agent, believed, self.board)
-            return f"after {action}" if _changes_world(action) or not robot else None
-
-        self._push(ex.end, ex.command, "effect", effect)
-        if robot:
-            self.ends.append((ex.end, kind, ex.command))
-        return None
-
-    def stop(self, command: int, agent: str, t: float) -> None:
-        """The manager stopped ``command``: it never ends; the arm lays what it holds back where
-        it took it (the manager believes it released where the arm is: perception sees
-        otherwise and re-anchors it)."""
-        self.advance(t)
-        eff = self._by_key.pop(command, None)
-        if eff is not None:
-            eff.cancelled = True
-        self.ends = [e for e in self.ends if e[2] != command]
-        if self.world.put_back(agent) is not None:
-            self.whys.append(f"{agent} stopped")
-
-    def advance(self, t: float) -> None:
-        """Apply every effect due by ``t``, in time order."""
-        while self._queue and self._queue[0].at <= t:
-            eff = heapq.heappop(self._queue)
-            if eff.cancelled:
-                continue
-            self._by_key.pop(eff.key, None)
-            self.now = max(self.now, eff.at)
-            why = eff.apply()
-            if why:
-                self.whys.append(why)
-        self.now = max(self.now, t)
-
-    def next_wake(self) -> float | None:
-        """When the operator nudges a part next (nobody reports it: the camera looks then)."""
-        due = [e.at for e in self._queue if e.kind == "nudge" and not e.cancelled]
-        return min(due) if due else None
-
-    # -- internals ------------------------------------------------------------------------
-    def _push(self, at: float, key: Any, kind: str, fn: Callable[[], str | None]) -> None:
-        eff = _Effect(at, next(self._seq), key, kind, fn)
-        heapq.heappush(self._queue, eff)
-        if key is not None:
-            self._by_key[key] = eff
-
-    def _nudge(self, name: str, offset: tuple[float, float]) -> Callable[[], str | None]:
-        def nudge() -> str | None:
-            part = self.world.parts.get(name)
-            if part is None or part.holder is not None or part.upright:
-                return None  # already taken: nothing to nudge
-            dx, dy = offset
-            # dy points away from the middle of the table; where that spot is taken, the
-            # operator puts the part in the first free spot as far away in another direction
-            side = 1.0 if part.position[1] >= 0 else -1.0
-            size = math.hypot(dx, dy)
-            options = [(dx, side * dy), (size, 0.0), (-size, 0.0), (dx, -side * dy)]
-            x, y, _ = part.position
-            chosen = next(
-                (o for o in options if self.world.clear_at(name, (x + o[0], y + o[1]))), None
-            )
-            t = round(self.now, 6)
-            if chosen is None:
-                self.events.append(
-                    {"t": t, "type": "operator_nudge_skipped", "part": name,
-                     "reason": "no free spot"}
-                )  # fmt: skip
-                return None
-            self.world.displace(name, chosen)
-            self.events.append(
-                {"t": t, "type": "operator_nudges", "part": name, "offset": list(chosen)}
-            )
-            return "the operator moved a part"
-
-        return nudge
-
-
-def _believed(
-    positions: dict[str, tuple[float, float, float]],
-) -> Callable[[str], tuple[float, float, float]]:
-    def where(name: str) -> tuple[float, float, float]:
-        p = positions.get(name)
-        if p is None:
-            raise FlexhrcError(f"no believed position of {name!r}")
-        return (float(p[0]), float(p[1]), float(p[2]))
-
-    return where
-
-
-def _changes_world(action: GroundAction) -> bool:
-    schema = action.schema
-    return schema.kind in WORLD_CHANGING or bool(
-        getattr(schema, "carries", None) or getattr(schema, "fixes", None)
-    )
-
-
-def physical_effect(
-    world: SimulatedWorkspace,
-    action: GroundAction,
-    agent: str,
-    believed: Callable[[str], tuple[float, float, float]],
-    board: str | None,
-) -> None:
-    """What ``action`` by ``agent`` does to the truth. Robot and operator act where they
-    *believe* things are (``believed(name)``: a position): a grasp closes on whatever lies at
-    the believed place, a leg carried above a bolt of ``board`` is held upright, a screwed one
-    stands upright on it; a part the domain ``carries`` to a ``moves_to`` place without a hand
-    (both arms placing the tabletop) is put there."""
-    schema = action.schema
-    kind, args, binding = schema.kind, action.args, action.binding
-    carries = binding.get(getattr(schema, "carries", None) or "")
-    moves_to = binding.get(getattr(schema, "moves_to", None) or "")
-    if kind == "grasp":
-        world.grasp(agent, believed(args[1]))
-    elif kind == "transport":
-        x, y, _ = believed(moves_to or args[2])
-        over = world.over_board((x, y))
-        held = world.held_by(agent)
-        if over is not None and held is not None and held.shape == "cylinder":
-            # above a bolt the leg is held upright, its foot just above the board
-            top = over.position[2] + over.dims[2] / 2
-            world.carry(agent, (x, y, top + 0.01 + held.dims[0] / 2), upright=True)
-        else:
-            world.carry(agent, (x, y, HOLD_HEIGHT_M))
-    elif kind == "screw":
-        world.attach(agent, believed(args[2]), on=board)
-    elif kind in ("ungrasp", "put_down"):
-        world.release(agent)
-    elif kind == "pick_up":
-        world.pick_up(agent, believed(args[1]))
-    elif carries and moves_to:
-        part = world.nearest(believed(carries), within=0.05)
-        if part is not None:
-            world.relocate(part.name, believed(moves_to))
 
 
 def forget_positions(kb: KnowledgeBase, types: Iterable[str]) -> KnowledgeBase:
@@ -301,40 +95,6 @@ def lying_layout(
 
 
 # -- the configuration -----------------------------------------------------------------------
-@dataclass
-class PerceivedResult:
-    """The end of a perceived cooperation: the keys of ``flexhrc run --json`` in ``summary``
-    (plus ``perception`` and ``human_sensing``), the events in log form."""
-
-    outcome: str
-    reason: str | None
-    events: list[dict[str, Any]]
-    summary: dict[str, Any]
-
-
-class _Failing:
-    """The execution model with injected failures (``InjectedFailure``: the ``nth`` execution
-    of an action, by an agent or any, fails half way), as every cooperation run has them."""
-
-    def __init__(self, inner: Any, failures: list[Any]) -> None:
-        self.inner, self.failures = inner, failures
-        self.counts: dict[int, int] = {}
-        self.execution = getattr(inner, "execution", None)
-
-    def execute(self, action: GroundAction, positions: Any, kb: Any, domain: Any) -> Any:
-        from flexhrc.taskmanager.simulator import StepReport
-
-        report = self.inner.execute(action, positions, kb, domain)
-        if any(domain.agent(a).is_human for a in action.agents):
-            return report
-        for f in self.failures:
-            if f.action == action.name and (f.agent is None or f.agent in action.agents):
-                n = self.counts[id(f)] = self.counts.get(id(f), 0) + 1
-                if n == f.nth:
-                    return StepReport(f.status, report.duration_s / 2, f.reason)
-        return report
-
-
 class _ReportedHand:
     """The operator's execution model: where a reported action leaves the operator's hand —
     at the place the action names (a screw at its bolt, a ``moves_to``), else in front of the
@@ -562,6 +322,7 @@ class PerceivedCell:
         realtime: float = 0.0,
         trace: Callable[[dict[str, Any]], None] | None = None,
         sink: Callable[[dict[str, Any]], None] | None = None,
+        observers: Iterable[Callable[[dict[str, Any]], None]] = (),
         reaction: str = "conflicts",
         timeout_factor: float = 3.0,
         max_wall_s: float = 3600.0,
@@ -600,23 +361,23 @@ class PerceivedCell:
         self.simulator = simulator if simulator is not None else default_simulator()
         if execution is None:  # the simulator plays the real world too, when it can
             execution = self.simulator if hasattr(self.simulator, "execute") else None
-        self.failures = list(failures)
-        self.execution = _Failing(
-            execution if execution is not None else AnalyticSimulator(), self.failures
-        )
+        self.execution = execution if execution is not None else AnalyticSimulator()
+        self.injection = FailureInjection(self.execution, list(failures))
         hier = getattr(graph, "hierarchy", graph)
         scenario = _Belief(hier, domain, self.belief, name)
         self.scenario = scenario
         self.domain = domain
-        self.sink, self.trace = sink, trace
+        # who sees the log, in this order (a streamed log first: what was shown was also stored)
+        self.observers = [f for f in (sink, trace) if f is not None] + list(observers)
         self.max_wall_s = max_wall_s
         self.bus = InProcessBus()
-        self._events: list[dict[str, Any]] = []
+        self._log: list[dict[str, Any]] = []  # the cooperation log, as it happens
         self.cell = Cell(
             scenario, self.bus, liveliness=False, simulator=self.simulator, seed=seed,
             watchers=["perception"], name=name, realtime=realtime, ordered=True,
+            reaction=reaction, observers=[self._log.append], idle_s=0.0,
+            quiescent=self._quiescent,
         )  # fmt: skip
-        self.cell.tm.reaction = reaction
         pairs = (
             list(humans)
             if humans is not None
@@ -627,7 +388,7 @@ class PerceivedCell:
             if not a.is_human:
                 self.agents.append(
                     RobotAgent(
-                        a.name, scenario, self.bus, execution=self.execution,
+                        a.name, scenario, self.bus, execution=self.injection,
                         timeout_factor=timeout_factor, on_executed=self.truth.on_executed,
                     )
                 )  # fmt: skip
@@ -651,22 +412,21 @@ class PerceivedCell:
         self.perception = self.eye.perception
         self.false = _FalseReporter(self.truth, self.bus, domain, false_reports)
         self.repair = _Repair(self.bus, confirm_s) if repair else None
-        self._stop_reason: str | None = None
 
     # -- running ----------------------------------------------------------------------------
     def request_stop(self, reason: str = "interrupted") -> None:
-        """End the run at the next input with the outcome ``interrupted`` (signal-safe)."""
-        self._stop_reason = reason
+        """End the run at the next turn of the loop with ``interrupted`` (signal-safe)."""
+        self.cell.request_stop(reason)
+
+    def _quiescent(self) -> bool:
+        return not self.bus.pending() and all(a.next_due() is None for a in self.agents)
 
     def _pump(self, timeout: float) -> None:
-        if self._stop_reason is not None and not self.cell.tm.done:
-            self.cell.tm.outcome, self.cell.tm.reason = "interrupted", self._stop_reason
-            return
         self.bus.flush()
         for a in self.agents:
             a.poll()
 
-    def run(self) -> PerceivedResult:
+    def run(self) -> RunResult:
         """Run the cooperation to its end."""
         try:
             summary = self.cell.run(pump=self._pump, max_wall_s=self.max_wall_s)
@@ -674,26 +434,24 @@ class PerceivedCell:
         finally:
             self.close()
         events = self.events()
-        summary.pop("knowledge", None)
-        summary.pop("cell", None)
         summary.pop("scenario", None)  # the caller names it
+        summary["simulated"] = {
+            **summary.get("simulated", {}),
+            **(getattr(self.injection.inner, "simulated", None) or {}),
+        }
         summary["compute_recorded"] = True  # the manager's own timing, not read from a log
         summary["perception"] = self.perception.stats.to_dict()
         summary["perception"]["repaired"] = sum(1 for e in events if e["type"] == "repaired")
         summary["human_sensing"] = self.human_figures()
-        for ev in events:
-            if self.sink is not None:
-                self.sink(ev)
-            if self.trace is not None:
-                self.trace(ev)
-        return PerceivedResult(summary["outcome"], summary["reason"], events, summary)
+        for ev in events:  # with the operator's nudges and the repairs in their places
+            for observer in self.observers:
+                observer(ev)
+        return RunResult(summary["outcome"], summary["reason"], events, summary)
 
     def events(self) -> list[dict[str, Any]]:
         """The cell's stored events in log form, with what nobody reports (the operator's
         nudges, the false reports) put in at their times."""
-        from flexhrc.cell.store import log_events
-
-        log = log_events(self.cell.events)
+        log = self._log
         extra = self.truth.events + self.false.events + self._sensing_events()
         if self.repair is not None:
             extra += self.repair.events
@@ -750,9 +508,9 @@ class PerceivedCell:
     def operator_profiles(self) -> list[tuple[str, str]]:
         return list(self.operators)
 
-    def unfired_failures(self) -> list[Any]:
+    def unfired_failures(self) -> list[InjectedFailure]:
         """Injected failures whose N-th execution never came (e.g. ``transport:99``)."""
-        return [f for f in self.failures if self.execution.counts.get(id(f), 0) < f.nth]
+        return self.injection.unfired()
 
     def executions_of(self, action: str) -> int:
         return sum(
@@ -780,7 +538,6 @@ __all__ = [
     "FalseReport",
     "Nudge",
     "PerceivedCell",
-    "PerceivedResult",
     "WorkspaceTruth",
     "forget_positions",
     "lying_layout",

@@ -22,8 +22,10 @@ arguments bind the schema's parameters in order. A domain is loaded from YAML::
         pre: [on_table(?obj)]
         add: [holding(?arm, ?obj)]
         delete: [on_table(?obj)]
+        kind: grasp              # optional: its action kind (default: the action's name)
         duration: 1.0            # optional: seconds (the analytic simulator's nominal time)
         moves_to: ?obj           # optional: the hand goes to this parameter's object/place
+        target: ?obj             # optional: what the kind's motion aims at ([?obj, ?to])
     processes:                   # node processes P(n) (eq. 5), named in a node's processes
       hold:
         parameters: {?top: tabletop}
@@ -32,7 +34,9 @@ arguments bind the schema's parameters in order. A domain is loaded from YAML::
         add: [settled(?top)]     # effects when a round ends
         until: [settled(?top)]   # end condition: the process ends when it holds
 
-``duration`` and ``moves_to`` let a simulator time an action without knowing the scenario;
+``kind`` names what the action is physically (:mod:`flexhrc.taskmanager.kinds`: its motion on
+the robot model, its timing, its effect on the world); an unregistered explicit kind is an
+error. ``duration`` and ``moves_to`` let a simulator time an action without knowing the scenario;
 ``human_only``/``robot_only`` are not needed: who may act is ``agents``. A process is a robot
 behaviour kept up while its node is reached; it runs in rounds of ``duration`` until ``until``
 holds (checked after each round and whenever the state changes), then the node is met.
@@ -40,7 +44,7 @@ holds (checked after each round and whenever the state changes), then the node i
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -50,6 +54,22 @@ from flexhrc.logic import Conjunction, is_variable, parse_conjunction, parse_lit
 from flexhrc.logic import Literal as Lit
 
 AgentMode = Literal["single", "choice", "joint"]
+
+
+def _no_kind_check(kind: str) -> str | None:
+    return None
+
+
+#: Why an action kind named in a domain is unknown (None: it is known). The registry of
+#: :mod:`flexhrc.taskmanager.kinds` installs its check when it is imported (the package does),
+#: so the domain names kinds without depending on the module that defines them.
+_kind_check: Callable[[str], str | None] = _no_kind_check
+
+
+def set_kind_check(check: Callable[[str], str | None]) -> None:
+    """Install the check of action-kind names (:func:`flexhrc.taskmanager.kinds.unknown_kind`)."""
+    global _kind_check
+    _kind_check = check
 
 
 @dataclass(frozen=True)
@@ -81,7 +101,7 @@ class ActionSchema:
     pre: Conjunction = ()
     add: Conjunction = ()
     delete: Conjunction = ()
-    kind: str = ""  # what the simulator does: approach, grasp, transport, screw, ...
+    kind: str = ""  # its action kind (flexhrc.taskmanager.kinds): approach, grasp, transport, ...
     duration: float | None = None  # nominal seconds (None: the simulator's own model)
     moves_to: str | None = None  # parameter whose object/place the hand goes to
     until: Conjunction = ()  # processes only: the end condition
@@ -89,6 +109,7 @@ class ActionSchema:
     fixes: str | None = None  # parameter whose object is fixed in place afterwards
     undo: str | None = None  # the action that puts things back (an operator changing its mind)
     line: int | None = field(default=None, compare=False)
+    target: tuple[str, ...] = ()  # parameters the kind's motion aims at (object, place)
 
     @property
     def variables(self) -> tuple[str, ...]:
@@ -317,6 +338,29 @@ def _schema(
             )
         roles[key] = None if value is None else str(value)
     moves_to = roles["moves_to"]
+    kind = str(sd.get("kind", name))
+    if "kind" in sd:
+        why = _kind_check(kind)
+        if why:
+            raise FormatError(f"{what} {name!r}: {why}", source, _line(sd, "kind"))
+    raw_target = sd.get("target")
+    target: tuple[str, ...] = ()
+    if raw_target is not None:
+        target = (
+            (str(raw_target),)
+            if isinstance(raw_target, str)
+            else tuple(str(v) for v in raw_target)
+            if isinstance(raw_target, list)
+            else ()
+        )
+        bad = [v for v in target if v not in dict(params)]
+        if not target or len(target) > 2 or bad:
+            raise FormatError(
+                f"{what} {name!r}: target must be one or two of its parameters "
+                f"({', '.join(v for v, _ in params) or 'none'}), got {raw_target!r}",
+                source,
+                _line(sd, "target"),
+            )
     return ActionSchema(
         name,
         params,
@@ -324,7 +368,7 @@ def _schema(
         _formula(sd.get("pre"), source, _line(sd, "pre")),
         _formula(sd.get("add"), source, _line(sd, "add")),
         _formula(sd.get("delete"), source, _line(sd, "delete")),
-        str(sd.get("kind", name)),
+        kind,
         duration,
         moves_to,
         _formula(sd.get("until"), source, _line(sd, "until")),
@@ -332,6 +376,7 @@ def _schema(
         roles["fixes"],
         None if sd.get("undo") is None else str(sd["undo"]),
         line,
+        target,
     )
 
 

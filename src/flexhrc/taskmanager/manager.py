@@ -53,6 +53,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from flexhrc.errors import FlexhrcError
+from flexhrc.events import LogEventType
 from flexhrc.knowledge import KnowledgeBase
 from flexhrc.logic import Literal, Substitution, apply_substitution, is_variable
 from flexhrc.representation import OnlineGraph
@@ -252,6 +253,7 @@ class TaskManager:
         self.executions: dict[str, Execution] = {}  # element -> execution
         self.busy: dict[str, Command] = {}  # agent -> its running command
         self.failed: dict[str, list[dict[str, str]]] = {}  # element -> failed groundings
+        self.infeasible: dict[str, str] = {}  # element -> why it was marked infeasible
         self.waiting_for_consistency = False
         self.unavailable: set[str] = set()  # agents that left the cell (e.g. a dead process)
         # node -> the substitution its producing hyper-arc was solved with (carried to S(n))
@@ -417,8 +419,8 @@ class TaskManager:
             inner = (self.timing.task_representation_s - rep0) + (self.timing.simulator_s - sim0)
             self.timing.task_manager_s += max(0.0, spent - inner)
 
-    def _emit(self, kind: str, **data: Any) -> None:
-        data.pop("type", None)
+    def _emit(self, kind: LogEventType, **data: Any) -> None:
+        data.pop("type", None)  # a misspelt kind is a type error: the tags of flexhrc.events
         self._log({"t": round(self._now, 6), "type": kind, **data})
 
     def _update_graph(self, **kw: Iterable[str]) -> None:
@@ -724,6 +726,7 @@ class TaskManager:
                         pruned=[b.to_dict() for b in tree.pruned],
                         chosen=None,
                     )
+                self.infeasible[name] = reason
                 self._emit("infeasible", element=name, reason=reason)
                 self._update_graph(infeasible=[name])
                 self._meet_nodes()
@@ -745,7 +748,8 @@ class TaskManager:
             if best is None:
                 self.failed.setdefault(name, []).extend(dict(b.grounding) for b in tree.branches)
                 if not self._could_run_later(name, actions, constraints, reserved):
-                    self._emit("infeasible", element=name, reason="every branch scores 0")
+                    self.infeasible[name] = "every branch scores 0"
+                    self._emit("infeasible", element=name, reason=self.infeasible[name])
                     self._update_graph(infeasible=[name])
                     self._meet_nodes()
                     return True

@@ -32,6 +32,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
+from flexhrc.events import PROFILES
 from flexhrc.knowledge import KnowledgeBase
 from flexhrc.logic import apply_substitution
 from flexhrc.taskmanager.decision import DecisionTree
@@ -39,8 +40,6 @@ from flexhrc.taskmanager.domain import Domain, GroundAction
 
 if TYPE_CHECKING:
     from flexhrc.taskmanager.manager import TaskManager
-
-PROFILES = ("passive", "takeover", "cooperative", "random")
 
 
 @dataclass

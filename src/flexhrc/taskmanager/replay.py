@@ -4,11 +4,11 @@ Counts and simulated times come from the logged actions and decisions themselves
 wall-clock compute times (Task Manager, representation, simulator) cannot be recomputed and are
 read from the log's closing ``summary`` event when there is one.
 
-:func:`check_log` validates every event first — its type, a finite time that never goes back,
-the fields the summary reads, one run per log — and names the line of the first bad one, so an
-edited or corrupted log is refused rather than summarised into nonsense. A log without an
-``outcome`` event is a run that was cut short (killed, or the machine went down): it is
-summarised up to its last event and says so.
+:func:`check_log` validates every event first — its type and fields against the catalogue of
+:mod:`flexhrc.events`, a finite time that never goes back, one run per log — and names the line
+of the first bad one, so an edited or corrupted log is refused rather than summarised into
+nonsense. A log without an ``outcome`` event is a run that was cut short (killed, or the machine
+went down): it is summarised up to its last event and says so.
 """
 
 from __future__ import annotations
@@ -19,69 +19,13 @@ from pathlib import Path
 from typing import Any
 
 from flexhrc.errors import FormatError
-from flexhrc.taskmanager.runner import OUTCOMES
+from flexhrc.events import LOG_EVENTS, REPLAY_TYPES
 
-#: Every event type a cooperation run writes (runner and Task Manager).
-EVENT_TYPES = frozenset(
-    {
-        "start",
-        "query",
-        "decision",
-        "waiting",
-        "infeasible",
-        "suggestion",
-        "command",
-        "ack",
-        "ack_ignored",
-        "action_failed",
-        "abort",
-        "stop",
-        "solved",
-        "human_action",
-        "human_action_unmatched",
-        "recognised",
-        "action_start",
-        "action_end",
-        "human_told",
-        "human_decides",
-        "human_gives_up",
-        "human_sensed",
-        "human_sensing_missed",
-        "outcome",
-        "summary",
-        # section V in full (processes, preconditions at dispatch), the physical side
-        "process_activated",
-        "process_ended",
-        "process_failed",
-        "precondition_failed",
-        "fixed",
-        "obsolete",
-        # perception in the loop (flexhrc.sensing)
-        "percept",
-        "inconsistent",
-        "consistent_again",
-        "repair",
-        "repaired",
-        "operator_answers",
-        "operator_nudges",
-        "operator_nudge_skipped",
-        "false_report",
-        "human_report_ignored",
-        "human_report_unusable",
-        "human_sensing_uncovered",
-    }
-)
-#: How an action may end (``action_end`` events).
-STATUSES = ("done", "failed", "timed_out", "stopped")
 CUT_SHORT = "cut_short"
 
 
 def _number(v: Any) -> bool:
     return isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
-
-
-def _names(v: Any) -> bool:
-    return isinstance(v, list) and bool(v) and all(isinstance(a, str) and a for a in v)
 
 
 def check_log(lines: Sequence[tuple[int, dict[str, Any]]], source: str | Path) -> None:
@@ -100,7 +44,7 @@ def check_log(lines: Sequence[tuple[int, dict[str, Any]]], source: str | Path) -
         kind, t = ev["type"], ev["t"]
         if kind == "behave_start":  # the header of a behaviour network's log
             raise fail("a behaviour network's log: read it with 'flexhrc behave replay'", line)
-        if not isinstance(kind, str) or kind not in EVENT_TYPES:
+        if not isinstance(kind, str) or kind not in REPLAY_TYPES:
             raise fail(f"unknown event type {kind!r} (not a flexhrc cooperation log?)", line)
         if not _number(t) or t < 0:
             raise fail(f"{kind}: 't' must be a finite time >= 0, got {t!r}", line)
@@ -121,77 +65,29 @@ def check_log(lines: Sequence[tuple[int, dict[str, Any]]], source: str | Path) -
         last_t = max(last_t, float(t))
         if n == 0 and kind != "start":
             raise fail(f"the log must begin with a 'start' event, not {kind!r}", line)
-        if kind == "start":
-            if not _names(ev.get("agents")):
-                raise fail("start: 'agents' must be a list of agent names", line)
-            if not isinstance(ev.get("profile"), str):
-                raise fail("start: 'profile' must be a string", line)
-        elif kind == "outcome":
-            if ev.get("outcome") not in OUTCOMES:
-                raise fail(
-                    f"outcome: 'outcome' must be one of {', '.join(OUTCOMES)}, "
-                    f"got {ev.get('outcome')!r}",
-                    line,
-                )
-            if not (ev.get("reason") is None or isinstance(ev.get("reason"), str)):
-                raise fail("outcome: 'reason' must be a string or null", line)
+        problem = LOG_EVENTS[kind].problem(ev)  # the fields of its schema in flexhrc.events
+        if problem is not None:
+            raise fail(problem, line)
+        if kind == "command":
+            cid = ev["id"]
+            if cid in commands:
+                raise fail(f"command {cid} was already issued on line {commands[cid]}", line)
+            commands[cid] = line
         elif kind == "summary":
-            timing = ev.get("timing")
-            if not isinstance(timing, dict):
-                raise fail("summary: 'timing' must be a mapping of times", line)
-            for key, v in timing.items():
-                if not _number(v) or v < 0:
-                    raise fail(f"summary: timing {key!r} must be a finite time >= 0", line)
             # the runner writes the summary at the end, stamped with the makespan it reports
-            total = timing.get("total_s")
+            total = ev["timing"].get("total_s")
             if total is not None and abs(float(total) - last_t) > 1e-6:
                 raise fail(
                     f"summary: the run ended at {total} s but its events reach {last_t} s "
                     "(an edited log?)",
                     line,
                 )
-        elif kind == "decision":
-            branches = ev.get("branches")
-            if not isinstance(branches, list) or not all(isinstance(b, dict) for b in branches):
-                raise fail("decision: 'branches' must be a list of branches", line)
-            chosen = ev.get("chosen")
-            if chosen is not None and (
-                isinstance(chosen, bool)
-                or not isinstance(chosen, int)
-                or not 0 <= chosen < len(branches)
-            ):
-                raise fail(f"decision: 'chosen' is not one of its {len(branches)} branches", line)
-        elif kind == "command":
-            cid = ev.get("id")
-            if isinstance(cid, bool) or not isinstance(cid, int):
-                raise fail("command: 'id' must be a whole number", line)
-            if cid in commands:
-                raise fail(f"command {cid} was already issued on line {commands[cid]}", line)
-            commands[cid] = line
-        elif kind in ("action_start", "action_end"):
-            if not _names(ev.get("agents")):
-                raise fail(f"{kind}: 'agents' must be a list of agent names", line)
-            if not isinstance(ev.get("action"), str) or not ev["action"]:
-                raise fail(f"{kind}: 'action' must be a string", line)
-            if kind == "action_end":
-                if ev.get("status") not in STATUSES:
-                    raise fail(
-                        f"action_end: 'status' must be one of {', '.join(STATUSES)}, "
-                        f"got {ev.get('status')!r}",
-                        line,
-                    )
-                start: Any = ev.get("start")
-                if not _number(start) or not 0 <= float(start) <= t + 1e-9:
-                    raise fail(
-                        f"action_end: 'start' must be a finite time between 0 and t = {t}, "
-                        f"got {start!r}",
-                        line,
-                    )
-                cid = ev.get("command")
-                if isinstance(cid, int) and not isinstance(cid, bool):
-                    if cid in ended:
-                        raise fail(f"command {cid} already ended on line {ended[cid]}", line)
-                    ended[cid] = line
+        elif kind == "action_end":
+            cid = ev.get("command")
+            if isinstance(cid, int) and not isinstance(cid, bool):
+                if cid in ended:
+                    raise fail(f"command {cid} already ended on line {ended[cid]}", line)
+                ended[cid] = line
 
 
 def summarise_log(events: Iterable[dict[str, Any]]) -> dict[str, Any]:
@@ -250,6 +146,9 @@ def summarise_log(events: Iterable[dict[str, Any]]) -> dict[str, Any]:
     closing: dict[str, Any] = next(
         (ev for ev in reversed(events) if ev.get("type") == "summary"), {}
     )
+    start = next((ev for ev in events if ev.get("type") == "start"), {})
+    # logs written before scenarios were named in them are all of the table
+    table = start.get("scenario", TABLE_SCENARIO) == TABLE_SCENARIO
     complete = outcome is not None
     if outcome is None:
         outcome = CUT_SHORT
@@ -277,7 +176,24 @@ def summarise_log(events: Iterable[dict[str, Any]]) -> dict[str, Any]:
             "human_actions_s": round(human_s, 6),
             "total_s": round(end, 6),
         },
-        "legs_by_agent": legs,
+        "fixed_by_agent": legs,
+        # the table's name of the same count (a JSON key that stays): only where it is the table
+        **({"legs_by_agent": dict(legs)} if table else {}),
         "solved_hyperarcs": solved,
         "by_agent": solved_by,
     }
+
+
+#: The scenario whose logs count fixed objects as legs (``legs_by_agent``, its older key).
+TABLE_SCENARIO = "table_assembly"
+
+
+def solved_by_line(data: dict[str, Any]) -> str:
+    """Who did what, in the words of the task: hyper-arcs solved by each agent — and, for the
+    table assembly, the legs each connected (the paper's figure)."""
+    by = ", ".join(f"{a}: {n}" for a, n in data.get("by_agent", {}).items())
+    line = f"hyper-arcs solved by {by}"
+    if "legs_by_agent" in data:
+        legs = ", ".join(f"{a}: {n}" for a, n in data["legs_by_agent"].items())
+        line = f"legs connected by {legs}; {line}"
+    return line

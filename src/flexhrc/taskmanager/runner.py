@@ -444,7 +444,9 @@ class CooperationRun:
         """Called once, after the ``start`` event and before the manager's first decision."""
 
     def _deadlock_reason(self) -> str:
-        return "deadlock: no agent has anything to do and the task is not solved"
+        from flexhrc.taskmanager.diagnose import stall_reason
+
+        return stall_reason(self.tm)
 
     def _on_event(self, pending: _Pending) -> None:
         """Other kinds of scheduled events (subclasses schedule their own)."""

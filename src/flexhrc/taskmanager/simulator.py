@@ -7,7 +7,8 @@ a branch is ``J(b) = success(b) / sum(t_i)`` (eq. 21).
 :class:`AnalyticSimulator` is the default: straight-line distances at nominal speeds, fixed times
 for grasping and screwing, a reach sphere per robot arm, and an optional seeded failure model.
 An action whose domain entry declares ``duration`` (seconds) and ``moves_to`` (the parameter its
-hand goes to) is timed from those alone, so a scenario file needs no code for its actions.
+hand goes to) is timed from those alone, so a scenario file needs no code for its actions; any
+other is timed by its kind's model (:mod:`flexhrc.taskmanager.kinds`).
 The kinematic simulator of :mod:`flexhrc.action` implements the same :class:`Simulator`
 protocol; it is chosen at the edge (:mod:`flexhrc.scenarios.simulators`), never imported here.
 Simulations never modify the knowledge base: positions are tracked on the side.
@@ -23,6 +24,7 @@ from typing import Protocol
 
 from flexhrc.knowledge import KnowledgeBase
 from flexhrc.taskmanager.domain import Agent, Domain, GroundAction
+from flexhrc.taskmanager.kinds import StepContext, Timing, kind_of
 
 Vec3 = tuple[float, float, float]
 
@@ -78,26 +80,8 @@ class ExecutionModel(Protocol):
     ) -> StepReport: ...
 
 
-@dataclass
-class Timing:
-    """Nominal speeds (m/s) and fixed durations (s). Robot figures follow the paper's robot
-    (max linear end-effector speed 0.4 m/s); human ones are typical assembly motions."""
-
-    robot_speed: float = 0.4
-    approach_overhead: float = 0.5
-    transport_overhead: float = 0.5
-    grasp: float = 1.0
-    ungrasp: float = 0.8
-    robot_screw: float = 4.0
-    human_speed: float = 1.0
-    human_pick_up: float = 1.0
-    human_put_down: float = 1.5
-    human_screw: float = 6.0
-    place_tabletop: float = 6.0
-
-
 class AnalyticSimulator:
-    """Distances over speeds, reach spheres, seeded failures.
+    """Distances over speeds, reach spheres, seeded failures (the timing of each action kind).
 
     Robot arms are agents with ``base`` (shoulder position), ``reach`` (m) and ``rest``
     (end-effector rest position) parameters; their current end-effector position is the KB
@@ -120,6 +104,13 @@ class AnalyticSimulator:
         self.timing = timing or Timing()
         self.failure_rate = failure_rate
         self._rng = random.Random(seed)
+        self._simulated: dict[tuple[str, tuple[str, ...]], str] = {}
+
+    @property
+    def simulated(self) -> dict[str, str]:
+        """How each ground action simulated so far was: ``analytic``, or ``none`` (a kind
+        without motion, :mod:`flexhrc.taskmanager.kinds`), by its text (``grasp(left, leg1)``)."""
+        return simulated_record(self._simulated)
 
     # -- one action -----------------------------------------------------------------------
     def step(
@@ -129,25 +120,30 @@ class AnalyticSimulator:
         kb: KnowledgeBase,
         domain: Domain,
     ) -> tuple[bool, float, str | None]:
-        """Simulate one action from ``positions`` (updated in place): success, time, reason."""
+        """Simulate one action from ``positions`` (updated in place): success, time, reason.
+
+        Declared ``duration``/``moves_to`` time it (:meth:`_declared_step`); otherwise its kind's
+        timing model (:mod:`flexhrc.taskmanager.kinds`): an operator's (default 2 s), or each
+        arm's (default 1 s; a joint action lasts as long as its slowest arm)."""
+        kind = kind_of(action.schema)
+        self._simulated[action.name, action.args] = "analytic" if kind.moves else "none"
         if action.schema.duration is not None or action.schema.moves_to is not None:
             return self._declared_step(action, positions, kb, domain)
-        t = self.timing
-        kind = action.schema.kind
         agents = [domain.agent(a) for a in action.agents]
-        if any(a.is_human for a in agents):
-            return self._human_step(kind, action, positions, kb)
-        durations = []
+        for agent in agents:
+            if agent.is_human:
+                ctx = StepContext(action, agent, positions, kb, self.timing)
+                return kind.human_time(ctx) if kind.human_time else (True, 2.0, None)
+        longest = 0.0
         for arm in agents:
-            ok, dt, why = self._arm_step(kind, arm.name, arm.params, action, positions, kb)
+            ctx = StepContext(action, arm, positions, kb, self.timing)
+            ok, dt, why = kind.robot_time(ctx) if kind.robot_time else (True, 1.0, None)
             if not ok:
                 return False, dt, why
-            durations.append(dt)
-        if kind == "place_tabletop":
-            return True, t.place_tabletop, None
-        if self.failure_rate and self._rng.random() < self.failure_rate:
-            return False, max(durations, default=0.0), f"{action} failed (simulated fault)"
-        return True, max(durations, default=0.0), None
+            longest = max(longest, dt)
+        if kind.fallible and self.failure_rate and self._rng.random() < self.failure_rate:
+            return False, longest, f"{action} failed (simulated fault)"
+        return True, longest, None
 
     def _declared_step(
         self,
@@ -217,94 +213,6 @@ class AnalyticSimulator:
         positions[agent.name] = target
         return True, math.dist(here, target) / max(speed, 1e-6), None
 
-    def _arm_step(
-        self,
-        kind: str,
-        arm: str,
-        params: Mapping[str, object],
-        action: GroundAction,
-        positions: dict[str, Vec3],
-        kb: KnowledgeBase,
-    ) -> tuple[bool, float, str | None]:
-        t = self.timing
-        base = _v(params.get("base", (0.0, 0.0, 0.0)))
-        reach = float(params.get("reach", 0.85))  # type: ignore[arg-type]
-        rest = _v(params.get("rest", base))
-        speed = float(params.get("speed", t.robot_speed))  # type: ignore[arg-type]
-        ee = positions.get(arm) or (kb.position(arm) if arm in kb.objects else rest)
-
-        def pos(obj: str) -> Vec3:
-            return positions.get(obj) or kb.position(obj)
-
-        def reachable(p: Vec3, what: str) -> str | None:
-            rec = kb.objects.get(what)
-            allowed = rec.attrs.get("reachable_by") if rec is not None else None
-            if allowed is not None and arm not in allowed:
-                return f"{what} cannot be reached by {arm} (blocked)"
-            d = math.dist(base, p)
-            if d > reach:
-                return f"{what} at {_fmt(p)} is out of reach of {arm} ({d:.2f} m > {reach:.2f} m)"
-            return None
-
-        objs = [a for a in action.args if a in kb.objects and a != arm]
-        target_obj = objs[0] if objs else None
-        if kind == "approach":
-            p = pos(target_obj) if target_obj else ee
-            why = reachable(p, target_obj or "target")
-            if why:
-                return False, 0.0, why
-            positions[arm] = p
-            return True, math.dist(ee, p) / speed + t.approach_overhead, None
-        if kind == "grasp":
-            return True, t.grasp, None
-        if kind == "transport":
-            place = objs[-1] if len(objs) >= 2 else None
-            if place is None:
-                return False, 0.0, f"{action}: no destination"
-            p = pos(place)
-            why = reachable(p, place)
-            if why:
-                return False, 0.0, why
-            d = math.dist(ee, p)
-            positions[arm] = p
-            if target_obj:
-                positions[target_obj] = p
-            return True, d / speed + t.transport_overhead, None
-        if kind == "screw":
-            where = objs[-1] if objs else None
-            p = pos(where) if where else ee
-            why = reachable(p, where or "screw point")
-            if why:
-                return False, 0.0, why
-            return True, t.robot_screw, None
-        if kind == "ungrasp":
-            return True, t.ungrasp, None
-        if kind == "rest":
-            d = math.dist(ee, rest)
-            positions[arm] = rest
-            return True, d / speed, None
-        if kind == "place_tabletop":
-            return True, t.place_tabletop, None
-        return True, 1.0, None
-
-    def _human_step(
-        self, kind: str, action: GroundAction, positions: dict[str, Vec3], kb: KnowledgeBase
-    ) -> tuple[bool, float, str | None]:
-        t = self.timing
-        if kind == "pick_up":
-            obj = next((a for a in action.args if a in kb.objects and a != "human"), None)
-            hand = positions.get("human") or (
-                kb.position("human") if "human" in kb.objects else (1.0, 0.0, 0.1)
-            )
-            p = positions.get(obj or "") or (kb.position(obj) if obj else hand)
-            positions["human"] = p
-            return True, t.human_pick_up + math.dist(hand, p) / t.human_speed, None
-        if kind == "put_down":
-            return True, t.human_put_down, None
-        if kind == "screw":
-            return True, t.human_screw, None
-        return True, 2.0, None
-
     def execute(
         self,
         action: GroundAction,
@@ -332,13 +240,10 @@ class AnalyticSimulator:
         return SimulationResult(True, durations, None, details)
 
 
-def _v(p: object) -> Vec3:
-    vals = [float(x) for x in p]  # type: ignore[attr-defined]
-    return (vals[0], vals[1], vals[2])
-
-
-def _fmt(p: Vec3) -> str:
-    return "(" + ", ".join(f"{v:.2f}" for v in p) + ")"
+def simulated_record(seen: Mapping[tuple[str, tuple[str, ...]], str]) -> dict[str, str]:
+    """``{"grasp(left, leg1)": how}`` from ``{("grasp", ("left", "leg1")): how}`` (a simulator
+    keeps the tuples: formatting every simulated step would cost more than the step)."""
+    return {f"{name}({', '.join(args)})": how for (name, args), how in seen.items()}
 
 
 def default_simulator() -> Simulator:

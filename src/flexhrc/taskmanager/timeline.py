@@ -1,28 +1,35 @@
 """Timeline picture of a cooperation: who did what, when (one lane per agent).
 
-The table's motions keep their colours; any other action of a scenario gets one from a fixed
-palette (in order of first appearance, so the same log always draws the same picture), and the
-legend lists the actions the log holds.
+Each action is coloured by its kind (:mod:`flexhrc.taskmanager.kinds`; given the ``domain`` the
+schema's ``kind``, else the action's name if it is a registered kind), so the table's motions
+keep their colours; an action of an unregistered kind gets one from a fixed palette (in order of
+first appearance, so the same log always draws the same picture), and the legend lists the kinds
+the log holds.
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from flexhrc.errors import OptionalDependencyError
+from flexhrc.taskmanager.kinds import find_action_kind
 
-COLOURS = {
-    "approach": "#9ecae1",
-    "grasp": "#6baed6",
-    "transport": "#4292c6",
-    "screw": "#2171b5",
-    "ungrasp": "#c6dbef",
-    "rest": "#dddddd",
-    "pick_up": "#fd8d3c",
-    "put_down": "#fdae6b",
-}
+if TYPE_CHECKING:
+    from flexhrc.taskmanager.domain import Domain
+
+#: the table's motions (their colours come from the kind registry)
+TABLE_WORDS = ("approach", "grasp", "transport", "screw", "ungrasp", "rest", "pick_up", "put_down")
+
+
+def kind_colour(kind: str) -> str | None:
+    """The timeline colour of a registered kind (None: not registered, or no colour)."""
+    found = find_action_kind(kind)
+    return None if found is None else found.colour
+
+
+COLOURS = {w: str(kind_colour(w)) for w in TABLE_WORDS}
 #: colours for the actions of other scenarios (tab10 without the table's blue and orange)
 PALETTE = ("#2ca02c", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf",
            "#98df8a", "#c5b0d5", "#c49c94", "#f7b6d2", "#dbdb8d", "#9edae5", "#d62728")  # fmt: skip
@@ -47,7 +54,9 @@ def intervals(events: Iterable[dict[str, Any]]) -> list[dict[str, Any]]:
     return out
 
 
-def plot_timeline(events: list[dict[str, Any]], out: str | Path, title: str = "") -> Path:
+def plot_timeline(
+    events: list[dict[str, Any]], out: str | Path, title: str = "", domain: Domain | None = None
+) -> Path:
     try:
         import matplotlib
 
@@ -60,16 +69,26 @@ def plot_timeline(events: list[dict[str, Any]], out: str | Path, title: str = ""
     present = {s["agent"] for s in spans}
     lanes = [a for a in ("right", "left", "human") if a in present] or ["right", "left", "human"]
     lanes += sorted(present - set(lanes))
+
+    def kind_name(action: str) -> str:
+        name = action.split("(")[0]
+        schema = domain.actions.get(name) if domain is not None else None
+        return schema.kind if schema is not None and schema.kind else name
+
     colours = dict(COLOURS)
+    picked = 0
     for sp in spans:
-        kind = sp["action"].split("(")[0]
+        kind = kind_name(sp["action"])
         if kind not in colours:
-            colours[kind] = PALETTE[(len(colours) - len(COLOURS)) % len(PALETTE)]
-    used = {sp["action"].split("(")[0] for sp in spans}
+            colour = kind_colour(kind)
+            if colour is None:
+                colour, picked = PALETTE[picked % len(PALETTE)], picked + 1
+            colours[kind] = colour
+    used = {kind_name(sp["action"]) for sp in spans}
     fig, ax = plt.subplots(figsize=(12, max(2.4, 0.8 * len(lanes) + 0.8)))
     for s in spans:
         y = lanes.index(s["agent"])
-        kind = s["action"].split("(")[0]
+        kind = kind_name(s["action"])
         colour = colours[kind]
         if kind == "screw" and s["agent"] == "human":
             colour = "#d94801"
@@ -82,8 +101,9 @@ def plot_timeline(events: list[dict[str, Any]], out: str | Path, title: str = ""
             hatch=hatch,
             linewidth=0.6,
         )
-        if kind == "screw" and s["status"] == "done":
-            leg = s["action"].split("(")[1].split(",")[1].strip()
+        args = s["action"].partition("(")[2].rstrip(")").split(",")
+        if kind == "screw" and s["status"] == "done" and len(args) > 1:
+            leg = args[1].strip()
             ax.text(
                 (s["start"] + s["end"]) / 2,
                 y,

@@ -306,9 +306,10 @@ def _load_external(
     if str(target).lower().endswith((".yaml", ".yml")):
         sub = load_yaml(target, including)
     else:
-        from flexhrc.representation.formats import load
+        # the ANDOR text reader itself, not formats.load: formats imports this module
+        from flexhrc.representation.formats.andor_text import load_andor_text
 
-        sub = load(target, validate=False)
+        sub = load_andor_text(target)
     out: dict[str, AndOrGraph] = {}
     # the external top graph takes this key; its own lower graphs keep theirs, prefixed
     for k, g in sub.graphs.items():

@@ -1,7 +1,6 @@
 """What ``flexhrc cell SCENARIO`` and ``flexhrc agent ... SCENARIO`` accept: a name or a file.
 
-One small function, :func:`load_scenario`, so the cell can later delegate to the loader of
-:mod:`flexhrc.scenario` (scenario files, issue 10) without touching anything else. Today:
+:func:`load_scenario` reads every form a task comes in, for every front end alike:
 
 * ``table_assembly`` (alias ``table``): the FlexHRC+ table assembly — the scenario file shipped
   with :mod:`flexhrc.scenario` (as ``flexhrc run table_assembly``), else the legs fix of
@@ -24,6 +23,7 @@ from pathlib import Path
 from typing import Any
 
 from flexhrc.errors import FormatError, UnknownNameError
+from flexhrc.scenario.loader import SHIPPED, load
 
 NAMES = ("table_assembly", "table", "parallel_assembly")
 
@@ -79,37 +79,26 @@ class CellScenario:
 def load_scenario(spec: str, *, seed: int = 0) -> CellScenario:
     """The scenario named ``spec``, or read from the YAML file ``spec``."""
     from flexhrc.scenarios.parallel_assembly import ParallelScenario
-    from flexhrc.scenarios.table_assembly import TableScenario
 
     text = str(spec)
-    loader = _scenario_loader()
     if text in ("table_assembly", "table"):
-        if loader is not None:  # the shipped scenario file, as `flexhrc run table_assembly`
-            return CellScenario("table_assembly", loader("table_assembly"))
-        return CellScenario("table_assembly", TableScenario(seed=seed))
+        # the shipped scenario file, as `flexhrc run table_assembly`
+        return CellScenario("table_assembly", load("table_assembly"))
     if text == "parallel_assembly":
         return CellScenario("parallel_assembly", ParallelScenario(seed=seed), simulator="analytic")
     path = Path(text)
     if path.suffix.lower() not in (".yaml", ".yml") and not path.exists():
-        if loader is not None:  # a scenario shipped with flexhrc.scenario
-            sc = loader(text)
-            return CellScenario(str(getattr(sc, "name", text)), sc)
-        raise UnknownNameError(
-            f"unknown scenario {text!r}: give one of {', '.join(NAMES)} or a scenario file"
-        )
-    if loader is not None and _is_scenario_file(path):
-        sc = loader(path)
-        return CellScenario(str(getattr(sc, "name", path.stem)), sc)
+        if text not in SHIPPED:
+            names = ", ".join(sorted({*NAMES, *SHIPPED}))
+            raise UnknownNameError(
+                f"unknown scenario {text!r}: give one of {names} or a scenario file"
+            )
+        sc = load(text)
+        return CellScenario(sc.name, sc)
+    if _is_scenario_file(path):
+        sc = load(path)
+        return CellScenario(sc.name, sc)
     return _from_file(path, seed)
-
-
-def _scenario_loader() -> Any:
-    """``flexhrc.scenario.load`` when that package offers it (scenario files, issue 10)."""
-    try:
-        import flexhrc.scenario as module
-    except ImportError:
-        return None
-    return getattr(module, "load", None)
 
 
 def _is_scenario_file(path: Path) -> bool:

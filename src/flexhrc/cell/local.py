@@ -1,0 +1,247 @@
+"""The engine in one process: the cell's loop with simulated agents on an in-process bus.
+
+There is one loop that drives the Task Manager: :class:`~flexhrc.cell.supervisor.Cell`
+(receive, store, feed, send). :class:`LocalCell` is its in-process configuration — an ordered
+:class:`~flexhrc.transport.InProcessBus`, one :class:`~flexhrc.cell.components.RobotAgent` per
+arm and one :class:`~flexhrc.cell.components.HumanAgent` per operator, the simulated clock —
+and what ``flexhrc run``, ``flexhrc demo`` and :func:`flexhrc.scenario.run` are made of. Over
+Zenoh or ROS 2 the same loop talks to the same agents in other processes; nothing about the
+cooperation differs but the transport.
+
+What a run adds to the loop is only configuration and observation:
+
+* ``failures`` — :class:`InjectedFailure` s, applied by wrapping the arms' execution model (the
+  simulated real world), so the manager sees them exactly as it would see a real failure;
+* ``observers`` — callables that get every event of the cooperation log as it happens (the
+  streamed ``--log``, a trace printer); :class:`RunResult` keeps the whole log as well;
+* ``realtime`` — the agents take ``duration / realtime`` seconds of wall time, the loop keeps
+  the simulated order;
+* :meth:`LocalCell.request_stop` — from a signal handler: the run ends with ``interrupted``.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from flexhrc.cell.components import HumanAgent, RobotAgent
+from flexhrc.cell.supervisor import Cell
+from flexhrc.errors import FlexhrcError
+from flexhrc.knowledge import KnowledgeBase
+from flexhrc.taskmanager.domain import Domain, GroundAction
+from flexhrc.taskmanager.operator import PROFILES
+from flexhrc.taskmanager.simulator import (
+    AnalyticSimulator,
+    ExecutionModel,
+    StepReport,
+    simulator_name,
+)
+from flexhrc.transport import InProcessBus
+
+Observer = Callable[[dict[str, Any]], None]
+
+#: Every outcome a cooperation run can end with (the ``outcome`` event and the summary).
+OUTCOMES = ("solved", "failed", "interrupted")
+
+
+@dataclass
+class InjectedFailure:
+    """Make the ``nth`` execution of ``action`` (by ``agent``, any if None) fail half way."""
+
+    action: str
+    nth: int = 1
+    agent: str | None = None
+    reason: str = "injected failure"
+    status: str = "failed"  # or timed_out
+
+
+@dataclass
+class RunResult:
+    """The end of one cooperation: outcome, reason, the whole log and its summary."""
+
+    outcome: str
+    reason: str | None
+    events: list[dict[str, Any]]
+    summary: dict[str, Any]
+
+    def save_log(self, path: str | Path) -> None:
+        """Write the whole log at once, atomically (the CLI streams it instead, event by event,
+        with :class:`flexhrc.files.EventLogWriter` as an observer)."""
+        from flexhrc.files import atomic_write_text
+
+        atomic_write_text(path, "".join(json.dumps(ev) + "\n" for ev in self.events))
+
+
+class FailureInjection:
+    """An execution model that fails the N-th execution of an action, as told (the counts are
+    over every arm that shares this object, in the order the cell dispatches)."""
+
+    def __init__(self, inner: ExecutionModel, failures: Sequence[InjectedFailure]) -> None:
+        self.inner = inner
+        self.failures = list(failures)
+        self.counts: dict[int, int] = {}
+
+    def execute(
+        self,
+        action: GroundAction,
+        positions: dict[str, Any],
+        kb: KnowledgeBase,
+        domain: Domain,
+    ) -> StepReport:
+        report = self.inner.execute(action, positions, kb, domain)
+        for i, f in enumerate(self.failures):
+            if f.action == action.name and (f.agent is None or f.agent in action.agents):
+                n = self.counts.get(i, 0) + 1
+                self.counts[i] = n
+                if n == f.nth:
+                    report = StepReport(f.status, report.duration_s / 2, f.reason)
+        return report
+
+    def unfired(self) -> list[InjectedFailure]:
+        return [f for i, f in enumerate(self.failures) if self.counts.get(i, 0) < f.nth]
+
+
+class LocalCell:
+    """One cooperation of ``scenario`` in this process (see the module docstring).
+
+    ``scenario`` is anything the cell takes (``graph()``, ``domain()``, ``knowledge()``,
+    ``make_simulator(choice)``, ``name``). ``humans`` are (operator, profile) pairs — by
+    default every human agent with ``profile``; ``human_takes`` scripts the first operator
+    (the K-th cooperation steps, 1-based). ``simulator`` is the manager's branch simulator;
+    ``execution`` the simulated real world (by default the simulator, when it can execute).
+    """
+
+    def __init__(
+        self,
+        scenario: Any,
+        *,
+        simulator: Any = None,
+        execution: ExecutionModel | None = None,
+        profile: str = "passive",
+        humans: Iterable[tuple[str, str]] | None = None,
+        seed: int = 0,
+        failures: Iterable[InjectedFailure] = (),
+        human_takes: Iterable[int | str] | None = None,
+        reaction: str = "conflicts",
+        observers: Iterable[Observer] = (),
+        realtime: float = 0.0,
+        max_time_s: float = 3600.0,
+        timeout_factor: float = 3.0,
+    ) -> None:
+        domain = scenario.domain()
+        if simulator is None:
+            simulator = scenario.make_simulator("auto")
+        if execution is None:  # the simulator plays the real world too, when it can
+            execution = simulator if hasattr(simulator, "execute") else AnalyticSimulator()
+        pairs = (
+            list(humans)
+            if humans is not None
+            else [(a.name, profile) for a in domain.agents.values() if a.is_human]
+        )
+        for name, prof in pairs:
+            if prof not in PROFILES:
+                raise FlexhrcError(
+                    f"unknown human profile {prof!r}; choose one of {', '.join(PROFILES)}"
+                )
+            if name not in domain.agents or not domain.agent(name).is_human:
+                raise FlexhrcError(f"operator {name!r} is not a human agent of the domain")
+        self.scenario = scenario
+        self.simulator_name = simulator_name(simulator)
+        self.profiles = pairs
+        self.injection = FailureInjection(execution, list(failures))
+        self.events: list[dict[str, Any]] = []
+        self.bus = InProcessBus()
+        self.cell = Cell(
+            scenario,
+            self.bus,
+            liveliness=False,
+            simulator=simulator,
+            seed=seed,
+            reaction=reaction,
+            realtime=realtime,
+            ordered=True,
+            observers=[self.events.append, *observers],
+            max_time_s=max_time_s,
+            idle_s=0.0,  # every agent is in this process: nothing can come later
+            publish_state=False,
+            quiescent=self._quiescent,
+        )
+        arm_model: ExecutionModel = self.injection
+        self.agents: list[RobotAgent | HumanAgent] = [
+            RobotAgent(
+                a.name, scenario, self.bus, execution=arm_model, timeout_factor=timeout_factor
+            )
+            for a in domain.agents.values()
+            if not a.is_human
+        ]
+        takes = list(human_takes) if human_takes is not None else None
+        for i, (name, prof) in enumerate(pairs):
+            self.agents.append(
+                HumanAgent(
+                    name,
+                    scenario,
+                    self.bus,
+                    profile=prof,
+                    seed=seed * 1009 + i,
+                    execution=execution,
+                    takes=takes if i == 0 else None,
+                )
+            )
+        self.bus.flush()  # the operators' profiles reach the cell before it starts
+
+    def _quiescent(self) -> bool:
+        return not self.bus.pending() and all(a.next_due() is None for a in self.agents)
+
+    def _pump(self, timeout: float) -> None:
+        """Deliver what is on the bus and let every agent act (paced agents: wait for the
+        next one due, at most ``timeout``)."""
+        if not self.bus.pending():
+            due = [d for a in self.agents if (d := a.next_due()) is not None]
+            if due:
+                time.sleep(max(0.0, min(timeout, min(due) - time.monotonic())))
+        self.bus.flush()
+        for agent in self.agents:
+            agent.poll()
+
+    def request_stop(self, reason: str = "interrupted") -> None:
+        """End the run at the next turn of the loop with the outcome ``interrupted``."""
+        self.cell.request_stop(reason)
+
+    def run(self) -> RunResult:
+        """Run the cooperation to its end."""
+        try:
+            summary = self.cell.run(pump=self._pump)
+        finally:
+            self.close()
+        # and how the arms' world played each one (the same object unless told otherwise)
+        summary["simulated"] = {
+            **summary.get("simulated", {}),
+            **(getattr(self.injection.inner, "simulated", None) or {}),
+        }
+        return RunResult(self.cell.tm.outcome, self.cell.tm.reason, self.events, summary)
+
+    def close(self) -> None:
+        for agent in self.agents:
+            agent.close()
+        self.cell.close()
+
+    # -- what the command line reports -------------------------------------------------------
+    def operator_profiles(self) -> list[tuple[str, str]]:
+        """(operator, profile) of this run."""
+        return list(self.profiles)
+
+    def unfired_failures(self) -> list[InjectedFailure]:
+        """Injected failures whose N-th execution never came (e.g. ``transport:99``)."""
+        return self.injection.unfired()
+
+    def executions_of(self, action: str) -> int:
+        """How many times robot commands of ``action`` were started in this run."""
+        return sum(
+            1
+            for ev in self.events
+            if ev["type"] == "action_start" and ev["action"].split("(", 1)[0] == action
+        )
