@@ -35,11 +35,11 @@ def run_table(profile="passive", seed=0, *, kinematic=False, watch=False, shippe
     if not kinematic:
         kw.setdefault("simulator", AnalyticSimulator())
     if shipped:
-        from flexhrc.scenario import load, prepare
+        from flexhrc.scenario import load
 
-        base = prepare(load("table_assembly"), profile=profile, seed=seed)
-        graph, domain, truth = base.graph, base.domain, base.kb
-        kw.setdefault("humans", base.operator_profiles())
+        sc = load("table_assembly")
+        graph, domain, truth = sc.online_graph(), sc.domain, sc.world()
+        kw.setdefault("humans", [(h.name, profile) for h in sc.humans])
     else:
         sc, truth = table(seed)
         graph, domain = OnlineGraph(sc.graph()), sc.domain()

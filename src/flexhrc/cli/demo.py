@@ -682,15 +682,11 @@ def _perceived(
             f"--perception scene needs the sim and perception extras ({exc.name} is missing): "
             "pip install 'flexhrc[sim,perception]'"
         ) from None
-    if run_kw.get("human_takes"):
-        raise FlexhrcError(
-            "--human-takes is not available with --perception scene: the operators of the "
-            "cell decide by their --human profile"
-        )
     if not args.quiet:
         progress("perception: head camera, scene pipeline, anchoring ...")
     # the cell configured with perception in the loop: no simulated-time budget of its own
-    kw = {k: v for k, v in run_kw.items() if k not in ("human_takes", "max_time_s")}
+    kw = {k: v for k, v in run_kw.items() if k != "max_time_s"}
+    kw.setdefault("name", "table_assembly")  # `demo table`: the scenario the table's logs name
     return perceived_run(graph, domain, truth, repair=args.repair, **kw)
 
 
@@ -709,6 +705,7 @@ def _perceived_like(args: argparse.Namespace, run: Any) -> Any:
             human_takes=args.human_takes,
             humans=run.operator_profiles(),
             reaction=cell.tm.reaction,
+            name=str(run.scenario.name),
         )
         return _perceived(args, cell.graph, cell.domain, cell.kb, run_kw)
     run_kw = dict(
@@ -725,8 +722,16 @@ def _perceived_like(args: argparse.Namespace, run: Any) -> Any:
         sink=run.sink,
         humans=run.operator_profiles(),
         reaction=run.tm.reaction,
+        name=_scenario_name(args),
     )
     return _perceived(args, run.graph, run.domain, run.kb, run_kw)
+
+
+def _scenario_name(args: argparse.Namespace) -> str:
+    """The name of the scenario ``run`` was given (what its log's ``start`` names)."""
+    from flexhrc import scenario as scenario_mod
+
+    return str(scenario_mod.load(scenario_mod.resolve(args.scenario)).name)
 
 
 def _with_sensing(data: dict[str, Any], events: list[dict[str, Any]], args: Any) -> dict[str, Any]:

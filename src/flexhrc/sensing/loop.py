@@ -313,6 +313,7 @@ class PerceivedCell:
         human_profile: str = "passive",
         humans: Iterable[tuple[str, str]] | None = None,
         seed: int = 0,
+        human_takes: Iterable[int | str] | None = None,
         human_sensing: Any = None,
         nudges: Iterable[Nudge] = (),
         false_reports: Iterable[FalseReport] = (),
@@ -326,7 +327,7 @@ class PerceivedCell:
         reaction: str = "conflicts",
         timeout_factor: float = 3.0,
         max_wall_s: float = 3600.0,
-        name: str = "table",
+        name: str = "perceived",
     ) -> None:
         from flexhrc.cell import Cell
         from flexhrc.sensing.agent import PerceptionAgent
@@ -398,6 +399,7 @@ class PerceivedCell:
                 raise FlexhrcError(f"operator {who!r} is not a human agent of the domain")
             h = HumanAgent(
                 who, scenario, self.bus, profile=prof, seed=seed * 1009 + i,
+                takes=list(human_takes) if human_takes is not None and i == 0 else None,
                 execution=_ReportedHand(self.execution, world.hand),
                 on_executed=self.truth.on_executed, sensing=human_sensing,
             )  # fmt: skip
@@ -411,6 +413,7 @@ class PerceivedCell:
         )  # fmt: skip
         self.perception = self.eye.perception
         self.false = _FalseReporter(self.truth, self.bus, domain, false_reports)
+        self.bus.flush()  # the operators' profiles reach the cell before it starts
         self.repair = _Repair(self.bus, confirm_s) if repair else None
 
     # -- running ----------------------------------------------------------------------------
@@ -434,7 +437,6 @@ class PerceivedCell:
         finally:
             self.close()
         events = self.events()
-        summary.pop("scenario", None)  # the caller names it
         summary["simulated"] = {
             **summary.get("simulated", {}),
             **(getattr(self.injection.inner, "simulated", None) or {}),
