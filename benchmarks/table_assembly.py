@@ -29,9 +29,11 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))
 
+from flexhrc.cell.local import LocalCell
 from flexhrc.representation import OnlineGraph
+from flexhrc.scenario import CellScenario
 from flexhrc.scenarios.table_assembly import TableScenario
-from flexhrc.taskmanager import PROFILES, AnalyticSimulator, CooperationRun
+from flexhrc.taskmanager import PROFILES, AnalyticSimulator
 
 PAPER = {"task_manager_s": 0.01, "task_representation_s": 0.57, "simulator_s": 4.15}
 TARGET_S = 0.050
@@ -58,11 +60,9 @@ def main() -> int:
         rows = []
         for seed in range(args.runs):
             sc = TableScenario(legs=args.legs, seed=seed)
-            run = CooperationRun(
-                OnlineGraph(sc.graph()),
-                sc.domain(),
-                sc.knowledge(),
-                human_profile=profile,
+            run = LocalCell(
+                CellScenario("table_assembly", sc),
+                profile=profile,
                 seed=seed,
                 simulator=AnalyticSimulator(),
             )

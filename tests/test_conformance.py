@@ -300,9 +300,22 @@ ROS2_ONE_STEP = (
     "(table_assembly, seed 0: total 67.472014 s instead of 67.452014 s; same hyper-arcs, agents "
     "and by_agent). Not the other arm's published joint state (ignoring it changes nothing)"
 )
+MANAGER_AT_REST = (
+    "engine: over agent processes the manager's kinematic model of the robot never sees the "
+    "arms move (the arms' world is in their processes; acks carry end-effector positions, not "
+    "joint states), so it scores each branch from the robot at rest, while in one process "
+    "(`run`, in-process `cell`) it plans from where the arms are (the simulator and the arms' "
+    "world are one object): kitchen_drawer seed 0 makes 56.48 s instead of 56.22 s, gearbox "
+    "23.09 s instead of 23.93 s. Fix: the arms' acks carry their joint states into the "
+    "knowledge base and the kinematic model starts from them"
+)
 KNOWN: dict[tuple[str, str], str] = {
     ("table_assembly", "zenoh-kinematic"): FOLLOWER_WORLD,
     ("table_assembly", "ros2"): ROS2_ONE_STEP,
+    ("kitchen_drawer", "zenoh-kinematic"): MANAGER_AT_REST,
+    ("kitchen_drawer", "ros2"): MANAGER_AT_REST,
+    ("examples/gearbox", "zenoh-kinematic"): MANAGER_AT_REST,
+    ("examples/gearbox", "ros2"): MANAGER_AT_REST,
 }
 
 

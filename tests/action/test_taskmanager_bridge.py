@@ -9,23 +9,17 @@ import pytest
 pytest.importorskip("pinocchio")
 
 from flexhrc.action import KinematicTaskSimulator
+from flexhrc.cell.local import LocalCell
 from flexhrc.representation import OnlineGraph
+from flexhrc.scenario import CellScenario
 from flexhrc.scenarios.table_assembly import TableScenario
-from flexhrc.taskmanager import CooperationRun
 
 from ..taskmanager.helpers import LAYOUT, check_invariants, first, solved
 
 
 def run(scenario: TableScenario, kin: KinematicTaskSimulator | None = None, **kw):
     kin = kin or KinematicTaskSimulator()
-    r = CooperationRun(
-        OnlineGraph(scenario.graph()),
-        scenario.domain(),
-        scenario.knowledge(),
-        simulator=kin,
-        execution=kin,
-        **kw,
-    )
+    r = LocalCell(CellScenario("table_assembly", scenario), simulator=kin, execution=kin, **kw)
     return r.run()
 
 

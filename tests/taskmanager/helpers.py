@@ -7,9 +7,10 @@ import re
 from collections import defaultdict
 from typing import Any
 
-from flexhrc.representation import OnlineGraph
+from flexhrc.cell.local import LocalCell, RunResult
+from flexhrc.scenario import CellScenario
 from flexhrc.scenarios.table_assembly import TableScenario
-from flexhrc.taskmanager import AnalyticSimulator, CooperationRun, RunResult
+from flexhrc.taskmanager import AnalyticSimulator
 
 # legs on both sides of the tabletop, two per side
 LAYOUT = [(0.35, 0.30, 0.0), (0.50, 0.32, 0.0), (0.35, -0.30, 0.0), (0.50, -0.32, 0.0)]
@@ -20,9 +21,7 @@ def run_table(
 ):
     sc = TableScenario(seed=seed, leg_positions=layout, **scenario_kw)
     kw = {"simulator": AnalyticSimulator(), **(run_kw or {})}  # fast; the kinematic one is tested
-    run = CooperationRun(
-        OnlineGraph(sc.graph()), sc.domain(), sc.knowledge(), human_profile=profile, seed=seed, **kw
-    )
+    run = LocalCell(CellScenario("table_assembly", sc), profile=profile, seed=seed, **kw)
     return run.run(), run
 
 

@@ -549,16 +549,25 @@ class Cell:
                 }
             ]
         if ev.kind == "human_action":
-            return [
+            sensed = b.get("sensed")
+            done = str(sensed.get("action", b["action"])) if sensed else b["action"]
+            out = [
                 {
                     "t": t,
                     "type": "action_end",
                     "agents": [b.get("agent")],
-                    "action": b["action"],
+                    "action": done,  # what the person did (the sensor may say otherwise)
                     "status": "done",
                     "start": round(min(float(b.get("start", ev.t)), ev.t), 6),
                 }
             ]
+            if sensed:  # what the wrist sensor made of it
+                body = {k: v for k, v in sensed.items() if k not in ("t", "outcome")}
+                out.append({"t": t, "type": "human_sensed", **body})
+                if sensed.get("outcome") in ("missed", "uncovered"):
+                    kind = f"human_sensing_{sensed['outcome']}"
+                    out.append({"t": t, "type": kind, "action": sensed["action"]})
+            return out
         if ev.kind == "suggestion":
             return [
                 {

@@ -227,6 +227,9 @@ def cmd_cell(args: argparse.Namespace) -> int:
 
             transport = InProcessBus()
         internal = args.agents == "internal"
+        # in one process the manager's model of the robot and the arms' simulated world are one
+        # object, as in `flexhrc run`: the manager plans from where the arms really are
+        simulator = branch_simulator(args.simulator, scenario)
         cell = Cell(
             scenario,
             transport,
@@ -235,7 +238,7 @@ def cmd_cell(args: argparse.Namespace) -> int:
             realtime=args.realtime,
             ordered=True if internal else None,
             agent_speed=0.0 if internal else args.realtime,
-            simulator=branch_simulator(args.simulator, scenario),
+            simulator=simulator,
             liveliness=args.transport == "zenoh",
             name=args.cell,
             trace=trace,
@@ -246,7 +249,7 @@ def cmd_cell(args: argparse.Namespace) -> int:
             humans = [a.name for a in scenario.domain().agents.values() if a.is_human]
             # the arms of one process share one simulated world, as in `flexhrc run`: what the
             # follower of a joint command did, and where the other arm is, are in it
-            world = execution_model(args.simulator, scenario)
+            world = simulator
             for a in scenario.domain().agents.values():
                 if a.is_human:
                     human_model = execution_model("analytic", scenario)
