@@ -262,3 +262,82 @@ def test_percepts_are_inputs_stored_and_checked() -> None:
     assert "box9" in cell.kb.objects
     assert data["cell"]["dropped"] == 2
     assert any("duplicate percept" in d for d in cell.dropped)
+
+
+class TokenBus(InProcessBus):
+    """The in-process bus with liveliness tokens, delivered in order with the messages — and
+    it loses the first ``operator`` message, as Zenoh drops a publication its session knows no
+    subscriber for yet while the token that follows it arrives."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.tokens: set[str] = set()
+        self.lost: list[Any] = []
+        self._watches = 0
+
+    def publish(self, topic: str, payload: Any) -> None:
+        if isinstance(payload, dict) and payload.get("type") == "operator" and not self.lost:
+            self.lost.append(payload)
+            return
+        super().publish(topic, payload)
+
+    def declare_token(self, key: str) -> Any:
+        from types import SimpleNamespace
+
+        def undeclare() -> None:
+            self.tokens.discard(key)
+            InProcessBus.publish(self, "liveliness", (key, False))
+
+        self.tokens.add(key)
+        InProcessBus.publish(self, "liveliness", (key, True))
+        return SimpleNamespace(undeclare=undeclare)
+
+    def watch_liveliness(self, pattern: str, callback: Any, *, history: bool = True) -> Any:
+        from fnmatch import fnmatchcase
+
+        def relay(event: tuple[str, bool]) -> None:
+            if fnmatchcase(event[0], pattern):
+                callback(*event)
+
+        self._watches += 1
+        past = f"liveliness/history/{self._watches}"  # the tokens already there: to it alone
+        self.subscribe(past, relay)
+        for key in sorted(self.tokens) if history else ():
+            InProcessBus.publish(self, past, (key, True))
+        return self.subscribe("liveliness", relay)
+
+    def wait(self, timeout: float) -> None:
+        """Nothing arrives from elsewhere: the next flush delivers what is queued."""
+
+
+@pytest.mark.parametrize("manager_first", [True, False])
+def test_a_lost_operator_announcement_never_starts_the_cell_without_the_profile(
+    manager_first: bool,
+) -> None:
+    """The operator's token waits for the manager's acknowledgement of its profile (a
+    ``state`` that shows it): the first announcement is lost, the manager still starts with
+    it — whether the manager or the operator came up first."""
+    scenario = load_scenario("table_assembly")
+    bus = TokenBus()
+    analytic = execution_model("analytic")
+
+    def make_agents() -> list[Any]:
+        return [
+            HumanAgent(a.name, scenario, bus, profile="takeover", execution=analytic)
+            if a.is_human
+            else RobotAgent(a.name, scenario, bus, execution=analytic)
+            for a in scenario.domain().agents.values()
+        ]
+
+    if manager_first:
+        cell = Cell(scenario, bus, simulator=analytic)
+        agents = make_agents()
+    else:
+        agents = make_agents()
+        cell = Cell(scenario, bus, simulator=analytic)
+    data = cell.run(pump=pump_of(cell, bus, agents))
+    assert [m["agent"] for m in bus.lost] == ["human"]  # the first announcement never arrived
+    assert cell.events[0].kind == "start"
+    assert cell.events[0].body["operators"] == {"human": "takeover"}
+    assert data["outcome"] == "solved"
+    assert sum(e.kind == "human_decides" for e in cell.events) == 4  # it took over the legs
