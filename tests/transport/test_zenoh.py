@@ -29,15 +29,16 @@ from flexhrc.transport.zenoh import (
 
 from ..conftest import subprocess_env
 
-# A peer process: connects to the port given, declares a liveliness token and echoes "t/ping"
-# to "t/pong" (adding its pid), until killed.
+# A peer process: connects to the port given, echoes "t/ping" to "t/pong" (adding its pid) and
+# declares a liveliness token — after its subscription, so whoever sees the token can reach it
+# (Zenoh keeps one session's declarations in order) — until killed.
 ECHO = textwrap.dedent(
     """
     import os, sys
     from flexhrc.transport.zenoh import ZenohTransport, loopback_config
     bus = ZenohTransport(loopback_config(connect=int(sys.argv[1])), prefix="test")
-    bus.declare_token("alive/echo")
     bus.subscribe("t/ping", lambda p: bus.publish("t/pong", {"pid": os.getpid(), "n": p["n"]}))
+    bus.declare_token("alive/echo")
     print("ready", flush=True)
     while True:
         bus.wait(0.5)
