@@ -221,17 +221,29 @@ def test_a_lost_command_is_sent_again_and_executed_once() -> None:
     assert len(executed) == len(set(executed)) == data["robot_actions"]
 
 
-def test_external_agents_that_never_come_and_a_taken_port_are_clear_errors() -> None:
+def test_external_agents_that_never_come_and_a_taken_port_are_clear_errors(
+    tmp_path: Path,
+) -> None:
     pytest.importorskip("zenoh")
-    from flexhrc.transport.zenoh import ZenohTransport, free_tcp_port, loopback_config
+    from flexhrc.transport.zenoh import ZenohTransport, zenoh_config
 
-    port = free_tcp_port()
-    args = ["cell", "table_assembly", "--transport", "zenoh", "--listen", f"tcp/127.0.0.1:{port}"]
-    res = run_cli(*args, "--agents", "external", "--wait", "1")
+    args = ["cell", "table_assembly", "--transport", "zenoh", "--listen"]
+    ready = tmp_path / "cell.ready"
+    res = run_cli(
+        *args, "tcp/127.0.0.1:0", "--agents", "external", "--wait", "1", "--ready-file", str(ready)
+    )
     assert res.returncode == 2 and "no agent process for human, left, right" in res.stderr
     assert "flexhrc agent robot|human" in res.stderr and "Traceback" not in res.stderr
-    with ZenohTransport(loopback_config(port)):
-        res = run_cli(*args)
+    # the port the system gave it, in the ready file and on stderr
+    got = json.loads(ready.read_text())
+    assert got["cell"] == "default" and len(got["listen"]) == 1
+    assert int(got["listen"][0].rsplit(":", 1)[1]) > 0
+    assert f"listening on {got['listen'][0]}" in res.stderr
+    bad = run_cli(*args, "tcp/127.0.0.1:0", "--ready-file", str(tmp_path / "no" / "r.json"))
+    assert bad.returncode == 2 and "--ready-file" in bad.stderr and "Traceback" not in bad.stderr
+    with ZenohTransport(zenoh_config(listen=["tcp/127.0.0.1:0"])) as holder:
+        taken = holder.locators()[0]  # bound by this process for the whole call
+        res = run_cli(*args, taken)
     assert res.returncode == 2 and "cannot open a Zenoh session" in res.stderr
     assert "Traceback" not in res.stderr
 
