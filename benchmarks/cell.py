@@ -279,7 +279,7 @@ def big_cell() -> dict[str, Any]:
             "acks": len(acks),
             "suggested_steps": suggested_steps,
             "human_actions": human_reports,
-            "legs_by_agent": data["legs_by_agent"],
+            "by_agent": data["by_agent"],  # legs_by_agent is the table's only
             "dropped": data["cell"]["dropped"] + sum(r["dropped"] for r in reports),
             "lost": lost,
             "wall_s": round(wall, 2),
