@@ -216,6 +216,7 @@ def cmd_cell(args: argparse.Namespace) -> int:
     from flexhrc.cell import Cell, EventStore, HumanAgent, RobotAgent
     from flexhrc.cell.components import execution_model
     from flexhrc.scenario import load_scenario
+    from flexhrc.taskmanager.operator import operator_seed
 
     if not (math.isfinite(args.realtime) and args.realtime >= 0):
         raise FlexhrcError(f"--realtime must be a finite number >= 0, got {args.realtime}")
@@ -274,6 +275,10 @@ def cmd_cell(args: argparse.Namespace) -> int:
         )
         agents: list[Any] = []
         if internal:
+            humans = [a.name for a in scenario.domain().agents.values() if a.is_human]
+            # the arms of one process share one simulated world, as in `flexhrc run`: what the
+            # follower of a joint command did, and where the other arm is, are in it
+            world = execution_model(args.simulator, scenario)
             for a in scenario.domain().agents.values():
                 if a.is_human:
                     human_model = execution_model("analytic", scenario)
@@ -282,13 +287,13 @@ def cmd_cell(args: argparse.Namespace) -> int:
                         scenario,
                         transport,
                         profile=args.human,
-                        seed=args.seed,
+                        # seeded as `flexhrc run` seeds its operators: one seed, one cooperation
+                        seed=operator_seed(args.seed, humans.index(a.name)),
                         execution=human_model,
                     )
                     agents.append(operator)
                 else:
-                    model = execution_model(args.simulator, scenario)
-                    agents.append(RobotAgent(a.name, scenario, transport, execution=model))
+                    agents.append(RobotAgent(a.name, scenario, transport, execution=world))
             if args.transport == "inprocess":
                 for st in cell.agents.values():
                     st.alive = st.seen = True
