@@ -186,15 +186,14 @@ def _cell(what: str, seed: int, simulator: str | None, tmp: Path) -> dict[str, A
 
 def _zenoh(what: str, seed: int, simulator: str | None, tmp: Path) -> dict[str, Any]:
     pytest.importorskip("zenoh")
-    from flexhrc.transport.zenoh import free_tcp_port
-
-    from .cell.helpers import cell, human, kill_all, robot
+    from .cell.helpers import human, kill_all, robot, start_cell
 
     arms, operators = _agents(what)
-    port = free_tcp_port()
     s = ["--seed", str(seed)]
     sim = _options(seed, simulator)  # the manager's branches and the arms' world
-    procs = [cell(what, port, tmp / "cell.db", *sim, log=tmp / "cell.err")]
+    # the cell binds a port the system picks and reports it before the agents start
+    manager, port = start_cell(what, tmp / "cell.db", *sim, log=tmp / "cell.err")
+    procs = [manager]
     try:
         procs += [robot(what, arm, port, tmp / f"{arm}.err", *sim) for arm in arms]
         procs += [human(what, name, port, tmp / f"{name}.err", *s) for name in operators]

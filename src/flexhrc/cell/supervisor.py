@@ -433,14 +433,17 @@ class Cell:
         if msg["type"] == "operator":
             scripted = bool(msg.get("scripted", False))
             if self.operators.get(agent) == msg["profile"] and (agent in self.scripted) == scripted:
-                return
-            if not self.started:  # goes into the stored start
+                pass
+            elif not self.started:  # goes into the stored start
                 self.operators[agent] = str(msg["profile"])
                 if scripted:
                     self.scripted.add(agent)
             else:
                 body = {"agent": agent, "profile": msg["profile"]}
                 self._input("operator", {**body, "scripted": True} if scripted else body)
+            # the acknowledgement: the operator declares its liveliness token only once a
+            # ``state`` shows its profile, so the start never misses a profile announced
+            self._publish_state(force=True)
             return
         if msg["id"] in self.intent_ids or any(
             k == "intent" and b["id"] == msg["id"] for *_, k, b in self.pending
@@ -1029,8 +1032,8 @@ class Cell:
                 self.resent += 1
                 self._send_options(human, oid)
 
-    def _publish_state(self) -> None:
-        if not self.publish_state:
+    def _publish_state(self, *, force: bool = False) -> None:
+        if not (self.publish_state or force):
             return
         self._state_seq += 1
         try:
