@@ -9,7 +9,7 @@ its controller.
 * :class:`RobotAgent` executes a :class:`~flexhrc.taskmanager.manager.Command` with the
   execution model — the scenario's simulator (the kinematic one for the older table files when
   the ``sim`` extra is installed), the same object that plays the real world in
-  :class:`~flexhrc.taskmanager.runner.CooperationRun` — and answers with an ``ack`` carrying
+  :class:`~flexhrc.cell.local.LocalCell` — and answers with an ``ack`` carrying
   where things are afterwards. **It never executes one command id twice**: a repeated id (the
   manager resumed after a crash) gets the stored ack again, or nothing while it is running; with
   a ``journal`` this holds across restarts of the agent's process too.

@@ -160,7 +160,7 @@ class Cell:
         self.suggestions: dict[str, dict[str, Any]] = {}
         self.active_suggestion: dict[str, str] = {}
         # suggestion id -> (the step to do next, when it starts): the operator gets one step at
-        # a time, in the world as it is when that step starts (as CooperationRun's operators)
+        # a time, in the world as it is when that step starts
         self.suggestion_step: dict[str, tuple[int, float]] = {}
         self._sent_step: dict[str, int] = {}
         self._down_reason: dict[str, str] = {}
@@ -345,7 +345,7 @@ class Cell:
             self._drop(f"ack for command {cid} from {msg['agent']}, not {'+'.join(cmd.agents)}")
         elif cid in self.stopped:
             # the arm finished before it heard the stop: in the cell's time the stop came
-            # first, so that end never happened (as in CooperationRun)
+            # first, so that end never happened
             log.info("ack for command %d, which was stopped: ignored", cid)
         elif self.tm.busy.get(msg["agent"]) is not cmd:
             self._drop(f"ack for command {cid}, which is no longer running")
@@ -863,7 +863,7 @@ class Cell:
                     self._record("command", body)
                     self.stored_commands.add(d.id)
                 # a joint command goes to its first agent, which drives all of them (as one
-                # execution model does in CooperationRun); the others are busy with it
+                # execution model does); the others are busy with it
                 self._send_command(d.agents[0], d)
             elif isinstance(d, Suggest):
                 sid = f"s{len(self.suggestions) + 1}"
@@ -1090,7 +1090,7 @@ class Cell:
                 if done > 0:
                     del self.active_suggestion[human]  # it advanced nothing the manager knows
                 continue
-            # the manager's grounding of the rest of the hyper-arc, as CooperationRun follows it
+            # the manager's grounding of the rest of the hyper-arc, as the operator follows it
             rest = [str(a) for a in ex.branch.steps[ex.next_index :]]
             if rest == msg["actions"][done:]:
                 continue
