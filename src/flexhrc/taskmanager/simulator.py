@@ -68,8 +68,8 @@ class StepReport:
 
 class ExecutionModel(Protocol):
     """The simulated "real" world an agent acts in (a simulated arm or operator agent of the
-    cell, :mod:`flexhrc.cell.components`). ``positions`` holds where objects and end effectors are; the model updates
-    it with the physical outcome of the action."""
+    cell, :mod:`flexhrc.cell.components`). ``positions`` holds where objects and end effectors
+    are; the model updates it with the physical outcome of the action."""
 
     def execute(
         self,
