@@ -52,7 +52,7 @@ from __future__ import annotations
 import copy
 import itertools
 import time
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -718,16 +718,8 @@ class TaskManager:
             available = list(robots_idle) + [h for h in self._humans() if h not in busy_humans]
             reserved = set().union(*(ex.objects for ex in self.executions.values()))
             constraints = self._constraints(name)
-            tree = DecisionTree.build(
-                name,
-                actions,
-                constraints,
-                self.domain,
-                self.kb,
-                exclude=self.failed.get(name, ()),
-                available_agents=available,
-                reserved=reserved,
-                binding=self._child_binding(name),
+            tree = self._tree(
+                name, actions, constraints, available_agents=available, reserved=reserved
             )
             if not tree.branches:
                 # no branch with the agents free now: maybe later (an agent is busy)
@@ -827,17 +819,13 @@ class TaskManager:
         if not busy:
             return False
         robots = [*self.idle_robots, *busy]
-        tree = DecisionTree.build(
+        tree = self._tree(
             name,
             actions,
             constraints,
-            self.domain,
-            self.kb,
-            exclude=self.failed.get(name, ()),
             available_agents=robots,
             reserved=reserved,
             check_pre=False,  # checked below, after what the busy arm still has to do
-            binding=self._child_binding(name),
         )
         for b in tree.branches:
             # from where the arm will be: after the rest of what it is doing now
@@ -877,17 +865,27 @@ class TaskManager:
         # an agent that left the cell may come back (cell: its process is restarted)
         if not (self.busy or reserved or self.executions or self.unavailable):
             return False
-        tree = DecisionTree.build(
+        tree = self._tree(
+            name, actions, constraints, check_pre=False
+        )  # a precondition may come true when the others are done
+        return bool(tree.branches)
+
+    def _tree(
+        self, name: str, actions: Sequence[str], constraints: list[Literal], **kw: Any
+    ) -> DecisionTree:
+        """The decision tree of hyper-arc ``name`` (groundings x agents, section V-A) in the
+        knowledge base as it is, without the groundings that failed before and with the
+        grounding its children carry."""
+        return DecisionTree.build(
             name,
             actions,
             constraints,
             self.domain,
             self.kb,
             exclude=self.failed.get(name, ()),
-            check_pre=False,  # a precondition may come true when the others are done
             binding=self._child_binding(name),
+            **kw,
         )
-        return bool(tree.branches)
 
     def _launch(self, name: str, branch: Branch, cost: float, out: list[Directive]) -> None:
         human = any(self.domain.agent(a).is_human for a in branch.agents)
