@@ -129,7 +129,7 @@ def test_a_broken_field_is_one_line_naming_the_type_and_the_field(record, expect
 
 def test_the_vocabularies_are_the_strings_on_disk() -> None:
     from flexhrc.scenario import model
-    from flexhrc.scenarios import simulators
+    from flexhrc.scenario.builtin import simulators
     from flexhrc.taskmanager import operator, runner
 
     assert events.PROFILES == ("passive", "takeover", "cooperative", "random")
@@ -221,7 +221,7 @@ def test_every_record_message_and_stored_kind_of_a_cell_is_catalogued(name, tmp_
         trace=traced.append,
     )  # fmt: skip
     agents: list[Any] = []
-    for a in sc.domain().agents.values():
+    for a in sc.domain.agents.values():
         model = execution_model("analytic")
         if a.is_human:  # an operator that acts on its own: options, intent, operator messages
             agents.append(HumanAgent(a.name, sc, bus, profile="takeover", execution=model))

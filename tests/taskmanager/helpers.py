@@ -7,8 +7,7 @@ import re
 from collections import defaultdict
 from typing import Any
 
-from flexhrc.representation import OnlineGraph
-from flexhrc.scenarios.table_assembly import TableScenario
+from flexhrc.scenario.builtin.table import table_assembly
 from flexhrc.taskmanager import AnalyticSimulator, CooperationRun, RunResult
 
 # legs on both sides of the tabletop, two per side
@@ -18,10 +17,10 @@ LAYOUT = [(0.35, 0.30, 0.0), (0.50, 0.32, 0.0), (0.35, -0.30, 0.0), (0.50, -0.32
 def run_table(
     profile: str = "passive", *, seed: int = 0, layout=LAYOUT, run_kw=None, **scenario_kw
 ):
-    sc = TableScenario(seed=seed, leg_positions=layout, **scenario_kw)
+    sc = table_assembly(segments="legs", seed=seed, leg_positions=layout, **scenario_kw)
     kw = {"simulator": AnalyticSimulator(), **(run_kw or {})}  # fast; the kinematic one is tested
     run = CooperationRun(
-        OnlineGraph(sc.graph()), sc.domain(), sc.knowledge(), human_profile=profile, seed=seed, **kw
+        sc.online_graph(), sc.domain, sc.world(), human_profile=profile, seed=seed, **kw
     )
     return run.run(), run
 

@@ -364,16 +364,15 @@ def test_a_second_run_on_a_locked_log_is_refused_at_once(tmp_path, capsys):  # A
 
 def test_the_log_is_written_event_by_event(tmp_path):
     """The run's sink sees every event before the run ends (what the CLI streams to --log)."""
-    from flexhrc.representation import OnlineGraph
-    from flexhrc.scenarios.table_assembly import TableScenario
+    from flexhrc.scenario.builtin.table import table_assembly
     from flexhrc.taskmanager import AnalyticSimulator, CooperationRun
 
-    sc = TableScenario(legs=2)
+    sc = table_assembly(segments="legs", legs=2)
     seen: list[dict] = []
     run = CooperationRun(
-        OnlineGraph(sc.graph()),
-        sc.domain(),
-        sc.knowledge(),
+        sc.online_graph(),
+        sc.domain,
+        sc.world(),
         simulator=AnalyticSimulator(),
         sink=seen.append,
     )
@@ -387,14 +386,11 @@ def test_the_log_is_written_event_by_event(tmp_path):
 
 
 def test_request_stop_ends_the_run_as_interrupted():
-    from flexhrc.representation import OnlineGraph
-    from flexhrc.scenarios.table_assembly import TableScenario
+    from flexhrc.scenario.builtin.table import table_assembly
     from flexhrc.taskmanager import AnalyticSimulator, CooperationRun
 
-    sc = TableScenario(legs=4)
-    run = CooperationRun(
-        OnlineGraph(sc.graph()), sc.domain(), sc.knowledge(), simulator=AnalyticSimulator()
-    )
+    sc = table_assembly(segments="legs", legs=4)
+    run = CooperationRun(sc.online_graph(), sc.domain, sc.world(), simulator=AnalyticSimulator())
 
     def trace(ev):
         if ev["type"] == "action_end":

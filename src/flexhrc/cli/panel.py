@@ -11,7 +11,7 @@ import sys
 import time
 from typing import Any
 
-from flexhrc.cli.common import add_json_flag, emit
+from flexhrc.cli.common import add_json_flag, add_segments_option, emit
 from flexhrc.errors import FlexhrcError
 
 
@@ -80,6 +80,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
         help="no arm reaches bolt K: the robot asks the operator (paper Fig. 12)",
     )
     p.add_argument("--seed", type=int, default=0)
+    add_segments_option(p)
     p.add_argument(
         "--speed",
         type=float,
@@ -112,6 +113,7 @@ def cmd_panel(args: argparse.Namespace) -> int:
         args.legs,
         seed=args.seed,
         unreachable_bolts=tuple(args.unreachable_bolt),
+        segments=args.segments,
         speed=args.speed,
     )
     server = start_panel(args, backend)

@@ -74,6 +74,9 @@ class Scenario:
     warnings: tuple[str, ...] = ()
     #: builds the knowledge base instead of the world section (scenarios built in code)
     world_factory: Callable[[], KnowledgeBase] | None = None
+    #: the parts of a task split in segments that this scenario holds, in task order (the
+    #: table assembly: ``tabletop``, ``legs``, ``check``); empty: the task is not split
+    segments: tuple[str, ...] = ()
 
     # -- factories ------------------------------------------------------------------------
     def world(self) -> KnowledgeBase:
@@ -114,9 +117,10 @@ class Scenario:
     def make_simulator(self, choice: str | None = None) -> Any:
         """The branch simulator (also the execution model): ``analytic`` (durations from the
         domain, distances over speeds), ``kinematic`` (task-priority control on the robot model;
-        the ``sim`` extra) or ``auto``; default: the file's ``simulator``. Chosen here, at the
-        edge, and passed down to the Task Manager."""
-        from flexhrc.scenarios.simulators import choose_simulator
+        the ``sim`` extra) or ``auto``; default (None): the scenario's ``simulator``. Chosen
+        here, at the edge, and passed down to the Task Manager (and to the cell, which asks
+        with None for the scenario's own choice)."""
+        from flexhrc.scenario.builtin.simulators import choose_simulator
 
         return choose_simulator(choice or self.simulator)[1]
 

@@ -17,7 +17,6 @@ from typing import Any
 from flexhrc.cell.local import InjectedFailure, LocalCell, RunResult
 from flexhrc.errors import FlexhrcError
 from flexhrc.scenario.model import PROFILES, Scenario
-from flexhrc.scenario.source import CellScenario
 from flexhrc.taskmanager.manager import REACTIONS
 
 
@@ -67,7 +66,7 @@ def prepare(
             max_time_s=max_time_s,
         )  # fmt: skip
     return LocalCell(
-        CellScenario(scenario.name, scenario),
+        scenario,
         simulator=sim,
         execution=execution,
         humans=pairs,

@@ -48,8 +48,8 @@ class PerceptionAgent:
         trace: Callable[[str], None] | None = None,
     ) -> None:
         self.name = name
-        self.domain = scenario.domain()
-        self.kb = scenario.knowledge()  # the symbols, anchored by this agent's own percepts
+        self.domain = scenario.domain
+        self.kb = scenario.world()  # the symbols, anchored by this agent's own percepts
         self.world, _ = SimulatedWorkspace.from_knowledge(self.kb)
         if not self.world.parts:
             raise FlexhrcError("the scenario has no part with a body for the camera to see")

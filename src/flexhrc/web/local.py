@@ -572,19 +572,26 @@ def table_assembly(
     seed: int = 0,
     unreachable_bolts: tuple[int, ...] = (),
     human: bool = True,
+    segments: str | None = "legs",
     **kwargs: Any,
 ) -> LocalCooperation:
     """The table assembly of paper 000 (VI-D) with the operator at the panel. Bolts in
-    ``unreachable_bolts`` no arm reaches: the robot asks the operator (paper Fig. 12)."""
-    from flexhrc.scenarios.table_assembly import TableScenario
+    ``unreachable_bolts`` no arm reaches: the robot asks the operator (paper Fig. 12).
+    ``segments`` as :func:`flexhrc.scenario.builtin.table_assembly` (default here: the legs
+    fix, the part this loop can play)."""
+    from flexhrc.scenario.builtin.table import table_assembly as build
 
-    scenario = TableScenario(
-        legs=legs, seed=seed, unreachable_bolts=tuple(unreachable_bolts), human=human
+    scenario = build(
+        legs,
+        seed=seed,
+        unreachable_bolts=tuple(unreachable_bolts),
+        human=human,
+        segments=segments,
     )
     return LocalCooperation(
-        OnlineGraph(scenario.graph()),
-        scenario.domain(),
-        scenario.knowledge(),
+        scenario.online_graph(),
+        scenario.domain,
+        scenario.world(),
         name="table_assembly",
         **kwargs,
     )
