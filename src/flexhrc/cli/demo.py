@@ -765,7 +765,11 @@ def cmd_run(args: argparse.Namespace) -> int:
     from flexhrc import scenario as scenario_mod
     from flexhrc.files import read_text
     from flexhrc.representation.formats.yaml_format import read_yaml
+    from flexhrc.scenario.source import NAMES
 
+    if args.scenario in NAMES and not Path(args.scenario).exists():  # as `cell`, `ros2` ...
+        sc = scenario_mod.load_scenario(args.scenario, seed=args.seed, segments=args.segments)
+        return _run_scenario(args, sc, sc.path or Path(args.scenario))
     path = scenario_mod.resolve(args.scenario)
     read_text(path)  # missing, a folder, unreadable, binary, not UTF-8: one clear error
     try:
@@ -776,10 +780,9 @@ def cmd_run(args: argparse.Namespace) -> int:
         raise FormatError("a scenario file must be a mapping", path, 1)
     if "scenario" in doc and "flexhrc" not in doc:
         return _run_legacy(args, path, doc)
-    if args.segments is not None:  # the same task as the name in every command
-        return _run_scenario(
-            args, scenario_mod.load_scenario(args.scenario, segments=args.segments), path
-        )
+    if args.segments is not None:  # parts of a task, alike in every command
+        sc = scenario_mod.load_scenario(path, seed=args.seed, segments=args.segments)
+        return _run_scenario(args, sc, path)
     return _run_scenario(args, scenario_mod.load(path), path)
 
 
