@@ -7,10 +7,11 @@ rendering, on the same machine's clock). Every page is a real headless chromium 
 
     python benchmarks/panel_latency.py [--events 30] [--clients 20] [--cell-realtime 4]
 
-Two backends: the in-process cooperation of ``flexhrc panel`` (events = the operator's stop and
-resume of an idle arm, sent from the benchmark) and the live cell of ``flexhrc cell ... --web``
-(events = what the cell stores while two arms assemble the table in real time x4; latency from
-the moment the cell stored the event, through the panel's poll in the cell's loop, to the page).
+Two backends: ``flexhrc panel`` (the cell's loop in this process, simulated arms on the wall
+clock; events = the operator's stop and resume of an idle arm, sent from the benchmark) and the
+live cell of ``flexhrc cell ... --web`` (events = what the cell stores while two arms assemble
+the table in real time x4; latency from the moment the cell stored the event, through the
+panel's poll in the cell's loop, to the page).
 
 Targets (issue 12, medians): an event reaches the open page in <= 100 ms; with 20 clients
 connected, no lag (the slowest of the 20 pages is still within the target).
@@ -28,7 +29,7 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))
 
-from flexhrc.web.local import table_assembly
+from flexhrc.web.local import PanelConfig, serve_panel, table_legs
 from flexhrc.web.server import PanelServer
 
 TARGET_MS = 100.0
@@ -41,7 +42,7 @@ def _latencies(coop: Any, pages: list[Any], events: int) -> list[float]:
     for _ in range(events):
         before = coop.snapshot()["version"]
         t0 = time.time() * 1000.0
-        if arm in coop.tm.halted:
+        if arm in coop.backend.halted:
             coop.resume_robot(arm)
         else:
             coop.stop_robot(arm)
@@ -79,7 +80,7 @@ def _socket_fanout(coop: Any, url: str, clients: int, events: int) -> list[float
     try:
         for _ in range(events):
             t0 = time.time() * 1000.0
-            if "right" in coop.tm.halted:
+            if "right" in coop.backend.halted:
                 coop.resume_robot("right")
             else:
                 coop.stop_robot("right")
@@ -107,11 +108,15 @@ def main() -> int:
     from playwright.sync_api import sync_playwright
 
     # the operator is asked for bolt 1 and the arms wait: the state only changes on our events
-    coop = table_assembly(4, unreachable_bolts=(1,), speed=1000)
-    server = PanelServer(coop, "127.0.0.1", 0).start()
-    coop.start()
+    coop = serve_panel(
+        PanelConfig(table_legs(4, unreachable_bolts=(1,)), speed=1000, simulator="analytic", port=0)
+    )
+    assert coop.server is not None
+    server = coop.server
     deadline = time.monotonic() + 10
-    while coop.snapshot()["waiting"] is None and time.monotonic() < deadline:
+    while not (coop.snapshot()["waiting"] or "").startswith("waiting for the operator"):
+        if time.monotonic() > deadline:
+            break
         time.sleep(0.01)
     results: dict[int, list[float]] = {}
     fanout = {
@@ -134,7 +139,6 @@ def main() -> int:
                 results[n] = _latencies(coop, pages, args.events)
             browser.close()
     finally:
-        server.stop()
         coop.close()
     if args.cell_realtime > 0:
         results_cell = _cell_run(args)

@@ -117,7 +117,7 @@ LogEventType = Literal[
 ]
 MessageType = Literal[
     "command", "stop", "ack", "suggestion", "human_action", "percept", "options", "operator",
-    "intent", "state", "end",
+    "intent", "state", "end", "follow", "follow_stop",
 ]
 StoreKind = Literal[
     "start", "ack", "human_action", "percept", "agent_up", "agent_down", "operator", "intent",
@@ -530,6 +530,15 @@ _MESSAGE_SCHEMAS = [
          actions=Field((list,)), delay=OPT_TIME),
     _msg("state", "manager → `state`: the cell snapshot"),
     _msg("end", "manager → `state`: the cooperation ended", outcome=Field(S, True)),
+    # between the arm nodes of one robot over ROS 2 (docs/ros2.md): a joint command reaches its
+    # first arm only, which sends each other arm its part of the motion
+    _msg("follow", "leading arm → `arm/<arm>/follow`: this arm's part of a joint command",
+         id=INT_ID, leader=Field(S, True),
+         times=Field((list,), True, doc="seconds from the command's start, increasing"),
+         joints=Field((list,), True, doc="one row of joint positions (rad) per time"),
+         realtime=OPT_TIME),
+    _msg("follow_stop", "an arm → `arm/<arm>/follow`: stop your part of that joint command, "
+         "or the joint command you lead", id=INT_ID, by=OPT_NAME),
 ]
 # fmt: on
 #: Every protocol message type, by its tag.

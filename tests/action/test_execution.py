@@ -103,3 +103,28 @@ def test_disturbances_during_execution(sim):
     assert r.status in ("failed", "timed_out") and "obstacle" in r.reason
     with pytest.raises(FlexhrcError, match="at_s"):
         Disturbance("slow_arm", arm="left", factor=0.5, at_s=-1.0)
+
+
+def test_joint_path_is_the_commands_motion_from_their_start_to_their_total_duration(sim):
+    em = _manager(sim)
+    start = {a: q.copy() for a, q in em.state.q.items()}
+    assert em.joint_path() is None  # nothing ran yet
+    reports = _pick_and_place(em)  # approach, grasp (closes after), transport, ungrasp, rest
+    t, q = em.joint_path()
+    assert t[0] == 0.0 and all(t[1:] > t[:-1])
+    assert t[-1] == pytest.approx(sum(r.duration_s for r in reports))
+    assert list(q) == ["left"] and q["left"].shape == (len(t), 7)
+    assert abs(q["left"][0] - start["left"]).max() == 0.0
+    assert abs(q["left"][-1] - em.state.q["left"]).max() == pytest.approx(0.0, abs=1e-12)
+    # the gripper closes after the grasp's motion: the arm stands still meanwhile
+    moved = reports[0].duration_s + float(reports[1].outcome.trajectory.t[-1])
+    closed = reports[0].duration_s + reports[1].duration_s
+    assert closed - moved == pytest.approx(sim.actions["grasp"].gripper_time_s)
+    held = q["left"][(t >= moved - 1e-9) & (t <= closed + 1e-9)]
+    assert len(held) >= 2 and abs(held - held[0]).max() == 0.0
+    # from a later command on: only its own motion, from 0
+    n = len(em.log)
+    em.execute(Command("approach", "left", LEG))
+    t2, q2 = em.joint_path(n)
+    assert t2[0] == 0.0 and t2[-1] == pytest.approx(em.log[-1].duration_s)
+    assert abs(q2["left"][0] - q["left"][-1]).max() == 0.0

@@ -214,3 +214,118 @@ def test_a_real_arm_is_driven_through_joint_trajectory(domain_id: int, cell_name
         runner.join(5)
         for t in (client, robot, node_bus):
             t.close()
+
+
+def test_a_joint_command_moves_both_arm_nodes_and_a_stop_to_either_halts_both(
+    domain_id: int, cell_name: str
+):
+    """The leader (the joint command's first arm) sends the other arm its part; each publishes
+    a trajectory from its own joint state; the cell's stop reaching the follower stops both."""
+    from flexhrc.cell.components import run_agent
+    from flexhrc.ros2.arm import ArmNode
+    from flexhrc.scenario import load_scenario
+
+    sc = load_scenario("table_assembly")  # with the tabletop's joint command
+    prefix = f"flexhrc/{cell_name}"
+    buses = {arm: Ros2Transport(prefix=prefix, domain_id=domain_id) for arm in ("left", "right")}
+    client = Ros2Transport(prefix=prefix, domain_id=domain_id, deliver="thread")
+    JointState = msg("sensor_msgs.msg", "JointState")
+    JointTrajectory = msg("trajectory_msgs.msg", "JointTrajectory")
+    lock = threading.Lock()
+    states: dict[str, list] = {"left": [], "right": []}
+    plans: dict[str, list] = {"left": [], "right": []}
+    acks: list = []
+
+    def keep(box: list, item) -> None:
+        with lock:
+            box.append(item)
+
+    for arm in ("left", "right"):
+        client.create_subscription(
+            JointState,
+            f"arm/{arm}/joint_states",
+            lambda m, a=arm: keep(states[a], np.array(m.position)),
+        )
+        client.create_subscription(JointTrajectory, f"arm/{arm}/joint_trajectory",
+                                   lambda m, a=arm: keep(plans[a], m))  # fmt: skip
+    client.subscribe("ack", lambda a: keep(acks, a))
+    nodes = {arm: ArmNode(arm, sc, buses[arm]) for arm in ("left", "right")}
+    done = threading.Event()
+    runners = [
+        threading.Thread(target=run_agent, args=(nodes[a], buses[a]),
+                         kwargs={"until": done.is_set}, daemon=True)
+        for a in ("left", "right")
+    ]  # fmt: skip
+    for r in runners:
+        r.start()
+    try:
+        for arm in ("left", "right"):
+            assert client.wait_matched(f"cmd/{arm}", minimum=1, timeout=10.0)
+        assert wait_for(lambda: all(len(states[a]) >= 2 for a in states), 15.0)
+        # the right arm moves first: the leader's model of it is then out of date unless it
+        # takes the right arm's joints from its joint states (or the follower blends them in)
+        client.publish("cmd/right", _cmd(9, "approach(right, leg3)", agents=["right"],
+                                         realtime=0.0))  # fmt: skip
+        assert wait_for(lambda: any(a["id"] == 9 for a in acks) and bool(plans["right"]), 15.0)
+        there = np.array(plans["right"][0].points[-1].positions)
+
+        def arrived() -> bool:
+            with lock:
+                return np.abs(states["right"][-1] - there).max() < 1e-9
+
+        assert wait_for(arrived, 15.0)
+        start_right = there
+        del plans["right"][:]
+        client.publish("cmd/left", _cmd(1, "place_tabletop(tabletop, assembly_pose)",
+                                        agents=["left", "right"], realtime=1.0))  # fmt: skip
+        assert wait_for(lambda: plans["left"] and plans["right"], 15.0)
+        left, right = plans["left"][0], plans["right"][0]
+        assert right.joint_names[0] == "right_joint1"
+        assert np.abs(np.array(right.points[0].positions) - start_right).max() <= 1e-3
+        end = left.points[-1].time_from_start
+        assert right.points[-1].time_from_start == end  # one command, one duration
+        with lock:
+            n = {a: len(states[a]) for a in states}
+        assert wait_for(lambda: all(len(states[a]) > n[a] + 10 for a in states), 15.0)
+        client.publish("cmd/right", {"v": 1, "type": "stop", "id": 1, "reason": "human"})
+
+        def still(arm: str) -> bool:  # the last ten joint states are equal
+            with lock:
+                last = states[arm][-10:]
+            return len(last) == 10 and all(np.abs(q - last[0]).max() < 1e-12 for q in last)
+
+        assert wait_for(lambda: still("left") and still("right"), 15.0)
+        for arm, plan in (("left", left), ("right", right)):
+            final = np.array(plan.points[-1].positions)
+            assert np.abs(states[arm][-1] - final).max() > 1e-3, f"{arm} went on to the end"
+        assert not [a for a in acks if a["id"] == 1]  # stopped: not acknowledged
+        # a malformed part is dropped and counted; the arm stays where it is
+        dropped = nodes["right"].dropped
+        for bad in (
+            {
+                "v": 1,
+                "type": "follow",
+                "id": 5,
+                "leader": "left",
+                "times": [0.0, 1.0],
+                "joints": [[0.0] * 3, [0.1] * 3],
+            },  # 3 joints, not 7
+            {
+                "v": 1,
+                "type": "follow",
+                "id": 6,
+                "leader": "left",
+                "times": [1.0, 0.5],
+                "joints": [[0.0] * 7, [0.1] * 7],
+            },  # time runs backwards
+            {"v": 1, "type": "follow", "id": 7, "times": [0.0], "joints": [[0.0] * 7]},
+        ):
+            client.publish("arm/right/follow", bad)  # fmt: skip
+        assert wait_for(lambda: nodes["right"].dropped == dropped + 3, 10.0)
+        assert still("right")
+    finally:
+        done.set()
+        for r in runners:
+            r.join(5)
+        for bus in (*buses.values(), client):
+            bus.close()

@@ -299,12 +299,21 @@ def test_an_unsuggested_human_action_from_the_plain_client_is_followed(
     assert sum(data["legs_by_agent"].values()) == 4
 
 
-def _free_port() -> int:
-    import socket
+def _announced_panel(log: Path, manager: subprocess.Popen[str], timeout: float) -> str | None:
+    """The panel's address as the manager announces it once it listens (``--web HOST:0``: the
+    manager binds a free port itself, so no other process can take it in between)."""
+    import re
 
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
+    found: list[str] = []
+
+    def announced() -> bool:
+        m = re.search(r"^panel: (http://\S+?)/?$", log.read_text(), re.MULTILINE)
+        if m:
+            found.append(m.group(1))
+        return bool(found) or manager.poll() is not None
+
+    wait_for(announced, timeout)
+    return found[0] if found else None
 
 
 def _http(url: str, body: dict | None = None) -> dict:
@@ -327,15 +336,15 @@ def test_the_ros2_managers_panel_is_the_operator(
     scenario = tmp_path / "table.yaml"
     scenario.write_text("scenario: table_assembly\nunreachable_bolts: [2]\n")
     common = [str(scenario), "--cell", cell_name]
-    port = _free_port()
-    base = f"http://127.0.0.1:{port}"
     procs: list[subprocess.Popen[str]] = []
     done: list[str] = []
     try:
-        procs.append(_node(ros_env, "cell", *common, "--json", "--web", f"127.0.0.1:{port}",
+        procs.append(_node(ros_env, "cell", *common, "--json", "--web", "127.0.0.1:0",
                            log=tmp_path / "manager.log"))  # fmt: skip
         for arm in ("left", "right"):
             procs.append(_node(ros_env, "arm", *common, "--arm", arm, log=tmp_path / f"{arm}.log"))
+        base = _announced_panel(tmp_path / "manager.log", procs[0], 90.0)
+        assert base, (tmp_path / "manager.log").read_text()[-2000:]
         deadline = time.monotonic() + 120
         while procs[0].poll() is None and time.monotonic() < deadline:
             try:

@@ -8,7 +8,7 @@ import pytest
 
 from flexhrc.ros2 import messages as rm
 from flexhrc.ros2._deps import msg
-from flexhrc.ros2.extras import ManagerInterfaces
+from flexhrc.ros2.extras import DELETE_LINGER_S, ManagerInterfaces
 from flexhrc.ros2.transport import Ros2Transport
 from flexhrc.scenario.builtin.table import table_assembly
 from tests.ros2.conftest import wait_for
@@ -23,9 +23,10 @@ def test_markers_out_poses_and_imu_in(domain_id: int, cell_name: str):
     ):
         percepts: list[dict] = []
         samples: list[tuple[str, dict]] = []
+        now = [0.0]  # the interfaces' clock, moved by hand
         ifaces = ManagerInterfaces(
             manager, kb, operators=["human"], on_percept=percepts.append,
-            on_imu=lambda who, s: samples.append((who, s)), rate_hz=20.0,
+            on_imu=lambda who, s: samples.append((who, s)), rate_hz=20.0, clock=lambda: now[0],
         )  # fmt: skip
         arrays: list = []
         outside.create_subscription(
@@ -37,6 +38,23 @@ def test_markers_out_poses_and_imu_in(domain_id: int, cell_name: str):
         arrows = [m for m in arrays[-1].markers if m.type == m.ARROW]
         assert len(arrows) == 1 and arrows[0].text == "left"
         assert len(arrays[-1].markers) > 10
+        # a command's arrow while it runs; when it ends, its DELETE for DELETE_LINGER_S
+        ifaces.command_started(4, "right", kb.position("leg3"))
+        ifaces.publish_markers()
+        ifaces.command_finished(4)
+        for dt in (0.0, DELETE_LINGER_S, 0.1):
+            now[0] += dt
+            ifaces.publish_markers()
+        Marker = msg("visualization_msgs.msg", "Marker")
+
+        def ours() -> list:  # command 4's markers in each array, from its first on
+            seen = [[(m.action, m.type) for m in a.markers
+                     if m.ns == "flexhrc/commands" and m.id == 4] for a in arrays]  # fmt: skip
+            return seen[next((i for i, x in enumerate(seen) if x), len(seen)) :]
+
+        assert wait_for(lambda: len(ours()) >= 4, 5.0, outside.flush)
+        delete = [(Marker.DELETE, Marker.ARROW)]
+        assert ours()[:4] == [[(Marker.ADD, Marker.ARROW)], delete, delete, []]
 
         PoseStamped = msg("geometry_msgs.msg", "PoseStamped")
         Imu = msg("sensor_msgs.msg", "Imu")

@@ -96,3 +96,37 @@ def test_object_pose_and_imu_readings_become_plain_percepts():
     imu.linear_acceleration.x = float("nan")
     with pytest.raises(ValueError, match="linear_acceleration"):
         rm.imu_sample(imu)
+
+
+def test_markers_show_every_object_by_type_and_size_and_delete_finished_commands():
+    from flexhrc.knowledge.base import ObjectRecord
+
+    objs = [
+        ObjectRecord(
+            "housing", "housing", (0.4, 0.0, 0.0), {"length": 0.2, "width": 0.16, "height": 0.12}
+        ),
+        ObjectRecord("shaft", "shaft", (0.5, 0.1, 0.0), {"radius": 0.01, "length": 0.1}),
+        ObjectRecord("ball", "ball", (0.5, -0.1, 0.0), {"diameter": 0.05}),
+        ObjectRecord("screw", "screw", (0.6, 0.0, 0.1)),
+        ObjectRecord("left", "arm", (0.3, 0.15, 0.5)),
+        ObjectRecord("human", "human", (1.1, 0.0, 0.1)),
+        ObjectRecord("helper", "gear", (0.0, 0.0, 0.0)),
+    ]
+    Marker = msg("visualization_msgs.msg", "Marker")
+    a = rm.marker_array(objs, 0.0, commands={7: ("left", (0.4, 0.0, 0.0))}, deleted=[3, 5],
+                        skip=["helper"])  # fmt: skip
+    shapes = {m.text: m for m in a.markers if m.ns == "flexhrc" and m.type != m.TEXT_VIEW_FACING}
+    assert sorted(shapes) == ["ball", "housing", "screw", "shaft"]  # agents left out
+    h = shapes["housing"]
+    assert h.type == Marker.CUBE and (h.scale.x, h.scale.y, h.scale.z) == (0.2, 0.16, 0.12)
+    assert shapes["shaft"].type == Marker.CYLINDER and shapes["shaft"].scale.z == 0.1
+    assert shapes["shaft"].scale.x == pytest.approx(0.02)
+    assert shapes["ball"].type == Marker.SPHERE and shapes["ball"].scale.x == 0.05
+    assert shapes["screw"].type == Marker.CUBE and shapes["screw"].scale.x == rm.DEFAULT_SIZE
+    arrows = [m for m in a.markers if m.ns == "flexhrc/commands" and m.action == Marker.ADD]
+    assert [(m.id, m.type, m.text) for m in arrows] == [(7, Marker.ARROW, "left")]
+    gone = [m for m in a.markers if m.action == Marker.DELETE]
+    assert [(m.ns, m.id) for m in gone] == [("flexhrc/commands", 3), ("flexhrc/commands", 5)]
+    # ids by name: the same object keeps its id whatever else is in the array
+    b = rm.marker_array(objs[:1], 1.0)
+    assert b.markers[0].id == h.id

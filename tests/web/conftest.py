@@ -62,3 +62,26 @@ def open_page(browser: Any) -> Iterator[Any]:
     assert not errors, errors
     # offline: everything the page loaded came from the panel itself, on loopback
     assert requests and all(u.startswith("http://127.0.0.1:") for u in requests), requests
+
+
+@pytest.fixture
+def local_panel(tmp_path: Any) -> Iterator[Any]:
+    """``local_panel(scenario_text_or_name, speed=..., start=True)`` -> a running
+    :class:`flexhrc.web.local.LocalPanel` (analytic simulator), closed at the end."""
+    from flexhrc.web.local import LocalPanel
+
+    made: list[Any] = []
+
+    def make(scenario: str, *, speed: float = 200.0, start: bool = True, **kw: Any) -> Any:
+        if "\n" in scenario:  # the text of a scenario file
+            path = tmp_path / f"scenario{len(made)}.yaml"
+            path.write_text(scenario)
+            scenario = str(path)
+        kw.setdefault("simulator", "analytic")
+        panel = LocalPanel(scenario, speed=speed, **kw)
+        made.append(panel)
+        return panel.start() if start else panel
+
+    yield make
+    for panel in made:
+        panel.close()

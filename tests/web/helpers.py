@@ -1,58 +1,81 @@
-"""Helpers of the panel tests: a manual clock and a driver for :class:`LocalCooperation`."""
+"""Helpers of the panel tests: scenarios, and waiting on a running panel for what it shows.
+
+Waits are on the panel's own change notifications (``subscribe``), never on a fixed sleep.
+"""
 
 from __future__ import annotations
 
+import threading
+import time
+from collections.abc import Callable
 from typing import Any
 
-from flexhrc.web.local import LocalCooperation, table_assembly
+from flexhrc.web import PanelInputError
+
+# the legs fix of the table (the older file format every command reads)
+TABLE = "scenario: table_assembly\n"
+TABLE_HUMAN_BOLT_1 = "scenario: table_assembly\nunreachable_bolts: [1]\n"
+TABLE_HUMAN_BOLT_2 = "scenario: table_assembly\nunreachable_bolts: [2]\n"
 
 
-class ManualClock:
-    def __init__(self) -> None:
-        self.t = 0.0
-
-    def __call__(self) -> float:
-        return self.t
-
-
-def manual_table(legs: int = 4, **kw: Any) -> tuple[LocalCooperation, ManualClock]:
-    clock = ManualClock()
-    coop = table_assembly(legs, clock=clock, **kw)
-    coop.start(background=False)
-    return coop, clock
-
-
-def advance(coop: LocalCooperation, clock: ManualClock, steps: int = 1) -> None:
-    """Let the next ``steps`` robot completions happen."""
-    for _ in range(steps):
-        due = coop.next_due()
-        if due is None:
-            return
-        clock.t = max(clock.t, due / coop.speed)
-        coop.run_due()
+def until(
+    panel: Any, check: Callable[[dict[str, Any]], bool], timeout: float = 30.0
+) -> dict[str, Any]:
+    """The first snapshot of ``panel`` for which ``check`` holds (woken by each change)."""
+    changed = threading.Event()
+    cancel = panel.subscribe(changed.set)
+    deadline = time.monotonic() + timeout
+    try:
+        while True:
+            changed.clear()
+            snap: dict[str, Any] = panel.snapshot()
+            if check(snap):
+                return snap
+            left = deadline - time.monotonic()
+            if left <= 0:
+                raise AssertionError(
+                    f"timed out; outcome {snap['outcome']}, waiting: {snap['waiting']}"
+                )
+            changed.wait(left)
+    finally:
+        cancel()
 
 
-def run_robots(coop: LocalCooperation, clock: ManualClock, limit: int = 500) -> None:
-    """Let the robots work until they wait for the operator (or the end)."""
-    for _ in range(limit):
-        if coop.next_due() is None:
-            return
-        advance(coop, clock)
-    raise AssertionError("robots never stopped working")
+def waiting_for_operator(snap: dict[str, Any]) -> bool:
+    """The arms are done with what they can do; the operator is asked."""
+    return (snap["waiting"] or "").startswith("waiting for the operator")
 
 
-def human_next(coop: LocalCooperation) -> list[str]:
-    return [s["next"] for s in coop.snapshot()["suggestions"] if s["owner"] == "human"]
+def human_next(panel: Any) -> list[str]:
+    return [
+        s["next"] for s in panel.snapshot()["suggestions"] if s["owner"] == "human" and s["next"]
+    ]
 
 
-def finish(coop: LocalCooperation, clock: ManualClock, limit: int = 100) -> str:
-    """Robots work; the operator presses 'done' on whatever is suggested to them; to the end."""
-    for _ in range(limit):
-        run_robots(coop, clock)
-        if coop.tm.done:
-            return coop.tm.outcome
-        asked = human_next(coop)
-        if not asked:
-            return coop.tm.outcome
-        coop.submit({"action": asked[0]})
+def press_done(panel: Any, action: str) -> None:
+    """The operator presses 'done' on ``action``; returns once the panel shows it done."""
+    before = panel.snapshot()["events"]
+    panel.submit({"action": action})
+    until(panel, lambda s: s["events"] > before and action not in _asked(s))
+
+
+def _asked(snap: dict[str, Any]) -> list[str]:
+    return [s["next"] for s in snap["suggestions"] if s["owner"] == "human" and s["next"]]
+
+
+def finish(panel: Any, timeout: float = 60.0) -> str:
+    """The operator presses 'done' on whatever is asked of them, to the end; the outcome."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        snap = until(
+            panel,
+            lambda s: s["outcome"] != "running" or bool(_asked(s)),
+            deadline - time.monotonic(),
+        )
+        if snap["outcome"] != "running":
+            return str(snap["outcome"])
+        try:
+            press_done(panel, _asked(snap)[0])
+        except PanelInputError as exc:  # the arms moved on meanwhile: look again
+            assert exc.status == 409, exc
     raise AssertionError("the cooperation did not end")

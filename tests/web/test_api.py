@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from typing import Any
 
 import pytest
 
@@ -12,8 +13,8 @@ pytest.importorskip("httpx2")
 from starlette.testclient import TestClient, WebSocketDenialResponse
 
 from flexhrc.web.app import COOKIE, create_app
-from flexhrc.web.local import LocalCooperation
-from tests.web.helpers import human_next, manual_table, run_robots
+from flexhrc.web.local import LocalPanel
+from tests.web.helpers import TABLE_HUMAN_BOLT_2, human_next, until, waiting_for_operator
 
 TOKEN = "s3cret-token-for-tests"
 LOCAL = "http://127.0.0.1:8080"
@@ -21,11 +22,12 @@ WS = "ws://127.0.0.1:8080/ws"
 
 
 @pytest.fixture
-def waiting_coop() -> LocalCooperation:
-    """A cooperation waiting for the operator (bolt 2 out of the arms' reach)."""
-    coop, clock = manual_table(unreachable_bolts=(2,))
-    run_robots(coop, clock)
-    return coop
+def waiting_coop(local_panel: Any) -> LocalPanel:
+    """A cooperation waiting for the operator (bolt 2 out of the arms' reach; the arms have
+    done the rest)."""
+    panel: LocalPanel = local_panel(TABLE_HUMAN_BOLT_2)
+    until(panel, waiting_for_operator)
+    return panel
 
 
 MALFORMED: list[tuple[bytes, str, int]] = [
@@ -55,13 +57,13 @@ MALFORMED: list[tuple[bytes, str, int]] = [
 ]
 
 
-def test_state_has_the_contract_keys(waiting_coop: LocalCooperation) -> None:
+def test_state_has_the_contract_keys(waiting_coop: LocalPanel) -> None:
     with TestClient(create_app(waiting_coop), base_url=LOCAL) as client:
         r = client.get("/api/state")
         assert r.status_code == 200
         state = r.json()
         assert state["outcome"] == "running"
-        assert state["events"] == len(waiting_coop.events)
+        assert state["events"] == len(waiting_coop.cell.events)
         assert all({"element", "kind", "cost", "graph"} <= set(s) for s in state["suggestions"])
         assert all({"name", "kind", "status", "alive"} <= set(a) for a in state["agents"])
         assert state["waiting"].startswith("waiting for the operator")
@@ -87,7 +89,7 @@ def test_assets_come_from_the_package_only() -> None:
         assert urls <= {"http://www.w3.org/2000/svg"}, (f.name, urls)  # an XML namespace only
 
 
-def test_malformed_bodies_get_4xx_and_change_nothing(waiting_coop: LocalCooperation) -> None:
+def test_malformed_bodies_get_4xx_and_change_nothing(waiting_coop: LocalPanel) -> None:
     assert len(MALFORMED) >= 10
     with TestClient(create_app(waiting_coop), base_url=LOCAL) as client:
         before = client.get("/api/state").json()
@@ -101,7 +103,7 @@ def test_malformed_bodies_get_4xx_and_change_nothing(waiting_coop: LocalCooperat
         assert client.get("/api/state").json() == before
 
 
-def test_done_advances_the_cooperation(waiting_coop: LocalCooperation) -> None:
+def test_done_advances_the_cooperation(waiting_coop: LocalPanel) -> None:
     with TestClient(create_app(waiting_coop), base_url=LOCAL) as client:
         (nxt,) = human_next(waiting_coop)
         with client.websocket_connect(WS) as ws:
@@ -114,7 +116,7 @@ def test_done_advances_the_cooperation(waiting_coop: LocalCooperation) -> None:
             assert [s["next"] for s in pushed["suggestions"] if s["owner"] == "human"] != [nxt]
 
 
-def test_a_token_guards_every_request_and_the_websocket(waiting_coop: LocalCooperation) -> None:
+def test_a_token_guards_every_request_and_the_websocket(waiting_coop: LocalPanel) -> None:
     app = create_app(waiting_coop, token=TOKEN)
     with TestClient(app, base_url="http://panel.example:8080") as client:
         for path in ("/", "/api/state", "/static/panel.js"):
@@ -145,7 +147,7 @@ def test_a_token_guards_every_request_and_the_websocket(waiting_coop: LocalCoope
 
 
 def test_without_token_only_loopback_hosts_and_same_origin_websockets(
-    waiting_coop: LocalCooperation,
+    waiting_coop: LocalPanel,
 ) -> None:
     with TestClient(create_app(waiting_coop), base_url="http://evil.example:8080") as client:
         assert client.get("/api/state").status_code == 400  # DNS rebinding

@@ -6,8 +6,13 @@ marker set on the page before the clicks survives, so nothing was reloaded).
 
 from __future__ import annotations
 
+import json
 import os
+import re
 import shutil
+import subprocess
+import sys
+import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -15,25 +20,29 @@ from typing import Any
 import pytest
 
 pytest.importorskip("uvicorn")
+pytest.importorskip("playwright")
 
-from flexhrc.web.local import LocalCooperation, table_assembly
+from playwright.sync_api import TimeoutError as PlaywrightTimeout
+
+from flexhrc.web.local import LocalPanel, PanelConfig, serve_panel, table_legs
 from flexhrc.web.server import PanelServer
+from tests.conftest import subprocess_env
+from tests.web.helpers import until, waiting_for_operator
 
 
 @pytest.fixture
 def serve() -> Iterator[Any]:
-    running: list[tuple[PanelServer, LocalCooperation]] = []
+    """``serve(scenario, speed)`` -> a running panel (:func:`serve_panel` on port 0)."""
+    running: list[LocalPanel] = []
 
-    def make(coop: LocalCooperation) -> PanelServer:
-        server = PanelServer(coop, "127.0.0.1", 0).start()
-        running.append((server, coop))
-        coop.start()
-        return server
+    def make(scenario: Any, speed: float) -> LocalPanel:
+        config = PanelConfig(scenario, speed=speed, simulator="analytic", port=0)
+        running.append(serve_panel(config))
+        return running[-1]
 
     yield make
-    for server, coop in running:
-        server.stop()
-        coop.close()
+    for panel in running:
+        panel.close()
 
 
 def _mine(page: Any) -> Any:
@@ -44,9 +53,8 @@ def test_first_suggestion_then_done_advances_without_reload(
     serve: Any, open_page: Any, tmp_path: Path
 ) -> None:
     # no arm reaches bolt 1: an arm brings a leg to the middle, the operator screws it
-    coop = table_assembly(4, unreachable_bolts=(1,), speed=40)
-    server = serve(coop)
-    page = open_page(server.url)
+    coop = serve(table_legs(4, unreachable_bolts=(1,)), speed=40)
+    page = open_page(coop.url)
     first = page.locator("#suggestions tr.suggestion").first
     first.wait_for()
     assert first.get_attribute("data-element") == coop.snapshot()["suggestions"][0]["element"]
@@ -66,16 +74,15 @@ def test_first_suggestion_then_done_advances_without_reload(
     assert page.evaluate("window.__marker") == "not reloaded"
     _mine(page).click()
     page.wait_for_selector("svg [data-id='connected_1'][data-status='met']")
-    assert coop.kb.holds("filled", "bolt_1")
+    assert coop.cell.kb.holds("filled", "bolt_1")
     coop.set_speed(1000)
     page.wait_for_selector("#outcome[data-outcome='solved']", timeout=20_000)
     assert page.evaluate("window.__marker") == "not reloaded"
 
 
 def test_ill_do_this_makes_the_robot_leave_that_part(serve: Any, open_page: Any) -> None:
-    coop = table_assembly(4, speed=1.5)  # slow arms: the click lands mid-action
-    server = serve(coop)
-    page = open_page(server.url)
+    coop = serve(table_legs(4), speed=1.5)  # slow arms: the click lands mid-action
+    page = open_page(coop.url)
     page.wait_for_selector("#suggestions tr[data-element='robot_1'][data-owner='robot']")
     arm = page.locator("#agents .agent[data-status='busy']").first.get_attribute("data-agent")
     page.locator("#suggestions button.take[data-take='human_1']").click()
@@ -84,31 +91,28 @@ def test_ill_do_this_makes_the_robot_leave_that_part(serve: Any, open_page: Any)
     page.wait_for_selector("#timeline-list li[data-status='stopped']")
     snap = coop.snapshot()
     assert next(s for s in snap["suggestions"] if s["element"] == "human_1")["to"] == ["human"]
-    taken_at = next(i for i, ev in enumerate(coop.events) if ev["type"] == "operator_takes")
+    events = list(coop.cell.events)
+    taken_at = next(i for i, ev in enumerate(events) if ev.kind == "human_take")
     assert (
         not [  # the arm got no more work on that part
             ev
-            for ev in coop.events[taken_at:]
-            if ev["type"] == "command" and ev["element"] == "robot_1"
+            for ev in events[taken_at:]
+            if ev.kind == "command" and ev.body["element"] == "robot_1"
         ]
     )
-    assert any(ev["type"] == "stop" and ev["agent"] == arm for ev in coop.events)
+    assert any(ev.kind == "stop" and ev.body["agent"] == arm for ev in events)
     _mine(page).click()  # pick_up
     page.wait_for_selector("#suggestions tr.mine button.done[data-action^='screw(human, ']")
 
 
 def test_three_clients_show_the_same_state(serve: Any, open_page: Any) -> None:
-    coop = table_assembly(4, unreachable_bolts=(1,), speed=40)
-    server = serve(coop)
-    pages = [open_page(server.url) for _ in range(3)]
+    coop = serve(table_legs(4, unreachable_bolts=(1,)), speed=40)
+    pages = [open_page(coop.url) for _ in range(3)]
     _mine(pages[0]).wait_for()
     _mine(pages[1]).click()  # one operator presses done; all three follow
     for p in pages:
         p.wait_for_selector("#suggestions tr.mine button.done[data-action^='screw(human, ']")
-    for _ in range(200):  # let the arms finish what they do (they then wait for the operator)
-        if coop.next_due() is None:
-            break
-        pages[2].wait_for_timeout(25)
+    until(coop, waiting_for_operator)  # the arms finish what they do, then wait for the operator
     version = coop.snapshot()["version"]
     texts = []
     for p in pages:
@@ -122,6 +126,95 @@ def test_three_clients_show_the_same_state(serve: Any, open_page: Any) -> None:
             )
         )
     assert texts[0] == texts[1] == texts[2]
+
+
+BALL_IN_BOX = Path(__file__).resolve().parents[2] / "examples" / "scenarios" / "ball_in_box.yaml"
+
+
+def _announced_url(log: Path, proc: subprocess.Popen[str], timeout: float = 30.0) -> str:
+    """The address the panel printed (it bound port 0 itself: no port picked beforehand)."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        m = re.search(r"panel: (http://127\.0\.0\.1:\d+/)", log.read_text())
+        if m:
+            return m.group(1)
+        if proc.poll() is not None:
+            break
+        time.sleep(0.05)  # polling a file another process writes
+    raise AssertionError(f"no panel address; log:\n{log.read_text()[-2000:]}")
+
+
+def _click_done_until_solved(page: Any, timeout: float = 60.0) -> list[str]:
+    """Press 'done' on whatever the page asks the operator, until it shows the end."""
+    clicked: list[str] = []
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if page.locator("#outcome[data-outcome='solved']").count():
+            return clicked
+        action = page.evaluate(
+            "document.querySelector('#suggestions tr.mine button.done')?.dataset.action ?? null"
+        )
+        if action and action not in clicked:
+            try:
+                page.click(f"#suggestions button.done[data-action='{action}']", timeout=2_000)
+                clicked.append(action)
+            except PlaywrightTimeout:
+                continue  # gone meanwhile (the page redrew); look again
+        page.wait_for_timeout(50)
+    raise AssertionError(f"not solved; clicked {clicked}")
+
+
+@pytest.mark.slow
+def test_flexhrc_panel_solves_another_scenario_with_the_person_and_the_arms(
+    tmp_path: Path, open_page: Any
+) -> None:
+    """`flexhrc panel kitchen_drawer`: the drawer of three graph layers, both arms on the wall
+    clock, the person pressing 'done' on the page for the operator's steps (the roller slides
+    only they mount)."""
+    log = tmp_path / "panel.err"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "flexhrc", "panel", "kitchen_drawer", "--speed", "20",
+         "--simulator", "analytic", "--web", "127.0.0.1:0", "--exit-when-done", "--json"],
+        stdout=subprocess.PIPE, stderr=log.open("w"), text=True, env=subprocess_env(),
+    )  # fmt: skip
+    try:
+        page = open_page(_announced_url(log, proc))
+        page.evaluate("window.__marker = 'not reloaded'")
+        clicked = _click_done_until_solved(page)
+        assert page.evaluate("window.__marker") == "not reloaded"
+        out, _ = proc.communicate(timeout=30)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        proc.wait(10)
+    assert proc.returncode == 0, log.read_text()[-2000:]
+    data = json.loads(out)
+    assert data["outcome"] == "solved" and data["scenario"] == "kitchen_drawer"
+    assert data["human_actions"] == len(clicked) > 0  # each click, stored as the operator's
+    assert any(a.startswith("mount(human, ") for a in clicked)
+    assert data["robot_actions"] > 0
+    assert data["by_agent"]["left"] + data["by_agent"]["right"] > 0
+    assert data["url"].startswith("http://127.0.0.1:") and ":0/" not in data["url"]
+
+
+def test_ill_do_this_then_done_solves_ball_in_box(serve: Any, open_page: Any) -> None:
+    """Not the table: the arm goes for the ball, the person says "I'll do this" on picking it
+    up by hand, the arm stops, the person picks it up and drops it in (two 'done')."""
+    coop = serve(str(BALL_IN_BOX), speed=0.5)  # slow arm: the click lands mid-action
+    page = open_page(coop.url)
+    page.wait_for_selector("#suggestions tr[data-element='robot_picks'][data-owner='robot']")
+    page.locator("#suggestions button.take[data-take='human_picks']").click()
+    page.wait_for_selector("#suggestions tr[data-element='human_picks'][data-owner='human']")
+    page.wait_for_selector("#timeline-list li[data-status='stopped']")
+    coop.set_speed(50)
+    clicked = _click_done_until_solved(page, timeout=30)
+    assert clicked == ["pick_up(human, ball)", "release(human, ball, box)"]
+    assert coop.wait(10)
+    report = coop.report()
+    assert report.outcome == "solved"
+    assert report.summary["human_actions"] == 2
+    assert coop.cell.kb.holds("in", "ball", "box")
+    assert any(ev.kind == "human_take" for ev in coop.cell.events)
 
 
 class _StaticBackend:

@@ -90,13 +90,18 @@ def test_with_a_token_requests_and_websockets_without_it_get_401() -> None:
     from websockets.exceptions import InvalidStatus
     from websockets.sync.client import connect
 
-    from flexhrc.web.local import table_assembly
-    from flexhrc.web.server import PanelServer
+    from flexhrc.web.local import PanelConfig, serve_panel, table_legs
 
-    coop = table_assembly(4, unreachable_bolts=(2,), speed=1000)
-    with PanelServer(coop, "127.0.0.1", 0, token=TOKEN) as server:
-        coop.start()
-        coop.wait_done(0.2)
+    config = PanelConfig(
+        table_legs(4, unreachable_bolts=(2,)),
+        speed=1000,
+        simulator="analytic",
+        port=0,
+        token=TOKEN,
+    )
+    with serve_panel(config) as panel:
+        server = panel.server
+        assert server is not None
         base = f"http://127.0.0.1:{server.port}"
         for path in ("/", "/api/state", "/static/panel.js"):
             with pytest.raises(urllib.error.HTTPError) as err:
@@ -121,7 +126,6 @@ def test_with_a_token_requests_and_websockets_without_it_get_401() -> None:
             assert json.loads(r.read())["outcome"] in ("running", "solved")
         with connect(f"ws://127.0.0.1:{server.port}/ws?token={TOKEN}", open_timeout=5) as ws:
             assert "outcome" in json.loads(ws.recv(timeout=5))
-    coop.close()
 
 
 @pytest.mark.parametrize(
@@ -134,6 +138,9 @@ def test_with_a_token_requests_and_websockets_without_it_get_401() -> None:
         (["panel", "--web", "0.0.0.0:0"], "--token"),
         (["panel", "--web", "127.0.0.1:0", "--token", "short"], "--token"),
         (["panel", "--unreachable-bolt", "9"], "--unreachable-bolt 9"),
+        (["panel", "no_such_scenario"], "no_such_scenario"),
+        (["panel", "kitchen_drawer", "--legs", "3"], "--legs"),
+        (["panel", "--simulator", "wrong"], "--simulator"),
     ],
 )
 def test_panel_command_bad_input_is_one_line_and_exit_2(
@@ -144,3 +151,31 @@ def test_panel_command_bad_input_is_one_line_and_exit_2(
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert err.startswith("error: ") and message in err and "Traceback" not in err
+
+
+def test_serve_panel_binds_port_0_and_reports_the_real_port(tmp_path: Path) -> None:
+    """The server binds the port itself (no number picked first and bound later by someone
+    else): ``port=0`` takes a free one and the URL names it."""
+    pytest.importorskip("uvicorn")
+    from flexhrc.web.local import PanelConfig, serve_panel
+
+    store = tmp_path / "panel.db"
+    config = PanelConfig("kitchen_drawer", simulator="analytic", port=0, store=store)
+    with serve_panel(config) as panel:
+        assert panel.server is not None and panel.server.port > 0
+        assert panel.url == f"http://127.0.0.1:{panel.server.port}/"
+        with urllib.request.urlopen(panel.url + "api/state", timeout=5) as r:
+            state = json.loads(r.read())
+        assert state["scenario"] == "kitchen_drawer" and state["cell"] == "panel"
+        # the port is taken: a second panel on it is one clear error and starts nothing
+        busy = PanelConfig("kitchen_drawer", port=panel.server.port)
+        with pytest.raises(FlexhrcError, match="cannot listen there"):
+            serve_panel(busy)
+    assert store.exists()  # every event of the panel's cell, for `flexhrc replay`
+
+
+def test_serve_panel_refuses_a_non_loopback_address_without_token_first() -> None:
+    from flexhrc.web.local import PanelConfig, serve_panel
+
+    with pytest.raises(FlexhrcError, match="--token"):
+        serve_panel(PanelConfig("no_such_scenario", host="0.0.0.0", port=0))

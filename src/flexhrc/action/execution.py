@@ -329,6 +329,56 @@ class ExecutionManager:
         self.log.append(report)
         return report
 
+    def joint_path(self, since: int = 0) -> tuple[np.ndarray, dict[str, np.ndarray]] | None:
+        """The joint motion of the commands logged from ``self.log[since]`` on, as they ran:
+        times ``t`` (simulated seconds, strictly increasing from 0 to the commands' total
+        duration) and the joint positions ``(len(t), 7)`` of every arm they moved. The arm
+        stands still while its gripper opens (before the motion) or closes (after it), so the
+        path lasts what the reports say. None when nothing was logged since."""
+        parts = [r.outcome for r in self.log[since:] if r.outcome is not None]
+        if not parts:
+            return None
+        arms = list(dict.fromkeys(a for out in parts for a in out.trajectory.arms))
+        samples: list[tuple[float, dict[str, np.ndarray]]] = []
+        offset = 0.0
+        for out in parts:
+            traj = out.trajectory
+            if len(traj) == 0:
+                continue
+            spec = self.sim.actions.get(out.action)
+            moving = float(traj.t[-1] - traj.t[0])
+            total = max(float(out.duration_s), moving)
+            lead = total - moving if spec is not None and spec.gripper == "open" else 0.0
+            rows = [{a: np.asarray(traj.arm_q(a)[i], dtype=float) for a in traj.arms}
+                    for i in range(len(traj))]  # fmt: skip
+            if lead > 0:
+                samples.append((offset, rows[0]))
+            samples.extend(
+                (offset + lead + float(traj.t[i] - traj.t[0]), row) for i, row in enumerate(rows)
+            )
+            if lead + moving < total:
+                samples.append((offset + total, rows[-1]))
+            offset += total
+        if not samples:
+            return None
+        times: list[float] = []
+        kept: list[dict[str, np.ndarray]] = []
+        for t, row in samples:  # one sample per instant: the later one (a command's start)
+            if times and t <= times[-1] + 1e-9:
+                kept[-1] = {**kept[-1], **row}
+            else:
+                times.append(t)
+                kept.append(dict(row))
+        q: dict[str, np.ndarray] = {}
+        for a in arms:
+            first = next(row[a] for row in kept if a in row)  # still until it first moves
+            column, held = [], first
+            for row in kept:
+                held = row.get(a, held)
+                column.append(held)
+            q[a] = np.vstack(column)
+        return np.asarray(times, dtype=float), q
+
     def _check_object(self, cmd: Command, out: ActionOutcome) -> tuple[str, str, dict[str, Any]]:
         name = cmd.object
         assert name is not None

@@ -296,6 +296,11 @@ class RobotAgent(_Agent):
             self.stopped.add(cid)
             self.trace(f"cmd {cid} stopped: {msg.get('reason')}")
 
+    def _started(self, cid: int, action: GroundAction, ack: dict[str, Any]) -> None:
+        """Command ``cid`` was executed on the model and now runs; ``ack`` is the answer due at
+        its end (``ack["duration"]`` simulated seconds). A hook: the ROS 2 arm publishes the
+        command's joint trajectory here."""
+
     def _command(self, msg: dict[str, Any]) -> None:
         cid = int(msg["id"])
         if cid in self.acks:  # already done: the manager missed the answer (it restarted)
@@ -351,6 +356,7 @@ class RobotAgent(_Agent):
         )
         self.running.add(cid)
         self.trace(f"execute cmd {cid} {action} ({duration:.2f} s)")
+        self._started(cid, action, ack)
 
         def finish() -> None:
             if cid not in self.running:

@@ -297,6 +297,19 @@ class Cell:
             raise FlexhrcError(f"unknown agent {name!r}")
         self._input("agent_up", {"agent": name, "wall": time.time(), "by": by})
 
+    def set_realtime(self, realtime: float, *, agent_speed: float | None = None) -> None:
+        """Change the pace of the wall clock from now on (a panel's speed control): the cell's
+        time goes on from where it is; ``agent_speed`` (if given) is the pace the agents get
+        with their next command. Call it on the cell's own thread."""
+        if not realtime >= 0 or realtime != realtime or realtime == float("inf"):
+            raise FlexhrcError(f"--realtime must be a finite number >= 0, got {realtime}")
+        now = max(self.now, self._clock())
+        self.realtime = float(realtime)
+        if agent_speed is not None:
+            self.agent_speed = float(agent_speed)
+        if self._clock0 is not None and self.realtime > 0:
+            self._clock0 = time.perf_counter() - now / self.realtime
+
     # -- receiving ----------------------------------------------------------------------------
     def _drop(self, reason: str) -> None:
         self.dropped.append(reason)

@@ -1,7 +1,8 @@
-"""``flexhrc panel``: the table assembly in this process, the operator at the browser panel.
+"""``flexhrc panel [SCENARIO]``: a cooperation in this process, the operator at the browser panel.
 
-Also the ``--web HOST:PORT [--token T]`` options other commands (``flexhrc cell``) share:
-:func:`add_web_options` and :func:`start_panel`.
+Only translates arguments into a :class:`flexhrc.web.local.PanelConfig`, calls
+:func:`flexhrc.web.serve_panel` and prints its report. Also the ``--web HOST:PORT [--token T]``
+options other commands (``flexhrc cell``) share: :func:`add_web_options` and :func:`start_panel`.
 """
 
 from __future__ import annotations
@@ -66,18 +67,33 @@ def start_panel(args: argparse.Namespace, backend: Any) -> Any:
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg, unused-ignore]
     p = sub.add_parser(
         "panel",
-        help="the table assembly with the operator at the browser panel (one process)",
-        description="Runs the cooperative table assembly in this process with simulated arms; "
-        "the operator takes part only through the panel (open the printed address).",
+        help="a scenario in this process with the operator at the browser panel",
+        description="Runs a cooperation in this process — the cell's loop, simulated arms on "
+        "the wall clock — and the operator takes part only through the panel (open the printed "
+        "address). SCENARIO is a name or a file, as for `flexhrc run` and `flexhrc cell`.",
     )
-    p.add_argument("--legs", type=int, default=4, help="number of legs (default 4)")
+    p.add_argument(
+        "scenario",
+        metavar="SCENARIO",
+        nargs="?",
+        default="table_assembly",
+        help="a shipped scenario's name or a scenario file (default table_assembly)",
+    )
+    p.add_argument(
+        "--legs",
+        type=int,
+        default=None,
+        help="the table's legs fix with this many legs (the file `scenario: table_assembly` "
+        "with `legs: N`; table only)",
+    )
     p.add_argument(
         "--unreachable-bolt",
         type=int,
         action="append",
         default=[],
         metavar="K",
-        help="no arm reaches bolt K: the robot asks the operator (paper Fig. 12)",
+        help="the table's legs fix, no arm reaching bolt K: the robot asks the operator "
+        "(paper Fig. 12; table only)",
     )
     p.add_argument("--seed", type=int, default=0)
     add_segments_option(p)
@@ -87,6 +103,15 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
         default=1.0,
         help="simulated seconds per second for the arms (default 1: real time)",
     )
+    from flexhrc.web.local import SIMULATORS
+
+    p.add_argument(
+        "--simulator",
+        choices=SIMULATORS,
+        default="auto",
+        help="branch simulator and the arms' simulated world (default: the scenario's)",
+    )
+    p.add_argument("--store", metavar="FILE.db", help="keep every event in this SQLite file")
     p.add_argument(
         "--exit-when-done",
         action="store_true",
@@ -97,33 +122,52 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
     p.set_defaults(func=cmd_panel)
 
 
-def cmd_panel(args: argparse.Namespace) -> int:
-    from flexhrc.web.local import table_assembly
+def panel_config(args: argparse.Namespace) -> Any:
+    """The :class:`~flexhrc.web.local.PanelConfig` the arguments describe (checked)."""
+    from flexhrc.web.local import PanelConfig, check_speed, table_legs
 
-    if not (args.speed > 0 and args.speed < float("inf")):
-        raise FlexhrcError(f"--speed must be a positive number, got {args.speed}")
-    if args.legs < 1:
-        raise FlexhrcError(f"--legs must be at least 1, got {args.legs}")
-    for bolt in args.unreachable_bolt:
-        if not 1 <= bolt <= args.legs:
-            raise FlexhrcError(f"--unreachable-bolt {bolt}: choose a bolt 1..{args.legs}")
+    check_speed(args.speed, "--speed")
     if args.web is None:
         raise FlexhrcError("--web needs an address, e.g. --web 127.0.0.1:8080")
-    backend = table_assembly(
-        args.legs,
+    host, port = check_web(args) or ("", 0)
+    scenario: Any = args.scenario
+    if args.legs is not None or args.unreachable_bolt:
+        if args.scenario not in ("table_assembly", "table"):
+            raise FlexhrcError(
+                "--legs and --unreachable-bolt choose the table's legs fix: "
+                f"give them without SCENARIO (or with table_assembly), not with {args.scenario!r}"
+            )
+        scenario = table_legs(
+            4 if args.legs is None else args.legs,
+            unreachable_bolts=tuple(args.unreachable_bolt),
+            seed=args.seed,
+            segments=args.segments,
+        )
+    return PanelConfig(
+        scenario=scenario,
         seed=args.seed,
-        unreachable_bolts=tuple(args.unreachable_bolt),
-        segments=args.segments,
+        segments=None if scenario is not args.scenario else args.segments,
         speed=args.speed,
+        simulator=args.simulator,
+        host=host,
+        port=port,
+        token=args.token,
+        store=args.store,
     )
-    server = start_panel(args, backend)
+
+
+def cmd_panel(args: argparse.Namespace) -> int:
+    from flexhrc.web.local import serve_panel
+
+    panel = serve_panel(panel_config(args))
     try:
-        backend.start()
-        while not backend.wait_done(0.5):
+        assert panel.server is not None
+        panel.server.announce()
+        while not panel.wait(0.5):
             pass
-        snap = backend.snapshot()
+        report = panel.report()
         print(
-            f"cooperation {snap['outcome']}" + (f": {snap['reason']}" if snap["reason"] else ""),
+            f"cooperation {report.outcome}" + (f": {report.reason}" if report.reason else ""),
             file=sys.stderr,
             flush=True,
         )
@@ -132,14 +176,8 @@ def cmd_panel(args: argparse.Namespace) -> int:
             while True:
                 time.sleep(3600)
     finally:
-        if server is not None:
-            server.stop()
-        backend.close()
-        if backend.tm.done:
-            snap = backend.snapshot()
-            emit(
-                args,
-                {"outcome": snap["outcome"], "reason": snap["reason"], "events": snap["events"]},
-                f"outcome: {snap['outcome']}",
-            )
-    return 0 if backend.tm.outcome == "solved" else 1
+        panel.close()
+        if panel.done:
+            report = panel.report()
+            emit(args, report.to_dict(), f"outcome: {report.outcome}")
+    return 0 if panel.cell.tm.outcome == "solved" else 1

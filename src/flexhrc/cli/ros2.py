@@ -268,14 +268,24 @@ def cmd_human(args: argparse.Namespace) -> int:
     return 0
 
 
-def _targets(cell: Any) -> dict[str, tuple[float, float, float]]:
-    """Where each busy arm is going: the last object its running command names."""
-    out: dict[str, tuple[float, float, float]] = {}
-    for agent, cmd in cell.tm.busy.items():
-        objs = [a for a in cmd.action.args if a in cell.kb.objects and a not in cmd.agents]
-        if objs:
-            out[agent] = cell.kb.position(objs[-1])
-    return out
+def _target(cell: Any, cid: int) -> tuple[str, Any] | None:
+    """Where command ``cid``'s arms are going: the last object its action names."""
+    cmd = cell.commands.get(cid)
+    if cmd is None:
+        return None
+    objs = [a for a in cmd.action.args if a in cell.kb.objects and a not in cmd.agents]
+    return "+".join(cmd.agents), cell.kb.position(objs[-1]) if objs else None
+
+
+def _mark(interfaces: Any, cell: Any, ev: dict[str, Any]) -> None:
+    """A command's arrow from its start to its end (ack or stop) in the markers."""
+    kind = ev.get("type")
+    if kind == "command":
+        where = _target(cell, int(ev["id"]))
+        if where is not None:
+            interfaces.command_started(int(ev["id"]), *where)
+    elif kind in ("ack", "stop") and "id" in ev:
+        interfaces.command_finished(int(ev["id"]))
 
 
 def cmd_cell(args: argparse.Namespace) -> int:
@@ -298,7 +308,11 @@ def cmd_cell(args: argparse.Namespace) -> int:
     progress = _progress(args)
     stream = sys.stderr if args.json else sys.stdout
 
+    marks: list[Any] = []  # (interfaces, cell) once both exist
+
     def trace(ev: dict[str, Any]) -> None:
+        if marks:
+            _mark(marks[0], marks[1], ev)
         line = trace_line(ev)
         if line and not args.quiet:
             print(line, file=stream, flush=True)
@@ -349,7 +363,9 @@ def cmd_cell(args: argparse.Namespace) -> int:
             on_percept=percept,
             on_imu=imu,
             rate_hz=args.markers_rate,
+            skip=cell.domain.agents,
         )
+        marks.extend([interfaces, cell])
 
         panel: Any = None
         if web is not None:  # the page stands in for the scenario's operators (their tokens)
@@ -363,7 +379,6 @@ def cmd_cell(args: argparse.Namespace) -> int:
             transport.flush()
             if panel is not None:
                 panel.poll()
-            interfaces.targets = _targets(cell)
             interfaces.poll()
 
         progress(
@@ -371,7 +386,8 @@ def cmd_cell(args: argparse.Namespace) -> int:
             f"topics under {transport.ros_name('state').rsplit('/', 1)[0]}/"
         )
         data = cell.run(pump=pump, agents_timeout=args.wait, progress=progress)
-        interfaces.targets = {}
+        for cid in list(interfaces.commands):  # the cell is over: no arrow stays
+            interfaces.command_finished(cid)
         interfaces.publish_markers()
         if panel is not None:
             panel.close()

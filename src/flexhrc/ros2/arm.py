@@ -13,7 +13,22 @@ topic (under ``/flexhrc/<cell>/``)       type                                 wh
 ``arm/<arm>/pose``                       ``geometry_msgs/PoseStamped``        with each joint
                                                                               state
 ``arm/<arm>/joint_trajectory``           ``trajectory_msgs/JointTrajectory``  each command's plan
+``arm/<arm>/follow``                     JSON (``std_msgs/String``)           in: a joint
+                                                                              command's part
 =======================================  ===================================  ==================
+
+Every command the arm takes part in gets one ``JointTrajectory`` (:mod:`flexhrc.ros2.motion`):
+it starts at the joint state the arm published last and its last point's ``time_from_start`` is
+the command's simulated duration (the ``duration`` of its ack); the joint states follow it while
+the command runs. A joint command (``agents: {joint: [left, right]}``) reaches only its first
+arm, the leader: it plans the motion of all its arms on the model — with the other arms' joints
+as their own nodes last published them (``arm/<other>/joint_states``) — and sends each other
+arm its part on ``arm/<other>/follow`` (``{"v": 1, "type": "follow", "id", "leader", "times",
+"joints", "realtime"}``; ``{"v": 1, "type": "follow_stop", "id", "by"}`` when the command is
+stopped — either way: a stop that reaches the follower stops the leader too). The follower
+publishes that part as its own trajectory — moved to begin exactly where it is, should
+the leader have planned from an older joint state — and plays it, without acknowledging: the
+leader answers for the command.
 
 Two ways to execute a command:
 
@@ -45,6 +60,7 @@ from flexhrc.cell import protocol as P
 from flexhrc.cell.components import RobotAgent
 from flexhrc.errors import FlexhrcError
 from flexhrc.ros2 import messages as rm
+from flexhrc.ros2 import motion as mp
 from flexhrc.ros2._deps import msg
 
 log = logging.getLogger("flexhrc.ros2.arm")
@@ -67,6 +83,9 @@ class Motion:
     started: float  # wall clock (monotonic) at the start
     timeout_s: float = math.inf  # wall seconds (external execution)
     t_cell: float = 0.0  # the cell's (simulated) time when the command was sent
+    follow: bool = False  # this arm's part of another arm's joint command (no ack of its own)
+    leader: str | None = None  # the arm that leads it (follow)
+    followers: tuple[str, ...] = ()  # the other arms of a joint command this arm leads
 
     def sample(self, elapsed: float) -> np.ndarray:
         """Joint positions ``elapsed`` simulated seconds in (linear interpolation; the last
@@ -129,6 +148,9 @@ class ArmNode(RobotAgent):
         self._last_publish = -math.inf
         self._external_finish: Callable[[], None] | None = None
         self._starting: int | None = None
+        self._start_q: dict[str, np.ndarray] = {}
+        self._log_at = 0
+        self._message: dict[str, Any] = {}
         # the ROS side first, then the agent (its liveliness token announces a ready node)
         JointState = msg("sensor_msgs.msg", "JointState")
         JointTrajectory = msg("trajectory_msgs.msg", "JointTrajectory")
@@ -142,8 +164,17 @@ class ArmNode(RobotAgent):
             if execute == "external" and trajectory_topic
             else None
         )
-        super().__init__(name, scenario, transport, execution=execution, trace=trace)
+        # the other arms: where they are (to plan a joint command from there), what they follow
         self.robot.arm(name)  # the robot model must have this arm too
+        self._others: dict[str, np.ndarray] = {}
+        self.others = tuple(a for a in self.robot.arm_names if a != name)
+        for other in self.others:
+            transport.create_subscription(
+                JointState, f"arm/{other}/joint_states", lambda m, o=other: self._on_other(o, m)
+            )
+        self._follow_sub = transport.subscribe(f"arm/{name}/follow", self._on_follow)
+        super().__init__(name, scenario, transport, execution=execution, trace=trace)
+        self._subs.append(self._follow_sub)
         self.names = rm.joint_names(name, self.robot.arm(name).dof)
         if execute == "external" and joint_states_topic:
             transport.create_subscription(JointState, joint_states_topic, self._on_joint_states)
@@ -173,45 +204,88 @@ class ArmNode(RobotAgent):
             if np.all(np.isfinite(q)):
                 self._measured = q
 
+    def _on_other(self, arm: str, m: Any) -> None:
+        index = {n: i for i, n in enumerate(m.name)}
+        names = rm.joint_names(arm, self.robot.arm(arm).dof)
+        if all(n in index for n in names) and len(m.position) == len(m.name):
+            q = np.array([float(m.position[index[n]]) for n in names])
+            if np.all(np.isfinite(q)):
+                self._others[arm] = q
+
     # -- commands (the cell's RobotAgent does the protocol) ---------------------------------
     def _command(self, message: dict[str, Any]) -> None:
         cid = int(message["id"])
         fresh = cid not in self.acks and cid not in self.running and cid not in self.stopped
         em = self.execution.execution  # type: ignore[attr-defined]
-        if fresh and self.execute_mode == "external" and self._measured is not None:
-            em.state.q[self.name] = self._measured.copy()  # plan from where the real arm is
-        q0 = self._model_q().copy()
-        before = len(em.log)
+        if fresh:
+            if self.motion is not None and self.motion.follow:
+                # the leader has answered the joint command: its part is over
+                self.motion = None
+                self._publish_state()
+            if self.execute_mode == "external" and self._measured is not None:
+                em.state.q[self.name] = self._measured.copy()  # plan from where the real arm is
+            for other, q in self._others.items():  # the other arms as they last reported
+                em.state.q[other] = q.copy()
+        self._start_q = {a: np.asarray(v, dtype=float).copy() for a, v in em.state.q.items()}
+        self._log_at = len(em.log)
+        self._message = message
         self._starting = cid if fresh else None
         try:
             super()._command(message)
         finally:
             self._starting = None
-        if not fresh or len(em.log) == before:
-            return
-        report = em.log[-1]
-        traj = report.outcome.trajectory if report.outcome is not None else None
-        if traj is not None and self.name in traj.arms and len(traj) > 0:
-            t = np.asarray(traj.t, dtype=float)
-            t = t - t[0]
-            q = np.asarray(traj.arm_q(self.name), dtype=float)
-        else:
-            t, q = np.zeros(1), q0[None, :]
+
+    def _started(self, cid: int, action: Any, ack: dict[str, Any]) -> None:
+        """The command runs: its joint trajectory out (and the followers' parts), then play it."""
+        message = self._message
+        t, paths = mp.command_path(
+            self.execution,
+            action,
+            since=self._log_at,
+            start=self._start_q,
+            duration=float(ack["duration"]),
+            positions={k: o.position for k, o in self.kb.objects.items()},
+        )
+        if self.name not in paths:  # the model could not place this arm: it stays
+            t, paths = mp.fit_duration(
+                np.zeros(1), {self.name: self._start_q[self.name][None, :]}, float(t[-1])
+            )
+        q = paths[self.name]
         speed = float(message.get("realtime", 0.0))
-        duration = max(float(report.duration_s), float(t[-1]))
-        motion = Motion(cid, t, q, duration, speed, self.clock(), t_cell=float(message["t"]))
+        followers = tuple(a for a in paths if a != self.name and a in action.agents)
+        motion = Motion(
+            cid, t, q, float(t[-1]), speed, self.clock(), t_cell=float(message["t"]),
+            followers=followers,
+        )  # fmt: skip
         if self.execute_mode == "external":
             motion.timeout_s = 1.5 * motion.duration_s + 1.0
         plan = rm.joint_trajectory(self.names, t.tolist(), q.tolist(), time.time())
-        self._plan_pub.publish(plan)
-        if self._controller_pub is not None:
-            self._controller_pub.publish(plan)
-        if cid in self.running:  # still going: play it (sim) or watch the real arm (external)
-            self.motion = motion
+        self._send_plan(plan)
+        for other in followers:
+            self.transport.publish(
+                f"arm/{other}/follow",
+                {"v": 1, "type": "follow", "id": cid, "leader": self.name,
+                 "times": [round(float(v), 6) for v in t],
+                 "joints": [[round(float(v), 9) for v in row] for row in paths[other]],
+                 "realtime": speed},
+            )  # fmt: skip
+        self.motion = motion
         self._publish_state()
 
     def _later(self, delay: float, fn: Callable[[], None]) -> None:
-        if self.execute_mode == "external" and self._starting is not None:
+        cid = self._starting
+        if cid is not None:
+            answer = fn
+
+            def fn() -> None:
+                # the arm's last joint state is the end of its trajectory, before the answer
+                motion = self.motion
+                if cid in self.running and motion is not None and motion.command_id == cid:
+                    self.motion = None
+                    self._publish_state()
+                answer()
+
+        if self.execute_mode == "external" and cid is not None:
             # a real arm answers when it gets there, not after the simulated time
             self._external_finish = fn
             return
@@ -220,13 +294,42 @@ class ArmNode(RobotAgent):
     def _stop(self, message: dict[str, Any]) -> None:
         cid = int(message["id"])
         motion = self.motion
+        if motion is not None and motion.follow and motion.command_id == cid:
+            # the stop of a joint command came to this arm: it stops, and so does its leader
+            self._halt()
+            if motion.leader is not None:
+                self._tell(motion.leader, cid)
+            return
         super()._stop(message)
         if motion is None or motion.command_id != cid or cid not in self.stopped:
             return
+        for other in motion.followers:
+            self._tell(other, cid)
+        self._halt()
+        self._external_finish = None
+
+    def _tell(self, arm: str, cid: int) -> None:
+        """Stop ``arm``'s part of joint command ``cid`` too."""
+        self.transport.publish(
+            f"arm/{arm}/follow", {"v": 1, "type": "follow_stop", "id": cid, "by": self.name}
+        )
+
+    def _send_plan(self, plan: Any) -> None:
+        """A command's trajectory, once: to every subscriber already known (and the real
+        arm's controller)."""
+        send = getattr(self.transport, "publish_message", None)
+        for pub in (self._plan_pub, self._controller_pub):
+            if pub is None:
+                continue
+            if send is not None:
+                send(pub, plan)
+            else:
+                pub.publish(plan)
+
+    def _halt(self) -> None:
+        """The arm stays where it is now, not where its plan ended."""
         q = self.q.copy()
         self.motion = None
-        self._external_finish = None
-        # the arm stays where it stopped, not where the plan ended
         self.execution.execution.state.q[self.name] = q  # type: ignore[attr-defined]
         if self._controller_pub is not None:
             self._controller_pub.publish(
@@ -234,13 +337,68 @@ class ArmNode(RobotAgent):
             )
         self._publish_state()
 
+    # -- this arm's part of another arm's joint command -------------------------------------
+    def _on_follow(self, data: Any) -> None:
+        try:
+            cid, t, q, speed = self._parse_follow(data)
+        except FlexhrcError as exc:
+            self._bad(data, exc)
+            return
+        except (KeyError, TypeError, ValueError) as exc:
+            self._bad(data, FlexhrcError(f"follow: {exc}"))
+            return
+        if t is None:  # follow_stop: of this arm's part, or of the joint command it leads
+            if self.motion is not None and self.motion.follow and self.motion.command_id == cid:
+                self._halt()
+            elif cid in self.running:
+                self._stop({"id": cid, "reason": f"stopped on {data.get('by', 'another arm')}"})
+            return
+        if self.motion is not None and not self.motion.follow:
+            self._bad(data, FlexhrcError(f"follow {cid}: busy with command "
+                                         f"{self.motion.command_id}"))  # fmt: skip
+            return
+        if self.motion is not None:  # a former joint command's part: over, at its end
+            self.motion = None
+            self._publish_state()
+        q = mp.blend_start(t, q, self.q)  # begins where this arm is, ends where it was planned
+        self.trace(f"follow cmd {cid} of {data.get('leader')} ({float(t[-1]):.2f} s)")
+        plan = rm.joint_trajectory(self.names, t.tolist(), q.tolist(), time.time())
+        self._send_plan(plan)
+        self.execution.execution.state.q[self.name] = q[-1].copy()  # type: ignore[attr-defined]
+        self.motion = Motion(
+            cid, t, q, float(t[-1]), speed, self.clock(), follow=True,
+            leader=str(data.get("leader")) if data.get("leader") in self.others else None,
+        )  # fmt: skip
+        self._publish_state()
+
+    def _parse_follow(self, data: Any) -> tuple[int, np.ndarray | None, np.ndarray, float]:
+        m = P.parse(data, expect=("follow", "follow_stop"))  # the catalogue's schema
+        cid = int(m["id"])
+        if m["type"] == "follow_stop":
+            return cid, None, np.zeros((0, 0)), 0.0
+        t = np.asarray(m["times"], dtype=float)
+        q = np.asarray(m["joints"], dtype=float)
+        dof = len(self.names)
+        if t.ndim != 1 or len(t) == 0 or q.shape != (len(t), dof):
+            raise ValueError(f"needs times (N) and joints (N x {dof})")
+        if not (np.all(np.isfinite(t)) and np.all(np.isfinite(q))) or np.any(np.diff(t) <= 0):
+            raise ValueError("times must be finite and increasing, joints finite")
+        speed = float(data.get("realtime", 0.0))
+        if not (np.isfinite(speed) and speed >= 0):
+            raise ValueError(f"realtime must be >= 0, not {speed}")
+        return cid, t - t[0], q, speed
+
     # -- the loop ---------------------------------------------------------------------------
     def poll(self) -> None:
         """Answers that are due (the agent's timers), the real arm's progress, joint states."""
         super().poll()
         motion = self.motion
         if motion is not None:
-            if motion.command_id not in self.running:  # answered (sim) or stopped
+            if motion.follow:
+                if self._elapsed(motion) >= motion.duration_s:  # its part played to the end
+                    self.motion = None
+                    self._publish_state()
+            elif motion.command_id not in self.running:  # answered (sim) or stopped
                 self.motion = None
                 self._publish_state()
             elif self.execute_mode == "external":

@@ -11,8 +11,12 @@ topic (under ``/flexhrc/<cell>/``)        type                                di
 ``human/<operator>/imu``                  ``sensor_msgs/Imu``                 in (wrist IMU)
 ========================================  ==================================  =================
 
-* markers: the knowledge base's objects (legs, tabletop, bolts, obstacles) and, as arrows, the
-  targets of the commands running now — RViz shows the cell as the manager believes it is;
+* markers: every object of the knowledge base, by its type and size, and, as arrows, the
+  targets of the commands running now (:meth:`ManagerInterfaces.command_started`); the arrow
+  of a finished command (:meth:`ManagerInterfaces.command_finished`) goes out as a ``DELETE``
+  marker with every array for ``DELETE_LINGER_S`` (2 s) after it finished — at least once —
+  so RViz removes it even if it matched the topic late; RViz shows the cell as the manager
+  believes it is;
 * an object pose from perception that runs outside flexhrc becomes a plain dict
   (:func:`~flexhrc.ros2.messages.percept_from_pose`) handed to ``on_percept`` —
   ``flexhrc ros2 cell`` sends it to the manager as the cell protocol's ``percept`` (stored, then
@@ -38,7 +42,10 @@ from flexhrc.ros2._deps import msg
 
 log = logging.getLogger("flexhrc.ros2.extras")
 
-__all__ = ["ManagerInterfaces"]
+__all__ = ["DELETE_LINGER_S", "ManagerInterfaces"]
+
+#: How long (wall seconds) a finished command's ``DELETE`` marker is sent again with each array.
+DELETE_LINGER_S = 2.0
 
 
 class ManagerInterfaces:
@@ -55,12 +62,17 @@ class ManagerInterfaces:
         on_imu: Callable[[str, dict[str, Any]], None] | None = None,
         rate_hz: float = 2.0,
         clock: Callable[[], float] = time.monotonic,
+        skip: Iterable[str] = (),
     ) -> None:
         if not (math.isfinite(rate_hz) and 0 < rate_hz <= 100):
             raise ValueError(f"marker rate must be in (0, 100] Hz, got {rate_hz}")
         self.transport = transport
         self.kb = kb
         self.targets: dict[str, tuple[float, float, float]] = {}
+        self.commands: dict[int, tuple[str, tuple[float, float, float]]] = {}
+        self.skip = frozenset(skip)  # the agents' names: not drawn as objects
+        # finished commands -> when their DELETE first went out (None: not yet)
+        self._finished: dict[int, float | None] = {}
         self.on_percept = on_percept
         self.on_imu = on_imu
         self.period = 1.0 / rate_hz
@@ -112,10 +124,35 @@ class ManagerInterfaces:
             x, y, z = (float(v) for v in position)
             self.targets[agent] = (x, y, z)
 
+    def command_started(self, cid: int, label: str, position: Iterable[float] | None) -> None:
+        """Command ``cid`` runs, its arm going to ``position`` (an arrow; None: no arrow)."""
+        if position is not None:
+            x, y, z = (float(v) for v in position)
+            self.commands[int(cid)] = (label, (x, y, z))
+
+    def command_finished(self, cid: int) -> None:
+        """Command ``cid`` ended (answered or stopped): its arrow is deleted with the next
+        markers."""
+        self.commands.pop(int(cid), None)
+        self._finished.setdefault(int(cid), None)
+
     def publish_markers(self) -> None:
-        self._markers.publish(
-            rm.marker_array(self.kb.objects.values(), time.time(), targets=self.targets)
-        )
+        now = self.clock()
+        for cid, first in list(self._finished.items()):
+            if first is None:
+                self._finished[cid] = now
+            elif now - first > DELETE_LINGER_S:
+                del self._finished[cid]
+        deleted = set(self._finished)
+        markers = rm.marker_array(
+            self.kb.objects.values(), time.time(), targets=self.targets,
+            commands=self.commands, deleted=deleted, skip=self.skip,
+        )  # fmt: skip
+        send = getattr(self.transport, "publish_message", None)
+        if send is not None:  # the DELETE markers go once: to every subscriber already known
+            send(self._markers, markers)
+        else:
+            self._markers.publish(markers)
         self._last = self.clock()
 
     def poll(self) -> None:

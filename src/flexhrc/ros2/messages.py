@@ -7,8 +7,9 @@ Only message packages that ship as PyPI wheels are used (``std_msgs``, ``geometr
 * :func:`pose_stamped` — ``geometry_msgs/PoseStamped`` of an end effector or an object;
 * :func:`joint_trajectory` — a kinematic-simulator :class:`~flexhrc.action.simulator.Trajectory`
   as ``trajectory_msgs/JointTrajectory`` (what a ``joint_trajectory_controller`` executes);
-* :func:`marker_array` — the knowledge base's objects and targets as
-  ``visualization_msgs/MarkerArray`` for RViz;
+* :func:`marker_array` — the knowledge base's objects (each by its type and size) and the
+  running commands' targets as ``visualization_msgs/MarkerArray`` for RViz, with ``DELETE``
+  markers for the arrows of finished commands;
 * :func:`percept_from_pose` and :func:`imu_sample` — object poses and wrist IMU readings coming
   from perception that runs outside flexhrc, as plain dicts.
 
@@ -18,6 +19,7 @@ Every function checks its numbers: NaN or infinity raises a ``ValueError`` namin
 from __future__ import annotations
 
 import math
+import zlib
 from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
@@ -31,6 +33,7 @@ __all__ = [
     "joint_state",
     "joint_trajectory",
     "marker_array",
+    "object_shape",
     "percept_from_pose",
     "pose_stamped",
     "quaternion_from_matrix",
@@ -217,6 +220,68 @@ _COLOURS = {
     "obstacle": (0.90, 0.20, 0.20, 0.5),
     "target": (0.10, 0.90, 0.20, 0.9),
 }
+#: Object types that are agents, not things: the joint states show the arms.
+AGENT_TYPES = ("arm", "robot", "human")
+#: The size of an object whose record gives none (m).
+DEFAULT_SIZE = 0.03
+
+
+def _stable_id(name: str) -> int:
+    """A marker id from a name, the same in every process and run (RViz updates by id)."""
+    return zlib.crc32(name.encode("utf-8")) & 0x3FFFFFFF
+
+
+def _colour(type_: str) -> tuple[float, float, float, float]:
+    if type_ in _COLOURS:
+        return _COLOURS[type_]
+    h = zlib.crc32(type_.encode("utf-8"))  # a fixed colour per type, not too dark
+    return (0.3 + 0.6 * (h & 0xFF) / 255, 0.3 + 0.6 * ((h >> 8) & 0xFF) / 255,
+            0.3 + 0.6 * ((h >> 16) & 0xFF) / 255, 0.9)  # fmt: skip
+
+
+def _dim(size: Mapping[str, Any], *keys: str) -> float | None:
+    for k in keys:
+        v = size.get(k)
+        if isinstance(v, int | float) and math.isfinite(v) and v > 0:
+            return float(v)
+    return None
+
+
+def object_shape(o: Any) -> tuple[str, tuple[float, float, float]]:
+    """The marker shape (``CUBE``, ``CYLINDER``, ``SPHERE``) and scale of a knowledge-base
+    object, from its type (the table's legs, tabletop, places and obstacles) or else from its
+    size: a ``radius``/``diameter`` with a ``length``/``height`` is a cylinder, alone a sphere;
+    ``length``/``width``/``depth``/``height`` make a box (x: length, else width; y: width when
+    a length is given, else depth); no size: a small cube (a disc for a place)."""
+    size = dict(o.size or {})
+    if o.type == "leg":
+        return "CYLINDER", (
+            _dim(size, "diameter") or 0.04,
+            _dim(size, "diameter") or 0.04,
+            _dim(size, "length") or 0.3,
+        )
+    if o.type == "obstacle":
+        r = _dim(dict(o.attrs), "radius") or _dim(size, "radius") or 0.05
+        return "SPHERE", (2 * r, 2 * r, 2 * r)
+    if o.type == "tabletop":
+        return "CUBE", (
+            _dim(size, "width") or 0.3,
+            _dim(size, "depth") or 0.4,
+            _dim(size, "height") or 0.02,
+        )
+    radius = _dim(size, "radius")
+    dia = _dim(size, "diameter") or (2 * radius if radius else None)
+    tall = _dim(size, "length", "height")
+    if dia is not None:
+        return ("CYLINDER", (dia, dia, tall)) if tall else ("SPHERE", (dia, dia, dia))
+    x = _dim(size, "length", "width")
+    y = _dim(size, "width", "depth") if "length" in size else _dim(size, "depth")
+    z = _dim(size, "height")
+    if x is None and y is None and z is None:
+        if o.type == "place":
+            return "CYLINDER", (DEFAULT_SIZE, DEFAULT_SIZE, 0.002)
+        return "CUBE", (DEFAULT_SIZE, DEFAULT_SIZE, DEFAULT_SIZE)
+    return "CUBE", (x or DEFAULT_SIZE, y or x or DEFAULT_SIZE, z or DEFAULT_SIZE)
 
 
 def marker_array(
@@ -224,87 +289,88 @@ def marker_array(
     seconds: float,
     *,
     targets: Mapping[str, Sequence[float]] | None = None,
+    commands: Mapping[int, tuple[str, Sequence[float]]] | None = None,
+    deleted: Iterable[int] = (),
+    skip: Iterable[str] = (),
     frame_id: str = WORLD_FRAME,
     namespace: str = "flexhrc",
 ) -> Any:
-    """Knowledge-base objects (:class:`~flexhrc.knowledge.base.ObjectRecord`) as markers:
-    legs as cylinders, the tabletop as a box, places (bolts, the middle pose) as discs,
-    obstacles as spheres, each with a text label; ``targets`` (name -> position, e.g. where
-    each arm is going) as green arrows pointing down at them. Arms and people are left out
-    (the joint states show the arms). Marker ids are stable per name, so RViz updates them."""
+    """Knowledge-base objects (:class:`~flexhrc.knowledge.base.ObjectRecord`) as markers, every
+    one by its type and size (:func:`object_shape`) with a text label — agents (types
+    :data:`AGENT_TYPES`, or named in ``skip``) are left out, the joint states show the arms;
+    ``targets`` (name -> position) and ``commands`` (command id -> (label, position), where a
+    running command's arm is going) as green arrows pointing down at them; ``deleted`` command
+    ids as ``DELETE`` markers of their arrows (a finished command's arrow goes from RViz).
+
+    Ids are stable across arrays and processes: objects (namespace ``namespace``) by name,
+    command arrows (``<namespace>/commands``) by command id, so RViz updates them in place."""
     Marker = msg("visualization_msgs.msg", "Marker")
     out = msg("visualization_msgs.msg", "MarkerArray")()
     header = _header(frame_id, seconds)
-    mid = 0
+    skipped = set(skip)
 
-    def add(m: Any) -> None:
-        nonlocal mid
+    def add(m: Any, ns: str, mid: int) -> None:
         m.header = header
-        m.ns = namespace
+        m.ns = ns
         m.id = mid
         m.action = Marker.ADD
-        m.pose.orientation.w = 1.0
-        mid += 1
+        if m.pose.orientation.w == 0.0 and m.pose.orientation.y == 0.0:
+            m.pose.orientation.w = 1.0
         out.markers.append(m)
 
+    def arrow(label: str, pos: Sequence[float], ns: str, mid: int) -> None:
+        x, y, z = _finite(pos, f"target of {label}")
+        m = Marker()
+        m.type = Marker.ARROW
+        start, end = msg("geometry_msgs.msg", "Point")(), msg("geometry_msgs.msg", "Point")()
+        start.x, start.y, start.z = x, y, z + 0.12
+        end.x, end.y, end.z = x, y, z
+        m.points = [start, end]
+        m.scale.x, m.scale.y, m.scale.z = 0.01, 0.02, 0.03
+        m.color.r, m.color.g, m.color.b, m.color.a = _COLOURS["target"]
+        m.text = label
+        add(m, ns, mid)
+
     for o in sorted(objects, key=lambda r: r.id):
-        shape = _SHAPES.get(o.type)
-        if shape is None:
+        if o.type in AGENT_TYPES or o.id in skipped:
             continue
         x, y, z = _finite(o.position, f"position of {o.id}")
+        shape, (sx, sy, sz) = object_shape(o)
         m = Marker()
         m.type = getattr(Marker, shape)
-        size = o.size or {}
+        m.scale.x, m.scale.y, m.scale.z = sx, sy, sz
         if o.type == "leg":
-            length = float(size.get("length", 0.3))
-            dia = float(size.get("diameter", 0.04))
             # a leg lies on the table until it is fixed: then it stands under its bolt
             if o.fixed:
-                m.scale.x = m.scale.y = dia
-                m.scale.z = length
-                z = z - length / 2
+                z = z - sz / 2
             else:
-                m.scale.x = m.scale.y = dia
-                m.scale.z = length
                 m.pose.orientation.y = math.sqrt(0.5)
                 m.pose.orientation.w = math.sqrt(0.5)
-                z = z + dia / 2
-        elif o.type == "tabletop":
-            m.scale.x = float(size.get("width", 0.3))
-            m.scale.y = float(size.get("depth", 0.4))
-            m.scale.z = float(size.get("height", 0.02))
-        elif o.type == "obstacle":
-            r = float(o.attrs.get("radius", size.get("radius", 0.05)))
-            m.scale.x = m.scale.y = m.scale.z = 2 * r
-        else:  # a place
-            m.scale.x = m.scale.y = 0.03
-            m.scale.z = 0.002
+                z = z + sx / 2
         m.pose.position.x, m.pose.position.y, m.pose.position.z = x, y, z
-        if m.pose.orientation.w == 0.0:
-            m.pose.orientation.w = 1.0
-        r_, g_, b_, a_ = _COLOURS[o.type]
-        m.color.r, m.color.g, m.color.b, m.color.a = r_, g_, b_, a_
-        add(m)
+        m.color.r, m.color.g, m.color.b, m.color.a = _colour(o.type)
+        m.text = o.id
+        base = 2 * _stable_id(o.id)
+        add(m, namespace, base)
         label = Marker()
         label.type = Marker.TEXT_VIEW_FACING
         label.text = o.id
         label.scale.z = 0.025
-        label.pose.position.x, label.pose.position.y, label.pose.position.z = x, y, z + 0.05
+        label.pose.position.x, label.pose.position.y = x, y
+        label.pose.position.z = z + 0.05 + (0.0 if o.type == "leg" else sz / 2)
         label.color.r = label.color.g = label.color.b = label.color.a = 1.0
-        add(label)
+        add(label, namespace, base + 1)
     for name, pos in sorted((targets or {}).items()):
-        x, y, z = _finite(pos, f"target of {name}")
-        arrow = Marker()
-        arrow.type = Marker.ARROW
-        start, end = msg("geometry_msgs.msg", "Point")(), msg("geometry_msgs.msg", "Point")()
-        start.x, start.y, start.z = x, y, z + 0.12
-        end.x, end.y, end.z = x, y, z
-        arrow.points = [start, end]
-        arrow.scale.x, arrow.scale.y, arrow.scale.z = 0.01, 0.02, 0.03
-        r_, g_, b_, a_ = _COLOURS["target"]
-        arrow.color.r, arrow.color.g, arrow.color.b, arrow.color.a = r_, g_, b_, a_
-        arrow.text = name
-        add(arrow)
+        arrow(name, pos, f"{namespace}/targets", _stable_id(name))
+    for cid, (label, pos) in sorted((commands or {}).items()):
+        arrow(label, pos, f"{namespace}/commands", int(cid))
+    for cid in sorted(set(deleted)):
+        gone = Marker()
+        gone.header = header
+        gone.ns = f"{namespace}/commands"
+        gone.id = int(cid)
+        gone.action = Marker.DELETE
+        out.markers.append(gone)
     return out
 
 

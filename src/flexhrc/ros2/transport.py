@@ -286,6 +286,14 @@ class Ros2Transport(QueuedDelivery, Transport):
         self._check_open()
         name = self.ros_name(topic)
         pub = self._publisher(name)
+        self._await_subscribers(topic, name, pub)
+        msg = _String()
+        msg.data = text
+        with self._lock:
+            self.published += 1
+        pub.publish(msg)
+
+    def _await_subscribers(self, topic: str, name: str, pub: Any) -> None:
         # wait for discovered-but-unmatched subscribers only when there are more of them than
         # at the last wait: a subscriber that died (DDS forgets it only after its lease) then
         # costs one wait, not one per message
@@ -293,11 +301,15 @@ class Ros2Transport(QueuedDelivery, Transport):
         if known > pub.get_subscription_count() and known > self._waited.get(name, -1):
             self.wait_matched(topic, timeout=self.match_timeout_s, _pub=pub)
             self._waited[name] = self.node.count_subscribers(name)
-        msg = _String()
-        msg.data = text
-        with self._lock:
-            self.published += 1
-        pub.publish(msg)
+
+    def publish_message(self, publisher: Any, message: Any) -> None:
+        """Publish a standard message on a publisher of :meth:`create_publisher`, first waiting
+        (as :meth:`publish` does) for the subscribers the ROS graph already knows to match — for
+        a message sent once, such as a command's trajectory or a ``DELETE`` marker."""
+        self._check_open()
+        name = publisher.topic_name
+        self._await_subscribers(name, name, publisher)
+        publisher.publish(message)
 
     def wait_matched(
         self, topic: str, minimum: int = 0, timeout: float = 2.0, _pub: Any = None
@@ -505,10 +517,11 @@ class Ros2Transport(QueuedDelivery, Transport):
         for token in tokens:
             token.active = False
             self._beat(token.key, False)
-        # what was published last (an ack, the cell's end, the withdrawals) must reach its
-        # subscribers before the participant goes: wait until they acknowledged it, briefly
+        # what was published last (an ack, the cell's end, the withdrawals, the last markers
+        # with their DELETEs) must reach its subscribers before the participant goes: wait
+        # until they acknowledged it, briefly
         with self._lock:
-            pubs = [self._live_pub, *self._publishers.values()]
+            pubs = [self._live_pub, *self._publishers.values(), *self._typed.values()]
         deadline = time.monotonic() + 1.0
         for pub in pubs:
             left = deadline - time.monotonic()

@@ -77,6 +77,9 @@ class Scenario:
     #: the parts of a task split in segments that this scenario holds, in task order (the
     #: table assembly: ``tabletop``, ``legs``, ``check``); empty: the task is not split
     segments: tuple[str, ...] = ()
+    #: the simulators the task can run on; another choice gets :attr:`simulator` (a bench of
+    #: many arms: the analytic one only, the kinematic model is the dual-arm robot)
+    simulators: tuple[str, ...] = SIMULATORS
 
     # -- factories ------------------------------------------------------------------------
     def world(self) -> KnowledgeBase:
@@ -120,9 +123,12 @@ class Scenario:
         the ``sim`` extra) or ``auto``; default (None): the scenario's ``simulator``. Chosen
         here, at the edge, and passed down to the Task Manager (and to the cell, which asks
         with None for the scenario's own choice)."""
-        from flexhrc.scenario.builtin.simulators import choose_simulator
+        from flexhrc.scenario.builtin.simulators import choose_simulator, resolve_simulator_name
 
-        return choose_simulator(choice or self.simulator)[1]
+        name = resolve_simulator_name(choice or self.simulator)
+        if name not in self.simulators:
+            name = self.simulator
+        return choose_simulator(name)[1]
 
     def summary_line(self) -> str:
         stats = self.graph.stats()

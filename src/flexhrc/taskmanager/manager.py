@@ -46,6 +46,7 @@ percepts applied to the knowledge base between calls) and keeps no clock of its 
 
 from __future__ import annotations
 
+import copy
 import itertools
 import time
 from collections.abc import Callable, Iterable
@@ -321,6 +322,20 @@ class TaskManager:
             return out
 
         return self._entry(now, body)
+
+    def advances(self, now: float, action: HumanAction) -> bool:
+        """Would the human ``action`` advance a feasible part of the task now (a recognised
+        step, not ``human_action_unmatched``)? Tried on a copy of this manager (sharing the
+        simulator and the domain): nothing here changes and nothing is logged — a panel asks
+        before it stores a person's report."""
+        events: list[dict[str, Any]] = []
+        memo: dict[int, Any] = {
+            id(self.simulator): self.simulator,
+            id(self.domain): self.domain,
+            id(self._log): events.append,
+        }
+        copy.deepcopy(self, memo).on_human_action(now, action)
+        return not any(ev.get("type") == "human_action_unmatched" for ev in events)
 
     def check_take(self, element: str) -> tuple[DecisionTree, float]:
         """Whether an operator can take ``element`` now: its operators' decision tree and its

@@ -1,9 +1,10 @@
 """The panel's backend contract and the validation of what a browser sends.
 
 The web app (:mod:`flexhrc.web.app`) knows nothing about Task Managers, transports or stores: it
-talks to a :class:`PanelBackend`, a contract of four methods written down here (the same shape
-as :mod:`flexhrc.transport.base`: small, with an in-process implementation beside it in
-:mod:`flexhrc.web.local` and one over the live cell).
+talks to a :class:`PanelBackend`, a contract of five methods written down here (the same shape
+as :mod:`flexhrc.transport.base`: small). Its implementation is
+:class:`flexhrc.web.live.CellPanel` over the cell's loop, whether the cell runs in this process
+(``flexhrc panel``, :mod:`flexhrc.web.local`) or drives agent processes (``flexhrc cell --web``).
 
 * :meth:`PanelBackend.snapshot` — a JSON-able dict of the whole state the page shows (keys in
   ``docs/panel.md``; ``outcome``, ``suggestions``, ``agents`` and ``events`` at least);

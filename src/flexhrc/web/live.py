@@ -1,4 +1,4 @@
-"""The panel over a live cell (:class:`flexhrc.cell.Cell`): ``flexhrc cell SCENARIO ... --web``.
+"""The panel over a cell (:class:`flexhrc.cell.Cell`): ``flexhrc panel`` and ``flexhrc cell --web``.
 
 The cell is single-threaded: one loop receives, stores, feeds and sends. The panel's server runs
 on its own thread, so :class:`CellPanel` never touches the cell from there. It is one more
@@ -13,7 +13,8 @@ cell's thread, it
 
 Over Zenoh with ``--agents external`` the panel *is* the operator: it holds the liveliness token
 of each human agent, so the cell waits for the person at the page (and says so on it) instead of
-for an operator process.
+for an operator process. In ``flexhrc panel`` (:mod:`flexhrc.web.local`) it is the operator of a
+cell in this process, on the wall clock.
 
 Every input goes through the cell's public entries (:meth:`Cell.human_input`,
 :meth:`Cell.human_take`, :meth:`Cell.halt_agent`, :meth:`Cell.release_agent`): stored inputs
@@ -34,11 +35,10 @@ from typing import Any
 from flexhrc.cell import protocol as P
 from flexhrc.cell.components import ground
 from flexhrc.errors import FlexhrcError
-from flexhrc.taskmanager.manager import HumanAction
+from flexhrc.taskmanager.manager import HumanAction, TakeRefused
 from flexhrc.web import operator
 from flexhrc.web.backend import PanelInputError, json_safe, parse_action
-from flexhrc.web.local import TIMELINE_LIMIT
-from flexhrc.web.snapshot import feasible_costs, graph_snapshot, suggestions
+from flexhrc.web.snapshot import TIMELINE_LIMIT, feasible_costs, graph_snapshot, suggestions
 
 ANSWER_TIMEOUT_S = 10.0  # an HTTP request waits this long for the cell's loop to take its input
 
@@ -51,8 +51,11 @@ class CellPanel:
     :meth:`close` at the end.
     """
 
-    def __init__(self, cell: Any, *, operator: bool = False):
+    def __init__(
+        self, cell: Any, *, operator: bool = False, on_input: Callable[[], None] | None = None
+    ):
         self.cell = cell
+        self._on_input = on_input
         self.halted: set[str] = set()
         self._inbox: queue.SimpleQueue[tuple[str, Any, Future[dict[str, Any]]]] = (
             queue.SimpleQueue()
@@ -109,6 +112,8 @@ class CellPanel:
     def _ask(self, kind: str, arg: Any) -> dict[str, Any]:
         answer: Future[dict[str, Any]] = Future()
         self._inbox.put((kind, arg, answer))
+        if self._on_input is not None:
+            self._on_input()
         try:
             return answer.result(timeout=ANSWER_TIMEOUT_S)
         except FutureTimeout:
@@ -206,22 +211,27 @@ class CellPanel:
             raise PanelInputError(f"{step} is not an operator's action", 409)
         action = HumanAction(step.name, step.args)
         now = c.now
-        trial = operator.dry_run(c.tm, lambda tm: tm.on_human_action(now, action))
-        if any(ev.get("type") == "human_action_unmatched" for ev in trial):
+        if not c.tm.advances(now, action):
             raise PanelInputError(
                 f"{action} advances no feasible part of the task now; "
                 "press 'done' on a suggested action or 'I'll do this' on a hyper-arc",
                 409,
             )
         c.human_input(str(action), people[0])  # stored and fed by the cell's own loop
+        if not c.ordered:
+            # on the wall clock the loop handles inputs as they arrive: now, so the answer and
+            # the page already show its effect (the ordered loop waits for its time)
+            while c.pending and c.step():
+                pass
         self.refresh(force=True)
         return {"ok": True, "action": str(action), "outcome": c.tm.outcome}
 
     def _take(self, element: str) -> dict[str, Any]:
         c = self.cell
-        now = c.now
-        operator.dry_run(c.tm, lambda tm: operator.take(tm, now, element))  # raises if not
-        actions = c.human_take(element)  # stored and fed by the cell's own loop
+        try:  # checked by the manager first: a refused take stores and changes nothing
+            actions = c.human_take(element)
+        except TakeRefused as exc:
+            raise PanelInputError(str(exc), operator.refusal_status(exc)) from None
         self.refresh(force=True)
         return {"ok": True, "take": element, "actions": actions}
 
@@ -345,8 +355,13 @@ class CellPanel:
             for ex in c.tm.executions.values()
             if ex.owner == "human" and ex.next_index < len(ex.branch.steps)
         ]
+        if c.ordered:  # the loop holds the arms' answers while the operator is asked
+            robots_working = bool(c.pending)
+        else:  # on the wall clock the arms go on: wait for the operator once they are done
+            answered = {b["id"] for *_, kind, b in c.pending if kind == "ack"}
+            robots_working = any(cmd.id not in answered for cmd in c.tm.busy.values())
         parts = []
-        if asked and not c.pending:
+        if asked and not robots_working:
             parts.append(f"waiting for the operator: {', '.join(asked)}")
         if lost:
             parts.append(f"agent(s) lost: {', '.join(lost)}")

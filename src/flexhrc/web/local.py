@@ -1,600 +1,374 @@
-"""An in-process cooperation driven by the panel: the operator acts only through the page.
+"""``flexhrc panel``: a cooperation in this process, the person at the browser panel.
 
-:class:`LocalCooperation` is a :class:`~flexhrc.web.backend.PanelBackend` over the sans-IO
-:class:`~flexhrc.taskmanager.TaskManager` with simulated robot arms on a wall clock (``speed``
-simulated seconds per second) and **no simulated operator**: every human action is a button the
-person presses (``done`` on a suggested action, ``I'll do this`` on a hyper-arc) or a
-``POST /api/human``. It is the panel's embedded default (``flexhrc panel``) and the reference a
-live cell's backend is tested against.
+The panel runs the one loop, :class:`flexhrc.cell.Cell`, in one configuration: the in-process
+bus (:class:`~flexhrc.transport.InProcessBus`), a simulated arm
+(:class:`~flexhrc.cell.RobotAgent`) for each robot agent of the scenario, and — instead of a
+simulated operator — the person at the page, through :class:`~flexhrc.web.live.CellPanel`. The
+clock is the wall clock: ``speed`` simulated seconds per second, for the cell and for the arms,
+which answer a command once its simulated duration has passed; the cell handles the answers as
+they come, as a real cell does, so the arms go on while the operator is asked.
 
-A human input is first tried on a copy of the manager, so an input the manager would not match
-(an action that advances no feasible element) is refused with nothing changed — neither the
-event log nor the knowledge base.
+* :class:`PanelConfig` — what to run and where to serve it;
+* :class:`LocalPanel` — that cell, its arms and its panel, the cell's loop on a thread of its own
+  (a :class:`~flexhrc.web.backend.PanelBackend` itself, by delegation to the
+  :class:`~flexhrc.web.live.CellPanel`);
+* :func:`serve_panel` — a config in, a running :class:`LocalPanel` serving the page out;
+  :meth:`LocalPanel.report` is the end's report (``flexhrc panel`` translates its arguments into
+  a config and prints the report, nothing more).
 
-:class:`PanelTaskManager` adds to the Task Manager the two operator inputs a person at a panel
-has and a recognised action has not: *take* — "I will do this hyper-arc" (the robot leaves that
-part, as when the paper's manager recognises an unsuggested human action, section V) — and
-*stop* of one arm (the arm is out of use until it is resumed).
+Every input of the person is a stored input of the cell (``human_action``, ``human_take``,
+``agent_down``/``agent_up`` with ``"by": "operator"``), so ``store=`` gives a file
+``flexhrc replay`` reads like any cell's.
 """
 
 from __future__ import annotations
 
-import heapq
-import itertools
+import queue
 import threading
 import time
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
-from typing import Any
+from concurrent.futures import Future
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, TypeVar
 
-from flexhrc.knowledge import KnowledgeBase
-from flexhrc.representation import OnlineGraph
-from flexhrc.taskmanager.domain import Domain, GroundAction
-from flexhrc.taskmanager.manager import (
-    Ack,
-    Command,
-    Directive,
-    HumanAction,
-    Stop,
-    Suggest,
-    TaskManager,
-)
-from flexhrc.taskmanager.simulator import AnalyticSimulator, ExecutionModel, Simulator
-from flexhrc.web import operator
-from flexhrc.web.backend import PanelInputError, json_safe, parse_action
-from flexhrc.web.snapshot import feasible_costs, graph_snapshot, suggestions
+from flexhrc.errors import FlexhrcError
+from flexhrc.web.live import CellPanel
+from flexhrc.web.server import DEFAULT_HOST, DEFAULT_PORT, PanelServer, check_bind
+from flexhrc.web.snapshot import TIMELINE_LIMIT
 
-TIMELINE_LIMIT = 300  # entries of the timeline kept in a snapshot (the store keeps them all)
+T = TypeVar("T")
+
+SIMULATORS = ("auto", "analytic", "kinematic")
+CALL_TIMEOUT_S = 10.0  # a call waits this long for the cell's loop to run it
 
 
-class PanelTaskManager(TaskManager):
-    """The Task Manager with the panel's operator inputs (see :mod:`flexhrc.web.operator`):
-    take a hyper-arc, stop and resume an arm."""
+def check_speed(speed: float, option: str = "speed") -> float:
+    """``speed`` as a finite positive float, or one :class:`FlexhrcError` naming ``option``."""
+    if not (speed > 0 and speed < float("inf")):
+        raise FlexhrcError(f"{option} must be a positive number, got {speed}")
+    return float(speed)
 
-    def __init__(self, *args: Any, **kwargs: Any):
-        super().__init__(*args, **kwargs)
-        self.halted: set[str] = set()
 
-    def takeable(self) -> list[str]:
-        return operator.takeable(self)
+@dataclass(frozen=True)
+class PanelConfig:
+    """What :func:`serve_panel` runs and where it serves it.
 
-    def take(self, now: float, element: str) -> list[Directive]:
-        return operator.take(self, now, element)
+    ``scenario`` is a name or a file, as ``flexhrc run`` and ``flexhrc cell`` take it
+    (:func:`flexhrc.scenario.load_scenario`), or a scenario already loaded. ``speed`` is simulated
+    seconds per wall second; ``simulator`` the branch simulator and the arms' simulated world
+    (``auto``: the scenario's choice). ``port`` 0 takes any free port (the server binds it and
+    :attr:`LocalPanel.url` says which). An address other than loopback needs ``token``.
+    ``store`` keeps every event in a SQLite file (``flexhrc replay FILE.db``). ``segments``
+    selects parts of a task that comes in segments, as ``--segments`` in every command.
+    """
 
-    def halt(self, now: float, agent: str) -> list[Directive]:
-        """Stop ``agent``'s command (acknowledged as failed: stopped by the operator); the arm
-        is unavailable to the manager until :meth:`resume`."""
-        self.halted.add(agent)
-        out = self.set_available(now, agent, False)
-        cmd = self.busy.get(agent)
-        if cmd is not None:
-            out += self.on_ack(now, Ack(cmd.id, "failed", "stopped by the operator"))
-        return out
-
-    def resume(self, now: float, agent: str) -> list[Directive]:
-        self.halted.discard(agent)
-        return self.set_available(now, agent, True)
+    scenario: str | Path | Any = "table_assembly"
+    seed: int = 0
+    segments: str | None = None
+    speed: float = 1.0
+    simulator: str = "auto"
+    host: str = DEFAULT_HOST
+    port: int = DEFAULT_PORT
+    token: str | None = None
+    store: str | Path | None = None
+    name: str = "panel"
 
 
 @dataclass
-class _Pending:
-    command: Command
-    status: str
+class PanelReport:
+    """How the cooperation ended: ``outcome`` (``running`` if it had not), ``reason``, the
+    number of stored ``events``, the page's ``url`` and the cell's ``summary`` (the keys of
+    ``flexhrc cell --json``; empty if it had not ended)."""
+
+    outcome: str
     reason: str | None
-    positions: dict[str, tuple[float, float, float]]
-    start: float  # simulated time
-    cancelled: bool = False
+    events: int
+    url: str | None = None
+    summary: dict[str, Any] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        """``flexhrc panel --json``: the cell's summary with ``outcome``, ``reason``,
+        ``events`` (stored) and ``url``."""
+        return {
+            **self.summary,
+            "outcome": self.outcome,
+            "reason": self.reason,
+            "events": self.events,
+            "url": self.url,
+        }
 
 
-class LocalCooperation:
-    """A :class:`~flexhrc.web.backend.PanelBackend` running one cooperation in this process.
+class LocalPanel:
+    """A :class:`~flexhrc.cell.Cell` in this process with simulated arms on the wall clock and
+    the person at the panel as its only operator (see the module docstring).
 
-    ``speed`` is simulated seconds per wall second (robot actions of a few seconds finish in
-    milliseconds at ``speed=1000``); ``clock`` is injectable for tests. Call :meth:`start` to
-    begin, :meth:`close` to end the worker thread.
+    :meth:`start` runs the cell's loop on a thread; :meth:`wait` blocks until the cooperation
+    ends; :meth:`close` stops the loop (at any time). The five methods of the
+    :class:`~flexhrc.web.backend.PanelBackend` go to :attr:`backend`, the
+    :class:`~flexhrc.web.live.CellPanel` the loop polls, so this object can be served as it is.
     """
 
     def __init__(
         self,
-        graph: OnlineGraph,
-        domain: Domain,
-        kb: KnowledgeBase,
+        scenario: str | Path | Any = "table_assembly",
         *,
-        simulator: Simulator | None = None,
-        execution: ExecutionModel | None = None,
+        seed: int = 0,
         speed: float = 1.0,
-        timeout_factor: float = 3.0,
-        clock: Callable[[], float] = time.monotonic,
-        name: str = "cell",
-    ):
-        if not (speed > 0 and speed < float("inf")):
-            raise PanelInputError(f"speed must be a positive number, got {speed}")
-        self.name = name
-        self.domain = domain
-        self.kb = kb
-        self.simulator = simulator if simulator is not None else AnalyticSimulator()
-        self.execution: ExecutionModel = execution or AnalyticSimulator()
-        self.speed = float(speed)
-        self.timeout_factor = timeout_factor
-        self._clock = clock
-        self._t0 = clock()
-        self.events: list[dict[str, Any]] = []
-        self.timeline: list[dict[str, Any]] = []
-        self.tm = PanelTaskManager(graph, domain, kb, self.simulator, log=self._record)
-        self._lock = threading.RLock()
-        self._wake = threading.Condition(self._lock)
-        self._queue: list[tuple[float, int, _Pending]] = []
-        self._seq = itertools.count()
-        self._by_command: dict[int, _Pending] = {}
-        self._listeners: dict[int, Callable[[], None]] = {}
-        self._listener_ids = itertools.count()
-        self._version = 0
-        self._cached: tuple[int, dict[str, Any]] | None = None
+        simulator: str = "auto",
+        store: str | Path | None = None,
+        name: str = "panel",
+        trace: Callable[[dict[str, Any]], None] | None = None,
+        segments: str | None = None,
+    ) -> None:
+        from flexhrc.cell import Cell, EventStore, RobotAgent
+        from flexhrc.cell.components import execution_model
+        from flexhrc.scenario import load_scenario
+        from flexhrc.transport import InProcessBus
+
+        self.speed = check_speed(speed)
+        if simulator not in SIMULATORS:
+            raise FlexhrcError(f"simulator {simulator!r}: choose one of {', '.join(SIMULATORS)}")
+        if isinstance(scenario, str | Path):
+            scenario = load_scenario(str(scenario), seed=seed, segments=segments)
+        self.scenario = scenario
+        self.store = EventStore(store) if store is not None else None
+        self.bus = InProcessBus()
+        # the scenario's model of the world: the manager simulates branches on it (as `flexhrc
+        # cell --simulator` does), the arms execute on it
+        branches: Any = execution_model(simulator, scenario)
+        self.cell = Cell(
+            scenario,
+            self.bus,
+            store=self.store,
+            realtime=self.speed,
+            ordered=False,  # the wall clock: answers are handled as they come
+            agent_speed=self.speed,  # the arms take the simulated time, paced
+            simulator=branches,
+            liveliness=False,  # every agent is in this process
+            publish_state=False,  # the page gets the state from the panel, not from the bus
+            name=name,
+            trace=trace,
+            seed=seed,
+        )
+        self.arms = [
+            RobotAgent(a.name, scenario, self.bus, execution=execution_model(simulator, scenario))
+            for a in scenario.domain.agents.values()
+            if not a.is_human
+        ]
+        self._wake = threading.Event()
+        self.backend = CellPanel(self.cell, on_input=self._wake.set)
+        self.server: PanelServer | None = None
+        self._calls: queue.SimpleQueue[tuple[Callable[[], Any], Future[Any]]] = queue.SimpleQueue()
         self._thread: threading.Thread | None = None
-        self._closed = False
-        self.started = False
+        self._closing = False
+        self._ended = threading.Event()  # the cell's run returned (or raised)
+        self._error: BaseException | None = None
+        self._summary: dict[str, Any] = {}
 
-    # -- time -----------------------------------------------------------------------------
-    def now(self) -> float:
-        """Simulated seconds since the start."""
-        return (self._clock() - self._t0) * self.speed
+    # -- the backend contract (any thread) ------------------------------------------------------
+    def snapshot(self) -> dict[str, Any]:
+        return self.backend.snapshot()
 
-    def set_speed(self, speed: float) -> None:
-        """Change the arms' speed from now on (simulated time stays continuous)."""
-        if not (speed > 0 and speed < float("inf")):
-            raise PanelInputError(f"speed must be a positive number, got {speed}")
-        with self._lock:
-            now = self.now()
-            self.speed = float(speed)
-            self._t0 = self._clock() - now / self.speed
-            self._wake.notify_all()
+    def subscribe(self, callback: Callable[[], None]) -> Callable[[], None]:
+        return self.backend.subscribe(callback)
 
-    # -- life cycle -----------------------------------------------------------------------
-    def start(self, *, background: bool = True) -> None:
-        """Start the cooperation; ``background=False`` leaves robot completions to
-        :meth:`run_due` (tests drive the clock themselves)."""
-        with self._lock:
-            if self.started:
-                return
-            self.started = True
-            self._t0 = self._clock()
-            self._record({"t": 0.0, "type": "start", "agents": list(self.domain.agents)})
-            self._dispatch(self.tm.start(0.0), 0.0)
-            self._changed()
-        if background:
+    def submit(self, body: Mapping[str, str]) -> dict[str, Any]:
+        return self.backend.submit(body)
+
+    def stop_robot(self, name: str) -> dict[str, Any]:
+        return self.backend.stop_robot(name)
+
+    def resume_robot(self, name: str) -> dict[str, Any]:
+        return self.backend.resume_robot(name)
+
+    # -- life cycle -----------------------------------------------------------------------------
+    @property
+    def url(self) -> str | None:
+        """The page's address when served (:func:`serve_panel`), with the real port."""
+        return self.server.url if self.server is not None else None
+
+    @property
+    def done(self) -> bool:
+        return bool(self.cell.tm.done)
+
+    def start(self) -> LocalPanel:
+        """Start the cooperation: the cell's loop on a thread of its own."""
+        if self._thread is None:
             self._thread = threading.Thread(
-                target=self._loop, name="flexhrc-panel-cell", daemon=True
+                target=self._main, name="flexhrc-panel-cell", daemon=True
             )
             self._thread.start()
-        self._notify()
+        return self
+
+    def wait(self, timeout: float | None = None) -> bool:
+        """Block until the cooperation ends (at most ``timeout`` seconds); True if it ended.
+        An error of the cell's loop is raised here."""
+        ended = self._ended.wait(timeout)
+        if self._error is not None:
+            raise self._error
+        return ended and self.done
+
+    def call(self, fn: Callable[[], T]) -> T:
+        """Run ``fn()`` on the cell's thread (the cell is single-threaded) and return its
+        result; before :meth:`start`, at once."""
+        if self._thread is None or not self._thread.is_alive():
+            return fn()
+        answer: Future[T] = Future()
+        self._calls.put((fn, answer))
+        self._wake.set()
+        return answer.result(timeout=CALL_TIMEOUT_S)
+
+    def set_speed(self, speed: float) -> None:
+        """Change the pace from now on (the arms take it with their next command)."""
+        speed = check_speed(speed)
+
+        def apply() -> None:
+            self.speed = speed
+            self.cell.set_realtime(speed, agent_speed=speed)
+
+        self.call(apply)
+
+    def report(self) -> PanelReport:
+        snap = self.backend.snapshot()
+        return PanelReport(
+            outcome=str(self.cell.tm.outcome),
+            reason=self.cell.tm.reason,
+            events=int(snap["events"]),
+            url=self.url,
+            summary=dict(self._summary),
+        )
 
     def close(self) -> None:
-        with self._lock:
-            self._closed = True
-            self._wake.notify_all()
+        """End the cooperation if it still runs (outcome ``interrupted``, stored), answer what
+        the page still waits for, stop serving, close the store."""
+        ended = self.done
+        self.cell.request_stop("the panel was closed")
+        self._closing = True
+        self._wake.set()
         if self._thread is not None:
-            self._thread.join(timeout=5)
+            self._thread.join(timeout=10)
+        if self.server is not None:
+            self.server.stop(grace=0.3 if ended else 0.0)  # the page gets the end first
+        self.backend.close()
+        for arm in self.arms:
+            arm.close()
+        self.cell.close()
+        if self.store is not None:
+            self.store.close()
+        self.bus.close()
 
-    def __enter__(self) -> LocalCooperation:
-        self.start()
-        return self
+    def __enter__(self) -> LocalPanel:
+        return self.start()
 
     def __exit__(self, *exc: object) -> None:
         self.close()
 
-    def wait_done(self, timeout: float) -> bool:
-        """Block until the cooperation ends (or ``timeout`` wall seconds); True if it ended."""
-        deadline = time.monotonic() + timeout
-        with self._lock:
-            while not self.tm.done:
-                left = deadline - time.monotonic()
-                if left <= 0:
-                    return False
-                self._wake.wait(min(left, 0.05))
-            return True
-
-    # -- the loop: robot completions on the wall clock -------------------------------------
-    def next_due(self) -> float | None:
-        """Simulated time of the next robot completion (None: no robot is working)."""
-        with self._lock:
-            live = [at for at, _, p in self._queue if not p.cancelled]
-            return min(live) if live else None
-
-    def run_due(self) -> int:
-        """Process every robot completion due by now; how many."""
-        done = 0
-        with self._lock:
-            while self._queue and not self._closed:
-                at, _, pending = self._queue[0]
-                if at > self.now() + 1e-9:
-                    break
-                heapq.heappop(self._queue)
-                if not pending.cancelled:
-                    self._robot_done(pending, at)
-                    done += 1
-        if done:
-            self._notify()
-        return done
-
-    def _loop(self) -> None:
-        while True:
-            with self._lock:
-                if self._closed:
-                    return
-                if not self._queue:
-                    self._wake.wait(0.5)
-                    continue
-                at = self._queue[0][0]
-                wait_s = (at / self.speed) - (self._clock() - self._t0)
-                if wait_s > 0:
-                    self._wake.wait(min(wait_s, 0.5))
-                    continue
-            self.run_due()
-
-    def _record(self, event: dict[str, Any]) -> None:
-        self.events.append(event)
-
-    def _changed(self) -> None:
-        self._version += 1
-        self._wake.notify_all()
-
-    def _notify(self) -> None:
-        for cb in list(self._listeners.values()):
-            cb()
-
-    def _dispatch(self, directives: list[Directive], now: float) -> None:
-        """Carry out the manager's directives at simulated time ``now`` (the time of the input
-        they answer, so the timeline has no gaps of processing latency)."""
-        for d in directives:
-            if isinstance(d, Command):
-                self._start_robot(d, now)
-            elif isinstance(d, Stop):
-                self._stop(d, now)
-            elif isinstance(d, Suggest):
-                self._record(
-                    {
-                        "t": round(now, 6),
-                        "type": "human_told",
-                        "element": d.element,
-                        "actions": [str(a) for a in d.actions],
-                    }
-                )
-
-    def _start_robot(self, cmd: Command, now: float) -> None:
-        positions = {k: o.position for k, o in self.kb.objects.items()}
-        reason: str | None
-        if any(a in self.tm.halted for a in cmd.agents):
-            status, reason, duration = "failed", "robot stopped by the operator", 0.0
-        else:
-            report = self.execution.execute(cmd.action, positions, self.kb, self.domain)
-            status, duration = report.status, report.duration_s
-            reason = None if status == "done" else report.reason
-            limit = max(cmd.expected_s * self.timeout_factor, 1.0)
-            if status == "done" and duration > limit:
-                status, reason, duration = "timed_out", f"no result after {limit:.1f} s", limit
-        pending = _Pending(cmd, status, reason, positions, now)
-        self._by_command[cmd.id] = pending
-        heapq.heappush(self._queue, (now + duration, next(self._seq), pending))
-        self._record(
-            {
-                "t": round(now, 6),
-                "type": "action_start",
-                "agents": list(cmd.agents),
-                "action": str(cmd.action),
-                "command": cmd.id,
-                "element": cmd.element,
-                "planned_s": round(duration, 6),
-            }
-        )
-        self._changed()
-
-    def _stop(self, stop: Stop, now: float) -> None:
-        pending = self._by_command.pop(stop.command_id, None)
-        if pending is not None and not pending.cancelled:
-            pending.cancelled = True
-            self._timeline(
-                pending.command.agents,
-                str(pending.command.action),
-                pending.start,
-                now,
-                "stopped",
-                stop.reason,
-            )
-
-    def _robot_done(self, pending: _Pending, at: float) -> None:
-        cmd = pending.command
-        self._by_command.pop(cmd.id, None)
-        if pending.status == "done":
-            for k, p in pending.positions.items():
-                if k in self.kb.objects and self.kb.position(k) != p:
-                    self.kb.move(k, p)
-            if cmd.action.schema.kind == "screw" and len(cmd.action.args) > 1:
-                obj = cmd.action.args[1]
-                if obj in self.kb.objects:
-                    self.kb.set_fixed(obj)
-        self._timeline(
-            cmd.agents, str(cmd.action), pending.start, at, pending.status, pending.reason
-        )
-        self._dispatch(self.tm.on_ack(at, Ack(cmd.id, pending.status, pending.reason)), at)
-        self._changed()
-
-    def _timeline(
-        self,
-        agents: tuple[str, ...] | list[str],
-        action: str,
-        start: float,
-        end: float,
-        status: str,
-        reason: str | None = None,
-    ) -> None:
-        entry = {
-            "start": round(start, 3),
-            "end": round(end, 3),
-            "agents": list(agents),
-            "action": action,
-            "status": status,
-        }
-        if reason:
-            entry["reason"] = reason
-        self.timeline.append(entry)
-        self._record({"t": round(end, 6), "type": "action_end", **entry})
-
-    # -- the backend contract --------------------------------------------------------------
-    def subscribe(self, callback: Callable[[], None]) -> Callable[[], None]:
-        key = next(self._listener_ids)
-        self._listeners[key] = callback
-
-        def cancel() -> None:
-            self._listeners.pop(key, None)
-
-        return cancel
-
-    def snapshot(self) -> dict[str, Any]:
-        with self._lock:
-            if self._cached is not None and self._cached[0] == self._version:
-                return self._cached[1]
-            snap = self._build_snapshot()
-            self._cached = (self._version, snap)
-            return snap
-
-    def submit(self, body: Mapping[str, str]) -> dict[str, Any]:
-        with self._lock:
-            if not self.started:
-                raise PanelInputError("the cooperation has not started", 409)
-            if self.tm.done:
-                raise PanelInputError(f"the cooperation has ended ({self.tm.outcome})", 409)
-            if "action" in body:
-                result = self._human_action(body["action"])
-            elif "take" in body:
-                result = self._take(body["take"])
-            else:
-                raise PanelInputError('send {"action": ...} or {"take": ...}')
-            self._changed()
-        self._notify()
-        return result
-
-    def stop_robot(self, name: str) -> dict[str, Any]:
-        with self._lock:
-            self._robot(name)
-            if name in self.tm.halted:
-                raise PanelInputError(f"robot {name!r} is already stopped", 409)
-            now = self.now()
-            self._record({"t": round(now, 6), "type": "operator_stop", "agent": name})
-            cmd = self.tm.busy.get(name)
-            if cmd is not None:
-                pending = self._by_command.pop(cmd.id, None)
-                if pending is not None:
-                    pending.cancelled = True
-                    self._timeline(
-                        cmd.agents,
-                        str(cmd.action),
-                        pending.start,
-                        now,
-                        "stopped",
-                        "stopped by the operator",
-                    )
-            self._dispatch(self.tm.halt(now, name), now)
-            self._changed()
-        self._notify()
-        return {"ok": True, "stopped": name}
-
-    def resume_robot(self, name: str) -> dict[str, Any]:
-        with self._lock:
-            self._robot(name)
-            if name not in self.tm.halted:
-                raise PanelInputError(f"robot {name!r} is not stopped", 409)
-            now = self.now()
-            self._record({"t": round(now, 6), "type": "operator_resume", "agent": name})
-            self._dispatch(self.tm.resume(now, name), now)
-            self._changed()
-        self._notify()
-        return {"ok": True, "resumed": name}
-
-    # -- inputs -----------------------------------------------------------------------------
-    def _robot(self, name: str) -> None:
-        agent = self.domain.agents.get(name)
-        if agent is None:
-            robots = ", ".join(a.name for a in self.domain.agents.values() if not a.is_human)
-            raise PanelInputError(f"unknown robot {name!r}; robots: {robots}", 404)
-        if agent.is_human:
-            raise PanelInputError(f"{name!r} is an operator, not a robot", 400)
-
-    def _ground(self, text: str) -> GroundAction:
-        name, args = parse_action(text)
-        schema = self.domain.actions.get(name)
-        if schema is None:
-            known = ", ".join(sorted(self.domain.actions))
-            raise PanelInputError(f"unknown action {name!r}; actions: {known}", 404)
-        if len(args) != len(schema.parameters):
-            raise PanelInputError(
-                f"{name} takes {len(schema.parameters)} argument(s), got {len(args)}", 400
-            )
-        for a in args:
-            if a not in self.domain.agents and a not in self.kb.objects:
-                raise PanelInputError(f"unknown agent or object {a!r} in {text!r}", 404)
-        spec = schema.agents
-        if spec.mode == "choice":
-            agents: tuple[str, ...] = (args[schema.variables.index(str(spec.variable))],)
-        else:
-            agents = spec.names
-        for a in agents:
-            agent = self.domain.agents.get(a)
-            if agent is None or not agent.is_human:
-                raise PanelInputError(f"{text} is not an operator's action ({a} does it)", 409)
-        return GroundAction(schema, args, agents)
-
-    def _dry_run(self, apply: Callable[[Any], object]) -> list[dict[str, Any]]:
-        return operator.dry_run(self.tm, apply)
-
-    def _human_action(self, text: str) -> dict[str, Any]:
-        step = self._ground(text)
-        action = HumanAction(step.name, step.args)
-        now = self.now()
-        trial = self._dry_run(lambda tm: tm.on_human_action(now, action))
-        if any(ev["type"] == "human_action_unmatched" for ev in trial):
-            raise PanelInputError(
-                f"{action} advances no feasible part of the task now; "
-                "press 'done' on a suggested action or 'I'll do this' on a hyper-arc",
-                409,
-            )
-        self._physical(step)
-        self._timeline(
-            ["human"] if "human" in step.agents else step.agents, str(action), now, now, "done"
-        )
-        self._dispatch(self.tm.on_human_action(now, action), now)
-        return {"ok": True, "action": str(action), "outcome": self.tm.outcome}
-
-    def _physical(self, step: GroundAction) -> None:
-        """Where things are after the operator's action (a camera would tell; here we know)."""
-        kind, args = step.schema.kind, step.args
-        who = step.agents[0] if step.agents else None
-        if kind == "pick_up" and len(args) > 1 and args[1] in self.kb.objects:
-            if who in self.kb.objects:
-                self.kb.move(args[1], self.kb.position(str(who)))
-        elif kind == "screw" and len(args) > 2 and args[1] in self.kb.objects:
-            if args[2] in self.kb.objects:
-                self.kb.move(args[1], self.kb.position(args[2]))
-            self.kb.set_fixed(args[1])
-
-    def _take(self, element: str) -> dict[str, Any]:
+    # -- on the cell's thread -------------------------------------------------------------------
+    def _main(self) -> None:
         try:
-            self.tm.graph.element_id(element)
-        except KeyError:
-            raise PanelInputError(f"unknown hyper-arc {element!r}", 404) from None
-        now = self.now()
-        self._dry_run(lambda tm: tm.take(now, element))  # raises PanelInputError, nothing changed
-        self._record({"t": round(now, 6), "type": "operator_takes", "element": element})
-        self._dispatch(self.tm.take(now, element), now)
-        ex = self.tm.executions.get(element)
-        return {
-            "ok": True,
-            "take": element,
-            "actions": [str(a) for a in ex.branch.steps] if ex else [],
-        }
+            self._summary = self.cell.run(pump=self._pump, max_wall_s=float("inf"))
+        except BaseException as exc:  # surfaced by wait(); the page keeps the last state
+            self._error = exc
+        finally:
+            self._ended.set()
+        # the end stays visible and inputs get their answer ("the cooperation has ended")
+        while not self._closing:
+            self._wake.clear()
+            self._serve_calls()
+            self.backend.poll()
+            self._wake.wait(0.5)
+        self._serve_calls()
 
-    # -- the state ------------------------------------------------------------------------
-    def _agents(self) -> list[dict[str, Any]]:
-        out = []
-        human_next = {
-            a: str(ex.branch.steps[ex.next_index])
-            for ex in self.tm.executions.values()
-            if ex.owner == "human" and ex.next_index < len(ex.branch.steps)
-            for a in ex.branch.steps[ex.next_index].agents
-        }
-        for agent in self.domain.agents.values():
-            item: dict[str, Any] = {"name": agent.name, "kind": agent.kind, "alive": True}
-            if agent.is_human:
-                nxt = human_next.get(agent.name)
-                item["status"] = "asked" if nxt else "free"
-                item["action"] = nxt
-            else:
-                cmd = self.tm.busy.get(agent.name)
-                if agent.name in self.tm.halted:
-                    item["status"] = "stopped"
-                else:
-                    item["status"] = "busy" if cmd else "idle"
-                item["action"] = str(cmd.action) if cmd else None
-                item["command"] = cmd.id if cmd else None
-            out.append(item)
-        return out
+    def _serve_calls(self) -> None:
+        while True:
+            try:
+                fn, answer = self._calls.get_nowait()
+            except queue.Empty:
+                return
+            try:
+                answer.set_result(fn())
+            except Exception as exc:
+                answer.set_exception(exc)
 
-    def _waiting(self) -> str | None:
-        tm = self.tm
-        if tm.done:
-            return None
-        if not self.kb.consistent:
-            reasons = "; ".join(i.reason for i in self.kb.inconsistencies)
-            return f"knowledge base inconsistent: {reasons}"
-        asked = [
-            str(ex.branch.steps[ex.next_index])
-            for ex in tm.executions.values()
-            if ex.owner == "human" and ex.next_index < len(ex.branch.steps)
-        ]
-        parts = []
-        if asked and not tm.busy:
-            parts.append(f"waiting for the operator: {', '.join(asked)}")
-        if tm.halted:
-            parts.append(f"stopped by the operator: {', '.join(sorted(tm.halted))}")
-        if not parts and not tm.busy:
-            parts.append("waiting: no agent has anything to do")
-        return "; ".join(parts) or None
-
-    def _build_snapshot(self) -> dict[str, Any]:
-        tm = self.tm
-        costs = feasible_costs(tm.graph)
-        running = {e: ex.owner for e, ex in tm.executions.items()}
-        kb = self.kb.to_dict()
-        return json_safe(
-            {
-                "v": 1,
-                "cell": self.name,
-                "outcome": tm.outcome,
-                "reason": tm.reason,
-                "waiting": self._waiting(),
-                "time": round(self.now(), 3),
-                "version": self._version,
-                "suggestions": suggestions(tm),
-                "takeable": tm.takeable() if not tm.done else [],
-                "agents": self._agents(),
-                "graph": graph_snapshot(tm.graph, costs, running),
-                "timeline": self.timeline[-TIMELINE_LIMIT:],
-                "objects": kb["objects"],
-                "facts": kb["facts"],
-                "consistent": kb["consistent"],
-                "events": len(self.events),
-            }
-        )
+    def _pump(self, timeout: float) -> None:
+        """Deliver the bus, let the arms finish what is due, carry out the page's inputs; with
+        nothing to do, sleep until the next arm is due or an input comes (at most
+        ``timeout``)."""
+        self._wake.clear()
+        self._serve_calls()
+        delivered = self.bus.flush()
+        for arm in self.arms:
+            arm.poll()
+        self.backend.poll()
+        if delivered or self.bus.pending():
+            return
+        due = [d for d in (arm.next_due() for arm in self.arms) if d is not None]
+        wait = min([timeout, *(max(0.0, d - time.monotonic()) for d in due)])
+        if wait > 0:
+            self._wake.wait(wait)
 
 
-def table_assembly(
+def serve_panel(config: PanelConfig) -> LocalPanel:
+    """Load the scenario, serve the panel and start the cooperation: ``flexhrc panel`` as a
+    function. The address is checked before any work (an address other than loopback needs a
+    token); the returned :class:`LocalPanel` is running — :meth:`LocalPanel.wait` for the end,
+    :meth:`LocalPanel.report`, then :meth:`LocalPanel.close`."""
+    check_bind(config.host, config.token)
+    panel = LocalPanel(
+        config.scenario,
+        seed=config.seed,
+        speed=config.speed,
+        simulator=config.simulator,
+        store=config.store,
+        name=config.name,
+        segments=config.segments,
+    )
+    try:
+        panel.server = PanelServer(panel, config.host, config.port, token=config.token).start()
+    except BaseException:
+        panel.close()
+        raise
+    return panel.start()
+
+
+def table_legs(
     legs: int = 4,
     *,
-    seed: int = 0,
     unreachable_bolts: tuple[int, ...] = (),
+    seed: int = 0,
     human: bool = True,
-    segments: str | None = "legs",
-    **kwargs: Any,
-) -> LocalCooperation:
-    """The table assembly of paper 000 (VI-D) with the operator at the panel. Bolts in
-    ``unreachable_bolts`` no arm reaches: the robot asks the operator (paper Fig. 12).
-    ``segments`` as :func:`flexhrc.scenario.builtin.table_assembly` (default here: the legs
-    fix, the part this loop can play)."""
-    from flexhrc.scenario.builtin.table import table_assembly as build
+    segments: str | None = None,
+) -> Any:
+    """The legs fix of the table (paper 000, VI-D, Figs. 9-12) — the task the older file
+    ``scenario: table_assembly`` with ``legs`` and ``unreachable_bolts`` names in every command.
+    No arm reaches a bolt in ``unreachable_bolts``: the robot asks the operator (Fig. 12).
+    ``segments`` (default ``legs``) as :func:`flexhrc.scenario.builtin.table_assembly`."""
+    from flexhrc.scenario.builtin.table import ScenarioError, table_assembly
 
-    scenario = build(
-        legs,
-        seed=seed,
-        unreachable_bolts=tuple(unreachable_bolts),
-        human=human,
-        segments=segments,
-    )
-    return LocalCooperation(
-        scenario.online_graph(),
-        scenario.domain,
-        scenario.world(),
-        name="table_assembly",
-        **kwargs,
-    )
+    if legs < 1:
+        raise FlexhrcError(f"--legs must be at least 1, got {legs}")
+    for bolt in unreachable_bolts:
+        if not 1 <= bolt <= legs:
+            raise FlexhrcError(f"--unreachable-bolt {bolt}: choose a bolt 1..{legs}")
+    try:
+        return table_assembly(
+            legs,
+            seed=seed,
+            unreachable_bolts=tuple(unreachable_bolts),
+            human=human,
+            segments=segments or "legs",
+        )
+    except ScenarioError as exc:
+        raise FlexhrcError(f"--{exc.key.replace('_', '-')} {exc.detail}") from None
 
 
-__all__ = ["TIMELINE_LIMIT", "LocalCooperation", "PanelTaskManager", "table_assembly"]
+__all__ = [
+    "SIMULATORS",
+    "TIMELINE_LIMIT",
+    "LocalPanel",
+    "PanelConfig",
+    "PanelReport",
+    "serve_panel",
+    "table_legs",
+]

@@ -20,6 +20,8 @@ from flexhrc.representation.hierarchy import SEP
 from flexhrc.taskmanager.manager import TaskManager
 from flexhrc.web.backend import json_safe
 
+TIMELINE_LIMIT = 300  # entries of the timeline kept in a snapshot (the store keeps them all)
+
 
 def _qualify(path: str, local: str) -> str:
     return f"{path}{SEP}{local}" if path else local
@@ -116,4 +118,4 @@ def suggestions(tm: TaskManager) -> list[dict[str, Any]]:
     return json_safe(out)
 
 
-__all__ = ["feasible_costs", "graph_snapshot", "suggestions"]
+__all__ = ["TIMELINE_LIMIT", "feasible_costs", "graph_snapshot", "suggestions"]

@@ -163,4 +163,5 @@ def parallel_assembly(
         tuple(HumanSpec(a.name, profile) for a in domain.agents.values() if a.is_human),
         "analytic",
         world_factory=bench.world,
+        simulators=("analytic",),
     )
