@@ -106,8 +106,6 @@ class Scenario:
             kb.assert_fact(*lit.key())
         return kb
 
-    knowledge = world  # the name the table scenario used
-
     def online_graph(self) -> OnlineGraph:
         return OnlineGraph(self.graph)
 

@@ -70,8 +70,8 @@ def load_scenario(
 def select(scenario: Scenario, segments: str | Sequence[str] | None) -> Scenario:
     """``scenario`` as it is when ``segments`` is None or ``all``, or when it holds exactly
     those segments; else one :class:`FlexhrcError`: a task without segments says which tasks
-    have them (a task built in segments is cut where it is built: :func:`load_scenario` with
-    the name, the ``segments`` key of an older file)."""
+    have them (a task that comes in segments is cut where it is built: :func:`load_scenario`
+    with its name or its older file, :func:`~flexhrc.scenario.builtin.table_assembly`)."""
     if segments is None or segments == "all":
         return scenario
     wanted = tuple(
