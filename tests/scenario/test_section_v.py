@@ -194,6 +194,9 @@ def _independent(tmp_path, reaction):
     doc["world"]["objects"]["c"] = {"type": "part", "position": [0.4, 0.0, 0.0]}
     doc["world"]["facts"] += ["on_table(c)"]
     doc["domain"]["agents"]["human"]["hand"] = [3.0, 0.0, 0.1]  # far away: the robot is asked
+    # ... except for b, which the arm cannot reach: the operator is needed for it (a person is
+    # not asked for what the busy arm does better)
+    doc["world"]["objects"]["b"]["reachable_by"] = []
     doc["domain"]["actions"]["rest"] = {"parameters": {"?r": "robot"}, "agents": {"choice": "?r"}}
     sc = scenario.load(write(tmp_path, doc))
     kb = sc.world()
@@ -261,3 +264,71 @@ def test_whoever_picked_the_ball_drops_it_the_agent_carries_too(profile):
         (pick, drop) = result.summary["solved_hyperarcs"]
         assert drop["hyperarc"] == "drop_in" and drop["agent"] == pick["agent"]
         check_invariants(sc, result.events)
+
+
+# -- who is asked: a person only for what they are needed for or best at (eq. 21) ----------------
+def _three_parts(tmp_path, hand):
+    """put_a, put_b, put_c: three independent steps anyone may do; one arm, one operator."""
+    doc = base()
+    nodes, arcs = [], []
+    for p, w in (("a", 1), ("b", 2), ("c", 3)):
+        nodes += [
+            {"name": f"{p}_ready", "state": f"on_table({p})"},
+            {"name": f"{p}_in", "state": f"in({p}, tray)"},
+        ]
+        arcs.append(
+            {"name": f"put_{p}", "children": [f"{p}_ready"], "parent": f"{p}_in", "weight": w,
+             "actions": [f"pick(?who, {p})", f"put(?who, {p}, tray)"]}
+        )  # fmt: skip
+    nodes.append({"name": "done", "state": "in(a, tray) & in(b, tray) & in(c, tray)"})
+    arcs.append({"name": "finish", "children": ["a_in", "b_in", "c_in"], "parent": "done"})
+    doc["graphs"]["two_parts"] = {"root": "done", "nodes": nodes, "hyperarcs": arcs}
+    doc["world"]["objects"]["c"] = {"type": "part", "position": [0.4, 0.0, 0.0]}
+    doc["world"]["facts"] += ["on_table(c)"]
+    doc["domain"]["agents"]["human"]["hand"] = hand
+    return scenario.load(write(tmp_path, doc))
+
+
+def test_a_step_a_busy_arm_does_better_waits_for_it_and_is_free_for_the_operator(tmp_path):
+    sc = _three_parts(tmp_path, [3.0, 0.0, 0.1])  # the operator stands far away: slower
+    events: list = []
+    tm, _ = manager(sc, events)
+    first = tm.start(0.0)
+    # the arm takes put_a; put_b and put_c wait for it instead of going to the free operator
+    assert [type(d).__name__ for d in first] == ["Command"]
+    assert first[0].element == "put_a"
+    assert not any(e["type"] == "suggestion" for e in events)
+    # ... so an operator who acts on their own may take one meanwhile, without a race
+    from flexhrc.taskmanager.operator import SimulatedOperator
+
+    op = SimulatedOperator("human", "takeover")
+    assert set(op.options(tm)) == {"b_in", "c_in", "a_in"}
+    assert op.candidate_branches(tm, tm.kb, "put_b")  # nobody is on b
+    assert not op.candidate_branches(tm, tm.kb, "put_a")  # the arm is picking a
+    # a passive operator is never asked: the arm does all three in turn
+    result = scenario.run(sc, profile="passive", seed=0)
+    assert result.outcome == "solved"
+    assert result.summary["by_agent"] == {"human": 0, "arm": 3}
+    taken = scenario.run(sc, profile="takeover", seed=0)
+    assert taken.outcome == "solved" and taken.summary["by_agent"]["human"] >= 1
+
+
+class _EvenSimulator:
+    """Every action takes 1 s, whoever does it: every branch ties."""
+
+    def simulate(self, steps, kb, domain):
+        from flexhrc.taskmanager.simulator import SimulationResult
+
+        return SimulationResult(True, [1.0] * len(steps))
+
+
+def test_a_tie_goes_to_the_arm(tmp_path):
+    sc = _three_parts(tmp_path, [0.5, 0.0, 0.1])
+    events: list = []
+    tm = TaskManager(sc.online_graph(), sc.domain, sc.world(), _EvenSimulator(), log=events.append)
+    first = tm.start(0.0)
+    decision = next(e for e in events if e["type"] == "decision")
+    utilities = {b["agents"][0]: b["utility"] for b in decision["branches"]}
+    assert utilities["human"] == utilities["arm"]
+    assert decision["branches"][decision["chosen"]]["agents"] == ["arm"]
+    assert isinstance(first[0], Command) and first[0].agents == ("arm",)

@@ -461,6 +461,7 @@ class HumanAgent(_Agent):
             arc = next(a for a in st["arcs"] if a["hyperarc"] == intention.hyperarc)
             if not arc["branches"]:  # nothing of it is free for this operator: it gives up
                 self.trace(f"gives up {intention.hyperarc} ({step}): nothing free to do it with")
+                t += intention.delay_s  # after thinking, as a run's operator does
                 break
             branches = [[ground(self.domain, x) for x in b] for b in arc["branches"]]
             branch = op.pick_branch(self.kb, self.domain, branches)

@@ -33,7 +33,7 @@ from flexhrc.cell.supervisor import Cell
 from flexhrc.errors import FlexhrcError
 from flexhrc.knowledge import KnowledgeBase
 from flexhrc.taskmanager.domain import Domain, GroundAction
-from flexhrc.taskmanager.operator import PROFILES
+from flexhrc.taskmanager.operator import PROFILES, operator_seed
 from flexhrc.taskmanager.simulator import (
     AnalyticSimulator,
     ExecutionModel,
@@ -186,7 +186,7 @@ class LocalCell:
                     scenario,
                     self.bus,
                     profile=prof,
-                    seed=seed * 1009 + i,
+                    seed=operator_seed(seed, i),
                     execution=execution,
                     takes=takes if i == 0 else None,
                 )

@@ -185,6 +185,7 @@ def cmd_cell(args: argparse.Namespace) -> int:
     from flexhrc.cell import Cell, EventStore, HumanAgent, RobotAgent
     from flexhrc.cell.components import execution_model
     from flexhrc.scenario import load_scenario
+    from flexhrc.taskmanager.operator import operator_seed
 
     if not (math.isfinite(args.realtime) and args.realtime >= 0):
         raise FlexhrcError(f"--realtime must be a finite number >= 0, got {args.realtime}")
@@ -243,6 +244,7 @@ def cmd_cell(args: argparse.Namespace) -> int:
         )
         agents: list[Any] = []
         if internal:
+            humans = [a.name for a in scenario.domain.agents.values() if a.is_human]
             for a in scenario.domain.agents.values():
                 if a.is_human:
                     human_model = execution_model("analytic", scenario)
@@ -251,7 +253,8 @@ def cmd_cell(args: argparse.Namespace) -> int:
                         scenario,
                         transport,
                         profile=args.human,
-                        seed=args.seed,
+                        # seeded as `flexhrc run` seeds its operators: one seed, one cooperation
+                        seed=operator_seed(args.seed, humans.index(a.name)),
                         execution=human_model,
                     )
                     agents.append(operator)

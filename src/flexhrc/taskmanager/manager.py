@@ -15,8 +15,11 @@ The loop of a decision (``_plan``):
    :class:`DecisionTree` (groundings x agents), simulate every branch, keep the best by eq. (21);
 3. if every branch scores 0, that grounding is infeasible: when no grounding is left the element
    is marked infeasible in the graph and the next cheapest is tried;
-4. the best branch's first action goes to its robot arm (:class:`Command`), or — when only the
-   human can do it — to the human as a :class:`Suggest`.
+4. the best branch's first action goes to its robot arm (:class:`Command`), or — when a person
+   is needed for it or strictly best at it — to the person as a :class:`Suggest`. Ties go to the
+   arms, and a step that an arm busy now would do as well waits for that arm rather than going
+   to whoever is free (the tree of eq. 21 ranges over every capable agent, paper Fig. 2); an
+   operator who acts on their own may take it meanwhile.
 
 Section V in full:
 
@@ -748,9 +751,21 @@ class TaskManager:
                 return True
             t0 = self._timer()
             best = tree.evaluate(self.simulator, self.kb, self.domain)
+            self.branches_simulated += len(tree.branches)
+            if best is not None and self._is_persons(best):
+                best = self._robot_if_as_good(tree, best)
+            if (
+                best is not None
+                and self._is_persons(best)
+                and self._robot_would_do_better(name, actions, constraints, reserved, best)
+            ):
+                # a busy arm is the best by eq. (21): the step waits for it (it is re-planned
+                # when the arm is free) and stays free meanwhile for an operator who acts on
+                # their own; a person is asked only for what they are needed for or best at
+                self.timing.simulator_s += self._timer() - t0
+                continue
             self.timing.simulator_s += self._timer() - t0
             self.decisions += 1
-            self.branches_simulated += len(tree.branches)
             event: dict[str, Any] = {
                 "element": name,
                 "cost": _num(cost),
@@ -771,6 +786,78 @@ class TaskManager:
                 continue
             self._launch(name, best, cost, out)
             return True
+        return False
+
+    def _is_persons(self, branch: Branch) -> bool:
+        """A branch that needs a person (it would be a suggestion, not a command)."""
+        return any(self.domain.agent(a).is_human for a in branch.agents)
+
+    def _robot_if_as_good(self, tree: DecisionTree, best: Branch) -> Branch:
+        """Ties go to the robots: a person is asked only when their branch is strictly better
+        by eq. (21) (Fig. 9: the robot does what it can while the operator does not step in)."""
+        for b in tree.branches:
+            if b.utility >= best.utility > 0 and not self._is_persons(b):
+                return b
+        return best
+
+    def _robot_would_do_better(
+        self,
+        name: str,
+        actions: tuple[str, ...],
+        constraints: list[Literal],
+        reserved: set[str],
+        persons: Branch,
+    ) -> bool:
+        """Would an arm that is busy now do ``name`` better than the person's best branch?
+
+        The decision tree of eq. (21) ranges over every agent that may do the actions (paper
+        000, Fig. 2), not only the idle ones: when the best of them is a busy arm, the person
+        is not what the step needs — it waits for the arm (no person is asked to do what a
+        robot does as well just because the robot is busy right now; ties go to the robots). The
+        arm's branches are checked and simulated after the rest of its current execution."""
+        # an arm in a node process is left out: the process may be waiting for this very step
+        busy = [
+            a.name
+            for a in self.domain.agents.values()
+            if not a.is_human
+            and a.name in self.busy
+            and not self.busy[a.name].process
+            and a.name not in self.unavailable
+        ]
+        if not busy:
+            return False
+        robots = [*self.idle_robots, *busy]
+        tree = DecisionTree.build(
+            name,
+            actions,
+            constraints,
+            self.domain,
+            self.kb,
+            exclude=self.failed.get(name, ()),
+            available_agents=robots,
+            reserved=reserved,
+            check_pre=False,  # checked below, after what the busy arm still has to do
+            binding=self._child_binding(name),
+        )
+        for b in tree.branches:
+            # from where the arm will be: after the rest of what it is doing now
+            running = {self.busy[a].id: self.busy[a] for a in b.agents if a in busy}
+            if not running:
+                continue
+            before: list[GroundAction] = []
+            for cmd in running.values():
+                ex = self.executions.get(cmd.element) if cmd.element else None
+                if ex is not None and ex.command is cmd:
+                    before += ex.branch.steps[ex.next_index :]
+                else:
+                    before.append(cmd.action)
+            steps = [*before, *b.steps]
+            if unmet_precondition(steps, self.kb.facts, len(before)) is not None:
+                continue
+            result = self.simulator.simulate(steps, self.kb, self.domain)
+            total = sum(result.durations[len(before) :])
+            if result.success and total > 0 and 1.0 / total >= persons.utility:
+                return True
         return False
 
     def _objects(self, branch: Branch) -> set[str]:

@@ -22,6 +22,12 @@ that no running execution reserves first, then the nearest to its hand (``random
 operators never work on one object at once: a step is not taken while its objects are
 reserved, and an action on an object another agent holds (the domain's ``on_stop.holding``
 fact) fails — the operator gives up and the Task Manager continues.
+
+What it can take beyond what it is asked: steps no arm is on (the Task Manager asks a person
+only for what they are needed for or best at, so a step a busy arm does as well waits for that
+arm — and for an operator who gets there first) and steps whose arm is still on its way (its
+current action changes nothing yet, like the table's ``approach``). A step an arm has started
+changing stays the arm's.
 """
 
 from __future__ import annotations
@@ -42,6 +48,12 @@ if TYPE_CHECKING:
     from flexhrc.taskmanager.manager import TaskManager
 
 
+def operator_seed(seed: int, index: int) -> int:
+    """The random seed of the ``index``-th operator (0-based) of a run with ``seed``: every front
+    end derives it alike, so one seed means one cooperation in ``run`` and in a cell."""
+    return seed * 1009 + index
+
+
 @dataclass
 class OperatorPlan:
     """What an operator is doing: the ground actions, the next one, and why."""
@@ -54,11 +66,14 @@ class OperatorPlan:
 
 @dataclass
 class Intention:
-    """An operator decided to act on its own on ``hyperarc`` (reaching ``step``)."""
+    """An operator decided to act on its own on ``hyperarc`` (reaching ``step``), after
+    ``delay_s``, with the ground ``actions`` it chose when it decided (None: nothing of it was
+    free then — it gives up when the time comes)."""
 
     hyperarc: str
     step: str
     delay_s: float
+    actions: list[GroundAction] | None = None
 
 
 @dataclass
@@ -135,6 +150,11 @@ class SimulatedOperator:
             intention = self.decide(step, arcs)
             if intention is None:
                 continue
+            # its objects are chosen now, from what is free now (as an operator agent of a live
+            # cell chooses from its ``options``); when it starts they must still be free
+            branches = self.candidate_branches(tm, tm.kb, intention.hyperarc)
+            if branches:
+                intention.actions = self.pick_branch(tm.kb, tm.domain, branches)
             self.plan = OperatorPlan([], 0, False, None)  # thinking
             return intention
         return None
@@ -169,27 +189,25 @@ class SimulatedOperator:
     def start_own(
         self, tm: TaskManager, kb: KnowledgeBase, intention: Intention
     ) -> list[GroundAction] | None:
-        """After thinking: the ground actions it now does alone (None: it gives up)."""
+        """After thinking: the ground actions it now does alone — those it chose when it decided,
+        if they are still free (None: it gives up, someone else got there first)."""
         if self.plan is None or self.plan.suggested:
             return None
-        options = self.options(tm).get(intention.step, [])
-        arcs = [h for _, h in options]
-        if not arcs:  # meanwhile someone else got there first
+        arcs = [h for _, h in self.options(tm).get(intention.step, [])]
+        chosen = [str(a) for a in intention.actions or ()]
+        free = (
+            intention.actions is not None
+            and intention.hyperarc in arcs
+            and any(
+                [str(a) for a in b] == chosen
+                for b in self.candidate_branches(tm, kb, intention.hyperarc)
+            )
+        )
+        if not free:
             self.plan = None
             return None
-        hyperarc = intention.hyperarc if intention.hyperarc in arcs else arcs[0]
-        branch = self._choose_branch(tm, kb, hyperarc)
-        if branch is None:
-            self.plan = None
-            return None
-        self.plan = OperatorPlan(list(branch), 0, False, None)
+        self.plan = OperatorPlan(list(intention.actions or ()), 0, False, None)
         return self.plan.steps
-
-    def _choose_branch(
-        self, tm: TaskManager, kb: KnowledgeBase, hyperarc: str
-    ) -> list[GroundAction] | None:
-        branches = self.candidate_branches(tm, kb, hyperarc)
-        return self.pick_branch(kb, tm.domain, branches) if branches else None
 
     def candidate_branches(
         self, tm: TaskManager, kb: KnowledgeBase, hyperarc: str
@@ -283,7 +301,7 @@ class SimulatedOperator:
         return None
 
 
-__all__ = ["PROFILES", "Intention", "OperatorPlan", "SimulatedOperator"]
+__all__ = ["PROFILES", "Intention", "OperatorPlan", "SimulatedOperator", "operator_seed"]
 
 
 def _local(qualified: str) -> str:
