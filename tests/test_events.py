@@ -128,8 +128,7 @@ def test_a_broken_field_is_one_line_naming_the_type_and_the_field(record, expect
 
 
 def test_the_vocabularies_are_the_strings_on_disk() -> None:
-    from flexhrc.scenario import model
-    from flexhrc.scenario.builtin import simulators
+    from flexhrc.scenario import model, simulators
     from flexhrc.taskmanager import operator, runner
 
     assert events.PROFILES == ("passive", "takeover", "cooperative", "random")

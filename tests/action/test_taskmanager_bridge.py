@@ -109,7 +109,7 @@ def test_the_kinematic_simulator_is_the_default_when_installed():
 def test_auto_picks_the_kinematic_simulator_at_the_edge():
     # the choice is made above the Task Manager (scenarios.simulators), which stays unaware of
     # the action level: given no simulator it uses the analytic one (STYLE.md: no import circle)
-    from flexhrc.scenario.builtin.simulators import choose_simulator
+    from flexhrc.scenario.simulators import choose_simulator
     from flexhrc.taskmanager import AnalyticSimulator, TaskManager
 
     name, kin = choose_simulator("auto")

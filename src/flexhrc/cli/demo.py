@@ -251,7 +251,7 @@ def _run_options(p: argparse.ArgumentParser) -> None:
 def _simulators(args: argparse.Namespace, actions: Any = None) -> tuple[Any, Any]:
     """(branch simulator, execution model) for --simulator and --disturb; ``actions`` are the
     domain's action names --disturb may name."""
-    from flexhrc.scenario.builtin.simulators import choose_simulator, resolve_simulator_name
+    from flexhrc.scenario.simulators import choose_simulator, resolve_simulator_name
 
     name = resolve_simulator_name(args.simulator or "auto")
     if name == "analytic" and args.disturb:

@@ -121,7 +121,7 @@ class Scenario:
         the ``sim`` extra) or ``auto``; default (None): the scenario's ``simulator``. Chosen
         here, at the edge, and passed down to the Task Manager (and to the cell, which asks
         with None for the scenario's own choice)."""
-        from flexhrc.scenario.builtin.simulators import choose_simulator, resolve_simulator_name
+        from flexhrc.scenario.simulators import choose_simulator, resolve_simulator_name
 
         name = resolve_simulator_name(choice or self.simulator)
         if name not in self.simulators:

@@ -6,9 +6,6 @@ of the shipped scenario files (``data/NAME/NAME.yaml``).
 * :func:`parallel_assembly` — independent sockets on a bench for many arms and operators;
 * :mod:`flexhrc.scenario.builtin.table_setting` — the behaviour-network tasks of paper 002
   (``flexhrc behave``; a task for the behaviour network, not for the Task Manager).
-
-:func:`~flexhrc.scenario.builtin.simulators.choose_simulator` picks the branch simulator at
-the edge (:meth:`Scenario.make_simulator`).
 """
 
 from flexhrc.scenario.builtin.parallel import parallel_assembly
