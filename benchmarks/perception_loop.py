@@ -24,8 +24,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))
 
 from flexhrc.action.robots import PANDA_Q_REST
 from flexhrc.scenario.builtin.table import TableLayout
+from flexhrc.sensing.loop import forget_positions, lying_layout
 from flexhrc.sensing.perception import PerceptionComponent
-from flexhrc.sensing.run import forget_positions, lying_layout
 from flexhrc.sensing.setup import perceived_run
 from flexhrc.sensing.world import SimulatedWorkspace
 
@@ -66,10 +66,9 @@ def assembly(seeds: int, simulator: str) -> dict[str, object]:
         t0 = time.perf_counter()
         given = given_run.run()
         t1 = time.perf_counter()
-        base = prepare(sc, seed=seed, simulator=simulator)
         run = perceived_run(
-            base.graph, base.domain, base.kb, simulator=base.simulator,
-            humans=base.operator_profiles(), seed=seed,
+            sc.online_graph(), sc.domain, sc.world(), simulator=sc.make_simulator(simulator),
+            humans=[(h.name, h.profile) for h in sc.humans], seed=seed,
         )  # fmt: skip
         t2 = time.perf_counter()
         seen = run.run()

@@ -54,6 +54,7 @@ SPECIAL: dict[str, Any] = {
     "t": 3.0,
     "start": 1.5,
     "act": False,
+    "answer": "no",
 }
 BY_TYPE: dict[type, Any] = {str: "x", int: 2, float: 0.5, bool: False, list: ["a"], dict: {}}
 

@@ -116,15 +116,16 @@ LogEventType = Literal[
     "operator_takes",
 ]
 MessageType = Literal[
-    "command", "stop", "ack", "suggestion", "human_action", "percept", "options", "operator",
-    "intent", "state", "end", "follow", "follow_stop",
+    "command", "stop", "ack", "suggestion", "human_action", "percept", "answer", "looked",
+    "options", "operator", "intent", "state", "end", "follow", "follow_stop",
 ]
 StoreKind = Literal[
     "start", "ack", "human_action", "percept", "agent_up", "agent_down", "operator", "intent",
     "human_take", "command", "suggestion", "stop", "options", "decision", "outcome", "abort",
     "action_failed", "infeasible", "recognised", "solved", "human_action_unmatched",
     "ack_ignored", "agent_available", "agent_unavailable", "human_decides", "human_gives_up",
-    "fixed", "summary",
+    "fixed", "summary", "begin", "operator_answers", "waiting", "inconsistent",
+    "consistent_again", "repaired",
 ]
 # fmt: on
 StoreRole = Literal["input", "output", "record"]
@@ -329,7 +330,7 @@ _LOG_SCHEMAS = [
          (_decision_chosen,), element=NAME, cost=Field((*NUM, NONE)),
          branches=Field((list,), True, check=lambda v: all(isinstance(b, dict) for b in v),
                         message="decision: 'branches' must be a list of branches")),
-    _log("waiting", "nothing can be decided now", "replay trace", reason=OPT_NAME),
+    _log("waiting", "nothing can be decided now", "replay trace store", reason=OPT_NAME),
     _log("infeasible", "a hyper-arc can never be done", "replay trace store",
          element=NAME, reason=OPT_NAME),
     _log("suggestion", "a person is asked to do a step", "replay trace",
@@ -375,10 +376,10 @@ _LOG_SCHEMAS = [
     _log("fixed", "an object is fixed in place by an action", object=NAME, agents=AGENTS),
     _log("obsolete", "an action's effect is already true: the step is skipped"),
     _log("percept", "the perceived scene changed (or a stored percept message)"),
-    _log("inconsistent", "the knowledge base disagrees with a percept", "replay trace"),
-    _log("consistent_again", "the knowledge base agrees again", "replay trace"),
+    _log("inconsistent", "the knowledge base disagrees with a percept", "replay trace store"),
+    _log("consistent_again", "the knowledge base agrees again", "replay trace store"),
     _log("repair", "a repair of the knowledge base begins", "replay trace"),
-    _log("repaired", "the knowledge base is repaired", "replay trace"),
+    _log("repaired", "the knowledge base is repaired", "replay trace store"),
     _log("operator_answers", "the operator answered a question", "replay trace"),
     _log("operator_nudges", "the operator is nudged", "replay trace"),
     _log("operator_nudge_skipped", "a nudge was not needed"),
@@ -490,6 +491,10 @@ def _percept_shape(m: Mapping[str, Any]) -> str | None:
     return None
 
 
+def _yes_no(m: Mapping[str, Any]) -> str | None:
+    return None if m["answer"] in ("yes", "no") else "answer: 'answer' must be 'yes' or 'no'"
+
+
 def _msg(kind: MessageType, doc: str, rules: tuple[Rule, ...] = (), **fields: Field) -> EventSchema:
     return EventSchema(kind, doc, MappingProxyType(fields), rules)
 
@@ -513,10 +518,24 @@ _MESSAGE_SCHEMAS = [
          own=Field((bool,), doc="the operator's own plan (its intent), not the manager's ask")),
     _msg("human_action", "human → `human`: a person did this", (_positions("human_action"),),
          id=ID, agent=Field(S, True), action=Field(S, True), suggestion=OPT_NAME,
-         step=_nonneg((int,)), start=OPT_TIME, t=TIME, positions=Field((dict,))),
+         step=_nonneg((int,)), start=OPT_TIME, t=TIME, positions=Field((dict,)),
+         recognised=Field((bool,), doc="false: a wearable sensor missed it (the manager is "
+                          "not told)"),
+         sensed=Field((dict,), doc="the wearable sensor's figures")),
     _msg("percept", "perception → `percept`: an object seen", (_percept_shape,),
          id=ID, object=Field(S, True), object_type=Field(S, True), pose=Field((list,), True),
-         size=Field((dict, list, NONE)), t=OPT_TIME),
+         size=Field((dict, list, NONE)), t=OPT_TIME,
+         why=Field(S, doc="what the look followed"),
+         moved=Field((bool,), doc="re-anchored away from the belief"),
+         contradicts=Field(OPT_S, doc="the reported belief it contradicts, and why")),
+    # the operator's answer to a repair question about a report (human_action id)
+    _msg("answer", "human → `human`: did you do what was reported?", (_yes_no,),
+         id=ID, agent=Field(S, True), report=Field(S, True), object=Field(S, True),
+         question=Field(S, True), answer=Field(S, True), t=TIME),
+    # a perception agent the ordered loop waits for: it looked at the state numbered ``upto``
+    _msg("looked", "perception → `percept`: a watcher has looked",
+         agent=Field(S, True), upto=_nonneg((int,), True), t=TIME,
+         at=_nonneg(NUM, doc="when it looks again by itself")),
     # an operator that acts on its own: what it may do (steps -> hyper-arcs -> ground branches)
     _msg("options", "manager → `options/<human>`: what the operator may do on its own",
          (_options_steps,), id=ID, t=TIME, steps=Field((list,), True), world=Field((dict,))),
@@ -563,6 +582,8 @@ _STORE_SPECS = [
     StoreKindSpec("operator", "input", "an operator message"),
     StoreKindSpec("intent", "input", "an intent message"),
     StoreKindSpec("human_take", "input", "the operator takes a hyper-arc"),
+    StoreKindSpec("begin", "input", "the watchers have looked: the first decision"),
+    StoreKindSpec("operator_answers", "input", "an answer message (a repair question)"),
     StoreKindSpec("command", "output", "a command message sent"),
     StoreKindSpec("suggestion", "output", "a suggestion message sent"),
     StoreKindSpec("stop", "output", "a stop message sent"),

@@ -29,24 +29,6 @@ def run_cli(*args: str, timeout: float = 120) -> subprocess.CompletedProcess[str
     )
 
 
-# kitchen_drawer: the operator moves parts while an arm works (the run once wrote the arm's
-# stale view of them back when its action ended)
-@pytest.mark.parametrize("scenario", ["table_assembly", "kitchen_drawer"])
-def test_default_cell_is_the_run_cooperation(scenario: str) -> None:
-    cell = run_cli("cell", scenario, "--json", "--quiet")
-    run = run_cli("run", scenario, "--json", "--quiet")
-    assert cell.returncode == 0, cell.stderr
-    c, d = json.loads(cell.stdout), json.loads(run.stdout)
-    assert set(d) - {"wall_s"} <= set(c)  # the keys of `flexhrc run --json`
-    for key in ("outcome", "robot_actions", "human_actions", "decisions", "fixed_by_agent",
-                "by_agent", "simulator"):  # fmt: skip
-        assert c[key] == d[key], key
-    assert c["timing"]["total_s"] == d["timing"]["total_s"]
-    assert [h["hyperarc"] for h in c["solved_hyperarcs"]] == [
-        h["hyperarc"] for h in d["solved_hyperarcs"]
-    ]
-
-
 def _cell(scenario: Any) -> tuple[Cell, list[Any], InProcessBus]:
     bus = InProcessBus()
     cell = Cell(scenario, bus, liveliness=False, simulator=execution_model("analytic"))

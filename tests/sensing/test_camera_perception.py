@@ -12,8 +12,8 @@ pytest.importorskip("scipy")
 
 from flexhrc.errors import FlexhrcError
 from flexhrc.sensing.camera import HeadCamera
+from flexhrc.sensing.loop import forget_positions
 from flexhrc.sensing.perception import PerceptionComponent
-from flexhrc.sensing.run import forget_positions
 from flexhrc.sensing.world import SimulatedWorkspace
 
 from .conftest import table

@@ -63,9 +63,12 @@ def test_a_miss_is_a_miss():
 
             return Sensed(action, None, None, 0.0, 100, 0.0)
 
-    result, _run, _ = run_table("takeover", 0, human_sensing=Deaf())
-    # the manager is never told: no human action reaches it
-    assert not [e for e in result.events if e["type"] == "human_action"]
+    result, run, _ = run_table("takeover", 0, human_sensing=Deaf())
+    # the manager is never told: every report the cell stored says nothing was recognised,
+    # and the manager recognised no human action
+    reports = [e.body for e in run.cell.events if e.kind == "human_action"]
+    assert reports and all(b["recognised"] is False for b in reports)
+    assert not [e for e in result.events if e["type"] == "recognised"]
     hs = result.summary["human_sensing"]
     assert hs["missed"] == hs["performed"] > 0 and hs["recognised"] == 0
     assert result.outcome in ("solved", "failed") and (result.outcome == "solved" or result.reason)

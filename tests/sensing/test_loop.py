@@ -1,7 +1,10 @@
 """Perception closes the loop (issue 13): the manager knows the world only through its sensors.
 
-Runs use the analytic simulator for speed (the kinematic one: ``test_kinematic_run`` and the
-CLI); perception — PyBullet depth, the scene pipeline, anchoring — is the real thing.
+Each run is the cell configured with perception in the loop (:mod:`flexhrc.sensing.loop`, issue
+19): in-process arms and operators over the ordered bus, the head camera's perception agent a
+watcher of the loop. Runs use the analytic simulator for speed (the kinematic one:
+``test_kinematic_run`` and the CLI); perception — PyBullet depth, the scene pipeline,
+anchoring — is the real thing.
 """
 
 from __future__ import annotations
@@ -16,10 +19,10 @@ import pytest
 pytest.importorskip("pybullet")
 pytest.importorskip("scipy")
 
-from flexhrc.sensing.run import FalseReport, Nudge
+from flexhrc.sensing.loop import FalseReport, Nudge
 from flexhrc.sensing.setup import perceived_run
 from flexhrc.taskmanager import AnalyticSimulator
-from flexhrc.taskmanager.runner import PROFILES
+from flexhrc.taskmanager.operator import PROFILES
 
 from ..conftest import subprocess_env
 from .conftest import table
@@ -31,11 +34,11 @@ def run_table(profile="passive", seed=0, *, kinematic=False, watch=False, shippe
     if not kinematic:
         kw.setdefault("simulator", AnalyticSimulator())
     if shipped:
-        from flexhrc.scenario import load, prepare
+        from flexhrc.scenario import load
 
-        base = prepare(load("table_assembly"), profile=profile, seed=seed)
-        graph, domain, truth = base.graph, base.domain, base.kb
-        kw.setdefault("humans", base.operator_profiles())
+        sc = load("table_assembly")
+        graph, domain, truth = sc.online_graph(), sc.domain, sc.world()
+        kw.setdefault("humans", [(h.name, profile) for h in sc.humans])
     else:
         sc, truth = table(seed)
         graph, domain = sc.online_graph(), sc.domain
@@ -48,7 +51,7 @@ def run_table(profile="passive", seed=0, *, kinematic=False, watch=False, shippe
             upd = update(now, rgb=rgb)
             on = {}
             for sym in upd.report.anchored:
-                pos = run.kb.position(sym)
+                pos = run.perception.anchoring.kb.position(sym)
                 part = min(
                     run.world.parts.values(), key=lambda p: math.dist(p.position[:2], pos[:2])
                 )
@@ -102,13 +105,29 @@ def test_the_manager_starts_without_positions_and_perception_runs_after_world_ch
     assert set(s["human_sensing"]) >= {"performed", "recognised", "missed", "false_reports"}
 
 
+def test_the_same_seed_gives_the_same_run():
+    # the percepts are inputs at well-defined times (the camera is a watcher of the ordered
+    # loop): two runs agree event for event
+    def trace(result):
+        keep = ("type", "t", "object", "moved", "why", "action", "element", "status", "command")
+        return [{k: e[k] for k in keep if k in e} for e in result.events if e["type"] != "summary"]
+
+    nudge = [Nudge("approach", 1, (0.0, 0.08), 0.5)]
+    first, _, _ = run_table("cooperative", 2, nudges=nudge)
+    again, _, _ = run_table("cooperative", 2, nudges=nudge)
+    assert first.outcome == "solved", first.reason
+    assert [e for e in trace(first) if e["type"] == "percept"]
+    assert trace(first) == trace(again)
+
+
 def test_operator_moves_a_leg_while_the_robot_goes_to_grasp_it():
     result, run, _ = run_table("passive", 0, nudges=[Nudge("approach", 1, (0.0, 0.08), 0.5)])
     assert result.outcome == "solved", result.reason
     nudge = kinds(result, "operator_nudges")[0]
     after = result.events[result.events.index(nudge) :]
+    # one percept per object: the one of the part seen away from the belief says it moved
     percept = next(e for e in after if e["type"] == "percept" and e.get("moved"))
-    leg = percept["moved"][0]
+    leg = percept["object"]
     stop = next(e for e in after if e["type"] == "stop")
     assert stop["reason"] == f"{leg} moved" and stop["command"] == 1  # the first approach
     ended = next(e for e in after if e["type"] == "action_end" and e["command"] == 1)
@@ -152,8 +171,8 @@ def test_with_repair_the_manager_repairs_first_then_solves():
 
 
 def test_the_next_compatible_percept_clears_an_inconsistency():
+    from flexhrc.sensing.loop import forget_positions
     from flexhrc.sensing.perception import PerceptionComponent
-    from flexhrc.sensing.run import forget_positions
     from flexhrc.sensing.world import SimulatedWorkspace
 
     _, truth = table(0)

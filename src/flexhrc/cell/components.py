@@ -32,6 +32,7 @@ import json
 import logging
 import time
 from collections.abc import Callable, Iterable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Protocol
 
@@ -83,6 +84,36 @@ def execution_model(choice: str = "auto", scenario: ScenarioLike | None = None) 
     if choice != "analytic":
         raise FlexhrcError(f"the {choice} simulator is made by a scenario: give one")
     return AnalyticSimulator()
+
+
+@dataclass(frozen=True)
+class Executed:
+    """One action an in-process agent carries out, as its ``on_executed`` observer sees it: who,
+    what, where the agent *believed* things were when it started (the world its message
+    carried), and when it starts and ends on the cell's clock. ``command`` is the command id of
+    a robot, the report id of an operator. The agent answers at once; the observer (e.g. the
+    truth of a simulated workspace, :mod:`flexhrc.sensing.loop`) applies the effect at ``end``."""
+
+    agent: str
+    command: int | str
+    action: GroundAction
+    believed: dict[str, tuple[float, float, float]]
+    start: float
+    end: float
+    status: str
+
+
+#: ``on_executed(executed)``: None, or why the action failed in the world (a grasp that closes
+#: on nothing); only a ``done`` robot action can be failed so.
+OnExecuted = Callable[[Executed], "str | None"]
+
+
+class HumanSensing(Protocol):
+    """A wearable sensor of the operator (``flexhrc.perception.human.sensing``): what it made of
+    one performed action — ``.recognised`` (a task action name or None), ``.samples`` (0: no
+    motion of the sensor plays this action) and ``.to_dict()``."""
+
+    def sense(self, action: str) -> Any: ...
 
 
 def ground(
@@ -228,10 +259,13 @@ class RobotAgent(_Agent):
         timeout_factor: float = 3.0,
         trace: Callable[[str], None] | None = None,
         journal: str | Path | None = None,
+        on_executed: OnExecuted | None = None,
     ) -> None:
         super().__init__(name, scenario, transport, execution=execution, trace=trace)
         check_agent_name(self.domain, name, "robot", "--arm")
         self.timeout_factor = timeout_factor
+        # an observer of what this arm physically does (a simulated workspace's truth)
+        self.on_executed = on_executed
         self.acks: dict[int, dict[str, Any]] = {}  # command id -> its ack (sent again on repeat)
         self.running: set[int] = set()
         self.stopped: set[int] = set()
@@ -343,6 +377,12 @@ class RobotAgent(_Agent):
         limit = max(float(msg.get("expected_s", 0.0)) * self.timeout_factor, 1.0)
         if status == "done" and duration > limit:
             status, reason, duration = "timed_out", f"no result after {limit:.1f} s", limit
+        if self.on_executed is not None:
+            t0 = float(msg["t"])
+            ex = Executed(self.name, cid, action, before, t0, t0 + duration, status)
+            failed = self.on_executed(ex)
+            if failed is not None and status == "done":
+                status, reason = "failed", failed
         moved = {k: list(map(float, p)) for k, p in positions.items() if before.get(k) != p}
         ack = P.message(
             "ack",
@@ -386,6 +426,8 @@ class HumanAgent(_Agent):
         execution: ExecutionModel | None = None,
         trace: Callable[[str], None] | None = None,
         takes: Iterable[int | str] | None = None,
+        on_executed: OnExecuted | None = None,
+        sensing: HumanSensing | None = None,
     ) -> None:
         check_profile(profile)
         super().__init__(
@@ -393,6 +435,11 @@ class HumanAgent(_Agent):
         )
         check_agent_name(self.domain, name, "human", "--name")
         self.profile = profile
+        self.on_executed = on_executed
+        # None: the manager is told what the operator did; else only what this wearable
+        # sensor recognised (a miss is a miss: the report says nothing was recognised)
+        self.sensing = sensing
+        self.sensed: list[dict[str, Any]] = []  # what the sensor made of each action done
         self.reports: dict[str, dict[int, dict[str, Any]]] = {}  # suggestion -> step -> report
         self.busy: set[tuple[str, int]] = set()  # steps being carried out
         self._subs.append(transport.subscribe(P.suggest_topic(name), self._on_message))
@@ -513,16 +560,20 @@ class HumanAgent(_Agent):
         t = float(msg["t"])
         dt = float(self.execution.execute(step, positions, self.kb, self.domain).duration_s)
         moved = {key: list(map(float, p)) for key, p in positions.items() if before.get(key) != p}
+        rid = f"{self.name}:{sid}:{k}"
+        if self.on_executed is not None:
+            self.on_executed(Executed(self.name, rid, step, before, t, t + dt, "done"))
+        fields: dict[str, Any] = {"action": str(step), **self._sense(step, steps, t + dt)}
         rep = P.message(
             "human_action",
-            id=f"{self.name}:{sid}:{k}",
+            id=rid,
             agent=self.name,
-            action=str(step),
             suggestion=sid,
             step=k,
             start=t,
             t=t + dt,
             positions=moved,
+            **fields,
         )
         if k == 0:
             self.trace(f"suggestion {sid}: {msg['element']}")
@@ -536,6 +587,58 @@ class HumanAgent(_Agent):
 
         speed = float(msg.get("realtime", 0.0))
         self._later(dt / speed if speed > 0 else 0.0, send)
+
+    def sensing_figures(self) -> dict[str, int]:
+        """What the wrist sensor made of this operator's actions (the ``human_sensing`` key of
+        a run's JSON): ``performed`` = ``recognised`` + ``missed`` + ``false_reports``;
+        ``uncovered`` actions no sensor motion plays are confirmed directly, counted apart."""
+        out = {"performed": 0, "recognised": 0, "missed": 0, "false_reports": 0, "uncovered": 0}
+        for rec in self.sensed:
+            what = str(rec.get("outcome"))
+            if what == "uncovered":
+                out["uncovered"] += 1
+                continue
+            out["performed"] += 1
+            out["false_reports" if what in ("false_report", "unusable") else what] += 1
+        return out
+
+    def _sense(self, step: GroundAction, plan: list[GroundAction], t: float) -> dict[str, Any]:
+        """The fields a wearable sensor adds to a report: ``sensed`` (its figures), and
+        ``recognised`` — false when it missed the action (the manager is not told); a
+        recognised action other than the one done is reported in its place."""
+        if self.sensing is None:
+            return {}
+        sensed = self.sensing.sense(step.name)
+        rec = {"t": t, "action": str(step), **sensed.to_dict()}
+        self.sensed.append(rec)
+        if sensed.recognised is None:
+            # no motion of the sensor plays this action (a visual check): the operator confirms
+            # it some other way (the panel's "done"); else a miss
+            rec["outcome"] = "uncovered" if not sensed.samples else "missed"
+            return {"sensed": rec, "recognised": not sensed.samples}
+        name = str(sensed.recognised)
+        action = _fit(self.domain, name, step, plan)
+        if action is None:
+            rec["outcome"] = "unusable"
+            return {"sensed": rec, "recognised": False}
+        rec["outcome"] = "recognised" if action == str(step) else "false_report"
+        return {"sensed": rec, "action": action}
+
+
+def _fit(domain: Domain, name: str, step: GroundAction, plan: list[GroundAction]) -> str | None:
+    """The recognised action ``name`` with the arguments its schema takes: those of the step
+    done, or — when it takes more (a pick-up taken for a screw) — those of the operator's next
+    step of that name that starts with them."""
+    schema = domain.actions.get(name)
+    if schema is None:
+        return None
+    n = len(schema.parameters)
+    if n <= len(step.args):
+        return f"{name}({', '.join(step.args[:n])})"
+    for other in plan:
+        if other.name == name and other.args[: len(step.args)] == step.args:
+            return str(other)
+    return None
 
 
 def run_agent(agent: _Agent, transport: Any, *, until: Callable[[], bool] | None = None) -> str:

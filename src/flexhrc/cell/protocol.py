@@ -8,10 +8,10 @@ topic               from -> to          message ``type``
 ``cmd/<agent>``     manager -> robot    ``command``, ``stop``
 ``ack``             robot -> manager    ``ack``
 ``suggest/<name>``  manager -> human    ``suggestion``
-``human``           human -> manager    ``human_action``
+``human``           human -> manager    ``human_action``, ``answer`` (to a repair question)
 ``options/<name>``  manager -> human    ``options`` (what an operator may do on its own)
 ``intent``          human -> manager    ``operator`` (its profile), ``intent`` (its answer)
-``percept``         perception -> mgr   ``percept``
+``percept``         perception -> mgr   ``percept``, ``looked`` (a watcher has looked)
 ``state``           manager -> all      ``state`` (the cell snapshot), ``end``
 ``alive/<agent>``   liveliness tokens   (``alive/manager`` for the manager)
 ==================  ==================  ====================================================

@@ -53,6 +53,7 @@ from flexhrc.cell.components import ScenarioLike, ground, world_of
 from flexhrc.cell.store import EventStore, StoredEvent, log_events
 from flexhrc.errors import FlexhrcError
 from flexhrc.events import STORED_LOG_TYPES  # the manager records the store keeps
+from flexhrc.knowledge import Inconsistency
 from flexhrc.taskmanager.diagnose import stall_reason
 from flexhrc.taskmanager.domain import GroundAction
 from flexhrc.taskmanager.manager import (
@@ -104,6 +105,7 @@ class Cell:
         name: str = "default",
         trace: Callable[[dict[str, Any]], None] | None = None,
         seed: int = 0,
+        watchers: Iterable[str] = (),
         reaction: str = "conflicts",
         observers: Iterable[Callable[[dict[str, Any]], None]] = (),
         max_time_s: float | None = None,
@@ -191,6 +193,16 @@ class Cell:
             transport.subscribe(P.INTENT_TOPIC, self._on_intent_message),
         ]
         self.percept_ids: set[str] = set()
+        # perception agents the ordered loop waits for (see the module docstring): the manager
+        # decides first once they have looked, and moves on after each input only when they
+        # have looked at the state it left (``looked``); one may ask to look at a later time
+        self.watchers = list(watchers) if self.ordered else []
+        self.begun = not self.watchers  # the manager has made its first decision
+        self._looked: dict[str, int] = {}
+        self._state_seq = 0
+        self._wakes: set[tuple[str, float]] = set()
+        # human_action id -> what its report did to the belief (to undo it when it was false)
+        self._reports: dict[str, tuple[HumanAction, Any, Any, set[Any], set[Any]]] = {}
         if hasattr(transport, "on_drop"):
             transport.on_drop = lambda topic, data, exc: self._drop(
                 f"{topic}: undecodable payload ({len(data)} bytes): {exc}"
@@ -341,10 +353,15 @@ class Cell:
 
     def _on_human_message(self, data: Any) -> None:
         try:
-            msg = P.parse(data, expect="human_action")
+            msg = P.parse(data, expect=("human_action", "answer"))
             st = self.agents.get(msg["agent"])
             if st is None or st.kind != "human":
                 raise P.ProtocolError(f"{msg['agent']!r} is not a human agent of this cell")
+            if msg["type"] == "answer":
+                if msg["report"] not in self._reports:
+                    raise P.ProtocolError(f"answer about {msg['report']!r}, not a report here")
+                self._arrive(msg["t"], "operator_answers", _body(msg))
+                return
             ground(self.domain, msg["action"])
         except FlexhrcError as exc:
             self._drop(f"human_action: {exc}")
@@ -365,9 +382,12 @@ class Cell:
         knowledge base checks it against what it knows; a contradiction makes the manager wait,
         paper III)."""
         try:
-            msg = P.parse(data, expect="percept")
+            msg = P.parse(data, expect=("percept", "looked"))
         except P.ProtocolError as exc:
             self._drop(f"percept: {exc}")
+            return
+        if msg["type"] == "looked":
+            self._on_looked(msg)
             return
         if msg["id"] in self.percept_ids:
             self._drop(f"duplicate percept {msg['id']}")
@@ -376,6 +396,20 @@ class Cell:
             self._drop(f"percept {msg['id']} before the cooperation started")
             return
         self._input("percept", _body(msg))  # at the cell's time: a percept never moves the clock
+
+    def _on_looked(self, msg: dict[str, Any]) -> None:
+        """A watcher has looked at the state ``upto``; ``at``: it looks again then, by itself
+        (the operator nudges a part): the ordered loop handles no answer after that time first."""
+        agent = str(msg["agent"])
+        if agent not in self.watchers or not self.started:
+            return
+        self._looked[agent] = max(self._looked.get(agent, 0), int(msg["upto"]))
+        at = msg.get("at")
+        if at is not None and float(at) > self.now and (agent, float(at)) not in self._wakes:
+            self._wakes.add((agent, float(at)))
+            self._arrive(float(at), "look", {"agent": agent, "id": f"look@{at}"})
+        if not self.begun and all(self._looked.get(w, 0) >= self._state_seq for w in self.watchers):
+            self._input("begin", {"watchers": list(self.watchers)})
 
     def _on_intent_message(self, data: Any) -> None:
         """An operator's profile (``operator``) or its answer to ``options`` (``intent``)."""
@@ -540,6 +574,10 @@ class Cell:
             return [{"profile": profile, **b, "t": t, "type": "start"}]
         if ev.kind in ("fixed", "human_decides", "human_gives_up", "outcome", "summary"):
             return [{**b, "t": t, "type": ev.kind}]
+        if ev.kind in ("percept", "inconsistent", "consistent_again", "repaired"):
+            return [{**b, "t": t, "type": ev.kind}]  # perception in the loop
+        if ev.kind == "operator_answers":
+            return [{**b, "t": t, "type": ev.kind}]
         return []
 
     def _tm_log(self, ev: dict[str, Any]) -> None:
@@ -574,6 +612,12 @@ class Cell:
             self.started = True
             self.operators.update(body.get("operators") or {})
             self.scripted.update(body.get("scripted") or [])
+            if body.get("watchers"):  # the first decision waits for their first look
+                self.begun = False
+                return []
+            return tm.start(now)
+        if kind == "begin":
+            self.begun = True
             return tm.start(now)
         if kind == "operator":
             self.operators[str(body["agent"])] = str(body["profile"])
@@ -599,17 +643,46 @@ class Cell:
         if kind == "human_action":
             self.human_ids.add(str(body["id"]))
             action = ground(self.domain, body["action"])
-            self._physical(action, body.get("positions") or {})
+            missed = body.get("recognised") is False  # the wrist sensor missed it
+            if not missed:
+                self._physical(action, body.get("positions") or {})
             sid, k = body.get("suggestion"), body.get("step")
             if isinstance(sid, str) and isinstance(k, int) and sid in self.suggestions:
                 done = self.suggestion_step.get(sid, (0, now))[0]
                 self.suggestion_step[sid] = (max(done, k + 1), now)
-            return tm.on_human_action(now, HumanAction(action.name, action.args))
+            if missed:  # a miss is a miss: the manager is not told
+                return []
+            said = HumanAction(action.name, action.args)
+            obj = action.args[1] if len(action.args) > 1 else None
+            where = self.kb.position(obj) if obj in self.kb.objects else None
+            before = set(self.kb.facts)
+            out = tm.on_human_action(now, said)
+            after = set(self.kb.facts)
+            self._reports[str(body["id"])] = (said, obj, where, after - before, before - after)
+            return out
+        if kind == "operator_answers":
+            return self._answered(body)
         if kind == "percept":
             self.percept_ids.add(str(body["id"]))
-            self.kb.update_object(
-                str(body["object"]), str(body["object_type"]), body["pose"], body.get("size")
-            )
+            obj = str(body["object"])
+            contradicts = body.get("contradicts")
+            known = obj in self.kb.objects
+            if contradicts and known:
+                # the perception agent checked a reported belief and found it false
+                self.kb.inconsistencies.append(
+                    Inconsistency(obj, str(contradicts), _percept_of(body))
+                )
+                self.kb.version += 1
+                self._record("inconsistent", {"object": obj, "reason": str(contradicts)})
+            else:
+                if known and any(i.object_id == obj for i in self.kb.inconsistencies):
+                    self.kb.resolve(obj, accept=False)  # a compatible percept clears it
+                    self._record("consistent_again", {"object": obj, "why": "a compatible percept"})
+                self.kb.update_object(obj, str(body["object_type"]), body["pose"], body.get("size"))
+            if not self.begun:
+                return []
+            if body.get("moved") and self.kb.consistent:
+                return tm.on_percept(now, moved=[obj])
             return tm.replan(now)
         if kind in ("agent_down", "agent_up"):
             st = self.agents[str(body["agent"])]
@@ -621,6 +694,35 @@ class Cell:
         raise FlexhrcError(f"unknown input kind {kind!r} in the store")
 
     # -- operators that act on their own -------------------------------------------------------
+    def _answered(self, body: dict[str, Any]) -> list[Directive]:
+        """The operator answered whether it did what was reported: yes — the percept was wrong,
+        the belief stands; no — the report is undone (the facts its handling changed, where
+        the object is: as last perceived) and the manager drops what it started on it."""
+        said, obj, where, added, removed = self._reports[str(body["report"])]
+        target = str(body["object"])
+        percept = next((i.percept for i in self.kb.inconsistencies if i.object_id == target), None)
+        if body["answer"] == "yes":
+            self.kb.resolve(target, accept=False)
+            return self.tm.on_percept(self.now)
+        for fact in added:
+            self.kb.retract_fact(*fact)
+        for fact in removed:
+            self.kb.assert_fact(*fact)
+        seen = percept["position"] if percept is not None else where
+        if obj in self.kb.objects and seen is not None:
+            self.kb.move(obj, seen)
+        self.kb.resolve(target, accept=False)
+        del self._reports[str(body["report"])]
+        self._record("repaired", {"object": target, "by": f"operator denied {said}"})
+        return self.tm.on_percept(self.now, retracted=[said])
+
+    def _deadlock_reason(self) -> str:
+        reason = stall_reason(self.tm)
+        if self.kb.consistent:
+            return reason
+        reasons = "; ".join(i.reason for i in self.kb.inconsistencies)
+        return f"{reason} (the knowledge base is inconsistent: {reasons})"
+
     def _helper(self, human: str) -> SimulatedOperator:
         """What an operator may do, as the in-process operators see it (no decision is taken
         here: the profile and its randomness live in the operator's agent)."""
@@ -637,7 +739,7 @@ class Cell:
     def _offer_options(self) -> None:
         """Send ``options`` to each idle operator that acts on its own and has a newly reachable
         step it may do alone (it decides once per step, as :meth:`SimulatedOperator.consider`)."""
-        if not self.started or self.tm.done:
+        if not self.started or not self.begun or self.tm.done:
             return
         for human, profile in sorted(self.operators.items()):
             st = self.agents.get(human)
@@ -920,9 +1022,11 @@ class Cell:
     def _publish_state(self) -> None:
         if not self.publish_state:
             return
+        self._state_seq += 1
         try:
             self.transport.publish(
-                P.STATE_TOPIC, {"v": P.VERSION, "type": "state", **self.snapshot()}
+                P.STATE_TOPIC,
+                {"v": P.VERSION, "type": "state", **self.snapshot(), "seq": self._state_seq},
             )
         except Exception as exc:  # a panel's view must never stop the cell
             log.warning("state not published: %s", exc)
@@ -999,7 +1103,8 @@ class Cell:
                 continue
             for a in ex.branch.agents:
                 st = self.agents.get(a)
-                if st and st.kind == "human" and st.available and a not in pending_human:
+                waits = st and st.kind == "human" and st.available and a not in pending_human
+                if waits and not self._nothing_to_do(a):  # asked nothing, or reported it all
                     out.append(a)
         pending_intent = {b["agent"] for *_, k, b in self.pending if k == "intent"}
         for human, sid in sorted(self.active_suggestion.items()):
@@ -1011,7 +1116,20 @@ class Cell:
         for human in sorted(self.awaiting):
             if self.agents[human].available and human not in pending_intent:
                 out.append(human)  # deciding whether to act on its own
+        if self.started and not self.tm.done:
+            out += [w for w in self.watchers if self._looked.get(w, 0) < self._state_seq]
         return out
+
+    def _nothing_to_do(self, human: str) -> bool:
+        """The manager waits for the operator, who was asked nothing (a report of an action it
+        did not do) or has reported every step it was given (a report the wrist sensor missed):
+        in the ordered loop nothing more will come from it."""
+        sid = self.active_suggestion.get(human)
+        if sid is None:
+            return human not in self.awaiting
+        if self.suggestions[sid].get("own"):
+            return False
+        return self.suggestion_step.get(sid, (0, 0.0))[0] >= len(self.suggestions[sid]["actions"])
 
     def request_stop(self, reason: str = "interrupted") -> None:
         """End the cooperation at the next turn of the loop with the outcome ``interrupted``
@@ -1073,6 +1191,10 @@ class Cell:
                 return False
             t, _, kind, body = self.pending.pop(due[0])
         self._last_wall = time.perf_counter()
+        if kind == "look":  # a watcher looks by itself now: no input, a state to look at
+            self.now = max(self.now, t)
+            self._publish_state()
+            return True
         if kind == "human_action" and self._held_elsewhere(t, body):
             return True
         self._input(kind, body, t)
@@ -1104,6 +1226,7 @@ class Cell:
                     "realtime": self.realtime,
                     "simulator": _simulator_name(self.tm.simulator),
                     "operators": dict(self.operators),
+                    **({"watchers": list(self.watchers)} if self.watchers else {}),
                     **({"scripted": sorted(self.scripted)} if self.scripted else {}),
                 },
             )
@@ -1139,7 +1262,7 @@ class Cell:
                 idle_since = None
                 continue
             if not self.pending and self.quiescent is not None and self.quiescent():
-                self._end("failed", stall_reason(self.tm))
+                self._end("failed", self._deadlock_reason())
                 break
             if not self.pending and not self.awaited():
                 # nothing running, nothing to come: stuck, unless a lost agent may come back
@@ -1148,7 +1271,7 @@ class Cell:
                 else:
                     idle_since = idle_since or time.monotonic()
                 if idle_since is not None and time.monotonic() - idle_since >= self.idle_s:
-                    self._end("failed", stall_reason(self.tm))
+                    self._end("failed", self._deadlock_reason())
                     break
             self._resend_overdue()
             if time.monotonic() > deadline:
@@ -1208,6 +1331,18 @@ def _simulator_name(simulator: Any) -> str:
     from flexhrc.taskmanager.simulator import simulator_name
 
     return simulator_name(simulator)
+
+
+def _percept_of(body: dict[str, Any]) -> dict[str, Any]:
+    """A percept message as the knowledge base keeps one (:class:`Inconsistency`)."""
+    pose = [float(v) for v in body["pose"][:3]]
+    size = body.get("size")
+    return {
+        "type": str(body["object_type"]),
+        "position": (pose[0], pose[1], pose[2]),
+        "size": dict(size) if isinstance(size, dict) else {},
+        "attrs": {},
+    }
 
 
 def _body(msg: dict[str, Any]) -> dict[str, Any]:

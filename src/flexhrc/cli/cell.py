@@ -245,6 +245,9 @@ def cmd_cell(args: argparse.Namespace) -> int:
         agents: list[Any] = []
         if internal:
             humans = [a.name for a in scenario.domain.agents.values() if a.is_human]
+            # the arms of one process share one simulated world, as in `flexhrc run`: what the
+            # follower of a joint command did, and where the other arm is, are in it
+            world = execution_model(args.simulator, scenario)
             for a in scenario.domain.agents.values():
                 if a.is_human:
                     human_model = execution_model("analytic", scenario)
@@ -259,8 +262,7 @@ def cmd_cell(args: argparse.Namespace) -> int:
                     )
                     agents.append(operator)
                 else:
-                    model = execution_model(args.simulator, scenario)
-                    agents.append(RobotAgent(a.name, scenario, transport, execution=model))
+                    agents.append(RobotAgent(a.name, scenario, transport, execution=world))
             if args.transport == "inprocess":
                 for st in cell.agents.values():
                     st.alive = st.seen = True

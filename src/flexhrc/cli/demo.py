@@ -641,7 +641,7 @@ def _bodies_apart(table: dict[str, Any]) -> dict[str, Any]:
     by side, they are laid out clear of each other (seeded, beside the tabletop)."""
     from flexhrc.errors import FlexhrcError as _Error
     from flexhrc.scenario.builtin.table import LEG_LENGTHS, TableLayout
-    from flexhrc.sensing.run import lying_layout
+    from flexhrc.sensing.loop import lying_layout
     from flexhrc.sensing.world import SimulatedWorkspace
 
     layout = TableLayout(**table)
@@ -679,12 +679,30 @@ def _perceived(
         ) from None
     if not args.quiet:
         progress("perception: head camera, scene pipeline, anchoring ...")
-    return perceived_run(graph, domain, truth, repair=args.repair, **run_kw)
+    # the cell configured with perception in the loop: no simulated-time budget of its own
+    kw = {k: v for k, v in run_kw.items() if k != "max_time_s"}
+    kw.setdefault("name", "table_assembly")  # `demo table`: the scenario the table's logs name
+    return perceived_run(graph, domain, truth, repair=args.repair, **kw)
 
 
 def _perceived_like(args: argparse.Namespace, run: Any) -> Any:
-    """The perceived twin of a prepared :class:`CooperationRun` (same graph, domain, world,
-    simulator, operators and options)."""
+    """The perceived twin of a prepared cooperation run (same graph, domain, world,
+    simulator, operators and options), as a configuration of the cell."""
+    cell = getattr(run, "cell", None)
+    if cell is not None:  # a LocalCell: the cell's in-process configuration
+        run_kw = dict(
+            simulator=cell.tm.simulator,
+            execution=run.injection.inner,
+            seed=args.seed,
+            failures=run.injection.failures,
+            observers=cell.observers[1:],  # the streamed log and the trace, not its own list
+            realtime=cell.realtime,
+            human_takes=args.human_takes,
+            humans=run.operator_profiles(),
+            reaction=cell.tm.reaction,
+            name=str(run.scenario.name),
+        )
+        return _perceived(args, cell.graph, cell.domain, cell.kb, run_kw)
     run_kw = dict(
         simulator=run.simulator,
         execution=run.execution,
@@ -699,8 +717,16 @@ def _perceived_like(args: argparse.Namespace, run: Any) -> Any:
         sink=run.sink,
         humans=run.operator_profiles(),
         reaction=run.tm.reaction,
+        name=_scenario_name(args),
     )
     return _perceived(args, run.graph, run.domain, run.kb, run_kw)
+
+
+def _scenario_name(args: argparse.Namespace) -> str:
+    """The name of the scenario ``run`` was given (what its log's ``start`` names)."""
+    from flexhrc import scenario as scenario_mod
+
+    return str(scenario_mod.load(scenario_mod.resolve(args.scenario)).name)
 
 
 def _with_sensing(data: dict[str, Any], events: list[dict[str, Any]], args: Any) -> dict[str, Any]:

@@ -9,9 +9,12 @@ Manager) and joins them, so neither imports the other:
 * :mod:`.perception` — :class:`PerceptionComponent`, render -> scene pipeline -> anchoring;
 * :mod:`.har_real` — :class:`HmpReplaySensor`, the operator's wrist signal replayed from real
   HMP trials;
-* :mod:`.run` — :class:`PerceivedCooperationRun`, a cooperation whose manager knows the world
-  only through these sensors (validity during execution, inconsistency repair);
-* :mod:`.setup` — :func:`perceived_run`, that run from a scenario's graph, domain and world;
+* :mod:`.agent` — :class:`PerceptionAgent`, the head camera as an agent of a cell;
+* :mod:`.loop` — :class:`PerceivedCell`, the cell configured so that its manager knows the world
+  only through these sensors (validity during execution, inconsistency repair), and
+  :class:`WorkspaceTruth`, the workspace the agents' actions change;
+* :mod:`.setup` — :func:`perceived_run`, that configuration from a scenario's graph, domain and
+  world;
 * :mod:`.figure` — the picture of one frame and its detections (``flexhrc scene frame``).
 
 Everything here needs the ``sim`` and ``perception`` extras; nothing is imported eagerly.

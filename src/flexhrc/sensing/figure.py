@@ -107,8 +107,8 @@ def picture_of_table(path: str | Path, *, seed: int = 0, screwed: int = 1) -> di
     reaching out), perceive it and draw the picture; returns the update's report."""
     from flexhrc.action.robots import PANDA_Q_REST
     from flexhrc.scenario.builtin.table import TableLayout
+    from flexhrc.sensing.loop import forget_positions, lying_layout
     from flexhrc.sensing.perception import PerceptionComponent
-    from flexhrc.sensing.run import forget_positions, lying_layout
     from flexhrc.sensing.world import SimulatedWorkspace
 
     truth = TableLayout(seed=seed, leg_positions=lying_layout(4, seed)).world()

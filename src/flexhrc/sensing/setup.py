@@ -1,9 +1,10 @@
 """Assemble a cooperation with perception in the loop from a scenario's parts.
 
 :func:`perceived_run` takes what any cooperation needs (graph, domain, the scenario's knowledge
-base — which here is the *truth*) and returns a :class:`~flexhrc.sensing.run.
-PerceivedCooperationRun` whose manager starts from the same base with the positions of the
-perceivable parts forgotten, and a perception component looking at the simulated workspace.
+base — which here is the *truth*) and returns a :class:`~flexhrc.sensing.loop.
+PerceivedCell` — the cell configured with perception in the loop — whose manager starts from
+the same base with the positions of the perceivable parts forgotten, and whose perception agent
+looks at the simulated workspace.
 """
 
 from __future__ import annotations
@@ -26,44 +27,30 @@ def perceived_run(
     truth: KnowledgeBase,
     *,
     types: Iterable[str] | None = None,
-    repair: bool = False,
     nudges: Iterable[Any] = (),
     false_reports: Iterable[Any] = (),
     camera: dict[str, Any] | None = None,
     **run_kw: Any,
 ) -> Any:
-    """A :class:`PerceivedCooperationRun` over ``truth`` (see the module docstring).
+    """A :class:`~flexhrc.sensing.loop.PerceivedCell` over ``truth`` (see the module docstring).
 
     ``types``: the object types the camera perceives; by default every object with a body
     (a length and a diameter: a rod lying on the table; a width and a depth: a board).
     """
     try:
         from flexhrc.sensing.camera import HeadCamera
-        from flexhrc.sensing.perception import PerceptionComponent
-        from flexhrc.sensing.run import PerceivedCooperationRun, forget_positions
-        from flexhrc.sensing.world import SimulatedWorkspace
+        from flexhrc.sensing.loop import PerceivedCell
     except ImportError as exc:  # pragma: no cover - only without the extras
         raise OptionalDependencyError(
             "perception in the loop", "sim,perception", exc.name or "pybullet"
         ) from exc
-    wanted = list(types) if types is not None else None
-    world, names = SimulatedWorkspace.from_knowledge(
-        truth, types=wanted, destinations=destinations(graph, domain, truth)
-    )
-    if not world.parts:
-        raise FlexhrcError(
-            "--perception scene: the scenario has no object with a body to see (a size with "
-            "a length and a diameter, or a width and a depth)"
-        )
-    belief = forget_positions(truth, sorted({truth.object(o).type for o in names}))
-    perception = PerceptionComponent(world, belief, camera=HeadCamera(**(camera or {})))
-    return PerceivedCooperationRun(
+    return PerceivedCell(
         graph,
         domain,
-        belief,
-        world,
-        perception,
-        repair=repair,
+        truth,
+        types=types,
+        destinations=destinations(graph, domain, truth),
+        camera=HeadCamera(**(camera or {})),
         nudges=nudges,
         false_reports=false_reports,
         **run_kw,
