@@ -38,7 +38,7 @@ from flexhrc.cell.components import execution_model, world_of  # noqa: E402
 from flexhrc.scenario.builtin.parallel import parallel_assembly  # noqa: E402
 from flexhrc.scenario.builtin.table import TableLayout  # noqa: E402
 from flexhrc.transport import InProcessBus  # noqa: E402
-from flexhrc.transport.zenoh import ZenohTransport, free_tcp_port, loopback_config  # noqa: E402
+from flexhrc.transport.zenoh import ZenohTransport, zenoh_config  # noqa: E402
 
 
 def _env() -> dict[str, str]:
@@ -61,9 +61,14 @@ def _flexhrc(*args: str, stdout: Any = subprocess.DEVNULL) -> subprocess.Popen[s
     )
 
 
+def _listening_bus() -> tuple[ZenohTransport, int]:
+    """A transport on a loopback port the system picks, and that port."""
+    bus = ZenohTransport(zenoh_config(listen=["tcp/127.0.0.1:0"]), prefix="flexhrc/bench")
+    return bus, int(bus.locators()[0].rsplit(":", 1)[1])
+
+
 def round_trip(n: int) -> dict[str, Any]:
-    port = free_tcp_port()
-    bus = ZenohTransport(loopback_config(port), prefix="flexhrc/bench")
+    bus, port = _listening_bus()
     alive: list[bool] = []
     acks: list[dict[str, Any]] = []
     bus.watch_liveliness("alive/left", lambda k, a: alive.append(a))
@@ -114,8 +119,7 @@ def lost_agent(kills: int) -> dict[str, Any]:
     import os
     import signal
 
-    port = free_tcp_port()
-    bus = ZenohTransport(loopback_config(port), prefix="flexhrc/bench")
+    bus, port = _listening_bus()
     events: list[tuple[float, bool]] = []
     bus.watch_liveliness("alive/left", lambda k, a: events.append((time.perf_counter(), a)))
     times = []
@@ -222,15 +226,22 @@ def big_cell() -> dict[str, Any]:
         scenario.write_text(
             "scenario: parallel_assembly\narms: 6\nhumans: 3\nlegs: 12\nhuman_legs: 3\n"
         )
-        port = free_tcp_port()
-        store = tmp / "cell.db"
-        ep = f"tcp/127.0.0.1:{port}"
+        store, ready = tmp / "cell.db", tmp / "cell.ready"
         t0 = time.perf_counter()
+        # the cell binds a port the system picks and reports it (no port chosen here can be
+        # taken before it binds it)
         manager = _flexhrc(
-            "cell", str(scenario), "--transport", "zenoh", "--agents", "external", "--listen", ep,
+            "cell", str(scenario), "--transport", "zenoh", "--agents", "external",
+            "--listen", "tcp/127.0.0.1:0", "--ready-file", str(ready),
             "--store", str(store), "--json", "--quiet", "--wait", "60",
             stdout=subprocess.PIPE,
         )  # fmt: skip
+        deadline = time.monotonic() + 60
+        while not ready.exists():
+            if manager.poll() is not None or time.monotonic() > deadline:
+                raise RuntimeError(f"the cell never wrote {ready}")
+            time.sleep(0.01)
+        ep = json.loads(ready.read_text())["listen"][0]
         agents = [
             _flexhrc("agent", "robot", str(scenario), "--arm", f"arm{i}", "--connect", ep,
                      "--json", "--quiet", stdout=subprocess.PIPE)
@@ -268,7 +279,7 @@ def big_cell() -> dict[str, Any]:
             "acks": len(acks),
             "suggested_steps": suggested_steps,
             "human_actions": human_reports,
-            "legs_by_agent": data["legs_by_agent"],
+            "by_agent": data["by_agent"],  # legs_by_agent is the table's only
             "dropped": data["cell"]["dropped"] + sum(r["dropped"] for r in reports),
             "lost": lost,
             "wall_s": round(wall, 2),

@@ -29,8 +29,9 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))
 
+from flexhrc.cell.local import LocalCell
 from flexhrc.scenario.builtin.table import table_assembly
-from flexhrc.taskmanager import PROFILES, AnalyticSimulator, CooperationRun
+from flexhrc.taskmanager import PROFILES, AnalyticSimulator
 
 PAPER = {"task_manager_s": 0.01, "task_representation_s": 0.57, "simulator_s": 4.15}
 TARGET_S = 0.050
@@ -57,11 +58,9 @@ def main() -> int:
         rows = []
         for seed in range(args.runs):
             sc = table_assembly(args.legs, seed=seed, segments="legs")
-            run = CooperationRun(
-                sc.online_graph(),
-                sc.domain,
-                sc.world(),
-                human_profile=profile,
+            run = LocalCell(
+                sc,
+                profile=profile,
                 seed=seed,
                 simulator=AnalyticSimulator(),
             )

@@ -186,15 +186,14 @@ def _cell(what: str, seed: int, simulator: str | None, tmp: Path) -> dict[str, A
 
 def _zenoh(what: str, seed: int, simulator: str | None, tmp: Path) -> dict[str, Any]:
     pytest.importorskip("zenoh")
-    from flexhrc.transport.zenoh import free_tcp_port
-
-    from .cell.helpers import cell, human, kill_all, robot
+    from .cell.helpers import human, kill_all, robot, start_cell
 
     arms, operators = _agents(what)
-    port = free_tcp_port()
     s = ["--seed", str(seed)]
     sim = _options(seed, simulator)  # the manager's branches and the arms' world
-    procs = [cell(what, port, tmp / "cell.db", *sim, log=tmp / "cell.err")]
+    # the cell binds a port the system picks and reports it before the agents start
+    manager, port = start_cell(what, tmp / "cell.db", *sim, log=tmp / "cell.err")
+    procs = [manager]
     try:
         procs += [robot(what, arm, port, tmp / f"{arm}.err", *sim) for arm in arms]
         procs += [human(what, name, port, tmp / f"{name}.err", *s) for name in operators]
@@ -300,9 +299,22 @@ ROS2_ONE_STEP = (
     "(table_assembly, seed 0: total 67.472014 s instead of 67.452014 s; same hyper-arcs, agents "
     "and by_agent). Not the other arm's published joint state (ignoring it changes nothing)"
 )
+MANAGER_AT_REST = (
+    "engine: over agent processes the manager's kinematic model of the robot never sees the "
+    "arms move (the arms' world is in their processes; acks carry end-effector positions, not "
+    "joint states), so it scores each branch from the robot at rest, while in one process "
+    "(`run`, in-process `cell`) it plans from where the arms are (the simulator and the arms' "
+    "world are one object): kitchen_drawer seed 0 makes 56.48 s instead of 56.22 s, gearbox "
+    "23.09 s instead of 23.93 s. Fix: the arms' acks carry their joint states into the "
+    "knowledge base and the kinematic model starts from them"
+)
 KNOWN: dict[tuple[str, str], str] = {
     ("table_assembly", "zenoh-kinematic"): FOLLOWER_WORLD,
     ("table_assembly", "ros2"): ROS2_ONE_STEP,
+    ("kitchen_drawer", "zenoh-kinematic"): MANAGER_AT_REST,
+    ("kitchen_drawer", "ros2"): MANAGER_AT_REST,
+    ("examples/gearbox", "zenoh-kinematic"): MANAGER_AT_REST,
+    ("examples/gearbox", "ros2"): MANAGER_AT_REST,
 }
 
 

@@ -9,23 +9,16 @@ import pytest
 pytest.importorskip("pinocchio")
 
 from flexhrc.action import KinematicTaskSimulator
+from flexhrc.cell.local import LocalCell
 from flexhrc.scenario import Scenario
 from flexhrc.scenario.builtin.table import table_assembly
-from flexhrc.taskmanager import CooperationRun
 
 from ..taskmanager.helpers import LAYOUT, check_invariants, first, solved
 
 
 def run(scenario: Scenario, kin: KinematicTaskSimulator | None = None, **kw):
     kin = kin or KinematicTaskSimulator()
-    r = CooperationRun(
-        scenario.online_graph(),
-        scenario.domain,
-        scenario.world(),
-        simulator=kin,
-        execution=kin,
-        **kw,
-    )
+    r = LocalCell(scenario, simulator=kin, execution=kin, **kw)
     return r.run()
 
 

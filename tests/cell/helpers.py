@@ -51,7 +51,11 @@ def flexhrc(*args: str, log: Path | None = None) -> subprocess.Popen[str]:
     )
 
 
-def cell(scenario: str, port: int, store: Path, *extra: str, log: Path) -> subprocess.Popen[str]:
+def cell(
+    scenario: str, port: int, store: Path, *extra: str, log: Path, ready: Path | None = None
+) -> subprocess.Popen[str]:
+    """The manager as a process, listening on loopback ``port``; port 0: the system picks one
+    and the cell writes it to ``ready`` (see :func:`listening_port`)."""
     return flexhrc(
         "cell",
         scenario,
@@ -66,9 +70,35 @@ def cell(scenario: str, port: int, store: Path, *extra: str, log: Path) -> subpr
         "--json",
         "--wait",
         "20",
+        *(("--ready-file", str(ready)) if ready is not None else ()),
         *extra,
         log=log,
     )
+
+
+def listening_port(ready: Path, proc: subprocess.Popen[str], timeout: float = 60.0) -> int:
+    """The port a cell started with ``--listen tcp/127.0.0.1:0 --ready-file READY`` got (it
+    binds the port itself: no port chosen here can be taken before the child binds it)."""
+    deadline = time.monotonic() + timeout
+    while not ready.exists():
+        if proc.poll() is not None or time.monotonic() > deadline:
+            raise AssertionError(f"the cell never wrote {ready} (exit {proc.poll()})")
+        time.sleep(0.01)
+    endpoint = json.loads(ready.read_text())["listen"][0]
+    return int(endpoint.rsplit(":", 1)[1])
+
+
+def start_cell(
+    scenario: str, store: Path, *extra: str, log: Path
+) -> tuple[subprocess.Popen[str], int]:
+    """:func:`cell` on a port the system picks; returns the process and its port."""
+    ready = log.with_suffix(".ready")
+    proc = cell(scenario, 0, store, *extra, log=log, ready=ready)
+    try:
+        return proc, listening_port(ready, proc)
+    except BaseException:
+        kill_all([proc])
+        raise
 
 
 def robot(scenario: str, arm: str, port: int, log: Path, *extra: str) -> subprocess.Popen[str]:

@@ -202,17 +202,29 @@ def test_a_lost_command_is_sent_again_and_executed_once() -> None:
     assert len(executed) == len(set(executed)) == data["robot_actions"]
 
 
-def test_external_agents_that_never_come_and_a_taken_port_are_clear_errors() -> None:
+def test_external_agents_that_never_come_and_a_taken_port_are_clear_errors(
+    tmp_path: Path,
+) -> None:
     pytest.importorskip("zenoh")
-    from flexhrc.transport.zenoh import ZenohTransport, free_tcp_port, loopback_config
+    from flexhrc.transport.zenoh import ZenohTransport, zenoh_config
 
-    port = free_tcp_port()
-    args = ["cell", "table_assembly", "--transport", "zenoh", "--listen", f"tcp/127.0.0.1:{port}"]
-    res = run_cli(*args, "--agents", "external", "--wait", "1")
+    args = ["cell", "table_assembly", "--transport", "zenoh", "--listen"]
+    ready = tmp_path / "cell.ready"
+    res = run_cli(
+        *args, "tcp/127.0.0.1:0", "--agents", "external", "--wait", "1", "--ready-file", str(ready)
+    )
     assert res.returncode == 2 and "no agent process for human, left, right" in res.stderr
     assert "flexhrc agent robot|human" in res.stderr and "Traceback" not in res.stderr
-    with ZenohTransport(loopback_config(port)):
-        res = run_cli(*args)
+    # the port the system gave it, in the ready file and on stderr
+    got = json.loads(ready.read_text())
+    assert got["cell"] == "default" and len(got["listen"]) == 1
+    assert int(got["listen"][0].rsplit(":", 1)[1]) > 0
+    assert f"listening on {got['listen'][0]}" in res.stderr
+    bad = run_cli(*args, "tcp/127.0.0.1:0", "--ready-file", str(tmp_path / "no" / "r.json"))
+    assert bad.returncode == 2 and "--ready-file" in bad.stderr and "Traceback" not in bad.stderr
+    with ZenohTransport(zenoh_config(listen=["tcp/127.0.0.1:0"])) as holder:
+        taken = holder.locators()[0]  # bound by this process for the whole call
+        res = run_cli(*args, taken)
     assert res.returncode == 2 and "cannot open a Zenoh session" in res.stderr
     assert "Traceback" not in res.stderr
 
@@ -243,3 +255,82 @@ def test_percepts_are_inputs_stored_and_checked() -> None:
     assert "box9" in cell.kb.objects
     assert data["cell"]["dropped"] == 2
     assert any("duplicate percept" in d for d in cell.dropped)
+
+
+class TokenBus(InProcessBus):
+    """The in-process bus with liveliness tokens, delivered in order with the messages — and
+    it loses the first ``operator`` message, as Zenoh drops a publication its session knows no
+    subscriber for yet while the token that follows it arrives."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.tokens: set[str] = set()
+        self.lost: list[Any] = []
+        self._watches = 0
+
+    def publish(self, topic: str, payload: Any) -> None:
+        if isinstance(payload, dict) and payload.get("type") == "operator" and not self.lost:
+            self.lost.append(payload)
+            return
+        super().publish(topic, payload)
+
+    def declare_token(self, key: str) -> Any:
+        from types import SimpleNamespace
+
+        def undeclare() -> None:
+            self.tokens.discard(key)
+            InProcessBus.publish(self, "liveliness", (key, False))
+
+        self.tokens.add(key)
+        InProcessBus.publish(self, "liveliness", (key, True))
+        return SimpleNamespace(undeclare=undeclare)
+
+    def watch_liveliness(self, pattern: str, callback: Any, *, history: bool = True) -> Any:
+        from fnmatch import fnmatchcase
+
+        def relay(event: tuple[str, bool]) -> None:
+            if fnmatchcase(event[0], pattern):
+                callback(*event)
+
+        self._watches += 1
+        past = f"liveliness/history/{self._watches}"  # the tokens already there: to it alone
+        self.subscribe(past, relay)
+        for key in sorted(self.tokens) if history else ():
+            InProcessBus.publish(self, past, (key, True))
+        return self.subscribe("liveliness", relay)
+
+    def wait(self, timeout: float) -> None:
+        """Nothing arrives from elsewhere: the next flush delivers what is queued."""
+
+
+@pytest.mark.parametrize("manager_first", [True, False])
+def test_a_lost_operator_announcement_never_starts_the_cell_without_the_profile(
+    manager_first: bool,
+) -> None:
+    """The operator's token waits for the manager's acknowledgement of its profile (a
+    ``state`` that shows it): the first announcement is lost, the manager still starts with
+    it — whether the manager or the operator came up first."""
+    scenario = load_scenario("table_assembly")
+    bus = TokenBus()
+    analytic = execution_model("analytic")
+
+    def make_agents() -> list[Any]:
+        return [
+            HumanAgent(a.name, scenario, bus, profile="takeover", execution=analytic)
+            if a.is_human
+            else RobotAgent(a.name, scenario, bus, execution=analytic)
+            for a in scenario.domain.agents.values()
+        ]
+
+    if manager_first:
+        cell = Cell(scenario, bus, simulator=analytic)
+        agents = make_agents()
+    else:
+        agents = make_agents()
+        cell = Cell(scenario, bus, simulator=analytic)
+    data = cell.run(pump=pump_of(cell, bus, agents))
+    assert [m["agent"] for m in bus.lost] == ["human"]  # the first announcement never arrived
+    assert cell.events[0].kind == "start"
+    assert cell.events[0].body["operators"] == {"human": "takeover"}
+    assert data["outcome"] == "solved"
+    assert sum(e.kind == "human_decides" for e in cell.events) == 4  # it took over the legs

@@ -1,6 +1,7 @@
 """Acceptance of the live cell (issue 11) with real processes over Zenoh on 127.0.0.1.
 
-Every process is `python -m flexhrc ...`; Zenoh listens on a random free loopback port with
+Every process is `python -m flexhrc ...`; the cell listens on a loopback port the system picks
+(`--listen tcp/127.0.0.1:0`) and reports it in its `--ready-file` before the agents start, with
 multicast scouting off (flexhrc.transport.zenoh.zenoh_config's default).
 """
 
@@ -17,7 +18,7 @@ import pytest
 
 pytest.importorskip("zenoh")
 
-from flexhrc.transport.zenoh import ZenohTransport, free_tcp_port, loopback_config
+from flexhrc.transport.zenoh import ZenohTransport, loopback_config
 
 from .helpers import (
     TABLE_HUMAN_BOLT,
@@ -31,6 +32,7 @@ from .helpers import (
     kill_all,
     robot,
     rows,
+    start_cell,
     wait_until,
 )
 
@@ -47,9 +49,9 @@ def test_multiprocess_cell_solves_the_table_assembly(tmp_path: Path) -> None:
     """The shipped table assembly (tabletop by both arms, legs, the operator's check) with the
     manager, two robot agents and one operator as four processes."""
     scenario = "table_assembly"
-    port = free_tcp_port()
     store = tmp_path / "cell.db"
-    procs = [cell(scenario, port, store, log=tmp_path / "cell.err")]
+    manager, port = start_cell(scenario, store, log=tmp_path / "cell.err")
+    procs = [manager]
     procs += [robot(scenario, arm, port, tmp_path / f"{arm}.err") for arm in ("left", "right")]
     procs.append(human(scenario, "human", port, tmp_path / "human.err"))
     try:
@@ -80,9 +82,9 @@ def test_an_operator_process_that_acts_on_its_own_takes_over_the_legs(tmp_path: 
     options with intents and screws every leg itself; the cooperation is the one of `flexhrc
     run --human takeover` in one process (the discrete-event loop waits for its decisions)."""
     scenario = "table_assembly"
-    port = free_tcp_port()
     store = tmp_path / "cell.db"
-    procs = [cell(scenario, port, store, log=tmp_path / "cell.err")]
+    manager, port = start_cell(scenario, store, log=tmp_path / "cell.err")
+    procs = [manager]
     procs += [robot(scenario, arm, port, tmp_path / f"{arm}.err") for arm in ("left", "right")]
     procs.append(human(scenario, "human", port, tmp_path / "human.err", "--profile", "takeover"))
     try:
@@ -105,14 +107,14 @@ def test_an_operator_process_that_acts_on_its_own_takes_over_the_legs(tmp_path: 
 def test_robot_killed_mid_action_is_lost_replanned_and_used_again(tmp_path: Path) -> None:
     scenario = tmp_path / "table.yaml"
     scenario.write_text(TABLE_LEFT_ONLY)
-    port = free_tcp_port()
     store = tmp_path / "cell.db"
     # real time x20: an action lasts about 0.1 s, so the kill lands in the middle of one
     # (the analytic simulator: the kinematic one does not model reachable_only_by)
     analytic = ("--simulator", "analytic")
-    procs = [
-        cell(str(scenario), port, store, "--realtime", "20", *analytic, log=tmp_path / "cell.err")
-    ]
+    manager, port = start_cell(
+        str(scenario), store, "--realtime", "20", *analytic, log=tmp_path / "cell.err"
+    )
+    procs = [manager]
     left = robot(str(scenario), "left", port, tmp_path / "left.err", *analytic)
     procs += [left, robot(str(scenario), "right", port, tmp_path / "right.err", *analytic)]
     try:
@@ -162,9 +164,8 @@ def test_robot_killed_mid_action_is_lost_replanned_and_used_again(tmp_path: Path
 def test_manager_killed_and_resumed_finishes_like_an_uninterrupted_run(tmp_path: Path) -> None:
     scenario = tmp_path / "table.yaml"
     scenario.write_text(TABLE_NO_HUMAN)
-    port = free_tcp_port()
     store = tmp_path / "cell.db"
-    manager = cell(str(scenario), port, store, log=tmp_path / "cell.err")
+    manager, port = start_cell(str(scenario), store, log=tmp_path / "cell.err")
     arms = [robot(str(scenario), arm, port, tmp_path / f"{arm}.err") for arm in ("left", "right")]
     procs = [manager, *arms]
     try:
@@ -174,6 +175,7 @@ def test_manager_killed_and_resumed_finishes_like_an_uninterrupted_run(tmp_path:
         manager.wait(10)
         before = rows(store)
         assert not any(k == "outcome" for _, _, k, _ in before), "killed too late"
+        # on the port the first cell got: the agents keep dialling it
         resumed = cell(str(scenario), port, store, "--resume", log=tmp_path / "cell2.err")
         procs.append(resumed)
         data = finish(resumed)
@@ -221,9 +223,9 @@ MALFORMED: list[tuple[str, Any]] = [
 def test_malformed_messages_are_dropped_and_logged(tmp_path: Path) -> None:
     scenario = tmp_path / "table.yaml"
     scenario.write_text(TABLE_HUMAN_BOLT)
-    port = free_tcp_port()
     store = tmp_path / "cell.db"
-    procs = [cell(str(scenario), port, store, "--realtime", "20", log=tmp_path / "cell.err")]
+    manager, port = start_cell(str(scenario), store, "--realtime", "20", log=tmp_path / "cell.err")
+    procs = [manager]
     procs += [robot(str(scenario), arm, port, tmp_path / f"{arm}.err") for arm in ("left", "right")]
     procs.append(human(str(scenario), "human", port, tmp_path / "human.err"))
     bus = ZenohTransport(loopback_config(connect=port), prefix="flexhrc/default")
@@ -257,12 +259,12 @@ def test_malformed_messages_are_dropped_and_logged(tmp_path: Path) -> None:
 def test_operator_killed_during_a_suggestion_gets_it_again(tmp_path: Path) -> None:
     scenario = tmp_path / "table.yaml"
     scenario.write_text(TABLE_HUMAN_BOLT)
-    port = free_tcp_port()
     store = tmp_path / "cell.db"
     analytic = ("--simulator", "analytic")
-    procs = [
-        cell(str(scenario), port, store, "--realtime", "10", *analytic, log=tmp_path / "cell.err")
-    ]
+    manager, port = start_cell(
+        str(scenario), store, "--realtime", "10", *analytic, log=tmp_path / "cell.err"
+    )
+    procs = [manager]
     procs += [
         robot(str(scenario), arm, port, tmp_path / f"{arm}.err", *analytic)
         for arm in ("left", "right")

@@ -83,12 +83,11 @@ def test_flexhrc_agent_perception_joins_a_cell_over_zenoh(tmp_path) -> None:
     import json
     import time
 
-    from flexhrc.transport.zenoh import free_tcp_port
+    from ..cell.helpers import finish, flexhrc, human, kill_all, robot, start_cell
 
-    from ..cell.helpers import cell, finish, flexhrc, human, kill_all, robot
-
-    scenario, port = "table_assembly", free_tcp_port()
-    procs = [cell(scenario, port, tmp_path / "cell.db", log=tmp_path / "cell.err")]
+    scenario = "table_assembly"
+    manager, port = start_cell(scenario, tmp_path / "cell.db", log=tmp_path / "cell.err")
+    procs = [manager]
     eye = flexhrc(
         "agent", "perception", scenario, "--connect", f"tcp/127.0.0.1:{port}", "--json",
         log=tmp_path / "perception.err",

@@ -7,8 +7,9 @@ import re
 from collections import defaultdict
 from typing import Any
 
+from flexhrc.cell.local import LocalCell, RunResult
 from flexhrc.scenario.builtin.table import table_assembly
-from flexhrc.taskmanager import AnalyticSimulator, CooperationRun, RunResult
+from flexhrc.taskmanager import AnalyticSimulator
 
 # legs on both sides of the tabletop, two per side
 LAYOUT = [(0.35, 0.30, 0.0), (0.50, 0.32, 0.0), (0.35, -0.30, 0.0), (0.50, -0.32, 0.0)]
@@ -19,9 +20,7 @@ def run_table(
 ):
     sc = table_assembly(segments="legs", seed=seed, leg_positions=layout, **scenario_kw)
     kw = {"simulator": AnalyticSimulator(), **(run_kw or {})}  # fast; the kinematic one is tested
-    run = CooperationRun(
-        sc.online_graph(), sc.domain, sc.world(), human_profile=profile, seed=seed, **kw
-    )
+    run = LocalCell(sc, profile=profile, seed=seed, **kw)
     return run.run(), run
 
 

@@ -364,39 +364,37 @@ def test_a_second_run_on_a_locked_log_is_refused_at_once(tmp_path, capsys):  # A
 
 def test_the_log_is_written_event_by_event(tmp_path):
     """The run's sink sees every event before the run ends (what the CLI streams to --log)."""
+    from flexhrc.cell.local import LocalCell
     from flexhrc.scenario.builtin.table import table_assembly
-    from flexhrc.taskmanager import AnalyticSimulator, CooperationRun
+    from flexhrc.taskmanager import AnalyticSimulator
 
     sc = table_assembly(segments="legs", legs=2)
     seen: list[dict] = []
-    run = CooperationRun(
-        sc.online_graph(),
-        sc.domain,
-        sc.world(),
-        simulator=AnalyticSimulator(),
-        sink=seen.append,
-    )
 
     def trace(ev):  # the sink got the event before the trace is shown
         assert seen[-1] is ev
 
-    run.trace = trace
+    run = LocalCell(
+        sc,
+        simulator=AnalyticSimulator(),
+        observers=[seen.append, trace],
+    )
     result = run.run()
     assert seen == result.events and seen[0]["simulator"] == "analytic"
 
 
 def test_request_stop_ends_the_run_as_interrupted():
+    from flexhrc.cell.local import LocalCell
     from flexhrc.scenario.builtin.table import table_assembly
-    from flexhrc.taskmanager import AnalyticSimulator, CooperationRun
+    from flexhrc.taskmanager import AnalyticSimulator
 
     sc = table_assembly(segments="legs", legs=4)
-    run = CooperationRun(sc.online_graph(), sc.domain, sc.world(), simulator=AnalyticSimulator())
 
     def trace(ev):
         if ev["type"] == "action_end":
             run.request_stop("interrupted by SIGINT")
 
-    run.trace = trace
+    run = LocalCell(sc, simulator=AnalyticSimulator(), observers=[trace])
     result = run.run()
     assert result.outcome == "interrupted"
     kinds = [e["type"] for e in result.events]

@@ -6,9 +6,10 @@ import math
 
 import pytest
 
+from flexhrc.cell.local import InjectedFailure
 from flexhrc.knowledge import KnowledgeBase
 from flexhrc.scenario.builtin.table import TableLayout, table_assembly
-from flexhrc.taskmanager import AnalyticSimulator, InjectedFailure, TaskManager
+from flexhrc.taskmanager import AnalyticSimulator, TaskManager
 
 from .helpers import LAYOUT, check_invariants, first, run_table, solved
 
@@ -75,7 +76,7 @@ def test_first_decision_tree_has_8_branches_with_hand_computed_utilities():
     decision = first(result.events, "decision")
     assert decision["element"] == "robot_1"
     assert len(decision["branches"]) == 8  # 4 legs x 2 arms
-    domain = run.domain
+    domain = run.cell.domain
     bolt = TableLayout(leg_positions=LAYOUT).bolt_positions()[0]
     v = 0.4  # m/s, the paper's robot
     for b in decision["branches"]:

@@ -29,15 +29,16 @@ from flexhrc.transport.zenoh import (
 
 from ..conftest import subprocess_env
 
-# A peer process: connects to the port given, declares a liveliness token and echoes "t/ping"
-# to "t/pong" (adding its pid), until killed.
+# A peer process: connects to the port given, echoes "t/ping" to "t/pong" (adding its pid) and
+# declares a liveliness token — after its subscription, so whoever sees the token can reach it
+# (Zenoh keeps one session's declarations in order) — until killed.
 ECHO = textwrap.dedent(
     """
     import os, sys
     from flexhrc.transport.zenoh import ZenohTransport, loopback_config
     bus = ZenohTransport(loopback_config(connect=int(sys.argv[1])), prefix="test")
-    bus.declare_token("alive/echo")
     bus.subscribe("t/ping", lambda p: bus.publish("t/pong", {"pid": os.getpid(), "n": p["n"]}))
+    bus.declare_token("alive/echo")
     print("ready", flush=True)
     while True:
         bus.wait(0.5)
@@ -145,6 +146,22 @@ def test_bad_topics_endpoints_and_closed_use() -> None:
     b.close()
     with pytest.raises(TransportError, match="closed"):
         b.publish("a", 1)
+
+
+def test_a_listener_on_port_zero_reports_the_port_the_system_gave_it() -> None:
+    with ZenohTransport(zenoh_config(listen=["tcp/127.0.0.1:0"])) as a:
+        (endpoint,) = a.locators()
+        assert endpoint.startswith("tcp/127.0.0.1:") and int(endpoint.rsplit(":", 1)[1]) > 0
+        with ZenohTransport(zenoh_config(connect=[endpoint])) as b:
+            got: list[Any] = []
+            a.subscribe("a/x", got.append)
+            deadline = time.monotonic() + 10
+            while not got and time.monotonic() < deadline:
+                b.publish("a/x", 1)  # the link comes up in its own time: send until one arrives
+                pump(a, lambda: bool(got), 0.1)
+            assert got and got[0] == 1
+    with ZenohTransport(loopback_config(connect=1)) as c, pytest.raises(TransportError):
+        c.locators()  # the admin space is on only for a session with a port-0 endpoint
 
 
 def test_json_codec_is_strict() -> None:

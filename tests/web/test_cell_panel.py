@@ -1,6 +1,6 @@
 """Acceptance: the table assembly completed with a person taking part only through the panel
 (the test clicks in headless chromium), the manager and the arms as separate processes over
-Zenoh on 127.0.0.1 (multicast scouting off, random free ports)."""
+Zenoh on 127.0.0.1 (multicast scouting off, ports the cell binds itself and reports)."""
 
 from __future__ import annotations
 
@@ -20,7 +20,7 @@ pytest.importorskip("playwright")
 
 from playwright.sync_api import TimeoutError as PlaywrightTimeout
 
-from flexhrc.transport.zenoh import free_tcp_port
+from tests.cell.helpers import listening_port
 from tests.conftest import subprocess_env
 
 pytestmark = pytest.mark.slow
@@ -56,25 +56,24 @@ def test_operator_only_at_the_panel_with_manager_and_arms_as_processes(
 ) -> None:
     scenario = tmp_path / "table.yaml"
     scenario.write_text(SCENARIO)
-    port = free_tcp_port()  # Zenoh's endpoint; the panel binds port 0 itself and says where
-    endpoint = f"tcp/127.0.0.1:{port}"
-    cell_log = tmp_path / "cell.err"
-    # the arms first (they find the cell when it comes up), then the manager with the panel;
-    # no operator process: the person at the page is the operator
+    cell_log, ready = tmp_path / "cell.err", tmp_path / "cell.ready"
+    # the manager with the panel first, on ports it binds itself (it reports them), then the
+    # arms; no operator process: the person at the page is the operator
     procs = [
-        _flexhrc("agent", "robot", str(scenario), "--arm", arm, "--connect", endpoint,
-                 log=tmp_path / f"{arm}.err")
-        for arm in ("left", "right")
-    ]  # fmt: skip
-    procs.insert(
-        0,
         _flexhrc(
             "cell", str(scenario), "--transport", "zenoh", "--agents", "external",
-            "--listen", endpoint, "--store", str(tmp_path / "cell.db"), "--wait", "30",
+            "--listen", "tcp/127.0.0.1:0", "--ready-file", str(ready),
+            "--store", str(tmp_path / "cell.db"), "--wait", "30",
             "--web", "127.0.0.1:0", "--json", log=cell_log,
         ),
-    )  # fmt: skip
+    ]  # fmt: skip
     try:
+        endpoint = f"tcp/127.0.0.1:{listening_port(ready, procs[0])}"
+        procs += [
+            _flexhrc("agent", "robot", str(scenario), "--arm", arm, "--connect", endpoint,
+                     log=tmp_path / f"{arm}.err")
+            for arm in ("left", "right")
+        ]  # fmt: skip
         url = _panel_url(cell_log, procs[0])
         page = open_page(url)
         page.evaluate("window.__marker = 'not reloaded'")

@@ -8,7 +8,7 @@ its controller.
 
 * :class:`RobotAgent` executes a :class:`~flexhrc.taskmanager.manager.Command` with the
   execution model — the scenario's simulator, the same object that plays the real world in
-  :class:`~flexhrc.taskmanager.runner.CooperationRun` — and answers with an ``ack`` carrying
+  :class:`~flexhrc.cell.local.LocalCell` — and answers with an ``ack`` carrying
   where things are afterwards. **It never executes one command id twice**: a repeated id (the
   manager resumed after a crash) gets the stored ack again, or nothing while it is running; with
   a ``journal`` this holds across restarts of the agent's process too.
@@ -49,6 +49,8 @@ from flexhrc.transport import Transport
 log = logging.getLogger("flexhrc.cell")
 
 HUMAN_PROFILES = PROFILES
+# an operator agent's profile goes out again this often until the manager has acknowledged it
+ANNOUNCE_RETRY_S = 0.5
 
 
 class ScenarioLike(Protocol):
@@ -453,18 +455,48 @@ class HumanAgent(_Agent):
         )
         self.intents: dict[str, dict[str, Any]] = {}  # options id -> the intent sent for it
         self._announced_at = float("-inf")
+        # the manager's ``state`` showed this operator's profile: only then its token goes out
+        self.heard = self.operator is None
         if self.operator is not None:
             self._subs.append(transport.subscribe(P.options_topic(name), self._on_options))
+            watch = getattr(transport, "watch_liveliness", None)
+            if watch is not None:  # a manager that (re)appears has not heard it yet
+                self._subs.append(watch(P.alive_key(P.MANAGER), self._on_manager))
             self._announce_profile()
         self._announce()
 
+    def _announce(self) -> None:
+        """The liveliness token of an operator that acts on its own waits until the manager
+        has acknowledged its profile (a ``state`` that shows it): a publication can be lost
+        while the token is not (Zenoh drops a message its session knows no subscriber for
+        yet, DDS one sent before the match; the token travels another way), and a manager
+        that saw the token but not the profile would start without it (``docs/protocol.md``,
+        "Operators that act on their own"). Over a transport without tokens (the in-process
+        bus, which loses nothing) there is nothing to wait for."""
+        if self.heard or getattr(self.transport, "declare_token", None) is None:
+            super()._announce()
+
     def _announce_profile(self) -> None:
-        """Tell the manager this operator acts on its own (before its token, so the manager
-        knows it when the cooperation starts; again if a snapshot shows it was not heard)."""
+        """Tell the manager this operator acts on its own: at the start, again whenever the
+        manager's token appears, every :data:`ANNOUNCE_RETRY_S` until the manager acknowledged
+        it, and again if a snapshot shows it was not heard."""
         self._announced_at = time.monotonic()
         extra = {"scripted": True} if self.takes is not None else {}
         msg = P.message("operator", agent=self.name, profile=self.profile, **extra)
         self.transport.publish(P.INTENT_TOPIC, msg)
+        if not self.heard and self.token is None:
+            self._later(ANNOUNCE_RETRY_S, self._retry_announce)
+
+    def _retry_announce(self) -> None:
+        # a retry on a lossy channel (the answer is a ``state``), not a wait for time to pass
+        if not self.heard and time.monotonic() - self._announced_at >= ANNOUNCE_RETRY_S:
+            self._announce_profile()
+
+    def _on_manager(self, key: str, alive: bool) -> None:
+        if alive and not self.heard:
+            # the manager declares its subscriptions before its token (and Zenoh keeps a
+            # session's declarations in order): a profile sent now reaches it
+            self._announce_profile()
 
     def _on_state(self, data: Any) -> None:
         super()._on_state(data)
@@ -475,7 +507,11 @@ class HumanAgent(_Agent):
         if self.takes is not None:
             scripted = data.get("scripted")
             heard = heard and isinstance(scripted, list) and self.name in scripted
-        if not heard and time.monotonic() - self._announced_at > 1.0:
+        if heard and not self.heard:
+            self.heard = True
+            self.trace(f"the manager knows profile {self.profile}: ready")
+            self._announce()
+        elif not heard and time.monotonic() - self._announced_at > 1.0:
             self._announce_profile()
 
     def _on_options(self, data: Any) -> None:

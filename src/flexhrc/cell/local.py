@@ -16,6 +16,8 @@ What a run adds to the loop is only configuration and observation:
   streamed ``--log``, a trace printer); :class:`RunResult` keeps the whole log as well;
 * ``realtime`` — the agents take ``duration / realtime`` seconds of wall time, the loop keeps
   the simulated order;
+* ``human_sensing`` — the operators' wrist sensor: the manager learns of a person's action only
+  as the sensor recognised it (a miss is a miss), the summary counts what it made of them;
 * :meth:`LocalCell.request_stop` — from a signal handler: the run ends with ``interrupted``.
 """
 
@@ -131,6 +133,7 @@ class LocalCell:
         realtime: float = 0.0,
         max_time_s: float = 3600.0,
         timeout_factor: float = 3.0,
+        human_sensing: Any = None,
     ) -> None:
         domain = scenario.domain
         if simulator is None:
@@ -152,6 +155,7 @@ class LocalCell:
         self.scenario = scenario
         self.simulator_name = simulator_name(simulator)
         self.profiles = pairs
+        self.human_sensing = human_sensing  # the wrist sensor: what the manager learns
         self.injection = FailureInjection(execution, list(failures))
         self.events: list[dict[str, Any]] = []
         self.bus = InProcessBus()
@@ -189,6 +193,7 @@ class LocalCell:
                     seed=operator_seed(seed, i),
                     execution=execution,
                     takes=takes if i == 0 else None,
+                    sensing=human_sensing,
                 )
             )
         self.bus.flush()  # the operators' profiles reach the cell before it starts
@@ -217,6 +222,8 @@ class LocalCell:
             summary = self.cell.run(pump=self._pump)
         finally:
             self.close()
+        if self.human_sensing is not None:
+            summary["human_sensing"] = self.sensing_figures()
         # and how the arms' world played each one (the same object unless told otherwise)
         summary["simulated"] = {
             **summary.get("simulated", {}),
@@ -230,6 +237,15 @@ class LocalCell:
         self.cell.close()
 
     # -- what the command line reports -------------------------------------------------------
+    def sensing_figures(self) -> dict[str, int]:
+        """``human_sensing``: what the wrist sensor made of the operators' actions."""
+        out = {"performed": 0, "recognised": 0, "missed": 0, "false_reports": 0, "uncovered": 0}
+        for agent in self.agents:
+            if isinstance(agent, HumanAgent):
+                for key, n in agent.sensing_figures().items():
+                    out[key] += n
+        return out
+
     def operator_profiles(self) -> list[tuple[str, str]]:
         """(operator, profile) of this run."""
         return list(self.profiles)

@@ -159,7 +159,7 @@ class Cell:
         self.suggestions: dict[str, dict[str, Any]] = {}
         self.active_suggestion: dict[str, str] = {}
         # suggestion id -> (the step to do next, when it starts): the operator gets one step at
-        # a time, in the world as it is when that step starts (as CooperationRun's operators)
+        # a time, in the world as it is when that step starts
         self.suggestion_step: dict[str, tuple[int, float]] = {}
         self._sent_step: dict[str, int] = {}
         self._down_reason: dict[str, str] = {}
@@ -344,7 +344,7 @@ class Cell:
             self._drop(f"ack for command {cid} from {msg['agent']}, not {'+'.join(cmd.agents)}")
         elif cid in self.stopped:
             # the arm finished before it heard the stop: in the cell's time the stop came
-            # first, so that end never happened (as in CooperationRun)
+            # first, so that end never happened
             log.info("ack for command %d, which was stopped: ignored", cid)
         elif self.tm.busy.get(msg["agent"]) is not cmd:
             self._drop(f"ack for command {cid}, which is no longer running")
@@ -432,14 +432,17 @@ class Cell:
         if msg["type"] == "operator":
             scripted = bool(msg.get("scripted", False))
             if self.operators.get(agent) == msg["profile"] and (agent in self.scripted) == scripted:
-                return
-            if not self.started:  # goes into the stored start
+                pass
+            elif not self.started:  # goes into the stored start
                 self.operators[agent] = str(msg["profile"])
                 if scripted:
                     self.scripted.add(agent)
             else:
                 body = {"agent": agent, "profile": msg["profile"]}
                 self._input("operator", {**body, "scripted": True} if scripted else body)
+            # the acknowledgement: the operator declares its liveliness token only once a
+            # ``state`` shows its profile, so the start never misses a profile announced
+            self._publish_state(force=True)
             return
         if msg["id"] in self.intent_ids or any(
             k == "intent" and b["id"] == msg["id"] for *_, k, b in self.pending
@@ -548,16 +551,25 @@ class Cell:
                 }
             ]
         if ev.kind == "human_action":
-            return [
+            sensed = b.get("sensed")
+            done = str(sensed.get("action", b["action"])) if sensed else b["action"]
+            out = [
                 {
                     "t": t,
                     "type": "action_end",
                     "agents": [b.get("agent")],
-                    "action": b["action"],
+                    "action": done,  # what the person did (the sensor may say otherwise)
                     "status": "done",
                     "start": round(min(float(b.get("start", ev.t)), ev.t), 6),
                 }
             ]
+            if sensed:  # what the wrist sensor made of it
+                body = {k: v for k, v in sensed.items() if k not in ("t", "outcome")}
+                out.append({"t": t, "type": "human_sensed", **body})
+                if sensed.get("outcome") in ("missed", "uncovered"):
+                    kind = f"human_sensing_{sensed['outcome']}"
+                    out.append({"t": t, "type": kind, "action": sensed["action"]})
+            return out
         if ev.kind == "suggestion":
             return [
                 {
@@ -850,7 +862,7 @@ class Cell:
                     self._record("command", body)
                     self.stored_commands.add(d.id)
                 # a joint command goes to its first agent, which drives all of them (as one
-                # execution model does in CooperationRun); the others are busy with it
+                # execution model does); the others are busy with it
                 self._send_command(d.agents[0], d)
             elif isinstance(d, Suggest):
                 sid = f"s{len(self.suggestions) + 1}"
@@ -1019,8 +1031,8 @@ class Cell:
                 self.resent += 1
                 self._send_options(human, oid)
 
-    def _publish_state(self) -> None:
-        if not self.publish_state:
+    def _publish_state(self, *, force: bool = False) -> None:
+        if not (self.publish_state or force):
             return
         self._state_seq += 1
         try:
@@ -1077,7 +1089,7 @@ class Cell:
                 if done > 0:
                     del self.active_suggestion[human]  # it advanced nothing the manager knows
                 continue
-            # the manager's grounding of the rest of the hyper-arc, as CooperationRun follows it
+            # the manager's grounding of the rest of the hyper-arc, as the operator follows it
             rest = [str(a) for a in ex.branch.steps[ex.next_index :]]
             if rest == msg["actions"][done:]:
                 continue

@@ -68,6 +68,12 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
         help="how long to wait for external agents to appear (default 30 s)",
     )
     p.add_argument("--quiet", action="store_true", help="no live trace")
+    p.add_argument(
+        "--ready-file",
+        metavar="PATH",
+        help="once the cell listens, write PATH (atomically): JSON with the endpoints it listens "
+        "on as bound (`--listen tcp/127.0.0.1:0`: the port the system gave), its pid and name",
+    )
     from flexhrc.cli.panel import add_web_options
 
     add_web_options(p)  # the operator panel (docs/panel.md)
@@ -140,6 +146,32 @@ def open_zenoh(args: argparse.Namespace, *, listen_default: list[str]) -> Any:
     return ZenohTransport(
         zenoh_config(listen=listen, connect=args.connect), prefix=f"flexhrc/{args.cell}"
     )
+
+
+def listening_on(transport: Any, configured: list[str]) -> list[str]:
+    """The endpoints a Zenoh transport listens on as bound (a port 0 resolved), else as
+    configured."""
+    from flexhrc.transport.zenoh import normalise_endpoint
+
+    if any(normalise_endpoint(ep).endswith(":0") for ep in configured):
+        return list(transport.locators())
+    return list(configured)
+
+
+def write_ready_file(path: str, record: dict[str, Any]) -> None:
+    """Write ``record`` as JSON to ``path`` atomically (a reader sees all of it or nothing)."""
+    import json
+    import os
+    from pathlib import Path
+
+    target = Path(path)
+    tmp = target.with_name(f".{target.name}.{os.getpid()}.tmp")
+    try:
+        tmp.write_text(json.dumps(record) + "\n")
+        os.replace(tmp, target)
+    except OSError as exc:
+        tmp.unlink(missing_ok=True)
+        raise FlexhrcError(f"--ready-file {path}: cannot write it ({exc.strerror})") from None
 
 
 def branch_simulator(choice: str, scenario: Any) -> Any:
@@ -228,6 +260,9 @@ def cmd_cell(args: argparse.Namespace) -> int:
 
             transport = InProcessBus()
         internal = args.agents == "internal"
+        # in one process the manager's model of the robot and the arms' simulated world are one
+        # object, as in `flexhrc run`: the manager plans from where the arms really are
+        simulator = branch_simulator(args.simulator, scenario)
         cell = Cell(
             scenario,
             transport,
@@ -236,7 +271,7 @@ def cmd_cell(args: argparse.Namespace) -> int:
             realtime=args.realtime,
             ordered=True if internal else None,
             agent_speed=0.0 if internal else args.realtime,
-            simulator=branch_simulator(args.simulator, scenario),
+            simulator=simulator,
             liveliness=args.transport == "zenoh",
             name=args.cell,
             trace=trace,
@@ -247,7 +282,7 @@ def cmd_cell(args: argparse.Namespace) -> int:
             humans = [a.name for a in scenario.domain.agents.values() if a.is_human]
             # the arms of one process share one simulated world, as in `flexhrc run`: what the
             # follower of a joint command did, and where the other arm is, are in it
-            world = execution_model(args.simulator, scenario)
+            world = simulator
             for a in scenario.domain.agents.values():
                 if a.is_human:
                     human_model = execution_model("analytic", scenario)
@@ -282,12 +317,21 @@ def cmd_cell(args: argparse.Namespace) -> int:
             if wait is None and not delivered:
                 time.sleep(0.001)  # nothing moved (e.g. waiting for a resend): do not spin
 
+        endpoints: list[str] = []
         if args.transport == "zenoh":
-            where = ", ".join(args.listen or ([] if args.connect else [DEFAULT_LISTEN]))
+            configured = args.listen or ([] if args.connect else [DEFAULT_LISTEN])
+            endpoints = listening_on(transport, configured)
+            where = ", ".join(endpoints)
             progress(
                 f"cell {args.cell!r} on zenoh"
                 + (f", listening on {where}" if where else "")
                 + (f", connected to {', '.join(args.connect)}" if args.connect else "")
+            )
+        if args.ready_file:  # the manager's subscriptions and token are declared: agents may come
+            import os
+
+            write_ready_file(
+                args.ready_file, {"listen": endpoints, "pid": os.getpid(), "cell": args.cell}
             )
         data = cell.run(pump=pump, agents_timeout=args.wait, progress=progress)
         for agent in agents:

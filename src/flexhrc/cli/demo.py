@@ -145,7 +145,7 @@ def _scenario_options(p: argparse.ArgumentParser) -> None:
 
 
 def _run_options(p: argparse.ArgumentParser) -> None:
-    from flexhrc.taskmanager.runner import PROFILES
+    from flexhrc.events import PROFILES
 
     add_segments_option(p)
     p.add_argument(
@@ -339,7 +339,7 @@ def _human_sensing(args: argparse.Namespace) -> Any:
 
 
 def _failures(specs: list[str], actions: Any = None) -> list[Any]:
-    from flexhrc.taskmanager.runner import InjectedFailure
+    from flexhrc.cell.local import InjectedFailure
 
     out = []
     for spec in specs:
@@ -516,7 +516,6 @@ def _run_table(
     """A table assembly (a :class:`~flexhrc.scenario.Scenario` of
     :func:`flexhrc.scenario.builtin.table_assembly`), with the options of ``demo``/``run``."""
     from flexhrc.files import EventLogWriter
-    from flexhrc.taskmanager.runner import CooperationRun
 
     # everything that can be wrong is found before the run starts
     domain = scenario.domain
@@ -555,8 +554,6 @@ def _run_table(
         graph, truth = scenario.online_graph(), scenario.world()
         if args.perception == "scene":
             run = _perceived(args, graph, domain, truth, run_kw)
-        elif sensing is not None:  # the wrist sensor in the loop: not yet an agent of the cell
-            run = CooperationRun(graph, domain, truth, **run_kw)
         else:
             run = _local_run(scenario, run_kw)
         with _stop_on_signals(run) as caught:
@@ -580,7 +577,6 @@ def _local_run(scenario: Any, run_kw: dict[str, Any]) -> Any:
 
     kw = dict(run_kw)
     trace, sink = kw.pop("trace", None), kw.pop("sink", None)
-    kw.pop("human_sensing", None)
     kw["profile"] = kw.pop("human_profile")
     return LocalCell(scenario, observers=[f for f in (sink, trace) if f is not None], **kw)
 
@@ -598,7 +594,7 @@ def _report(
 ) -> int:
     """The end of a cooperation run (`demo table`, `run`): the timeline plot, warnings for
     failures that never fired, Table I and a summary line (or ``--json``), the exit code."""
-    from flexhrc.taskmanager.runner import table_i
+    from flexhrc.taskmanager.replay import table_i
 
     if args.plot:
         from flexhrc.files import atomic_output
@@ -688,45 +684,21 @@ def _perceived(
 def _perceived_like(args: argparse.Namespace, run: Any) -> Any:
     """The perceived twin of a prepared cooperation run (same graph, domain, world,
     simulator, operators and options), as a configuration of the cell."""
-    cell = getattr(run, "cell", None)
-    if cell is not None:  # a LocalCell: the cell's in-process configuration
-        run_kw = dict(
-            simulator=cell.tm.simulator,
-            execution=run.injection.inner,
-            seed=args.seed,
-            failures=run.injection.failures,
-            observers=cell.observers[1:],  # the streamed log and the trace, not its own list
-            realtime=cell.realtime,
-            human_takes=args.human_takes,
-            humans=run.operator_profiles(),
-            reaction=cell.tm.reaction,
-            name=str(run.scenario.name),
-        )
-        return _perceived(args, cell.graph, cell.domain, cell.kb, run_kw)
+    cell = run.cell  # a LocalCell: the cell's in-process configuration
     run_kw = dict(
-        simulator=run.simulator,
-        execution=run.execution,
-        human_profile=run.profile,
+        simulator=cell.tm.simulator,
+        execution=run.injection.inner,
         seed=args.seed,
-        failures=run.failures,
-        trace=run.trace,
-        realtime=run.realtime,
-        max_time_s=run.max_time_s,
-        human_takes=run.human_takes,
+        failures=run.injection.failures,
+        observers=cell.observers[1:],  # the streamed log and the trace, not its own list
+        realtime=cell.realtime,
+        human_takes=args.human_takes,
         human_sensing=run.human_sensing,
-        sink=run.sink,
         humans=run.operator_profiles(),
-        reaction=run.tm.reaction,
-        name=_scenario_name(args),
+        reaction=cell.tm.reaction,
+        name=str(run.scenario.name),
     )
-    return _perceived(args, run.graph, run.domain, run.kb, run_kw)
-
-
-def _scenario_name(args: argparse.Namespace) -> str:
-    """The name of the scenario ``run`` was given (what its log's ``start`` names)."""
-    from flexhrc import scenario as scenario_mod
-
-    return str(scenario_mod.load(scenario_mod.resolve(args.scenario)).name)
+    return _perceived(args, cell.graph, cell.domain, cell.kb, run_kw)
 
 
 def _with_sensing(data: dict[str, Any], events: list[dict[str, Any]], args: Any) -> dict[str, Any]:
@@ -887,8 +859,7 @@ def _run_legacy(args: argparse.Namespace, path: Path, doc: Any) -> int:
 
 
 def cmd_replay(args: argparse.Namespace) -> int:
-    from flexhrc.taskmanager.replay import summarise_log
-    from flexhrc.taskmanager.runner import table_i
+    from flexhrc.taskmanager.replay import summarise_log, table_i
 
     check_outputs([("--plot", args.plot, PLOT_SUFFIXES)], inputs=[args.log])
     if args.plot:

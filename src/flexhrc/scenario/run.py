@@ -55,16 +55,6 @@ def prepare(
     )
     pairs = [(h.name, profile or h.profile) for h in scenario.humans]
     observers = [f for f in (sink, trace) if f is not None]  # the log first: shown = stored
-    if human_sensing is not None:  # the wrist sensor in the loop: not yet an agent of the cell
-        from flexhrc.taskmanager.runner import CooperationRun
-
-        return CooperationRun(
-            scenario.online_graph(), scenario.domain, scenario.world(), simulator=sim,
-            execution=execution, human_profile=pairs[0][1] if pairs else "passive", seed=seed,
-            failures=list(failures), trace=trace, sink=sink, human_takes=human_takes,  # type: ignore[arg-type]
-            human_sensing=human_sensing, humans=pairs, reaction=reaction, realtime=realtime,
-            max_time_s=max_time_s,
-        )  # fmt: skip
     return LocalCell(
         scenario,
         simulator=sim,
@@ -77,6 +67,7 @@ def prepare(
         observers=observers,
         realtime=realtime,
         max_time_s=max_time_s,
+        human_sensing=human_sensing,
     )
 
 

@@ -443,7 +443,8 @@ class PerceivedCell:
         """The cell's stored events in log form, with what nobody reports (the operator's
         nudges, the false reports) put in at their times."""
         log = self._log
-        extra = self.truth.events + self.false.events + self._sensing_events()
+        # (what the wrist sensor made of each action is in the cell's log already)
+        extra = self.truth.events + self.false.events
         if self.repair is not None:
             extra += self.repair.events
         # what happened at a time comes before the cell's events of that time; what answers
@@ -467,20 +468,6 @@ class PerceivedCell:
         out += [{k: v for k, v in e.items() if k != "_after"} for e in extra[i:]]
         if tail is not None:
             out.append(tail)
-        return out
-
-    def _sensing_events(self) -> list[dict[str, Any]]:
-        """What the wrist sensor made of each action (``human_sensed``, then
-        ``human_sensing_missed`` / ``human_sensing_uncovered``), at the action's end."""
-        out: list[dict[str, Any]] = []
-        for h in self.humans:
-            for rec in h.sensed:
-                t = round(float(rec["t"]), 6)
-                body = {k: v for k, v in rec.items() if k not in ("t", "outcome")}
-                out.append({"t": t, "type": "human_sensed", **body})
-                if rec.get("outcome") in ("missed", "uncovered"):
-                    kind = f"human_sensing_{rec['outcome']}"
-                    out.append({"t": t, "type": kind, "action": rec["action"]})
         return out
 
     def human_figures(self) -> dict[str, int]:

@@ -4,7 +4,10 @@
 * :class:`ActionStateTable`, :class:`DecisionTree`, :class:`Branch` — rows and branches;
 * :class:`Simulator`, :class:`AnalyticSimulator` — branch simulation, utility of eq. (21);
 * :class:`TaskManager` — the sans-IO manager (commands, suggestions, adaptation);
-* :class:`CooperationRun` — a whole cooperation with simulated arms and a simulated human.
+* :mod:`~flexhrc.taskmanager.kinds` — the action kinds (timing, motions, effect, words, colour).
+
+A whole cooperation — the manager with simulated arms and operators — is a configuration of the
+one loop that drives it, :class:`flexhrc.cell.Cell` (:func:`flexhrc.scenario.run`).
 """
 
 from flexhrc.taskmanager.decision import ActionStateTable, Branch, DecisionTree, Row
@@ -17,7 +20,7 @@ from flexhrc.taskmanager.manager import (
     Suggest,
     TaskManager,
 )
-from flexhrc.taskmanager.runner import PROFILES, CooperationRun, InjectedFailure, RunResult
+from flexhrc.taskmanager.operator import PROFILES
 from flexhrc.taskmanager.simulator import (
     AnalyticSimulator,
     ExecutionModel,
@@ -38,15 +41,12 @@ __all__ = [
     "AnalyticSimulator",
     "Branch",
     "Command",
-    "CooperationRun",
     "DecisionTree",
     "Domain",
     "ExecutionModel",
     "GroundAction",
     "HumanAction",
-    "InjectedFailure",
     "Row",
-    "RunResult",
     "SimulationResult",
     "Simulator",
     "StepReport",

@@ -1,7 +1,7 @@
 """Generic simulated operators: they read the graph and the domain, not a script of the task.
 
-A :class:`SimulatedOperator` plays one human agent of the domain in a
-:class:`~flexhrc.taskmanager.CooperationRun`. It sees what the Task Manager sees — the feasible
+A :class:`SimulatedOperator` plays one human agent of the domain (inside the cell's simulated
+operator agent, :class:`flexhrc.cell.HumanAgent`). It sees what the Task Manager sees — the feasible
 hyper-arcs with their costs (eq. 10) and the suggestions addressed to it — and the knowledge
 base (what lies where). It always follows a suggestion. Besides, per profile, it acts on its
 own on the hyper-arcs it may do (every action of A(h) doable by a human, as the domain's

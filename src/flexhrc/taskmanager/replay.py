@@ -197,3 +197,42 @@ def solved_by_line(data: dict[str, Any]) -> str:
         legs = ", ".join(f"{a}: {n}" for a, n in data["legs_by_agent"].items())
         line = f"legs connected by {legs}; {line}"
     return line
+
+
+def table_i(summary: dict[str, Any]) -> str:
+    """The paper's Table I from a run summary, in two parts that are never added up.
+
+    Compute (wall clock of this process: Task Manager, task representation, simulator) and
+    simulated time (how long the agents' actions take on the simulated clock) are different
+    quantities; the paper's Table I puts them in one column, which here would add milliseconds
+    of computation to minutes of make-believe motion.
+    """
+    t = summary["timing"]
+    compute = [
+        ("Task Manager", t["task_manager_s"]),
+        ("Task Representation", t["task_representation_s"]),
+        ("Simulator", t["simulator_s"]),
+    ]
+    simulated = [
+        ("Robot actions", t["robot_actions_s"]),
+        ("Human actions", t["human_actions_s"]),
+    ]
+    sim = summary.get("simulator")
+    head = f"Computation ({sim} simulator)" if sim else "Computation (wall clock)"
+    total = sum(v for _, v in compute)
+    lines = [f"{head:<34}{'time [s]':>12}{'time [%]':>10}"]
+    if summary.get("compute_recorded", True):
+        for name, v in compute:
+            lines.append(f"{name:<34}{v:>12.4f}{100 * v / total if total else 0:>10.2f}")
+        lines.append(f"{'Compute total (wall clock)':<34}{total:>12.4f}{100.0:>10.2f}")
+    else:  # a log cut short before its closing summary: the compute was never written down
+        for name, _ in compute:
+            lines.append(f"{name:<34}{'n/a':>12}{'':>10}")
+        lines.append("(not recorded: the log ends before the run's closing summary)")
+    lines.append("")
+    lines.append(f"{'Simulated time (simulated clock)':<34}{'time [s]':>12}")
+    for name, v in simulated:
+        lines.append(f"{name:<34}{v:>12.2f}")
+    lines.append(f"{'Assembly makespan':<34}{t['total_s']:>12.2f}")
+    lines.append("(robot and human action times overlap; they add up to more than the makespan)")
+    return "\n".join(lines)

@@ -10,8 +10,7 @@ An action whose domain entry declares ``duration`` (seconds) and ``moves_to`` (t
 hand goes to) is timed from those alone, so a scenario file needs no code for its actions; any
 other is timed by its kind's model (:mod:`flexhrc.taskmanager.kinds`).
 The kinematic simulator of :mod:`flexhrc.action` implements the same :class:`Simulator`
-protocol; it is chosen at the edge (:mod:`flexhrc.scenario.simulators`), never imported
-here.
+protocol; it is chosen at the edge (:mod:`flexhrc.scenario.simulators`), never imported here.
 Simulations never modify the knowledge base: positions are tracked on the side.
 """
 
@@ -68,9 +67,9 @@ class StepReport:
 
 
 class ExecutionModel(Protocol):
-    """The simulated "real" world an agent acts in (see :class:`~flexhrc.taskmanager.runner.
-    CooperationRun`). ``positions`` holds where objects and end effectors are; the model updates
-    it with the physical outcome of the action."""
+    """The simulated "real" world an agent acts in (a simulated arm or operator agent of the
+    cell, :mod:`flexhrc.cell.components`). ``positions`` holds where objects and end effectors
+    are; the model updates it with the physical outcome of the action."""
 
     def execute(
         self,

@@ -32,7 +32,10 @@ API (everything below is public and stable):
   interface, so nothing is exposed beyond the host unless an endpoint says so.
   :func:`loopback_config` is the test helper: ``loopback_config(port)`` listens on
   ``127.0.0.1:port``, ``loopback_config(connect=port)`` connects to it. :func:`free_tcp_port`
-  returns a free loopback port.
+  returns a free loopback port — for this process to bind at once; a child process is given
+  port 0 and reports the port it got.
+  ``zenoh_config(..., adminspace=True)`` makes the admin space readable; it is on by default
+  when a ``listen`` endpoint has port 0 (the system picks the port).
 * :class:`ZenohTransport` ``(config=None, *, session=None, prefix="", encode=json_encode,
   decode=json_decode, deliver="flush", on_drop=None)``.
 
@@ -61,6 +64,8 @@ API (everything below is public and stable):
   - :meth:`ZenohTransport.watch_liveliness` calls ``callback(key, alive)`` for tokens matching a
     key expression (wildcards allowed); with ``history=True`` (default) the tokens already alive
     are reported first. Returns a :class:`~flexhrc.transport.Subscription`.
+  - :meth:`ZenohTransport.locators` lists the endpoints the session really listens on (the
+    port a ``listen`` endpoint with port 0 got), read from the admin space.
   - Counters ``published``, ``delivered`` and ``dropped``; :meth:`close` releases the session
     (idempotent; also a context manager).
 
@@ -155,16 +160,21 @@ def zenoh_config(
     connect: Sequence[str] = (),
     mode: Literal["peer", "client", "router"] = "peer",
     multicast: bool = False,
+    adminspace: bool | None = None,
 ) -> Any:
     """A ``zenoh.Config`` for flexhrc: explicit endpoints, multicast scouting off by default.
 
     A peer given no ``listen`` endpoint listens on ``tcp/127.0.0.1:0`` (a random loopback port,
     so other peers learned by gossip can reach it on this host) instead of every interface.
+    ``adminspace`` (read-only) lets :meth:`ZenohTransport.locators` tell which port the system
+    gave a ``listen`` endpoint with port 0; by default it is on exactly when one has port 0.
     """
     if mode not in ("peer", "client", "router"):
         raise TransportError(f"zenoh mode must be peer, client or router, not {mode!r}")
     listen_eps = [normalise_endpoint(e) for e in listen]
     connect_eps = [normalise_endpoint(e) for e in connect]
+    if adminspace is None:
+        adminspace = any(_port_of(e) == 0 for e in listen_eps)
     if not listen_eps and mode != "client":
         listen_eps = ["tcp/127.0.0.1:0"]
     config = _zenoh.Config()
@@ -179,7 +189,17 @@ def zenoh_config(
         "connect/retry",
         json.dumps({"period_init_ms": 100, "period_max_ms": 1000, "period_increase_factor": 2}),
     )
+    if adminspace:
+        admin = {"enabled": True, "permissions": {"read": True, "write": False}}
+        config.insert_json5("adminspace", json.dumps(admin))
     return config
+
+
+def _port_of(endpoint: str) -> int | None:
+    """The port of a normalised ``proto/HOST:PORT`` endpoint (None for a socket path)."""
+    if endpoint.startswith("unixsock-stream/"):
+        return None
+    return int(endpoint.rsplit(":", 1)[1])
 
 
 def loopback_config(port: int | None = None, *, connect: int | Sequence[int] = ()) -> Any:
@@ -192,7 +212,12 @@ def loopback_config(port: int | None = None, *, connect: int | Sequence[int] = (
 
 
 def free_tcp_port() -> int:
-    """A TCP port free on 127.0.0.1 right now (the OS picks it)."""
+    """A TCP port free on 127.0.0.1 right now (the OS picks it).
+
+    Only for a port this process binds at once: handed to another process, the port may be
+    taken before that one binds it. A child process listens on port 0 instead and reports the
+    port it got (``flexhrc cell --listen tcp/127.0.0.1:0 --ready-file PATH``,
+    :meth:`ZenohTransport.locators`)."""
     with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
         s.bind(("127.0.0.1", 0))
         return int(s.getsockname()[1])
@@ -356,6 +381,32 @@ class ZenohTransport(QueuedDelivery, Transport):
         if zsub is not None:
             with contextlib.suppress(Exception):  # the session may already be closed
                 zsub.undeclare()
+
+    # -- where it listens ---------------------------------------------------------------------
+    def locators(self, timeout: float = 2.0) -> list[str]:
+        """The endpoints this session listens on, as the system bound them (a ``listen``
+        endpoint with port 0 shows the port it got), e.g. ``["tcp/127.0.0.1:41327"]``.
+
+        Read from Zenoh's admin space (``@/<zid>/<mode>``), which the config must enable
+        (:func:`zenoh_config` does when a ``listen`` endpoint has port 0); raises
+        :class:`TransportError` when it cannot be read."""
+        self._check_open()
+        zid = str(self.session.zid())
+        try:
+            replies = list(self.session.get(f"@/{zid}/**", timeout=timeout))
+        except Exception as exc:  # zenoh.ZError
+            raise TransportError(f"cannot read the Zenoh admin space: {exc}") from None
+        for reply in replies:
+            ok = getattr(reply, "ok", None)
+            if ok is None:
+                continue
+            with contextlib.suppress(ValueError, TypeError):
+                info = json.loads(ok.payload.to_bytes())
+                if isinstance(info, dict) and isinstance(info.get("locators"), list):
+                    return [str(loc) for loc in info["locators"]]
+        raise TransportError(
+            "the Zenoh admin space did not answer (enable it: zenoh_config(adminspace=True))"
+        )
 
     # -- lifetime ---------------------------------------------------------------------------
     def _check_open(self) -> None:
