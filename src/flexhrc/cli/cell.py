@@ -8,7 +8,7 @@ import sys
 import time
 from typing import Any
 
-from flexhrc.cli.common import add_json_flag, add_segments_option, emit
+from flexhrc.cli.common import add_cell_options, add_json_flag, add_segments_option, emit
 from flexhrc.errors import FlexhrcError
 from flexhrc.taskmanager.replay import solved_by_line
 
@@ -33,15 +33,12 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
         default="internal",
         help="simulated agents inside this process (default) or as their own processes",
     )
-    p.add_argument("--store", metavar="FILE.db", help="event store (SQLite) to write")
-    p.add_argument("--resume", action="store_true", help="continue the cooperation kept in --store")
-    p.add_argument(
-        "--realtime",
-        type=float,
-        default=0.0,
-        metavar="SPEED",
-        help="0 (default): as fast as the agents answer; SPEED > 0: actions take their "
-        "simulated time divided by SPEED",
+    add_cell_options(
+        p,
+        wait_s=30.0,
+        waits_for="external agents",
+        simulator_help="branch simulator and, for internal agents, the simulated world",
+        realtime_type=float,  # checked by the cell, which names the option
     )
     p.add_argument("--seed", type=int, default=0, help="scenario seed (default 0)")
     from flexhrc.taskmanager.operator import PROFILES
@@ -53,19 +50,6 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
         metavar="PROFILE",
         help="how the internal simulated operators behave: passive (default), takeover, "
         "cooperative or random (external ones: `flexhrc agent human --profile`)",
-    )
-    p.add_argument(
-        "--simulator",
-        choices=["auto", "analytic", "kinematic"],
-        default="auto",
-        help="branch simulator and, for internal agents, the simulated world",
-    )
-    p.add_argument(
-        "--wait",
-        type=float,
-        default=30.0,
-        metavar="S",
-        help="how long to wait for external agents to appear (default 30 s)",
     )
     p.add_argument("--quiet", action="store_true", help="no live trace")
     p.add_argument(

@@ -16,6 +16,51 @@ from flexhrc.errors import FlexhrcError
 MAX_SEED = 2**32 - 1
 
 
+def finite_nonneg(value: str) -> float:
+    """An argparse type: a finite number >= 0 (``--realtime``)."""
+    try:
+        x = float(value)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {value!r}") from None
+    if not math.isfinite(x) or x < 0:
+        raise argparse.ArgumentTypeError(f"must be a finite number >= 0, got {value}")
+    return x
+
+
+def add_cell_options(
+    p: argparse.ArgumentParser,
+    *,
+    wait_s: float,
+    waits_for: str,
+    simulator_help: str,
+    realtime_type: Callable[[str], float] = finite_nonneg,
+) -> None:
+    """The options every command that runs the cell's loop shares (``flexhrc cell``,
+    ``flexhrc ros2 cell``): the store and resume, the pace, the branch simulator, how long to
+    wait for the agents."""
+    p.add_argument("--store", metavar="FILE.db", help="event store (SQLite) to write")
+    p.add_argument("--resume", action="store_true", help="continue the cooperation kept in --store")
+    p.add_argument(
+        "--realtime",
+        type=realtime_type,
+        default=0.0,
+        metavar="SPEED",
+        help="0 (default): as fast as the agents answer; SPEED > 0: actions take their "
+        "simulated time divided by SPEED",
+    )
+    p.add_argument(
+        "--simulator", choices=["auto", "analytic", "kinematic"], default="auto",
+        help=simulator_help,
+    )  # fmt: skip
+    p.add_argument(
+        "--wait",
+        type=float,
+        default=wait_s,
+        metavar="S",
+        help=f"how long to wait for {waits_for} to appear (default {wait_s:g} s)",
+    )
+
+
 def add_json_flag(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--json", action="store_true", help="print one machine-readable JSON document on stdout"

@@ -20,19 +20,15 @@ import sys
 import uuid
 from typing import Any
 
-from flexhrc.cli.common import add_json_flag, add_segments_option, emit, serve_agent
+from flexhrc.cli.common import (
+    add_cell_options,
+    add_json_flag,
+    add_segments_option,
+    emit,
+    serve_agent,
+)
 from flexhrc.errors import FlexhrcError
 from flexhrc.taskmanager.replay import solved_by_line
-
-
-def _finite_nonneg(value: str) -> float:
-    try:
-        x = float(value)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {value!r}") from None
-    if not math.isfinite(x) or x < 0:
-        raise argparse.ArgumentTypeError(f"must be a finite number >= 0, got {value}")
-    return x
 
 
 def _add_common(p: argparse.ArgumentParser) -> None:
@@ -73,30 +69,11 @@ def register(subparsers: Any) -> None:
         "operator client — like `flexhrc cell --agents external`.",
     )
     _add_common(cell)
-    cell.add_argument("--store", metavar="FILE.db", help="event store (SQLite) to write")
-    cell.add_argument(
-        "--resume", action="store_true", help="continue the cooperation kept in --store"
-    )
-    cell.add_argument(
-        "--realtime",
-        type=_finite_nonneg,
-        default=0.0,
-        metavar="SPEED",
-        help="0 (default): as fast as the agents answer; SPEED > 0: actions take their "
-        "simulated time divided by SPEED",
-    )
-    cell.add_argument(
-        "--simulator",
-        choices=["auto", "analytic", "kinematic"],
-        default="auto",
-        help="the Task Manager's branch simulator (default: kinematic with the sim extra)",
-    )
-    cell.add_argument(
-        "--wait",
-        type=float,
-        default=60.0,
-        metavar="S",
-        help="how long to wait for the agent nodes to appear (default 60 s)",
+    add_cell_options(
+        cell,
+        wait_s=60.0,
+        waits_for="the agent nodes",
+        simulator_help="the Task Manager's branch simulator (default: the scenario's)",
     )
     cell.add_argument(
         "--markers-rate",
