@@ -106,7 +106,7 @@ def chain_run(n: int, queries: int = 200) -> dict[str, float]:
 
 
 def table_run(legs: int) -> dict[str, float]:
-    from flexhrc.scenarios.table_assembly import build_graph
+    from flexhrc.scenario.builtin.table import build_graph
 
     t0 = time.perf_counter()
     h = build_graph(legs)

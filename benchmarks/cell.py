@@ -35,8 +35,8 @@ sys.path.insert(0, str(ROOT / "src"))
 from flexhrc.cell import Cell, EventStore, RobotAgent  # noqa: E402
 from flexhrc.cell import protocol as P  # noqa: E402
 from flexhrc.cell.components import execution_model, world_of  # noqa: E402
-from flexhrc.scenarios.parallel_assembly import ParallelScenario  # noqa: E402
-from flexhrc.scenarios.table_assembly import TableScenario  # noqa: E402
+from flexhrc.scenario.builtin.parallel import parallel_assembly  # noqa: E402
+from flexhrc.scenario.builtin.table import TableLayout  # noqa: E402
 from flexhrc.transport import InProcessBus  # noqa: E402
 from flexhrc.transport.zenoh import ZenohTransport, zenoh_config  # noqa: E402
 
@@ -84,7 +84,7 @@ def round_trip(n: int) -> dict[str, Any]:
             bus.flush()
         if not alive:
             raise SystemExit("the agent process did not come up")
-        world = world_of(TableScenario().knowledge())
+        world = world_of(TableLayout().world())
         times = []
         for i in range(1, n + 1):
             msg = P.message(
@@ -170,7 +170,7 @@ def _in_process(scenario: Any, store: EventStore | None, resume: bool = False) -
 
 def resume(repeat: int, events: int = 1000) -> dict[str, Any]:
     # one long sequence (each socket after the previous one): ~14 events per leg
-    scenario = ParallelScenario(arms=2, humans=0, legs=72, chain=True)
+    scenario = parallel_assembly(arms=2, humans=0, legs=72, chain=True)
     tmp = Path(tempfile.mkdtemp(prefix="flexhrc-bench-"))
     try:
         full = tmp / "full.db"
@@ -179,7 +179,7 @@ def resume(repeat: int, events: int = 1000) -> dict[str, Any]:
         bus = cell.bench_bus  # type: ignore[attr-defined]
         agents = [
             RobotAgent(a.name, scenario, bus, execution=execution_model("analytic"))
-            for a in scenario.domain().agents.values()
+            for a in scenario.domain.agents.values()
         ]
 
         def pump(timeout: float) -> None:

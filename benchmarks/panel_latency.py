@@ -209,7 +209,7 @@ def _cell_run(args: argparse.Namespace) -> list[float]:
     cell_box.append(cell)
     arms = [
         RobotAgent(a.name, scenario, bus, execution=AnalyticSimulator())
-        for a in scenario.domain().agents.values()
+        for a in scenario.domain.agents.values()
         if not a.is_human
     ]
     panel = CellPanel(cell)

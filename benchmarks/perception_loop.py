@@ -23,7 +23,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))
 
 from flexhrc.action.robots import PANDA_Q_REST
-from flexhrc.scenarios.table_assembly import TableScenario
+from flexhrc.scenario.builtin.table import TableLayout
 from flexhrc.sensing.loop import forget_positions, lying_layout
 from flexhrc.sensing.perception import PerceptionComponent
 from flexhrc.sensing.setup import perceived_run
@@ -33,8 +33,7 @@ PARTS = ("leg", "tabletop")
 
 
 def one_update(repeat: int) -> dict[str, float]:
-    sc = TableScenario(seed=0, leg_positions=lying_layout(4, 0))
-    truth = sc.knowledge()
+    truth = TableLayout(seed=0, leg_positions=lying_layout(4, 0)).world()
     world, _ = SimulatedWorkspace.from_knowledge(truth, types=PARTS)
     comp = PerceptionComponent(world, forget_positions(truth, PARTS))
     postures = []

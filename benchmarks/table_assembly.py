@@ -30,9 +30,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))
 
 from flexhrc.cell.local import LocalCell
-from flexhrc.representation import OnlineGraph
-from flexhrc.scenario import CellScenario
-from flexhrc.scenarios.table_assembly import TableScenario
+from flexhrc.scenario.builtin.table import table_assembly
 from flexhrc.taskmanager import PROFILES, AnalyticSimulator
 
 PAPER = {"task_manager_s": 0.01, "task_representation_s": 0.57, "simulator_s": 4.15}
@@ -59,9 +57,9 @@ def main() -> int:
     for profile in PROFILES:
         rows = []
         for seed in range(args.runs):
-            sc = TableScenario(legs=args.legs, seed=seed)
+            sc = table_assembly(args.legs, seed=seed, segments="legs")
             run = LocalCell(
-                CellScenario("table_assembly", sc),
+                sc,
                 profile=profile,
                 seed=seed,
                 simulator=AnalyticSimulator(),
@@ -141,9 +139,9 @@ def kinematic_tree(runs: int) -> bool:
 
     times, branches = [], 0
     for seed in range(runs):
-        sc = TableScenario(legs=4, seed=seed)
+        sc = table_assembly(4, seed=seed, segments="legs")
         kin = KinematicTaskSimulator(KinematicSimulator(dt=0.04, cache_size=0))
-        tm = TaskManager(OnlineGraph(sc.graph()), sc.domain(), sc.knowledge(), kin)
+        tm = TaskManager(sc.online_graph(), sc.domain, sc.world(), kin)
         tm.start(0.0)
         times.append(tm.timing.simulator_s)
         branches = tm.branches_simulated

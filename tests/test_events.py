@@ -129,15 +129,13 @@ def test_a_broken_field_is_one_line_naming_the_type_and_the_field(record, expect
 
 
 def test_the_vocabularies_are_the_strings_on_disk() -> None:
-    from flexhrc.scenario import model
-    from flexhrc.scenarios import simulators
-    from flexhrc.taskmanager import operator, runner
+    from flexhrc.scenario import model, simulators
+    from flexhrc.taskmanager import operator
 
     assert events.PROFILES == ("passive", "takeover", "cooperative", "random")
-    # runner.py is being rewritten (issue 19 item 1): its copies must agree until they go
-    for profiles in (operator.PROFILES, model.PROFILES, runner.PROFILES):
+    for profiles in (operator.PROFILES, model.PROFILES):
         assert tuple(profiles) == tuple(Profile)
-    assert tuple(runner.OUTCOMES) == tuple(Outcome) == ("solved", "failed", "interrupted")
+    assert tuple(Outcome) == ("solved", "failed", "interrupted")
     assert model.SIMULATORS == simulators.SIMULATORS == tuple(SimulatorName)
     assert events.ACK_STATUSES == ("done", "failed", "timed_out")
     assert (*events.ACK_STATUSES, AckStatus.STOPPED) == events.ACTION_STATUSES
@@ -222,7 +220,7 @@ def test_every_record_message_and_stored_kind_of_a_cell_is_catalogued(name, tmp_
         trace=traced.append,
     )  # fmt: skip
     agents: list[Any] = []
-    for a in sc.domain().agents.values():
+    for a in sc.domain.agents.values():
         model = execution_model("analytic")
         if a.is_human:  # an operator that acts on its own: options, intent, operator messages
             agents.append(HumanAgent(a.name, sc, bus, profile="takeover", execution=model))

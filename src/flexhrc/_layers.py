@@ -52,16 +52,16 @@ FLOORS: dict[str, int] = {
     "taskmanager": 4,
     "behavior": 4,
     "action": 5,
-    "scenarios": 6,
     # the one loop (the engine) stands below the scenario that configures it
-    "cell": 7,
-    "scenario": 8,
+    "cell": 6,
+    # the one type of a task, its files, the ready-made tasks (builtin), the simulator choice
+    "scenario": 7,
     # the front ends around the cell
-    "sensing": 9,
-    "web": 9,
-    "ros2": 9,
-    "cli": 10,
-    "__main__": 10,
+    "sensing": 8,
+    "web": 8,
+    "ros2": 8,
+    "cli": 9,
+    "__main__": 9,
 }
 
 #: (importer, imported) pairs on one floor that may depend on each other, in this direction only.
@@ -84,11 +84,10 @@ FLOOR_NAMES: dict[int, str] = {
     3: "task representation, perception",
     4: "Task Manager, behaviour networks",
     5: "action level (robot, controller, kinematic simulator)",
-    6: "ready-made scenarios",
-    7: "the cell: the one loop (the engine)",
-    8: "scenarios: one type, files, loaders, run",
-    9: "front ends",
-    10: "the command line",
+    6: "the cell: the one loop (the engine)",
+    7: "scenarios: one type, files, ready-made tasks, loaders, run",
+    8: "front ends",
+    9: "the command line",
 }
 
 BEGIN_MARK = "<!-- BEGIN GENERATED: python scripts/architecture.py --write -->"

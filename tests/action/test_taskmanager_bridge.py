@@ -10,22 +10,21 @@ pytest.importorskip("pinocchio")
 
 from flexhrc.action import KinematicTaskSimulator
 from flexhrc.cell.local import LocalCell
-from flexhrc.representation import OnlineGraph
-from flexhrc.scenario import CellScenario
-from flexhrc.scenarios.table_assembly import TableScenario
+from flexhrc.scenario import Scenario
+from flexhrc.scenario.builtin.table import table_assembly
 
 from ..taskmanager.helpers import LAYOUT, check_invariants, first, solved
 
 
-def run(scenario: TableScenario, kin: KinematicTaskSimulator | None = None, **kw):
+def run(scenario: Scenario, kin: KinematicTaskSimulator | None = None, **kw):
     kin = kin or KinematicTaskSimulator()
-    r = LocalCell(CellScenario("table_assembly", scenario), simulator=kin, execution=kin, **kw)
+    r = LocalCell(scenario, simulator=kin, execution=kin, **kw)
     return r.run()
 
 
 def test_a_leg_reachable_by_one_arm_only_goes_to_that_arm():
     # (0.45, 0.55): far on the robot's left; the right arm cannot get there
-    result = run(TableScenario(legs=1, leg_positions=[(0.45, 0.55, 0.0)]))
+    result = run(table_assembly(segments="legs", legs=1, leg_positions=[(0.45, 0.55, 0.0)]))
     decision = first(result.events, "decision")
     by_arm = {b["grounding"]["?arm"]: b for b in decision["branches"]}
     assert by_arm["left"]["success"] and by_arm["left"]["utility"] > 0
@@ -36,7 +35,11 @@ def test_a_leg_reachable_by_one_arm_only_goes_to_that_arm():
 
 def test_a_leg_neither_arm_can_connect_is_asked_of_the_human_via_the_middle_pose():
     # a fixture over bolt 1: no arm reaches it; the robot brings the leg to the middle pose
-    result = run(TableScenario(legs=1, leg_positions=[(0.40, 0.30, 0.0)], unreachable_bolts=(1,)))
+    result = run(
+        table_assembly(
+            segments="legs", legs=1, leg_positions=[(0.40, 0.30, 0.0)], unreachable_bolts=(1,)
+        )
+    )
     assert result.outcome == "solved"
     seq = solved(result)
     assert [e for e, _ in seq] == ["to_middle_1", "human_from_middle_1"]
@@ -51,7 +54,7 @@ def test_a_leg_neither_arm_can_connect_is_asked_of_the_human_via_the_middle_pose
 
 
 def test_branch_utilities_come_from_simulated_durations():
-    result = run(TableScenario(legs=4, leg_positions=LAYOUT))
+    result = run(table_assembly(segments="legs", legs=4, leg_positions=LAYOUT))
     decision = first(result.events, "decision")
     assert len(decision["branches"]) == 8
     for b in decision["branches"]:
@@ -69,7 +72,7 @@ def test_branch_utilities_come_from_simulated_durations():
 def test_a_disturbance_during_execution_fails_the_action_and_the_manager_replans():
     kin = KinematicTaskSimulator()
     kin.schedule("transport", 1, kind="blocked_path", at_s=0.3, once=True)
-    result = run(TableScenario(legs=4, leg_positions=LAYOUT), kin)
+    result = run(table_assembly(segments="legs", legs=4, leg_positions=LAYOUT), kin)
     failed = first(result.events, "action_failed")
     assert failed["element"] == "robot_1" and "blocked" in failed["reason"]
     later = [e for e in result.events if e["type"] == "decision" and e["t"] >= failed["t"]]
@@ -83,7 +86,7 @@ def test_a_disturbance_during_execution_fails_the_action_and_the_manager_replans
 def test_a_slow_arm_times_out_and_the_manager_replans():
     kin = KinematicTaskSimulator()
     kin.schedule("approach", 1, kind="slow_arm", factor=0.2, once=True)
-    result = run(TableScenario(legs=2, leg_positions=LAYOUT[:2]), kin)
+    result = run(table_assembly(segments="legs", legs=2, leg_positions=LAYOUT[:2]), kin)
     failed = first(result.events, "action_failed")
     assert failed["status"] == "timed_out"
     assert result.outcome == "solved"
@@ -99,17 +102,17 @@ def test_the_kinematic_simulator_is_the_default_when_installed():
 def test_auto_picks_the_kinematic_simulator_at_the_edge():
     # the choice is made above the Task Manager (scenarios.simulators), which stays unaware of
     # the action level: given no simulator it uses the analytic one (STYLE.md: no import circle)
-    from flexhrc.scenarios.simulators import choose_simulator
+    from flexhrc.scenario.simulators import choose_simulator
     from flexhrc.taskmanager import AnalyticSimulator, TaskManager
 
     name, kin = choose_simulator("auto")
     assert name == "kinematic" and isinstance(kin, KinematicTaskSimulator)
-    sc = TableScenario(legs=1, leg_positions=LAYOUT[:1])
-    tm = TaskManager(OnlineGraph(sc.graph()), sc.domain(), sc.knowledge(), kin)
+    sc = table_assembly(segments="legs", legs=1, leg_positions=LAYOUT[:1])
+    tm = TaskManager(sc.online_graph(), sc.domain, sc.world(), kin)
     directives = tm.start(0.0)
     assert directives[0].action.name == "approach"
     assert tm.branches_simulated == 2
-    bare = TaskManager(OnlineGraph(sc.graph()), sc.domain(), sc.knowledge())
+    bare = TaskManager(sc.online_graph(), sc.domain, sc.world())
     assert isinstance(bare.simulator, AnalyticSimulator)
 
 
@@ -120,7 +123,7 @@ def test_the_taskmanager_package_does_not_import_the_action_level():
     from ..conftest import subprocess_env
 
     code = (
-        "import sys, flexhrc.taskmanager as t; from flexhrc.scenarios import table_assembly; "
+        "import sys, flexhrc.taskmanager as t; from flexhrc.scenario.builtin import table; "
         "t.default_simulator(); "
         "print(sorted(m for m in sys.modules if m.startswith('flexhrc.action')))"
     )

@@ -15,7 +15,7 @@ from flexhrc.behavior import (
     run_task,
 )
 from flexhrc.behavior.messages import from_wire, to_wire
-from flexhrc.scenarios.table_setting import LAYOUTS, load_scenario
+from flexhrc.scenario.builtin.table_setting import LAYOUTS, load_scenario
 from flexhrc.transport import InProcessBus
 
 

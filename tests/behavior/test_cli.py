@@ -3,7 +3,7 @@ import json
 import pytest
 
 from flexhrc.cli import main
-from flexhrc.scenarios.table_setting import PAPER_ORDERS
+from flexhrc.scenario.builtin.table_setting import PAPER_ORDERS
 
 
 def run_cli(capsys, *argv):

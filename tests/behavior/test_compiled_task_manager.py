@@ -11,7 +11,7 @@ from flexhrc.behavior.compile import compile_task
 from flexhrc.cli import main
 from flexhrc.representation.formats.yaml_format import dump_yaml
 from flexhrc.representation.hierarchy import split_qualified
-from flexhrc.scenarios.table_setting import table_setting_task
+from flexhrc.scenario.builtin.table_setting import table_setting_task
 from tests.behavior.test_compile import satisfies
 from tests.conftest import REPO
 

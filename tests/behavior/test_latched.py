@@ -22,7 +22,7 @@ from flexhrc.behavior.messages import (
     reply_topic,
     request_topic,
 )
-from flexhrc.scenarios.table_setting import load_scenario
+from flexhrc.scenario.builtin.table_setting import load_scenario
 from flexhrc.transport import InProcessBus
 from tests.behavior.test_goals import Harness
 

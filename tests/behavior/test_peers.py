@@ -19,7 +19,7 @@ from flexhrc.behavior.peers import (
     to_wire,
 )
 from flexhrc.cli import main
-from flexhrc.scenarios.table_setting import load_scenario
+from flexhrc.scenario.builtin.table_setting import load_scenario
 from tests.behavior.test_compile import shapes, to_task
 
 

@@ -16,7 +16,7 @@ import pytest
 from flexhrc.behavior import check_run
 from flexhrc.behavior.messages import LogEvent
 from flexhrc.behavior.network import Run, runs_from_log
-from flexhrc.scenarios.table_setting import table_setting_task
+from flexhrc.scenario.builtin.table_setting import table_setting_task
 from tests.conftest import subprocess_env
 
 pytest.importorskip("zenoh")

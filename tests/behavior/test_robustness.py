@@ -2,7 +2,7 @@
 behaviour, another one runs, the task completes."""
 
 from flexhrc.behavior import BehaviorNetwork, check_run, run_task
-from flexhrc.scenarios.table_setting import load_scenario
+from flexhrc.scenario.builtin.table_setting import load_scenario
 
 
 def test_moved_object_resets_its_behaviour_and_is_completed_later():

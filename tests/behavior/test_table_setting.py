@@ -12,7 +12,12 @@ from flexhrc.behavior import (
     check_run,
     run_task,
 )
-from flexhrc.scenarios.table_setting import LAYOUTS, PAPER_ORDERS, load_scenario, table_setting_task
+from flexhrc.scenario.builtin.table_setting import (
+    LAYOUTS,
+    PAPER_ORDERS,
+    load_scenario,
+    table_setting_task,
+)
 
 DRINKS = ("wineglass", "cup", "soda_can")
 

@@ -33,17 +33,16 @@ def _cell(scenario: Any) -> tuple[Cell, list[Any], InProcessBus]:
     bus = InProcessBus()
     cell = Cell(scenario, bus, liveliness=False, simulator=execution_model("analytic"))
     agents: list[Any] = []
-    for a in scenario.domain().agents.values():
+    for a in scenario.domain.agents.values():
         cls = HumanAgent if a.is_human else RobotAgent
         agents.append(cls(a.name, scenario, bus, execution=execution_model("analytic")))
     return cell, agents, bus
 
 
 def test_snapshot_is_json_and_human_input_drives_the_manager() -> None:
-    from flexhrc.scenario.source import CellScenario
-    from flexhrc.scenarios.table_assembly import TableScenario
+    from flexhrc.scenario.builtin.table import table_assembly
 
-    scenario = CellScenario("legs", TableScenario())  # the legs fix: bolt 1 is the first step
+    scenario = table_assembly(segments="legs")  # the legs fix: bolt 1 is the first step
     cell, agents, bus = _cell(scenario)
     snaps: list[dict[str, Any]] = []
     told = []
@@ -126,9 +125,9 @@ def test_resume_in_one_process_ends_like_the_uninterrupted_run(
     open); a fresh cell resumes from the store and ends in the same state."""
     from flexhrc.cell import EventStore
     from flexhrc.cell.store import read_store
-    from flexhrc.scenarios.table_assembly import TableScenario
+    from flexhrc.scenario.builtin.table import table_assembly
 
-    scenario = TableScenario(unreachable_bolts=(2,))
+    scenario = table_assembly(segments="legs", unreachable_bolts=(2,))
 
     ref_cell, ref_agents, ref_bus = _cell(scenario)
     ref = ref_cell.run(pump=pump_of(ref_cell, ref_bus, ref_agents))
@@ -142,7 +141,7 @@ def test_resume_in_one_process_ends_like_the_uninterrupted_run(
         (HumanAgent if a.is_human else RobotAgent)(
             a.name, scenario, bus, execution=execution_model("analytic")
         )
-        for a in scenario.domain().agents.values()
+        for a in scenario.domain.agents.values()
     ]
     with pytest.raises(Crash):
         cell.run(pump=pump_of(cell, bus, agents, crash_after))
@@ -163,7 +162,7 @@ def test_resume_in_one_process_ends_like_the_uninterrupted_run(
         (HumanAgent if a.is_human else RobotAgent)(
             a.name, scenario, bus2, execution=execution_model("analytic")
         )
-        for a in scenario.domain().agents.values()
+        for a in scenario.domain.agents.values()
     ]
     data = again.run(pump=pump_of(again, bus2, agents2))
     store.close()
@@ -194,7 +193,7 @@ def test_a_lost_command_is_sent_again_and_executed_once() -> None:
         (HumanAgent if a.is_human else RobotAgent)(
             a.name, scenario, bus, execution=execution_model("analytic")
         )
-        for a in scenario.domain().agents.values()
+        for a in scenario.domain.agents.values()
     ]
     data = cell.run(pump=pump_of(cell, bus, agents))
     assert data["outcome"] == "solved" and bus.lost == 1
@@ -320,7 +319,7 @@ def test_a_lost_operator_announcement_never_starts_the_cell_without_the_profile(
             HumanAgent(a.name, scenario, bus, profile="takeover", execution=analytic)
             if a.is_human
             else RobotAgent(a.name, scenario, bus, execution=analytic)
-            for a in scenario.domain().agents.values()
+            for a in scenario.domain.agents.values()
         ]
 
     if manager_first:

@@ -9,12 +9,12 @@ from typing import Any
 from flexhrc.cell import RobotAgent
 from flexhrc.cell import protocol as P
 from flexhrc.cell.components import execution_model, world_of
-from flexhrc.scenarios.table_assembly import TableScenario
+from flexhrc.scenario.builtin.table import table_assembly
 from flexhrc.transport import InProcessBus
 
 
 def _command(cid: int, action: str = "rest(left)") -> dict[str, Any]:
-    world = world_of(TableScenario().knowledge())
+    world = world_of(table_assembly(segments="legs").world())
     return P.message(
         "command", id=cid, agents=["left"], action=action, t=1.0, expected_s=1.0, world=world
     )
@@ -22,7 +22,11 @@ def _command(cid: int, action: str = "rest(left)") -> dict[str, Any]:
 
 def _arm(bus: InProcessBus, journal: Path | None = None) -> RobotAgent:
     return RobotAgent(
-        "left", TableScenario(), bus, execution=execution_model("analytic"), journal=journal
+        "left",
+        table_assembly(segments="legs"),
+        bus,
+        execution=execution_model("analytic"),
+        journal=journal,
     )
 
 

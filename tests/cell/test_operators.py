@@ -24,7 +24,7 @@ from .helpers import Crash, pump_of
 
 def _agents(scenario: Any, bus: InProcessBus, profile: str, seed: int) -> list[Any]:
     out: list[Any] = []
-    for a in scenario.domain().agents.values():
+    for a in scenario.domain.agents.values():
         model = execution_model("analytic")
         if a.is_human:
             out.append(

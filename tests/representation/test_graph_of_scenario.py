@@ -57,7 +57,7 @@ def test_graph_of_a_scenario_with_a_graph_file_and_hyperarc_actions():
 
 def test_graph_of_a_scenario_whose_inline_graph_includes_files():
     # an inline graphs: block with file: references (they were read with a wrong argument)
-    path = ROOT / "src/flexhrc/scenarios/data/kitchen_drawer/kitchen_drawer.graph.yaml"
+    path = ROOT / "src/flexhrc/scenario/builtin/data/kitchen_drawer/kitchen_drawer.graph.yaml"
     assert scenario.graph_of(path).stats()["graphs"] == 4
 
 

@@ -61,7 +61,7 @@ def write_andor(g: AndOrGraph, path) -> None:
 
 
 def test_a2_five_hundred_legs_table_graph_has_no_recursion_error():
-    from flexhrc.scenarios.table_assembly import build_graph
+    from flexhrc.scenario.builtin.table import build_graph
 
     online = OnlineGraph(build_graph(500))
     answer = online.update()

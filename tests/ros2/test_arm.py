@@ -163,9 +163,9 @@ def test_a_real_arm_is_driven_through_joint_trajectory(domain_id: int, cell_name
     states reach its last point (a fake controller that jumps there)."""
     from flexhrc.cell.components import run_agent
     from flexhrc.ros2.arm import ArmNode
-    from flexhrc.scenarios.table_assembly import TableScenario
+    from flexhrc.scenario.builtin.table import table_assembly
 
-    sc = TableScenario()
+    sc = table_assembly(segments="legs")
     prefix = f"flexhrc/{cell_name}"
     node_bus = Ros2Transport(prefix=prefix, domain_id=domain_id)
     robot = Ros2Transport(prefix="", domain_id=domain_id)  # the real arm's driver

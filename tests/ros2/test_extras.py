@@ -10,12 +10,12 @@ from flexhrc.ros2 import messages as rm
 from flexhrc.ros2._deps import msg
 from flexhrc.ros2.extras import DELETE_LINGER_S, ManagerInterfaces
 from flexhrc.ros2.transport import Ros2Transport
-from flexhrc.scenarios.table_assembly import TableScenario
+from flexhrc.scenario.builtin.table import table_assembly
 from tests.ros2.conftest import wait_for
 
 
 def test_markers_out_poses_and_imu_in(domain_id: int, cell_name: str):
-    kb = TableScenario().knowledge()
+    kb = table_assembly(segments="legs").world()
     prefix = f"flexhrc/{cell_name}"
     with (
         Ros2Transport(prefix=prefix, domain_id=domain_id) as manager,

@@ -9,7 +9,7 @@ import pytest
 
 from flexhrc.ros2 import messages as rm
 from flexhrc.ros2._deps import msg
-from flexhrc.scenarios.table_assembly import TableScenario
+from flexhrc.scenario.builtin.table import table_assembly
 
 
 def _rot_z(a: float) -> np.ndarray:
@@ -61,7 +61,7 @@ def test_joint_trajectory_keeps_ends_times_and_rests_at_both_ends():
 
 
 def test_marker_array_shows_objects_labels_and_targets_with_stable_ids():
-    kb = TableScenario().knowledge()
+    kb = table_assembly(segments="legs").world()
     a = rm.marker_array(kb.objects.values(), 0.0, targets={"left": (0.5, 0.1, 0.0)})
     b = rm.marker_array(kb.objects.values(), 1.0, targets={"left": (0.5, 0.1, 0.0)})
     Marker = msg("visualization_msgs.msg", "Marker")

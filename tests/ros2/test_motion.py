@@ -39,7 +39,7 @@ def table():
 
 
 def _run(sc, ex, text, agents=None):
-    kb, dom = sc.knowledge(), sc.domain()
+    kb, dom = sc.world(), sc.domain
     action = ground(dom, text, agents)
     em = ex.execution
     start = {a: q.copy() for a, q in em.state.q.items()}
@@ -76,7 +76,7 @@ def test_an_action_the_model_does_not_simulate_gets_a_nominal_path(table):
     step = np.abs(np.diff(q, axis=0)).max(axis=1)
     assert step[0] < step[len(step) // 2] and step[-1] < step[len(step) // 2]  # min jerk
     xyz, _ = ex.execution.sim.robot.arm("left").pose(q[-1])
-    bolt = sc.knowledge().position("bolt_1")
+    bolt = sc.world().position("bolt_1")
     assert np.linalg.norm(np.asarray(xyz[:2]) - np.asarray(bolt[:2])) < 0.01
     # the model's arm is where the path ended: the next command starts there
     assert np.abs(ex.execution.state.q["left"] - q[-1]).max() == 0.0

@@ -76,7 +76,7 @@ def test_the_kitchen_drawer_has_two_layers_of_the_authors_lower_graphs():
 
 
 def test_the_shipped_table_file_is_what_the_generator_writes():
-    from flexhrc.scenario.table import shipped_documents
+    from flexhrc.scenario.builtin.table import shipped_documents
 
     folder = scenario.shipped_path("table_assembly").parent
     scenario_text, graph_text = shipped_documents()

@@ -26,8 +26,10 @@ def hmp() -> Path:
 
 def table(seed: int = 0, legs: int = 4):
     """(scenario, truth knowledge base) with legs laid out as bodies clear of each other."""
-    from flexhrc.scenarios.table_assembly import TableScenario
+    from flexhrc.scenario.builtin.table import table_assembly
     from flexhrc.sensing.loop import lying_layout
 
-    sc = TableScenario(legs=legs, seed=seed, leg_positions=lying_layout(legs, seed))
-    return sc, sc.knowledge()
+    sc = table_assembly(
+        segments="legs", legs=legs, seed=seed, leg_positions=lying_layout(legs, seed)
+    )
+    return sc, sc.world()

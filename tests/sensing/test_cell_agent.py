@@ -21,7 +21,7 @@ def test_the_perception_agent_sends_percepts_the_cell_applies() -> None:
     bus = InProcessBus()
     cell = Cell(scenario, bus, liveliness=False, simulator=execution_model("analytic"))
     agents: list[Any] = []
-    for a in scenario.domain().agents.values():
+    for a in scenario.domain.agents.values():
         cls = HumanAgent if a.is_human else RobotAgent
         agents.append(cls(a.name, scenario, bus, execution=execution_model("analytic")))
     eye = PerceptionAgent(scenario, bus)

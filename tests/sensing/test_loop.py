@@ -19,7 +19,6 @@ import pytest
 pytest.importorskip("pybullet")
 pytest.importorskip("scipy")
 
-from flexhrc.representation import OnlineGraph
 from flexhrc.sensing.loop import FalseReport, Nudge
 from flexhrc.sensing.setup import perceived_run
 from flexhrc.taskmanager import AnalyticSimulator
@@ -42,7 +41,7 @@ def run_table(profile="passive", seed=0, *, kinematic=False, watch=False, shippe
         kw.setdefault("humans", [(h.name, profile) for h in sc.humans])
     else:
         sc, truth = table(seed)
-        graph, domain = OnlineGraph(sc.graph()), sc.domain()
+        graph, domain = sc.online_graph(), sc.domain
     run = perceived_run(graph, domain, truth, human_profile=profile, seed=seed, **kw)
     frames: list[dict[str, str]] = []
     if watch:  # which physical part each anchored symbol sits on, frame by frame

@@ -3,8 +3,7 @@ report (issue 13, items 3 and 4)."""
 
 from __future__ import annotations
 
-from flexhrc.representation import OnlineGraph
-from flexhrc.scenarios.table_assembly import TableScenario
+from flexhrc.scenario.builtin.table import table_assembly
 from flexhrc.taskmanager import AnalyticSimulator
 from flexhrc.taskmanager.manager import Command, HumanAction, Stop, TaskManager
 
@@ -12,9 +11,9 @@ LAYOUT = [(0.35, 0.30, 0.0), (0.50, 0.32, 0.0), (0.35, -0.30, 0.0), (0.50, -0.32
 
 
 def manager():
-    sc = TableScenario(leg_positions=LAYOUT)
-    kb = sc.knowledge()
-    return TaskManager(OnlineGraph(sc.graph()), sc.domain(), kb, AnalyticSimulator()), kb
+    sc = table_assembly(segments="legs", leg_positions=LAYOUT)
+    kb = sc.world()
+    return TaskManager(sc.online_graph(), sc.domain, kb, AnalyticSimulator()), kb
 
 
 def test_a_moved_object_stops_the_robot_element_using_it_and_it_is_re_planned():

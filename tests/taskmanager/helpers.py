@@ -8,8 +8,7 @@ from collections import defaultdict
 from typing import Any
 
 from flexhrc.cell.local import LocalCell, RunResult
-from flexhrc.scenario import CellScenario
-from flexhrc.scenarios.table_assembly import TableScenario
+from flexhrc.scenario.builtin.table import table_assembly
 from flexhrc.taskmanager import AnalyticSimulator
 
 # legs on both sides of the tabletop, two per side
@@ -19,9 +18,9 @@ LAYOUT = [(0.35, 0.30, 0.0), (0.50, 0.32, 0.0), (0.35, -0.30, 0.0), (0.50, -0.32
 def run_table(
     profile: str = "passive", *, seed: int = 0, layout=LAYOUT, run_kw=None, **scenario_kw
 ):
-    sc = TableScenario(seed=seed, leg_positions=layout, **scenario_kw)
+    sc = table_assembly(segments="legs", seed=seed, leg_positions=layout, **scenario_kw)
     kw = {"simulator": AnalyticSimulator(), **(run_kw or {})}  # fast; the kinematic one is tested
-    run = LocalCell(CellScenario("table_assembly", sc), profile=profile, seed=seed, **kw)
+    run = LocalCell(sc, profile=profile, seed=seed, **kw)
     return run.run(), run
 
 

@@ -365,18 +365,17 @@ def test_a_second_run_on_a_locked_log_is_refused_at_once(tmp_path, capsys):  # A
 def test_the_log_is_written_event_by_event(tmp_path):
     """The run's sink sees every event before the run ends (what the CLI streams to --log)."""
     from flexhrc.cell.local import LocalCell
-    from flexhrc.scenario import CellScenario
-    from flexhrc.scenarios.table_assembly import TableScenario
+    from flexhrc.scenario.builtin.table import table_assembly
     from flexhrc.taskmanager import AnalyticSimulator
 
-    sc = TableScenario(legs=2)
+    sc = table_assembly(segments="legs", legs=2)
     seen: list[dict] = []
 
     def trace(ev):  # the sink got the event before the trace is shown
         assert seen[-1] is ev
 
     run = LocalCell(
-        CellScenario("table_assembly", sc),
+        sc,
         simulator=AnalyticSimulator(),
         observers=[seen.append, trace],
     )
@@ -386,19 +385,16 @@ def test_the_log_is_written_event_by_event(tmp_path):
 
 def test_request_stop_ends_the_run_as_interrupted():
     from flexhrc.cell.local import LocalCell
-    from flexhrc.scenario import CellScenario
-    from flexhrc.scenarios.table_assembly import TableScenario
+    from flexhrc.scenario.builtin.table import table_assembly
     from flexhrc.taskmanager import AnalyticSimulator
 
-    sc = TableScenario(legs=4)
+    sc = table_assembly(segments="legs", legs=4)
 
     def trace(ev):
         if ev["type"] == "action_end":
             run.request_stop("interrupted by SIGINT")
 
-    run = LocalCell(
-        CellScenario("table_assembly", sc), simulator=AnalyticSimulator(), observers=[trace]
-    )
+    run = LocalCell(sc, simulator=AnalyticSimulator(), observers=[trace])
     result = run.run()
     assert result.outcome == "interrupted"
     kinds = [e["type"] for e in result.events]

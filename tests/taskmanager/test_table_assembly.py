@@ -8,8 +8,7 @@ import pytest
 
 from flexhrc.cell.local import InjectedFailure
 from flexhrc.knowledge import KnowledgeBase
-from flexhrc.representation import OnlineGraph
-from flexhrc.scenarios.table_assembly import TableScenario
+from flexhrc.scenario.builtin.table import TableLayout, table_assembly
 from flexhrc.taskmanager import AnalyticSimulator, TaskManager
 
 from .helpers import LAYOUT, check_invariants, first, run_table, solved
@@ -78,7 +77,7 @@ def test_first_decision_tree_has_8_branches_with_hand_computed_utilities():
     assert decision["element"] == "robot_1"
     assert len(decision["branches"]) == 8  # 4 legs x 2 arms
     domain = run.cell.domain
-    bolt = TableScenario(leg_positions=LAYOUT).bolt_positions()[0]
+    bolt = TableLayout(leg_positions=LAYOUT).bolt_positions()[0]
     v = 0.4  # m/s, the paper's robot
     for b in decision["branches"]:
         arm, leg = b["grounding"]["?arm"], b["grounding"]["?leg"]
@@ -147,12 +146,10 @@ def test_every_path_impossible_fails_with_a_reason():
 
 
 def test_inconsistent_percept_blocks_the_manager_until_resolved():
-    sc = TableScenario(leg_positions=LAYOUT)
-    kb: KnowledgeBase = sc.knowledge()
+    sc = table_assembly(segments="legs", leg_positions=LAYOUT)
+    kb: KnowledgeBase = sc.world()
     events = []
-    tm = TaskManager(
-        OnlineGraph(sc.graph()), sc.domain(), kb, AnalyticSimulator(), log=events.append
-    )
+    tm = TaskManager(sc.online_graph(), sc.domain, kb, AnalyticSimulator(), log=events.append)
     assert not kb.update_object("leg1", "tabletop", LAYOUT[0])  # leg1 seen as a tabletop
     assert tm.start(0.0) == []
     assert events[-1]["type"] == "waiting" and "inconsistent" in events[-1]["reason"]
@@ -163,9 +160,9 @@ def test_inconsistent_percept_blocks_the_manager_until_resolved():
 
 
 def test_small_table_short_legs_same_graph():
-    a = TableScenario(tabletop="small", leg_length="short", leg_positions=LAYOUT)
-    b = TableScenario(leg_positions=LAYOUT)
-    assert a.graph() == b.graph()  # the FOL graph does not change with the objects
+    a = table_assembly(segments="legs", tabletop="small", leg_length="short", leg_positions=LAYOUT)
+    b = table_assembly(segments="legs", leg_positions=LAYOUT)
+    assert a.graph == b.graph  # the FOL graph does not change with the objects
     result, _ = run_table("passive", tabletop="small", leg_length="short")
     assert result.outcome == "solved"
 

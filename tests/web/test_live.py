@@ -39,7 +39,7 @@ class Running:
         )
         arms = [
             RobotAgent(a.name, scenario, bus, execution=AnalyticSimulator())
-            for a in scenario.domain().agents.values()
+            for a in scenario.domain.agents.values()
             if not a.is_human
         ]
         self.panel = CellPanel(self.cell)

@@ -216,7 +216,7 @@ def test_the_panel_runs_the_task_the_name_means_everywhere(local_panel: Any) -> 
 
     panel = local_panel("table_assembly", start=False)
     shipped = load_scenario("table_assembly")  # what `flexhrc run` and `flexhrc cell` run
-    graph = OnlineGraph(shipped.graph())
+    graph = shipped.online_graph()
     mine = [h["id"] for inst in panel.snapshot()["graph"] for h in inst["hyperarcs"]]
     theirs = [h["id"] for inst in graph_snapshot(graph, {}) for h in inst["hyperarcs"]]
     assert mine == theirs and len(theirs) > 8  # the three segments, not the legs fix alone

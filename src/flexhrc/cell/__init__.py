@@ -9,13 +9,13 @@
   (what ``flexhrc run`` and :func:`flexhrc.scenario.run` are made of).
 
 The cell is the one loop that drives the Task Manager. It imports the Task Manager and the
-transports, never :mod:`flexhrc.scenario`: a scenario reaches it as anything with ``graph()``,
-``domain()``, ``knowledge()``, ``make_simulator(choice)`` and ``name``
-(:class:`flexhrc.scenario.source.CellScenario`); scenario, panel, ROS 2 and the command line
-sit above it.
+transports, never :mod:`flexhrc.scenario`: a :class:`flexhrc.scenario.Scenario` reaches it
+through :class:`~flexhrc.cell.components.ScenarioLike`, the protocol of the members it reads
+(``name``, ``domain``, ``world()``, ``online_graph()``, ``make_simulator(choice)``); scenario,
+panel, ROS 2 and the command line sit above it.
 """
 
-from flexhrc.cell.components import HumanAgent, RobotAgent
+from flexhrc.cell.components import HumanAgent, RobotAgent, ScenarioLike
 from flexhrc.cell.store import EventStore, read_store, summarise_store
 from flexhrc.cell.supervisor import Cell
 
@@ -24,6 +24,7 @@ __all__ = [
     "EventStore",
     "HumanAgent",
     "RobotAgent",
+    "ScenarioLike",
     "read_store",
     "summarise_store",
 ]

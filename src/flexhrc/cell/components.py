@@ -7,8 +7,7 @@ positions and facts — from each command or suggestion, exactly as a real arm t
 its controller.
 
 * :class:`RobotAgent` executes a :class:`~flexhrc.taskmanager.manager.Command` with the
-  execution model — the scenario's simulator (the kinematic one for the older table files when
-  the ``sim`` extra is installed), the same object that plays the real world in
+  execution model — the scenario's simulator, the same object that plays the real world in
   :class:`~flexhrc.cell.local.LocalCell` — and answers with an ``ack`` carrying
   where things are afterwards. **It never executes one command id twice**: a repeated id (the
   manager resumed after a crash) gets the stored ack again, or nothing while it is running; with
@@ -41,6 +40,7 @@ from flexhrc.cell import protocol as P
 from flexhrc.errors import FlexhrcError, UnknownNameError
 from flexhrc.files import EventLogWriter
 from flexhrc.knowledge import KnowledgeBase
+from flexhrc.representation import OnlineGraph
 from flexhrc.taskmanager.domain import Domain, GroundAction
 from flexhrc.taskmanager.operator import PROFILES, SimulatedOperator
 from flexhrc.taskmanager.simulator import AnalyticSimulator, ExecutionModel
@@ -53,18 +53,39 @@ HUMAN_PROFILES = PROFILES
 ANNOUNCE_RETRY_S = 0.5
 
 
-def execution_model(choice: str = "auto", scenario: Any = None) -> ExecutionModel:
-    """The simulated real world: kinematic (``sim`` extra) or analytic, as the scenario makes it
-    (:meth:`~flexhrc.scenario.source.CellScenario.make_simulator`), else as
-    :func:`flexhrc.scenarios.simulators.choose_simulator` picks it."""
-    make = getattr(scenario, "make_simulator", None)
-    if make is not None:
-        model: ExecutionModel = make(choice)
-        return model
-    from flexhrc.scenarios.simulators import choose_simulator
+class ScenarioLike(Protocol):
+    """What the cell and its agents read of a task: exactly the members of
+    :class:`flexhrc.scenario.Scenario` they use (the cell stands below :mod:`flexhrc.scenario`
+    and never imports it). Every call of :meth:`world` and :meth:`online_graph` returns new
+    objects: each process, each agent owns its copies."""
 
-    chosen: ExecutionModel = choose_simulator(choice)[1]
-    return chosen
+    name: str
+    domain: Domain  # agents, action schemas, processes
+
+    def world(self) -> KnowledgeBase:
+        """A fresh knowledge base: objects, places, agents' hands, initial facts."""
+        ...
+
+    def online_graph(self) -> OnlineGraph:
+        """A fresh online AND/OR graph for one run."""
+        ...
+
+    def make_simulator(self, choice: str | None = None) -> Any:
+        """The simulator ``choice`` names (``analytic``, ``kinematic``, ``auto``); None: the
+        scenario's own. Branch simulator of the manager, simulated world of an agent."""
+        ...
+
+
+def execution_model(choice: str = "auto", scenario: ScenarioLike | None = None) -> ExecutionModel:
+    """The simulated real world as the scenario makes it (``auto``: the scenario's own choice;
+    :meth:`ScenarioLike.make_simulator`); without a scenario only ``analytic`` (the choice
+    between simulators is made above the cell, in :mod:`flexhrc.scenario`)."""
+    if scenario is not None:
+        model: ExecutionModel = scenario.make_simulator(None if choice == "auto" else choice)
+        return model
+    if choice != "analytic":
+        raise FlexhrcError(f"the {choice} simulator is made by a scenario: give one")
+    return AnalyticSimulator()
 
 
 @dataclass(frozen=True)
@@ -165,15 +186,15 @@ class _Agent:
     def __init__(
         self,
         name: str,
-        scenario: Any,
+        scenario: ScenarioLike,
         transport: Transport,
         *,
         execution: ExecutionModel | None = None,
         trace: Callable[[str], None] | None = None,
     ) -> None:
         self.name = name
-        self.domain: Domain = scenario.domain()
-        self.kb: KnowledgeBase = scenario.knowledge()
+        self.domain: Domain = scenario.domain
+        self.kb: KnowledgeBase = scenario.world()
         self.transport = transport
         self.execution = execution if execution is not None else execution_model("auto", scenario)
         self.trace = trace or (lambda line: None)
@@ -233,7 +254,7 @@ class RobotAgent(_Agent):
     def __init__(
         self,
         name: str,
-        scenario: Any,
+        scenario: ScenarioLike,
         transport: Transport,
         *,
         execution: ExecutionModel | None = None,
@@ -399,7 +420,7 @@ class HumanAgent(_Agent):
     def __init__(
         self,
         name: str,
-        scenario: Any,
+        scenario: ScenarioLike,
         transport: Transport,
         *,
         profile: str = "passive",

@@ -30,7 +30,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from flexhrc.cell.components import HumanAgent, RobotAgent
+from flexhrc.cell.components import HumanAgent, RobotAgent, ScenarioLike
 from flexhrc.cell.supervisor import Cell
 from flexhrc.errors import FlexhrcError
 from flexhrc.knowledge import KnowledgeBase
@@ -110,8 +110,8 @@ class FailureInjection:
 class LocalCell:
     """One cooperation of ``scenario`` in this process (see the module docstring).
 
-    ``scenario`` is anything the cell takes (``graph()``, ``domain()``, ``knowledge()``,
-    ``make_simulator(choice)``, ``name``). ``humans`` are (operator, profile) pairs — by
+    ``scenario`` is a :class:`flexhrc.scenario.Scenario` (what the cell reads of it:
+    :class:`~flexhrc.cell.components.ScenarioLike`). ``humans`` are (operator, profile) pairs — by
     default every human agent with ``profile``; ``human_takes`` scripts the first operator
     (the K-th cooperation steps, 1-based). ``simulator`` is the manager's branch simulator;
     ``execution`` the simulated real world (by default the simulator, when it can execute).
@@ -119,7 +119,7 @@ class LocalCell:
 
     def __init__(
         self,
-        scenario: Any,
+        scenario: ScenarioLike,
         *,
         simulator: Any = None,
         execution: ExecutionModel | None = None,
@@ -135,9 +135,9 @@ class LocalCell:
         timeout_factor: float = 3.0,
         human_sensing: Any = None,
     ) -> None:
-        domain = scenario.domain()
+        domain = scenario.domain
         if simulator is None:
-            simulator = scenario.make_simulator("auto")
+            simulator = scenario.make_simulator(None)  # the scenario's own choice
         if execution is None:  # the simulator plays the real world too, when it can
             execution = simulator if hasattr(simulator, "execute") else AnalyticSimulator()
         pairs = (

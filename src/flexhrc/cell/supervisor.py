@@ -49,12 +49,11 @@ from dataclasses import dataclass
 from typing import Any
 
 from flexhrc.cell import protocol as P
-from flexhrc.cell.components import ground, world_of
+from flexhrc.cell.components import ScenarioLike, ground, world_of
 from flexhrc.cell.store import EventStore, StoredEvent, log_events
 from flexhrc.errors import FlexhrcError
 from flexhrc.events import STORED_LOG_TYPES  # the manager records the store keeps
 from flexhrc.knowledge import Inconsistency
-from flexhrc.representation import OnlineGraph
 from flexhrc.taskmanager.diagnose import stall_reason
 from flexhrc.taskmanager.domain import GroundAction
 from flexhrc.taskmanager.manager import (
@@ -93,7 +92,7 @@ class Cell:
 
     def __init__(
         self,
-        scenario: Any,
+        scenario: ScenarioLike,
         transport: Transport,
         *,
         store: EventStore | None = None,
@@ -136,11 +135,11 @@ class Cell:
         self.quiescent = quiescent
         self._stop_reason: str | None = None
         self._command_start: dict[int, float] = {}
-        self.graph = OnlineGraph(scenario.graph())
-        self.domain = scenario.domain()
-        self.kb = scenario.knowledge()
-        if simulator is None and hasattr(scenario, "make_simulator"):
-            simulator = scenario.make_simulator("auto")  # the scenario's own choice
+        self.graph = scenario.online_graph()
+        self.domain = scenario.domain
+        self.kb = scenario.world()
+        if simulator is None:
+            simulator = scenario.make_simulator(None)  # the scenario's own choice
         self.tm = TaskManager(
             self.graph, self.domain, self.kb, simulator, log=self._tm_log, reaction=reaction
         )
@@ -245,7 +244,7 @@ class Cell:
         ][-100:]
         return {
             "cell": self.name,
-            "scenario": getattr(self.scenario, "name", "?"),
+            "scenario": self.scenario.name,
             "t": round(self.now, 6),
             "outcome": self.tm.outcome,
             "reason": self.tm.reason,
@@ -1234,7 +1233,7 @@ class Cell:
                 {
                     "agents": list(self.domain.agents),
                     "humans": [n for n, st in self.agents.items() if st.kind == "human"],
-                    "scenario": getattr(self.scenario, "name", "?"),
+                    "scenario": self.scenario.name,
                     "seed": self.seed,
                     "realtime": self.realtime,
                     "simulator": _simulator_name(self.tm.simulator),
@@ -1313,7 +1312,7 @@ class Cell:
         data["compute_recorded"] = True  # this manager's own compute, not a log's
         # how each action the manager simulated was simulated (kinematic | analytic | none)
         data["simulated"] = dict(getattr(self.tm.simulator, "simulated", None) or {})
-        data["scenario"] = str(getattr(self.scenario, "name", "?"))
+        data["scenario"] = str(self.scenario.name)
         data["wall_s"] = time.perf_counter() - self._wall0
         data["cell"] = {
             "name": self.name,

@@ -7,7 +7,7 @@ import sys
 from typing import Any
 
 from flexhrc.cli.cell import add_transport_options, open_zenoh, quiet_library_logs
-from flexhrc.cli.common import emit, serve_agent
+from flexhrc.cli.common import add_segments_option, emit, serve_agent
 from flexhrc.errors import FlexhrcError
 
 
@@ -64,6 +64,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
 
 def _common(p: argparse.ArgumentParser) -> None:
     add_transport_options(p, default="zenoh")
+    add_segments_option(p)
     p.add_argument("--seed", type=int, default=0, help="scenario seed (same as the cell's)")
     p.add_argument("--quiet", action="store_true", help="no trace on stderr")
     p.add_argument(
@@ -79,7 +80,7 @@ def cmd_agent(args: argparse.Namespace) -> int:
 
     if not args.connect and not args.listen:
         raise FlexhrcError("--connect ENDPOINT is needed (the cell's --listen endpoint)")
-    scenario = load_scenario(args.scenario, seed=args.seed)
+    scenario = load_scenario(args.scenario, seed=args.seed, segments=args.segments)
     name = args.arm if args.agent_kind == "robot" else args.name
 
     def trace(line: str) -> None:
@@ -88,7 +89,7 @@ def cmd_agent(args: argparse.Namespace) -> int:
 
     # check the names before opening the network
     opt = "--arm" if args.agent_kind == "robot" else "--name"
-    check_agent_name(scenario.domain(), name, args.agent_kind, opt)
+    check_agent_name(scenario.domain, name, args.agent_kind, opt)
     if args.agent_kind == "human":
         from flexhrc.cell.components import check_profile
 
@@ -148,7 +149,7 @@ def cmd_agent_perception(args: argparse.Namespace) -> int:
             f"agent perception needs the sim and perception extras ({exc.name} is missing): "
             "pip install 'flexhrc[sim,perception]'"
         ) from None
-    scenario = load_scenario(args.scenario, seed=args.seed)
+    scenario = load_scenario(args.scenario, seed=args.seed, segments=args.segments)
 
     def trace(line: str) -> None:
         if not args.quiet:

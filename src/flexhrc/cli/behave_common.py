@@ -44,7 +44,7 @@ def resolve_document(
     from flexhrc.behavior.taskfile import load_task_document
     from flexhrc.behavior.world import random_world
     from flexhrc.files import read_text
-    from flexhrc.scenarios.table_setting import SCENARIOS, load_scenario
+    from flexhrc.scenario.builtin.table_setting import SCENARIOS, load_scenario
 
     if target in SCENARIOS:
         sc = load_scenario(target, layout, arms or 1, seed)

@@ -8,7 +8,7 @@ import sys
 import time
 from typing import Any
 
-from flexhrc.cli.common import add_cell_options, add_json_flag, emit
+from flexhrc.cli.common import add_cell_options, add_json_flag, add_segments_option, emit
 from flexhrc.errors import FlexhrcError
 from flexhrc.taskmanager.replay import solved_by_line
 
@@ -25,6 +25,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
         "a SQLite file; --resume continues a crashed cell from it.",
     )
     p.add_argument("scenario", metavar="SCENARIO", help="table_assembly, or a scenario file")
+    add_segments_option(p)
     add_transport_options(p)
     p.add_argument(
         "--agents",
@@ -221,7 +222,7 @@ def cmd_cell(args: argparse.Namespace) -> int:
 
     web = check_web(args)  # a non-loopback --web without --token is refused before any work
     server = None
-    scenario = load_scenario(args.scenario, seed=args.seed)
+    scenario = load_scenario(args.scenario, seed=args.seed, segments=args.segments)
     store = EventStore(args.store, resume=args.resume) if args.store else None
     stream = sys.stderr if args.json else sys.stdout
 
@@ -262,11 +263,11 @@ def cmd_cell(args: argparse.Namespace) -> int:
         )
         agents: list[Any] = []
         if internal:
-            humans = [a.name for a in scenario.domain().agents.values() if a.is_human]
+            humans = [a.name for a in scenario.domain.agents.values() if a.is_human]
             # the arms of one process share one simulated world, as in `flexhrc run`: what the
             # follower of a joint command did, and where the other arm is, are in it
             world = simulator
-            for a in scenario.domain().agents.values():
+            for a in scenario.domain.agents.values():
                 if a.is_human:
                     human_model = execution_model("analytic", scenario)
                     operator = HumanAgent(

@@ -67,6 +67,19 @@ def add_json_flag(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def add_segments_option(parser: argparse.ArgumentParser) -> None:
+    """``--segments``: the parts of a task split in segments, alike in every command that takes
+    a scenario (``flexhrc.scenario.load_scenario(..., segments=...)``)."""
+    parser.add_argument(
+        "--segments",
+        default=None,
+        metavar="all|NAME[,NAME]",
+        help="parts of a task that comes in segments (default all). table_assembly: tabletop "
+        "(both arms place it), legs (the legs fix, paper Figs. 9-12), check (the operator's); "
+        "e.g. --segments legs",
+    )
+
+
 def emit(args: argparse.Namespace, data: Any, text: Callable[[], str] | str | None = None) -> None:
     """Print ``data`` as JSON when ``--json`` was given, else the human-readable ``text``."""
     if getattr(args, "json", False):

@@ -1,7 +1,8 @@
 """``flexhrc demo table``, ``flexhrc run FILE|NAME`` and ``flexhrc replay LOG``.
 
-``demo table`` runs the shipped table scenario (:mod:`flexhrc.scenario.table`: tabletop
-placement, legs fix, check) for the table its options describe; ``run`` runs any scenario file
+``demo table`` runs the shipped table scenario (:func:`flexhrc.scenario.builtin.table_assembly`:
+tabletop placement, legs fix, check; ``--segments legs`` the legs fix alone) for the table its
+options describe; ``run`` runs any scenario file
 (``flexhrc: 1``, :mod:`flexhrc.scenario`) or shipped scenario by name, and still accepts the
 older ``scenario: table_assembly`` files.
 """
@@ -20,6 +21,7 @@ from typing import Any
 
 from flexhrc.cli.common import (
     add_json_flag,
+    add_segments_option,
     check_outputs,
     emit,
     float_range,
@@ -139,19 +141,13 @@ def _scenario_options(p: argparse.ArgumentParser) -> None:
         help="bolt K cannot be reached by either arm (the robot asks the human, paper Fig. 12)",
     )
     p.add_argument("--no-human", action="store_true", help="the robot works alone")
-    p.add_argument(
-        "--segments",
-        choices=["all", "legs"],
-        default="all",
-        help="all: tabletop placement by both arms, legs fix, the operator's check (paper "
-        "VI-D); legs: the legs fix alone (Figs. 9-12)",
-    )
     _run_options(p)
 
 
 def _run_options(p: argparse.ArgumentParser) -> None:
     from flexhrc.events import PROFILES
 
+    add_segments_option(p)
     p.add_argument(
         "--human",
         choices=PROFILES,
@@ -255,7 +251,7 @@ def _run_options(p: argparse.ArgumentParser) -> None:
 def _simulators(args: argparse.Namespace, actions: Any = None) -> tuple[Any, Any]:
     """(branch simulator, execution model) for --simulator and --disturb; ``actions`` are the
     domain's action names --disturb may name."""
-    from flexhrc.scenarios.simulators import choose_simulator, resolve_simulator_name
+    from flexhrc.scenario.simulators import choose_simulator, resolve_simulator_name
 
     name = resolve_simulator_name(args.simulator or "auto")
     if name == "analytic" and args.disturb:
@@ -448,29 +444,28 @@ def _trace_printer(args: argparse.Namespace) -> Any:
 
 
 def cmd_demo_table(args: argparse.Namespace) -> int:
-    from flexhrc.scenarios.table_assembly import ScenarioError, TableScenario
+    from flexhrc.scenario.builtin.table import ScenarioError, TableLayout, table_assembly
 
+    table: dict[str, Any] = dict(
+        legs=args.legs,
+        tabletop=args.tabletop,
+        leg_length=args.leg_length,
+        seed=args.seed,
+        human=not args.no_human,
+        unreachable_bolts=tuple(args.unreachable_bolt),
+    )
     try:
-        scenario = TableScenario(
-            legs=args.legs,
-            tabletop=args.tabletop,
-            leg_length=args.leg_length,
-            seed=args.seed,
-            human=not args.no_human,
-            unreachable_bolts=tuple(args.unreachable_bolt),
-        )
+        TableLayout(**table)  # the table's errors in the words of the options, first
+        if args.no_human and args.human_takes:
+            raise FlexhrcError("--human-takes needs a human: drop --no-human")
+        if args.no_human and args.human is not None:
+            raise FlexhrcError(f"--human {args.human} needs a human: drop --no-human")
+        if args.perception == "scene":
+            table = _bodies_apart(table)
+        scenario = table_assembly(**table, segments=args.segments or "all")
     except ScenarioError as exc:
         raise FlexhrcError(_flag_error(exc)) from None
-    if args.no_human and args.human_takes:
-        raise FlexhrcError("--human-takes needs a human: drop --no-human")
-    if args.no_human and args.human is not None:
-        raise FlexhrcError(f"--human {args.human} needs a human: drop --no-human")
-    if args.perception == "scene":
-        scenario = _bodies_apart(scenario)
-    from flexhrc.scenario.table import TableTask
-
-    task = TableTask(scenario, segments=args.segments)
-    return _run_table(args, task, args.human or "passive", inputs=[])
+    return _run_table(args, scenario, args.human or "passive", inputs=[])
 
 
 def _bolt_steps(bolts: list[int] | None, scenario: Any) -> list[int | str] | None:
@@ -478,14 +473,14 @@ def _bolt_steps(bolts: list[int] | None, scenario: Any) -> list[int | str] | Non
     step; with the tabletop placement before it, the step is named by its node."""
     if not bolts:
         return None
-    if getattr(scenario, "segments", "legs") == "legs":
+    if scenario.segments == ("legs",):
         return list(bolts)
     return [f"connected_{k}" for k in bolts]
 
 
 def _flag_error(exc: Any) -> str:
     """A scenario error in the words of the demo's options."""
-    flag = DEMO_FLAGS.get(exc.key, exc.key)
+    flag = DEMO_FLAGS.get(exc.key, f"--{exc.key.replace('_', '-')}")
     text = f"{flag} {exc.detail}"
     if exc.fix is not None:
         text += f"; {DEMO_FLAGS.get(exc.fix[0], exc.fix[0])} {exc.fix[1]} holds them"
@@ -518,19 +513,20 @@ def _stop_on_signals(run: Any) -> Iterator[list[int]]:
 def _run_table(
     args: argparse.Namespace, scenario: Any, profile: str, inputs: list[Any], where: str = ""
 ) -> int:
+    """A table assembly (a :class:`~flexhrc.scenario.Scenario` of
+    :func:`flexhrc.scenario.builtin.table_assembly`), with the options of ``demo``/``run``."""
     from flexhrc.files import EventLogWriter
-    from flexhrc.representation import OnlineGraph
-    from flexhrc.scenario.source import CellScenario
 
     # everything that can be wrong is found before the run starts
-    domain = scenario.domain()
+    domain = scenario.domain
+    legs = sum(1 for o in scenario.world().objects.values() if o.type == "leg")
     robot_actions = _robot_actions(domain)
     failures = _failures(args.fail, robot_actions)
     if args.human_takes:
         for k in args.human_takes:
-            if not 1 <= k <= scenario.legs:
-                raise FlexhrcError(f"--human-takes {k}: not one of the bolts 1..{scenario.legs}")
-        if not scenario.human:
+            if not 1 <= k <= legs:
+                raise FlexhrcError(f"--human-takes {k}: not one of the bolts 1..{legs}")
+        if not scenario.humans:
             raise FlexhrcError(f"--human-takes needs a human, but {where}human: false")
     check_outputs(
         [("--log", args.log, None), ("--plot", args.plot, PLOT_SUFFIXES)],
@@ -555,11 +551,11 @@ def _run_table(
             sink=writer.write if writer is not None else None,
             reaction=args.reaction,
         )
-        graph, truth = OnlineGraph(scenario.graph()), scenario.knowledge()
+        graph, truth = scenario.online_graph(), scenario.world()
         if args.perception == "scene":
             run = _perceived(args, graph, domain, truth, run_kw)
         else:
-            run = _local_run(CellScenario("table_assembly", scenario), run_kw)
+            run = _local_run(scenario, run_kw)
         with _stop_on_signals(run) as caught:
             result = run.run()
     finally:
@@ -569,7 +565,7 @@ def _run_table(
     data = _with_sensing(dict(result.summary), result.events, args)
     return _report(
         args, run, result, data, caught,
-        title=f"table assembly, {plural(scenario.legs, 'leg')}, {who}, seed {args.seed}",
+        title=f"table assembly, {plural(legs, 'leg')}, {who}, seed {args.seed}",
         subject="", solved_by=solved_by_line(data),
     )  # fmt: skip
 
@@ -635,35 +631,34 @@ def _report(
     return 0 if data["outcome"] == "solved" else 1
 
 
-def _bodies_apart(scenario: Any) -> Any:
+def _bodies_apart(table: dict[str, Any]) -> dict[str, Any]:
     """With perception the legs are bodies the camera sees, not points: when the demo's
-    placement puts them too close to lie side by side, they are laid out clear of each other
-    (seeded, beside the tabletop)."""
-    import dataclasses
-
+    placement (``table``: the options of :class:`TableLayout`) puts them too close to lie side
+    by side, they are laid out clear of each other (seeded, beside the tabletop)."""
     from flexhrc.errors import FlexhrcError as _Error
-    from flexhrc.scenarios.table_assembly import LEG_LENGTHS
+    from flexhrc.scenario.builtin.table import LEG_LENGTHS, TableLayout
     from flexhrc.sensing.loop import lying_layout
     from flexhrc.sensing.world import SimulatedWorkspace
 
+    layout = TableLayout(**table)
     try:
-        SimulatedWorkspace.from_knowledge(scenario.knowledge())
-        return scenario
+        SimulatedWorkspace.from_knowledge(layout.world())
+        return table
     except _Error:
         pass
     try:
-        layout = lying_layout(
-            scenario.legs,
-            scenario.seed,
-            tabletop_depth=scenario.size[1],
-            length=LEG_LENGTHS[scenario.leg_length],
+        positions = lying_layout(
+            layout.legs,
+            layout.seed,
+            tabletop_depth=layout.size[1],
+            length=LEG_LENGTHS[layout.leg_length],
         )
     except _Error:
         raise FlexhrcError(
-            f"--perception scene: {plural(scenario.legs, 'leg')} do not fit beside the tabletop "
+            f"--perception scene: {plural(layout.legs, 'leg')} do not fit beside the tabletop "
             "as bodies the camera can tell apart; use fewer --legs"
         ) from None
-    return dataclasses.replace(scenario, leg_positions=layout)
+    return {**table, "leg_positions": positions}
 
 
 def _perceived(
@@ -764,25 +759,15 @@ def _need_matplotlib() -> None:
         raise OptionalDependencyError("--plot", "viz", "matplotlib")
 
 
-SCENARIO_KEYS = {
-    "scenario",
-    "legs",
-    "tabletop",
-    "leg_length",
-    "seed",
-    "human",
-    "unreachable_bolts",
-    "leg_positions",
-    "profile",
-    "reachable_only_by",
-}
-
-
 def cmd_run(args: argparse.Namespace) -> int:
     from flexhrc import scenario as scenario_mod
     from flexhrc.files import read_text
     from flexhrc.representation.formats.yaml_format import read_yaml
+    from flexhrc.scenario.source import NAMES
 
+    if args.scenario in NAMES and not Path(args.scenario).exists():  # as `cell`, `ros2` ...
+        sc = scenario_mod.load_scenario(args.scenario, seed=args.seed, segments=args.segments)
+        return _run_scenario(args, sc, sc.path or Path(args.scenario))
     path = scenario_mod.resolve(args.scenario)
     read_text(path)  # missing, a folder, unreadable, binary, not UTF-8: one clear error
     try:
@@ -793,6 +778,9 @@ def cmd_run(args: argparse.Namespace) -> int:
         raise FormatError("a scenario file must be a mapping", path, 1)
     if "scenario" in doc and "flexhrc" not in doc:
         return _run_legacy(args, path, doc)
+    if args.segments is not None:  # parts of a task, alike in every command
+        sc = scenario_mod.load_scenario(path, seed=args.seed, segments=args.segments)
+        return _run_scenario(args, sc, path)
     return _run_scenario(args, scenario_mod.load(path), path)
 
 
@@ -852,106 +840,22 @@ def _run_scenario(args: argparse.Namespace, sc: Any, path: Path) -> int:
 
 
 def _run_legacy(args: argparse.Namespace, path: Path, doc: Any) -> int:
-    """The older ``scenario: table_assembly`` files (the legs fix of one table)."""
-    from flexhrc.events import PROFILES
-    from flexhrc.scenarios.table_assembly import ScenarioError, TableScenario
+    """The older ``scenario: table_assembly`` files (the legs fix of one table, unless
+    ``--segments`` says otherwise) and ``scenario: parallel_assembly`` files, translated by
+    :func:`flexhrc.scenario.legacy.from_legacy`."""
+    from flexhrc.scenario.legacy import from_legacy
 
     lines: dict[str, int] = getattr(doc, "lines", {})
-
-    def line(key: str) -> int | None:
-        return lines.get(key)
-
-    def bad(key: str, message: str) -> FormatError:
-        return FormatError(f"{key}: {message}", path, line(key))
-
-    kind = doc.get("scenario")
-    if kind != "table_assembly":
-        raise FormatError(
-            f"unknown scenario {kind!r}; supported: table_assembly", path, line("scenario") or 1
-        )
-    for key in doc:
-        if key not in SCENARIO_KEYS:
-            raise FormatError(
-                f"unknown key {key!r} (allowed: {', '.join(sorted(SCENARIO_KEYS))})",
-                path,
-                line(key),
-            )
-
-    def integer(key: str, default: int) -> int:
-        v = doc.get(key, default)
-        if isinstance(v, bool) or not isinstance(v, int):
-            raise bad(key, f"expected a whole number, got {v!r}")
-        return v
-
-    def name(key: str, default: str, choices: tuple[str, ...]) -> str:
-        v = doc.get(key, default)
-        if not isinstance(v, str) or v not in choices:
-            raise bad(key, f"expected one of {', '.join(choices)}, got {v!r}")
-        return v
-
-    legs = integer("legs", 4)
-    seed = integer("seed", args.seed)
-    human = doc.get("human", True)
-    if not isinstance(human, bool):
-        raise bad("human", f"expected true or false, got {human!r}")
-    leg_length = name("leg_length", "long", ("long", "short"))
-    profile_in_file = "profile" in doc
-    profile = name("profile", "passive", PROFILES)
-    top = doc.get("tabletop", "large")
-    if isinstance(top, list) and all(
-        isinstance(v, int | float) and not isinstance(v, bool) for v in top
-    ):
-        top = "x".join(str(v) for v in top)
-    if not isinstance(top, str):
-        raise bad("tabletop", f"expected large, small, WIDTHxDEPTH or [width, depth], got {top!r}")
-    bolts = doc.get("unreachable_bolts", [])
-    if not isinstance(bolts, list) or not all(
-        isinstance(b, int) and not isinstance(b, bool) for b in bolts
-    ):
-        raise bad("unreachable_bolts", f"expected a list of bolt numbers, got {bolts!r}")
-    only = doc.get("reachable_only_by", {})
-    if not isinstance(only, dict) or not all(
-        isinstance(k, str) and isinstance(v, str) for k, v in only.items()
-    ):
-        raise bad("reachable_only_by", f"expected a mapping leg: arm, got {only!r}")
-    positions = None
-    if "leg_positions" in doc:
-        raw = doc["leg_positions"]
-        if not isinstance(raw, list):
-            raise bad("leg_positions", "expected a list of [x, y, z]")
-        positions = []
-        for i, p in enumerate(raw, 1):
-            if (
-                not isinstance(p, list)
-                or len(p) != 3
-                or not all(isinstance(v, int | float) and not isinstance(v, bool) for v in p)
-            ):
-                raise bad("leg_positions", f"leg{i}: expected [x, y, z] numbers, got {p!r}")
-            positions.append((float(p[0]), float(p[1]), float(p[2])))
-    if profile_in_file and not human and profile != "passive":
-        raise bad("profile", f"{profile} needs a human, but the file says human: false")
-    if args.human is not None and not human and args.human != "passive":
+    sc = from_legacy(path, doc, seed=args.seed, segments=args.segments)
+    if sc.name != "table_assembly":
+        return _run_scenario(args, sc, path)
+    if args.human is not None and not sc.humans and args.human != "passive":
         raise FlexhrcError(
-            f"--human {args.human} needs a human, but {path}:{line('human')}: human: false"
+            f"--human {args.human} needs a human, but {path}:{lines.get('human')}: human: false"
         )
-    try:
-        scenario = TableScenario(
-            legs=legs,
-            tabletop=top,
-            leg_length=leg_length,
-            seed=seed,
-            human=human,
-            unreachable_bolts=tuple(bolts),
-            reachable_only_by=dict(only),
-            leg_positions=positions,
-        )
-    except ScenarioError as exc:
-        message = f"{exc.key}: {exc.detail}"
-        if exc.fix is not None:
-            message += f"; {exc.fix[0]}: {exc.fix[1]} holds them"
-        raise FormatError(message, path, line(exc.key)) from None
-    where = f"{path}:{line('human')}: " if "human" in doc else ""
-    return _run_table(args, scenario, args.human or profile, inputs=[path], where=where)
+    where = f"{path}:{lines.get('human')}: " if "human" in doc else ""
+    profile = sc.humans[0].profile if sc.humans else "passive"
+    return _run_table(args, sc, args.human or profile, inputs=[path], where=where)
 
 
 def cmd_replay(args: argparse.Namespace) -> int:

@@ -12,7 +12,7 @@ import sys
 import time
 from typing import Any
 
-from flexhrc.cli.common import add_json_flag, emit
+from flexhrc.cli.common import add_json_flag, add_segments_option, emit
 from flexhrc.errors import FlexhrcError
 
 
@@ -96,6 +96,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
         "(paper Fig. 12; table only)",
     )
     p.add_argument("--seed", type=int, default=0)
+    add_segments_option(p)
     p.add_argument(
         "--speed",
         type=float,
@@ -140,10 +141,12 @@ def panel_config(args: argparse.Namespace) -> Any:
             4 if args.legs is None else args.legs,
             unreachable_bolts=tuple(args.unreachable_bolt),
             seed=args.seed,
+            segments=args.segments,
         )
     return PanelConfig(
         scenario=scenario,
         seed=args.seed,
+        segments=None if scenario is not args.scenario else args.segments,
         speed=args.speed,
         simulator=args.simulator,
         host=host,

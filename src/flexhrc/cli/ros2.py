@@ -20,13 +20,20 @@ import sys
 import uuid
 from typing import Any
 
-from flexhrc.cli.common import add_cell_options, add_json_flag, emit, serve_agent
+from flexhrc.cli.common import (
+    add_cell_options,
+    add_json_flag,
+    add_segments_option,
+    emit,
+    serve_agent,
+)
 from flexhrc.errors import FlexhrcError
 from flexhrc.taskmanager.replay import solved_by_line
 
 
 def _add_common(p: argparse.ArgumentParser) -> None:
     p.add_argument("scenario", metavar="SCENARIO", help="table_assembly, or a scenario file")
+    add_segments_option(p)
     p.add_argument(
         "--cell",
         default="default",
@@ -163,11 +170,11 @@ def cmd_arm(args: argparse.Namespace) -> int:
     from flexhrc.ros2.transport import ros_topic
     from flexhrc.scenario import load_scenario
 
-    scenario = load_scenario(args.scenario, seed=args.seed)
+    scenario = load_scenario(args.scenario, seed=args.seed, segments=args.segments)
     ros_topic("", args.arm)
     if not (math.isfinite(args.rate) and 30 <= args.rate <= 1000):
         raise FlexhrcError(f"--rate must be between 30 and 1000 Hz, got {args.rate}")
-    check_agent_name(scenario.domain(), args.arm, "robot", "--arm")
+    check_agent_name(scenario.domain, args.arm, "robot", "--arm")
     if args.execute == "external" and not (args.trajectory_topic and args.joint_states_topic):
         raise FlexhrcError(
             "--execute external needs --trajectory-topic and --joint-states-topic "
@@ -214,9 +221,9 @@ def cmd_human(args: argparse.Namespace) -> int:
     from flexhrc.ros2.transport import ros_topic
     from flexhrc.scenario import load_scenario
 
-    scenario = load_scenario(args.scenario, seed=args.seed)
+    scenario = load_scenario(args.scenario, seed=args.seed, segments=args.segments)
     ros_topic("", args.name)
-    check_agent_name(scenario.domain(), args.name, "human", "--name")  # before the network
+    check_agent_name(scenario.domain, args.name, "human", "--name")  # before the network
     check_profile(args.profile)
     progress = _progress(args)
 
@@ -274,7 +281,7 @@ def cmd_cell(args: argparse.Namespace) -> int:
     from flexhrc.cli.panel import check_web, serve
 
     web = check_web(args)  # a non-loopback --web without --token is refused before any work
-    scenario = load_scenario(args.scenario, seed=args.seed)
+    scenario = load_scenario(args.scenario, seed=args.seed, segments=args.segments)
     progress = _progress(args)
     stream = sys.stderr if args.json else sys.stdout
 

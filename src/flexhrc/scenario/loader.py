@@ -9,7 +9,7 @@ from flexhrc.errors import FlexhrcError, UnknownNameError
 from flexhrc.scenario.format import Fault, check, parse
 from flexhrc.scenario.model import Scenario
 
-#: The scenarios shipped with flexhrc (package data ``flexhrc/scenarios/data/NAME/NAME.yaml``).
+#: The scenarios shipped with flexhrc (package data ``scenario/builtin/data/NAME/NAME.yaml``).
 SHIPPED = ("table_assembly", "ball_in_box", "kitchen_drawer")
 
 
@@ -19,7 +19,7 @@ def shipped_path(name: str) -> Path:
         raise UnknownNameError(
             f"unknown scenario {name!r}; shipped: {', '.join(SHIPPED)} (or give a .yaml file)"
         )
-    ref = resources.files("flexhrc.scenarios").joinpath(f"data/{name}/{name}.yaml")
+    ref = resources.files("flexhrc.scenario.builtin").joinpath(f"data/{name}/{name}.yaml")
     return Path(str(ref))
 
 

@@ -74,6 +74,12 @@ class Scenario:
     warnings: tuple[str, ...] = ()
     #: builds the knowledge base instead of the world section (scenarios built in code)
     world_factory: Callable[[], KnowledgeBase] | None = None
+    #: the parts of a task split in segments that this scenario holds, in task order (the
+    #: table assembly: ``tabletop``, ``legs``, ``check``); empty: the task is not split
+    segments: tuple[str, ...] = ()
+    #: the simulators the task can run on; another choice gets :attr:`simulator` (a bench of
+    #: many arms: the analytic one only, the kinematic model is the dual-arm robot)
+    simulators: tuple[str, ...] = SIMULATORS
 
     # -- factories ------------------------------------------------------------------------
     def world(self) -> KnowledgeBase:
@@ -100,8 +106,6 @@ class Scenario:
             kb.assert_fact(*lit.key())
         return kb
 
-    knowledge = world  # the name the table scenario used
-
     def online_graph(self) -> OnlineGraph:
         return OnlineGraph(self.graph)
 
@@ -114,11 +118,15 @@ class Scenario:
     def make_simulator(self, choice: str | None = None) -> Any:
         """The branch simulator (also the execution model): ``analytic`` (durations from the
         domain, distances over speeds), ``kinematic`` (task-priority control on the robot model;
-        the ``sim`` extra) or ``auto``; default: the file's ``simulator``. Chosen here, at the
-        edge, and passed down to the Task Manager."""
-        from flexhrc.scenarios.simulators import choose_simulator
+        the ``sim`` extra) or ``auto``; default (None): the scenario's ``simulator``. Chosen
+        here, at the edge, and passed down to the Task Manager (and to the cell, which asks
+        with None for the scenario's own choice)."""
+        from flexhrc.scenario.simulators import choose_simulator, resolve_simulator_name
 
-        return choose_simulator(choice or self.simulator)[1]
+        name = resolve_simulator_name(choice or self.simulator)
+        if name not in self.simulators:
+            name = self.simulator
+        return choose_simulator(name)[1]
 
     def summary_line(self) -> str:
         stats = self.graph.stats()

@@ -17,7 +17,6 @@ from typing import Any
 from flexhrc.cell.local import InjectedFailure, LocalCell, RunResult
 from flexhrc.errors import FlexhrcError
 from flexhrc.scenario.model import PROFILES, Scenario
-from flexhrc.scenario.source import CellScenario
 from flexhrc.taskmanager.manager import REACTIONS
 
 
@@ -57,7 +56,7 @@ def prepare(
     pairs = [(h.name, profile or h.profile) for h in scenario.humans]
     observers = [f for f in (sink, trace) if f is not None]  # the log first: shown = stored
     return LocalCell(
-        CellScenario(scenario.name, scenario),
+        scenario,
         simulator=sim,
         execution=execution,
         humans=pairs,

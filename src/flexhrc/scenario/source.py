@@ -1,91 +1,59 @@
-"""What ``flexhrc cell SCENARIO`` and ``flexhrc agent ... SCENARIO`` accept: a name or a file.
+"""What every command that takes a scenario accepts — a name or a file — as one
+:class:`~flexhrc.scenario.Scenario`.
 
-:func:`load_scenario` reads every form a task comes in, for every front end alike:
+:func:`load_scenario` reads every form a task comes in, for every front end alike (``run``,
+``demo``, ``cell``, ``agent``, ``ros2``, ``panel``), so that one name means one task everywhere:
 
-* ``table_assembly`` (alias ``table``): the FlexHRC+ table assembly — the scenario file shipped
-  with :mod:`flexhrc.scenario` (as ``flexhrc run table_assembly``), else the legs fix of
-  :class:`~flexhrc.scenarios.table_assembly.TableScenario`; the other names shipped with
-  :mod:`flexhrc.scenario` (``ball_in_box``, ``kitchen_drawer`` ...) too;
-* ``parallel_assembly``: independent legs for many arms and operators (benchmarks);
-* a YAML file with the keys of ``flexhrc run`` (``scenario: table_assembly``, ``legs``,
-  ``unreachable_bolts`` ...) or ``scenario: parallel_assembly`` with ``arms``, ``humans``,
-  ``legs``.
+* ``table_assembly`` (alias ``table``): the FlexHRC+ table assembly in three segments — the
+  scenario file shipped with :mod:`flexhrc.scenario`; ``segments="legs"`` (``--segments legs``)
+  is the legs fix alone (built by :func:`flexhrc.scenario.builtin.table_assembly`);
+* the other names shipped with :mod:`flexhrc.scenario` (``ball_in_box``, ``kitchen_drawer``);
+* ``parallel_assembly``: independent sockets for many arms and operators (benchmarks);
+* a scenario file (``flexhrc: 1``), or an older file (``scenario: table_assembly`` with
+  ``legs``, ``unreachable_bolts`` ...; ``scenario: parallel_assembly`` with ``arms``,
+  ``humans``, ``legs``), translated by :func:`flexhrc.scenario.legacy.from_legacy`.
 
-The result is a :class:`CellScenario`: ``graph()``, ``domain()``, ``knowledge()``,
-``make_simulator(choice)`` and a ``name``; every process of a cell loads the same one and so
-starts from the same knowledge base. When :mod:`flexhrc.scenario` offers ``load`` (scenario files
-``flexhrc: 1`` and the scenarios shipped with it), names and files it knows go through it.
+Every process of a cell loads the same one and so starts from the same knowledge base.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
 
-from flexhrc.errors import FormatError, UnknownNameError
+from flexhrc.errors import FlexhrcError, UnknownNameError
+from flexhrc.scenario.builtin.parallel import parallel_assembly
+from flexhrc.scenario.builtin.table import SEGMENTS, ScenarioError, table_assembly
+from flexhrc.scenario.legacy import is_legacy, read_legacy
 from flexhrc.scenario.loader import SHIPPED, load
+from flexhrc.scenario.model import Scenario
 
+#: Names that are not shipped files: the table's short name, the bench of many arms.
 NAMES = ("table_assembly", "table", "parallel_assembly")
 
-_TABLE_KEYS = {
-    "scenario",
-    "legs",
-    "tabletop",
-    "leg_length",
-    "seed",
-    "human",
-    "unreachable_bolts",
-    "leg_positions",
-    "profile",
-    "reachable_only_by",
-}
-_PARALLEL_KEYS = {"scenario", "arms", "humans", "legs", "human_legs", "chain", "seed"}
+#: Which tasks come in segments, and which these are.
+SEGMENTED = {"table_assembly": SEGMENTS}
 
 
-class CellScenario:
-    """What every process of a cell needs of a scenario, whoever defined it: fresh ``graph()``,
-    ``domain()`` and ``knowledge()``, and ``make_simulator(choice)`` (the branch simulator of
-    the manager, the simulated world of an agent; ``choice`` is ``auto``, ``analytic`` or
-    ``kinematic``)."""
+def load_scenario(
+    spec: str | Path, *, seed: int = 0, segments: str | Sequence[str] | None = None
+) -> Scenario:
+    """The scenario named ``spec``, or read from the file ``spec``.
 
-    def __init__(self, name: str, source: Any, *, simulator: str | None = None) -> None:
-        self.name = name
-        self.source = source
-        self.forced = simulator  # e.g. "analytic" for many arms (the kinematic model has two)
-
-    def graph(self) -> Any:
-        g = self.source.graph
-        return g() if callable(g) else g
-
-    def domain(self) -> Any:
-        d = self.source.domain
-        return d() if callable(d) else d
-
-    def knowledge(self) -> Any:
-        make = getattr(self.source, "world", None) or self.source.knowledge
-        return make()
-
-    def make_simulator(self, choice: str = "auto") -> Any:
-        from flexhrc.scenarios.simulators import choose_simulator
-
-        if self.forced is not None:
-            choice = self.forced
-        own = getattr(self.source, "make_simulator", None)
-        if own is not None:  # a flexhrc.scenario file: its simulator, unless told otherwise
-            return own(None if choice == "auto" else choice)
-        return choose_simulator(choice)[1]
-
-
-def load_scenario(spec: str, *, seed: int = 0) -> CellScenario:
-    """The scenario named ``spec``, or read from the YAML file ``spec``."""
-    from flexhrc.scenarios.parallel_assembly import ParallelScenario
-
+    ``seed`` places the objects of a generated task (the legs of an older table file without
+    ``seed``, the bench of ``parallel_assembly``). ``segments`` selects parts of a task that
+    comes in segments (``"legs"``, ``"tabletop,legs"``, ``"all"``; None: as the task is);
+    a task without segments, or an unknown segment, is one :class:`FlexhrcError` naming the
+    segments there are.
+    """
     text = str(spec)
-    if text in ("table_assembly", "table"):
-        # the shipped scenario file, as `flexhrc run table_assembly`
-        return CellScenario("table_assembly", load("table_assembly"))
+    if text in ("table_assembly", "table") or _is_shipped_table(text):
+        if segments is None or segments == "all":
+            return load("table_assembly")  # the shipped file, as `flexhrc run table_assembly`
+        return _table(segments)
     if text == "parallel_assembly":
-        return CellScenario("parallel_assembly", ParallelScenario(seed=seed), simulator="analytic")
+        sc = parallel_assembly(seed=seed)
+        return select(sc, segments)
     path = Path(text)
     if path.suffix.lower() not in (".yaml", ".yml") and not path.exists():
         if text not in SHIPPED:
@@ -93,78 +61,60 @@ def load_scenario(spec: str, *, seed: int = 0) -> CellScenario:
             raise UnknownNameError(
                 f"unknown scenario {text!r}: give one of {names} or a scenario file"
             )
-        sc = load(text)
-        return CellScenario(sc.name, sc)
-    if _is_scenario_file(path):
-        sc = load(path)
-        return CellScenario(sc.name, sc)
-    return _from_file(path, seed)
+        return select(load(text), segments)
+    if _is_legacy_file(path):
+        return read_legacy(path, seed=seed, segments=segments)
+    return select(load(path), segments)
 
 
-def _is_scenario_file(path: Path) -> bool:
-    """A ``flexhrc: 1`` scenario file (rather than the keys of ``flexhrc run``)."""
-    from flexhrc.files import read_text
+def select(scenario: Scenario, segments: str | Sequence[str] | None) -> Scenario:
+    """``scenario`` as it is when ``segments`` is None or ``all``, or when it holds exactly
+    those segments; else one :class:`FlexhrcError`: a task without segments says which tasks
+    have them (a task that comes in segments is cut where it is built: :func:`load_scenario`
+    with its name or its older file, :func:`~flexhrc.scenario.builtin.table_assembly`)."""
+    if segments is None or segments == "all":
+        return scenario
+    wanted = tuple(
+        s.strip() for s in (segments.split(",") if isinstance(segments, str) else segments)
+    )
+    if scenario.segments and wanted == scenario.segments:
+        return scenario
+    if not scenario.segments:
+        raise FlexhrcError(
+            f"--segments {','.join(wanted)}: scenario {scenario.name!r} has no segments ("
+            + "; ".join(f"{n} has {', '.join(s)}" for n, s in SEGMENTED.items())
+            + ")"
+        )
+    raise FlexhrcError(
+        f"--segments {','.join(wanted)}: scenario {scenario.name!r} holds "
+        f"{', '.join(scenario.segments)}"
+    )
 
-    return any(line.strip().startswith("flexhrc:") for line in read_text(path).splitlines())
+
+def _table(segments: str | Sequence[str]) -> Scenario:
+    try:
+        return table_assembly(segments=segments)
+    except ScenarioError as exc:
+        raise FlexhrcError(f"--segments {exc.detail}") from None
 
 
-def _from_file(path: Path, seed: int) -> Any:
+def _is_shipped_table(text: str) -> bool:
+    """The shipped ``table_assembly`` file given by its path: the same task as the name."""
+    from flexhrc.scenario.loader import shipped_path
+
+    p = Path(text)
+    return p.exists() and p.resolve() == shipped_path("table_assembly").resolve()
+
+
+def _is_legacy_file(path: Path) -> bool:
+    """An older file (``scenario:`` without ``flexhrc:``) rather than a scenario file."""
     from flexhrc.files import read_text
     from flexhrc.representation.formats.yaml_format import read_yaml
-    from flexhrc.scenarios.parallel_assembly import ParallelScenario
-    from flexhrc.scenarios.table_assembly import TableScenario
 
-    read_text(path)  # one clear error for a missing, binary or unreadable file
-    doc = read_yaml(path)
-    if not isinstance(doc, dict):
-        raise FormatError("a scenario file must be a mapping", path, 1)
-    lines = getattr(doc, "lines", {})
-    kind = doc.get("scenario")
-    allowed = {"table_assembly": _TABLE_KEYS, "parallel_assembly": _PARALLEL_KEYS}.get(str(kind))
-    if allowed is None:
-        raise FormatError(
-            f"unknown scenario {kind!r}; supported: table_assembly, parallel_assembly",
-            path,
-            lines.get("scenario", 1),
-        )
-    for key in doc:
-        if key not in allowed:
-            raise FormatError(
-                f"unknown key {key!r} (allowed: {', '.join(sorted(allowed))})",
-                path,
-                lines.get(key),
-            )
+    text = read_text(path)  # one clear error for a missing, binary or unreadable file
+    if any(line.strip().startswith("flexhrc:") for line in text.splitlines()):
+        return False
     try:
-        scenario: Any
-        if kind == "parallel_assembly":
-            par = ParallelScenario(
-                arms=int(doc.get("arms", 6)),
-                humans=int(doc.get("humans", 3)),
-                legs=int(doc.get("legs", 12)),
-                human_legs=int(doc.get("human_legs", 0)),
-                chain=bool(doc.get("chain", False)),
-                seed=int(doc.get("seed", seed)),
-            )
-            scenario = CellScenario("parallel_assembly", par, simulator="analytic")
-        else:
-            scenario = TableScenario(
-                legs=int(doc.get("legs", 4)),
-                tabletop=str(doc.get("tabletop", "large")),
-                leg_length=str(doc.get("leg_length", "long")),
-                seed=int(doc.get("seed", seed)),
-                human=bool(doc.get("human", True)),
-                unreachable_bolts=tuple(int(b) for b in doc.get("unreachable_bolts", [])),
-                reachable_only_by=dict(doc.get("reachable_only_by", {})),
-                leg_positions=[_xyz(p) for p in doc["leg_positions"]]
-                if "leg_positions" in doc
-                else None,
-            )
-            scenario = CellScenario("table_assembly", scenario)
-    except (TypeError, ValueError) as exc:
-        raise FormatError(f"bad value: {exc}", path) from None
-    return scenario
-
-
-def _xyz(p: Any) -> tuple[float, float, float]:
-    x, y, z = (float(v) for v in p)
-    return (x, y, z)
+        return is_legacy(read_yaml(path))
+    except (FlexhrcError, RecursionError):
+        return False  # the scenario loader reports what is wrong with it

@@ -59,9 +59,9 @@ class PerceptionAgent:
         repair: bool = False,
     ) -> None:
         self.name = name
-        self.domain = scenario.domain()
+        self.domain = scenario.domain
         # the symbols, anchored by this agent's own percepts
-        self.kb = belief if belief is not None else scenario.knowledge()
+        self.kb = belief if belief is not None else scenario.world()
         self.truth = truth
         self.repair = repair  # a look that contradicts a belief is followed by a second one
         if truth is not None:

@@ -106,13 +106,12 @@ def picture_of_table(path: str | Path, *, seed: int = 0, screwed: int = 1) -> di
     """Render the table assembly part-way (``screwed`` legs already fixed upright, an arm
     reaching out), perceive it and draw the picture; returns the update's report."""
     from flexhrc.action.robots import PANDA_Q_REST
-    from flexhrc.scenarios.table_assembly import TableScenario
+    from flexhrc.scenario.builtin.table import TableLayout
     from flexhrc.sensing.loop import forget_positions, lying_layout
     from flexhrc.sensing.perception import PerceptionComponent
     from flexhrc.sensing.world import SimulatedWorkspace
 
-    sc = TableScenario(seed=seed, leg_positions=lying_layout(4, seed))
-    truth = sc.knowledge()
+    truth = TableLayout(seed=seed, leg_positions=lying_layout(4, seed)).world()
     world, names = SimulatedWorkspace.from_knowledge(truth, types=("leg", "tabletop"))
     kb = forget_positions(truth, ("leg", "tabletop"))
     comp = PerceptionComponent(world, kb)

@@ -40,6 +40,7 @@ from flexhrc.cell.components import HumanAgent, RobotAgent
 from flexhrc.cell.local import FailureInjection, InjectedFailure, RunResult
 from flexhrc.errors import FlexhrcError
 from flexhrc.knowledge import KnowledgeBase
+from flexhrc.scenario.model import Scenario, WorldSpec
 from flexhrc.sensing.truth import (
     WORLD_CHANGING,
     Nudge,
@@ -119,23 +120,6 @@ class _ReportedHand:
             )  # fmt: skip
         positions[action.agents[0]] = tuple(kb.position(to)) if to else self.hand
         return report
-
-
-class _Belief:
-    """The scenario the cell and its agents load: the task, and the manager's belief as the
-    knowledge (each call a fresh copy: every agent keeps its own)."""
-
-    def __init__(self, graph: Any, domain: Domain, belief: KnowledgeBase, name: str) -> None:
-        self._graph, self._domain, self._belief, self.name = graph, domain, belief, name
-
-    def graph(self) -> Any:
-        return self._graph
-
-    def domain(self) -> Domain:
-        return self._domain
-
-    def knowledge(self) -> KnowledgeBase:
-        return self._belief.copy()
 
 
 class _FalseReporter:
@@ -365,7 +349,12 @@ class PerceivedCell:
         self.execution = execution if execution is not None else AnalyticSimulator()
         self.injection = FailureInjection(self.execution, list(failures))
         hier = getattr(graph, "hierarchy", graph)
-        scenario = _Belief(hier, domain, self.belief, name)
+        # the scenario the cell and its agents load: the task, with the manager's belief as its
+        # world (each call a fresh copy: every agent keeps its own)
+        scenario = Scenario(
+            name, "the task as the manager believes it", hier, domain, WorldSpec(),
+            world_factory=self.belief.copy,
+        )  # fmt: skip
         self.scenario = scenario
         self.domain = domain
         # who sees the log, in this order (a streamed log first: what was shown was also stored)

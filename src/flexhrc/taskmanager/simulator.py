@@ -10,7 +10,7 @@ An action whose domain entry declares ``duration`` (seconds) and ``moves_to`` (t
 hand goes to) is timed from those alone, so a scenario file needs no code for its actions; any
 other is timed by its kind's model (:mod:`flexhrc.taskmanager.kinds`).
 The kinematic simulator of :mod:`flexhrc.action` implements the same :class:`Simulator`
-protocol; it is chosen at the edge (:mod:`flexhrc.scenarios.simulators`), never imported here.
+protocol; it is chosen at the edge (:mod:`flexhrc.scenario.simulators`), never imported here.
 Simulations never modify the knowledge base: positions are tracked on the side.
 """
 
@@ -251,7 +251,7 @@ def default_simulator() -> Simulator:
 
     The Task Manager stays unaware of the action level (which imports this module); the
     kinematic simulator is chosen at the edge — the command line, a scenario loader, a cell —
-    with :func:`flexhrc.scenarios.simulators.choose_simulator` and passed in.
+    with :func:`flexhrc.scenario.simulators.choose_simulator` and passed in.
     """
     return AnalyticSimulator()
 

@@ -59,11 +59,13 @@ class PanelConfig:
     seconds per wall second; ``simulator`` the branch simulator and the arms' simulated world
     (``auto``: the scenario's choice). ``port`` 0 takes any free port (the server binds it and
     :attr:`LocalPanel.url` says which). An address other than loopback needs ``token``.
-    ``store`` keeps every event in a SQLite file (``flexhrc replay FILE.db``).
+    ``store`` keeps every event in a SQLite file (``flexhrc replay FILE.db``). ``segments``
+    selects parts of a task that comes in segments, as ``--segments`` in every command.
     """
 
     scenario: str | Path | Any = "table_assembly"
     seed: int = 0
+    segments: str | None = None
     speed: float = 1.0
     simulator: str = "auto"
     host: str = DEFAULT_HOST
@@ -117,6 +119,7 @@ class LocalPanel:
         store: str | Path | None = None,
         name: str = "panel",
         trace: Callable[[dict[str, Any]], None] | None = None,
+        segments: str | None = None,
     ) -> None:
         from flexhrc.cell import Cell, EventStore, RobotAgent
         from flexhrc.cell.components import execution_model
@@ -127,7 +130,7 @@ class LocalPanel:
         if simulator not in SIMULATORS:
             raise FlexhrcError(f"simulator {simulator!r}: choose one of {', '.join(SIMULATORS)}")
         if isinstance(scenario, str | Path):
-            scenario = load_scenario(str(scenario), seed=seed)
+            scenario = load_scenario(str(scenario), seed=seed, segments=segments)
         self.scenario = scenario
         self.store = EventStore(store) if store is not None else None
         self.bus = InProcessBus()
@@ -150,7 +153,7 @@ class LocalPanel:
         )
         self.arms = [
             RobotAgent(a.name, scenario, self.bus, execution=execution_model(simulator, scenario))
-            for a in scenario.domain().agents.values()
+            for a in scenario.domain.agents.values()
             if not a.is_human
         ]
         self._wake = threading.Event()
@@ -319,6 +322,7 @@ def serve_panel(config: PanelConfig) -> LocalPanel:
         simulator=config.simulator,
         store=config.store,
         name=config.name,
+        segments=config.segments,
     )
     try:
         panel.server = PanelServer(panel, config.host, config.port, token=config.token).start()
@@ -329,23 +333,34 @@ def serve_panel(config: PanelConfig) -> LocalPanel:
 
 
 def table_legs(
-    legs: int = 4, *, unreachable_bolts: tuple[int, ...] = (), seed: int = 0, human: bool = True
+    legs: int = 4,
+    *,
+    unreachable_bolts: tuple[int, ...] = (),
+    seed: int = 0,
+    human: bool = True,
+    segments: str | None = None,
 ) -> Any:
     """The legs fix of the table (paper 000, VI-D, Figs. 9-12) — the task the older file
     ``scenario: table_assembly`` with ``legs`` and ``unreachable_bolts`` names in every command.
-    No arm reaches a bolt in ``unreachable_bolts``: the robot asks the operator (Fig. 12)."""
-    from flexhrc.scenario import CellScenario
-    from flexhrc.scenarios.table_assembly import TableScenario
+    No arm reaches a bolt in ``unreachable_bolts``: the robot asks the operator (Fig. 12).
+    ``segments`` (default ``legs``) as :func:`flexhrc.scenario.builtin.table_assembly`."""
+    from flexhrc.scenario.builtin.table import ScenarioError, table_assembly
 
     if legs < 1:
         raise FlexhrcError(f"--legs must be at least 1, got {legs}")
     for bolt in unreachable_bolts:
         if not 1 <= bolt <= legs:
             raise FlexhrcError(f"--unreachable-bolt {bolt}: choose a bolt 1..{legs}")
-    table = TableScenario(
-        legs=legs, seed=seed, unreachable_bolts=tuple(unreachable_bolts), human=human
-    )
-    return CellScenario("table_assembly", table)
+    try:
+        return table_assembly(
+            legs,
+            seed=seed,
+            unreachable_bolts=tuple(unreachable_bolts),
+            human=human,
+            segments=segments or "legs",
+        )
+    except ScenarioError as exc:
+        raise FlexhrcError(f"--{exc.key.replace('_', '-')} {exc.detail}") from None
 
 
 __all__ = [

@@ -14,29 +14,32 @@ from __future__ import annotations
 
 import random
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from flexhrc.errors import FlexhrcError
 from flexhrc.knowledge import KnowledgeBase
 from flexhrc.logic import parse_conjunction
 from flexhrc.representation import AndOrGraph, HierarchicalGraph, Node
-from flexhrc.scenarios.table_assembly import ROBOT_DIRECT
+from flexhrc.scenario.builtin.table import ROBOT_DIRECT
 from flexhrc.taskmanager.domain import Domain
+
+if TYPE_CHECKING:
+    from flexhrc.scenario.model import Scenario
 
 ARM_SPACING = 0.5  # metres between neighbouring shoulders, along y
 HUMAN = ("pick_up(?op, ?leg)", "screw(?op, ?leg, {bolt})")  # any of the operators
 
 
 @dataclass
-class ParallelScenario:
+class _Bench:
+    """The options of one bench (checked on creation); :func:`parallel_assembly` builds it."""
+
     arms: int = 6
     humans: int = 3
     legs: int = 12
     seed: int = 0
     human_legs: int = 0  # the first ones lie where no arm reaches: the operators fix them
     chain: bool = False  # socket k only after socket k-1 (one long sequence: long event logs)
-    name: str = "parallel_assembly"
-    simulator: str = "analytic"
 
     def __post_init__(self) -> None:
         for field, value, low in (("arms", self.arms, 1), ("humans", self.humans, 0)):
@@ -86,7 +89,9 @@ class ParallelScenario:
 
         import yaml
 
-        text = resources.files("flexhrc.scenarios").joinpath("data/table_assembly/domain.yaml")
+        text = resources.files("flexhrc.scenario.builtin").joinpath(
+            "data/table_assembly/domain.yaml"
+        )
         data: dict[str, Any] = yaml.safe_load(text.read_text(encoding="utf-8"))
         agents: dict[str, Any] = {}
         for i in range(self.arms):
@@ -103,7 +108,7 @@ class ParallelScenario:
         data["agents"] = agents
         return Domain.from_dict(data, "parallel_assembly (generated)")
 
-    def knowledge(self) -> KnowledgeBase:
+    def world(self) -> KnowledgeBase:
         rng = random.Random(self.seed)
         kb = KnowledgeBase()
         dom = self.domain()
@@ -126,3 +131,37 @@ class ParallelScenario:
             kb.assert_fact("kit", leg, f"bolt_{k}")
         kb.add_object("middle", "place", (0.7, 0.0, 0.1))
         return kb
+
+
+def parallel_assembly(
+    arms: int = 6,
+    humans: int = 3,
+    legs: int = 12,
+    *,
+    seed: int = 0,
+    human_legs: int = 0,
+    chain: bool = False,
+    profile: str = "passive",
+    name: str = "parallel_assembly",
+) -> Scenario:
+    """``legs`` independent sockets on one bench for ``arms`` arms and ``humans`` operators
+    (see the module docstring) as a :class:`~flexhrc.scenario.Scenario`; ``chain`` makes
+    socket k wait for socket k-1. Simulated with the analytic simulator (the kinematic one
+    models the dual-arm robot only)."""
+    from flexhrc.scenario.model import HumanSpec, Scenario, WorldSpec
+
+    bench = _Bench(
+        arms=arms, humans=humans, legs=legs, seed=seed, human_legs=human_legs, chain=chain
+    )
+    domain = bench.domain()
+    return Scenario(
+        name,
+        f"A bench of {legs} independent sockets for {arms} arms and {humans} operators.",
+        bench.graph(),
+        domain,
+        WorldSpec(),
+        tuple(HumanSpec(a.name, profile) for a in domain.agents.values() if a.is_human),
+        "analytic",
+        world_factory=bench.world,
+        simulators=("analytic",),
+    )

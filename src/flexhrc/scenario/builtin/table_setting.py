@@ -16,8 +16,8 @@
 * ``abstract`` — the abstract task of Fig. 1, ``(THEN a (AND (THEN b c) (OR d e (THEN f g))))``,
   in a generated world (objects at seeded random positions).
 
-The layouts are YAML task files under ``scenarios/data/table_setting/`` and can be run directly
-with ``flexhrc behave path/to/layout1.yaml``.
+The layouts are YAML task files under ``flexhrc/scenario/builtin/data/table_setting/`` and can
+be run directly with ``flexhrc behave path/to/layout1.yaml``.
 """
 
 from __future__ import annotations
@@ -67,7 +67,7 @@ class Scenario:
 
 
 def _data_file(name: str) -> tuple[str, str]:
-    ref = resources.files("flexhrc.scenarios") / "data" / "table_setting" / name
+    ref = resources.files("flexhrc.scenario.builtin") / "data" / "table_setting" / name
     return ref.read_text(encoding="utf-8"), str(ref)
 
 

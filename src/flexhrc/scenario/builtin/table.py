@@ -1,7 +1,15 @@
-"""The cooperative table assembly of FlexHRC+ (paper 000, VI-D, Figs. 5 and 9-12).
+"""The cooperative table assembly of FlexHRC+ (paper 000, VI-D, Figs. 5 and 8-13).
 
-A dual-arm robot and a human operator fix N legs (default 4) to a tabletop, bolt by bolt in a
-fixed order. The single-layer first-order AND/OR graph has, for every bolt k, the four
+:func:`table_assembly` builds it as a :class:`~flexhrc.scenario.Scenario`, in three segments
+(:data:`SEGMENTS`): the tabletop placement (Fig. 8: ``place_tabletop``, one joint command of
+both arms, the node ``tabletop`` then held by the process ``hold(?top)`` until it has settled;
+``human_places_tabletop``, cost 3, when the arms cannot), the legs fix (Figs. 9-12, below) and
+the check (Fig. 13: ``check_connections``, weight 0, so the suggestion costs of the legs fix are
+those of Figs. 9-12; left out without an operator). ``segments="legs"`` is the legs fix alone.
+With its defaults it is the task of the shipped ``table_assembly`` file (:func:`write_shipped`).
+
+The legs fix: a dual-arm robot and a human operator fix N legs (default 4) to a tabletop, bolt
+by bolt in a fixed order. The single-layer first-order AND/OR graph has, for every bolt k, the four
 cooperation paths of Fig. 5:
 
 =================  ==================================================  ======
@@ -33,13 +41,20 @@ import random
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from importlib import resources
-from typing import Any
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import yaml
 
 from flexhrc.errors import FlexhrcError
 from flexhrc.knowledge import KnowledgeBase
 from flexhrc.logic import parse_conjunction
 from flexhrc.representation import AndOrGraph, HierarchicalGraph, Node
+from flexhrc.representation.graph import Hyperarc
 from flexhrc.taskmanager.domain import Domain
+
+if TYPE_CHECKING:
+    from flexhrc.scenario.model import Scenario
 
 # Geometry (metres, x forward, y left, z up, table at z = 0) sized for flexhrc.action's dual-arm
 # robot, so the analytic and the kinematic simulator see the same workspace.
@@ -233,9 +248,7 @@ def build_graph(legs: int = 4) -> HierarchicalGraph:
 
 def load_domain(human: bool = True) -> Domain:
     """Agents (human, left, right) and action schemas, from the packaged YAML."""
-    import yaml
-
-    text = resources.files("flexhrc.scenarios").joinpath("data/table_assembly/domain.yaml")
+    text = resources.files("flexhrc.scenario.builtin").joinpath("data/table_assembly/domain.yaml")
     data = yaml.safe_load(text.read_text(encoding="utf-8"))
     if not human:  # the human's actions stay in the domain, with nobody to do them
         data["agents"].pop("human")
@@ -243,8 +256,11 @@ def load_domain(human: bool = True) -> Domain:
 
 
 @dataclass
-class TableScenario:
-    """Objects and options of one table assembly run."""
+class TableLayout:
+    """The objects of one table: how many legs, the tabletop, the legs' length and where they
+    lie, the bolts no arm reaches. :meth:`world` builds the knowledge base of the legs fix (the
+    tabletop already placed); :func:`table_assembly` turns a layout into a
+    :class:`~flexhrc.scenario.Scenario`."""
 
     legs: int = 4
     tabletop: str = "large"
@@ -327,24 +343,19 @@ class TableScenario:
                         f"(less than {LEG_CLEARANCE * 100:.0f} cm apart)",
                     )
 
-    def graph(self) -> HierarchicalGraph:
-        return build_graph(self.legs)
-
-    def domain(self) -> Domain:
-        return load_domain(self.human)
-
     def bolt_positions(self) -> list[tuple[float, float, float]]:
         """Bolts at the tabletop corners (inset 4 cm), then spread along the edges."""
         slots = bolt_slots(self.size, self.legs)
         assert slots is not None  # checked in __post_init__
         return slots
 
-    def knowledge(self) -> KnowledgeBase:
+    def world(self) -> KnowledgeBase:
+        """A fresh knowledge base of the legs fix: the tabletop placed, the legs on the table."""
         kb = KnowledgeBase()
         w, d = self.size
         kb.add_object("tabletop", "tabletop", tabletop_centre(self.size), {"width": w, "depth": d})
         kb.assert_fact("placed", "tabletop")
-        domain = self.domain()
+        domain = load_domain(self.human)
         for arm in ("left", "right"):
             rest = domain.agent(arm).params["rest"]
             kb.add_object(arm, "arm", rest)
@@ -386,3 +397,254 @@ class TableScenario:
             )
             for x, y in slots
         ]
+
+
+# ------------------------------------------------------------------ the whole task: segments --
+#: The segments of the paper's table assembly (VI-D), in the order they run: the tabletop
+#: placement by both arms (Fig. 8), the legs fix (Figs. 9-12), the operator's check (Fig. 13).
+SEGMENTS = ("tabletop", "legs", "check")
+
+#: Where the tabletop waits before the robot places it: on a stand 25 cm above its assembly pose
+#: (metres), out of the way of anything on the table (the fixtures of --unreachable-bolt).
+STAND_OFFSET = (0.0, 0.0, 0.25)
+
+
+def parse_segments(segments: str | Sequence[str] | None, *, human: bool = True) -> tuple[str, ...]:
+    """The segments ``segments`` selects, in task order: ``all`` (or None) is every segment
+    (without an operator the check is left out, nobody would do it), else a comma-separated
+    list (``legs``, ``tabletop,legs``) or a sequence of names. Raises :class:`ScenarioError`
+    (key ``segments``) naming the segments there are."""
+    if segments is None or segments == "all" or segments == ("all",):
+        return tuple(s for s in SEGMENTS if human or s != "check")
+    names = segments.split(",") if isinstance(segments, str) else list(segments)
+    chosen = {n.strip() for n in names if n.strip()}
+    for n in sorted(chosen):
+        if n not in SEGMENTS:
+            raise ScenarioError(
+                "segments",
+                f"{n!r} is not a segment of table_assembly; it has {', '.join(SEGMENTS)} (or all)",
+            )
+    if not chosen:
+        raise ScenarioError("segments", f"names none; choose from {', '.join(SEGMENTS)} or all")
+    if "check" in chosen and "legs" not in chosen:
+        raise ScenarioError("segments", "check needs legs: the operator checks the bolts")
+    if "check" in chosen and not human:
+        raise ScenarioError("segments", "check needs an operator (human is false)")
+    return tuple(s for s in SEGMENTS if s in chosen)
+
+
+def task_graph(legs: int = 4, segments: Sequence[str] = SEGMENTS) -> HierarchicalGraph:
+    """The graph of the chosen segments as one first-order graph: the legs fix alone is
+    :func:`build_graph`'s; with ``tabletop`` the tabletop first waits on its stand and its node
+    has the process ``hold(?top)``; with ``check`` the operator's check closes the task."""
+    if tuple(segments) == ("legs",):
+        return build_graph(legs)
+    tabletop = "tabletop" in segments
+    check = "check" in segments
+    fix = build_graph(legs).top_graph
+    fix_root = str(fix.root)
+    root = "checked" if check else fix_root if "legs" in segments else "tabletop"
+    g = AndOrGraph("TableAssembly", root=root)
+    if tabletop:
+        g.add_node(
+            Node("tabletop_on_stand", 0, parse_conjunction("tabletop(?top) & on_table(?top)"))
+        )
+    for n in fix.nodes.values():
+        if n.name == "tabletop" and tabletop:
+            g.add_node(Node(n.name, n.weight, n.formula, ("hold(?top)",)))
+        elif n.name == "tabletop" or "legs" in segments:
+            g.add_node(Node(n.name, n.weight, n.formula, n.processes))
+    if tabletop:
+        g.add_hyperarc(
+            Hyperarc(
+                "place_tabletop",
+                ("tabletop_on_stand",),
+                "tabletop",
+                1,
+                ("place_tabletop(?top, assembly_pose)",),
+            )
+        )
+        if check:  # the operator places it when the arms cannot (the robot's way is cheaper)
+            g.add_hyperarc(
+                Hyperarc(
+                    "human_places_tabletop",
+                    ("tabletop_on_stand",),
+                    "tabletop",
+                    3,
+                    ("place_by_hand(human, ?top, assembly_pose)",),
+                )
+            )
+    if "legs" in segments:
+        for h in fix.hyperarcs.values():
+            g.add_hyperarc(Hyperarc(h.name, h.children, h.parent, h.weight, h.actions))
+    if check:
+        bolts = [f"bolt_{k}" for k in range(1, legs + 1)]
+        g.add_node(
+            Node("checked", 0, parse_conjunction(" & ".join(f"checked({b})" for b in bolts)))
+        )
+        g.add_hyperarc(
+            Hyperarc(
+                "check_connections",
+                (fix_root,),
+                "checked",
+                0,
+                tuple(f"check(human, {b})" for b in bolts),
+            )
+        )
+    hierarchy = HierarchicalGraph.single(g)
+    hierarchy.validate()
+    return hierarchy
+
+
+def task_domain_data() -> dict[str, Any]:
+    """The domain of the whole task (``task_domain.yaml``: the legs fix's actions, the
+    tabletop placement and the check), as data."""
+    import yaml
+
+    text = resources.files("flexhrc.scenario.builtin").joinpath(
+        "data/table_assembly/task_domain.yaml"
+    )
+    data: dict[str, Any] = yaml.safe_load(text.read_text(encoding="utf-8"))
+    return data
+
+
+def task_domain(human: bool = True) -> Domain:
+    data = task_domain_data()
+    if not human:  # the human's actions stay in the domain, with nobody to do them
+        data["agents"].pop("human")
+    return Domain.from_dict(data, "table_assembly/task_domain.yaml")
+
+
+def _task_world(layout: TableLayout, segments: tuple[str, ...]) -> KnowledgeBase:
+    kb = layout.world()
+    if "tabletop" not in segments:
+        return kb
+    centre = tabletop_centre(layout.size)
+    kb.retract_fact("placed", "tabletop")
+    kb.assert_fact("on_table", "tabletop")
+    kb.move("tabletop", tuple(c + o for c, o in zip(centre, STAND_OFFSET, strict=True)))
+    kb.add_object("assembly_pose", "place", centre)
+    return kb
+
+
+DESCRIPTION = (
+    "The FlexHRC+ table assembly in three segments (paper 000, VI-D): the robot places the "
+    "tabletop with both arms and holds it (Fig. 8), robot and operator fix four legs "
+    "(Figs. 9-12), the operator checks every connection (Fig. 13)."
+)
+
+
+def table_assembly(
+    legs: int = 4,
+    *,
+    tabletop: str | Sequence[float] = "large",
+    leg_length: str = "long",
+    seed: int = 0,
+    human: bool = True,
+    unreachable_bolts: Sequence[int] = (),
+    reachable_only_by: dict[str, str] | None = None,
+    leg_positions: Sequence[tuple[float, float, float]] | None = None,
+    segments: str | Sequence[str] | None = "all",
+    profile: str = "passive",
+    name: str = "table_assembly",
+) -> Scenario:
+    """The paper's table assembly (000, VI-D) as a :class:`~flexhrc.scenario.Scenario`.
+
+    ``segments`` picks parts of it (:func:`parse_segments`): ``all`` (default) is the task of
+    the shipped ``table_assembly`` file — tabletop placement, legs fix, check; ``legs`` is the
+    legs fix alone (Figs. 9-12, the older ``scenario: table_assembly`` files). The other
+    arguments describe the table (:class:`TableLayout`); ``profile`` is the operator's. Bad
+    settings raise :class:`ScenarioError` naming the setting.
+    """
+    from flexhrc.scenario.model import HumanSpec, Scenario, WorldSpec
+
+    layout = TableLayout(
+        legs=legs,
+        tabletop=tabletop if isinstance(tabletop, str) else "x".join(str(v) for v in tabletop),
+        leg_length=leg_length,
+        seed=seed,
+        human=human,
+        unreachable_bolts=tuple(unreachable_bolts),
+        reachable_only_by=dict(reachable_only_by or {}),
+        leg_positions=[tuple(p) for p in leg_positions] if leg_positions is not None else None,  # type: ignore[misc]
+    )
+    chosen = parse_segments(segments, human=human)
+    if chosen == ("legs",):
+        domain = load_domain(human)
+        description = "The legs fix of the FlexHRC+ table assembly (paper 000, Figs. 9-12)."
+    else:
+        domain = task_domain(human)
+        description = DESCRIPTION
+    return Scenario(
+        name,
+        description,
+        task_graph(legs, chosen),
+        domain,
+        WorldSpec(),
+        (HumanSpec("human", profile),) if human else (),
+        "analytic",
+        world_factory=lambda: _task_world(layout, chosen),
+        segments=chosen,
+    )
+
+
+# ----------------------------------------------------------------------------- shipped file --
+def shipped_documents(scenario: Scenario | None = None) -> tuple[str, str]:
+    """(scenario file, graph file) of the shipped ``table_assembly`` scenario, as YAML text."""
+    from flexhrc.representation.formats.yaml_format import dump_yaml
+
+    task = scenario or table_assembly()
+    kb = task.world()
+    objects: dict[str, Any] = {}
+    places: dict[str, Any] = {}
+    for o in kb.objects.values():
+        if o.id in task.domain.agents:
+            continue
+        if o.type == "place" and not o.attrs:
+            places[o.id] = [round(v, 4) for v in o.position]
+            continue
+        spec: dict[str, Any] = {"type": o.type, "position": [round(v, 4) for v in o.position]}
+        if o.size:
+            spec["size"] = {k: round(v, 4) for k, v in o.size.items()}
+        if o.fixed:
+            spec["fixed"] = True
+        if "reachable_by" in o.attrs:
+            spec["reachable_by"] = list(o.attrs["reachable_by"])
+        rest = {k: v for k, v in o.attrs.items() if k != "reachable_by"}
+        if rest:
+            spec["attrs"] = rest
+        objects[o.id] = spec
+    facts = sorted(
+        f"{f[0]}({', '.join(f[1:])})"
+        for f in kb.facts
+        if len(f) > 1
+        and not (
+            len(f) == 2
+            and kb.objects.get(f[1]) is not None
+            and f[0] in kb.type_chain(kb.objects[f[1]].type)
+        )
+    )
+    doc = {
+        "flexhrc": 1,
+        "name": "table_assembly",
+        "description": DESCRIPTION,
+        "graph": "table_assembly.graph.yaml",
+        "domain": "task_domain.yaml",
+        "world": {"objects": objects, "places": places, "facts": facts},
+        "humans": [{"name": "human", "profile": "passive", "speed": 1.0}],
+        "simulator": "analytic",
+    }
+    head = (
+        "# The shipped table assembly (generated by flexhrc.scenario.builtin.table.write_shipped;"
+        "\n# `flexhrc demo table` runs the same task for any number of legs and table size).\n"
+    )
+    body = yaml.safe_dump(doc, sort_keys=False, width=100, default_flow_style=None)
+    return head + body, dump_yaml(task.graph)
+
+
+def write_shipped(folder: str | Path) -> None:
+    """Write ``table_assembly.yaml`` and ``table_assembly.graph.yaml`` into ``folder``."""
+    scenario_text, graph_text = shipped_documents()
+    folder = Path(folder)
+    (folder / "table_assembly.yaml").write_text(scenario_text, encoding="utf-8")
+    (folder / "table_assembly.graph.yaml").write_text(graph_text, encoding="utf-8")

@@ -1,1 +1,0 @@
-"""Ready-made scenarios: table assembly, IKEA kitchen, table setting, ball in a box."""
