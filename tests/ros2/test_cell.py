@@ -173,7 +173,6 @@ def test_sigkill_of_an_arm_node_mid_action_is_replanned_and_solved(
         assert wait_for(left_commanded, 90.0, watcher.flush)
         assert left.poll() is None
         left.send_signal(signal.SIGKILL)
-        killed = time.monotonic()
         _operate_until_the_end(client, suggestions, procs[0], 120.0)
         data = _finish(procs[0], 30, tmp_path)
     finally:
@@ -186,7 +185,7 @@ def test_sigkill_of_an_arm_node_mid_action_is_replanned_and_solved(
     events = read_store(store)
     down = [e for e in events if e.kind == "agent_down"]
     assert [e.body["agent"] for e in down] == ["left"]
-    assert down[0].body["wall"] - (time.time() - (time.monotonic() - killed)) < 2.0
+    # (how soon the loss is noticed is a figure of benchmarks/cell.py, not a test's assert)
     lost = [e for e in events if e.kind == "ack" and e.body.get("reason") == "agent lost"]
     assert lost and lost[0].body["agent"] == "left"
     # after the loss the work went to the right arm (and the operator); what the manager still

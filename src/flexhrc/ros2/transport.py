@@ -19,7 +19,11 @@ method for method, so code written for one runs on the other:
   ``{"key": KEY, "alive": true, "lease_s": L}`` every ``heartbeat_s`` on the topic
   ``/<prefix>/liveliness``, ``{"alive": false}`` when it is withdrawn or closed, and a watcher
   declares the token gone when nothing was heard for ``lease_s`` (1 s by default) — so a process
-  killed with SIGKILL is noticed within about ``lease_s + heartbeat_s``;
+  killed with SIGKILL is noticed within about ``lease_s + heartbeat_s``. A watcher judges only
+  what it had the chance to hear: every tick it also sends a beat of its own (``origin``,
+  ``sent``; a ``probe`` when it holds no token) and declares a token gone only when one of its
+  own beats sent after the token's deadline has come back — so a process that was starved of
+  CPU (its executor behind, the heartbeats queued unread) never takes its peers for dead;
 * a payload that is not strict JSON is dropped and logged, counted in ``dropped``, and handed to
   ``on_drop(topic, data, error)``; it never reaches a callback.
 
@@ -237,6 +241,8 @@ class Ros2Transport(QueuedDelivery, Transport):
         self._tokens: list[_Token] = []
         self._watches: list[_Watch] = []
         self._closed = False
+        self._origin = uuid.uuid4().hex  # tells this transport's own beats from the others'
+        self._heard_own = time.monotonic()  # when the latest own beat that came back was sent
         self._live_topic = ros_topic(self.prefix, LIVELINESS_TOPIC)
         self._live_pub = self.node.create_publisher(_String, self._live_topic, self._qos)
         self._live_sub = self.node.create_subscription(
@@ -405,9 +411,13 @@ class Ros2Transport(QueuedDelivery, Transport):
         if not self._closed:
             self._beat(token.key, False)
 
-    def _beat(self, key: str, alive: bool) -> None:
+    def _beat(self, key: str, alive: bool, *, probe: bool = False) -> None:
         msg = _String()
-        msg.data = json_encode({"key": key, "alive": alive, "lease_s": self.lease_s})
+        body = {"key": key, "alive": alive, "lease_s": self.lease_s}
+        body.update(origin=self._origin, sent=time.monotonic())
+        if probe:
+            body["probe"] = True
+        msg.data = json_encode(body)
         with contextlib.suppress(Exception):
             self._live_pub.publish(msg)
 
@@ -416,12 +426,18 @@ class Ros2Transport(QueuedDelivery, Transport):
             keys = [t.key for t in self._tokens if t.active]
         for key in keys:
             self._beat(key, True)
+        if not keys:
+            self._beat("", True, probe=True)
         now = time.monotonic()
+        # only what this transport had the chance to hear counts: a deadline is past only once
+        # an own beat sent after it came back (or, should own beats never come back, after 5
+        # leases)
+        heard = self._heard_own if now - self._heard_own < 5 * self.lease_s else now
         lost: list[tuple[_Watch, str]] = []
         with self._lock:
             for w in self._watches:
                 for key, deadline in list(w.alive.items()):
-                    if now > deadline:
+                    if now > deadline and heard > deadline:
                         del w.alive[key]
                         if key in w.silent:
                             w.silent.discard(key)
@@ -438,8 +454,15 @@ class Ros2Transport(QueuedDelivery, Transport):
             lease = float(data.get("lease_s", self.lease_s))
             if not 0 < lease < 3600:
                 raise ValueError(f"lease_s {lease} out of range")
+            own = data.get("origin") == self._origin
+            sent = float(data["sent"]) if own else 0.0
         except Exception as exc:
             self._drop(LIVELINESS_TOPIC, msg.data.encode("utf-8", errors="replace"), exc)
+            return
+        if own:
+            with self._lock:
+                self._heard_own = max(self._heard_own, sent)
+        if data.get("probe"):
             return
         now = time.monotonic()
         events: list[tuple[_Watch, bool]] = []
