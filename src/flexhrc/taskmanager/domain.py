@@ -44,6 +44,7 @@ holds (checked after each round and whenever the state changes), then the node i
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -111,8 +112,8 @@ class ActionSchema:
     line: int | None = field(default=None, compare=False)
     target: tuple[str, ...] = ()  # parameters the kind's motion aims at (object, place)
 
-    @property
-    def variables(self) -> tuple[str, ...]:
+    @functools.cached_property
+    def variables(self) -> tuple[str, ...]:  # read in every grounding: made once
         return tuple(v for v, _ in self.parameters)
 
 

@@ -68,7 +68,7 @@ class Timing:
     insert: float = 2.0
 
 
-@dataclass
+@dataclass(slots=True)
 class StepContext:
     """One agent's share of an action in the analytic simulator: what a timing model reads.
 
