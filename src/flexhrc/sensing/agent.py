@@ -124,17 +124,25 @@ class PerceptionAgent:
 
         return on_stop
 
+    def _human_action(self, data: Any) -> tuple[dict[str, Any], GroundAction] | None:
+        """A person's report on the ``human`` topic and the action it names (None: an answer to
+        the manager, or malformed — dropped and counted)."""
+        if isinstance(data, dict) and data.get("type") == "answer":
+            return None  # the operator answers the manager, not the camera
+        try:
+            msg = P.parse(data, expect="human_action")
+            return msg, ground(self.domain, msg["action"], (str(msg["agent"]),))
+        except FlexhrcError as exc:
+            self._bad(exc)
+            return None
+
     def _on_report(self, data: Any) -> None:
         """A reported human action: once the manager has it, the next look checks the belief
         it implies (a recognition may be false); a missed one implies nothing."""
-        if isinstance(data, dict) and data.get("type") == "answer":
-            return  # the operator answers the manager, not the camera
-        try:
-            msg = P.parse(data, expect="human_action")
-            action = ground(self.domain, msg["action"], (str(msg["agent"]),))
-        except FlexhrcError as exc:
-            self._bad(exc)
+        got = self._human_action(data)
+        if got is None:
             return
+        msg, action = got
         if msg.get("recognised") is False or len(action.args) < 2:
             return
         obj = action.args[1]
@@ -255,14 +263,10 @@ class PerceptionAgent:
 
     def _on_human(self, data: Any) -> None:
         self.received += 1
-        if isinstance(data, dict) and data.get("type") == "answer":
-            return  # the operator answers the manager, not the camera
-        try:
-            msg = P.parse(data, expect="human_action")
-            action = ground(self.domain, msg["action"], (str(msg["agent"]),))
-        except FlexhrcError as exc:
-            self._bad(exc)
+        got = self._human_action(data)
+        if got is None:
             return
+        msg, action = got
         if msg["id"] in self._seen_humans:
             return
         self._seen_humans.add(msg["id"])
