@@ -107,6 +107,15 @@ class FailureInjection:
         return [f for i, f in enumerate(self.failures) if self.counts.get(i, 0) < f.nth]
 
 
+def add_world_record(summary: dict[str, Any], world: object) -> None:
+    """Add to a summary's ``simulated`` how the arms' simulated world played each action (the
+    manager's simulator says how it scored them; in one process they are often one object)."""
+    summary["simulated"] = {
+        **summary.get("simulated", {}),
+        **(getattr(world, "simulated", None) or {}),
+    }
+
+
 class LocalCell:
     """One cooperation of ``scenario`` in this process (see the module docstring).
 
@@ -224,11 +233,7 @@ class LocalCell:
             self.close()
         if self.human_sensing is not None:
             summary["human_sensing"] = self.sensing_figures()
-        # and how the arms' world played each one (the same object unless told otherwise)
-        summary["simulated"] = {
-            **summary.get("simulated", {}),
-            **(getattr(self.injection.inner, "simulated", None) or {}),
-        }
+        add_world_record(summary, self.injection.inner)
         return RunResult(self.cell.tm.outcome, self.cell.tm.reason, self.events, summary)
 
     def close(self) -> None:

@@ -37,7 +37,7 @@ from typing import Any
 
 from flexhrc.cell import protocol as P
 from flexhrc.cell.components import HumanAgent, RobotAgent
-from flexhrc.cell.local import FailureInjection, InjectedFailure, RunResult
+from flexhrc.cell.local import FailureInjection, InjectedFailure, RunResult, add_world_record
 from flexhrc.errors import FlexhrcError
 from flexhrc.knowledge import KnowledgeBase
 from flexhrc.scenario.model import Scenario, WorldSpec
@@ -49,6 +49,7 @@ from flexhrc.sensing.truth import (
 )
 from flexhrc.sensing.world import SimulatedWorkspace
 from flexhrc.taskmanager.domain import Domain, GroundAction
+from flexhrc.taskmanager.operator import operator_seed
 from flexhrc.transport import InProcessBus
 
 
@@ -387,7 +388,7 @@ class PerceivedCell:
             if not domain.agent(who).is_human:
                 raise FlexhrcError(f"operator {who!r} is not a human agent of the domain")
             h = HumanAgent(
-                who, scenario, self.bus, profile=prof, seed=seed * 1009 + i,
+                who, scenario, self.bus, profile=prof, seed=operator_seed(seed, i),
                 takes=list(human_takes) if human_takes is not None and i == 0 else None,
                 execution=_ReportedHand(self.execution, world.hand),
                 on_executed=self.truth.on_executed, sensing=human_sensing,
@@ -426,11 +427,7 @@ class PerceivedCell:
         finally:
             self.close()
         events = self.events()
-        summary["simulated"] = {
-            **summary.get("simulated", {}),
-            **(getattr(self.injection.inner, "simulated", None) or {}),
-        }
-        summary["compute_recorded"] = True  # the manager's own timing, not read from a log
+        add_world_record(summary, self.injection.inner)
         summary["perception"] = self.perception.stats.to_dict()
         summary["perception"]["repaired"] = sum(1 for e in events if e["type"] == "repaired")
         summary["human_sensing"] = self.human_figures()
