@@ -728,13 +728,6 @@ class Cell:
         self._record("repaired", {"object": target, "by": f"operator denied {said}"})
         return self.tm.on_percept(self.now, retracted=[said])
 
-    def _deadlock_reason(self) -> str:
-        reason = stall_reason(self.tm)
-        if self.kb.consistent:
-            return reason
-        reasons = "; ".join(i.reason for i in self.kb.inconsistencies)
-        return f"{reason} (the knowledge base is inconsistent: {reasons})"
-
     def _helper(self, human: str) -> SimulatedOperator:
         """What an operator may do, as the in-process operators see it (no decision is taken
         here: the profile and its randomness live in the operator's agent)."""
@@ -1274,7 +1267,7 @@ class Cell:
                 idle_since = None
                 continue
             if not self.pending and self.quiescent is not None and self.quiescent():
-                self._end("failed", self._deadlock_reason())
+                self._end("failed", stall_reason(self.tm))
                 break
             if not self.pending and not self.awaited():
                 # nothing running, nothing to come: stuck, unless a lost agent may come back
@@ -1283,7 +1276,7 @@ class Cell:
                 else:
                     idle_since = idle_since or time.monotonic()
                 if idle_since is not None and time.monotonic() - idle_since >= self.idle_s:
-                    self._end("failed", self._deadlock_reason())
+                    self._end("failed", stall_reason(self.tm))
                     break
             self._resend_overdue()
             if time.monotonic() > deadline:

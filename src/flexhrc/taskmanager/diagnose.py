@@ -28,9 +28,14 @@ DEADLOCK = "deadlock: no agent has anything to do and the task is not solved"
 
 
 def stall_reason(tm: TaskManager) -> str:
-    """``DEADLOCK: what waits on what`` for a manager that can go no further."""
+    """``DEADLOCK: what waits on what`` for a manager that can go no further — and, when the
+    knowledge base is inconsistent (the manager waits for perception to settle it), why."""
     parts = [*_waiting_nodes(tm), *_waiting_hyperarcs(tm), *_infeasible(tm), *_agents(tm)]
-    return f"{DEADLOCK}: {'; '.join(parts)}" if parts else DEADLOCK
+    reason = f"{DEADLOCK}: {'; '.join(parts)}" if parts else DEADLOCK
+    if not tm.kb.consistent:
+        why = "; ".join(i.reason for i in tm.kb.inconsistencies)
+        reason += f" (the knowledge base is inconsistent: {why})"
+    return reason
 
 
 def _feasible(tm: TaskManager) -> list[str]:
