@@ -285,37 +285,9 @@ def _panel(what: str, seed: int, simulator: str | None, tmp: Path) -> dict[str, 
     return data
 
 
-# Where configurations differ today: bugs outside cli/ (the engine's agents, the ROS 2 arm node),
-# described in the reason. Strict, so a fix shows as XPASS and its entry goes.
-FOLLOWER_WORLD = (
-    "engine: each `flexhrc agent robot` process has its own simulated world and a joint command "
-    "is executed only by its lead arm (cmd/left), so the follower's world keeps the follower at "
-    "rest; on the kinematic model its next motion starts from there (table_assembly, seed 0: "
-    "approach(right, leg3) 2.24 s instead of 1.48 s; total 68.212014 s instead of 67.452014 s)"
-)
-ROS2_ONE_STEP = (
-    "ros2: over the arm nodes rest(left) (cmd 8, after the joint place_tabletop and hold) "
-    "takes 3.44 s instead of 3.42 s, one control step; every later time shifts by 0.02 s "
-    "(table_assembly, seed 0: total 67.472014 s instead of 67.452014 s; same hyper-arcs, agents "
-    "and by_agent). Not the other arm's published joint state (ignoring it changes nothing)"
-)
-MANAGER_AT_REST = (
-    "engine: over agent processes the manager's kinematic model of the robot never sees the "
-    "arms move (the arms' world is in their processes; acks carry end-effector positions, not "
-    "joint states), so it scores each branch from the robot at rest, while in one process "
-    "(`run`, in-process `cell`) it plans from where the arms are (the simulator and the arms' "
-    "world are one object): kitchen_drawer seed 0 makes 56.48 s instead of 56.22 s, gearbox "
-    "23.09 s instead of 23.93 s. Fix: the arms' acks carry their joint states into the "
-    "knowledge base and the kinematic model starts from them"
-)
-KNOWN: dict[tuple[str, str], str] = {
-    ("table_assembly", "zenoh-kinematic"): FOLLOWER_WORLD,
-    ("table_assembly", "ros2"): ROS2_ONE_STEP,
-    ("kitchen_drawer", "zenoh-kinematic"): MANAGER_AT_REST,
-    ("kitchen_drawer", "ros2"): MANAGER_AT_REST,
-    ("examples/gearbox", "zenoh-kinematic"): MANAGER_AT_REST,
-    ("examples/gearbox", "ros2"): MANAGER_AT_REST,
-}
+# Where configurations differ today, with the reason (strict xfails, so a fix shows as XPASS
+# and its entry goes). None: the arms' joints travel with commands and acks (docs/protocol.md).
+KNOWN: dict[tuple[str, str], str] = {}
 
 
 def _cases() -> list[Any]:

@@ -444,6 +444,16 @@ def _positions(kind: str) -> Rule:
     return rule
 
 
+def _joints(kind: str) -> Rule:
+    def rule(m: Mapping[str, Any]) -> str | None:
+        for arm, q in m.get("joints", {}).items():
+            if not isinstance(q, list) or not q or not all(_finite(x) for x in q):
+                return f"{kind}: joints of {arm!r} must be a list of finite numbers"
+        return None
+
+    return rule
+
+
 def _intent(m: Mapping[str, Any]) -> str | None:
     if not all(isinstance(x, str) for x in m["decided"]):
         return "intent: 'decided' must be a list of step names"
@@ -502,15 +512,21 @@ def _msg(kind: MessageType, doc: str, rules: tuple[Rule, ...] = (), **fields: Fi
 ID, INT_ID, TIME, OPT_TIME = Field(S, True), Field((int,), True), _nonneg(NUM, True), _nonneg(NUM)
 # fmt: off
 _MESSAGE_SCHEMAS = [
-    _msg("command", "manager → `cmd/<agent>`: do this action", (_listed("command", "agents"),),
+    _msg("command", "manager → `cmd/<agent>`: do this action",
+         (_listed("command", "agents"), _joints("command")),
          id=INT_ID, agents=Field((list,), True), action=Field(S, True), element=OPT_NAME,
          t=TIME, expected_s=OPT_TIME, world=Field((dict,)), realtime=OPT_TIME,
-         process=Field((bool,))),
+         process=Field((bool,)),
+         joints=Field((dict,), doc="where the manager's robot model has the command's arms "
+                      "(rad, {arm: [q]}); the agent starts from there")),
     _msg("stop", "manager → `cmd/<agent>`: stop that command",
          id=INT_ID, reason=OPT_NAME, t=OPT_TIME),
-    _msg("ack", "robot → `ack`: how a command ended", (_ack_status, _positions("ack")),
+    _msg("ack", "robot → `ack`: how a command ended",
+         (_ack_status, _positions("ack"), _joints("ack")),
          id=INT_ID, agent=Field(S, True), status=Field(S, True), reason=OPT_NAME, t=TIME,
-         duration=OPT_TIME, positions=Field((dict,))),
+         duration=OPT_TIME, positions=Field((dict,)),
+         joints=Field((dict,), doc="where the command left the arms it moved (rad, "
+                      "{arm: [q]}); the manager's robot model takes them")),
     _msg("suggestion", "manager → `suggest/<human>`: please do this step",
          (_listed("suggestion", "actions"),),
          id=ID, element=Field(S, True), actions=Field((list,), True), cost=Field(NUM), t=TIME,

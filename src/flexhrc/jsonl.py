@@ -53,10 +53,3 @@ def read_jsonl_lines(
             raise FormatError(f"missing {', '.join(repr(k) for k in missing)}", path, i)
         out.append((i, obj))
     return out
-
-
-def write_jsonl(path: str | Path, objects: Iterable[dict[str, Any]]) -> None:
-    """Write ``objects`` as JSON lines, atomically (the old file or the new one, never half)."""
-    from flexhrc.files import atomic_write_text
-
-    atomic_write_text(path, "".join(json.dumps(obj) + "\n" for obj in objects))

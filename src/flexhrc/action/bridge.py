@@ -33,8 +33,10 @@ are. :attr:`KinematicTaskSimulator.simulated` records how each action was simula
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
+
+import numpy as np
 
 from flexhrc.knowledge import KnowledgeBase
 from flexhrc.taskmanager.domain import Domain, GroundAction
@@ -84,6 +86,21 @@ class KinematicTaskSimulator:
         ``kinematic`` (on the robot model), ``analytic`` (timed by the analytic model) or
         ``none`` (a kind without motion)."""
         return simulated_record(self._simulated)
+
+    # -- the arms' joints, as the cell protocol carries them ----------------------------------
+    def joint_state(self, arms: Iterable[str]) -> dict[str, list[float]]:
+        """Where ``arms`` are now (rad), those of the robot model among them."""
+        q = self.execution.state.q
+        return {a: [float(v) for v in q[a]] for a in arms if a in q}
+
+    def set_joint_state(self, joints: Mapping[str, Sequence[float]]) -> None:
+        """Put the model's arms where an agent or the manager says they are: over processes
+        the manager's model and each arm's world are separate objects, and each plans from
+        where the arms really are only if told (in one process they are one object)."""
+        q = self.execution.state.q
+        for arm, values in joints.items():
+            if arm in q and len(values) == len(q[arm]):
+                q[arm] = np.asarray(values, dtype=float)
 
     # -- geometry -------------------------------------------------------------------------
     def _pos(self, name: str, kb: KnowledgeBase, positions: dict[str, Vec3]) -> Vec3:

@@ -337,6 +337,15 @@ class RobotAgent(_Agent):
         its end (``ack["duration"]`` simulated seconds). A hook: the ROS 2 arm publishes the
         command's joint trajectory here."""
 
+    def _take_joints(self, joints: dict[str, list[float]]) -> None:
+        """Start from where the manager's robot model has the command's arms: in a process of
+        its own this arm's world does not see the other arms' commands — nor its own part of a
+        joint command its lead arm executed. (The ROS 2 arm reads the arms' joint states
+        instead.)"""
+        set_joint_state = getattr(self.execution, "set_joint_state", None)
+        if joints and set_joint_state is not None:
+            set_joint_state(joints)
+
     def _command(self, msg: dict[str, Any]) -> None:
         cid = int(msg["id"])
         if cid in self.acks:  # already done: the manager missed the answer (it restarted)
@@ -369,6 +378,7 @@ class RobotAgent(_Agent):
             self.domain, msg["action"], tuple(msg["agents"]), process=bool(msg.get("process"))
         )
         sync_world(self.kb, msg.get("world") or {})
+        self._take_joints(msg.get("joints") or {})
         positions = {k: o.position for k, o in self.kb.objects.items()}
         before = dict(positions)
         self.executed.append(cid)
@@ -386,6 +396,8 @@ class RobotAgent(_Agent):
             if failed is not None and status == "done":
                 status, reason = "failed", failed
         moved = {k: list(map(float, p)) for k, p in positions.items() if before.get(k) != p}
+        joint_state = getattr(self.execution, "joint_state", None)
+        joints = {} if joint_state is None else joint_state(action.agents)
         ack = P.message(
             "ack",
             id=cid,
@@ -395,6 +407,7 @@ class RobotAgent(_Agent):
             t=float(msg["t"]) + duration,  # unrounded: the cell's clock adds up exactly
             duration=round(duration, 6),
             positions=moved if status == "done" else {},
+            **({"joints": joints} if joints else {}),
         )
         self.running.add(cid)
         self.trace(f"execute cmd {cid} {action} ({duration:.2f} s)")

@@ -23,11 +23,9 @@ What a run adds to the loop is only configuration and observation:
 
 from __future__ import annotations
 
-import json
 import time
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 from flexhrc.cell.components import HumanAgent, RobotAgent, ScenarioLike
@@ -70,13 +68,6 @@ class RunResult:
     events: list[dict[str, Any]]
     summary: dict[str, Any]
 
-    def save_log(self, path: str | Path) -> None:
-        """Write the whole log at once, atomically (the CLI streams it instead, event by event,
-        with :class:`flexhrc.files.EventLogWriter` as an observer)."""
-        from flexhrc.files import atomic_write_text
-
-        atomic_write_text(path, "".join(json.dumps(ev) + "\n" for ev in self.events))
-
 
 class FailureInjection:
     """An execution model that fails the N-th execution of an action, as told (the counts are
@@ -102,6 +93,16 @@ class FailureInjection:
                 if n == f.nth:
                     report = StepReport(f.status, report.duration_s / 2, f.reason)
         return report
+
+    def joint_state(self, arms: Iterable[str]) -> dict[str, list[float]]:
+        """The wrapped world's arms' joints (none when it has no robot model)."""
+        joint_state = getattr(self.inner, "joint_state", None)
+        return {} if joint_state is None else dict(joint_state(arms))
+
+    def set_joint_state(self, joints: Mapping[str, Sequence[float]]) -> None:
+        set_joint_state = getattr(self.inner, "set_joint_state", None)
+        if set_joint_state is not None:
+            set_joint_state(joints)
 
     def unfired(self) -> list[InjectedFailure]:
         return [f for i, f in enumerate(self.failures) if self.counts.get(i, 0) < f.nth]
@@ -182,6 +183,7 @@ class LocalCell:
             idle_s=0.0,  # every agent is in this process: nothing can come later
             publish_state=False,
             quiescent=self._quiescent,
+            shared_model=execution is simulator,  # the arms execute on the manager's model
         )
         arm_model: ExecutionModel = self.injection
         self.agents: list[RobotAgent | HumanAgent] = [

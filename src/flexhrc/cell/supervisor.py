@@ -12,6 +12,12 @@ of inputs — and so every decision — is then the same on every run with the s
 the processes' speeds. With external agents and ``realtime > 0`` the agents take real time and the
 cell handles answers as they come, like a real cell.
 
+Where the arms are. On the kinematic robot model the manager scores each branch from where the
+arms are. Each command carries the ``joints`` of its arms as the manager's model has them (an arm
+in a process of its own starts from there), the model moves through the command as it is sent,
+and the arm's ack carries the ``joints`` it really ended at. In one process whose arms execute
+on the manager's model itself (``shared_model=True``) the model moves with them.
+
 Lost agents. Over Zenoh every agent holds a liveliness token ``alive/<agent>``. When it goes (the
 process died), the cell stores ``agent_down``, tells the manager the agent is unavailable and
 acknowledges each command it was running as ``failed`` with reason ``agent lost`` (stored acks,
@@ -44,7 +50,7 @@ from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -112,6 +118,7 @@ class Cell:
         idle_s: float = 0.5,
         publish_state: bool = True,
         quiescent: Callable[[], bool] | None = None,
+        shared_model: bool = False,
     ) -> None:
         if not realtime >= 0 or realtime != realtime or realtime == float("inf"):
             raise FlexhrcError(f"--realtime must be a finite number >= 0, got {realtime}")
@@ -133,6 +140,8 @@ class Cell:
         # agents in this process: ``quiescent()`` says none of them has anything left to say,
         # so an agent the loop waits for (e.g. an operator no one plays) will never answer
         self.quiescent = quiescent
+        self.shared_model = shared_model
+        self._start_joints: dict[int, dict[str, Any]] = {}  # command id -> its "joints"
         self._stop_reason: str | None = None
         self._command_start: dict[int, float] = {}
         self.graph = scenario.online_graph()
@@ -644,6 +653,10 @@ class Cell:
         if kind == "ack":
             cid = int(body["id"])
             self.acked.add(cid)
+            if body.get("joints"):  # where the arms are: the robot model plans from there
+                set_joint_state = getattr(tm.simulator, "set_joint_state", None)
+                if set_joint_state is not None:
+                    set_joint_state(body["joints"])
             cmd = self.commands.get(cid)
             if cmd is not None and body["status"] == "done":
                 positions = body.get("positions") or {}
@@ -743,7 +756,7 @@ class Cell:
 
     def _offer_options(self) -> None:
         """Send ``options`` to each idle operator that acts on its own and has a newly reachable
-        step it may do alone (it decides once per step, as :meth:`SimulatedOperator.consider`)."""
+        step it may do alone (it decides once per step, :meth:`SimulatedOperator.decide`)."""
         if not self.started or not self.begun or self.tm.done:
             return
         for human, profile in sorted(self.operators.items()):
@@ -854,6 +867,8 @@ class Cell:
                 if not self.replaying:
                     self._record("command", body)
                     self.stored_commands.add(d.id)
+                self._start_joints[d.id] = self._joints_of(d.agents)
+                self._predict(d)
                 # a joint command goes to its first agent, which drives all of them (as one
                 # execution model does); the others are busy with it
                 self._send_command(d.agents[0], d)
@@ -955,8 +970,27 @@ class Cell:
                 world=world_of(self.kb),
                 realtime=self.agent_speed,
                 process=bool(getattr(cmd, "process", False)),
+                **self._start_joints.get(cmd.id, {}),
             ),
         )
+
+    def _predict(self, cmd: Command) -> None:
+        """Move the manager's robot model through a robot command it sends, as the arm will
+        move, so that it plans the next branches from where the arms will be; the arm's ack
+        then says where they really ended. Arms that execute on the model itself (one process,
+        ``shared_model``) move it already."""
+        model = self.tm.simulator
+        if self.shared_model or not hasattr(model, "set_joint_state"):
+            return
+        positions = {k: o.position for k, o in self.kb.objects.items()}
+        model.execute(cmd.action, positions, self.kb, self.domain)  # type: ignore[attr-defined]
+
+    def _joints_of(self, arms: Sequence[str]) -> dict[str, Any]:
+        """``{"joints": ...}``: where the manager's robot model has ``arms`` (nothing for a
+        model without joints)."""
+        joint_state = getattr(self.tm.simulator, "joint_state", None)
+        joints = {} if joint_state is None else joint_state(arms)
+        return {"joints": joints} if joints else {}
 
     def _send_suggestion(self, human: str, sid: str) -> None:
         st = self.agents[human]

@@ -23,7 +23,7 @@ from pathlib import Path
 from typing import Any
 
 from flexhrc.errors import FlexhrcError, FormatError
-from flexhrc.logic import Literal, parse_conjunction, parse_literal
+from flexhrc.logic import Literal, parse_literal
 from flexhrc.representation import HierarchicalGraph
 from flexhrc.representation.graph import AndOrGraph
 from flexhrc.scenario.model import (
@@ -851,7 +851,3 @@ def _node_processes(g: AndOrGraph) -> list[str]:
             except FormatError:
                 out.append(p)
     return out
-
-
-def parse_facts(items: Iterable[str]) -> tuple[Literal, ...]:
-    return parse_conjunction(list(items))

@@ -367,7 +367,7 @@ class PerceivedCell:
             scenario, self.bus, liveliness=False, simulator=self.simulator, seed=seed,
             watchers=["perception"], name=name, realtime=realtime, ordered=True,
             reaction=reaction, observers=[self._log.append], idle_s=0.0,
-            quiescent=self._quiescent,
+            quiescent=self._quiescent, shared_model=self.execution is self.simulator,
         )  # fmt: skip
         pairs = (
             list(humans)

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import statistics
 import time
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -195,10 +195,6 @@ class PerceptionComponent:
 
     def close(self) -> None:
         self.camera.close()
-
-
-def perceivable_types(world: SimulatedWorkspace) -> Iterable[str]:
-    return sorted({p.type for p in world.parts.values()})
 
 
 __all__ = ["PerceptionComponent", "PerceptionStats", "PerceptionUpdate", "rules_for"]

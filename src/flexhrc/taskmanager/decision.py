@@ -90,9 +90,6 @@ class ActionStateTable:
     def running(self) -> list[Row]:
         return [r for r in self.rows.values() if r.status == "running"]
 
-    def to_list(self) -> list[dict[str, Any]]:
-        return [r.to_dict() for r in sorted(self.rows.values(), key=lambda r: r.cost)]
-
 
 @dataclass
 class Branch:

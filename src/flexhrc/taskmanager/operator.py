@@ -55,25 +55,13 @@ def operator_seed(seed: int, index: int) -> int:
 
 
 @dataclass
-class OperatorPlan:
-    """What an operator is doing: the ground actions, the next one, and why."""
-
-    steps: list[GroundAction]
-    index: int = 0
-    suggested: bool = False
-    element: str | None = None
-
-
-@dataclass
 class Intention:
     """An operator decided to act on its own on ``hyperarc`` (reaching ``step``), after
-    ``delay_s``, with the ground ``actions`` it chose when it decided (None: nothing of it was
-    free then — it gives up when the time comes)."""
+    ``delay_s``."""
 
     hyperarc: str
     step: str
     delay_s: float
-    actions: list[GroundAction] | None = None
 
 
 @dataclass
@@ -85,9 +73,7 @@ class SimulatedOperator:
     seed: int = 0
     takes: set[int | str] | None = None
     rng: random.Random = field(init=False)
-    plan: OperatorPlan | None = None
     steps_seen: list[str] = field(default_factory=list)  # target nodes, in order of appearance
-    decided: set[str] = field(default_factory=set)
 
     def __post_init__(self) -> None:
         if self.profile not in PROFILES:
@@ -97,10 +83,6 @@ class SimulatedOperator:
                 f"unknown human profile {self.profile!r}; choose one of {', '.join(PROFILES)}"
             )
         self.rng = random.Random(self.seed)
-
-    @property
-    def acts_alone(self) -> bool:
-        return self.profile != "passive" or self.takes is not None
 
     # -- what it may do -------------------------------------------------------------------
     def may_do(self, tm: TaskManager, hyperarc: str) -> bool:
@@ -135,29 +117,6 @@ class SimulatedOperator:
         return out
 
     # -- deciding on its own ----------------------------------------------------------------
-    def consider(self, tm: TaskManager) -> Intention | None:
-        """Called whenever something changed: decide (once per step) whether to act alone."""
-        if not self.acts_alone or self.plan is not None or tm.done:
-            return None
-        if any(ex.owner == "human" and self.name in ex.agents for ex in tm.executions.values()):
-            return None
-        for step, arcs in self.options(tm).items():
-            if step not in self.steps_seen:
-                self.steps_seen.append(step)
-            if step in self.decided:
-                continue
-            self.decided.add(step)
-            intention = self.decide(step, arcs)
-            if intention is None:
-                continue
-            # its objects are chosen now, from what is free now (as an operator agent of a live
-            # cell chooses from its ``options``); when it starts they must still be free
-            branches = self.candidate_branches(tm, tm.kb, intention.hyperarc)
-            if branches:
-                intention.actions = self.pick_branch(tm.kb, tm.domain, branches)
-            self.plan = OperatorPlan([], 0, False, None)  # thinking
-            return intention
-        return None
 
     def decide(self, step: str, arcs: Sequence[tuple[float, str]]) -> Intention | None:
         """The profile's choice, once, for a newly reachable ``step`` whose hyper-arcs this
@@ -185,29 +144,6 @@ class SimulatedOperator:
             return None
         hyperarc = self.rng.choice(list(arcs))[1] if self.profile == "random" else arcs[0][1]
         return Intention(hyperarc, step, delay)
-
-    def start_own(
-        self, tm: TaskManager, kb: KnowledgeBase, intention: Intention
-    ) -> list[GroundAction] | None:
-        """After thinking: the ground actions it now does alone — those it chose when it decided,
-        if they are still free (None: it gives up, someone else got there first)."""
-        if self.plan is None or self.plan.suggested:
-            return None
-        arcs = [h for _, h in self.options(tm).get(intention.step, [])]
-        chosen = [str(a) for a in intention.actions or ()]
-        free = (
-            intention.actions is not None
-            and intention.hyperarc in arcs
-            and any(
-                [str(a) for a in b] == chosen
-                for b in self.candidate_branches(tm, kb, intention.hyperarc)
-            )
-        )
-        if not free:
-            self.plan = None
-            return None
-        self.plan = OperatorPlan(list(intention.actions or ()), 0, False, None)
-        return self.plan.steps
 
     def candidate_branches(
         self, tm: TaskManager, kb: KnowledgeBase, hyperarc: str
@@ -278,11 +214,6 @@ class SimulatedOperator:
                     out.update(a for a in step.args if a in kb.objects and a not in agents)
         return out
 
-    # -- following the Task Manager ----------------------------------------------------------
-    def follow(self, element: str, actions: list[GroundAction]) -> None:
-        """A suggestion addressed to it: it drops its own idea and does what is asked."""
-        self.plan = OperatorPlan(list(actions), 0, True, element)
-
     def holder_of(self, kb: KnowledgeBase, domain: Domain, step: GroundAction) -> str | None:
         """Another agent holding an object this step works on (then the step cannot be done)."""
         return self._held_by_other(kb, domain, [step])
@@ -301,7 +232,7 @@ class SimulatedOperator:
         return None
 
 
-__all__ = ["PROFILES", "Intention", "OperatorPlan", "SimulatedOperator", "operator_seed"]
+__all__ = ["PROFILES", "Intention", "SimulatedOperator", "operator_seed"]
 
 
 def _local(qualified: str) -> str:

@@ -34,17 +34,6 @@ TABLE_SETTING_TASK = (
     "(THEN placemat (AND (THEN plate bowl) fork spoon knife (OR wineglass cup soda_can)))"
 )
 ABSTRACT_TASK = "(THEN a (AND (THEN b c) (OR d e (THEN f g))))"
-BEHAVIOR_NAMES = (
-    "placemat",
-    "plate",
-    "bowl",
-    "fork",
-    "spoon",
-    "knife",
-    "wineglass",
-    "cup",
-    "soda_can",
-)
 LAYOUTS = (1, 2, 3)
 
 #: The orders reported in the paper (Sec. IV) for the three layouts.
