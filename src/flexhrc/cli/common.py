@@ -61,6 +61,41 @@ def add_cell_options(
     )
 
 
+def add_transport_options(p: argparse.ArgumentParser, *, default: str = "inprocess") -> None:
+    """``--transport`` (unless Zenoh is the only one), ``--listen``, ``--connect``, ``--cell``:
+    how a cell (``flexhrc cell``) or an agent process (``flexhrc agent``) reaches the others."""
+    from flexhrc.cell.serve import DEFAULT_LISTEN
+
+    if default == "inprocess":
+        p.add_argument(
+            "--transport",
+            choices=["inprocess", "zenoh"],
+            default="inprocess",
+            help="message transport (default inprocess; zenoh for several processes)",
+        )
+    p.add_argument(
+        "--listen",
+        action="append",
+        default=[],
+        metavar="ENDPOINT",
+        help=f"Zenoh endpoint to listen on (repeatable; default {DEFAULT_LISTEN} for the cell, "
+        "a random loopback port for an agent)",
+    )
+    p.add_argument(
+        "--connect",
+        action="append",
+        default=[],
+        metavar="ENDPOINT",
+        help="Zenoh endpoint to connect to (a router or the cell; repeatable)",
+    )
+    p.add_argument(
+        "--cell",
+        default="default",
+        metavar="NAME",
+        help="cell name: keys live under flexhrc/NAME/ (default 'default')",
+    )
+
+
 def add_json_flag(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--json", action="store_true", help="print one machine-readable JSON document on stdout"
@@ -270,3 +305,12 @@ def serve_agent(
             agent.close()
         transport.close()
     return agent, outcome
+
+
+def quiet_library_logs() -> None:
+    """The command's trace already shows every dropped message: keep the library's warnings
+    (flexhrc.cell, flexhrc.transport) from printing them a second time."""
+    import logging
+
+    for name in ("flexhrc.cell", "flexhrc.transport"):
+        logging.getLogger(name).addHandler(logging.NullHandler())
