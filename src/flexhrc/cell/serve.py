@@ -432,17 +432,3 @@ def serve_until_end(
         transport.close()
     return agent, outcome
 
-
-__all__ = [
-    "DEFAULT_LISTEN",
-    "AgentConfig",
-    "CellConfig",
-    "Component",
-    "join_cell",
-    "serve_cell",
-    "serve_until_end",
-    "summary_line",
-    "trace_line",
-    "write_ready_file",
-    "zenoh_for_cell",
-]

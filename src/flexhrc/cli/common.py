@@ -117,12 +117,10 @@ def add_segments_option(parser: argparse.ArgumentParser) -> None:
 
 def emit(args: argparse.Namespace, data: Any, text: Callable[[], str] | str | None = None) -> None:
     """Print ``data`` as JSON when ``--json`` was given, else the human-readable ``text``."""
-    if getattr(args, "json", False):
-        json.dump(data, sys.stdout, indent=2, default=_json_default)
-        sys.stdout.write("\n")
-        return
-    if text is None:
-        json.dump(data, sys.stdout, indent=2, default=_json_default)
+    if getattr(args, "json", False) or text is None:
+        from flexhrc.files import json_default
+
+        json.dump(data, sys.stdout, indent=2, default=json_default)
         sys.stdout.write("\n")
         return
     sys.stdout.write((text() if callable(text) else text).rstrip("\n") + "\n")
@@ -239,32 +237,6 @@ def check_outputs(
         seen[key] = option
 
 
-def existing_file(value: str) -> Path:
-    path = Path(value)
-    if not path.exists():
-        raise FlexhrcError(f"{value}: no such file")
-    return path
-
-
-def _json_default(obj: Any) -> Any:
-    if hasattr(obj, "to_dict"):
-        return obj.to_dict()
-    if isinstance(obj, Path):
-        return str(obj)
-    try:
-        import numpy as np
-
-        if isinstance(obj, np.generic):
-            return obj.item()
-        if isinstance(obj, np.ndarray):
-            return obj.tolist()
-    except ImportError:  # pragma: no cover
-        pass
-    if isinstance(obj, set | frozenset):
-        return sorted(obj)
-    raise TypeError(f"not JSON serialisable: {type(obj).__name__}")
-
-
 class TermFlag:
     """SIGTERM ends an agent's or node's loop (so its liveliness token is withdrawn on the way
     out) instead of killing the process: call it to ask whether the signal came."""
@@ -288,23 +260,11 @@ _Agent = TypeVar("_Agent")
 def serve_agent(
     make: Callable[[], _Agent], transport: Any, say: Callable[[str], None], ready: str
 ) -> tuple[_Agent, str]:
-    """Make an agent on ``transport`` and serve the cell until it ends (or SIGTERM): says
-    ``ready`` once it is up and the cell's outcome at the end; closes the agent and the
-    transport whatever happens. Returns the agent and the outcome (``stopped`` on SIGTERM)."""
-    from flexhrc.cell.components import run_agent
+    """:func:`flexhrc.cell.serve.serve_until_end` until the cell ends or SIGTERM comes
+    (outcome ``stopped``)."""
+    from flexhrc.cell.serve import serve_until_end
 
-    stop = TermFlag()
-    agent: Any = None
-    try:
-        agent = make()
-        say(ready)
-        outcome = run_agent(agent, transport, until=stop)
-        say(f"cell ended: {outcome}")
-    finally:
-        if agent is not None:
-            agent.close()
-        transport.close()
-    return agent, outcome
+    return serve_until_end(make, transport, say=say, ready=ready, until=TermFlag())
 
 
 def quiet_library_logs() -> None:

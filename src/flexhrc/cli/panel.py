@@ -2,7 +2,7 @@
 
 Only translates arguments into a :class:`flexhrc.web.local.PanelConfig`, calls
 :func:`flexhrc.web.serve_panel` and prints its report. Also the ``--web HOST:PORT [--token T]``
-options other commands (``flexhrc cell``) share: :func:`add_web_options` and :func:`start_panel`.
+options other commands (``flexhrc cell``) share: :func:`add_web_options`, :func:`check_web`.
 """
 
 from __future__ import annotations
@@ -56,12 +56,6 @@ def serve(address: tuple[str, int], token: str | None, backend: Any) -> Any:
     server = PanelServer(backend, address[0], address[1], token=token).start()
     server.announce()
     return server
-
-
-def start_panel(args: argparse.Namespace, backend: Any) -> Any:
-    """Start the panel server for ``--web`` (None when not asked); checks the address first."""
-    address = check_web(args)
-    return None if address is None else serve(address, args.token, backend)
 
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg, unused-ignore]
