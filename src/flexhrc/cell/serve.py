@@ -40,6 +40,7 @@ from flexhrc.cell.components import (
 from flexhrc.cell.store import EventStore
 from flexhrc.cell.supervisor import Cell
 from flexhrc.errors import FlexhrcError
+from flexhrc.files import OutputPathError, atomic_write_text, check_output
 from flexhrc.taskmanager.operator import PROFILES, operator_seed
 from flexhrc.taskmanager.replay import solved_by_line
 from flexhrc.transport import InProcessBus, Transport
@@ -290,14 +291,10 @@ def trace_line(ev: dict[str, Any]) -> str | None:
 
 def write_ready_file(path: str | Path, record: dict[str, Any]) -> None:
     """Write ``record`` as JSON to ``path`` atomically (a reader sees all of it or nothing)."""
-    target = Path(path)
-    tmp = target.with_name(f".{target.name}.{os.getpid()}.tmp")
     try:
-        tmp.write_text(json.dumps(record) + "\n")
-        os.replace(tmp, target)
-    except OSError as exc:
-        tmp.unlink(missing_ok=True)
-        raise FlexhrcError(f"--ready-file {path}: cannot write it ({exc.strerror})") from None
+        atomic_write_text(path, json.dumps(record) + "\n")
+    except OutputPathError as exc:
+        raise FlexhrcError(f"--ready-file {exc}") from None
 
 
 def zenoh_for_cell(
@@ -367,8 +364,6 @@ def join_cell(
     if config.kind == "human":
         check_profile(config.profile)
     if config.journal:
-        from flexhrc.files import check_output
-
         check_output(config.journal, option="--journal")
     transport = zenoh_for_cell(config.cell, config.listen, config.connect, warn=progress)
 
@@ -431,4 +426,3 @@ def serve_until_end(
             agent.close()
         transport.close()
     return agent, outcome
-

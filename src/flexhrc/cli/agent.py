@@ -9,6 +9,7 @@ from typing import Any
 from flexhrc.cli.common import (
     TermFlag,
     add_segments_option,
+    add_simulator_option,
     add_transport_options,
     emit,
     progress,
@@ -27,7 +28,6 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
     )
     asub = p.add_subparsers(dest="agent_kind", metavar="KIND", required=True)
     r = asub.add_parser("robot", help="a simulated robot arm (kinematic simulator)")
-    r.add_argument("scenario", metavar="SCENARIO", help="the cell's scenario (name or file)")
     r.add_argument("--arm", required=True, metavar="NAME", help="which arm (e.g. left)")
     r.add_argument(
         "--journal",
@@ -35,19 +35,13 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
         help="keep the commands this arm started and finished (JSON lines), so a restarted "
         "agent process never executes a command id twice",
     )
-    r.add_argument(
-        "--simulator",
-        choices=["auto", "analytic", "kinematic"],
-        default="auto",
-        help="the simulated world (default: the scenario's simulator)",
-    )
+    add_simulator_option(r, "the simulated world (default: the scenario's simulator)")
     _common(r)
     r.set_defaults(func=cmd_agent)
     h = asub.add_parser(
         "human",
         help="a simulated operator: follows suggestions and, unless passive, acts on its own",
     )
-    h.add_argument("scenario", metavar="SCENARIO", help="the cell's scenario (name or file)")
     h.add_argument("--name", required=True, metavar="NAME", help="which operator (e.g. human)")
     h.add_argument(
         "--profile",
@@ -64,12 +58,12 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
         help="the cell's perception: the head camera renders the simulated workspace after "
         "every action that changes it and sends percepts (sim and perception extras)",
     )
-    e.add_argument("scenario", metavar="SCENARIO")
     _common(e)
     e.set_defaults(func=cmd_agent_perception)
 
 
 def _common(p: argparse.ArgumentParser) -> None:
+    p.add_argument("scenario", metavar="SCENARIO", help="the cell's scenario (name or file)")
     add_transport_options(p, default="zenoh")
     add_segments_option(p)
     p.add_argument("--seed", type=int, default=0, help="scenario seed (same as the cell's)")

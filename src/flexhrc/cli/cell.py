@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import sys
 from typing import Any
 
 from flexhrc.cell.serve import trace_line
@@ -13,6 +12,8 @@ from flexhrc.cli.common import (
     add_segments_option,
     add_transport_options,
     emit,
+    log,
+    progress,
     quiet_library_logs,
 )
 
@@ -90,16 +91,11 @@ def cmd_cell(args: argparse.Namespace) -> int:
     )
     web = check_web(args)  # a non-loopback --web without --token is refused before any work
     scenario = load_scenario(args.scenario, seed=args.seed, segments=args.segments)
-    stream = sys.stderr if args.json else sys.stdout
 
-    def progress(msg: str) -> None:
-        if not args.quiet:
-            print(msg, file=sys.stderr, flush=True)
-
-    def trace(ev: dict[str, Any]) -> None:
+    def trace(ev: dict[str, Any]) -> None:  # on stderr under --json, as every live trace
         line = trace_line(ev)
-        if line and not args.quiet:
-            print(line, file=stream, flush=True)
+        if line:
+            log(args, line)
 
     servers: list[Any] = []
 
@@ -112,7 +108,11 @@ def cmd_cell(args: argparse.Namespace) -> int:
 
     try:
         data = serve_cell(
-            scenario, config, trace=trace, progress=progress, attach=[panel] if web else []
+            scenario,
+            config,
+            trace=None if args.quiet else trace,
+            progress=None if args.quiet else progress,
+            attach=[panel] if web else [],
         )
     finally:
         for server in servers:

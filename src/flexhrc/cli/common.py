@@ -14,6 +14,7 @@ from flexhrc.errors import FlexhrcError
 
 #: The largest seed any command accepts (numpy's generators take 0 .. 2**32 - 1).
 MAX_SEED = 2**32 - 1
+SIMULATORS = ("auto", "analytic", "kinematic")
 
 
 def finite_nonneg(value: str) -> float:
@@ -48,10 +49,7 @@ def add_cell_options(
         help="0 (default): as fast as the agents answer; SPEED > 0: actions take their "
         "simulated time divided by SPEED",
     )
-    p.add_argument(
-        "--simulator", choices=["auto", "analytic", "kinematic"], default="auto",
-        help=simulator_help,
-    )  # fmt: skip
+    add_simulator_option(p, simulator_help)
     p.add_argument(
         "--wait",
         type=float,
@@ -94,6 +92,11 @@ def add_transport_options(p: argparse.ArgumentParser, *, default: str = "inproce
         metavar="NAME",
         help="cell name: keys live under flexhrc/NAME/ (default 'default')",
     )
+
+
+def add_simulator_option(p: argparse.ArgumentParser, help: str) -> None:
+    """``--simulator auto|analytic|kinematic`` (default ``auto``: the scenario's choice)."""
+    p.add_argument("--simulator", choices=SIMULATORS, default="auto", help=help)
 
 
 def add_json_flag(parser: argparse.ArgumentParser) -> None:

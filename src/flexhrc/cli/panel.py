@@ -12,7 +12,7 @@ import sys
 import time
 from typing import Any
 
-from flexhrc.cli.common import add_json_flag, add_segments_option, emit
+from flexhrc.cli.common import add_json_flag, add_segments_option, add_simulator_option, emit
 from flexhrc.errors import FlexhrcError
 
 
@@ -97,13 +97,8 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
         default=1.0,
         help="simulated seconds per second for the arms (default 1: real time)",
     )
-    from flexhrc.web.local import SIMULATORS
-
-    p.add_argument(
-        "--simulator",
-        choices=SIMULATORS,
-        default="auto",
-        help="branch simulator and the arms' simulated world (default: the scenario's)",
+    add_simulator_option(
+        p, "branch simulator and the arms' simulated world (default: the scenario's)"
     )
     p.add_argument("--store", metavar="FILE.db", help="keep every event in this SQLite file")
     p.add_argument(
