@@ -17,24 +17,13 @@ MAX_SEED = 2**32 - 1
 SIMULATORS = ("auto", "analytic", "kinematic")
 
 
-def finite_nonneg(value: str) -> float:
-    """An argparse type: a finite number >= 0 (``--realtime``)."""
-    try:
-        x = float(value)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {value!r}") from None
-    if not math.isfinite(x) or x < 0:
-        raise argparse.ArgumentTypeError(f"must be a finite number >= 0, got {value}")
-    return x
-
-
 def add_cell_options(
     p: argparse.ArgumentParser,
     *,
     wait_s: float,
     waits_for: str,
     simulator_help: str,
-    realtime_type: Callable[[str], float] = finite_nonneg,
+    realtime_type: Callable[[str], float] | None = None,
 ) -> None:
     """The options every command that runs the cell's loop shares (``flexhrc cell``,
     ``flexhrc ros2 cell``): the store and resume, the pace, the branch simulator, how long to
@@ -43,7 +32,7 @@ def add_cell_options(
     p.add_argument("--resume", action="store_true", help="continue the cooperation kept in --store")
     p.add_argument(
         "--realtime",
-        type=realtime_type,
+        type=realtime_type or float_range(0),  # a finite number >= 0
         default=0.0,
         metavar="SPEED",
         help="0 (default): as fast as the agents answer; SPEED > 0: actions take their "
