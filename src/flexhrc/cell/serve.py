@@ -1,19 +1,16 @@
 """``flexhrc cell`` and ``flexhrc agent`` as functions: a config in, the summary out.
 
-* :class:`CellConfig` and :func:`serve_cell` — one cell of a scenario as ``flexhrc cell`` runs
-  it: the transport (the in-process bus or Zenoh), the simulated agents inside or the agent
-  processes it waits for, the event store, the ready file. Returns the summary
-  ``flexhrc cell --json`` prints (:func:`summary_line` is its text).
-* :class:`AgentConfig` and :func:`join_cell` — ``flexhrc agent robot|human``: one simulated agent
+* :func:`serve_cell` (:class:`CellConfig`) — a cell of a scenario as ``flexhrc cell`` runs it:
+  the transport, the simulated agents inside or the agent processes it waits for, the store,
+  the ready file; returns the summary of ``--json`` (:func:`summary_line`: its text).
+* :func:`join_cell` (:class:`AgentConfig`) — ``flexhrc agent robot|human``: a simulated agent
   that joins a cell over Zenoh and serves it until the cell ends.
 
-Every option is checked when its config is made, in the words of the command's option
-(``--wait must be a positive number of seconds``), so a script and the command fail alike and
-before any work. The cell stands below :mod:`flexhrc.scenario` and the panel (:mod:`flexhrc.web`),
-so the caller brings both: a loaded scenario (:func:`flexhrc.scenario.load_scenario`), and for the
-panel an ``attach`` factory — called with the :class:`~flexhrc.cell.supervisor.Cell` once it
-exists, it returns a component the loop polls like an agent and closes at the end (``poll()``,
-``close()``: a :class:`flexhrc.web.live.CellPanel`, ``docs/cell.md``).
+A config checks its options when it is made, naming the command's option, so a script and the
+command fail alike and before any work. The cell stands below :mod:`flexhrc.scenario` and the
+panel (:mod:`flexhrc.web`): the caller brings a loaded scenario and, for the panel, an ``attach``
+factory — called with the :class:`~flexhrc.cell.supervisor.Cell`, it returns a
+:class:`Component` the loop polls like an agent and closes at the end (``docs/cell.md``).
 """
 
 from __future__ import annotations
@@ -218,26 +215,23 @@ def serve_cell(
 def _internal_agents(
     scenario: ScenarioLike, transport: Transport, config: CellConfig, *, world: Any
 ) -> list[Component]:
-    """A simulated arm for each robot agent and an operator for each human one. The arms share
-    one simulated world (``world``), as in ``flexhrc run``: what the follower of a joint command
-    did, and where the other arm is, are in it."""
+    """A simulated arm for each robot agent, an operator for each human one. The arms share one
+    simulated world, as in ``flexhrc run``: what the follower of a joint command did, and where
+    the other arm is, are in it; the operators are seeded as ``flexhrc run`` seeds them."""
     humans = [a.name for a in scenario.domain.agents.values() if a.is_human]
-    agents: list[Component] = []
-    for a in scenario.domain.agents.values():
-        if not a.is_human:
-            agents.append(RobotAgent(a.name, scenario, transport, execution=world))
-            continue
-        operator = HumanAgent(
+    return [
+        HumanAgent(
             a.name,
             scenario,
             transport,
             profile=config.human,
-            # seeded as `flexhrc run` seeds its operators: one seed, one cooperation
             seed=operator_seed(config.seed, humans.index(a.name)),
             execution=execution_model("analytic", scenario),
         )
-        agents.append(operator)
-    return agents
+        if a.is_human
+        else RobotAgent(a.name, scenario, transport, execution=world)
+        for a in scenario.domain.agents.values()
+    ]
 
 
 def summary_line(data: dict[str, Any], store: str | Path | None = None) -> str:
@@ -369,14 +363,10 @@ def join_cell(
 
     def make() -> RobotAgent | HumanAgent:
         if config.kind == "robot":
-            execution = execution_model(config.simulator, scenario)
+            world = execution_model(config.simulator, scenario)
+            journal = config.journal
             return RobotAgent(
-                config.name,
-                scenario,
-                transport,
-                execution=execution,
-                trace=trace,
-                journal=config.journal,
+                config.name, scenario, transport, execution=world, trace=trace, journal=journal
             )
         return HumanAgent(
             config.name,

@@ -14,7 +14,6 @@ from flexhrc.errors import FlexhrcError
 
 #: The largest seed any command accepts (numpy's generators take 0 .. 2**32 - 1).
 MAX_SEED = 2**32 - 1
-SIMULATORS = ("auto", "analytic", "kinematic")
 
 
 def add_cell_options(
@@ -85,6 +84,8 @@ def add_transport_options(p: argparse.ArgumentParser, *, default: str = "inproce
 
 def add_simulator_option(p: argparse.ArgumentParser, help: str) -> None:
     """``--simulator auto|analytic|kinematic`` (default ``auto``: the scenario's choice)."""
+    from flexhrc.cell.serve import SIMULATORS
+
     p.add_argument("--simulator", choices=SIMULATORS, default="auto", help=help)
 
 
