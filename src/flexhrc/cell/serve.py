@@ -299,14 +299,11 @@ def zenoh_for_cell(
     warn: Callable[[str], None] | None = None,
 ) -> Any:
     """A Zenoh transport for the cell named ``cell`` (keys under ``flexhrc/CELL/``), for the
-    cell itself or an agent of it (:func:`flexhrc.transport.zenoh.open_zenoh`)."""
+    cell itself or an agent of it (:func:`flexhrc.transport.zenoh.open_zenoh`; without the
+    ``zenoh`` extra, an :class:`~flexhrc.errors.OptionalDependencyError` that says so)."""
     _check_cell_name(cell)
-    try:
-        from flexhrc.transport.zenoh import open_zenoh
-    except ImportError as exc:
-        raise FlexhrcError(
-            "the zenoh transport needs the zenoh extra: pip install 'flexhrc[zenoh]'"
-        ) from exc
+    from flexhrc.transport.zenoh import open_zenoh
+
     return open_zenoh(list(listen), list(connect), prefix=f"flexhrc/{cell}", warn=warn)
 
 
