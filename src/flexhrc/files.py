@@ -222,7 +222,7 @@ class EventLogWriter:
         """Append one event (a JSON object) and flush it."""
         if self._fh is None:
             raise FlexhrcError(f"{self.path}: log already closed")
-        line = json.dumps(event, allow_nan=False, default=_json_default)
+        line = json.dumps(event, allow_nan=False, default=json_default)
         try:
             self._fh.write(line + "\n")
             self._fh.flush()
@@ -252,14 +252,16 @@ class EventLogWriter:
         self.close()
 
 
-def _json_default(obj: Any) -> Any:
+def json_default(obj: Any) -> Any:
+    """``json.dump(..., default=json_default)``: what flexhrc writes as JSON beyond the plain
+    types (``to_dict()``, paths, sets, numpy scalars and arrays)."""
     if hasattr(obj, "to_dict"):
         return obj.to_dict()
     if isinstance(obj, Path):
         return str(obj)
     if isinstance(obj, set | frozenset):
         return sorted(obj)
-    item = getattr(obj, "item", None)  # numpy scalars, without importing numpy here
-    if callable(item):
-        return item()
+    tolist = getattr(obj, "tolist", None)  # numpy scalars and arrays, without importing numpy
+    if callable(tolist):
+        return tolist()
     raise TypeError(f"not JSON serialisable: {type(obj).__name__}")

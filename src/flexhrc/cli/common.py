@@ -16,24 +16,13 @@ from flexhrc.errors import FlexhrcError
 MAX_SEED = 2**32 - 1
 
 
-def finite_nonneg(value: str) -> float:
-    """An argparse type: a finite number >= 0 (``--realtime``)."""
-    try:
-        x = float(value)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {value!r}") from None
-    if not math.isfinite(x) or x < 0:
-        raise argparse.ArgumentTypeError(f"must be a finite number >= 0, got {value}")
-    return x
-
-
 def add_cell_options(
     p: argparse.ArgumentParser,
     *,
     wait_s: float,
     waits_for: str,
     simulator_help: str,
-    realtime_type: Callable[[str], float] = finite_nonneg,
+    realtime_type: Callable[[str], float] | None = None,
 ) -> None:
     """The options every command that runs the cell's loop shares (``flexhrc cell``,
     ``flexhrc ros2 cell``): the store and resume, the pace, the branch simulator, how long to
@@ -42,16 +31,13 @@ def add_cell_options(
     p.add_argument("--resume", action="store_true", help="continue the cooperation kept in --store")
     p.add_argument(
         "--realtime",
-        type=realtime_type,
+        type=realtime_type or float_range(0),  # a finite number >= 0
         default=0.0,
         metavar="SPEED",
         help="0 (default): as fast as the agents answer; SPEED > 0: actions take their "
         "simulated time divided by SPEED",
     )
-    p.add_argument(
-        "--simulator", choices=["auto", "analytic", "kinematic"], default="auto",
-        help=simulator_help,
-    )  # fmt: skip
+    add_simulator_option(p, simulator_help)
     p.add_argument(
         "--wait",
         type=float,
@@ -59,6 +45,48 @@ def add_cell_options(
         metavar="S",
         help=f"how long to wait for {waits_for} to appear (default {wait_s:g} s)",
     )
+
+
+def add_transport_options(p: argparse.ArgumentParser, *, default: str = "inprocess") -> None:
+    """``--transport`` (unless Zenoh is the only one), ``--listen``, ``--connect``, ``--cell``:
+    how a cell (``flexhrc cell``) or an agent process (``flexhrc agent``) reaches the others."""
+    from flexhrc.cell.serve import DEFAULT_LISTEN
+
+    if default == "inprocess":
+        p.add_argument(
+            "--transport",
+            choices=["inprocess", "zenoh"],
+            default="inprocess",
+            help="message transport (default inprocess; zenoh for several processes)",
+        )
+    p.add_argument(
+        "--listen",
+        action="append",
+        default=[],
+        metavar="ENDPOINT",
+        help=f"Zenoh endpoint to listen on (repeatable; default {DEFAULT_LISTEN} for the cell, "
+        "a random loopback port for an agent)",
+    )
+    p.add_argument(
+        "--connect",
+        action="append",
+        default=[],
+        metavar="ENDPOINT",
+        help="Zenoh endpoint to connect to (a router or the cell; repeatable)",
+    )
+    p.add_argument(
+        "--cell",
+        default="default",
+        metavar="NAME",
+        help="cell name: keys live under flexhrc/NAME/ (default 'default')",
+    )
+
+
+def add_simulator_option(p: argparse.ArgumentParser, help: str) -> None:
+    """``--simulator auto|analytic|kinematic`` (default ``auto``: the scenario's choice)."""
+    from flexhrc.cell.serve import SIMULATORS
+
+    p.add_argument("--simulator", choices=SIMULATORS, default="auto", help=help)
 
 
 def add_json_flag(parser: argparse.ArgumentParser) -> None:
@@ -82,12 +110,10 @@ def add_segments_option(parser: argparse.ArgumentParser) -> None:
 
 def emit(args: argparse.Namespace, data: Any, text: Callable[[], str] | str | None = None) -> None:
     """Print ``data`` as JSON when ``--json`` was given, else the human-readable ``text``."""
-    if getattr(args, "json", False):
-        json.dump(data, sys.stdout, indent=2, default=_json_default)
-        sys.stdout.write("\n")
-        return
-    if text is None:
-        json.dump(data, sys.stdout, indent=2, default=_json_default)
+    if getattr(args, "json", False) or text is None:
+        from flexhrc.files import json_default
+
+        json.dump(data, sys.stdout, indent=2, default=json_default)
         sys.stdout.write("\n")
         return
     sys.stdout.write((text() if callable(text) else text).rstrip("\n") + "\n")
@@ -204,32 +230,6 @@ def check_outputs(
         seen[key] = option
 
 
-def existing_file(value: str) -> Path:
-    path = Path(value)
-    if not path.exists():
-        raise FlexhrcError(f"{value}: no such file")
-    return path
-
-
-def _json_default(obj: Any) -> Any:
-    if hasattr(obj, "to_dict"):
-        return obj.to_dict()
-    if isinstance(obj, Path):
-        return str(obj)
-    try:
-        import numpy as np
-
-        if isinstance(obj, np.generic):
-            return obj.item()
-        if isinstance(obj, np.ndarray):
-            return obj.tolist()
-    except ImportError:  # pragma: no cover
-        pass
-    if isinstance(obj, set | frozenset):
-        return sorted(obj)
-    raise TypeError(f"not JSON serialisable: {type(obj).__name__}")
-
-
 class TermFlag:
     """SIGTERM ends an agent's or node's loop (so its liveliness token is withdrawn on the way
     out) instead of killing the process: call it to ask whether the signal came."""
@@ -253,20 +253,17 @@ _Agent = TypeVar("_Agent")
 def serve_agent(
     make: Callable[[], _Agent], transport: Any, say: Callable[[str], None], ready: str
 ) -> tuple[_Agent, str]:
-    """Make an agent on ``transport`` and serve the cell until it ends (or SIGTERM): says
-    ``ready`` once it is up and the cell's outcome at the end; closes the agent and the
-    transport whatever happens. Returns the agent and the outcome (``stopped`` on SIGTERM)."""
-    from flexhrc.cell.components import run_agent
+    """:func:`flexhrc.cell.serve.serve_until_end` until the cell ends or SIGTERM comes
+    (outcome ``stopped``)."""
+    from flexhrc.cell.serve import serve_until_end
 
-    stop = TermFlag()
-    agent: Any = None
-    try:
-        agent = make()
-        say(ready)
-        outcome = run_agent(agent, transport, until=stop)
-        say(f"cell ended: {outcome}")
-    finally:
-        if agent is not None:
-            agent.close()
-        transport.close()
-    return agent, outcome
+    return serve_until_end(make, transport, say=say, ready=ready, until=TermFlag())
+
+
+def quiet_library_logs() -> None:
+    """The command's trace already shows every dropped message: keep the library's warnings
+    (flexhrc.cell, flexhrc.transport) from printing them a second time."""
+    import logging
+
+    for name in ("flexhrc.cell", "flexhrc.transport"):
+        logging.getLogger(name).addHandler(logging.NullHandler())

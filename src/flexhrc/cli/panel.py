@@ -2,7 +2,7 @@
 
 Only translates arguments into a :class:`flexhrc.web.local.PanelConfig`, calls
 :func:`flexhrc.web.serve_panel` and prints its report. Also the ``--web HOST:PORT [--token T]``
-options other commands (``flexhrc cell``) share: :func:`add_web_options` and :func:`start_panel`.
+options other commands (``flexhrc cell``) share: :func:`add_web_options`, :func:`check_web`.
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ import sys
 import time
 from typing import Any
 
-from flexhrc.cli.common import add_json_flag, add_segments_option, emit
+from flexhrc.cli.common import add_json_flag, add_segments_option, add_simulator_option, emit
 from flexhrc.errors import FlexhrcError
 
 
@@ -58,12 +58,6 @@ def serve(address: tuple[str, int], token: str | None, backend: Any) -> Any:
     return server
 
 
-def start_panel(args: argparse.Namespace, backend: Any) -> Any:
-    """Start the panel server for ``--web`` (None when not asked); checks the address first."""
-    address = check_web(args)
-    return None if address is None else serve(address, args.token, backend)
-
-
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg, unused-ignore]
     p = sub.add_parser(
         "panel",
@@ -103,13 +97,8 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
         default=1.0,
         help="simulated seconds per second for the arms (default 1: real time)",
     )
-    from flexhrc.web.local import SIMULATORS
-
-    p.add_argument(
-        "--simulator",
-        choices=SIMULATORS,
-        default="auto",
-        help="branch simulator and the arms' simulated world (default: the scenario's)",
+    add_simulator_option(
+        p, "branch simulator and the arms' simulated world (default: the scenario's)"
     )
     p.add_argument("--store", metavar="FILE.db", help="keep every event in this SQLite file")
     p.add_argument(

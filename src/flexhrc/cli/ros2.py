@@ -268,7 +268,8 @@ def _mark(interfaces: Any, cell: Any, ev: dict[str, Any]) -> None:
 def cmd_cell(args: argparse.Namespace) -> int:
     from flexhrc.cell import Cell, EventStore
     from flexhrc.cell import protocol as P
-    from flexhrc.cli.cell import branch_simulator, trace_line
+    from flexhrc.cell.components import execution_model
+    from flexhrc.cell.serve import trace_line
     from flexhrc.ros2.extras import ManagerInterfaces
     from flexhrc.scenario import load_scenario
 
@@ -306,7 +307,7 @@ def cmd_cell(args: argparse.Namespace) -> int:
             resume=args.resume,
             realtime=args.realtime,
             agent_speed=args.realtime,
-            simulator=branch_simulator(args.simulator, scenario),
+            simulator=execution_model(args.simulator, scenario),  # type: ignore[arg-type]
             liveliness=True,
             name=args.cell,
             trace=trace,

@@ -36,6 +36,9 @@ API (everything below is public and stable):
   port 0 and reports the port it got.
   ``zenoh_config(..., adminspace=True)`` makes the admin space readable; it is on by default
   when a ``listen`` endpoint has port 0 (the system picks the port).
+* :func:`open_zenoh` ``(listen, connect, *, prefix, warn)``: a transport on those endpoints,
+  warning of a ``listen`` endpoint other hosts reach; :func:`listening_on`: the endpoints as
+  bound (what ``flexhrc cell --ready-file`` tells the agents).
 * :class:`ZenohTransport` ``(config=None, *, session=None, prefix="", encode=json_encode,
   decode=json_decode, deliver="flush", on_drop=None)``.
 
@@ -100,8 +103,10 @@ __all__ = [
     "free_tcp_port",
     "json_decode",
     "json_encode",
+    "listening_on",
     "loopback_config",
     "normalise_endpoint",
+    "open_zenoh",
     "zenoh_config",
 ]
 
@@ -193,6 +198,36 @@ def zenoh_config(
         admin = {"enabled": True, "permissions": {"read": True, "write": False}}
         config.insert_json5("adminspace", json.dumps(admin))
     return config
+
+
+def open_zenoh(
+    listen: Sequence[str] = (),
+    connect: Sequence[str] = (),
+    *,
+    prefix: str = "",
+    warn: Callable[[str], None] | None = None,
+) -> ZenohTransport:
+    """A :class:`ZenohTransport` (peer, no multicast) on these endpoints, its topics under
+    ``prefix``. Each ``listen`` endpoint reachable from other hosts is named to ``warn`` first:
+    flexhrc configures neither Zenoh's access control nor TLS (``docs/cell.md``)."""
+    for ep in listen:
+        proto, _, rest = normalise_endpoint(ep).partition("/")
+        host = rest.rsplit(":", 1)[0].strip("[]")
+        local = proto == "unixsock-stream" or host in ("127.0.0.1", "localhost", "::1")
+        if not local and warn is not None:
+            warn(
+                f"warning: --listen {ep}: reachable from other hosts; Zenoh's access control "
+                "and TLS are not configured by flexhrc (docs/cell.md)"
+            )
+    return ZenohTransport(zenoh_config(listen=listen, connect=connect), prefix=prefix)
+
+
+def listening_on(transport: ZenohTransport, configured: Sequence[str]) -> list[str]:
+    """The endpoints ``transport`` listens on as bound (a port 0 resolved: what to tell the
+    agents), else as ``configured``."""
+    if any(normalise_endpoint(ep).endswith(":0") for ep in configured):
+        return list(transport.locators())
+    return list(configured)
 
 
 def _port_of(endpoint: str) -> int | None:
