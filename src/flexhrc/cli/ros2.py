@@ -161,7 +161,7 @@ def cmd_cell(args: argparse.Namespace) -> int:
             config,
             trace=None if args.quiet else trace,
             progress=_progress(args),
-            panel=None if web is None else panel,
+            attach=[] if web is None else [panel],
         )
     finally:
         for server in servers:

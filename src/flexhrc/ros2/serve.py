@@ -23,7 +23,7 @@ from __future__ import annotations
 import itertools
 import math
 import uuid
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -139,7 +139,7 @@ def serve_ros2_cell(
     *,
     trace: Callable[[dict[str, Any]], None] | None = None,
     progress: Progress | None = None,
-    panel: Callable[[Any], Any] | None = None,
+    attach: Iterable[Callable[[Any], Any]] = (),
 ) -> dict[str, Any]:
     """Run the cell's manager on ROS 2 until the cooperation ends: ``flexhrc ros2 cell`` as a
     function. It waits (``config.wait``) for a node of every agent of the scenario — arm nodes
@@ -149,11 +149,11 @@ def serve_ros2_cell(
     arrow for each running command until it ends.
 
     ``trace(event)`` sees each event of the cell as it happens, ``progress(line)`` the start-up
-    and waiting lines. ``panel(cell)`` makes a component the loop polls (``poll()``) and closes
-    when the cooperation has ended (``close()``) — the operator panel: a
-    :class:`flexhrc.web.live.CellPanel` with ``operator=True`` stands in for the scenario's
-    operators. Returns the cell's summary (what ``--json`` prints: the keys of ``flexhrc run
-    --json`` and the cell's ``cell``).
+    and waiting lines. ``attach``: factories, each called with the cell, of components the loop
+    polls (``poll()``) and closes when the cooperation has ended (``close()``) — the operator
+    panel: a :class:`flexhrc.web.live.CellPanel` with ``operator=True`` stands in for the
+    scenario's operators. Returns the cell's summary (what ``--json`` prints: the keys of
+    ``flexhrc run --json`` and the cell's ``cell``).
     """
     from flexhrc.cell import Cell, EventStore
     from flexhrc.cell import protocol as P
@@ -216,12 +216,12 @@ def serve_ros2_cell(
             skip=cell.domain.agents,
         )
         marks.extend([interfaces, cell])
-        extra = panel(cell) if panel is not None else None
+        extras = [make(cell) for make in attach]
 
         def pump(timeout: float) -> None:
             transport.wait(timeout)
             transport.flush()
-            if extra is not None:
+            for extra in extras:
                 extra.poll()
             interfaces.poll()
 
@@ -234,7 +234,7 @@ def serve_ros2_cell(
         for cid in list(interfaces.commands):  # the cell is over: no arrow stays
             interfaces.command_finished(cid)
         interfaces.publish_markers()
-        if extra is not None:
+        for extra in extras:
             extra.close()
         cell.close()
         # (closing the transport waits until the end message is acknowledged)
