@@ -357,13 +357,14 @@ def _serve_agent(
 
 def _mark(interfaces: Any, cell: Any, ev: dict[str, Any]) -> None:
     """A command's arrow in the markers, from its start to its end (ack or stop), pointing at
-    the last object its action names."""
+    the object its action goes to (:func:`~flexhrc.ros2.motion.action_target`)."""
+    from flexhrc.ros2.motion import action_target
+
     kind = ev.get("type")
     if kind == "command":
         cmd = cell.commands.get(int(ev["id"]))
         if cmd is not None:
-            objs = [a for a in cmd.action.args if a in cell.kb.objects and a not in cmd.agents]
-            where = cell.kb.position(objs[-1]) if objs else None
+            where = action_target(cmd.action, {k: o.position for k, o in cell.kb.objects.items()})
             interfaces.command_started(int(ev["id"]), "+".join(cmd.agents), where)
     elif kind in ("ack", "stop") and "id" in ev:
         interfaces.command_finished(int(ev["id"]))
