@@ -1,4 +1,4 @@
-"""``flexhrc ros2 cell|arm``: the cell's manager and arms as ROS 2 nodes (the ``ros2`` extra).
+"""``flexhrc ros2 cell|arm|human``: a cell's nodes on ROS 2 (the ``ros2`` extra).
 
 Examples (one shell each; ``export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``)::
 
