@@ -32,7 +32,7 @@ def test_markers_out_poses_and_imu_in(domain_id: int, cell_name: str):
         outside.create_subscription(
             msg("visualization_msgs.msg", "MarkerArray"), "markers", arrays.append
         )
-        ifaces.set_target("left", kb.position("leg1"))
+        ifaces.command_started(2, "left", kb.position("leg1"))
         assert manager.wait_matched("markers", minimum=1, timeout=10.0)
         assert wait_for(lambda: bool(arrays), 5.0, lambda: (ifaces.poll(), outside.flush()))
         arrows = [m for m in arrays[-1].markers if m.type == m.ARROW]

@@ -60,10 +60,10 @@ def test_joint_trajectory_keeps_ends_times_and_rests_at_both_ends():
         rm.joint_trajectory(rm.joint_names("right"), [0.0, 1.0], [[0.0] * 7], 0.0)
 
 
-def test_marker_array_shows_objects_labels_and_targets_with_stable_ids():
+def test_marker_array_shows_objects_labels_and_command_arrows_with_stable_ids():
     kb = table_assembly(segments="legs").world()
-    a = rm.marker_array(kb.objects.values(), 0.0, targets={"left": (0.5, 0.1, 0.0)})
-    b = rm.marker_array(kb.objects.values(), 1.0, targets={"left": (0.5, 0.1, 0.0)})
+    a = rm.marker_array(kb.objects.values(), 0.0, commands={3: ("left", (0.5, 0.1, 0.0))})
+    b = rm.marker_array(kb.objects.values(), 1.0, commands={3: ("left", (0.5, 0.1, 0.0))})
     Marker = msg("visualization_msgs.msg", "Marker")
     kinds = [m.type for m in a.markers]
     shown = {m.text for m in a.markers if m.type == Marker.TEXT_VIEW_FACING}

@@ -165,6 +165,7 @@ def serve_cell(
             name=config.cell,
             trace=trace,
             seed=config.seed,
+            shared_model=internal,  # the internal arms execute on the manager's model
         )
         agents: list[Component] = []
         if internal:

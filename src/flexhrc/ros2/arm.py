@@ -68,7 +68,7 @@ log = logging.getLogger("flexhrc.ros2.arm")
 IDLE_RATE_HZ = 5.0
 EXECUTE_MODES = ("sim", "external")
 
-__all__ = ["EXECUTE_MODES", "ArmNode", "Motion"]
+__all__ = ["EXECUTE_MODES", "ArmNode", "Motion", "check_arm_options"]
 
 
 @dataclass
@@ -97,6 +97,39 @@ class Motion:
         return np.array([np.interp(elapsed, self.t, self.q[:, j]) for j in range(self.q.shape[1])])
 
 
+def check_arm_options(
+    rate_hz: float,
+    execute: str,
+    trajectory_topic: str | None,
+    joint_states_topic: str | None,
+    tolerance_rad: float,
+) -> None:
+    """The options of an arm node (:class:`ArmNode`, ``flexhrc ros2 arm``) as they are alone,
+    or one :class:`~flexhrc.errors.FlexhrcError` naming the command's option."""
+    if not (math.isfinite(rate_hz) and 30.0 <= rate_hz <= 1000.0):
+        raise FlexhrcError(f"--rate must be between 30 and 1000 Hz, got {rate_hz}")
+    if execute not in EXECUTE_MODES:
+        raise FlexhrcError(f"--execute must be one of {', '.join(EXECUTE_MODES)}, not {execute!r}")
+    if execute == "external" and not (trajectory_topic and joint_states_topic):
+        raise FlexhrcError(
+            "--execute external needs --trajectory-topic and --joint-states-topic "
+            "(the real arm's controller command and its joint states)"
+        )
+    if not (math.isfinite(tolerance_rad) and tolerance_rad > 0):
+        raise FlexhrcError(f"--tolerance must be a positive angle, got {tolerance_rad}")
+
+
+def _joints(m: Any, names: list[str]) -> np.ndarray | None:
+    """The positions of joints ``names`` in a ``JointState`` that may list others too (None
+    unless it has them all, finite)."""
+    index = {n: i for i, n in enumerate(m.name)}
+    if all(n in index for n in names) and len(m.position) == len(m.name):
+        q = np.array([float(m.position[index[n]]) for n in names])
+        if np.all(np.isfinite(q)):
+            return q
+    return None
+
+
 class ArmNode(RobotAgent):
     """The cell's robot agent as a ROS 2 node (see the module docstring)."""
 
@@ -115,19 +148,7 @@ class ArmNode(RobotAgent):
         trace: Callable[[str], None] | None = None,
         clock: Callable[[], float] = time.monotonic,
     ) -> None:
-        if not (math.isfinite(rate_hz) and 30.0 <= rate_hz <= 1000.0):
-            raise FlexhrcError(f"--rate must be between 30 and 1000 Hz, got {rate_hz}")
-        if execute not in EXECUTE_MODES:
-            raise FlexhrcError(
-                f"--execute must be one of {', '.join(EXECUTE_MODES)}, not {execute!r}"
-            )
-        if execute == "external" and not (trajectory_topic and joint_states_topic):
-            raise FlexhrcError(
-                "--execute external needs --trajectory-topic and --joint-states-topic "
-                "(the real arm's controller command and its joint states)"
-            )
-        if not (math.isfinite(tolerance_rad) and tolerance_rad > 0):
-            raise FlexhrcError(f"--tolerance must be a positive angle, got {tolerance_rad}")
+        check_arm_options(rate_hz, execute, trajectory_topic, joint_states_topic, tolerance_rad)
         if execution is None:
             from flexhrc.cell.components import execution_model
 
@@ -198,19 +219,14 @@ class ArmNode(RobotAgent):
         return (self.clock() - motion.started) * motion.speed
 
     def _on_joint_states(self, m: Any) -> None:
-        index = {n: i for i, n in enumerate(m.name)}
-        if all(n in index for n in self.names) and len(m.position) == len(m.name):
-            q = np.array([float(m.position[index[n]]) for n in self.names])
-            if np.all(np.isfinite(q)):
-                self._measured = q
+        q = _joints(m, self.names)
+        if q is not None:
+            self._measured = q
 
     def _on_other(self, arm: str, m: Any) -> None:
-        index = {n: i for i, n in enumerate(m.name)}
-        names = rm.joint_names(arm, self.robot.arm(arm).dof)
-        if all(n in index for n in names) and len(m.position) == len(m.name):
-            q = np.array([float(m.position[index[n]]) for n in names])
-            if np.all(np.isfinite(q)):
-                self._others[arm] = q
+        q = _joints(m, rm.joint_names(arm, self.robot.arm(arm).dof))
+        if q is not None:
+            self._others[arm] = q
 
     # -- commands (the cell's RobotAgent does the protocol) ---------------------------------
     def _command(self, message: dict[str, Any]) -> None:
@@ -234,6 +250,10 @@ class ArmNode(RobotAgent):
             super()._command(message)
         finally:
             self._starting = None
+
+    def _take_joints(self, joints: dict[str, list[float]]) -> None:
+        """Where the arms are comes from their joint states (this arm's own, measured on a real
+        arm, and the other nodes' as published), not from the manager's model."""
 
     def _started(self, cid: int, action: Any, ack: dict[str, Any]) -> None:
         """The command runs: its joint trajectory out (and the followers' parts), then play it."""

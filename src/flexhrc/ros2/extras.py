@@ -68,7 +68,6 @@ class ManagerInterfaces:
             raise ValueError(f"marker rate must be in (0, 100] Hz, got {rate_hz}")
         self.transport = transport
         self.kb = kb
-        self.targets: dict[str, tuple[float, float, float]] = {}
         self.commands: dict[int, tuple[str, tuple[float, float, float]]] = {}
         self.skip = frozenset(skip)  # the agents' names: not drawn as objects
         # finished commands -> when their DELETE first went out (None: not yet)
@@ -116,14 +115,6 @@ class ManagerInterfaces:
         if self.on_imu is not None:
             self.on_imu(operator, sample)
 
-    def set_target(self, agent: str, position: Iterable[float] | None) -> None:
-        """Where ``agent`` is going now (an arrow in the markers); None: nowhere."""
-        if position is None:
-            self.targets.pop(agent, None)
-        else:
-            x, y, z = (float(v) for v in position)
-            self.targets[agent] = (x, y, z)
-
     def command_started(self, cid: int, label: str, position: Iterable[float] | None) -> None:
         """Command ``cid`` runs, its arm going to ``position`` (an arrow; None: no arrow)."""
         if position is not None:
@@ -145,7 +136,7 @@ class ManagerInterfaces:
                 del self._finished[cid]
         deleted = set(self._finished)
         markers = rm.marker_array(
-            self.kb.objects.values(), time.time(), targets=self.targets,
+            self.kb.objects.values(), time.time(),
             commands=self.commands, deleted=deleted, skip=self.skip,
         )  # fmt: skip
         send = getattr(self.transport, "publish_message", None)

@@ -62,10 +62,14 @@ def stamp(seconds: float) -> Any:
     """``builtin_interfaces/Time`` for ``seconds`` (wall or simulated time)."""
     if not math.isfinite(seconds) or seconds < 0:
         raise ValueError(f"time stamp must be a finite non-negative number, not {seconds}")
-    t = msg("builtin_interfaces.msg", "Time")()
-    sec = int(seconds)
-    t.sec = sec
-    t.nanosec = min(round((seconds - sec) * 1e9), 999_999_999)
+    return _time("Time", seconds)
+
+
+def _time(kind: str, seconds: float) -> Any:
+    """A ``builtin_interfaces`` ``Time`` or ``Duration`` of ``seconds`` (>= 0)."""
+    t = msg("builtin_interfaces.msg", kind)()
+    t.sec = int(seconds)
+    t.nanosec = min(round((seconds - t.sec) * 1e9), 999_999_999)
     return t
 
 
@@ -102,43 +106,21 @@ def joint_state(
 
 def quaternion_from_matrix(R: Any) -> tuple[float, float, float, float]:
     """Unit quaternion ``(x, y, z, w)`` of a 3x3 rotation matrix (Shepperd's method: the
-    largest diagonal term is the divisor, so it stays accurate near 180 degrees)."""
+    largest of the trace and the diagonal terms is the divisor, so it stays accurate near 180
+    degrees)."""
     r = [[float(R[i][j]) for j in range(3)] for i in range(3)]
     trace = r[0][0] + r[1][1] + r[2][2]
     if trace > 0:
         s = 2.0 * math.sqrt(trace + 1.0)
-        w, x, y, z = (
-            0.25 * s,
-            (r[2][1] - r[1][2]) / s,
-            (r[0][2] - r[2][0]) / s,
-            (r[1][0] - r[0][1]) / s,
-        )
-    elif r[0][0] > r[1][1] and r[0][0] > r[2][2]:
-        s = 2.0 * math.sqrt(1.0 + r[0][0] - r[1][1] - r[2][2])
-        w, x, y, z = (
-            (r[2][1] - r[1][2]) / s,
-            0.25 * s,
-            (r[0][1] + r[1][0]) / s,
-            (r[0][2] + r[2][0]) / s,
-        )
-    elif r[1][1] > r[2][2]:
-        s = 2.0 * math.sqrt(1.0 + r[1][1] - r[0][0] - r[2][2])
-        w, x, y, z = (
-            (r[0][2] - r[2][0]) / s,
-            (r[0][1] + r[1][0]) / s,
-            0.25 * s,
-            (r[1][2] + r[2][1]) / s,
-        )
-    else:
-        s = 2.0 * math.sqrt(1.0 + r[2][2] - r[0][0] - r[1][1])
-        w, x, y, z = (
-            (r[1][0] - r[0][1]) / s,
-            (r[0][2] + r[2][0]) / s,
-            (r[1][2] + r[2][1]) / s,
-            0.25 * s,
-        )
-    n = math.sqrt(x * x + y * y + z * z + w * w)
-    return (x / n, y / n, z / n, w / n)
+        q = [(r[2][1] - r[1][2]) / s, (r[0][2] - r[2][0]) / s, (r[1][0] - r[0][1]) / s, s / 4]
+    else:  # i: the largest diagonal term; (i, j, k) in cyclic order
+        i = 0 if r[0][0] > r[1][1] and r[0][0] > r[2][2] else (1 if r[1][1] > r[2][2] else 2)
+        j, k = (i + 1) % 3, (i + 2) % 3
+        s = 2.0 * math.sqrt(1.0 + r[i][i] - r[j][j] - r[k][k])
+        q = [0.0, 0.0, 0.0, (r[k][j] - r[j][k]) / s]
+        q[i], q[j], q[k] = s / 4, (r[j][i] + r[i][j]) / s, (r[k][i] + r[i][k]) / s
+    n = math.sqrt(sum(v * v for v in q))
+    return (q[0] / n, q[1] / n, q[2] / n, q[3] / n)
 
 
 def yaw_from_quaternion(x: float, y: float, z: float, w: float) -> float:
@@ -187,7 +169,6 @@ def joint_trajectory(
         else list(range(n))
     )
     Point = msg("trajectory_msgs.msg", "JointTrajectoryPoint")
-    Duration = msg("builtin_interfaces.msg", "Duration")
     m = msg("trajectory_msgs.msg", "JointTrajectory")()
     m.header = _header("", seconds)
     m.joint_names = list(names)
@@ -204,15 +185,11 @@ def joint_trajectory(
             p.velocities = [(b - a) / dt if dt > 0 else 0.0 for a, b in zip(qa, qb, strict=True)]
         else:
             p.velocities = [0.0] * len(q)
-        d = Duration()
-        d.sec = int(t)
-        d.nanosec = min(round((t - int(t)) * 1e9), 999_999_999)
-        p.time_from_start = d
+        p.time_from_start = _time("Duration", t)
         m.points.append(p)
     return m
 
 
-_SHAPES = {"leg": "CYLINDER", "obstacle": "SPHERE", "tabletop": "CUBE", "place": "CYLINDER"}
 _COLOURS = {
     "leg": (0.80, 0.55, 0.25, 1.0),
     "tabletop": (0.60, 0.40, 0.20, 0.8),
@@ -288,7 +265,6 @@ def marker_array(
     objects: Iterable[Any],
     seconds: float,
     *,
-    targets: Mapping[str, Sequence[float]] | None = None,
     commands: Mapping[int, tuple[str, Sequence[float]]] | None = None,
     deleted: Iterable[int] = (),
     skip: Iterable[str] = (),
@@ -298,7 +274,7 @@ def marker_array(
     """Knowledge-base objects (:class:`~flexhrc.knowledge.base.ObjectRecord`) as markers, every
     one by its type and size (:func:`object_shape`) with a text label — agents (types
     :data:`AGENT_TYPES`, or named in ``skip``) are left out, the joint states show the arms;
-    ``targets`` (name -> position) and ``commands`` (command id -> (label, position), where a
+    ``commands`` (command id -> (label, position), where a
     running command's arm is going) as green arrows pointing down at them; ``deleted`` command
     ids as ``DELETE`` markers of their arrows (a finished command's arrow goes from RViz).
 
@@ -360,8 +336,6 @@ def marker_array(
         label.pose.position.z = z + 0.05 + (0.0 if o.type == "leg" else sz / 2)
         label.color.r = label.color.g = label.color.b = label.color.a = 1.0
         add(label, namespace, base + 1)
-    for name, pos in sorted((targets or {}).items()):
-        arrow(name, pos, f"{namespace}/targets", _stable_id(name))
     for cid, (label, pos) in sorted((commands or {}).items()):
         arrow(label, pos, f"{namespace}/commands", int(cid))
     for cid in sorted(set(deleted)):

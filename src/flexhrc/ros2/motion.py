@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["blend_start", "command_path", "fit_duration", "min_jerk"]
+__all__ = ["action_target", "blend_start", "command_path", "fit_duration", "min_jerk"]
 
 #: Joint samples of a re-timed (nominal) path.
 NOMINAL_SAMPLES = 60
@@ -71,7 +71,9 @@ def blend_start(t: np.ndarray, q: np.ndarray, start: Sequence[float] | np.ndarra
     return q + fade[:, None] * offset[None, :]
 
 
-def _nominal_target(action: Any, positions: Mapping[str, Sequence[float]]) -> Any:
+def action_target(action: Any, positions: Mapping[str, Sequence[float]]) -> Any:
+    """Where a command's arms go when nothing says better: the last object its action names
+    (an agent is not one), as ``(x, y, z)``; None when it names none."""
     objs = [a for a in action.args if a in positions and a not in action.agents]
     if not objs:
         return None
@@ -99,7 +101,7 @@ def command_path(
     if ran is not None and all(a in ran[1] for a in arms):
         t, q = ran
         return fit_duration(t, {a: q[a] for a in arms}, duration)
-    path = _nominal_path(em, arms, start, _nominal_target(action, positions), duration)
+    path = _nominal_path(em, arms, start, action_target(action, positions), duration)
     for a, qa in path[1].items():
         em.state.q[a] = qa[-1].copy()
     return path
