@@ -252,8 +252,14 @@ class ArmNode(RobotAgent):
             self._starting = None
 
     def _take_joints(self, joints: dict[str, list[float]]) -> None:
-        """Where the arms are comes from their joint states (this arm's own, measured on a real
-        arm, and the other nodes' as published), not from the manager's model."""
+        """The manager's model has the arms where their acks left them — the other arms more
+        exactly than their last published joint states, which may lag. A real arm
+        (``external``) keeps its measured joints."""
+        if self.execute_mode == "external":
+            joints = {a: q for a, q in joints.items() if a != self.name}
+        super()._take_joints(joints)
+        em = self.execution.execution  # type: ignore[attr-defined]
+        self._start_q = {a: np.asarray(v, dtype=float).copy() for a, v in em.state.q.items()}
 
     def _started(self, cid: int, action: Any, ack: dict[str, Any]) -> None:
         """The command runs: its joint trajectory out (and the followers' parts), then play it."""
