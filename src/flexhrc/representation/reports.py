@@ -14,17 +14,11 @@ from typing import Any
 
 from flexhrc.representation.hierarchy import HierarchicalGraph
 from flexhrc.representation.online import OnlineGraph, QueryResult
+from flexhrc.representation.online import _num as number  # a cost as JSON has it (inf: None)
 from flexhrc.representation.paths import DEFAULT_LIMIT
 
 #: the files ``render`` writes: DOT text as is, the others through graphviz's ``dot``
 RENDER_SUFFIXES = (".dot", ".gv", ".svg", ".png", ".pdf")
-
-
-def number(x: float) -> float | int | None:
-    """A cost as JSON has it: a whole number as an int, infinity (never reached) as None."""
-    if x == float("inf"):
-        return None
-    return int(x) if float(x).is_integer() else x
 
 
 def validation(graph: HierarchicalGraph, file: str | Path) -> dict[str, Any]:

@@ -18,12 +18,11 @@ from flexhrc.perception.human.models import GMMGMRRecognizer
 from flexhrc.perception.human.online import OnlineRecognizer, RecognisedAction
 from flexhrc.perception.human.wearable import SimulatedWearable
 
-Progress = Callable[[str], None] | None
+Progress = Callable[[str], None]
 
 
-def _say(progress: Progress, message: str) -> None:
-    if progress is not None:
-        progress(message)
+def _quiet(message: str) -> None:
+    """The default ``progress``: the lines go nowhere."""
 
 
 def train(
@@ -34,7 +33,7 @@ def train(
     min_trials: int = 1,
     max_components: int = 4,
     seed: int = 0,
-    progress: Progress = None,
+    progress: Progress = _quiet,
 ) -> dict[str, Any]:
     """Fit one GMM/GMR template per action of ``data_dir`` (one folder per action; ``actions``
     only, each with ``min_trials`` trials or more) and save the model to ``output`` (.npz).
@@ -42,9 +41,8 @@ def train(
     from flexhrc.files import atomic_output
 
     trials = load_dataset(data_dir, actions, min_trials, warn=progress)
-    _say(
-        progress,
-        f"training on {len(trials)} trial{'' if len(trials) == 1 else 's'}: {summarise(trials)}",
+    progress(
+        f"training on {len(trials)} trial{'' if len(trials) == 1 else 's'}: {summarise(trials)}"
     )
     t0 = time.perf_counter()
     try:
@@ -75,7 +73,7 @@ def evaluate(
     *,
     actions: Sequence[str] | None = None,
     min_trials: int = 1,
-    progress: Progress = None,
+    progress: Progress = _quiet,
 ) -> dict[str, Any]:
     """Classify every trial of ``data_dir`` by its best-matching template of ``model``: the
     :func:`~flexhrc.perception.human.evaluation.classification_report` (an action the model
@@ -86,10 +84,7 @@ def evaluate(
     trials = load_dataset(data_dir, actions, min_trials, warn=progress)
     unknown = sorted({t.action for t in trials} - set(rec.classes_))
     if unknown:
-        _say(
-            progress,
-            f"note: the model has no template for {', '.join(unknown)} (counted as errors)",
-        )
+        progress(f"note: the model has no template for {', '.join(unknown)} (counted as errors)")
     return classification_report([t.action for t in trials], rec.predict(trials))
 
 
@@ -101,7 +96,7 @@ def cross_validation(
     actions: Sequence[str] | None = None,
     min_trials: int = 1,
     seed: int = 0,
-    progress: Progress = None,
+    progress: Progress = _quiet,
 ) -> dict[str, Any]:
     """Train and test split by volunteer: leave one volunteer out, or ``folds`` groups of
     volunteers. The report: ``split`` and a classification report per method, ``gmm_gmr`` and
@@ -129,7 +124,7 @@ def cross_validation(
         "split": "leave-one-volunteer-out" if folds is None else f"{folds} folds by volunteer"
     }
     for name, make in methods:
-        fold_progress = None if progress is None else functools.partial(_fold, progress, name)
+        fold_progress = functools.partial(_fold, progress, name)
         y_true, y_pred = cross_validate(trials, make, folds, progress=fold_progress)
         out[name] = classification_report(y_true, y_pred, labels)
     return out
