@@ -6,8 +6,12 @@ import json
 import subprocess
 import sys
 
+import pytest
+
 from flexhrc import scenario
 from flexhrc.cli import main
+from flexhrc.errors import FlexhrcError
+from flexhrc.scenario.starter import STARTER, write_starter
 
 from ..conftest import subprocess_env
 
@@ -114,6 +118,24 @@ def test_validate_and_list_speak_json(tmp_path, capsys):
     assert data["faults"][0]["message"].startswith("object 'a': malformed pose")
     assert main(["scenario", "list", "--json"]) == 0
     assert [x["name"] for x in json.loads(capsys.readouterr().out)] == list(scenario.SHIPPED)
+
+
+def test_validation_and_write_starter_are_what_the_commands_do(tmp_path, capsys):
+    from .helpers import base, write
+
+    bad = base()
+    bad["world"]["objects"]["a"]["position"] = [0.4, 0.2]
+    for path in (write(tmp_path, bad), "ball_in_box"):
+        report = scenario.validation(path)
+        code = main(["scenario", "validate", str(path), "--json"])
+        assert report == json.loads(capsys.readouterr().out)
+        assert code == (0 if report["valid"] else 2)
+    assert report["valid"] and report["summary"] and report["file"].endswith("ball_in_box.yaml")
+    target = write_starter(tmp_path / "new")
+    assert target.read_text() == STARTER and scenario.validation(target)["valid"]
+    with pytest.raises(FlexhrcError, match="already exists"):
+        write_starter(tmp_path / "new")
+    assert write_starter(tmp_path / "new", force=True) == target
 
 
 def test_replay_of_a_scenario_log_gives_the_same_summary(tmp_path, capsys):

@@ -1,4 +1,8 @@
-"""``flexhrc graph ...`` — validate, inspect, query, traverse and render AND/OR graphs."""
+"""``flexhrc graph ...`` — validate, inspect, query, traverse and render AND/OR graphs.
+
+Every command reads the graph with :func:`flexhrc.scenario.graph_of` and prints a report of
+:mod:`flexhrc.representation.reports` (``play``: :func:`flexhrc.representation.play.play`).
+"""
 
 from __future__ import annotations
 
@@ -7,32 +11,10 @@ import gc
 import sys
 from typing import Any
 
-from flexhrc.cli.common import add_json_flag, emit
+from flexhrc.cli.common import add_json_flag, emit, int_range, plural
 
-RENDER_SUFFIXES = (".dot", ".gv", ".svg", ".png", ".pdf")
 MAX_PATH_LIMIT = 100_000_000
 MAX_SEED = 2**63 - 1
-
-
-def _seed(value: str) -> int:
-    try:
-        n = int(value)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not an integer: {value!r}") from None
-    if not 0 <= n <= MAX_SEED:
-        raise argparse.ArgumentTypeError(f"must be in 0..2**63-1, got {n}")
-    return n
-
-
-def _path_limit(value: str) -> int:
-    try:
-        n = int(value)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not an integer: {value!r}") from None
-    if not 1 <= n <= MAX_PATH_LIMIT:
-        raise argparse.ArgumentTypeError(f"must be in 1..{MAX_PATH_LIMIT:_}, got {n}")
-    return n
-
 
 GRAPH_FILE_HELP = (
     "graph file: ANDOR text (.txt, the FlexHRC+ authors' format) or flexhrc YAML (.yaml); "
@@ -44,6 +26,30 @@ NAME_HELP = (
 )
 
 
+def _graph_command(gsub: Any, name: str, func: Any, **kwargs: Any) -> argparse.ArgumentParser:
+    """A sub-command that reads one graph (FILE) and prints a report (``--json``)."""
+    p: argparse.ArgumentParser = gsub.add_parser(name, **kwargs)
+    p.add_argument("file", help=GRAPH_FILE_HELP)
+    add_json_flag(p)
+    p.set_defaults(func=func)
+    return p
+
+
+def _add_path_limit(p: argparse.ArgumentParser, what: str) -> None:
+    p.add_argument(
+        "--path-limit",
+        type=int_range(1, MAX_PATH_LIMIT),
+        default=None,
+        metavar="N",
+        help=f"with {what} per graph instance (default 100000)",
+    )
+
+
+def _add_statuses(p: argparse.ArgumentParser, met_help: str, solved_help: str) -> None:
+    for option, help_ in (("--met", met_help), ("--solved", solved_help)):
+        p.add_argument(option, action="append", default=[], metavar="NAME", help=help_)
+
+
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg, unused-ignore]
     p = sub.add_parser(
         "graph",
@@ -52,49 +58,37 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
     )
     gsub = p.add_subparsers(dest="graph_command", metavar="SUBCOMMAND", required=True)
 
-    v = gsub.add_parser(
+    _graph_command(
+        gsub,
         "validate",
+        cmd_validate,
         help="check a graph file and every lower graph it uses",
         description="Check the structure (errors: file:line, exit 2) and warn about oddities: "
         "a root that is a leaf, nodes on no hyper-arc, dead ends, nodes shared between the "
         "children of one hyper-arc (costs then differ from the paper's path definition), a "
         "graph that can never be solved.",
     )
-    v.add_argument("file", help=GRAPH_FILE_HELP)
-    add_json_flag(v)
-    v.set_defaults(func=cmd_validate)
 
-    s = gsub.add_parser("stats", help="counts: graphs, layers, nodes, hyper-arcs, instances")
-    s.add_argument("file", help=GRAPH_FILE_HELP)
+    s = _graph_command(
+        gsub, "stats", cmd_stats, help="counts: graphs, layers, nodes, hyper-arcs, instances"
+    )
     s.add_argument(
         "--paths",
         action="store_true",
         help="also count cooperation paths by enumerating them (exponential: small graphs only)",
     )
-    s.add_argument(
-        "--path-limit",
-        type=_path_limit,
-        default=None,
-        metavar="N",
-        help="with --paths: give up past N paths per graph instance (default 100000)",
-    )
-    add_json_flag(s)
-    s.set_defaults(func=cmd_stats)
+    _add_path_limit(s, "--paths: give up past N paths")
 
-    q = gsub.add_parser(
+    q = _graph_command(
+        gsub,
         "suggest",
+        cmd_suggest,
         help="feasible elements and their costs after reporting met nodes / solved hyper-arcs",
         description="Names inside a lower-graph instance are qualified by the instance path "
         "from the top graph: 'h4/h3/Node' is Node in the instance created by hyper-arc h3 "
         "inside the instance of top-level hyper-arc h4; a bare name is in the top graph.",
     )
-    q.add_argument("file", help=GRAPH_FILE_HELP)
-    q.add_argument(
-        "--met", action="append", default=[], metavar="NAME", help=f"a met node ({NAME_HELP})"
-    )
-    q.add_argument(
-        "--solved", action="append", default=[], metavar="NAME", help="a solved hyper-arc"
-    )
+    _add_statuses(q, f"a met node ({NAME_HELP})", "a solved hyper-arc")
     q.add_argument(
         "--infeasible",
         action="append",
@@ -107,24 +101,17 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
         action="store_true",
         help="costs by enumerating cooperation paths (exponential; reference mode)",
     )
-    q.add_argument(
-        "--path-limit",
-        type=_path_limit,
-        default=None,
-        metavar="N",
-        help="with --exact: give up past N cooperation paths per graph instance (default 100000)",
-    )
-    add_json_flag(q)
-    q.set_defaults(func=cmd_suggest)
+    _add_path_limit(q, "--exact: give up past N cooperation paths")
 
-    pl = gsub.add_parser(
+    pl = _graph_command(
+        gsub,
         "play",
+        cmd_play,
         help="traverse the graph to the end with a policy, timed",
         description="The FlexHRC+ authors' test client: query 1 reports nothing, every later "
         "query reports one element of the previous answer. Offline = load + build; online = "
         "the queries (medians). Exit 0 when solved, 1 when failed.",
     )
-    pl.add_argument("file", help=GRAPH_FILE_HELP)
     pl.add_argument(
         "--policy",
         choices=["cheapest", "random"],
@@ -132,7 +119,11 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
         help="which feasible element to report: the cheapest (default) or one at random",
     )
     pl.add_argument(
-        "--seed", type=_seed, default=0, metavar="N", help="random seed (0..2**63-1, default 0)"
+        "--seed",
+        type=int_range(0, MAX_SEED),
+        default=0,
+        metavar="N",
+        help="random seed (0..2**63-1, default 0)",
     )
     pl.add_argument(
         "--steps", action="store_true", help="list every reported element with its query number"
@@ -143,14 +134,13 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
         help="stream the event history to FILE (JSON lines, one per event, flushed as it "
         "goes; the same query numbers as --steps)",
     )
-    add_json_flag(pl)
-    pl.set_defaults(func=cmd_play)
 
-    r = gsub.add_parser(
+    r = _graph_command(
+        gsub,
         "render",
+        cmd_render,
         help="draw the graph (.dot, or .svg/.png/.pdf through graphviz), with a colour legend",
     )
-    r.add_argument("file", help=GRAPH_FILE_HELP)
     r.add_argument(
         "-o",
         "--output",
@@ -158,76 +148,51 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
         metavar="OUT",
         help="output file: .dot/.gv (DOT text) or .svg/.png/.pdf (needs graphviz's dot)",
     )
-    r.add_argument(
-        "--met",
-        action="append",
-        default=[],
-        metavar="NAME",
-        help="show this node as met (colours the top graph; repeat for several)",
-    )
-    r.add_argument(
-        "--solved",
-        action="append",
-        default=[],
-        metavar="NAME",
-        help="show this hyper-arc as solved (repeat for several)",
+    _add_statuses(
+        r,
+        "show this node as met (colours the top graph; repeat for several)",
+        "show this hyper-arc as solved (repeat for several)",
     )
     r.add_argument(
         "--no-legend", action="store_true", help="leave out the legend of shapes and colours"
     )
-    add_json_flag(r)
-    r.set_defaults(func=cmd_render)
 
     from flexhrc.cli.behave import register_graph_to_task  # THEN/AND/OR tasks (branch behavior)
 
     register_graph_to_task(gsub)
 
 
-def _plural(n: Any, one: str, many: str | None = None) -> str:
-    return f"{n} {one if n == 1 else (many or one + 's')}"
-
-
 def cmd_validate(args: argparse.Namespace) -> int:
-    from flexhrc.representation import OnlineGraph
+    from flexhrc.representation.reports import validation
     from flexhrc.scenario import graph_of
 
-    h = graph_of(args.file)
-    st = h.stats()
-    warnings = [*h.warnings, *h.lint()]
-    answer = OnlineGraph(h, validate=False).query()
-    solvable = answer.outcome != "failed"
-    messages = [str(w) for w in warnings]
-    if not solvable:
-        messages.append(f"{args.file}: the graph can never be solved: {answer.reason}")
+    report = validation(graph_of(args.file), args.file)
+    messages = report["warnings"]
     for m in messages:
         print(f"warning: {m}", file=sys.stderr)
     emit(
         args,
-        {"file": args.file, "valid": True, "solvable": solvable, "warnings": messages, **st},
-        f"{args.file}: valid ({_plural(st['graphs'], 'graph definition')}, "
-        f"{_plural(st['layers'], 'layer')}, {_plural(st['instantiated_nodes'], 'node')} and "
-        f"{_plural(st['instantiated_hyperarcs'], 'hyper-arc')} instantiated)"
-        + ("" if solvable else "; it can never be solved")
-        + (f"; {_plural(len(messages), 'warning')}" if messages else ""),
+        report,
+        f"{args.file}: valid ({plural(report['graphs'], 'graph definition')}, "
+        f"{plural(report['layers'], 'layer')}, {plural(report['instantiated_nodes'], 'node')} "
+        f"and {plural(report['instantiated_hyperarcs'], 'hyper-arc')} instantiated)"
+        + ("" if report["solvable"] else "; it can never be solved")
+        + (f"; {plural(len(messages), 'warning')}" if messages else ""),
     )
     return 0
 
 
 def cmd_stats(args: argparse.Namespace) -> int:
     from flexhrc.errors import FlexhrcError
-    from flexhrc.representation import OnlineGraph
+    from flexhrc.representation.paths import DEFAULT_LIMIT
+    from flexhrc.representation.reports import statistics
     from flexhrc.scenario import graph_of
 
     if args.path_limit is not None and not args.paths:
         raise FlexhrcError("--path-limit needs --paths")
-    h = graph_of(args.file)
-    st: dict[str, Any] = h.stats()
-    online = OnlineGraph(h, validate=False)
-    st["optimal_cost"] = _num(online.optimal_cost())
-    if args.paths:
-        from flexhrc.representation.paths import DEFAULT_LIMIT, count_paths
-
-        st["paths"] = count_paths(online, args.path_limit or DEFAULT_LIMIT)
+    st = statistics(
+        graph_of(args.file), paths=args.paths, path_limit=args.path_limit or DEFAULT_LIMIT
+    )
 
     def text() -> str:
         rows = [
@@ -252,33 +217,20 @@ def cmd_stats(args: argparse.Namespace) -> int:
 
 def cmd_suggest(args: argparse.Namespace) -> int:
     from flexhrc.errors import FlexhrcError
-    from flexhrc.representation import OnlineGraph
+    from flexhrc.representation.paths import DEFAULT_LIMIT
+    from flexhrc.representation.reports import suggestions
     from flexhrc.scenario import graph_of
 
     if args.path_limit is not None and not args.exact:
         raise FlexhrcError("--path-limit needs --exact (it limits the path enumeration)")
-    online = OnlineGraph(graph_of(args.file), validate=False)
-    result = online.update(
-        met_nodes=args.met, solved_hyperarcs=args.solved, infeasible=args.infeasible
+    result, rows = suggestions(
+        graph_of(args.file),
+        met=args.met,
+        solved=args.solved,
+        infeasible=args.infeasible,
+        exact=args.exact,
+        path_limit=args.path_limit or DEFAULT_LIMIT,
     )
-    if args.exact:
-        from flexhrc.representation.paths import DEFAULT_LIMIT, exact_costs
-
-        costs = exact_costs(online, args.path_limit or DEFAULT_LIMIT)
-        rows: list[dict[str, Any]] = [
-            {
-                "element": name,
-                "kind": online.kind(name),
-                "cost": _num(c),
-                "graph": online.graph_of(name),
-            }
-            for name, c in costs.items()
-        ]
-        rows.sort(key=lambda r: (r["cost"], online.element_id(r["element"])))
-    else:
-        rows = [
-            {k: v for k, v in s.to_dict().items() if k != "graph_name"} for s in result.suggestions
-        ]
 
     def text() -> str:
         if result.solved:
@@ -292,17 +244,12 @@ def cmd_suggest(args: argparse.Namespace) -> int:
             out.append(f"{r['element']:<{width}}  {r['kind']:<8}  {r['cost']!s:>6}  {graph}")
         return "\n".join(out)
 
-    if args.json:
-        emit(args, rows if result.outcome == "running" else _outcome_rows(result))
-    else:
-        emit(args, rows, text)
+    if args.json and result.outcome != "running":
+        # solved/failed: no feasible element; the list is empty, stderr says why
+        print(f"{result.outcome}: {result.reason or 'the root is met'}", file=sys.stderr)
+        rows = []
+    emit(args, rows, text)
     return 0
-
-
-def _outcome_rows(result: Any) -> list[dict[str, Any]]:
-    # solved/failed: no feasible element; the list is empty, stderr says why
-    print(f"{result.outcome}: {result.reason or 'the root is met'}", file=sys.stderr)
-    return []
 
 
 def _sources(hierarchy: Any) -> list[str]:
@@ -312,6 +259,7 @@ def _sources(hierarchy: Any) -> list[str]:
 def cmd_play(args: argparse.Namespace) -> int:
     from flexhrc.files import EventLogWriter, check_output
     from flexhrc.representation.play import play
+    from flexhrc.representation.reports import number
     from flexhrc.scenario import graph_of, is_scenario_file
 
     writer: EventLogWriter | None = None
@@ -355,10 +303,10 @@ def cmd_play(args: argparse.Namespace) -> int:
     def text() -> str:
         out = []
         for st in report.steps:
-            out.append(f"  query {st['query']:>4}: {st['element']}  (cost {_num(st['cost'])})")
+            out.append(f"  query {st['query']:>4}: {st['element']}  (cost {number(st['cost'])})")
         out.append(
-            f"{report.outcome} after {_plural(report.queries, 'query', 'queries')}, cost "
-            f"{_num(report.cost)}; offline {report.offline_s * 1e3:.2f} ms, online "
+            f"{report.outcome} after {plural(report.queries, 'query', 'queries')}, cost "
+            f"{number(report.cost)}; offline {report.offline_s * 1e3:.2f} ms, online "
             f"{report.online_s_total * 1e3:.2f} ms "
             f"({report.online_s_per_query_median * 1e6:.1f} µs per query, median)"
         )
@@ -374,37 +322,18 @@ def cmd_play(args: argparse.Namespace) -> int:
 
 def cmd_render(args: argparse.Namespace) -> int:
     from flexhrc.files import check_output
-    from flexhrc.representation import OnlineGraph
-    from flexhrc.representation.formats.dot import render, to_dot
+    from flexhrc.representation.reports import RENDER_SUFFIXES, render_graph
     from flexhrc.scenario import graph_of
 
+    # before the work: never the file read
     check_output(args.output, option="-o", suffixes=RENDER_SUFFIXES, inputs=[args.file])
-    h = graph_of(args.file)
-    check_output(args.output, option="-o", suffixes=RENDER_SUFFIXES, inputs=_sources(h))
-    online = None
-    if args.met or args.solved:
-        online = OnlineGraph(h, validate=False)
-        online.update(met_nodes=args.met, solved_hyperarcs=args.solved)
-    out = render(to_dot(h, online, legend=not args.no_legend), args.output)
-    st = h.stats()
-    emit(
-        args,
-        {
-            "file": args.file,
-            "output": str(out),
-            "format": out.suffix.lower().lstrip("."),
-            "legend": not args.no_legend,
-            "statuses": online is not None,
-            "graphs": st["graphs"],
-            "nodes": st["nodes"],
-            "hyperarcs": st["hyperarcs"],
-        },
-        f"wrote {out}",
+    report = render_graph(
+        graph_of(args.file),
+        args.output,
+        file=args.file,
+        met=args.met,
+        solved=args.solved,
+        legend=not args.no_legend,
     )
+    emit(args, report, f"wrote {report['output']}")
     return 0
-
-
-def _num(x: float) -> float | int | None:
-    if x == float("inf"):
-        return None
-    return int(x) if float(x).is_integer() else x

@@ -12,8 +12,6 @@ Heavy imports happen inside the handlers so ``flexhrc --help`` stays fast.
 from __future__ import annotations
 
 import argparse
-import functools
-import time
 from pathlib import Path
 from typing import Any
 
@@ -45,6 +43,16 @@ def _actions(value: str | None) -> list[str] | None:
     return names
 
 
+def _add_dataset_options(p: argparse.ArgumentParser, actions_help: str) -> None:
+    p.add_argument("--actions", help=actions_help)
+    p.add_argument(
+        "--min-trials",
+        type=int_range(1, 100_000),
+        default=1,
+        help="skip actions with fewer trials (default 1)",
+    )
+
+
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "har",
@@ -58,13 +66,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     t = sub.add_parser("train", help="fit one GMM/GMR model per action")
     t.add_argument("data_dir", metavar="DATA_DIR", help="one folder per action of trial files")
     t.add_argument("-o", "--output", required=True, metavar="MODEL", help="model file (.npz)")
-    t.add_argument("--actions", help="comma-separated action names (default: all folders)")
-    t.add_argument(
-        "--min-trials",
-        type=int_range(1, 100_000),
-        default=1,
-        help="skip actions with fewer trials (default 1)",
-    )
+    _add_dataset_options(t, "comma-separated action names (default: all folders)")
     t.add_argument(
         "--max-components",
         type=int_range(1, MAX_COMPONENTS),
@@ -98,13 +100,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     e.add_argument(
         "--baseline", action="store_true", help="with --cv: also run the summary-feature RF"
     )
-    e.add_argument("--actions", help="comma-separated action names")
-    e.add_argument(
-        "--min-trials",
-        type=int_range(1, 100_000),
-        default=1,
-        help="skip actions with fewer trials (default 1)",
-    )
+    _add_dataset_options(e, "comma-separated action names")
     e.add_argument("--seed", type=seed_type, default=0, help="seed of the fits (default 0)")
     add_json_flag(e)
     e.set_defaults(func=_eval)
@@ -144,34 +140,22 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _train(args: argparse.Namespace) -> int:
-    from flexhrc.files import atomic_output
-    from flexhrc.perception.human import GMMGMRRecognizer, load_dataset
-    from flexhrc.perception.human.dataset import summarise
+    from flexhrc.perception.human.api import train
 
     check_outputs([("-o", args.output, (".npz",))])
-    trials = load_dataset(args.data_dir, _actions(args.actions), args.min_trials, warn=progress)
-    progress(f"training on {plural(len(trials), 'trial')}: {summarise(trials)}")
-    t0 = time.perf_counter()
-    try:
-        rec = GMMGMRRecognizer(max_components=args.max_components, random_state=args.seed)
-        rec.fit(trials)
-    except ValueError as exc:
-        raise FlexhrcError(str(exc)) from None
-    with atomic_output(args.output) as tmp:
-        rec.save(tmp)
-    path = Path(args.output)
-    models = {
-        c: {
-            "length_s": round(m.length / rec.preprocessor.rate_hz, 2),
-            "components": m.n_components,
-            "threshold": round(m.threshold, 4),
-        }
-        for c, m in rec.models_.items()
-    }
-    data = {"model": str(path), "seconds": round(time.perf_counter() - t0, 2), "actions": models}
+    data = train(
+        args.data_dir,
+        args.output,
+        actions=_actions(args.actions),
+        min_trials=args.min_trials,
+        max_components=args.max_components,
+        seed=args.seed,
+        progress=progress,
+    )
+    models = data["actions"]
 
     def text() -> str:
-        lines = [f"saved {path} ({plural(len(models), 'action')}, {data['seconds']} s)"]
+        lines = [f"saved {data['model']} ({plural(len(models), 'action')}, {data['seconds']} s)"]
         for c, m in models.items():
             lines.append(
                 f"  {c:16s} window {m['length_s']:6.2f} s  components {m['components']}  "
@@ -214,129 +198,77 @@ def confusion_rows(labels: list[str], matrix: list[list[int]]) -> list[str]:
     return rows
 
 
-def _progress(args: argparse.Namespace, method: str, message: str) -> None:
-    progress(f"[{method}] {message}")
-
-
 def _eval(args: argparse.Namespace) -> int:
-    from flexhrc.perception.human import GMMGMRRecognizer, load_dataset
-    from flexhrc.perception.human.evaluation import (
-        SummaryFeatureBaseline,
-        classification_report,
-        cross_validate,
-    )
+    from flexhrc.perception.human.api import cross_validation, evaluate
 
     needs(args, "--folds", args.folds is not None, "--cv volunteer", bool(args.cv))
     needs(args, "--baseline", args.baseline, "--cv volunteer", bool(args.cv))
+    dataset = {
+        "actions": _actions(args.actions),
+        "min_trials": args.min_trials,
+        "progress": progress,
+    }
     if args.cv:
         if len(args.paths) != 1:
             raise FlexhrcError("eval --cv volunteer takes one argument: DATA_DIR")
-        trials = load_dataset(args.paths[0], _actions(args.actions), args.min_trials, warn=progress)
-        volunteers = len({t.volunteer for t in trials})
-        if args.folds is not None and args.folds > volunteers:
-            raise FlexhrcError(
-                f"--folds {args.folds}: the data have {plural(volunteers, 'volunteer')}; "
-                f"give at most {volunteers}"
-            )
-        labels = sorted({t.action for t in trials})
-        methods: list[tuple[str, Any]] = [
-            ("gmm_gmr", lambda: GMMGMRRecognizer(random_state=args.seed))
-        ]
-        if args.baseline:
-            methods.append(("baseline_rf", lambda: SummaryFeatureBaseline(random_state=args.seed)))
-        out: dict = {"split": "leave-one-volunteer-out" if args.folds is None else
-                     f"{args.folds} folds by volunteer"}  # fmt: skip
-        for name, make in methods:
-            y_true, y_pred = cross_validate(
-                trials, make, args.folds, progress=functools.partial(_progress, args, name)
-            )
-            out[name] = classification_report(y_true, y_pred, labels)
+        out = cross_validation(
+            args.paths[0], folds=args.folds, baseline=args.baseline, seed=args.seed, **dataset
+        )
+        methods = [name for name in out if name != "split"]
         emit(
             args,
             out,
             lambda: "\n\n".join(
-                [f"split: {out['split']}"] + [_report_text(name, out[name]) for name, _ in methods]
+                [f"split: {out['split']}"] + [_report_text(name, out[name]) for name in methods]
             ),
         )
         return 0
     if len(args.paths) != 2:
         raise FlexhrcError("eval takes MODEL DATA_DIR (or --cv volunteer DATA_DIR)")
-    rec = GMMGMRRecognizer.load(args.paths[0])
-    trials = load_dataset(args.paths[1], _actions(args.actions), args.min_trials, warn=progress)
-    unknown = sorted({t.action for t in trials} - set(rec.classes_))
-    if unknown:
-        progress(f"note: the model has no template for {', '.join(unknown)} (counted as errors)")
-    pred = rec.predict(trials)
-    rep = classification_report([t.action for t in trials], pred)
+    rep = evaluate(args.paths[0], args.paths[1], **dataset)
     emit(args, rep, lambda: _report_text(Path(args.paths[0]).name, rep))
     return 0
 
 
 def _stream(args: argparse.Namespace) -> int:
-    from flexhrc.perception.human import GMMGMRRecognizer, OnlineRecognizer, read_trial_file
+    from flexhrc.perception.human.api import stream
 
     if 0 < args.speed < MIN_SPEED:
         raise FlexhrcError(
             f"--speed {args.speed:g}: give 0 (as fast as possible) or {MIN_SPEED:g} to "
             f"{MAX_SPEED:g} times real time"
         )
-    rec = GMMGMRRecognizer.load(args.model)
-    samples = read_trial_file(args.file)
-    online = OnlineRecognizer(rec, stride=args.stride)
-    rate = rec.preprocessor.rate_hz
-    found = []
-    chunk = 8
-    t0 = time.perf_counter()
-    for start in range(0, len(samples), chunk):
-        if args.speed > 0:  # pace the replay like a live sensor (speed x real time)
-            due = start / rate / args.speed
-            wait = due - (time.perf_counter() - t0)
-            if wait > 0:
-                time.sleep(wait)
-        for r in online.push(samples[start : start + chunk]):
-            found.append(r)
-            log(args, f"[{r.t_end:8.2f} s] {r.name}  ({r.t_start:.2f}-{r.t_end:.2f} s, "
-                      f"confidence {r.confidence:.2f})")  # fmt: skip
-    for r in online.finish():
-        found.append(r)
-        log(args, f"[{r.t_end:8.2f} s] {r.name}  ({r.t_start:.2f}-{r.t_end:.2f} s, "
-                  f"confidence {r.confidence:.2f})  (end of stream)")  # fmt: skip
-    elapsed = time.perf_counter() - t0
-    duration = len(samples) / rate
-    data = {
-        "file": args.file,
-        "duration_s": round(duration, 3),
-        "processing_s": round(elapsed, 4),
-        "speed_x_realtime": round(duration / elapsed, 1) if elapsed > 0 else None,
-        "recognised": [r.to_dict() for r in found],
-    }
+
+    def heard(r: Any, at_end: bool) -> None:
+        log(
+            args,
+            f"[{r.t_end:8.2f} s] {r.name}  ({r.t_start:.2f}-{r.t_end:.2f} s, "
+            f"confidence {r.confidence:.2f})" + ("  (end of stream)" if at_end else ""),
+        )
+
+    data = stream(args.model, args.file, speed=args.speed, stride=args.stride, on_recognition=heard)
     emit(
         args,
         data,
-        f"{plural(len(found), 'recognition')} in {duration:.2f} s of signal "
-        f"(processed in {elapsed:.3f} s)",
+        f"{plural(len(data['recognised']), 'recognition')} in {data['duration_s']:.2f} s of "
+        f"signal (processed in {data['processing_s']:.3f} s)",
     )
     return 0
 
 
 def _synth(args: argparse.Namespace) -> int:
-    from flexhrc.perception.human import GMMGMRRecognizer, SimulatedWearable
-    from flexhrc.perception.human.dataset import save_csv
+    from flexhrc.perception.human.api import synthesise
 
     check_outputs([("-o", args.output, (".csv",))], inputs=[args.model])
-    rec = GMMGMRRecognizer.load(args.model)
-    names = _actions(args.actions) or []
-    for n in names:
-        rec.model(n)  # an unknown action: UnknownNameError naming the known ones, before work
-    wearable = SimulatedWearable(rec, seed=args.seed)
-    samples, truth = wearable.sequence(names, gap_s=args.gap)
-    save_csv(args.output, samples, rec.preprocessor.rate_hz)
-    data = {
-        "file": args.output,
-        "samples": len(samples),
-        "actions": [{"name": n, "t_start": round(a, 3), "t_end": round(b, 3)} for n, a, b in truth],
-    }
-    emit(args, data, lambda: "\n".join(
-        [f"wrote {args.output} ({plural(len(samples), 'sample')})"]
-        + [f"  {n}: {a:.2f}-{b:.2f} s" for n, a, b in truth]))  # fmt: skip
+    data = synthesise(
+        args.model, _actions(args.actions) or [], args.output, seed=args.seed, gap_s=args.gap
+    )
+    emit(
+        args,
+        data,
+        lambda: "\n".join(
+            [f"wrote {args.output} ({plural(data['samples'], 'sample')})"]
+            + [f"  {a['name']}: {a['t_start']:.2f}-{a['t_end']:.2f} s" for a in data["actions"]]
+        ),
+    )
     return 0

@@ -4,10 +4,8 @@ from __future__ import annotations
 
 import argparse
 import sys
-from pathlib import Path
 
 from flexhrc.cli.common import add_json_flag, emit
-from flexhrc.errors import FlexhrcError
 
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg, unused-ignore]
@@ -43,36 +41,17 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
 
 
 def cmd_validate(args: argparse.Namespace) -> int:
-    from flexhrc.scenario import check, resolve
+    from flexhrc.scenario import Fault, validation
 
-    path = resolve(args.file)
-    scenario, faults = check(path)
-    errors = [f for f in faults if f.severity == "error"]
+    report = validation(args.file)
     if args.json:
-        emit(
-            args,
-            {
-                "file": str(path),
-                "valid": not errors and scenario is not None,
-                "faults": [
-                    {
-                        "source": f.source,
-                        "line": f.line,
-                        "severity": f.severity,
-                        "message": f.message,
-                    }
-                    for f in faults
-                ],
-                "summary": scenario.summary_line() if scenario is not None else None,
-            },
-        )
-        return 2 if errors or scenario is None else 0
-    for f in faults:
-        print(str(f), file=sys.stderr if f.severity == "error" else sys.stdout)
-    if errors or scenario is None:
-        return 2
-    print(f"{path}: valid: {scenario.summary_line()}")
-    return 0
+        emit(args, report)
+    else:
+        for f in (Fault(**fault) for fault in report["faults"]):
+            print(str(f), file=sys.stderr if f.severity == "error" else sys.stdout)
+        if report["valid"]:
+            print(f"{report['file']}: valid: {report['summary']}")
+    return 0 if report["valid"] else 2
 
 
 def cmd_list(args: argparse.Namespace) -> int:
@@ -88,20 +67,9 @@ def cmd_list(args: argparse.Namespace) -> int:
 
 
 def cmd_new(args: argparse.Namespace) -> int:
-    from flexhrc.files import atomic_write_text
-    from flexhrc.scenario.starter import STARTER, STARTER_NAME
+    from flexhrc.scenario.starter import write_starter
 
-    folder = Path(args.dir)
-    if folder.exists() and not folder.is_dir():
-        raise FlexhrcError(f"{folder}: exists and is not a folder (DIR must be a folder)")
-    target = folder / STARTER_NAME
-    if target.exists() and not args.force:
-        raise FlexhrcError(f"{target}: already exists (use --force to overwrite it)")
-    try:
-        folder.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise FlexhrcError(f"{folder}: cannot create the folder ({exc.strerror})") from None
-    atomic_write_text(target, STARTER)
+    target = write_starter(args.dir, force=args.force)
     print(f"wrote {target}")
     print(f"next: flexhrc scenario validate {target} && flexhrc run {target}")
     return 0

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import argparse
 import math
-from pathlib import Path
 
 from flexhrc.cli.common import (
     add_json_flag,
@@ -22,9 +21,20 @@ from flexhrc.cli.common import (
     progress,
     seed_type,
 )
-from flexhrc.errors import FlexhrcError, FormatError
+from flexhrc.errors import FlexhrcError
 
 MAX_NOISE_M = 0.1  # beyond 10 cm of depth noise nothing on a table is recognisable
+
+
+def _add_scene_options(p: argparse.ArgumentParser, scene: str, bound: str = "") -> None:
+    p.add_argument("--seed", type=seed_type, default=0, help=f"seed of the {scene} (default 0)")
+    p.add_argument(
+        "--noise",
+        type=float_range(0.0, MAX_NOISE_M),
+        default=0.002,
+        metavar="SIGMA_M",
+        help=f"depth noise, standard deviation in metres (default 0.002{bound})",
+    )
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -43,14 +53,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         default=50,
         help="number of scenes generated (default 50)",
     )
-    b.add_argument("--seed", type=seed_type, default=0, help="seed of the scenes (default 0)")
-    b.add_argument(
-        "--noise",
-        type=float_range(0.0, MAX_NOISE_M),
-        default=0.002,
-        metavar="SIGMA_M",
-        help=f"depth noise, standard deviation in metres (default 0.002, at most {MAX_NOISE_M:g})",
-    )
+    _add_scene_options(b, "scenes", f", at most {MAX_NOISE_M:g}")
     b.add_argument(
         "--dropout",
         type=float_range(0.0, 1.0, hi_open=True),
@@ -74,14 +77,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
     g = sub.add_parser("generate", help="write a synthetic scene (point cloud or depth image)")
     g.add_argument("-o", "--output", required=True, metavar="FILE.npy", help="the file written")
-    g.add_argument("--seed", type=seed_type, default=0, help="seed of the scene (default 0)")
-    g.add_argument(
-        "--noise",
-        type=float_range(0.0, MAX_NOISE_M),
-        default=0.002,
-        metavar="SIGMA_M",
-        help="depth noise, standard deviation in metres (default 0.002)",
-    )
+    _add_scene_options(g, "scene")
     g.add_argument("--depth", action="store_true", help="write the depth image, not the cloud")
     add_json_flag(g)
     g.set_defaults(func=_generate)
@@ -144,37 +140,14 @@ def _bench(args: argparse.Namespace) -> int:
 
 
 def _generate(args: argparse.Namespace) -> int:
-    import numpy as np
-
-    from flexhrc.files import atomic_output
-    from flexhrc.perception.scene import depth_to_cloud, generate_scene, render_depth
+    from flexhrc.perception.scene.api import generate
 
     check_outputs([("-o", args.output, (".npy",))])
-    rng = np.random.default_rng(args.seed)
-    scene = generate_scene(rng)
-    depth = render_depth(scene, noise=args.noise, rng=rng)
-    out = depth if args.depth else depth_to_cloud(depth, scene.intrinsics, scene.extrinsics)
-    with atomic_output(args.output) as tmp, open(tmp, "wb") as fh:
-        np.save(fh, out)
-    i = scene.intrinsics
-    data = {
-        "file": args.output,
-        "shape": list(out.shape),
-        "intrinsics": [i.fx, i.fy, i.cx, i.cy],
-        "camera_to_world": scene.extrinsics.round(6).tolist(),
-        "objects": [
-            {
-                "type": o.type,
-                "position": o.center.round(4).tolist(),
-                "size": o.size.round(4).tolist(),
-            }
-            for o in scene.objects
-        ],
-    }
+    data = generate(args.output, seed=args.seed, noise=args.noise, depth=args.depth)
 
     def text() -> str:
-        head = f"wrote {args.output} {tuple(out.shape)}; intrinsics "
-        head += f"{i.fx:.2f},{i.fy:.2f},{i.cx:.2f},{i.cy:.2f}"
+        head = f"wrote {args.output} {tuple(data['shape'])}; intrinsics "
+        head += ",".join(f"{v:.2f}" for v in data["intrinsics"])
         rows = [f"  {o['type']:16s} at {o['position']} size {o['size']}" for o in data["objects"]]
         return "\n".join([head, *rows])
 
@@ -185,24 +158,10 @@ def _generate(args: argparse.Namespace) -> int:
 def _detect(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from flexhrc.perception._io import load_npy
-    from flexhrc.perception.scene import CameraIntrinsics, RuleSet, ScenePerception
+    from flexhrc.perception.scene.api import detect
 
-    path = Path(args.file)
-    arr = load_npy(path)
-    rules = RuleSet.load(args.rules) if args.rules else RuleSet.default()
-    perception = ScenePerception(rules=rules)
-    if not np.issubdtype(arr.dtype, np.number) or arr.dtype.kind == "c":
-        raise FormatError(f"expected real numbers, got an array of {arr.dtype}", path)
-    if arr.ndim == 2 and arr.size and not np.isfinite(arr).any():
-        raise FormatError("no finite value: every point or pixel is NaN or infinite", path)
-    if arr.ndim == 2 and arr.shape[1] == 3:
-        if args.intrinsics:
-            raise FlexhrcError(f"--intrinsics goes with a depth image; {path} is a point cloud")
-        objects = perception.process(arr)
-    elif arr.ndim == 2:
-        if not args.intrinsics:
-            raise FlexhrcError(f"{path}: a depth image needs --intrinsics fx,fy,cx,cy")
+    intrinsics = None
+    if args.intrinsics:
         try:
             fx, fy, cx, cy = (float(v) for v in args.intrinsics.split(","))
         except ValueError:
@@ -213,15 +172,8 @@ def _detect(args: argparse.Namespace) -> int:
             raise FlexhrcError(
                 f"--intrinsics {args.intrinsics}: focal lengths fx, fy must be > 0 (pixels)"
             )
-        intr = CameraIntrinsics(fx, fy, cx, cy, arr.shape[1], arr.shape[0])
-        # Without extrinsics the cloud is in the camera frame: "up" is towards the camera (-z).
-        perception.up = (0.0, 0.0, -1.0)
-        objects = perception.process_depth(arr, intr)
-    else:
-        raise FormatError(
-            f"expected an (n, 3) cloud or an (H, W) depth image, got {arr.shape}", path
-        )
-    data = {"file": str(path), "objects": [o.to_dict() for o in objects]}
+        intrinsics = (fx, fy, cx, cy)
+    data, objects = detect(args.file, intrinsics=intrinsics, rules=args.rules)
 
     def text() -> str:
         rows = [

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import argparse
 import math
-import time
 from typing import Any
 
 from flexhrc.cli.common import add_json_flag, check_outputs, emit, float_range, needs
@@ -107,11 +106,22 @@ def _floats(values: list[str] | None, what: str) -> list[float] | None:
         raise FlexhrcError(f"{what} must be numbers, got {' '.join(values)!r}") from None
 
 
-def run(args: argparse.Namespace) -> int:
-    from flexhrc.action.control import parse_obstacle
-    from flexhrc.action.simulator import KinematicSimulator, Pose
+def _pose(values: list[str] | None, option: str, yaw: float) -> Any:
+    from flexhrc.action.simulator import Pose
 
-    t0 = time.perf_counter()
+    xyz = _floats(values, option)
+    if xyz is None:
+        return None
+    if len(xyz) != 3:
+        raise FlexhrcError(f"{option} must be 3 numbers X Y Z, got {len(xyz)}")
+    return Pose.coerce({"position": xyz, "yaw": yaw}, option)
+
+
+def run(args: argparse.Namespace) -> int:
+    from flexhrc.action.api import simulate_action
+    from flexhrc.action.control import parse_obstacle
+    from flexhrc.action.simulator import Pose
+
     if not math.isfinite(args.time_budget) or not 0 < args.time_budget <= MAX_TIME_BUDGET:
         raise FlexhrcError(
             f"--time-budget must be positive and at most {MAX_TIME_BUDGET:g} s, "
@@ -131,68 +141,28 @@ def run(args: argparse.Namespace) -> int:
     from flexhrc.action.view import VIEW_SUFFIXES
 
     check_outputs([("--view", args.view, VIEW_SUFFIXES)])
-    target = None
-    if args.target is not None:
-        xyz = _floats(args.target, "--target")
-        if xyz is None or len(xyz) != 3:
-            raise FlexhrcError(f"--target must be 3 numbers X Y Z, got {len(args.target)}")
-        target = Pose.coerce({"position": xyz, "yaw": args.yaw}, "--target")
+    target = _pose(args.target, "--target", args.yaw)
     obstacles = [
         parse_obstacle(_floats(o, "--obstacle"), f"--obstacle {i + 1}")
         for i, o in enumerate(args.obstacle)
     ]
-    pick = target
-    if args.from_ is not None:
-        xyz = _floats(args.from_, "--from")
-        if xyz is None or len(xyz) != 3:
-            raise FlexhrcError(f"--from must be 3 numbers X Y Z, got {len(args.from_)}")
-        pick = Pose.coerce({"position": xyz, "yaw": args.yaw}, "--from")
+    pick = _pose(args.from_, "--from", args.yaw)
     hand = None
     if args.human_hand is not None:
         hand = Pose.coerce(_floats(args.human_hand, "--human-hand"), "--human-hand").position
-    sim = KinematicSimulator(dt=args.dt, time_budget_s=args.time_budget)
-    start = sim.rest_state()
-    before = []
-    for name in args.after:
-        pre = sim.simulate(args.arm, name, pick, start=start, obstacles=obstacles,
-                           human_hand=hand)  # fmt: skip
-        before.append(pre)
-        if not pre.success:
-            raise FlexhrcError(f"--after {name} failed: {pre.reason}")
-        start = pre.final_state
-    out = sim.simulate(args.arm, args.action, target, start=start, obstacles=obstacles,
-                       human_hand=hand)  # fmt: skip
-    data: dict[str, Any] = out.to_dict(trajectory=args.trajectory)
-    data["target"] = None if target is None else target.to_dict()
-    data["obstacles"] = [o.to_dict() for o in obstacles]
-    data["after"] = [{"action": b.action, "duration_s": round(b.duration_s, 4)} for b in before]
-    data["real_time_factor"] = (
-        round(out.duration_s / out.wall_s, 1) if out.wall_s > 0 and out.duration_s > 0 else None
+    data, out = simulate_action(
+        args.action,
+        args.arm,
+        target,
+        after=args.after,
+        after_target=pick,
+        obstacles=obstacles,
+        human_hand=hand,
+        dt=args.dt,
+        time_budget_s=args.time_budget,
+        trajectory=args.trajectory,
+        view=args.view,
     )
-    if args.view:
-        from flexhrc.action.simulator import Trajectory
-        from flexhrc.action.view import render
-
-        traj = Trajectory.concatenate([*(b.trajectory for b in before), out.trajectory])
-        goal = None if target is None else list(target.position)
-        from flexhrc.files import atomic_output
-
-        title = (
-            f"{out.action} by {out.arm}: {'success' if out.success else 'FAILED'} "
-            f"({out.duration_s:.2f} s simulated)"
-        )
-        with atomic_output(args.view) as tmp:
-            render(
-                traj,
-                tmp,
-                obstacles=obstacles,
-                human_hand=hand,
-                goal=goal,
-                rest=start.q,
-                title=title,
-            )
-        data["view"] = str(args.view)
-    data["total_wall_s"] = round(time.perf_counter() - t0, 4)
 
     def text() -> str:
         lines = [

@@ -21,6 +21,7 @@ The loader API (for the command line, the live cell, notebooks)::
     result = scenario.run(sc, profile="cooperative", seed=3)   # a RunResult
 
     faults = scenario.validate("my_task.yaml") # [Fault(source, line, message, severity)]
+    scenario.validation("my_task.yaml")        # what `flexhrc scenario validate --json` prints
     scenario.graph_of("my_task.yaml")          # the task graph of a scenario or a graph file
 
     scenario.load_scenario("table_assembly", segments="legs")  # any name or file, any front end
@@ -47,6 +48,7 @@ from flexhrc.scenario.loader import (
     resolve,
     shipped_path,
     validate,
+    validation,
 )
 from flexhrc.scenario.model import PROFILES, SIMULATORS, HumanSpec, ObjectSpec, Scenario, WorldSpec
 from flexhrc.scenario.run import prepare, run
@@ -77,4 +79,5 @@ __all__ = [
     "shipped_path",
     "table_assembly",
     "validate",
+    "validation",
 ]

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from importlib import resources
 from pathlib import Path
+from typing import Any
 
 from flexhrc.errors import FlexhrcError, UnknownNameError
 from flexhrc.scenario.format import Fault, check, parse
@@ -43,6 +44,23 @@ def validate(path_or_name: str | Path) -> list[Fault]:
         return check(resolve(path_or_name))[1]
     except FlexhrcError as exc:
         return [Fault(str(path_or_name), None, str(exc))]
+
+
+def validation(path_or_name: str | Path) -> dict[str, Any]:
+    """What ``flexhrc scenario validate --json`` prints: the file, whether it is valid (no
+    error), every fault (``source``, ``line``, ``severity``, ``message``) and the summary line
+    of a valid scenario. Unlike :func:`validate`, an unknown name raises."""
+    path = resolve(path_or_name)
+    scenario, faults = check(path)
+    return {
+        "file": str(path),
+        "valid": scenario is not None and all(f.severity != "error" for f in faults),
+        "faults": [
+            {"source": f.source, "line": f.line, "severity": f.severity, "message": f.message}
+            for f in faults
+        ],
+        "summary": scenario.summary_line() if scenario is not None else None,
+    }
 
 
 def describe_shipped() -> list[tuple[str, str]]:

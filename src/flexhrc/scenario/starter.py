@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
+from flexhrc.errors import FlexhrcError
+
 STARTER_NAME = "scenario.yaml"
 
 STARTER = """\
@@ -102,3 +106,22 @@ humans:
   - {name: human, profile: cooperative, speed: 0.6}
 simulator: analytic
 """
+
+
+def write_starter(folder: str | Path, *, force: bool = False) -> Path:
+    """Write :data:`STARTER` to ``folder/scenario.yaml`` (the folder is created; an existing
+    file is kept unless ``force``) and return its path."""
+    from flexhrc.files import atomic_write_text
+
+    folder = Path(folder)
+    if folder.exists() and not folder.is_dir():
+        raise FlexhrcError(f"{folder}: exists and is not a folder (DIR must be a folder)")
+    target = folder / STARTER_NAME
+    if target.exists() and not force:
+        raise FlexhrcError(f"{target}: already exists (use --force to overwrite it)")
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise FlexhrcError(f"{folder}: cannot create the folder ({exc.strerror})") from None
+    atomic_write_text(target, STARTER)
+    return target
