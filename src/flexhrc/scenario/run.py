@@ -17,7 +17,6 @@ from typing import Any
 from flexhrc.cell.local import InjectedFailure, LocalCell, RunResult
 from flexhrc.errors import FlexhrcError
 from flexhrc.scenario.model import PROFILES, Scenario
-from flexhrc.taskmanager.manager import REACTIONS
 
 
 def prepare(
@@ -46,13 +45,8 @@ def prepare(
         raise FlexhrcError(
             f"unknown human profile {profile!r}; choose one of {', '.join(PROFILES)}"
         )
-    if reaction not in REACTIONS:
-        raise FlexhrcError(f"unknown reaction {reaction!r}; choose one of {', '.join(REACTIONS)}")
-    sim = (
-        scenario.make_simulator(simulator)
-        if simulator is None or isinstance(simulator, str)
-        else simulator
-    )
+    # (the Task Manager refuses an unknown reaction; the cell makes the scenario's simulator)
+    sim = scenario.make_simulator(simulator) if isinstance(simulator, str) else simulator
     pairs = [(h.name, profile or h.profile) for h in scenario.humans]
     observers = [f for f in (sink, trace) if f is not None]  # the log first: shown = stored
     return LocalCell(
