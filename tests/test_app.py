@@ -61,7 +61,7 @@ def test_the_report_is_the_commands_json(capsys, argv, config):
     assert isinstance(report, RunReport)
     assert list(report.json) == list(printed)  # the same keys in the same order
     assert _steady(report.json) == _steady(printed)
-    assert report.exit_code == code == 0 and report.outcome == "solved"
+    assert report.exit_code == code == 0 and report.result.outcome == "solved"
 
 
 def test_a_run_json_names_the_scenario_first_and_a_demo_table_speaks_of_legs():

@@ -17,6 +17,7 @@ arguments into a config, call :func:`run_scenario`, print :attr:`RunReport.text`
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import json
 import math
 import signal
@@ -26,7 +27,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from flexhrc.cell.local import InjectedFailure, RunResult
+from flexhrc.cell.local import InjectedFailure, Observer, RunResult
 from flexhrc.cell.replay import PLOT_SUFFIXES, need_matplotlib
 from flexhrc.errors import FlexhrcError
 from flexhrc.events import PROFILES, TRACE_TYPES
@@ -35,8 +36,6 @@ from flexhrc.scenario.simulators import CHOICES as SIMULATOR_CHOICES
 from flexhrc.scenario.simulators import choose_simulator, resolve_simulator_name
 from flexhrc.taskmanager.manager import REACTIONS
 from flexhrc.taskmanager.replay import outcome_line, plural, table_i
-
-Observer = Callable[[dict[str, Any]], None]
 
 HUMAN_SENSING = ("injected", "har", "har-real")
 PERCEPTION = ("given", "scene")
@@ -164,15 +163,11 @@ class RunReport:
     signal: int | None = None
 
     @property
-    def outcome(self) -> str:
-        return str(self.json["outcome"])
-
-    @property
     def exit_code(self) -> int:
         """0 solved, 1 not solved, 130/143 stopped by SIGINT/SIGTERM."""
         if self.signal is not None:
             return EXIT_SIGNAL[signal.Signals(self.signal)]
-        return 0 if self.outcome == "solved" else 1
+        return 0 if self.result.outcome == "solved" else 1
 
 
 @dataclass
@@ -242,7 +237,10 @@ def run_scenario(
         config.simulator or ("auto" if job.table else sc.simulator), config.disturb, robot_actions
     )
     sensing = _human_sensing(config, say)
-    steps = _bolt_steps(takes, sc) if job.table else takes
+    # the table's --human-takes K is bolt K: the K-th step of the legs fix alone, else its node
+    steps: list[Any] | None = takes
+    if job.table and takes and sc.segments != ("legs",):
+        steps = [f"connected_{k}" for k in takes]
     writer = EventLogWriter(config.log) if config.log else None
     try:
         run = prepare(
@@ -332,14 +330,7 @@ def _table(config: RunConfig, demo: TableDemo) -> _Job:
     """The table of ``flexhrc demo table``; its errors in the words of the demo's options."""
     from flexhrc.scenario.builtin.table import ScenarioError, TableLayout, table_assembly
 
-    table: dict[str, Any] = dict(
-        legs=demo.legs,
-        tabletop=demo.tabletop,
-        leg_length=demo.leg_length,
-        seed=config.seed,
-        human=demo.human,
-        unreachable_bolts=tuple(demo.unreachable_bolts),
-    )
+    table = {**dataclasses.asdict(demo), "seed": config.seed}  # TableLayout's keywords
     try:
         TableLayout(**table)  # the table's errors in the words of the options, first
         if not demo.human and config.human_takes:
@@ -356,16 +347,6 @@ def _table(config: RunConfig, demo: TableDemo) -> _Job:
             text += f"; --{exc.fix[0]} {exc.fix[1]} holds them"
         raise FlexhrcError(text) from None
     return _Job(sc, None, table=True, profile=config.human or "passive")
-
-
-def _bolt_steps(bolts: list[int] | None, scenario: Scenario) -> list[int | str] | None:
-    """``--human-takes K`` means bolt K: in the legs segment alone that is the K-th cooperation
-    step; with the tabletop placement before it, the step is named by its node."""
-    if not bolts:
-        return None
-    if scenario.segments == ("legs",):
-        return list(bolts)
-    return [f"connected_{k}" for k in bolts]
 
 
 def _robot_actions(scenario: Scenario) -> list[str]:
@@ -411,7 +392,6 @@ def _failures(specs: tuple[str, ...], actions: list[str]) -> list[InjectedFailur
 def _simulator(name: str, disturb: tuple[str, ...], actions: list[str]) -> Any:
     """The branch simulator, which also plays the real world, with ``disturb``'s
     disturbances scheduled (kinematic only; checked before anything is built)."""
-
     name = resolve_simulator_name(name)
     if name == "analytic" and disturb:
         raise FlexhrcError("--disturb needs --simulator kinematic (use --fail with analytic)")
@@ -436,26 +416,20 @@ def _simulator(name: str, disturb: tuple[str, ...], actions: list[str]) -> Any:
 
 def _human_sensing(config: RunConfig, say: Callable[[str], None]) -> Any:
     """The operators' wrist sensor (None: the manager is told what the operator did)."""
-    if config.human_sensing == "har-real":
-        try:
-            from flexhrc.sensing.har_real import HmpReplaySensor
-        except ImportError as exc:
-            raise FlexhrcError(
-                f"--human-sensing har-real needs the perception extra ({exc.name} is missing): "
-                "pip install 'flexhrc[perception]'"
-            ) from None
-        say("training the wrist-motion recogniser on HMP volunteers ...")
-        return HmpReplaySensor(str(config.hmp), seed=config.seed)
-    if config.human_sensing != "har":
+    if config.human_sensing == "injected":
         return None
     try:
         from flexhrc.perception.human import GMMGMRRecognizer
         from flexhrc.perception.human.sensing import WearableHumanSensor
+        from flexhrc.sensing.har_real import HmpReplaySensor
     except ImportError as exc:
         raise FlexhrcError(
-            f"--human-sensing har needs the perception extra ({exc.name} is missing): "
-            "pip install 'flexhrc[perception]'"
+            f"--human-sensing {config.human_sensing} needs the perception extra ({exc.name} is "
+            "missing): pip install 'flexhrc[perception]'"
         ) from None
+    if config.human_sensing == "har-real":
+        say("training the wrist-motion recogniser on HMP volunteers ...")
+        return HmpReplaySensor(str(config.hmp), seed=config.seed)
     model = GMMGMRRecognizer.load(config.har_model) if config.har_model else None
     if model is None:
         say("training the wrist-motion recogniser on synthetic motions ...")
@@ -471,11 +445,9 @@ def _bodies_apart(table: dict[str, Any]) -> dict[str, Any]:
     from flexhrc.sensing.world import SimulatedWorkspace
 
     layout = TableLayout(**table)
-    try:
+    with contextlib.suppress(FlexhrcError):  # they lie apart as they are
         SimulatedWorkspace.from_knowledge(layout.world())
         return table
-    except FlexhrcError:
-        pass
     try:
         positions = lying_layout(
             layout.legs,

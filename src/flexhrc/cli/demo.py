@@ -192,11 +192,8 @@ def _config(args: argparse.Namespace, scenario: Any) -> Any:
     """The :class:`~flexhrc.app.RunConfig` of ``run``'s and ``demo``'s options (same names)."""
     from flexhrc.app import RunConfig
 
-    def value(name: str) -> Any:
-        v = getattr(args, name)
-        return tuple(v) if isinstance(v, list) else v
-
-    return RunConfig(scenario, **{f.name: value(f.name) for f in fields(RunConfig)[1:]})
+    kw = {f.name: getattr(args, f.name) for f in fields(RunConfig)[1:]}
+    return RunConfig(scenario, **{k: tuple(v) if isinstance(v, list) else v for k, v in kw.items()})
 
 
 def cmd_demo_table(args: argparse.Namespace) -> int:

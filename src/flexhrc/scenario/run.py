@@ -34,7 +34,7 @@ def prepare(
     execution: Any = None,
     realtime: float = 0.0,
     max_time_s: float = 3600.0,
-) -> Any:
+) -> LocalCell:
     """One run of ``scenario``, ready to go (call ``.run()`` on it).
 
     ``profile`` overrides every operator's profile; ``simulator`` is ``analytic``,
@@ -67,5 +67,4 @@ def prepare(
 
 def run(scenario: Scenario, **kwargs: Any) -> RunResult:
     """Run ``scenario`` to its end; keyword arguments as :func:`prepare`."""
-    result: RunResult = prepare(scenario, **kwargs).run()
-    return result
+    return prepare(scenario, **kwargs).run()
