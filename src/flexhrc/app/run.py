@@ -207,12 +207,9 @@ def run_scenario(
     takes = list(config.human_takes) if config.human_takes else None
     if not job.table:
         name = job.path or sc.name
-        if config.human is not None and not sc.humans:
-            raise FlexhrcError(
-                f"--human {config.human} needs an operator, but {name} has no humans"
-            )
-        if takes and not sc.humans:
-            raise FlexhrcError(f"--human-takes needs an operator, but {name} has no humans")
+        for given, option in ((config.human, f"--human {config.human}"), (takes, "--human-takes")):
+            if given and not sc.humans:
+                raise FlexhrcError(f"{option} needs an operator, but {name} has no humans")
         for k in takes or []:
             if k < 1:
                 raise FlexhrcError(f"--human-takes {k}: steps are counted from 1")

@@ -27,8 +27,6 @@ from flexhrc.cli.common import (
 )
 from flexhrc.events import PROFILES
 
-MAX_LEGS = 10_000
-
 #: name -> (help, description) of the commands of this module.
 COMMANDS = {
     "table": (
@@ -51,7 +49,7 @@ COMMANDS = {
 #: The options of ``demo table`` that describe the table (:class:`flexhrc.app.TableDemo`).
 TABLE_OPTIONS: dict[str, dict[str, Any]] = {
     "--legs": dict(
-        type=int_range(None, MAX_LEGS), default=4,
+        type=int_range(None, 10_000), default=4,
         help="number of legs (default 4; as many as the tabletop holds, see --tabletop)",
     ),
     "--tabletop": dict(
@@ -192,8 +190,11 @@ def _config(args: argparse.Namespace, scenario: Any) -> Any:
     """The :class:`~flexhrc.app.RunConfig` of ``run``'s and ``demo``'s options (same names)."""
     from flexhrc.app import RunConfig
 
-    kw = {f.name: getattr(args, f.name) for f in fields(RunConfig)[1:]}
-    return RunConfig(scenario, **{k: tuple(v) if isinstance(v, list) else v for k, v in kw.items()})
+    kw: dict[str, Any] = {}
+    for f in fields(RunConfig)[1:]:
+        v = getattr(args, f.name)
+        kw[f.name] = tuple(v) if isinstance(v, list) else v
+    return RunConfig(scenario, **kw)
 
 
 def cmd_demo_table(args: argparse.Namespace) -> int:
