@@ -62,8 +62,10 @@ FLOORS: dict[str, int] = {
     "sensing": 8,
     "web": 8,
     "ros2": 8,
-    "cli": 9,
-    "__main__": 9,
+    # the application layer: each command as a library call, config in, report out
+    "app": 9,
+    "cli": 10,
+    "__main__": 10,
 }
 
 #: (importer, imported) pairs on one floor that may depend on each other, in this direction only.
@@ -89,7 +91,8 @@ FLOOR_NAMES: dict[int, str] = {
     6: "the cell: the one loop (the engine)",
     7: "scenarios: one type, files, ready-made tasks, loaders, run",
     8: "front ends",
-    9: "the command line",
+    9: "the application layer: a command as config -> report",
+    10: "the command line",
 }
 
 BEGIN_MARK = "<!-- BEGIN GENERATED: python scripts/architecture.py --write -->"

@@ -143,15 +143,15 @@ def test_the_vocabularies_are_the_strings_on_disk() -> None:
 
 
 def test_the_consumers_read_the_catalogue() -> None:
+    from flexhrc.app import run
     from flexhrc.cell import store, supervisor
-    from flexhrc.cli import demo
     from flexhrc.representation import online
 
     assert supervisor.STORED_LOG_TYPES is events.STORED_LOG_TYPES
     assert store.INPUT_KINDS is events.INPUT_KINDS
     assert online.GRAPH_EVENTS == ("met", "solved", "infeasible")
-    # cli/demo.py keeps its own copy until the lead switches it to events.TRACE_TYPES
-    assert set(demo.TRACE_TYPES) == events.TRACE_TYPES
+    assert run.TRACE_TYPES is events.TRACE_TYPES  # the live trace of `run` and `demo`
+    assert set(run.TRACE_LINES) < events.TRACE_TYPES
     assert set(STORE_KINDS) == events.INPUT_KINDS | events.OUTPUT_KINDS | events.RECORD_KINDS
     assert set(LOG_EVENTS) >= events.RECORD_KINDS and set(LOG_EVENTS) >= events.REPLAY_TYPES
     assert len(events.REPLAY_TYPES) == 43  # the set replay has accepted since section V

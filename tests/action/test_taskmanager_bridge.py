@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import argparse
-
 import pytest
 
 pytest.importorskip("pinocchio")
@@ -93,10 +91,10 @@ def test_a_slow_arm_times_out_and_the_manager_replans():
 
 
 def test_the_kinematic_simulator_is_the_default_when_installed():
-    from flexhrc.cli.demo import _simulators
+    from flexhrc.app import RunConfig, TableDemo, run_scenario
 
-    sim, execution = _simulators(argparse.Namespace(simulator="auto", disturb=[]))
-    assert isinstance(sim, KinematicTaskSimulator) and execution is sim
+    report = run_scenario(RunConfig(TableDemo(legs=1), segments="legs", quiet=True))
+    assert report.json["simulator"] == "kinematic"
 
 
 def test_auto_picks_the_kinematic_simulator_at_the_edge():

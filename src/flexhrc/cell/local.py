@@ -44,9 +44,6 @@ from flexhrc.transport import InProcessBus
 
 Observer = Callable[[dict[str, Any]], None]
 
-#: Every outcome a cooperation run can end with (the ``outcome`` event and the summary).
-OUTCOMES = ("solved", "failed", "interrupted")
-
 
 @dataclass
 class InjectedFailure:

@@ -61,18 +61,24 @@ def read_legacy(
     path: str | Path, *, seed: int = 0, segments: str | Sequence[str] | None = None
 ) -> Scenario:
     """Read the older scenario file ``path`` (see :func:`from_legacy`)."""
+    return from_legacy(path, read_document(path), seed=seed, segments=segments)
+
+
+def read_document(path: str | Path) -> dict[str, Any]:
+    """The mapping a scenario file holds, of either format (its ``lines`` attribute: the line
+    of each top-level key); one clear error for a missing, binary or unreadable file."""
     from flexhrc.files import read_text
     from flexhrc.representation.formats.yaml_format import read_yaml
 
     path = Path(path)
-    read_text(path)  # one clear error for a missing, binary or unreadable file
+    read_text(path)
     try:
         doc = read_yaml(path)
     except RecursionError:
         raise FormatError("nested too deeply to be a scenario file", path) from None
     if not isinstance(doc, dict):
         raise FormatError("a scenario file must be a mapping", path, 1)
-    return from_legacy(path, doc, seed=seed, segments=segments)
+    return doc
 
 
 def from_legacy(

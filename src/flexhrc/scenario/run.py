@@ -17,7 +17,6 @@ from typing import Any
 from flexhrc.cell.local import InjectedFailure, LocalCell, RunResult
 from flexhrc.errors import FlexhrcError
 from flexhrc.scenario.model import PROFILES, Scenario
-from flexhrc.taskmanager.manager import REACTIONS
 
 
 def prepare(
@@ -35,7 +34,7 @@ def prepare(
     execution: Any = None,
     realtime: float = 0.0,
     max_time_s: float = 3600.0,
-) -> Any:
+) -> LocalCell:
     """One run of ``scenario``, ready to go (call ``.run()`` on it).
 
     ``profile`` overrides every operator's profile; ``simulator`` is ``analytic``,
@@ -46,13 +45,8 @@ def prepare(
         raise FlexhrcError(
             f"unknown human profile {profile!r}; choose one of {', '.join(PROFILES)}"
         )
-    if reaction not in REACTIONS:
-        raise FlexhrcError(f"unknown reaction {reaction!r}; choose one of {', '.join(REACTIONS)}")
-    sim = (
-        scenario.make_simulator(simulator)
-        if simulator is None or isinstance(simulator, str)
-        else simulator
-    )
+    # (the Task Manager refuses an unknown reaction; the cell makes the scenario's simulator)
+    sim = scenario.make_simulator(simulator) if isinstance(simulator, str) else simulator
     pairs = [(h.name, profile or h.profile) for h in scenario.humans]
     observers = [f for f in (sink, trace) if f is not None]  # the log first: shown = stored
     return LocalCell(
@@ -73,5 +67,4 @@ def prepare(
 
 def run(scenario: Scenario, **kwargs: Any) -> RunResult:
     """Run ``scenario`` to its end; keyword arguments as :func:`prepare`."""
-    result: RunResult = prepare(scenario, **kwargs).run()
-    return result
+    return prepare(scenario, **kwargs).run()

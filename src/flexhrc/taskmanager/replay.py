@@ -199,6 +199,30 @@ def solved_by_line(data: dict[str, Any]) -> str:
     return line
 
 
+def plural(n: int, word: str, many: str | None = None) -> str:
+    """``1 branch``, ``2 branches``, ``0 objects``."""
+    if n == 1:
+        return f"{n} {word}"
+    if many is None:
+        many = word + ("es" if word.endswith(("s", "x", "ch", "sh")) else "s")
+    return f"{n} {many}"
+
+
+def outcome_line(data: dict[str, Any], subject: str = "", *, simulated: bool = False) -> str:
+    """The one-line summary under Table I (``flexhrc run``, ``demo``, ``replay``): outcome, who
+    solved what, decisions, branches (``simulated``: with the simulator that scored them) and
+    actions; ``subject`` goes in front (``"ball_in_box: "``)."""
+    branches = plural(data["branches_simulated"], "branch", "branches")
+    if simulated:
+        branches += f" simulated ({data['simulator']} simulator)"
+    return (
+        f"{subject}outcome {data['outcome']}"
+        + (f" ({data['reason']})" if data["reason"] else "")
+        + f"; {solved_by_line(data)}; {plural(data['decisions'], 'decision tree')}, {branches}; "
+        f"{data['robot_actions']} robot and {plural(data['human_actions'], 'human action')}"
+    )
+
+
 def table_i(summary: dict[str, Any]) -> str:
     """The paper's Table I from a run summary, in two parts that are never added up.
 

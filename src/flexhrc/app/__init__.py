@@ -1,0 +1,19 @@
+"""The application layer: each command of ``flexhrc`` as one call of the library.
+
+A command's options become a frozen config, the call returns a report, and the command only
+prints that report — so a program can do everything a command does:
+
+* :func:`run_scenario` — ``flexhrc run FILE|NAME`` and ``flexhrc demo table``
+  (:class:`RunConfig`, :class:`TableDemo` in; :class:`RunReport` out);
+* :func:`replay` — ``flexhrc replay LOG`` (:class:`ReplayReport` out).
+
+This package stands above the front ends (the perception in the loop of
+:mod:`flexhrc.sensing` is one of the run's configurations) and below the command line.
+"""
+
+from __future__ import annotations
+
+from flexhrc.app.run import RunConfig, RunReport, TableDemo, run_scenario
+from flexhrc.cell.replay import ReplayReport, replay
+
+__all__ = ["ReplayReport", "RunConfig", "RunReport", "TableDemo", "replay", "run_scenario"]
