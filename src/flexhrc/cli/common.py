@@ -130,15 +130,6 @@ def progress(message: str) -> None:
     print(message, file=sys.stderr, flush=True)
 
 
-def plural(n: int, word: str, many: str | None = None) -> str:
-    """``1 branch``, ``2 branches``, ``0 objects``."""
-    if n == 1:
-        return f"{n} {word}"
-    if many is None:
-        many = word + ("es" if word.endswith(("s", "x", "ch", "sh")) else "s")
-    return f"{n} {many}"
-
-
 def int_range(lo: int | None = None, hi: int | None = None) -> Callable[[str], int]:
     """An argparse ``type=``: a whole number in ``[lo, hi]`` (argparse names the option)."""
 

@@ -11,7 +11,8 @@ import gc
 import sys
 from typing import Any
 
-from flexhrc.cli.common import add_json_flag, emit, int_range, plural
+from flexhrc.cli.common import add_json_flag, emit, int_range
+from flexhrc.taskmanager.replay import plural
 
 MAX_PATH_LIMIT = 100_000_000
 MAX_SEED = 2**63 - 1
