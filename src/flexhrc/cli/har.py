@@ -23,11 +23,11 @@ from flexhrc.cli.common import (
     int_range,
     log,
     needs,
-    plural,
     progress,
     seed_type,
 )
 from flexhrc.errors import FlexhrcError
+from flexhrc.taskmanager.replay import plural
 
 MAX_COMPONENTS = 20  # BIC tries 1..K components: more is slow and never chosen on HMP data
 MAX_GAP_S = 60.0

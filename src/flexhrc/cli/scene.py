@@ -17,11 +17,11 @@ from flexhrc.cli.common import (
     emit,
     float_range,
     int_range,
-    plural,
     progress,
     seed_type,
 )
 from flexhrc.errors import FlexhrcError
+from flexhrc.taskmanager.replay import plural
 
 MAX_NOISE_M = 0.1  # beyond 10 cm of depth noise nothing on a table is recognisable
 
