@@ -457,6 +457,9 @@ class HumanAgent(_Agent):
         self.sensed: list[dict[str, Any]] = []  # what the sensor made of each action done
         self.reports: dict[str, dict[int, dict[str, Any]]] = {}  # suggestion -> step -> report
         self.busy: set[tuple[str, int]] = set()  # steps being carried out
+        # when the action in hand ends (simulated clock): a person finishes it before the next,
+        # even when the manager has dropped the request it belonged to
+        self.free_at = 0.0
         self._subs.append(transport.subscribe(P.suggest_topic(name), self._on_message))
         # the profile's own decisions (the same code as the in-process operators)
         # ``takes``: a script (the K-th steps, 1-based, or node names) instead of the profile
@@ -568,8 +571,8 @@ class HumanAgent(_Agent):
                 "actions": [str(a) for a in branch],
                 "delay": round(intention.delay_s, 6),
             }
-            t += intention.delay_s  # when it starts: the manager keeps the time order
-            self.trace(f"decides to do {intention.hyperarc} ({step}) alone")
+            t = max(t + intention.delay_s, self.free_at)  # when it starts: the manager
+            self.trace(f"decides to do {intention.hyperarc} ({step}) alone")  # keeps time order
             break
         intent = P.message(
             "intent", id=f"{self.name}:{oid}", agent=self.name, options=oid, decided=decided,
@@ -606,8 +609,9 @@ class HumanAgent(_Agent):
         sync_world(self.kb, msg.get("world") or {})
         positions = {key: o.position for key, o in self.kb.objects.items()}
         before = dict(positions)
-        t = float(msg["t"])
+        t = max(float(msg["t"]), self.free_at)
         dt = float(self.execution.execute(step, positions, self.kb, self.domain).duration_s)
+        self.free_at = t + dt
         moved = {key: list(map(float, p)) for key, p in positions.items() if before.get(key) != p}
         rid = f"{self.name}:{sid}:{k}"
         if self.on_executed is not None:
