@@ -415,10 +415,6 @@ class AndOrGraph:
         """Hyper-arcs whose parent is ``node`` (its OR alternatives)."""
         return [h for h in self.hyperarcs.values() if h.parent == node]
 
-    def outgoing(self, node: str) -> list[Hyperarc]:
-        """Hyper-arcs that have ``node`` among their children."""
-        return [h for h in self.hyperarcs.values() if node in h.children]
-
     def leaves(self) -> list[str]:
         """Nodes that no hyper-arc produces, in definition order (N_L)."""
         ix = self._ix
