@@ -344,7 +344,6 @@ class OnlineGraph:
         self._i_root = i_root
         self._i_upper = i_upper
         self._i_parent = i_parent
-        t0 = i_tmpl[0]
         # element ids of each instance's leaves / top-down order: set by _materialise
         self._i_leaves: list[list[int]] = [t0.leaves] + [[] for _ in range(n_inst - 1)]
         self._i_down: list[list[int]] = [t0.down] + [[] for _ in range(n_inst - 1)]
@@ -645,21 +644,13 @@ class OnlineGraph:
                 if active[k]:
                     v = self._calc_offset(k)
                     if v != off[k]:
-                        off[k] = v
-                        costs, ins, out = self._costs, self._inside, self._out_val
-                        for e in self._i_feas[k]:
-                            c = ins[e] + out[e] + v
-                            if c < INF:
-                                costs[e] = c
-                            else:
-                                costs.pop(e, None)
+                        self._move_offset(k, v)
                 return
             dirty.add(k)
         heap = [(depth[k], k) for k in dirty]
         dirty.clear()
         heapify(heap)
         seen: set[int] = set()
-        costs, ins, out = self._costs, self._inside, self._out_val
         while heap:
             _, k = heappop(heap)
             if k in seen or not active[k]:
@@ -668,15 +659,20 @@ class OnlineGraph:
             v = self._calc_offset(k)
             if v == off[k]:
                 continue
-            off[k] = v
-            for e in self._i_feas[k]:
-                c = ins[e] + out[e] + v
-                if c < INF:
-                    costs[e] = c
-                else:
-                    costs.pop(e, None)
+            self._move_offset(k, v)
             for h in self._i_lowers[k]:
                 heappush(heap, (depth[k] + 1, self._lower[h]))
+
+    def _move_offset(self, k: int, v: float) -> None:
+        """Instance k's offset is now v: so moves the cost of each of its feasible elements."""
+        self._i_off[k] = v
+        costs, ins, out = self._costs, self._inside, self._out_val
+        for e in self._i_feas[k]:
+            c = ins[e] + out[e] + v
+            if c < INF:
+                costs[e] = c
+            else:
+                costs.pop(e, None)
 
     def _fill_outside(self, k: int) -> None:
         """Outside costs of every element of instance k, top-down (k just became active)."""
@@ -1001,9 +997,6 @@ class OnlineGraph:
     def is_blocked(self, name: str) -> bool:
         return self._blocked[self.element_id(name)]
 
-    def has_lower_graph(self, hyperarc: str) -> bool:
-        return self._lower[self.element_id(hyperarc)] >= 0
-
     def graph_of(self, name: str) -> str:
         """Instance path of the graph instance an element belongs to ("" = top graph)."""
         return self._i_path[self._inst[self.element_id(name)]]
@@ -1083,17 +1076,7 @@ class OnlineGraph:
                     self._apply_dead()
                 if self._heap or self._off_dirty:
                     self._settle()
-                self._query = query
-                self._finish()
-                return QueryResult(
-                    query,
-                    self._outcome == "solved",
-                    self._outcome == "failed",
-                    self._reason,
-                    dict(self._costs),
-                    self,
-                    [],
-                )
+                return self._answer(query, [])
         if met_nodes is None or solved_hyperarcs is None or infeasible is None:
             what = (
                 "met_nodes"
@@ -1129,12 +1112,17 @@ class OnlineGraph:
                 self._settle()
             else:
                 ignored = self._apply_many(query, items, blocks)
+        return self._answer(query, ignored)
+
+    def _answer(self, query: int, ignored: list[str]) -> QueryResult:
+        """Query ``query`` is answered: the costs of what it touched, the outcome, the result."""
         self._query = query
         self._finish()
+        outcome = self._outcome
         return QueryResult(
             query,
-            self._outcome == "solved",
-            self._outcome == "failed",
+            outcome == "solved",
+            outcome == "failed",
             self._reason,
             dict(self._costs),
             self,
@@ -1335,7 +1323,7 @@ class OnlineGraph:
         checked: list[Event] = []
         for i, raw in enumerate(events):
             try:
-                checked.append(raw if isinstance(raw, Event) and _valid(raw) else _event(raw))
+                checked.append(_event(raw))
             except (ValueError, TypeError) as exc:
                 raise GraphArgumentError(f"event {i}: {exc}") from None
         online = cls(graph)
@@ -1360,34 +1348,25 @@ class OnlineGraph:
         return online
 
 
-def _valid(ev: Event) -> bool:
-    if ev.type not in GRAPH_EVENTS:
-        raise ValueError(
-            f"unknown event type {ev.type!r} (expected one of {', '.join(GRAPH_EVENTS)})"
-        )
-    return True
-
-
 def _event(raw: object) -> Event:
-    """An :class:`Event` from a mapping, or ValueError/TypeError saying what is wrong."""
-    if isinstance(raw, Event):
-        _valid(raw)
-        return raw
-    if not isinstance(raw, Mapping):
+    """An :class:`Event` checked, or made from a mapping; ValueError/TypeError saying what is
+    wrong."""
+    d = raw.to_dict() if isinstance(raw, Event) else raw
+    if not isinstance(d, Mapping):
         raise TypeError(
             f"expected a mapping with query, type and element, got {type(raw).__name__}"
         )
-    missing = [k for k in ("query", "type", "element") if k not in raw]
+    missing = [k for k in ("query", "type", "element") if k not in d]
     if missing:
         raise ValueError(f"missing {', '.join(missing)}")
-    q, t, el = raw["query"], raw["type"], raw["element"]
+    q, t, el = d["query"], d["type"], d["element"]
     if isinstance(q, bool) or not isinstance(q, int) or q < 0:
         raise ValueError(f"query must be a non-negative integer, got {q!r}")
     if t not in GRAPH_EVENTS:
         raise ValueError(f"unknown event type {t!r} (expected one of {', '.join(GRAPH_EVENTS)})")
     if not isinstance(el, str) or not el:
         raise ValueError(f"element must be a non-empty name, got {el!r}")
-    return Event(q, t, el)
+    return raw if isinstance(raw, Event) else Event(q, t, el)
 
 
 class _Template:
