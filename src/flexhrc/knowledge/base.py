@@ -168,8 +168,7 @@ class KnowledgeBase:
             return True
         reason = self._contradiction(rec, type, position, size or {})
         if reason:
-            self.inconsistencies.append(Inconsistency(obj_id, reason, percept))
-            self.version += 1
+            self.contradict(obj_id, reason, percept)
             return False
         rec.position = position
         if size:
@@ -187,7 +186,7 @@ class KnowledgeBase:
             known = rec.size.get(k)
             if known and abs(v - known) > self.size_tolerance * known:
                 return f"{rec.id}: {k} {known:g} known, {v:g} perceived"
-        if rec.fixed and _dist(rec.position, position) > self.position_tolerance:
+        if rec.fixed and math.dist(rec.position, position) > self.position_tolerance:
             return f"{rec.id} is fixed at {_fmt(rec.position)} but perceived at {_fmt(position)}"
         return None
 
@@ -333,10 +332,6 @@ def _vec(p: Iterable[float]) -> Vec3:
     if len(vals) != 3 or not all(math.isfinite(v) for v in vals):
         raise FlexhrcError(f"a position needs three finite numbers, got {vals}")
     return (vals[0], vals[1], vals[2])
-
-
-def _dist(a: Vec3, b: Vec3) -> float:
-    return math.dist(a, b)
 
 
 def _hdist(a: Vec3, b: Vec3) -> float:

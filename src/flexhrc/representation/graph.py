@@ -362,11 +362,7 @@ class AndOrGraph:
     def add_node(self, node: Node | str, weight: float = 0.0, **kw: object) -> Node:
         if isinstance(node, str):
             node = Node(node, weight, **kw)  # type: ignore[arg-type]
-        if node.name in self.nodes:
-            first = self.nodes[node.name].line
-            where = f" (first defined at line {first})" if first else ""
-            raise FormatError(f"duplicate node name {node.name!r}{where}", self.source, node.line)
-        _check_weight(node.weight, f"node {node.name!r}", self.source, node.line)
+        self._check_new(self.nodes, node, "node")
         self.nodes[node.name] = node
         self._validated = None
         return node
@@ -383,13 +379,7 @@ class AndOrGraph:
             if parent is None:
                 raise ValueError("parent is required")
             hyperarc = Hyperarc(hyperarc, tuple(children), parent, weight, **kw)  # type: ignore[arg-type]
-        if hyperarc.name in self.hyperarcs:
-            first = self.hyperarcs[hyperarc.name].line
-            where = f" (first defined at line {first})" if first else ""
-            raise FormatError(
-                f"duplicate hyper-arc name {hyperarc.name!r}{where}", self.source, hyperarc.line
-            )
-        _check_weight(hyperarc.weight, f"hyper-arc {hyperarc.name!r}", self.source, hyperarc.line)
+        self._check_new(self.hyperarcs, hyperarc, "hyper-arc")
         if not hyperarc.children:
             raise FormatError(
                 f"hyper-arc {hyperarc.name!r} has no child node", self.source, hyperarc.line
@@ -397,6 +387,16 @@ class AndOrGraph:
         self.hyperarcs[hyperarc.name] = hyperarc
         self._validated = None
         return hyperarc
+
+    def _check_new(
+        self, known: Mapping[str, Node | Hyperarc], item: Node | Hyperarc, what: str
+    ) -> None:
+        """A new element's name is not taken yet and its weight is a finite number >= 0."""
+        if item.name in known:
+            first = known[item.name].line
+            where = f" (first defined at line {first})" if first else ""
+            raise FormatError(f"duplicate {what} name {item.name!r}{where}", self.source, item.line)
+        check_weight(item.weight, f"{what} {item.name!r}", self.source, item.line)
 
     # -- queries --------------------------------------------------------------------------
     def node(self, name: str) -> Node:
@@ -680,7 +680,8 @@ def _with_arcs(nodes: list[str], out: Mapping[str, list[Hyperarc]]) -> list[str]
     return trail
 
 
-def _check_weight(weight: object, what: str, source: str | None, line: int | None) -> None:
+def check_weight(weight: object, what: str, source: str | Path | None, line: int | None) -> None:
+    """A weight is a finite number >= 0, or one :class:`FormatError` naming ``what``."""
     if type(weight) is float and 0.0 <= weight < math.inf:  # the common case, cheap
         return
     if isinstance(weight, bool) or not isinstance(weight, (int, float)):

@@ -238,11 +238,7 @@ def parse_graph(path: str | Path) -> tuple[AndOrGraph, list[tuple[str, int]]]:
                 f"hyper-arc {hname!r} declares {k} children but {found} follow", path, where
             )
         children = (block[0][0],) if k == 1 else tuple([r[0] for r in block])
-        weight = (
-            float(w_tok)
-            if w_tok.isdigit() and w_tok.isascii()
-            else _weight(w_tok, "hyper-arc", hname, path, ln)
-        )
+        weight = _weight(w_tok, "hyper-arc", hname, path, ln)
         lower_ref = None if lower == "-" else lower
         if lower_ref is not None:
             refs.append((lower_ref, ln))
