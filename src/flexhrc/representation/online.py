@@ -1103,15 +1103,9 @@ class OnlineGraph:
         blocks = self._ids(infeasible, "infeasible") if infeasible else []
         if self._outcome != "running" and (items or blocks):
             raise FlexhrcError(f"the cooperation is already {self._outcome}; nothing to update")
+        # (one feasible element in a list or tuple took the fast path above)
         query = self._query + 1
-        ignored: list[str] = []
-        if items or blocks:
-            if len(items) == 1 and not blocks and items[0][1] in self._feasible:
-                kind, e = items[0]
-                self._apply(query, kind, e)
-                self._settle()
-            else:
-                ignored = self._apply_many(query, items, blocks)
+        ignored = self._apply_many(query, items, blocks) if items or blocks else []
         return self._answer(query, ignored)
 
     def _answer(self, query: int, ignored: list[str]) -> QueryResult:
