@@ -15,6 +15,7 @@ of the top graph. This is the one naming syntax used by the CLI, JSON and the ev
 
 from __future__ import annotations
 
+from collections import deque
 from collections.abc import Iterator
 from dataclasses import dataclass
 
@@ -66,12 +67,20 @@ class HierarchicalGraph:
     def used_keys(self) -> list[str]:
         """Definition keys reachable from the top graph, top first, in discovery order."""
         seen: dict[str, None] = {self.top: None}
-        queue = [self.top]
-        for key in queue:  # (grows while it is read: breadth-first)
-            for _, _, low in transitions(self.graphs[key]):
-                if low not in seen:
-                    seen[low] = None
-                    queue.append(low)
+        stack = deque([self.top])
+        while stack:
+            g = self.graphs[stack.popleft()]
+            ix = g._ix
+            if ix is not None:  # flat: no objects made to read its references
+                for _, low in ix.lower:
+                    if low not in seen:
+                        seen[low] = None
+                        stack.append(low)
+                continue
+            for h in g.hyperarcs.values():
+                if h.lower is not None and h.lower not in seen:
+                    seen[h.lower] = None
+                    stack.append(h.lower)
         return list(seen)
 
     def instances(self) -> Iterator[InstanceInfo]:
@@ -84,8 +93,9 @@ class HierarchicalGraph:
             yield info
             path = info.path
             subs = [
-                InstanceInfo(qualify(path, name), low, info.depth + 1, qualify(path, name))
-                for name, _, low in transitions(self.graphs[info.key])
+                InstanceInfo(qualify(path, h.name), h.lower, info.depth + 1, qualify(path, h.name))
+                for h in self.graphs[info.key].hyperarcs.values()
+                if h.lower is not None
             ]
             stack.extend(reversed(subs))
 
@@ -130,59 +140,86 @@ class HierarchicalGraph:
         top = graphs[self.top]._ix
         if top is None:
             return None
-        if top.lower:
-            self._check_recursion()
-        used = self.used_keys()  # (the order of the warnings)
-        flat = [graphs[key]._ix for key in used]
+        # used_keys(): breadth-first discovery order (the order of the warnings)
+        used = {self.top: top}
+        queue = [top]
+        for ix in queue:  # (grows while it is read)
+            for _, low in ix.lower:
+                if low not in used:
+                    g = graphs.get(low)
+                    sub = g._ix if g is not None else None
+                    if sub is None:
+                        return None
+                    used[low] = sub
+                    queue.append(sub)
         leaves: dict[str, int] = {}
-        for ix in flat:
-            if ix is None:
-                return None
-            # implicit M1: no fewer lower leaves than children (_check_transition)
-            for j, low in ix.lower:
-                n = leaves.get(low)
-                if n is None:
-                    n = leaves[low] = len(graphs[low].leaves())
-                if n < len(ix.children[j]):
+        if len(used) > 1 or top.lower:
+            # no cycle of lower graphs: depth-first, 1 = on the trail, 2 = finished
+            state = {self.top: 1}
+            trail = [self.top]
+            stack = [iter(top.lower)]
+            while stack:
+                nxt = next(stack[-1], None)
+                if nxt is None:
+                    state[trail.pop()] = 2
+                    stack.pop()
+                    continue
+                low = nxt[1]
+                st = state.get(low)
+                if st == 1:
                     return None
+                if st is None:
+                    state[low] = 1
+                    trail.append(low)
+                    stack.append(iter(used[low].lower))
+            # implicit M1: no fewer lower leaves than children (_check_transition)
+            for ix in used.values():
+                for j, low in ix.lower:
+                    n = leaves.get(low)
+                    if n is None:
+                        n = leaves[low] = len(used[low].leaves)
+                    if n < len(ix.children[j]):
+                        return None
         warnings: list[FormatError] = []
         for key in used:
             g = graphs[key]
             done = g._validated  # a flat graph cannot change: the reader's checks hold
-            warnings += done[1] if done is not None else g.validate()
+            warnings += done[1] if done is not None and g._ix is not None else g.validate()
         return warnings
 
     def _check_recursion(self) -> None:
-        """Every lower graph is known and none refers back to one above it (either form)."""
         # depth-first with an explicit stack: 1 = on the current trail, 2 = finished
         state: dict[str, int] = {self.top: 1}
         trail: list[str] = [self.top]
-        stack = [transitions(self.graphs[self.top])]
+        stack: list[Iterator[Hyperarc]] = [iter(self.graphs[self.top].hyperarcs.values())]
         while stack:
             key = trail[-1]
             g = self.graphs[key]
-            nxt = next(stack[-1], None)
-            if nxt is None:
+            h = next(stack[-1], None)
+            if h is None:
                 state[key] = 2
                 stack.pop()
                 trail.pop()
                 continue
-            name, line, low = nxt
-            if low not in self.graphs:
+            if h.lower is None:
+                continue
+            if h.lower not in self.graphs:
                 raise FormatError(
-                    f"hyper-arc {name!r} refers to unknown lower graph {low!r}", g.source, line
-                )
-            if state.get(low) == 1:
-                chain = " -> ".join([*trail, low])
-                raise FormatError(
-                    f"hyper-arc {name!r}: lower graphs refer to each other in a cycle ({chain})",
+                    f"hyper-arc {h.name!r} refers to unknown lower graph {h.lower!r}",
                     g.source,
-                    line,
+                    h.line,
                 )
-            if low not in state:
-                state[low] = 1
-                trail.append(low)
-                stack.append(transitions(self.graphs[low]))
+            if state.get(h.lower) == 1:
+                chain = " -> ".join([*trail, h.lower])
+                raise FormatError(
+                    f"hyper-arc {h.name!r}: lower graphs refer to each other in a cycle ({chain})",
+                    g.source,
+                    h.line,
+                )
+            if h.lower not in state:
+                state[h.lower] = 1
+                trail.append(h.lower)
+                stack.append(iter(self.graphs[h.lower].hyperarcs.values()))
 
     def _check_transition(self, upper: AndOrGraph, h: Hyperarc, leaves: list[str]) -> None:
         assert h.lower is not None
@@ -259,16 +296,6 @@ class HierarchicalGraph:
             "leaves": sum(len(self.graphs[i.key].leaves()) for i in inst),
             "top": self.top,
         }
-
-
-def transitions(g: AndOrGraph) -> Iterator[tuple[str, int | None, str]]:
-    """(hyper-arc name, source line, lower graph key) of every transition of ``g``, in
-    hyper-arc order; of a flat graph without making its objects."""
-    ix = g._ix
-    if ix is not None:
-        names, lines = ix.names, ix.lines
-        return ((names[j], lines[j], low) for j, low in ix.lower)
-    return ((h.name, h.line, h.lower) for h in g.hyperarcs.values() if h.lower is not None)
 
 
 def qualify(instance_path: str, name: str) -> str:
