@@ -472,34 +472,6 @@ class OnlineGraph:
         return idx
 
     # ------------------------------------------------------------------ cost helpers ----
-    def _calc_inside(self, e: int) -> float:
-        if self._kind[e]:  # hyper-arc
-            if self._blocked[e]:
-                return INF
-            if self._done[e]:
-                own = 0.0
-            elif self._lower[e] >= 0:
-                own = self._inside[self._i_root[self._lower[e]]]  # eq. 19
-            else:
-                own = self._w[e]
-            ins = self._inside
-            for c in self._children[e]:
-                own += ins[c]
-            return own
-        if self._blocked[e]:
-            return INF
-        own = 0.0 if self._done[e] else self._w[e]
-        arcs = self._in[e]
-        if not arcs:
-            return own
-        best = INF
-        ins = self._inside
-        for h in arcs:
-            v = ins[h]
-            if v < best:
-                best = v
-        return own + best
-
     def _calc_outside(self, e: int) -> float:
         """Cheapest remaining cost from element e (node or hyper-arc) to the top root, from
         the outside costs of the elements above it (which the top-down pass has settled)."""
@@ -683,11 +655,9 @@ class OnlineGraph:
     def _propagate(self, start: int) -> None:
         """Recompute inside(start) and push changes to its ancestors (and upper arcs).
 
-        The hot path of every query: _calc_inside is inlined here, and so is what a changed
-        inside(x) re-queues (the outside costs of x's AND siblings, lower-instance offsets).
+        The hot path of every query: what a changed inside(x) re-queues (the outside costs of
+        x's AND siblings, lower-instance offsets) is inlined here.
         """
-        if self._calc_inside(start) == self._inside[start]:
-            return  # the common case (a weight-0 leaf met, say): nothing to set up
         ins = self._inside
         kind, parent, outgoing = self._kind, self._parent, self._out
         root_of, upper = self._root_of, self._i_upper
@@ -1053,6 +1023,8 @@ class OnlineGraph:
         ``TypeError``).
         """
         # the common query (the Task Manager's, the test client's): one element, nothing else
+        query = 0
+        ignored: list[str] = []
         if (
             not infeasible
             and self._outcome == "running"
@@ -1076,7 +1048,29 @@ class OnlineGraph:
                     self._apply_dead()
                 if self._heap or self._off_dirty:
                     self._settle()
-                return self._answer(query, [])
+        if not query:
+            query, ignored = self._update_many(met_nodes, solved_hyperarcs, infeasible)
+        self._query = query
+        self._finish()
+        outcome = self._outcome
+        return QueryResult(
+            query,
+            outcome == "solved",
+            outcome == "failed",
+            self._reason,
+            dict(self._costs),
+            self,
+            ignored,
+        )
+
+    def _update_many(
+        self,
+        met_nodes: Iterable[str],
+        solved_hyperarcs: Iterable[str],
+        infeasible: Iterable[str],
+    ) -> tuple[int, list[str]]:
+        """:meth:`update` of anything but one feasible element: the query's number and the
+        elements it ignored (already met or solved)."""
         if met_nodes is None or solved_hyperarcs is None or infeasible is None:
             what = (
                 "met_nodes"
@@ -1103,25 +1097,8 @@ class OnlineGraph:
         blocks = self._ids(infeasible, "infeasible") if infeasible else []
         if self._outcome != "running" and (items or blocks):
             raise FlexhrcError(f"the cooperation is already {self._outcome}; nothing to update")
-        # (one feasible element in a list or tuple took the fast path above)
         query = self._query + 1
-        ignored = self._apply_many(query, items, blocks) if items or blocks else []
-        return self._answer(query, ignored)
-
-    def _answer(self, query: int, ignored: list[str]) -> QueryResult:
-        """Query ``query`` is answered: the costs of what it touched, the outcome, the result."""
-        self._query = query
-        self._finish()
-        outcome = self._outcome
-        return QueryResult(
-            query,
-            outcome == "solved",
-            outcome == "failed",
-            self._reason,
-            dict(self._costs),
-            self,
-            ignored,
-        )
+        return query, self._apply_many(query, items, blocks) if items or blocks else []
 
     def mark_infeasible(self, *names: str) -> QueryResult:
         """Mark elements infeasible (for good) and answer with the new state."""
