@@ -472,37 +472,6 @@ class OnlineGraph:
         return idx
 
     # ------------------------------------------------------------------ cost helpers ----
-    def _calc_outside(self, e: int) -> float:
-        """Cheapest remaining cost from element e (node or hyper-arc) to the top root, from
-        the outside costs of the elements above it (which the top-down pass has settled)."""
-        out = self._out_val
-        if self._kind[e]:
-            p = self._parent[e]
-            if self._blocked[p]:
-                return INF
-            return (0.0 if self._done[p] else self._w[p]) + out[p]
-        if self._root_of[e] >= 0:
-            return 0.0  # relative to the instance root: see _calc_offset
-        ins = self._inside
-        val = INF
-        done, blocked, lower, w = self._done, self._blocked, self._lower, self._w
-        for h in self._out[e]:
-            if blocked[h]:
-                continue
-            if done[h]:
-                own = 0.0
-            elif lower[h] >= 0:
-                own = ins[self._i_root[lower[h]]]
-            else:
-                own = w[h]
-            for c in self._children[h]:
-                if c != e:
-                    own += ins[c]
-            cand = own + out[h]
-            if cand < val:
-                val = cand
-        return val
-
     def _calc_offset(self, k: int) -> float:
         """Outside cost of the root of instance k in the whole hierarchy: the lower path
         replaces w(u) in the upper path through its hyper-arc u (Algorithm 6, line 27)."""
@@ -541,7 +510,10 @@ class OnlineGraph:
         """The top-down pass: recompute queued outside costs, parents before children, and
         queue the elements below each one that changed. Touches only what the query changed.
 
-        _calc_outside is inlined (hot path).
+        The outside cost of a hyper-arc is its parent's plus the parent's own weight; of a node,
+        the cheapest over the hyper-arcs that consume it of (their weight, their other
+        children's inside costs, their outside cost); of an instance root, 0 (relative to the
+        root: see _calc_offset). Infinite through anything that can no longer be taken.
         """
         heap = self._heap
         if not heap:
@@ -645,12 +617,6 @@ class OnlineGraph:
                 costs[e] = c
             else:
                 costs.pop(e, None)
-
-    def _fill_outside(self, k: int) -> None:
-        """Outside costs of every element of instance k, top-down (k just became active)."""
-        out, calc = self._out_val, self._calc_outside
-        for e in self._i_down[k]:
-            out[e] = calc(e)
 
     def _propagate(self, start: int) -> None:
         """Recompute inside(start) and push changes to its ancestors (and upper arcs).
@@ -782,7 +748,9 @@ class OnlineGraph:
             self._i_feas[k].update(fresh)
             self._touched.update(leaves)
         else:
-            self._fill_outside(k)
+            push = self._push
+            for e in self._i_down[k]:  # every outside cost, in this query's top-down pass
+                push(e)
             for n in self._i_leaves[k]:
                 if self._node_feasible(n):
                     self._add_feasible(n)
@@ -1445,7 +1413,7 @@ class _Template:
 
     def pristine_outside(self) -> list[float]:
         """Outside costs (to the instance root) of an instance nothing of which is met yet,
-        parents before children: the values of ``OnlineGraph._calc_outside`` then."""
+        parents before children: the values ``OnlineGraph._settle`` computes then."""
         out = self.pristine_out
         if out is None:
             self.complete()
