@@ -101,8 +101,7 @@ class KnowledgeBase:
             raise FlexhrcError(f"object {obj_id!r} already exists")
         rec = ObjectRecord(obj_id, type, _vec(position), dict(size or {}), dict(attrs))
         self.objects[obj_id] = rec
-        for t in self.type_chain(type):
-            self._facts.add((t, obj_id))
+        self._facts.update((t, obj_id) for t in self.type_chain(type))
         self.version += 1
         return rec
 
@@ -254,14 +253,12 @@ class KnowledgeBase:
                 continue
             if accept:
                 rec = self.objects[inc.object_id]
-                for t in self.type_chain(rec.type):
-                    self._facts.discard((t, rec.id))
+                self._facts.difference_update((t, rec.id) for t in self.type_chain(rec.type))
                 rec.type = inc.percept["type"]
                 rec.position = inc.percept["position"]
                 rec.size.update(inc.percept["size"])
                 rec.fixed = False
-                for t in self.type_chain(rec.type):
-                    self._facts.add((t, rec.id))
+                self._facts.update((t, rec.id) for t in self.type_chain(rec.type))
         self.inconsistencies = keep
         self.version += 1
 

@@ -125,10 +125,6 @@ class Indexed:
         self.lines = lines  # source line of each element
 
     @property
-    def size(self) -> int:
-        return len(self.names)
-
-    @property
     def outgoing(self) -> list[tuple[int, ...]]:
         """Nodes: the hyper-arcs consuming it (hyper-arcs: ()); made on first use (loading
         does not need it)."""
@@ -678,6 +674,12 @@ def _with_arcs(nodes: list[str], out: Mapping[str, list[Hyperarc]]) -> list[str]
         trail += [a, h.name]
     trail.append(nodes[-1])
     return trail
+
+
+def plain_number(x: float) -> float | int:
+    """A weight or cost as an integer when it is one (``3.0`` -> ``3``): files and JSON read
+    it so."""
+    return int(x) if float(x).is_integer() else x
 
 
 def check_weight(weight: object, what: str, source: str | Path | None, line: int | None) -> None:

@@ -46,7 +46,7 @@ from typing import Any, Literal
 
 from flexhrc.errors import FlexhrcError, UnknownNameError
 from flexhrc.events import GRAPH_EVENTS
-from flexhrc.representation.graph import AndOrGraph
+from flexhrc.representation.graph import AndOrGraph, plain_number
 from flexhrc.representation.hierarchy import SEP, HierarchicalGraph
 
 INF = math.inf
@@ -1451,9 +1451,7 @@ class _Template:
 
 
 def _num(x: float) -> float | int | None:
-    if x == INF:
-        return None
-    return int(x) if float(x).is_integer() else x
+    return None if x == INF else plain_number(x)
 
 
 def _unknown(name: str, index: Mapping[str, int]) -> str:

@@ -38,6 +38,7 @@ from flexhrc.representation.graph import (
     consumers,
     dead_end,
     dp_order,
+    plain_number,
 )
 from flexhrc.representation.hierarchy import HierarchicalGraph
 
@@ -620,13 +621,11 @@ def dump_andor_text(hierarchy: HierarchicalGraph, directory: str | Path) -> Path
         target = directory / (key + SUFFIX)
         target.parent.mkdir(parents=True, exist_ok=True)
         lines = [f"{g.name} {len(g.nodes)} {g.root}"]
-        lines += [f"{n.name} {_fmt(n.weight)}" for n in g.nodes.values()]
+        lines += [f"{n.name} {plain_number(n.weight)}" for n in g.nodes.values()]
         for h in g.hyperarcs.values():
-            lines.append(f"{h.name} {len(h.children)} {h.parent} {_fmt(h.weight)} {h.lower or '-'}")
+            lines.append(
+                f"{h.name} {len(h.children)} {h.parent} {plain_number(h.weight)} {h.lower or '-'}"
+            )
             lines += list(h.children)
         target.write_text("\n".join(lines) + "\n", encoding="utf-8")
     return directory / (hierarchy.top + SUFFIX)
-
-
-def _fmt(w: float) -> str:
-    return str(int(w)) if float(w).is_integer() else repr(w)

@@ -42,7 +42,7 @@ import yaml
 from flexhrc.errors import FormatError
 from flexhrc.files import read_text
 from flexhrc.logic import parse_conjunction, parse_literal
-from flexhrc.representation.graph import AndOrGraph, Hyperarc, Node, check_weight
+from flexhrc.representation.graph import AndOrGraph, Hyperarc, Node, check_weight, plain_number
 from flexhrc.representation.hierarchy import HierarchicalGraph
 
 FORMAT_VERSION = 1
@@ -330,7 +330,7 @@ def to_dict(hierarchy: HierarchicalGraph) -> dict[str, Any]:
             if n.weight == 0 and n.formula is None and not n.processes:
                 nodes.append(n.name)
                 continue
-            nd: dict[str, Any] = {"name": n.name, "weight": _num(n.weight)}
+            nd: dict[str, Any] = {"name": n.name, "weight": plain_number(n.weight)}
             if n.formula is not None:
                 nd["state"] = " & ".join(str(lit) for lit in n.formula)
             if n.processes:
@@ -342,7 +342,7 @@ def to_dict(hierarchy: HierarchicalGraph) -> dict[str, Any]:
                 "name": h.name,
                 "children": list(h.children),
                 "parent": h.parent,
-                "weight": _num(h.weight),
+                "weight": plain_number(h.weight),
             }
             if h.actions:
                 hd["actions"] = list(h.actions)
@@ -358,7 +358,3 @@ def to_dict(hierarchy: HierarchicalGraph) -> dict[str, Any]:
 
 def dump_yaml(hierarchy: HierarchicalGraph) -> str:
     return yaml.safe_dump(to_dict(hierarchy), sort_keys=False, default_flow_style=None, width=100)
-
-
-def _num(x: float) -> float | int:
-    return int(x) if float(x).is_integer() else x
