@@ -40,7 +40,8 @@ import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from heapq import heapify, heappop, heappush
-from itertools import islice
+from itertools import groupby, islice
+from operator import attrgetter
 from pathlib import Path
 from typing import Any, Literal
 
@@ -1266,24 +1267,13 @@ class OnlineGraph:
             except (ValueError, TypeError) as exc:
                 raise GraphArgumentError(f"event {i}: {exc}") from None
         online = cls(graph)
-        batch: list[Event] = []
-        current: int | None = None
-
-        def flush() -> None:
-            if batch:
-                online.update(
-                    met_nodes=[ev.element for ev in batch if ev.type == "met"],
-                    solved_hyperarcs=[ev.element for ev in batch if ev.type == "solved"],
-                    infeasible=[ev.element for ev in batch if ev.type == "infeasible"],
-                )
-
-        for ev in checked:
-            if current is not None and ev.query != current:
-                flush()
-                batch = []
-            current = ev.query
-            batch.append(ev)
-        flush()
+        for _, same_query in groupby(checked, key=attrgetter("query")):
+            batch = list(same_query)
+            online.update(
+                met_nodes=[ev.element for ev in batch if ev.type == "met"],
+                solved_hyperarcs=[ev.element for ev in batch if ev.type == "solved"],
+                infeasible=[ev.element for ev in batch if ev.type == "infeasible"],
+            )
         return online
 
 
