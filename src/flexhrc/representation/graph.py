@@ -260,29 +260,21 @@ class AndOrGraph:
     def nodes(self) -> dict[str, Node]:
         """Node name -> :class:`Node`, in definition order."""
         d = self._nodes
-        if d is None:
-            self._unpack()
-            d = self._nodes
-            assert d is not None
-        return d
+        return d if d is not None else self._unpack()[0]
 
     @property
     def hyperarcs(self) -> dict[str, Hyperarc]:
         """Hyper-arc name -> :class:`Hyperarc`, in definition order."""
         d = self._hyperarcs
-        if d is None:
-            self._unpack()
-            d = self._hyperarcs
-            assert d is not None
-        return d
+        return d if d is not None else self._unpack()[1]
 
-    def _unpack(self) -> None:
+    def _unpack(self) -> tuple[dict[str, Node], dict[str, Hyperarc]]:
         """The objects of the flat form; from now on the dicts are the graph (they may be
         changed in place), so the flat form is dropped."""
         ix = self._ix
         assert ix is not None
         names, weights, lines, nn = ix.names, ix.weights, ix.lines, ix.n_nodes
-        self._nodes = {names[i]: Node(names[i], weights[i], None, (), lines[i]) for i in range(nn)}
+        nodes = {names[i]: Node(names[i], weights[i], None, (), lines[i]) for i in range(nn)}
         lower = dict(ix.lower)
         children, parent = ix.children, ix.parent
         arcs: dict[str, Hyperarc] = {}
@@ -297,8 +289,8 @@ class AndOrGraph:
                 None,
                 lines[j],
             )
-        self._hyperarcs = arcs
-        self._ix = None
+        self._nodes, self._hyperarcs, self._ix = nodes, arcs, None
+        return nodes, arcs
 
     def _size(self) -> tuple[int, int]:
         ix = self._ix
