@@ -101,8 +101,7 @@ class KnowledgeBase:
             raise FlexhrcError(f"object {obj_id!r} already exists")
         rec = ObjectRecord(obj_id, type, _vec(position), dict(size or {}), dict(attrs))
         self.objects[obj_id] = rec
-        for t in self.type_chain(type):
-            self._facts.add((t, obj_id))
+        self._facts.update((t, obj_id) for t in self.type_chain(type))
         self.version += 1
         return rec
 
@@ -168,8 +167,7 @@ class KnowledgeBase:
             return True
         reason = self._contradiction(rec, type, position, size or {})
         if reason:
-            self.inconsistencies.append(Inconsistency(obj_id, reason, percept))
-            self.version += 1
+            self.contradict(obj_id, reason, percept)
             return False
         rec.position = position
         if size:
@@ -187,7 +185,7 @@ class KnowledgeBase:
             known = rec.size.get(k)
             if known and abs(v - known) > self.size_tolerance * known:
                 return f"{rec.id}: {k} {known:g} known, {v:g} perceived"
-        if rec.fixed and _dist(rec.position, position) > self.position_tolerance:
+        if rec.fixed and math.dist(rec.position, position) > self.position_tolerance:
             return f"{rec.id} is fixed at {_fmt(rec.position)} but perceived at {_fmt(position)}"
         return None
 
@@ -255,14 +253,12 @@ class KnowledgeBase:
                 continue
             if accept:
                 rec = self.objects[inc.object_id]
-                for t in self.type_chain(rec.type):
-                    self._facts.discard((t, rec.id))
+                self._facts.difference_update((t, rec.id) for t in self.type_chain(rec.type))
                 rec.type = inc.percept["type"]
                 rec.position = inc.percept["position"]
                 rec.size.update(inc.percept["size"])
                 rec.fixed = False
-                for t in self.type_chain(rec.type):
-                    self._facts.add((t, rec.id))
+                self._facts.update((t, rec.id) for t in self.type_chain(rec.type))
         self.inconsistencies = keep
         self.version += 1
 
@@ -333,10 +329,6 @@ def _vec(p: Iterable[float]) -> Vec3:
     if len(vals) != 3 or not all(math.isfinite(v) for v in vals):
         raise FlexhrcError(f"a position needs three finite numbers, got {vals}")
     return (vals[0], vals[1], vals[2])
-
-
-def _dist(a: Vec3, b: Vec3) -> float:
-    return math.dist(a, b)
 
 
 def _hdist(a: Vec3, b: Vec3) -> float:

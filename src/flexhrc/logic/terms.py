@@ -47,9 +47,6 @@ class Literal:
     def is_ground(self) -> bool:
         return not any(is_variable(a) for a in self.args)
 
-    def positive(self) -> Literal:
-        return Literal(self.predicate, self.args, False) if self.negated else self
-
     def key(self) -> tuple[str, ...]:
         """The ground fact this literal denotes (predicate followed by arguments)."""
         return (self.predicate, *self.args)

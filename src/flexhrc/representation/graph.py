@@ -125,10 +125,6 @@ class Indexed:
         self.lines = lines  # source line of each element
 
     @property
-    def size(self) -> int:
-        return len(self.names)
-
-    @property
     def outgoing(self) -> list[tuple[int, ...]]:
         """Nodes: the hyper-arcs consuming it (hyper-arcs: ()); made on first use (loading
         does not need it)."""
@@ -264,29 +260,21 @@ class AndOrGraph:
     def nodes(self) -> dict[str, Node]:
         """Node name -> :class:`Node`, in definition order."""
         d = self._nodes
-        if d is None:
-            self._unpack()
-            d = self._nodes
-            assert d is not None
-        return d
+        return d if d is not None else self._unpack()[0]
 
     @property
     def hyperarcs(self) -> dict[str, Hyperarc]:
         """Hyper-arc name -> :class:`Hyperarc`, in definition order."""
         d = self._hyperarcs
-        if d is None:
-            self._unpack()
-            d = self._hyperarcs
-            assert d is not None
-        return d
+        return d if d is not None else self._unpack()[1]
 
-    def _unpack(self) -> None:
+    def _unpack(self) -> tuple[dict[str, Node], dict[str, Hyperarc]]:
         """The objects of the flat form; from now on the dicts are the graph (they may be
         changed in place), so the flat form is dropped."""
         ix = self._ix
         assert ix is not None
         names, weights, lines, nn = ix.names, ix.weights, ix.lines, ix.n_nodes
-        self._nodes = {names[i]: Node(names[i], weights[i], None, (), lines[i]) for i in range(nn)}
+        nodes = {names[i]: Node(names[i], weights[i], None, (), lines[i]) for i in range(nn)}
         lower = dict(ix.lower)
         children, parent = ix.children, ix.parent
         arcs: dict[str, Hyperarc] = {}
@@ -301,8 +289,8 @@ class AndOrGraph:
                 None,
                 lines[j],
             )
-        self._hyperarcs = arcs
-        self._ix = None
+        self._nodes, self._hyperarcs, self._ix = nodes, arcs, None
+        return nodes, arcs
 
     def _size(self) -> tuple[int, int]:
         ix = self._ix
@@ -362,11 +350,7 @@ class AndOrGraph:
     def add_node(self, node: Node | str, weight: float = 0.0, **kw: object) -> Node:
         if isinstance(node, str):
             node = Node(node, weight, **kw)  # type: ignore[arg-type]
-        if node.name in self.nodes:
-            first = self.nodes[node.name].line
-            where = f" (first defined at line {first})" if first else ""
-            raise FormatError(f"duplicate node name {node.name!r}{where}", self.source, node.line)
-        _check_weight(node.weight, f"node {node.name!r}", self.source, node.line)
+        self._check_new(self.nodes, node, "node")
         self.nodes[node.name] = node
         self._validated = None
         return node
@@ -383,13 +367,7 @@ class AndOrGraph:
             if parent is None:
                 raise ValueError("parent is required")
             hyperarc = Hyperarc(hyperarc, tuple(children), parent, weight, **kw)  # type: ignore[arg-type]
-        if hyperarc.name in self.hyperarcs:
-            first = self.hyperarcs[hyperarc.name].line
-            where = f" (first defined at line {first})" if first else ""
-            raise FormatError(
-                f"duplicate hyper-arc name {hyperarc.name!r}{where}", self.source, hyperarc.line
-            )
-        _check_weight(hyperarc.weight, f"hyper-arc {hyperarc.name!r}", self.source, hyperarc.line)
+        self._check_new(self.hyperarcs, hyperarc, "hyper-arc")
         if not hyperarc.children:
             raise FormatError(
                 f"hyper-arc {hyperarc.name!r} has no child node", self.source, hyperarc.line
@@ -397,6 +375,16 @@ class AndOrGraph:
         self.hyperarcs[hyperarc.name] = hyperarc
         self._validated = None
         return hyperarc
+
+    def _check_new(
+        self, known: Mapping[str, Node | Hyperarc], item: Node | Hyperarc, what: str
+    ) -> None:
+        """A new element's name is not taken yet and its weight is a finite number >= 0."""
+        if item.name in known:
+            first = known[item.name].line
+            where = f" (first defined at line {first})" if first else ""
+            raise FormatError(f"duplicate {what} name {item.name!r}{where}", self.source, item.line)
+        check_weight(item.weight, f"{what} {item.name!r}", self.source, item.line)
 
     # -- queries --------------------------------------------------------------------------
     def node(self, name: str) -> Node:
@@ -414,10 +402,6 @@ class AndOrGraph:
     def incoming(self, node: str) -> list[Hyperarc]:
         """Hyper-arcs whose parent is ``node`` (its OR alternatives)."""
         return [h for h in self.hyperarcs.values() if h.parent == node]
-
-    def outgoing(self, node: str) -> list[Hyperarc]:
-        """Hyper-arcs that have ``node`` among their children."""
-        return [h for h in self.hyperarcs.values() if node in h.children]
 
     def leaves(self) -> list[str]:
         """Nodes that no hyper-arc produces, in definition order (N_L)."""
@@ -684,7 +668,14 @@ def _with_arcs(nodes: list[str], out: Mapping[str, list[Hyperarc]]) -> list[str]
     return trail
 
 
-def _check_weight(weight: object, what: str, source: str | None, line: int | None) -> None:
+def plain_number(x: float) -> float | int:
+    """A weight or cost as an integer when it is one (``3.0`` -> ``3``): files and JSON read
+    it so."""
+    return int(x) if float(x).is_integer() else x
+
+
+def check_weight(weight: object, what: str, source: str | Path | None, line: int | None) -> None:
+    """A weight is a finite number >= 0, or one :class:`FormatError` naming ``what``."""
     if type(weight) is float and 0.0 <= weight < math.inf:  # the common case, cheap
         return
     if isinstance(weight, bool) or not isinstance(weight, (int, float)):

@@ -16,7 +16,7 @@ of the top graph. This is the one naming syntax used by the CLI, JSON and the ev
 from __future__ import annotations
 
 from collections import deque
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 
 from flexhrc.errors import FormatError, UnknownNameError
@@ -154,24 +154,7 @@ class HierarchicalGraph:
                     queue.append(sub)
         leaves: dict[str, int] = {}
         if len(used) > 1 or top.lower:
-            # no cycle of lower graphs: depth-first, 1 = on the trail, 2 = finished
-            state = {self.top: 1}
-            trail = [self.top]
-            stack = [iter(top.lower)]
-            while stack:
-                nxt = next(stack[-1], None)
-                if nxt is None:
-                    state[trail.pop()] = 2
-                    stack.pop()
-                    continue
-                low = nxt[1]
-                st = state.get(low)
-                if st == 1:
-                    return None
-                if st is None:
-                    state[low] = 1
-                    trail.append(low)
-                    stack.append(iter(used[low].lower))
+            self._check_recursion({key: ix.lower for key, ix in used.items()})
             # implicit M1: no fewer lower leaves than children (_check_transition)
             for ix in used.values():
                 for j, low in ix.lower:
@@ -187,39 +170,44 @@ class HierarchicalGraph:
             warnings += done[1] if done is not None and g._ix is not None else g.validate()
         return warnings
 
-    def _check_recursion(self) -> None:
+    def _check_recursion(
+        self, lowers: Mapping[str, Sequence[tuple[object, str]]] | None = None
+    ) -> None:
+        """Every lower graph is known and none refers back to one above it. ``lowers``: the
+        (hyper-arc, lower graph key) pairs of every graph, in hyper-arc order (by default
+        read from the objects; a reader's flat form has them as ``Indexed.lower``)."""
+        if lowers is None:
+            lowers = {
+                key: [(h, h.lower) for h in g.hyperarcs.values() if h.lower is not None]
+                for key, g in self.graphs.items()
+            }
         # depth-first with an explicit stack: 1 = on the current trail, 2 = finished
         state: dict[str, int] = {self.top: 1}
         trail: list[str] = [self.top]
-        stack: list[Iterator[Hyperarc]] = [iter(self.graphs[self.top].hyperarcs.values())]
+        stack = [iter(lowers[self.top])]
         while stack:
-            key = trail[-1]
-            g = self.graphs[key]
-            h = next(stack[-1], None)
-            if h is None:
-                state[key] = 2
+            nxt = next(stack[-1], None)
+            if nxt is None:
+                state[trail.pop()] = 2
                 stack.pop()
-                trail.pop()
                 continue
-            if h.lower is None:
-                continue
-            if h.lower not in self.graphs:
-                raise FormatError(
-                    f"hyper-arc {h.name!r} refers to unknown lower graph {h.lower!r}",
-                    g.source,
-                    h.line,
+            low = nxt[1]
+            st = state.get(low)
+            if st == 1 or low not in lowers:
+                # the first hyper-arc of the graph on top of the trail that refers to it (an
+                # earlier one would have been the fault)
+                g = self.graphs[trail[-1]]
+                h = next(h for h in g.hyperarcs.values() if h.lower == low)
+                what = (
+                    f": lower graphs refer to each other in a cycle ({' -> '.join([*trail, low])})"
+                    if st == 1
+                    else f" refers to unknown lower graph {low!r}"
                 )
-            if state.get(h.lower) == 1:
-                chain = " -> ".join([*trail, h.lower])
-                raise FormatError(
-                    f"hyper-arc {h.name!r}: lower graphs refer to each other in a cycle ({chain})",
-                    g.source,
-                    h.line,
-                )
-            if h.lower not in state:
-                state[h.lower] = 1
-                trail.append(h.lower)
-                stack.append(iter(self.graphs[h.lower].hyperarcs.values()))
+                raise FormatError(f"hyper-arc {h.name!r}{what}", g.source, h.line)
+            if st is None:
+                state[low] = 1
+                trail.append(low)
+                stack.append(iter(lowers[low]))
 
     def _check_transition(self, upper: AndOrGraph, h: Hyperarc, leaves: list[str]) -> None:
         assert h.lower is not None

@@ -40,13 +40,14 @@ import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from heapq import heapify, heappop, heappush
-from itertools import islice
+from itertools import groupby, islice
+from operator import attrgetter
 from pathlib import Path
 from typing import Any, Literal
 
 from flexhrc.errors import FlexhrcError, UnknownNameError
 from flexhrc.events import GRAPH_EVENTS
-from flexhrc.representation.graph import AndOrGraph
+from flexhrc.representation.graph import AndOrGraph, plain_number
 from flexhrc.representation.hierarchy import SEP, HierarchicalGraph
 
 INF = math.inf
@@ -344,7 +345,6 @@ class OnlineGraph:
         self._i_root = i_root
         self._i_upper = i_upper
         self._i_parent = i_parent
-        t0 = i_tmpl[0]
         # element ids of each instance's leaves / top-down order: set by _materialise
         self._i_leaves: list[list[int]] = [t0.leaves] + [[] for _ in range(n_inst - 1)]
         self._i_down: list[list[int]] = [t0.down] + [[] for _ in range(n_inst - 1)]
@@ -473,65 +473,6 @@ class OnlineGraph:
         return idx
 
     # ------------------------------------------------------------------ cost helpers ----
-    def _calc_inside(self, e: int) -> float:
-        if self._kind[e]:  # hyper-arc
-            if self._blocked[e]:
-                return INF
-            if self._done[e]:
-                own = 0.0
-            elif self._lower[e] >= 0:
-                own = self._inside[self._i_root[self._lower[e]]]  # eq. 19
-            else:
-                own = self._w[e]
-            ins = self._inside
-            for c in self._children[e]:
-                own += ins[c]
-            return own
-        if self._blocked[e]:
-            return INF
-        own = 0.0 if self._done[e] else self._w[e]
-        arcs = self._in[e]
-        if not arcs:
-            return own
-        best = INF
-        ins = self._inside
-        for h in arcs:
-            v = ins[h]
-            if v < best:
-                best = v
-        return own + best
-
-    def _calc_outside(self, e: int) -> float:
-        """Cheapest remaining cost from element e (node or hyper-arc) to the top root, from
-        the outside costs of the elements above it (which the top-down pass has settled)."""
-        out = self._out_val
-        if self._kind[e]:
-            p = self._parent[e]
-            if self._blocked[p]:
-                return INF
-            return (0.0 if self._done[p] else self._w[p]) + out[p]
-        if self._root_of[e] >= 0:
-            return 0.0  # relative to the instance root: see _calc_offset
-        ins = self._inside
-        val = INF
-        done, blocked, lower, w = self._done, self._blocked, self._lower, self._w
-        for h in self._out[e]:
-            if blocked[h]:
-                continue
-            if done[h]:
-                own = 0.0
-            elif lower[h] >= 0:
-                own = ins[self._i_root[lower[h]]]
-            else:
-                own = w[h]
-            for c in self._children[h]:
-                if c != e:
-                    own += ins[c]
-            cand = own + out[h]
-            if cand < val:
-                val = cand
-        return val
-
     def _calc_offset(self, k: int) -> float:
         """Outside cost of the root of instance k in the whole hierarchy: the lower path
         replaces w(u) in the upper path through its hyper-arc u (Algorithm 6, line 27)."""
@@ -570,7 +511,10 @@ class OnlineGraph:
         """The top-down pass: recompute queued outside costs, parents before children, and
         queue the elements below each one that changed. Touches only what the query changed.
 
-        _calc_outside is inlined (hot path).
+        The outside cost of a hyper-arc is its parent's plus the parent's own weight; of a node,
+        the cheapest over the hyper-arcs that consume it of (their weight, their other
+        children's inside costs, their outside cost); of an instance root, 0 (relative to the
+        root: see _calc_offset). Infinite through anything that can no longer be taken.
         """
         heap = self._heap
         if not heap:
@@ -645,21 +589,13 @@ class OnlineGraph:
                 if active[k]:
                     v = self._calc_offset(k)
                     if v != off[k]:
-                        off[k] = v
-                        costs, ins, out = self._costs, self._inside, self._out_val
-                        for e in self._i_feas[k]:
-                            c = ins[e] + out[e] + v
-                            if c < INF:
-                                costs[e] = c
-                            else:
-                                costs.pop(e, None)
+                        self._move_offset(k, v)
                 return
             dirty.add(k)
         heap = [(depth[k], k) for k in dirty]
         dirty.clear()
         heapify(heap)
         seen: set[int] = set()
-        costs, ins, out = self._costs, self._inside, self._out_val
         while heap:
             _, k = heappop(heap)
             if k in seen or not active[k]:
@@ -668,30 +604,27 @@ class OnlineGraph:
             v = self._calc_offset(k)
             if v == off[k]:
                 continue
-            off[k] = v
-            for e in self._i_feas[k]:
-                c = ins[e] + out[e] + v
-                if c < INF:
-                    costs[e] = c
-                else:
-                    costs.pop(e, None)
+            self._move_offset(k, v)
             for h in self._i_lowers[k]:
                 heappush(heap, (depth[k] + 1, self._lower[h]))
 
-    def _fill_outside(self, k: int) -> None:
-        """Outside costs of every element of instance k, top-down (k just became active)."""
-        out, calc = self._out_val, self._calc_outside
-        for e in self._i_down[k]:
-            out[e] = calc(e)
+    def _move_offset(self, k: int, v: float) -> None:
+        """Instance k's offset is now v: so moves the cost of each of its feasible elements."""
+        self._i_off[k] = v
+        costs, ins, out = self._costs, self._inside, self._out_val
+        for e in self._i_feas[k]:
+            c = ins[e] + out[e] + v
+            if c < INF:
+                costs[e] = c
+            else:
+                costs.pop(e, None)
 
     def _propagate(self, start: int) -> None:
         """Recompute inside(start) and push changes to its ancestors (and upper arcs).
 
-        The hot path of every query: _calc_inside is inlined here, and so is what a changed
-        inside(x) re-queues (the outside costs of x's AND siblings, lower-instance offsets).
+        The hot path of every query: what a changed inside(x) re-queues (the outside costs of
+        x's AND siblings, lower-instance offsets) is inlined here.
         """
-        if self._calc_inside(start) == self._inside[start]:
-            return  # the common case (a weight-0 leaf met, say): nothing to set up
         ins = self._inside
         kind, parent, outgoing = self._kind, self._parent, self._out
         root_of, upper = self._root_of, self._i_upper
@@ -816,7 +749,9 @@ class OnlineGraph:
             self._i_feas[k].update(fresh)
             self._touched.update(leaves)
         else:
-            self._fill_outside(k)
+            push = self._push
+            for e in self._i_down[k]:  # every outside cost, in this query's top-down pass
+                push(e)
             for n in self._i_leaves[k]:
                 if self._node_feasible(n):
                     self._add_feasible(n)
@@ -1001,9 +936,6 @@ class OnlineGraph:
     def is_blocked(self, name: str) -> bool:
         return self._blocked[self.element_id(name)]
 
-    def has_lower_graph(self, hyperarc: str) -> bool:
-        return self._lower[self.element_id(hyperarc)] >= 0
-
     def graph_of(self, name: str) -> str:
         """Instance path of the graph instance an element belongs to ("" = top graph)."""
         return self._i_path[self._inst[self.element_id(name)]]
@@ -1060,6 +992,8 @@ class OnlineGraph:
         ``TypeError``).
         """
         # the common query (the Task Manager's, the test client's): one element, nothing else
+        query = 0
+        ignored: list[str] = []
         if (
             not infeasible
             and self._outcome == "running"
@@ -1083,17 +1017,29 @@ class OnlineGraph:
                     self._apply_dead()
                 if self._heap or self._off_dirty:
                     self._settle()
-                self._query = query
-                self._finish()
-                return QueryResult(
-                    query,
-                    self._outcome == "solved",
-                    self._outcome == "failed",
-                    self._reason,
-                    dict(self._costs),
-                    self,
-                    [],
-                )
+        if not query:
+            query, ignored = self._update_many(met_nodes, solved_hyperarcs, infeasible)
+        self._query = query
+        self._finish()
+        outcome = self._outcome
+        return QueryResult(
+            query,
+            outcome == "solved",
+            outcome == "failed",
+            self._reason,
+            dict(self._costs),
+            self,
+            ignored,
+        )
+
+    def _update_many(
+        self,
+        met_nodes: Iterable[str],
+        solved_hyperarcs: Iterable[str],
+        infeasible: Iterable[str],
+    ) -> tuple[int, list[str]]:
+        """:meth:`update` of anything but one feasible element: the query's number and the
+        elements it ignored (already met or solved)."""
         if met_nodes is None or solved_hyperarcs is None or infeasible is None:
             what = (
                 "met_nodes"
@@ -1121,25 +1067,7 @@ class OnlineGraph:
         if self._outcome != "running" and (items or blocks):
             raise FlexhrcError(f"the cooperation is already {self._outcome}; nothing to update")
         query = self._query + 1
-        ignored: list[str] = []
-        if items or blocks:
-            if len(items) == 1 and not blocks and items[0][1] in self._feasible:
-                kind, e = items[0]
-                self._apply(query, kind, e)
-                self._settle()
-            else:
-                ignored = self._apply_many(query, items, blocks)
-        self._query = query
-        self._finish()
-        return QueryResult(
-            query,
-            self._outcome == "solved",
-            self._outcome == "failed",
-            self._reason,
-            dict(self._costs),
-            self,
-            ignored,
-        )
+        return query, self._apply_many(query, items, blocks) if items or blocks else []
 
     def mark_infeasible(self, *names: str) -> QueryResult:
         """Mark elements infeasible (for good) and answer with the new state."""
@@ -1335,59 +1263,39 @@ class OnlineGraph:
         checked: list[Event] = []
         for i, raw in enumerate(events):
             try:
-                checked.append(raw if isinstance(raw, Event) and _valid(raw) else _event(raw))
+                checked.append(_event(raw))
             except (ValueError, TypeError) as exc:
                 raise GraphArgumentError(f"event {i}: {exc}") from None
         online = cls(graph)
-        batch: list[Event] = []
-        current: int | None = None
-
-        def flush() -> None:
-            if batch:
-                online.update(
-                    met_nodes=[ev.element for ev in batch if ev.type == "met"],
-                    solved_hyperarcs=[ev.element for ev in batch if ev.type == "solved"],
-                    infeasible=[ev.element for ev in batch if ev.type == "infeasible"],
-                )
-
-        for ev in checked:
-            if current is not None and ev.query != current:
-                flush()
-                batch = []
-            current = ev.query
-            batch.append(ev)
-        flush()
+        for _, same_query in groupby(checked, key=attrgetter("query")):
+            batch = list(same_query)
+            online.update(
+                met_nodes=[ev.element for ev in batch if ev.type == "met"],
+                solved_hyperarcs=[ev.element for ev in batch if ev.type == "solved"],
+                infeasible=[ev.element for ev in batch if ev.type == "infeasible"],
+            )
         return online
 
 
-def _valid(ev: Event) -> bool:
-    if ev.type not in GRAPH_EVENTS:
-        raise ValueError(
-            f"unknown event type {ev.type!r} (expected one of {', '.join(GRAPH_EVENTS)})"
-        )
-    return True
-
-
 def _event(raw: object) -> Event:
-    """An :class:`Event` from a mapping, or ValueError/TypeError saying what is wrong."""
-    if isinstance(raw, Event):
-        _valid(raw)
-        return raw
-    if not isinstance(raw, Mapping):
+    """An :class:`Event` checked, or made from a mapping; ValueError/TypeError saying what is
+    wrong."""
+    d = raw.to_dict() if isinstance(raw, Event) else raw
+    if not isinstance(d, Mapping):
         raise TypeError(
             f"expected a mapping with query, type and element, got {type(raw).__name__}"
         )
-    missing = [k for k in ("query", "type", "element") if k not in raw]
+    missing = [k for k in ("query", "type", "element") if k not in d]
     if missing:
         raise ValueError(f"missing {', '.join(missing)}")
-    q, t, el = raw["query"], raw["type"], raw["element"]
+    q, t, el = d["query"], d["type"], d["element"]
     if isinstance(q, bool) or not isinstance(q, int) or q < 0:
         raise ValueError(f"query must be a non-negative integer, got {q!r}")
     if t not in GRAPH_EVENTS:
         raise ValueError(f"unknown event type {t!r} (expected one of {', '.join(GRAPH_EVENTS)})")
     if not isinstance(el, str) or not el:
         raise ValueError(f"element must be a non-empty name, got {el!r}")
-    return Event(q, t, el)
+    return raw if isinstance(raw, Event) else Event(q, t, el)
 
 
 class _Template:
@@ -1495,7 +1403,7 @@ class _Template:
 
     def pristine_outside(self) -> list[float]:
         """Outside costs (to the instance root) of an instance nothing of which is met yet,
-        parents before children: the values of ``OnlineGraph._calc_outside`` then."""
+        parents before children: the values ``OnlineGraph._settle`` computes then."""
         out = self.pristine_out
         if out is None:
             self.complete()
@@ -1533,9 +1441,7 @@ class _Template:
 
 
 def _num(x: float) -> float | int | None:
-    if x == INF:
-        return None
-    return int(x) if float(x).is_integer() else x
+    return None if x == INF else plain_number(x)
 
 
 def _unknown(name: str, index: Mapping[str, int]) -> str:

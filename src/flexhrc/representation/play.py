@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from flexhrc.errors import FlexhrcError
+from flexhrc.representation.graph import plain_number
 from flexhrc.representation.hierarchy import HierarchicalGraph
 from flexhrc.representation.online import OnlineGraph
 
@@ -42,7 +43,7 @@ class PlayReport:
             "offline_s": self.offline_s,
             "online_s_total": self.online_s_total,
             "online_s_per_query_median": self.online_s_per_query_median,
-            "cost": int(self.cost) if float(self.cost).is_integer() else self.cost,
+            "cost": plain_number(self.cost),
         }
         if self.reason:
             d["reason"] = self.reason

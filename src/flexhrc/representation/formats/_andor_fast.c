@@ -8,7 +8,7 @@
  * Reads one ANDOR text file that the pure-Python fast path (andor_text._parse_flat) accepts --
  * plain names, integer weights, no repeated name, children listed before the hyper-arcs that
  * consume their parents -- and returns exactly what that path builds, as flat arrays (see
- * andor_text._from_fast). For anything else, and for every fault, it returns None: the Python
+ * andor_text._from_compiled). For anything else, and for every fault, it returns None: the Python
  * reader then parses the file and names the fault, so every message comes from one place.
  * It accepts less than the Python fast path (ASCII only, no comment, only space and tab between
  * tokens, at most 15 digits in a number); never more.

@@ -25,7 +25,6 @@ import contextlib
 import os
 from collections.abc import Callable
 from dataclasses import replace
-from itertools import repeat
 from pathlib import Path
 from typing import Any
 
@@ -39,6 +38,7 @@ from flexhrc.representation.graph import (
     consumers,
     dead_end,
     dp_order,
+    plain_number,
 )
 from flexhrc.representation.hierarchy import HierarchicalGraph
 
@@ -119,9 +119,8 @@ def _name(tok: str, what: str, path: str | Path, line: int) -> str:
 def parse_graph(path: str | Path) -> tuple[AndOrGraph, list[tuple[str, int]]]:
     """Parse one file. Returns the graph and its lower-graph references (name, line).
 
-    The structural checks of :meth:`AndOrGraph.validate` are folded in (cheap membership
-    tests on the way); on any fault the full validation runs and names it, so the messages
-    are the same. A graph that passes is marked validated and is not checked again.
+    The graph is validated here (every fast path folds :meth:`AndOrGraph.validate`'s checks
+    in, with its messages); a graph that passes is marked validated and is not checked again.
     """
     data = None
     if _parse_compiled is not None:
@@ -169,44 +168,22 @@ def parse_graph(path: str | Path) -> tuple[AndOrGraph, list[tuple[str, int]]]:
             lineno,
         )
     nodes = graph.nodes
-    node_rows = rows[1 : count + 1]
-    names: tuple[str, ...] = ()
-    weights: tuple[str, ...] = ()
-    if set(map(len, node_rows)) == {2}:
-        names, weights = zip(*node_rows, strict=True)
-        digits = "".join(weights)
-    if names and "/" not in "".join(names) and digits.isdigit() and digits.isascii():
-        # the common case, in bulk: plain names, integer weights
-        nodes.update(
-            zip(
-                names,
-                map(Node, names, map(float, weights), repeat(None), repeat(()), nums[1:]),
-                strict=False,  # nums runs on past the node lines
+    for i in range(1, count + 1):
+        toks = rows[i]
+        ln = nums[i]
+        if len(toks) != 2:
+            hint = " (the header announces more nodes than are listed?)" if len(toks) == 5 else ""
+            raise FormatError(
+                f"node line must be '<name> <weight>', got {' '.join(toks)!r}{hint}", path, ln
             )
-        )
-    if len(nodes) != count:  # not the common case, or a repeated name: one by one, to say why
-        nodes.clear()
-        for i in range(1, count + 1):
-            toks = rows[i]
-            ln = nums[i]
-            if len(toks) != 2:
-                hint = (
-                    " (the header announces more nodes than are listed?)" if len(toks) == 5 else ""
-                )
-                raise FormatError(
-                    f"node line must be '<name> <weight>', got {' '.join(toks)!r}{hint}", path, ln
-                )
-            n, w = toks
-            if "/" in n or n in nodes:
-                _name(n, "node", path, ln)
-                graph.add_node(Node(n, line=ln))  # raises the duplicate-name error
-            nodes[n] = Node(n, _weight(w, "node", n, path, ln), line=ln)
+        n, w = toks
+        if "/" in n or n in nodes:
+            _name(n, "node", path, ln)
+            graph.add_node(Node(n, line=ln))  # raises the duplicate-name error
+        nodes[n] = Node(n, _weight(w, "node", n, path, ln), line=ln)
     refs: list[tuple[str, int]] = []
     renamed: list[FormatError] = []
     arcs = graph.hyperarcs
-    consumed: set[str] = set()
-    produced: set[str] = set()
-    sound = True  # every parent and child known, no child twice, no parent among its children
     i = count + 1
     while i < n_rows:
         toks = rows[i]
@@ -238,11 +215,7 @@ def parse_graph(path: str | Path) -> tuple[AndOrGraph, list[tuple[str, int]]]:
                 f"hyper-arc {hname!r} declares {k} children but {found} follow", path, where
             )
         children = (block[0][0],) if k == 1 else tuple([r[0] for r in block])
-        weight = (
-            float(w_tok)
-            if w_tok.isdigit() and w_tok.isascii()
-            else _weight(w_tok, "hyper-arc", hname, path, ln)
-        )
+        weight = _weight(w_tok, "hyper-arc", hname, path, ln)
         lower_ref = None if lower == "-" else lower
         if lower_ref is not None:
             refs.append((lower_ref, ln))
@@ -261,42 +234,12 @@ def parse_graph(path: str | Path) -> tuple[AndOrGraph, list[tuple[str, int]]]:
                 )
             )
             hname = new_name
-        if sound:
-            if k == 1:
-                c = children[0]
-                sound = c != parent and c in nodes and parent in nodes
-            else:
-                distinct = set(children)
-                sound = (
-                    len(distinct) == k
-                    and parent not in distinct
-                    and nodes.keys() >= distinct
-                    and parent in nodes
-                )
-        consumed.update(children)
-        produced.add(parent)
         # add_hyperarc's checks are done above (name, weight, at least one child, repeats)
         arcs[hname] = Hyperarc(hname, children, parent, weight, (), lower_ref, None, ln)
         i += k + 1
     graph.load_warnings = renamed
-    # what validate() checks last: the root, no cycle (Kahn's order, cached for later users),
-    # and the dead ends it warns about
-    if (
-        sound
-        and root in nodes
-        and root not in consumed
-        and len(graph.topological_order()) == len(nodes)
-    ):
-        dead = produced - consumed
-        dead.discard(root)
-        warnings = [
-            dead_end(n, root, path, nodes[n].line)
-            for n in (nodes if dead else ())  # in node order, as validate() lists them
-            if n in dead
-        ]
-        graph.mark_validated([*renamed, *warnings])
-        return graph, refs
-    graph.validate()  # raises the precise error
+    # (the rare file: the common case is _parse_flat's or the compiled reader's)
+    graph.mark_validated(graph.validate())  # a fault: the precise error
     return graph, refs
 
 
@@ -678,13 +621,11 @@ def dump_andor_text(hierarchy: HierarchicalGraph, directory: str | Path) -> Path
         target = directory / (key + SUFFIX)
         target.parent.mkdir(parents=True, exist_ok=True)
         lines = [f"{g.name} {len(g.nodes)} {g.root}"]
-        lines += [f"{n.name} {_fmt(n.weight)}" for n in g.nodes.values()]
+        lines += [f"{n.name} {plain_number(n.weight)}" for n in g.nodes.values()]
         for h in g.hyperarcs.values():
-            lines.append(f"{h.name} {len(h.children)} {h.parent} {_fmt(h.weight)} {h.lower or '-'}")
+            lines.append(
+                f"{h.name} {len(h.children)} {h.parent} {plain_number(h.weight)} {h.lower or '-'}"
+            )
             lines += list(h.children)
         target.write_text("\n".join(lines) + "\n", encoding="utf-8")
     return directory / (hierarchy.top + SUFFIX)
-
-
-def _fmt(w: float) -> str:
-    return str(int(w)) if float(w).is_integer() else repr(w)

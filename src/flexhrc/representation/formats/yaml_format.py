@@ -33,6 +33,7 @@ Every error names the file and line.
 from __future__ import annotations
 
 import os
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -41,7 +42,7 @@ import yaml
 from flexhrc.errors import FormatError
 from flexhrc.files import read_text
 from flexhrc.logic import parse_conjunction, parse_literal
-from flexhrc.representation.graph import AndOrGraph, Hyperarc, Node
+from flexhrc.representation.graph import AndOrGraph, Hyperarc, Node, check_weight, plain_number
 from flexhrc.representation.hierarchy import HierarchicalGraph
 
 FORMAT_VERSION = 1
@@ -122,10 +123,7 @@ def _check_keys(d: _LineDict, allowed: set[str], what: str, path: Path) -> None:
 
 
 def _weight(v: Any, what: str, path: Path, line: int | None) -> float:
-    if isinstance(v, bool) or not isinstance(v, int | float):
-        raise FormatError(f"{what}: weight {v!r} is not a number", path, line)
-    if not (v >= 0) or v == float("inf"):
-        raise FormatError(f"{what}: weight must be a finite number >= 0, got {v}", path, line)
+    check_weight(v, what, path, line)
     return float(v)
 
 
@@ -314,14 +312,11 @@ def _load_external(
     # the external top graph takes this key; its own lower graphs keep theirs, prefixed
     for k, g in sub.graphs.items():
         out[key if k == sub.top else f"{key}/{k}"] = g
-    for k, g in list(out.items()):
+    for g in out.values():
         for h in list(g.hyperarcs.values()):
             if h.lower is not None:
                 new = key if h.lower == sub.top else f"{key}/{h.lower}"
-                g.hyperarcs[h.name] = Hyperarc(
-                    h.name, h.children, h.parent, h.weight, h.actions, new, h.leaf_map, h.line
-                )
-        out[k] = g
+                g.hyperarcs[h.name] = replace(h, lower=new)
     return out
 
 
@@ -335,7 +330,7 @@ def to_dict(hierarchy: HierarchicalGraph) -> dict[str, Any]:
             if n.weight == 0 and n.formula is None and not n.processes:
                 nodes.append(n.name)
                 continue
-            nd: dict[str, Any] = {"name": n.name, "weight": _num(n.weight)}
+            nd: dict[str, Any] = {"name": n.name, "weight": plain_number(n.weight)}
             if n.formula is not None:
                 nd["state"] = " & ".join(str(lit) for lit in n.formula)
             if n.processes:
@@ -347,7 +342,7 @@ def to_dict(hierarchy: HierarchicalGraph) -> dict[str, Any]:
                 "name": h.name,
                 "children": list(h.children),
                 "parent": h.parent,
-                "weight": _num(h.weight),
+                "weight": plain_number(h.weight),
             }
             if h.actions:
                 hd["actions"] = list(h.actions)
@@ -363,7 +358,3 @@ def to_dict(hierarchy: HierarchicalGraph) -> dict[str, Any]:
 
 def dump_yaml(hierarchy: HierarchicalGraph) -> str:
     return yaml.safe_dump(to_dict(hierarchy), sort_keys=False, default_flow_style=None, width=100)
-
-
-def _num(x: float) -> float | int:
-    return int(x) if float(x).is_integer() else x
