@@ -1,0 +1,366 @@
+"""``flexhrc behave`` as functions: a config in, a report out.
+
+* :func:`run_behave` — run a :class:`~flexhrc.behavior.command.BehaveConfig`: the task on one
+  robot's network (or only its network printed, ``render``), or shared by a team of robots
+  (:mod:`flexhrc.behavior.team`);
+* :class:`ReplayConfig` / :func:`replay` — the report of a run read back from its ``--log``;
+* :class:`RenderConfig` / :func:`render` — the network as DOT or an image, coloured by the node
+  states of a logged run at a time;
+* :class:`CompileConfig` / :func:`compile_to_file` — the task written as a flexhrc AND/OR graph.
+
+Each returns a :class:`~flexhrc.behavior.command.BehaveReport` that holds what the command prints
+(its ``--json`` document, its text, its exit code); ``flexhrc behave`` translates its arguments
+into a config, calls the function and prints the report, nothing more. Bad input is one
+:class:`~flexhrc.errors.FlexhrcError` naming the option, raised before anything runs; output
+paths are checked before the run too.
+
+>>> from flexhrc.behavior.behave import run_behave
+>>> from flexhrc.behavior.command import BehaveConfig
+>>> report = run_behave(BehaveConfig("(THEN a (AND b c))", seed=1))
+>>> report.data["outcome"], report.data["order"][0], report.exit_code
+('done', 'a', 0)
+"""
+
+from __future__ import annotations
+
+import math
+import signal
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from flexhrc.behavior.command import (
+    BehaveConfig,
+    BehaveReport,
+    LineSink,
+    LoadedTask,
+    check_plot,
+    check_seed,
+    check_target,
+    import_types,
+    is_file,
+    live_trace,
+    load_target,
+    stream_log,
+    summary_lines,
+    trace_line,
+)
+from flexhrc.behavior.logfile import end_record
+from flexhrc.behavior.network import BehaviorNetwork
+from flexhrc.errors import FlexhrcError
+
+RENDER_SUFFIXES = (".dot", ".gv", ".svg", ".png", ".pdf")
+GRAPH_SUFFIXES = (".yaml", ".yml")
+
+
+def _quiet(line: str) -> None:
+    """The default ``on_line``: a library caller is not printed to."""
+
+
+class _Terminated(Exception):
+    """SIGTERM during a run: finish the log, then exit like an interrupt."""
+
+
+def run_behave(config: BehaveConfig, on_line: LineSink = _quiet) -> BehaveReport:
+    """Run ``config`` (``flexhrc behave TASK ...``); ``on_line`` gets the live lines of a
+    ``realtime`` run and the progress of a team. Ctrl-C (and SIGTERM, in the main thread) ends
+    the run with :class:`KeyboardInterrupt` after the log's last line is written."""
+    import_types(config.types)
+    if config.team:
+        from flexhrc.behavior.team import run_team_config
+
+        return run_team_config(config, on_line)
+    from flexhrc.behavior.params import NetworkParams
+    from flexhrc.behavior.render import to_ascii, to_dot
+    from flexhrc.behavior.validate import check_run
+    from flexhrc.files import check_output
+
+    inputs = config.inputs()
+    if config.log:
+        check_output(config.log, option="--log", inputs=inputs)
+    check_plot(config.plot, inputs)
+    if config.log and config.plot and Path(config.log).resolve() == Path(config.plot).resolve():
+        raise FlexhrcError("--log and --plot name the same file")
+    loaded = load_target(config.target, config.arms, config.seed)
+    label, task, world = loaded.label, loaded.task, loaded.world
+    if config.render:
+        rendered = to_ascii(task) if config.render == "ascii" else to_dot(task)
+        return BehaveReport({"task": task.to_prefix(), "render": rendered}, 0, None, rendered)
+    net = BehaviorNetwork(task, world, NetworkParams(seed=config.seed), behaviors=loaded.behaviors)
+    writer = stream_log(net, config.log, label, config.seed) if config.log else None
+    realtime = config.realtime
+    try:
+        if realtime is not None:
+            on_line(f"{label}: {task.to_prefix()} (real time x{realtime:g})")
+            live_trace(net, on_line)
+        tick_loop(net, config.max_ticks, realtime)
+        result = net.result()
+        violations = check_run(task, result.runs)
+        if writer is not None:
+            writer.write(end_record(result, violations))
+    except (KeyboardInterrupt, _Terminated):
+        if writer is not None:
+            writer.write(end_record(net.result(), [], outcome="interrupted"))
+        raise KeyboardInterrupt from None
+    finally:
+        if writer is not None:
+            writer.close()
+    plot = _gantt(result, config.plot, label)
+    data = result.to_dict()
+    data.update(
+        target=label,
+        task=task.to_prefix(),
+        seed=config.seed,
+        violations=violations,
+        plot=plot,
+        log=config.log,
+    )
+
+    def text() -> str:
+        lines = [f"{label}: {task.to_prefix()}", to_ascii(task), ""]
+        lines.append(f"world: {len(world.objects)} objects; arms: {', '.join(world.arm_names)}")
+        if realtime is None:
+            lines.append("trace:")
+            lines += [s for s in (trace_line(ev) for ev in result.log) if s]
+        lines.append("")
+        lines += summary_lines(result, violations, plot)
+        if config.log:
+            lines.append(f"event log: {config.log}")
+        return "\n".join(lines)
+
+    return BehaveReport(data, _exit_code(result.outcome, violations), plot, text)
+
+
+def _exit_code(outcome: str, violations: list[str]) -> int:
+    return 0 if outcome == "done" and not violations else 1
+
+
+def _gantt(result: Any, path: str | None, label: str) -> str | None:
+    """The ``--plot`` Gantt chart of ``result``, titled with its order; its path or None."""
+    if not path:
+        return None
+    from flexhrc.behavior.plot import gantt
+
+    return str(gantt(result, path, title=f"{label}: {', '.join(result.order)}"))
+
+
+def tick_loop(
+    net: BehaviorNetwork, max_ticks: int | None = None, realtime: float | None = None
+) -> None:
+    """Tick ``net`` to the end (``max_ticks`` default
+    :func:`~flexhrc.behavior.network.default_max_ticks`); with ``realtime`` keep simulated time
+    at SPEED x wall time. SIGTERM stops the loop like Ctrl-C (the caller writes the log's last
+    line)."""
+    from flexhrc.behavior.network import default_max_ticks
+
+    def on_term(signum: int, frame: Any) -> None:
+        raise _Terminated
+
+    limit = max_ticks if max_ticks is not None else default_max_ticks(net.task)
+    try:
+        previous = signal.signal(signal.SIGTERM, on_term)
+    except ValueError:  # not the main thread (an embedding application): leave it alone
+        previous = None
+    try:
+        start = time.monotonic()
+        while not net.finished and net.clock.tick < limit:
+            net.tick()
+            if realtime is not None:
+                delay = start + net.clock.now() / realtime - time.monotonic()
+                if delay > 0:
+                    time.sleep(delay)
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+
+
+# ----------------------------------------------------------------------------- replay
+
+
+@dataclass(frozen=True)
+class ReplayConfig:
+    """``flexhrc behave replay LOG [--plot FILE]``: the report of the run a ``--log`` holds."""
+
+    log: str
+    plot: str | None = None
+
+    def __post_init__(self) -> None:
+        check_target(self.log)
+
+
+def replay(config: ReplayConfig) -> BehaveReport:
+    """The live run's report (its summary, order, runs, violations) from its log alone; a log
+    without its end line (a killed run) says it was cut short. A robot's log of a team counts
+    what the other robots completed."""
+    from flexhrc.behavior.logfile import CUT_SHORT, read_log
+    from flexhrc.behavior.network import Run
+    from flexhrc.behavior.task import parse_prefix
+    from flexhrc.behavior.validate import check_run
+
+    check_plot(config.plot, (config.log,))
+    blog = read_log(config.log)
+    task = parse_prefix(str(blog.header["task"]), f"{config.log}:1")
+    result = blog.result()
+    elsewhere = [
+        Run(ev.source, f"{ev.data.get('by')}/elsewhere", ev.t, ev.t, "done")
+        for ev in blog.events
+        if ev.kind == "done_elsewhere"
+    ]
+    violations = check_run(task, sorted([*result.runs, *elsewhere], key=lambda r: r.start))
+    label = blog.header.get("target")
+    plot = _gantt(result, config.plot, str(label or "replay"))
+    data = result.to_dict()
+    data.update(
+        target=label,
+        task=task.to_prefix(),
+        seed=blog.header.get("seed"),
+        violations=violations,
+        plot=plot,
+        events=len(blog.events),
+        cut_short=blog.end is None,
+        robot=blog.header.get("robot"),
+        done_elsewhere=[{"behavior": r.behavior, "by": r.arm.split("/")[0]} for r in elsewhere],
+    )
+
+    def text() -> str:
+        lines = [f"{blog.header.get('target', 'replay')}: {task.to_prefix()}"]
+        lines.append(f"log: {config.log}, {len(blog.events)} events")
+        if blog.end is None:
+            lines.append(
+                f"warning: the run was {CUT_SHORT}: the log ends after {result.time:.1f} s "
+                "without its end line (killed?)"
+            )
+        if elsewhere:
+            others = ", ".join(f"{r.behavior} ({r.arm.split('/')[0]})" for r in elsewhere)
+            lines.append(f"done by other robots: {others}")
+        lines.append("")
+        lines += summary_lines(result, violations, plot)
+        return "\n".join(lines)
+
+    return BehaveReport(data, _exit_code(result.outcome, violations), plot, text)
+
+
+# ----------------------------------------------------------------------------- render, compile
+
+
+@dataclass(frozen=True)
+class RenderConfig:
+    """``flexhrc behave render TASK -o OUT [--log LOG --at SECONDS]``: ``output`` is ``.dot``/
+    ``.gv`` (DOT text) or ``.svg``/``.png``/``.pdf`` (Graphviz); with ``log`` the nodes are
+    coloured by their states at ``at`` seconds of that run (default: its end)."""
+
+    target: str | LoadedTask
+    output: str
+    log: str | None = None
+    at: float | None = None
+    arms: int | None = None
+    seed: int = 0
+    types: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        check_target(self.target)
+        check_seed(self.seed)
+        if self.at is not None and not (math.isfinite(self.at) and self.at >= 0):
+            raise FlexhrcError(f"--at must be a finite number of seconds >= 0, got {self.at}")
+        if self.at is not None and self.log is None:
+            raise FlexhrcError("--at needs --log (the run whose states to show)")
+
+
+def render(config: RenderConfig) -> BehaveReport:
+    """Draw the task's network into ``config.output`` (written atomically)."""
+    from flexhrc.behavior.render import to_dot
+    from flexhrc.files import atomic_output, atomic_write_text, check_output
+
+    import_types(config.types)
+    target = config.target
+    inputs = tuple(p for p in (target, config.log) if isinstance(p, str) and p and is_file(p))
+    check_output(config.output, option="-o", suffixes=RENDER_SUFFIXES, inputs=inputs)
+    loaded = load_target(target, config.arms, config.seed)
+    task, label = loaded.task, loaded.label
+    snapshots = None
+    at = None
+    if config.log:
+        from flexhrc.behavior.logfile import read_log
+
+        blog = read_log(config.log)
+        if str(blog.header["task"]) != task.to_prefix():
+            raise FlexhrcError(
+                f"{config.log}: the log is of another task ({blog.header['task']}), "
+                f"not {task.to_prefix()}"
+            )
+        at = blog.time if config.at is None else config.at
+        states = blog.states_at(at)
+        snapshots = {n.name: {"state": states.get(n.name, "inactive")} for n in task.walk()}
+    caption = label if at is None else f"{label} at {at:.1f} s"
+    dot = to_dot(task, snapshots, legend=snapshots is not None, caption=caption)
+    out = Path(config.output)
+    if out.suffix.lower() in (".dot", ".gv"):
+        atomic_write_text(out, dot)
+    else:
+        from flexhrc.representation.formats.dot import render as render_dot
+
+        with atomic_output(out) as tmp:
+            render_dot(dot, tmp)
+    return BehaveReport(
+        {"output": str(out), "task": task.to_prefix(), "at": at}, 0, None, f"wrote {out}"
+    )
+
+
+@dataclass(frozen=True)
+class CompileConfig:
+    """``flexhrc behave compile TASK -o graph.yaml``: the task as a flexhrc AND/OR graph."""
+
+    target: str | LoadedTask
+    output: str
+    arms: int | None = None
+    seed: int = 0
+    types: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        check_target(self.target)
+        check_seed(self.seed)
+
+
+def compile_to_file(config: CompileConfig) -> BehaveReport:
+    """Write :func:`~flexhrc.behavior.compile.compile_task` of the task to ``config.output``."""
+    from flexhrc.behavior.compile import compile_task
+    from flexhrc.files import atomic_write_text, check_output
+    from flexhrc.representation.formats.yaml_format import dump_yaml
+
+    import_types(config.types)
+    target = config.target
+    inputs = (target,) if isinstance(target, str) and is_file(target) else ()
+    check_output(config.output, option="-o", suffixes=GRAPH_SUFFIXES, inputs=inputs)
+    task = load_target(target, config.arms, config.seed).task
+    hierarchy = compile_task(task)
+    atomic_write_text(config.output, dump_yaml(hierarchy))
+    st = hierarchy.stats()
+    data = {
+        "output": config.output,
+        "task": task.to_prefix(),
+        "behaviors": len(task.behaviors),
+        "graphs": st["graphs"],
+        "nodes": st["nodes"],
+        "hyperarcs": st["hyperarcs"],
+    }
+    text = (
+        f"wrote {config.output}: {st['graphs']} graph(s), {st['nodes']} nodes, "
+        f"{st['hyperarcs']} hyper-arcs for {len(task.behaviors)} behaviours"
+    )
+    return BehaveReport(data, 0, None, text)
+
+
+__all__ = [
+    "BehaveConfig",
+    "BehaveReport",
+    "CompileConfig",
+    "LoadedTask",
+    "RenderConfig",
+    "ReplayConfig",
+    "compile_to_file",
+    "render",
+    "replay",
+    "run_behave",
+    "tick_loop",
+]
