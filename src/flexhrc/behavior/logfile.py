@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -86,8 +86,6 @@ class BehaveLog:
     header: dict[str, Any]
     events: list[LogEvent]
     end: dict[str, Any] | None
-    lines: int = 0
-    extra: dict[str, Any] = field(default_factory=dict)
 
     @property
     def outcome(self) -> str:
@@ -219,4 +217,4 @@ def read_log(path: str | Path) -> BehaveLog:
             raise _fail(p, n, f"unknown record type {kind!r}")
     if header is None:
         raise FormatError("empty log", p)
-    return BehaveLog(p, header, events, end, n)
+    return BehaveLog(p, header, events, end)

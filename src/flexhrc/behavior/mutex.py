@@ -122,9 +122,6 @@ class ArmMutex:
     def _log(self, tick: int, now: float, kind: str, **data: object) -> None:
         self._transport.publish(LOG_TOPIC, LogEvent(tick, now, f"mutex:{self.name}", kind, data))
 
-    def snapshot(self) -> dict[str, object]:
-        return {"name": self.name, "kind": self.kind, "holder": self.holder}
-
 
 def _top(bids: dict[str, float]) -> list[str]:
     """The names of the :data:`LOGGED_BIDS` highest bids, sorted by name."""

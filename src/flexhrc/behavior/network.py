@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from flexhrc.behavior.behaviors import BehaviorNode, PickAndPlace
-from flexhrc.behavior.goals import GOAL_CLASSES, GoalNode
+from flexhrc.behavior.goals import GOAL_CLASSES
 from flexhrc.behavior.messages import (
     LOG_TOPIC,
     ActivationMsg,
@@ -87,7 +87,7 @@ class RunResult:
         """Per behaviour, the (state, start, end) intervals of the paper's Fig. 4 Gantt chart."""
         return state_intervals(self.log, self.behaviors, self.time)
 
-    def to_dict(self, with_log: bool = False) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, Any]:
         data: dict[str, Any] = {
             "outcome": self.outcome,
             "order": list(self.order),
@@ -97,8 +97,6 @@ class RunResult:
             "arms": list(self.arms),
             "runs": [r.to_dict() for r in self.runs],
         }
-        if with_log:
-            data["log"] = [e.to_dict() for e in self.log]
         return data
 
 
@@ -221,21 +219,11 @@ class BehaviorNetwork:
         if msg.state == DONE:
             self.finished = True
 
-    @property
-    def tick_count(self) -> int:
-        return self.clock.tick
-
     def node(self, name: str) -> Node:
         try:
             return self.nodes[name]
         except KeyError:
             raise UnknownNameError(f"no node named {name!r}") from None
-
-    def goals(self) -> list[GoalNode]:
-        return [n for n in self.nodes.values() if isinstance(n, GoalNode)]
-
-    def behaviors(self) -> list[BehaviorNode]:
-        return [n for n in self.nodes.values() if isinstance(n, BehaviorNode)]
 
     def tick(self) -> None:
         """One update loop of the whole network (see the module docstring)."""

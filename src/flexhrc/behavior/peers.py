@@ -72,10 +72,6 @@ def peer_topic(robot: str) -> str:
     return f"bnpeer/{robot}"
 
 
-def to_wire(msg: NamedTuple) -> dict[str, Any]:
-    return {"type": type(msg).__name__, **msg._asdict()}
-
-
 def from_wire(data: Any) -> Any:
     """A peer message from its JSON form; ``ValueError`` for anything else."""
     if not isinstance(data, dict):

@@ -185,8 +185,6 @@ class TabletopWorld:
         self._fired = [False] * len(self.moves)
         self.grasp_time = float(grasp_time)
         self.place_time = float(place_time)
-        #: Incremented whenever an object or an arm moves.
-        self.version = 0
         #: Incremented by :meth:`step` when something the activation potentials depend on changed
         #: (an object position, an arm's free position), so behaviours can cache their sensing.
         self.sensing_version = 0
@@ -217,10 +215,6 @@ class TabletopWorld:
 
     def arm_position(self, arm: str) -> Vec:
         return self._arm(arm).position
-
-    def distance(self, arm: str, obj: str) -> float:
-        """Distance from the arm's free position (see :attr:`Arm.free_position`) to the object."""
-        return math.dist(self._arm(arm).free_position, self._object(obj).position)
 
     def object_index(self, name: str) -> int:
         """Stable index of an object, for :meth:`potentials`."""
@@ -380,12 +374,10 @@ class TabletopWorld:
             if o is not None and o.held_by == arm:
                 o.held_by = None
             a.motion = None
-            self.version += 1
             self._sensing_changed()
 
     def move_object(self, name: str, to: Vec) -> None:
         self._object(name).position = to
-        self.version += 1
         self._sensing_changed({name})
 
     def step(self, now: float) -> list[dict[str, Any]]:
@@ -428,7 +420,6 @@ class TabletopWorld:
                     a.motion = None
                     a.position = a.home
                     self._sensing_changed(set())
-                self.version += 1
                 continue
             obj = self.objects[m.object]
             moved_object = False
@@ -444,7 +435,6 @@ class TabletopWorld:
             if phase == "finished":
                 a.motion = None
                 a.position = a.home
-            self.version += 1
             if phase == "finished" or moved_object:
                 self._sensing_changed({obj.name} if moved_object else set())
         self._publish_sensing()
