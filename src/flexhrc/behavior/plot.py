@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 from flexhrc.behavior.network import Run, RunResult
 from flexhrc.behavior.render import STATE_COLOURS
@@ -42,8 +43,7 @@ def gantt(result: RunResult, path: str | Path, title: str | None = None) -> Path
     intervals = result.state_intervals()
     arms = list(result.arms)
     run_arm: dict[tuple[str, float], str] = {(r.behavior, r.start): r.arm for r in result.runs}
-    fig_h = 0.9 + 0.42 * len(behaviors)
-    fig, ax = plt.subplots(figsize=(11, max(2.8, fig_h)))
+    fig, ax = _chart(plt, behaviors, max(result.time, 1e-6))
     for row, name in enumerate(reversed(behaviors)):
         for state, t0, t1 in intervals.get(name, []):
             kwargs = {"color": STATE_COLOURS[state], "edgecolor": "none"}
@@ -65,13 +65,6 @@ def gantt(result: RunResult, path: str | Path, title: str | None = None) -> Path
             ax.plot(
                 ev.t, rows[str(ev.data["object"])] + 0.42, marker="v", color="#cc0000", markersize=7
             )
-    ax.set_yticks(range(len(behaviors)))
-    ax.set_yticklabels(list(reversed(behaviors)))
-    ax.set_xlabel("time (s)")
-    ax.set_xlim(0, max(result.time, 1e-6))
-    ax.set_ylim(-0.6, len(behaviors) - 0.3)
-    ax.grid(axis="x", color="#bbbbbb", linewidth=0.5, alpha=0.7)
-    ax.set_axisbelow(True)
     handles = [
         Patch(
             color=STATE_COLOURS[s],
@@ -113,27 +106,9 @@ def gantt(result: RunResult, path: str | Path, title: str | None = None) -> Path
                 label="reset (validity check)",
             )
         )
-    ax.legend(
-        handles=handles,
-        loc="upper center",
-        bbox_to_anchor=(0.5, -0.12),
-        ncol=min(len(handles), 4),
-        frameon=False,
-    )
     order = ", ".join(result.order)
-    ax.set_title(title or f"Behaviour states over time — order: {order}", fontsize=10)
-    fig.tight_layout()
-    out = Path(path)
-    from flexhrc.files import OutputPathError, atomic_output
-
-    try:
-        with atomic_output(out) as tmp:
-            fig.savefig(tmp, dpi=120, format=out.suffix.lstrip(".").lower() or None)
-    except OSError as exc:
-        raise OutputPathError(f"--plot {out}: cannot write: {exc.strerror or exc}") from None
-    finally:
-        plt.close(fig)
-    return out
+    title = title or f"Behaviour states over time — order: {order}"
+    return _save(plt, fig, ax, handles, min(len(handles), 4), title, path)
 
 
 ROBOT_COLOURS = ("#3c78d8", "#e69138", "#6aa84f", "#8e7cc3")
@@ -157,7 +132,7 @@ def team_gantt(
     colour = {robot: ROBOT_COLOURS[i % len(ROBOT_COLOURS)] for i, robot in enumerate(robots)}
     end = max([r.end or r.start for r in runs] + [1e-6])
     rows = {name: row for row, name in enumerate(reversed(behaviors))}
-    fig, ax = plt.subplots(figsize=(11, max(2.8, 0.9 + 0.42 * len(behaviors))))
+    fig, ax = _chart(plt, behaviors, end)
     for r in runs:
         if r.behavior not in rows:
             continue
@@ -169,13 +144,6 @@ def team_gantt(
         elif r.outcome == "unfinished":
             kwargs.update(edgecolor="#cc0000", linewidth=2, alpha=0.5)
         ax.barh(rows[r.behavior], stop - r.start, left=r.start, height=0.62, **kwargs)
-    ax.set_yticks(range(len(behaviors)))
-    ax.set_yticklabels(list(reversed(behaviors)))
-    ax.set_xlabel("time (s)")
-    ax.set_xlim(0, end)
-    ax.set_ylim(-0.6, len(behaviors) - 0.3)
-    ax.grid(axis="x", color="#bbbbbb", linewidth=0.5, alpha=0.7)
-    ax.set_axisbelow(True)
     handles = [Patch(color=colour[robot], label=f"running on {robot}") for robot in robots]
     if any(r.outcome == "reset" for r in runs):
         handles.append(Patch(facecolor="#999999", hatch="///", edgecolor="white", label="reset"))
@@ -185,17 +153,37 @@ def team_gantt(
                 facecolor="#dddddd", edgecolor="#cc0000", linewidth=2, label="cut off (robot lost)"
             )
         )
-    ax.legend(
-        handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=4, frameon=False
-    )
     heading = title or "Who did what"
     if lost:
         heading += f" — lost: {', '.join(lost)}"
-    ax.set_title(heading, fontsize=10)
-    fig.tight_layout()
-    out = Path(path)
+    return _save(plt, fig, ax, handles, 4, heading, path)
+
+
+def _chart(plt: Any, behaviors: list[str], end: float) -> tuple[Any, Any]:
+    """A figure with one row per behaviour (the first at the top), time along x up to ``end``."""
+    fig, ax = plt.subplots(figsize=(11, max(2.8, 0.9 + 0.42 * len(behaviors))))
+    ax.set_yticks(range(len(behaviors)))
+    ax.set_yticklabels(list(reversed(behaviors)))
+    ax.set_xlabel("time (s)")
+    ax.set_xlim(0, end)
+    ax.set_ylim(-0.6, len(behaviors) - 0.3)
+    ax.grid(axis="x", color="#bbbbbb", linewidth=0.5, alpha=0.7)
+    ax.set_axisbelow(True)
+    return fig, ax
+
+
+def _save(
+    plt: Any, fig: Any, ax: Any, handles: list[Any], ncol: int, title: str, path: str | Path
+) -> Path:
+    """The legend under the chart, the title, and the file written atomically."""
     from flexhrc.files import OutputPathError, atomic_output
 
+    ax.legend(
+        handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=ncol, frameon=False
+    )
+    ax.set_title(title, fontsize=10)
+    fig.tight_layout()
+    out = Path(path)
     try:
         with atomic_output(out) as tmp:
             fig.savefig(tmp, dpi=120, format=out.suffix.lstrip(".").lower() or None)
