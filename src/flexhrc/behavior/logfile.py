@@ -25,7 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from flexhrc.behavior.messages import LogEvent
-from flexhrc.behavior.network import RunResult, runs_from_log
+from flexhrc.behavior.network import RunResult
 from flexhrc.errors import FormatError
 
 HEADER = "behave_start"
@@ -105,18 +105,8 @@ class BehaveLog:
 
     def result(self) -> RunResult:
         """The run as the live network reported it, rebuilt from the events."""
-        runs = runs_from_log(self.events)
-        return RunResult(
-            outcome=self.outcome,
-            ticks=self.ticks,
-            time=self.time,
-            order=[r.behavior for r in runs if r.outcome == "done"],
-            runs=runs,
-            resets=sum(1 for r in runs if r.outcome == "reset"),
-            log=list(self.events),
-            behaviors=list(self.header["behaviors"]),
-            arms=list(self.header["arms"]),
-        )
+        behaviors, arms = list(self.header["behaviors"]), list(self.header["arms"])
+        return RunResult.of_log(self.outcome, self.ticks, self.time, self.events, behaviors, arms)
 
     def states_at(self, t: float) -> dict[str, str]:
         """Every node's state at time ``t`` (the last state event at or before ``t``)."""

@@ -22,7 +22,7 @@ topic (for the event log).
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from typing import Any
 
 from flexhrc.behavior.behaviors import BehaviorNode, PickAndPlace
@@ -60,13 +60,7 @@ class Run:
     outcome: str  # "done", "reset" or "unfinished"
 
     def to_dict(self) -> dict[str, Any]:
-        return {
-            "behavior": self.behavior,
-            "arm": self.arm,
-            "start": self.start,
-            "end": self.end,
-            "outcome": self.outcome,
-        }
+        return asdict(self)
 
 
 @dataclass
@@ -82,6 +76,22 @@ class RunResult:
     log: list[LogEvent] = field(repr=False)
     behaviors: list[str] = field(default_factory=list)
     arms: list[str] = field(default_factory=list)
+
+    @classmethod
+    def of_log(
+        cls,
+        outcome: str,
+        ticks: int,
+        time: float,
+        log: list[LogEvent],
+        behaviors: list[str],
+        arms: list[str],
+    ) -> RunResult:
+        """The result whose runs, order and resets are those of the event ``log``."""
+        runs = runs_from_log(log)
+        order = [r.behavior for r in runs if r.outcome == "done"]
+        resets = sum(1 for r in runs if r.outcome == "reset")
+        return cls(outcome, ticks, time, order, runs, resets, list(log), behaviors, arms)
 
     def state_intervals(self) -> dict[str, list[tuple[str, float, float]]]:
         """Per behaviour, the (state, start, end) intervals of the paper's Fig. 4 Gantt chart."""
@@ -269,18 +279,13 @@ class BehaviorNetwork:
         return self.result()
 
     def result(self) -> RunResult:
-        runs = runs_from_log(self.log)
-        done_runs = [r for r in runs if r.outcome == "done"]
-        return RunResult(
-            outcome="done" if self.finished else "timeout",
-            ticks=self.clock.tick,
-            time=self.clock.now(),
-            order=[r.behavior for r in done_runs],
-            runs=runs,
-            resets=sum(1 for r in runs if r.outcome == "reset"),
-            log=list(self.log),
-            behaviors=self.task.behaviors,
-            arms=self.world.arm_names,
+        return RunResult.of_log(
+            "done" if self.finished else "timeout",
+            self.clock.tick,
+            self.clock.now(),
+            self.log,
+            self.task.behaviors,
+            self.world.arm_names,
         )
 
 

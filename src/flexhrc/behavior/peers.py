@@ -31,6 +31,7 @@ from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Any, NamedTuple
 
+from flexhrc.behavior import messages
 from flexhrc.behavior.behaviors import BehaviorNode
 from flexhrc.behavior.network import BehaviorNetwork, Run, RunResult
 from flexhrc.behavior.params import NetworkParams
@@ -65,7 +66,7 @@ class PeerRelease(NamedTuple):
     behavior: str
 
 
-PEER_MESSAGES: tuple[type, ...] = (PeerClaim, PeerReply, PeerDone, PeerRelease)
+PEER_MESSAGES = {c.__name__: c for c in (PeerClaim, PeerReply, PeerDone, PeerRelease)}
 
 
 def peer_topic(robot: str) -> str:
@@ -74,17 +75,7 @@ def peer_topic(robot: str) -> str:
 
 def from_wire(data: Any) -> Any:
     """A peer message from its JSON form; ``ValueError`` for anything else."""
-    if not isinstance(data, dict):
-        raise ValueError("a peer message is a JSON object")
-    kinds = {c.__name__: c for c in PEER_MESSAGES}
-    cls = kinds.get(str(data.get("type")))
-    if cls is None:
-        raise ValueError(f"unknown peer message type {data.get('type')!r}")
-    fields = {k: v for k, v in data.items() if k != "type"}
-    expected: tuple[str, ...] = getattr(cls, "_fields", ())
-    if set(fields) != set(expected):
-        raise ValueError(f"{cls.__name__}: expected fields {', '.join(expected)}")
-    return cls(**fields)
+    return messages.from_wire(data, PEER_MESSAGES)
 
 
 @dataclass

@@ -252,19 +252,10 @@ def _types(node: Any, source: str) -> dict[str, BehaviorTypeBuilder]:
         base = str(spec["base"].value)
         defaults = {k: _plain(v) for k, v in spec.items() if k != "base"}
         try:  # a base declared earlier in this file, or a registered type
-            out[key] = (
-                _derive_local(out[base], defaults) if base in out else derived_type(base, defaults)
-            )
+            out[key] = derived_type(out.get(base, base), defaults)
         except FlexhrcError as exc:
             raise FormatError(str(exc), source, _line(spec["base"])) from None
     return out
-
-
-def _derive_local(parent: BehaviorTypeBuilder, defaults: dict[str, Any]) -> BehaviorTypeBuilder:
-    def builder(leaf: str, params: Any) -> BehaviorFactory:
-        return parent(leaf, {**defaults, **params})
-
-    return builder
 
 
 def _behaviors(

@@ -67,9 +67,12 @@ def behavior_type(name: str) -> BehaviorTypeBuilder:
         ) from None
 
 
-def derived_type(base: str, defaults: Mapping[str, Any]) -> BehaviorTypeBuilder:
-    """A type declared in YAML: ``base`` with default parameters."""
-    parent = behavior_type(base)
+def derived_type(
+    base: str | BehaviorTypeBuilder, defaults: Mapping[str, Any]
+) -> BehaviorTypeBuilder:
+    """A type declared in YAML: ``base`` (a registered name, or a type itself) with default
+    parameters."""
+    parent = behavior_type(base) if isinstance(base, str) else base
 
     def builder(leaf: str, params: Mapping[str, Any]) -> BehaviorFactory:
         return parent(leaf, {**defaults, **params})
