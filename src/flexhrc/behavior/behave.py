@@ -14,8 +14,7 @@ into a config, calls the function and prints the report, nothing more. Bad input
 :class:`~flexhrc.errors.FlexhrcError` naming the option, raised before anything runs; output
 paths are checked before the run too.
 
->>> from flexhrc.behavior.behave import run_behave
->>> from flexhrc.behavior.command import BehaveConfig
+>>> from flexhrc.behavior.behave import BehaveConfig, run_behave
 >>> report = run_behave(BehaveConfig("(THEN a (AND b c))", seed=1))
 >>> report.data["outcome"], report.data["order"][0], report.exit_code
 ('done', 'a', 0)

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import argparse
 import json
-from dataclasses import replace
+from dataclasses import fields, replace
 from pathlib import Path
 from typing import Any
 
@@ -203,43 +203,32 @@ def _task(args: argparse.Namespace, text: str) -> Any:
     return text
 
 
+def _config(cls: Any, args: argparse.Namespace, **given: Any) -> Any:
+    """A ``cls`` config: ``given``, and the options of the same names that were given."""
+    names = {f.name for f in fields(cls)} - set(given)
+    return cls(
+        **{n: getattr(args, n) for n in names if getattr(args, n, None) is not None}, **given
+    )
+
+
 def run(args: argparse.Namespace) -> int:
     from flexhrc.behavior import behave
-    from flexhrc.behavior.command import BehaveConfig
 
     action = _action(args)
+    text = args.operand if action else args.target
     types = tuple(args.types or ())
-    config: Any
     if action == "replay":
-        config = behave.ReplayConfig(args.operand, args.plot)
-        report = behave.replay(config)
+        report = behave.replay(_config(behave.ReplayConfig, args, log=text))
     elif action == "render":
-        config = behave.RenderConfig(
-            args.operand, args.output, args.log, args.at, args.arms, args.seed, types
-        )
-        report = behave.render(replace(config, target=_task(args, args.operand)))
+        config = _config(behave.RenderConfig, args, target=text, types=types)
+        report = behave.render(replace(config, target=_task(args, text)))
     elif action == "compile":
-        config = behave.CompileConfig(args.operand, args.output, args.arms, args.seed, types)
-        report = behave.compile_to_file(replace(config, target=_task(args, args.operand)))
+        config = _config(behave.CompileConfig, args, target=text, types=types)
+        report = behave.compile_to_file(replace(config, target=_task(args, text)))
     else:
-        config = BehaveConfig(
-            args.target,
-            arms=args.arms,
-            seed=args.seed,
-            max_ticks=args.max_ticks,
-            realtime=args.realtime,
-            log=args.log,
-            plot=args.plot,
-            render=args.render,
-            types=types,
-            robots=1 if args.robots is None else args.robots,
-            transport=args.transport,
-            robot=args.robot,
-            peer_port=args.peer_port,
-        )
         layout = () if args.layout is None else ("--layout", str(args.layout))
-        task = _task(args, args.target)
-        config = replace(config, target=task, child_args=(args.target, *layout))
+        config = _config(behave.BehaveConfig, args, target=text, types=types)
+        config = replace(config, target=_task(args, text), child_args=(text, *layout))
         report = behave.run_behave(config, on_line=lambda line: log(args, line))
     emit(args, report.data, report.text)
     if args.json and report.plot and action is None and not config.team:
