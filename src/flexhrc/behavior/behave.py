@@ -41,11 +41,10 @@ from flexhrc.behavior.command import (
     is_file,
     live_trace,
     load_target,
-    stream_log,
     summary_lines,
     trace_line,
 )
-from flexhrc.behavior.logfile import end_record
+from flexhrc.behavior.logfile import end_record, stream_log
 from flexhrc.behavior.network import BehaviorNetwork
 from flexhrc.errors import FlexhrcError
 

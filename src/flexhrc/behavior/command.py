@@ -21,14 +21,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from flexhrc.behavior.logfile import event_record, header_record
-from flexhrc.behavior.messages import LogEvent
 from flexhrc.behavior.network import BehaviorNetwork
 from flexhrc.behavior.task import Task, parse_prefix
 from flexhrc.behavior.types import BehaviorFactory
 from flexhrc.behavior.world import TabletopWorld, random_world
 from flexhrc.errors import FlexhrcError, UnknownNameError
-from flexhrc.files import EventLogWriter
 
 MAX_SEED = 2**63 - 1
 MAX_TICKS = 10**9
@@ -259,35 +256,6 @@ def check_plot(path: str | None, inputs: tuple[str, ...] = ()) -> None:
 
 
 # ----------------------------------------------------------------------------- observers
-
-
-def stream_log(
-    net: BehaviorNetwork,
-    path: str,
-    label: str,
-    seed: int,
-    record: Callable[[LogEvent], dict[str, Any]] = event_record,
-    **extra: Any,
-) -> EventLogWriter:
-    """Open the ``--log`` of ``net``, write its header (with ``extra``) and append every event
-    as it happens (as ``record`` makes its line); the caller writes the end line and closes the
-    writer."""
-    writer = EventLogWriter(path)
-    task = net.task
-    params = net.params
-    writer.write(
-        header_record(
-            label,
-            task.to_prefix(),
-            task.behaviors,
-            net.world.arm_names,
-            seed,
-            params.tick_period,
-            **extra,
-        )
-    )
-    net.listeners.append(lambda ev: writer.write(record(ev)))
-    return writer
 
 
 def live_trace(net: BehaviorNetwork, on_line: LineSink, prefix: str = "") -> None:

@@ -31,10 +31,9 @@ from flexhrc.behavior.command import (
     check_plot,
     live_trace,
     load_target,
-    stream_log,
     summary_lines,
 )
-from flexhrc.behavior.logfile import end_record, event_record
+from flexhrc.behavior.logfile import end_record, event_record, stream_log
 from flexhrc.behavior.network import Run
 from flexhrc.behavior.peers import robot_names
 from flexhrc.behavior.validate import check_run
