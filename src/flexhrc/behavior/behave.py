@@ -74,7 +74,7 @@ def run_behave(config: BehaveConfig, on_line: LineSink = _quiet) -> BehaveReport
     from flexhrc.behavior.validate import check_run
     from flexhrc.files import check_output
 
-    inputs = config.inputs()
+    inputs = _inputs(config.target)
     if config.log:
         check_output(config.log, option="--log", inputs=inputs)
     check_plot(config.plot, inputs)
@@ -84,7 +84,7 @@ def run_behave(config: BehaveConfig, on_line: LineSink = _quiet) -> BehaveReport
     label, task, world = loaded.label, loaded.task, loaded.world
     if config.render:
         rendered = to_ascii(task) if config.render == "ascii" else to_dot(task)
-        return BehaveReport({"task": task.to_prefix(), "render": rendered}, 0, None, rendered)
+        return BehaveReport({"task": task.to_prefix(), "render": rendered}, rendered)
     net = BehaviorNetwork(task, world, NetworkParams(seed=config.seed), behaviors=loaded.behaviors)
     writer = stream_log(net, config.log, label, config.seed) if config.log else None
     realtime = config.realtime
@@ -122,16 +122,17 @@ def run_behave(config: BehaveConfig, on_line: LineSink = _quiet) -> BehaveReport
             lines.append("trace:")
             lines += [s for s in (trace_line(ev) for ev in result.log) if s]
         lines.append("")
-        lines += summary_lines(result, violations, plot)
+        lines += summary_lines(data)
         if config.log:
             lines.append(f"event log: {config.log}")
         return "\n".join(lines)
 
-    return BehaveReport(data, _exit_code(result.outcome, violations), plot, text)
+    return BehaveReport(data, text)
 
 
-def _exit_code(outcome: str, violations: list[str]) -> int:
-    return 0 if outcome == "done" and not violations else 1
+def _inputs(*paths: object) -> tuple[str, ...]:
+    """Those of ``paths`` that are files (an output may not overwrite them)."""
+    return tuple(p for p in paths if isinstance(p, str) and p and is_file(p))
 
 
 def _gantt(result: Any, path: str | None, label: str) -> str | None:
@@ -233,10 +234,10 @@ def replay(config: ReplayConfig) -> BehaveReport:
             others = ", ".join(f"{r.behavior} ({r.arm.split('/')[0]})" for r in elsewhere)
             lines.append(f"done by other robots: {others}")
         lines.append("")
-        lines += summary_lines(result, violations, plot)
+        lines += summary_lines(data)
         return "\n".join(lines)
 
-    return BehaveReport(data, _exit_code(result.outcome, violations), plot, text)
+    return BehaveReport(data, text)
 
 
 # ----------------------------------------------------------------------------- render, compile
@@ -265,16 +266,24 @@ class RenderConfig:
             raise FlexhrcError("--at needs --log (the run whose states to show)")
 
 
+def _load_for(
+    config: RenderConfig | CompileConfig, suffixes: tuple[str, ...], *inputs: str | None
+) -> LoadedTask:
+    """Import the types, check the ``-o`` output (it may not overwrite an input), load the task."""
+    from flexhrc.files import check_output
+
+    import_types(config.types)
+    files = _inputs(config.target, *inputs)
+    check_output(config.output, option="-o", suffixes=suffixes, inputs=files)
+    return load_target(config.target, config.arms, config.seed)
+
+
 def render(config: RenderConfig) -> BehaveReport:
     """Draw the task's network into ``config.output`` (written atomically)."""
     from flexhrc.behavior.render import to_dot
-    from flexhrc.files import atomic_output, atomic_write_text, check_output
+    from flexhrc.files import atomic_output, atomic_write_text
 
-    import_types(config.types)
-    target = config.target
-    inputs = tuple(p for p in (target, config.log) if isinstance(p, str) and p and is_file(p))
-    check_output(config.output, option="-o", suffixes=RENDER_SUFFIXES, inputs=inputs)
-    loaded = load_target(target, config.arms, config.seed)
+    loaded = _load_for(config, RENDER_SUFFIXES, config.log)
     task, label = loaded.task, loaded.label
     snapshots = None
     at = None
@@ -300,9 +309,7 @@ def render(config: RenderConfig) -> BehaveReport:
 
         with atomic_output(out) as tmp:
             render_dot(dot, tmp)
-    return BehaveReport(
-        {"output": str(out), "task": task.to_prefix(), "at": at}, 0, None, f"wrote {out}"
-    )
+    return BehaveReport({"output": str(out), "task": task.to_prefix(), "at": at}, f"wrote {out}")
 
 
 @dataclass(frozen=True)
@@ -323,14 +330,10 @@ class CompileConfig:
 def compile_to_file(config: CompileConfig) -> BehaveReport:
     """Write :func:`~flexhrc.behavior.compile.compile_task` of the task to ``config.output``."""
     from flexhrc.behavior.compile import compile_task
-    from flexhrc.files import atomic_write_text, check_output
+    from flexhrc.files import atomic_write_text
     from flexhrc.representation.formats.yaml_format import dump_yaml
 
-    import_types(config.types)
-    target = config.target
-    inputs = (target,) if isinstance(target, str) and is_file(target) else ()
-    check_output(config.output, option="-o", suffixes=GRAPH_SUFFIXES, inputs=inputs)
-    task = load_target(target, config.arms, config.seed).task
+    task = _load_for(config, GRAPH_SUFFIXES).task
     hierarchy = compile_task(task)
     atomic_write_text(config.output, dump_yaml(hierarchy))
     st = hierarchy.stats()
@@ -346,7 +349,7 @@ def compile_to_file(config: CompileConfig) -> BehaveReport:
         f"wrote {config.output}: {st['graphs']} graph(s), {st['nodes']} nodes, "
         f"{st['hyperarcs']} hyper-arcs for {len(task.behaviors)} behaviours"
     )
-    return BehaveReport(data, 0, None, text)
+    return BehaveReport(data, text)
 
 
 __all__ = [

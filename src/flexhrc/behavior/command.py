@@ -143,27 +143,29 @@ class BehaveConfig:
         """Several robots share the task."""
         return self.robots > 1
 
-    def inputs(self) -> tuple[str, ...]:
-        """The files the run reads (an output may not overwrite them)."""
-        return (self.target,) if isinstance(self.target, str) and is_file(self.target) else ()
-
 
 @dataclass
 class BehaveReport:
     """What a ``flexhrc behave`` command prints: ``data`` is its ``--json`` document,
-    :meth:`text` the human-readable report, ``exit_code`` 0 when the task was achieved without
-    a constraint violation (else 1). ``plot`` is the Gantt chart written, if any."""
+    :meth:`text` the human-readable report."""
 
     data: dict[str, Any]
-    exit_code: int = 0
-    plot: str | None = None
     _text: Callable[[], str] | str = field(default="", repr=False)
+
+    @property
+    def exit_code(self) -> int:
+        """The command's: 0 when the task was achieved without a constraint violation (or only
+        drawn, compiled), else 1."""
+        data = self.data
+        return 0 if data.get("outcome", "done") == "done" and not data.get("violations") else 1
+
+    @property
+    def plot(self) -> str | None:
+        """The Gantt chart written, if any."""
+        return self.data.get("plot")
 
     def text(self) -> str:
         return self._text() if callable(self._text) else self._text
-
-    def to_dict(self) -> dict[str, Any]:
-        return self.data
 
 
 # ----------------------------------------------------------------------------- the task
@@ -308,22 +310,23 @@ def live_line(ev: Any, behaviors: set[str]) -> str | None:
     return line
 
 
-def summary_lines(result: Any, violations: list[str], plot: str | None = None) -> list[str]:
-    """The end of a run's report: the same for a live run and for ``behave replay``. ``result``
-    has ``outcome``, ``time``, ``ticks``, ``resets`` and ``order``."""
+def summary_lines(data: Mapping[str, Any]) -> list[str]:
+    """The end of a report, from its document (``outcome``, ``time``, ``ticks``, ``order``,
+    ``runs``, ``violations``, ``plot``): the same for a live run, a team and a replay."""
+    resets = sum(1 for r in data["runs"] if r["outcome"] == "reset")
     lines = [
-        f"outcome: {result.outcome} after {result.time:.1f} s ({result.ticks} ticks), "
-        f"resets: {result.resets}",
-        f"order: {', '.join(result.order)}",
+        f"outcome: {data['outcome']} after {data['time']:.1f} s ({data['ticks']} ticks), "
+        f"resets: {resets}",
+        f"order: {', '.join(data['order'])}",
     ]
-    if violations:
+    if data["violations"]:
         lines.append("constraint violations:")
-        lines += [f"  - {v}" for v in violations]
+        lines += [f"  - {v}" for v in data["violations"]]
     else:
         lines.append(
             "constraints: respected (THEN order, every AND child, one alternative per OR, "
             "one behaviour per arm)"
         )
-    if plot:
-        lines.append(f"gantt chart: {plot}")
+    if data.get("plot"):
+        lines.append(f"gantt chart: {data['plot']}")
     return lines

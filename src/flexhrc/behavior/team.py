@@ -81,13 +81,6 @@ def _report(config: BehaveConfig, behaviors: list[str], team: dict[str, Any]) ->
         )
         team["plot"] = str(plot)
 
-    class _View:  # what summary_lines reads of a result
-        outcome = team["outcome"]
-        time = team["time"]
-        ticks = team["ticks"]
-        resets = sum(1 for r in team["runs"] if r["outcome"] == "reset")
-        order = team["order"]
-
     def text() -> str:
         lines = [f"{label}: {team['task']}", f"robots: {', '.join(team['robots'])}"]
         if team.get("lost"):
@@ -100,11 +93,10 @@ def _report(config: BehaveConfig, behaviors: list[str], team: dict[str, Any]) ->
                 f"{r['outcome']}"
             )
         lines.append("")
-        lines += summary_lines(_View, team["violations"], team.get("plot"))
+        lines += summary_lines(team)
         return "\n".join(lines)
 
-    ok = team["outcome"] == "done" and not team["violations"]
-    return BehaveReport(team, 0 if ok else 1, team.get("plot"), text)
+    return BehaveReport(team, text)
 
 
 def _in_process(config: BehaveConfig, loaded: LoadedTask, on_line: LineSink) -> dict[str, Any]:
@@ -342,4 +334,4 @@ def _robot_process(config: BehaveConfig) -> BehaveReport:
         remote_done=[list(x) for x in link.remote_done],
         lost=lost,
     )
-    return BehaveReport(data, 0 if result.outcome == "done" else 1, None, json.dumps(data))
+    return BehaveReport(data, json.dumps(data))

@@ -133,23 +133,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:  # type: ignore[ty
 
 # ----------------------------------------------------------------------------- translation
 
-#: The options of a run, in the order they are checked; then those of each action.
-RUN_OPTIONS = (
-    "layout",
-    "arms",
-    "seed",
-    "plot",
-    "render",
-    "log",
-    "max_ticks",
-    "realtime",
-    "robots",
-    "transport",
-    "robot",
-    "peer_port",
-)
+#: The options each action takes (a run: ``--layout`` and those of BehaveConfig).
 OPTIONS = {
-    None: set(RUN_OPTIONS),
     "replay": {"plot"},
     "render": {"layout", "arms", "seed", "log", "at", "output"},
     "compile": {"layout", "arms", "seed", "output"},
@@ -168,8 +153,15 @@ def _action(args: argparse.Namespace) -> str | None:
     if action is not None and args.operand is None:
         what = "LOG" if action == "replay" else "TASK"
         raise FlexhrcError(f"behave {action} needs a {what}")
-    allowed = OPTIONS[action]
-    for name in RUN_OPTIONS:
+    from flexhrc.behavior.command import BehaveConfig
+
+    given_anywhere = ("target", "types", "child_args")  # the task itself, --types; internal
+    run_options = [
+        "layout",
+        *(f.name for f in fields(BehaveConfig) if f.name not in given_anywhere),
+    ]
+    allowed = OPTIONS[action] if action else set(run_options)
+    for name in run_options:
         value = getattr(args, name)
         if name not in allowed and value is not None and not (name == "seed" and value == 0):
             where = f"behave {action}" if action else "a run"
