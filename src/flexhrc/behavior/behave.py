@@ -23,8 +23,6 @@ paths are checked before the run too.
 from __future__ import annotations
 
 import math
-import signal
-import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -42,6 +40,7 @@ from flexhrc.behavior.command import (
     live_trace,
     load_target,
     summary_lines,
+    tick_loop,
     trace_line,
 )
 from flexhrc.behavior.logfile import end_record, stream_log
@@ -54,10 +53,6 @@ GRAPH_SUFFIXES = (".yaml", ".yml")
 
 def _quiet(line: str) -> None:
     """The default ``on_line``: a library caller is not printed to."""
-
-
-class _Terminated(Exception):
-    """SIGTERM during a run: finish the log, then exit like an interrupt."""
 
 
 def run_behave(config: BehaveConfig, on_line: LineSink = _quiet) -> BehaveReport:
@@ -97,10 +92,10 @@ def run_behave(config: BehaveConfig, on_line: LineSink = _quiet) -> BehaveReport
         violations = check_run(task, result.runs)
         if writer is not None:
             writer.write(end_record(result, violations))
-    except (KeyboardInterrupt, _Terminated):
+    except KeyboardInterrupt:  # Ctrl-C or SIGTERM: the log says so in its last line
         if writer is not None:
             writer.write(end_record(net.result(), [], outcome="interrupted"))
-        raise KeyboardInterrupt from None
+        raise
     finally:
         if writer is not None:
             writer.close()
@@ -142,36 +137,6 @@ def _gantt(result: Any, path: str | None, label: str) -> str | None:
     from flexhrc.behavior.plot import gantt
 
     return str(gantt(result, path, title=f"{label}: {', '.join(result.order)}"))
-
-
-def tick_loop(
-    net: BehaviorNetwork, max_ticks: int | None = None, realtime: float | None = None
-) -> None:
-    """Tick ``net`` to the end (``max_ticks`` default
-    :func:`~flexhrc.behavior.network.default_max_ticks`); with ``realtime`` keep simulated time
-    at SPEED x wall time. SIGTERM stops the loop like Ctrl-C (the caller writes the log's last
-    line)."""
-    from flexhrc.behavior.network import default_max_ticks
-
-    def on_term(signum: int, frame: Any) -> None:
-        raise _Terminated
-
-    limit = max_ticks if max_ticks is not None else default_max_ticks(net.task)
-    try:
-        previous = signal.signal(signal.SIGTERM, on_term)
-    except ValueError:  # not the main thread (an embedding application): leave it alone
-        previous = None
-    try:
-        start = time.monotonic()
-        while not net.finished and net.clock.tick < limit:
-            net.tick()
-            if realtime is not None:
-                delay = start + net.clock.now() / realtime - time.monotonic()
-                if delay > 0:
-                    time.sleep(delay)
-    finally:
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
 
 
 # ----------------------------------------------------------------------------- replay
@@ -363,5 +328,4 @@ __all__ = [
     "render",
     "replay",
     "run_behave",
-    "tick_loop",
 ]

@@ -15,7 +15,9 @@ The runs themselves are :func:`flexhrc.behavior.behave.run_behave` (which hands 
 from __future__ import annotations
 
 import math
+import signal
 import sys
+import time
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -258,6 +260,42 @@ def check_plot(path: str | None, inputs: tuple[str, ...] = ()) -> None:
 
 
 # ----------------------------------------------------------------------------- observers
+
+
+def tick_loop(
+    net: BehaviorNetwork,
+    max_ticks: int | None = None,
+    realtime: float | None = None,
+    before_tick: Callable[[], None] | None = None,
+) -> None:
+    """Tick ``net`` to the end (``max_ticks`` default
+    :func:`~flexhrc.behavior.network.default_max_ticks`); with ``realtime`` keep simulated time
+    at SPEED x wall time; ``before_tick`` runs before every tick. SIGTERM (in the main thread)
+    stops the loop as Ctrl-C does, with :class:`KeyboardInterrupt`, so the caller can write the
+    log's last line."""
+    from flexhrc.behavior.network import default_max_ticks
+
+    def on_term(signum: int, frame: Any) -> None:
+        raise KeyboardInterrupt
+
+    limit = max_ticks if max_ticks is not None else default_max_ticks(net.task)
+    try:
+        previous = signal.signal(signal.SIGTERM, on_term)
+    except ValueError:  # not the main thread (an embedding application): leave it alone
+        previous = None
+    try:
+        start = time.monotonic()
+        while not net.finished and net.clock.tick < limit:
+            if before_tick is not None:
+                before_tick()
+            net.tick()
+            if realtime is not None:
+                delay = start + net.clock.now() / realtime - time.monotonic()
+                if delay > 0:
+                    time.sleep(delay)
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
 
 
 def live_trace(net: BehaviorNetwork, on_line: LineSink, prefix: str = "") -> None:

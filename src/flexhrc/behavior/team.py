@@ -32,6 +32,7 @@ from flexhrc.behavior.command import (
     live_trace,
     load_target,
     summary_lines,
+    tick_loop,
 )
 from flexhrc.behavior.logfile import end_record, event_record, stream_log
 from flexhrc.behavior.network import Run
@@ -232,7 +233,7 @@ def _spawn_team(
 def _robot_process(config: BehaveConfig) -> BehaveReport:
     """One robot of a team over Zenoh: its own network, peer messages on Zenoh."""
     from flexhrc.behavior.messages import to_wire
-    from flexhrc.behavior.network import BehaviorNetwork, default_max_ticks, runs_from_log
+    from flexhrc.behavior.network import BehaviorNetwork, runs_from_log
     from flexhrc.behavior.params import NetworkParams
     from flexhrc.behavior.peers import PeerLink, from_wire, robot_world
     from flexhrc.transport.zenoh import ZenohTransport, json_decode, json_encode, zenoh_config
@@ -305,16 +306,13 @@ def _robot_process(config: BehaveConfig) -> BehaveReport:
                 wall_events.append(ev._replace(t=wall_of(ev)))
 
         net.listeners.append(stamp)
-        speed = config.realtime if config.realtime is not None else DEFAULT_TEAM_SPEED
-        limit = config.max_ticks if config.max_ticks is not None else default_max_ticks(task)
-        start = time.monotonic()
-        while not net.finished and net.clock.tick < limit:
+
+        def before_tick() -> None:
             bus.flush()
             tick_wall[0] = time.time()
-            net.tick()
-            delay = start + net.clock.now() / speed - time.monotonic()
-            if delay > 0:
-                time.sleep(delay)
+
+        speed = config.realtime if config.realtime is not None else DEFAULT_TEAM_SPEED
+        tick_loop(net, config.max_ticks, speed, before_tick)
         bus.flush()
         time.sleep(0.2)  # let the last announcements reach the others before leaving
         result = net.result()
