@@ -298,12 +298,10 @@ class BehaviorNode(Node):
         self.arm = None
 
     def deactivated(self) -> None:
-        if self._grants:
+        if self._grants:  # a grant that came too late goes back at once
             self._release_stray_grants()
 
-    def idle_done(self) -> None:
-        if self._grants:
-            self._release_stray_grants()
+    idle_done = deactivated
 
     def snapshot(self) -> dict[str, object]:
         snap = super().snapshot()

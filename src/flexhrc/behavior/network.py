@@ -95,10 +95,23 @@ class RunResult:
 
     def state_intervals(self) -> dict[str, list[tuple[str, float, float]]]:
         """Per behaviour, the (state, start, end) intervals of the paper's Fig. 4 Gantt chart."""
-        return state_intervals(self.log, self.behaviors, self.time)
+        wanted = set(self.behaviors)
+        current: dict[str, tuple[str, float]] = {b: ("inactive", 0.0) for b in self.behaviors}
+        out: dict[str, list[tuple[str, float, float]]] = {b: [] for b in self.behaviors}
+        for ev in self.log:
+            if ev.kind != "state" or ev.source not in wanted:
+                continue
+            state, since = current[ev.source]
+            if ev.t > since:
+                out[ev.source].append((state, since, ev.t))
+            current[ev.source] = (str(ev.data["to"]), ev.t)
+        for b, (state, since) in current.items():
+            if self.time > since:
+                out[b].append((state, since, self.time))
+        return out
 
     def to_dict(self) -> dict[str, Any]:
-        data: dict[str, Any] = {
+        return {
             "outcome": self.outcome,
             "order": list(self.order),
             "ticks": self.ticks,
@@ -107,26 +120,6 @@ class RunResult:
             "arms": list(self.arms),
             "runs": [r.to_dict() for r in self.runs],
         }
-        return data
-
-
-def state_intervals(
-    log: list[LogEvent], behaviors: list[str], end: float
-) -> dict[str, list[tuple[str, float, float]]]:
-    wanted = set(behaviors)
-    current: dict[str, tuple[str, float]] = {b: ("inactive", 0.0) for b in behaviors}
-    out: dict[str, list[tuple[str, float, float]]] = {b: [] for b in behaviors}
-    for ev in log:
-        if ev.kind != "state" or ev.source not in wanted:
-            continue
-        state, since = current[ev.source]
-        if ev.t > since:
-            out[ev.source].append((state, since, ev.t))
-        current[ev.source] = (str(ev.data["to"]), ev.t)
-    for b, (state, since) in current.items():
-        if end > since:
-            out[b].append((state, since, end))
-    return out
 
 
 def runs_from_log(log: list[LogEvent]) -> list[Run]:
