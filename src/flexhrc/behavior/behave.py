@@ -33,8 +33,7 @@ from flexhrc.behavior.command import (
     LineSink,
     LoadedTask,
     check_plot,
-    check_seed,
-    check_target,
+    check_task,
     import_types,
     is_file,
     live_trace,
@@ -150,7 +149,7 @@ class ReplayConfig:
     plot: str | None = None
 
     def __post_init__(self) -> None:
-        check_target(self.log)
+        check_task(self.log)
 
 
 def replay(config: ReplayConfig) -> BehaveReport:
@@ -223,8 +222,7 @@ class RenderConfig:
     types: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
-        check_target(self.target)
-        check_seed(self.seed)
+        check_task(self.target, self.seed)
         if self.at is not None and not (math.isfinite(self.at) and self.at >= 0):
             raise FlexhrcError(f"--at must be a finite number of seconds >= 0, got {self.at}")
         if self.at is not None and self.log is None:
@@ -288,8 +286,7 @@ class CompileConfig:
     types: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
-        check_target(self.target)
-        check_seed(self.seed)
+        check_task(self.target, self.seed)
 
 
 def compile_to_file(config: CompileConfig) -> BehaveReport:

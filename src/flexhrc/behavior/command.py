@@ -42,17 +42,14 @@ DEFAULT_TEAM_SPEED = 10.0
 LineSink = Callable[[str], None]
 
 
-def check_target(target: object) -> None:
-    """One error for an empty task argument (``behave ""``)."""
+def check_task(target: object, seed: int = 0) -> None:
+    """One error for an empty task argument (``behave ""``) or a seed out of range."""
     if target == "":
         raise FlexhrcError(
             "TASK_OR_SCENARIO is empty: give a scenario name (table-setting, "
             "table-setting-robustness, abstract), a task file or an inline task such as "
             "'(THEN a (AND b c))'"
         )
-
-
-def check_seed(seed: int) -> None:
     if not 0 <= seed <= MAX_SEED:
         raise FlexhrcError(f"--seed must be an integer in 0..2**63-1, got {seed}")
 
@@ -103,8 +100,7 @@ class BehaveConfig:
     child_args: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
-        check_target(self.target)
-        check_seed(self.seed)
+        check_task(self.target, self.seed)
         if self.max_ticks is not None and not 1 <= self.max_ticks <= MAX_TICKS:
             raise FlexhrcError(f"--max-ticks must be in 1..{MAX_TICKS}, got {self.max_ticks}")
         if self.realtime is not None and not (math.isfinite(self.realtime) and self.realtime > 0):

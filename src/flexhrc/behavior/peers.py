@@ -300,9 +300,6 @@ def _or_paths(task: Task) -> dict[str, tuple[tuple[str, int], ...]]:
 # ----------------------------------------------------------------------------- a team, one process
 
 
-ROBOT_HOMES = [arm.home for arm in default_arms(2)]
-
-
 def robot_names(count: int) -> list[str]:
     if not 1 <= count <= 4:
         raise FlexhrcError(f"--robots must be in 1..4, got {count}")
@@ -311,7 +308,7 @@ def robot_names(count: int) -> list[str]:
 
 def robot_world(world: TabletopWorld, index: int, robot: str) -> TabletopWorld:
     """Robot ``index``'s model of the shared table: the same objects (a copy), its own arm."""
-    homes = [*ROBOT_HOMES, (0.15, 0.0, 0.95), (1.05, 0.0, 0.95)]
+    homes = [*(arm.home for arm in default_arms(2)), (0.15, 0.0, 0.95), (1.05, 0.0, 0.95)]
     speed = next(iter(world.arms.values())).speed
     return TabletopWorld(
         copy.deepcopy(list(world.objects.values())),
