@@ -35,7 +35,7 @@ from flexhrc.behavior.command import (
     check_plot,
     check_task,
     import_types,
-    is_file,
+    input_files,
     live_trace,
     load_target,
     summary_lines,
@@ -68,7 +68,7 @@ def run_behave(config: BehaveConfig, on_line: LineSink = _quiet) -> BehaveReport
     from flexhrc.behavior.validate import check_run
     from flexhrc.files import check_output
 
-    inputs = _inputs(config.target)
+    inputs = input_files(config.target)
     if config.log:
         check_output(config.log, option="--log", inputs=inputs)
     check_plot(config.plot, inputs)
@@ -122,11 +122,6 @@ def run_behave(config: BehaveConfig, on_line: LineSink = _quiet) -> BehaveReport
         return "\n".join(lines)
 
     return BehaveReport(data, text)
-
-
-def _inputs(*paths: object) -> tuple[str, ...]:
-    """Those of ``paths`` that are files (an output may not overwrite them)."""
-    return tuple(p for p in paths if isinstance(p, str) and p and is_file(p))
 
 
 def _gantt(result: Any, path: str | None, label: str) -> str | None:
@@ -236,7 +231,7 @@ def _load_for(
     from flexhrc.files import check_output
 
     import_types(config.types)
-    files = _inputs(config.target, *inputs)
+    files = input_files(config.target, *inputs)
     check_output(config.output, option="-o", suffixes=suffixes, inputs=files)
     return load_target(config.target, config.arms, config.seed)
 

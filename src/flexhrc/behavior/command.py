@@ -19,6 +19,7 @@ import signal
 import sys
 import time
 from collections.abc import Callable, Iterable, Mapping
+from contextlib import suppress
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -169,12 +170,14 @@ class BehaveReport:
 # ----------------------------------------------------------------------------- the task
 
 
-def is_file(name: str) -> bool:
-    """Whether ``name`` is an existing file (an inline task is not, however long)."""
-    try:
-        return Path(name).is_file()
-    except OSError:  # e.g. an inline task longer than a file name may be
-        return False
+def input_files(*paths: object) -> tuple[str, ...]:
+    """Those of ``paths`` that are existing files: an output may not overwrite them."""
+    files = []
+    for path in paths:
+        with suppress(OSError):  # e.g. an inline task longer than a file name may be
+            if isinstance(path, str) and path and Path(path).is_file():
+                files.append(path)
+    return tuple(files)
 
 
 def is_task_text(target: str) -> bool:
