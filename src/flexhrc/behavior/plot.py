@@ -21,6 +21,9 @@ from flexhrc.behavior.render import STATE_COLOURS
 from flexhrc.errors import OptionalDependencyError
 
 STATE_ORDER = ("inactive", "active", "running", "done")
+#: How the chart (and its legend) marks a reset by validity checking and an object moved.
+RESET_MARK: dict[str, Any] = {"marker": "x", "color": "#cc0000", "markersize": 10, "mew": 2.5}
+MOVE_MARK: dict[str, Any] = {"marker": "v", "color": "#cc0000", "markersize": 7}
 
 
 def _pyplot():  # type: ignore[no-untyped-def, unused-ignore]
@@ -58,13 +61,13 @@ def gantt(result: RunResult, path: str | Path, title: str | None = None) -> Path
                     (t0 + t1) / 2, row, arm, ha="center", va="center", fontsize=7, color="white"
                 )
     rows = {name: row for row, name in enumerate(reversed(behaviors))}
+    moved = False
     for ev in result.log:
         if ev.kind == "reset" and ev.source in rows:
-            ax.plot(ev.t, rows[ev.source], marker="x", color="#cc0000", markersize=10, mew=2.5)
+            ax.plot(ev.t, rows[ev.source], **RESET_MARK)
         elif ev.kind == "move" and str(ev.data.get("object")) in rows:
-            ax.plot(
-                ev.t, rows[str(ev.data["object"])] + 0.42, marker="v", color="#cc0000", markersize=7
-            )
+            ax.plot(ev.t, rows[str(ev.data["object"])] + 0.42, **MOVE_MARK)
+            moved = True
     handles = [
         Patch(
             color=STATE_COLOURS[s],
@@ -81,31 +84,12 @@ def gantt(result: RunResult, path: str | Path, title: str | None = None) -> Path
                 label=f"running ({arms[1]})",
             )
         )
-    moved = any(ev.kind == "move" and str(ev.data.get("object")) in rows for ev in result.log)
-    if moved:
-        handles.append(
-            plt.Line2D(
-                [],
-                [],
-                marker="v",
-                color="#cc0000",
-                linestyle="none",
-                markersize=7,
-                label="object moved by the experimenter",
-            )
-        )
-    if result.resets:
-        handles.append(
-            plt.Line2D(
-                [],
-                [],
-                marker="x",
-                color="#cc0000",
-                linestyle="none",
-                mew=2.5,
-                label="reset (validity check)",
-            )
-        )
+    for shown, mark, label in (
+        (moved, MOVE_MARK, "object moved by the experimenter"),
+        (result.resets, RESET_MARK, "reset (validity check)"),
+    ):
+        if shown:
+            handles.append(plt.Line2D([], [], linestyle="none", label=label, **mark))
     order = ", ".join(result.order)
     title = title or f"Behaviour states over time — order: {order}"
     return _save(plt, fig, ax, handles, min(len(handles), 4), title, path)
