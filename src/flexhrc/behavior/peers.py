@@ -354,17 +354,6 @@ class TeamResult:
         }
 
 
-def team_runs(results: Mapping[str, RunResult]) -> list[Run]:
-    """Every robot's runs, the arm named ``robot/arm``, in start order."""
-    runs = [
-        Run(r.behavior, f"{robot}/{r.arm}", r.start, r.end, r.outcome)
-        for robot, result in results.items()
-        for r in result.runs
-    ]
-    runs.sort(key=lambda r: (r.start, r.behavior))
-    return runs
-
-
 def run_team(
     task: Task,
     world: TabletopWorld,
@@ -418,6 +407,12 @@ def run_team(
         if on_tick is not None:
             on_tick(tick)
     results = {name: nets[name].result() for name in names}
+    runs = [  # every robot's runs, the arm named robot/arm, in start order
+        Run(r.behavior, f"{robot}/{r.arm}", r.start, r.end, r.outcome)
+        for robot, result in results.items()
+        for r in result.runs
+    ]
+    runs.sort(key=lambda r: (r.start, r.behavior))
     done = bool(alive) and all(nets[n].finished for n in alive)
     period = nets[names[0]].params.tick_period
     return TeamResult(
@@ -426,6 +421,6 @@ def run_team(
         lost,
         tick,
         round(tick * period, 9),
-        team_runs(results),
+        runs,
         lost_at,
     )
