@@ -106,12 +106,10 @@ class BehaviorNode(Node):
         self.arm: str | None = None  # the arm whose mutex this node holds while running
         self.resets = 0
         self._grants: list[str] = []
-        self._request_topics = [request_topic(a) for a in self.arms]
         self._release = MutexRelease(name)
         self.bids: dict[str, float] = {a: 0.0 for a in self.arms}
-        self._requests: list[tuple[str, str]] = list(
-            zip(self.arms, self._request_topics, strict=True)
-        )
+        #: (arm, the topic its mutex hears requests on), for bidding.
+        self._requests = [(a, request_topic(a)) for a in self.arms]
         self._latched = params.latched
         #: Latched protocol: the bids the mutexes hold for this node (None: no standing bid).
         self._standing: dict[str, float] | None = None
