@@ -50,14 +50,11 @@ RENDER_SUFFIXES = (".dot", ".gv", ".svg", ".png", ".pdf")
 GRAPH_SUFFIXES = (".yaml", ".yml")
 
 
-def _quiet(line: str) -> None:
-    """The default ``on_line``: a library caller is not printed to."""
-
-
-def run_behave(config: BehaveConfig, on_line: LineSink = _quiet) -> BehaveReport:
+def run_behave(config: BehaveConfig, on_line: LineSink = lambda line: None) -> BehaveReport:
     """Run ``config`` (``flexhrc behave TASK ...``); ``on_line`` gets the live lines of a
-    ``realtime`` run and the progress of a team. Ctrl-C (and SIGTERM, in the main thread) ends
-    the run with :class:`KeyboardInterrupt` after the log's last line is written."""
+    ``realtime`` run and the progress of a team (by default nothing is printed). Ctrl-C (and
+    SIGTERM, in the main thread) ends the run with :class:`KeyboardInterrupt` after the log's
+    last line is written."""
     import_types(config.types)
     if config.team:
         from flexhrc.behavior.team import run_team_config

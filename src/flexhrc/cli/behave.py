@@ -11,6 +11,9 @@ Actions on a task or a log (the first argument names the action):
   flexhrc behave render TASK -o OUT.svg [--log LOG --at SECONDS]
                                                      the network, coloured by node state
   flexhrc behave compile TASK -o graph.yaml          the task as a flexhrc AND/OR graph
+
+Each only translates its arguments into a config of flexhrc.behavior.behave, calls it and prints
+the report (a scenario name becomes the task it names here).
 """
 
 from __future__ import annotations
