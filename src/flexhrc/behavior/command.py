@@ -274,12 +274,9 @@ def tick_loop(
     log's last line."""
     from flexhrc.behavior.network import default_max_ticks
 
-    def on_term(signum: int, frame: Any) -> None:
-        raise KeyboardInterrupt
-
     limit = max_ticks if max_ticks is not None else default_max_ticks(net.task)
     try:
-        previous = signal.signal(signal.SIGTERM, on_term)
+        previous = signal.signal(signal.SIGTERM, signal.default_int_handler)
     except ValueError:  # not the main thread (an embedding application): leave it alone
         previous = None
     try:
