@@ -28,7 +28,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from behavior_ticks import tree_spec
 
 from flexhrc.behavior import BehaviorNetwork, NetworkParams, build_task, random_world
-from flexhrc.behavior.peers import PeerLink, from_wire, robot_world, to_wire
+from flexhrc.behavior.messages import to_wire
+from flexhrc.behavior.peers import PeerLink, from_wire, robot_world
 from flexhrc.transport import InProcessBus
 
 TARGET_ADDED_MS = 1.0

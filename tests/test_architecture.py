@@ -83,7 +83,7 @@ def test_every_kind_of_import_is_read():
     kinds = {imp.kind for imp in imports()}
     assert kinds == {TOP, FUNCTION, TYPE_CHECKING}
     edges = {(imp.source, imp.target, imp.kind) for imp in imports()}
-    assert ("flexhrc.cli.behave", "flexhrc.cli.behave_team", FUNCTION) in edges
+    assert ("flexhrc.behavior.behave", "flexhrc.behavior.team", FUNCTION) in edges
     assert ("flexhrc.transport", "flexhrc.transport.zenoh", TYPE_CHECKING) in edges
 
 

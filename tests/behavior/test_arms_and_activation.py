@@ -52,7 +52,7 @@ def test_falling_activation_node_cut_off_from_its_parent_decays_and_stops():
     while and1.state != "active":
         net.tick()
     and1.disconnect_parent()  # the link THEN_1 -> AND_1 is broken
-    cut_tick = net.tick_count
+    cut_tick = net.clock.tick
     levels = [and1.level]
     for _ in range(60):
         net.tick()

@@ -16,7 +16,6 @@ from hypothesis import strategies as st
 from flexhrc.behavior import allowed_next, build_task, parse_prefix
 from flexhrc.behavior.compile import (
     NotSeriesParallelError,
-    behavior_order,
     compile_task,
     normalise,
     task_from_graph,
@@ -28,6 +27,17 @@ from flexhrc.representation.hierarchy import HierarchicalGraph, split_qualified
 from flexhrc.representation.play import play
 
 GOALS = ("THEN", "AND", "OR")
+
+
+def behavior_order(hierarchy, steps):
+    """The behaviours carried out by a played cooperation path (``graph play`` steps, in
+    order): the actions of the solved hyper-arcs that have any."""
+    actions = {h.name: h.actions for g in hierarchy.graphs.values() for h in g.hyperarcs.values()}
+    order = []
+    for step in steps:
+        if step.get("kind") == "hyperarc":
+            order.extend(actions.get(split_qualified(str(step["element"]))[1], ()))
+    return order
 
 
 def shapes(max_leaves):
@@ -166,6 +176,14 @@ def test_graphs_that_are_not_series_parallel_are_refused_with_the_reason():
     empty.add_hyperarc("h", ["l"], "r")
     with pytest.raises(NotSeriesParallelError, match="nothing to do"):
         task_from_graph(HierarchicalGraph.single(empty), "e.yaml")
+    # an alternative that does nothing beside one that acts: one error, not a TypeError
+    optional = AndOrGraph("o", root="r")
+    optional.add_node("l")
+    optional.add_node("r")
+    optional.add_hyperarc("skip", ["l"], "r")
+    optional.add_hyperarc("act", ["l"], "r", actions=("act",))
+    with pytest.raises(NotSeriesParallelError, match="an OR with an empty alternative"):
+        task_from_graph(HierarchicalGraph.single(optional), "o.yaml")
 
 
 def test_cli_compile_play_and_to_task(tmp_path, capsys):

@@ -10,14 +10,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from flexhrc.behavior import check_run, random_world
-from flexhrc.behavior.peers import (
-    PeerClaim,
-    PeerDone,
-    PeerReply,
-    from_wire,
-    run_team,
-    to_wire,
-)
+from flexhrc.behavior.messages import to_wire
+from flexhrc.behavior.peers import PeerClaim, PeerDone, PeerReply, from_wire, run_team
 from flexhrc.cli import main
 from flexhrc.scenario.builtin.table_setting import load_scenario
 from tests.behavior.test_compile import shapes, to_task

@@ -28,7 +28,7 @@ def test_fig1_prefix_parses_into_named_goal_nodes():
     assert task.behaviors == ["a", "b", "c", "d", "e", "f", "g"]
     assert task.size == 12
     assert task.to_prefix() == FIG1
-    assert task.parents()["THEN_3"] == "OR_1"
+    assert and1.children[1].name == "OR_1" and and1.children[1].children[2].name == "THEN_3"
 
 
 def test_paper_comma_form_and_lower_case_operators_are_accepted():

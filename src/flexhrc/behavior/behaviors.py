@@ -106,12 +106,10 @@ class BehaviorNode(Node):
         self.arm: str | None = None  # the arm whose mutex this node holds while running
         self.resets = 0
         self._grants: list[str] = []
-        self._request_topics = [request_topic(a) for a in self.arms]
         self._release = MutexRelease(name)
         self.bids: dict[str, float] = {a: 0.0 for a in self.arms}
-        self._requests: list[tuple[str, str]] = list(
-            zip(self.arms, self._request_topics, strict=True)
-        )
+        #: (arm, the topic its mutex hears requests on), for bidding.
+        self._requests = [(a, request_topic(a)) for a in self.arms]
         self._latched = params.latched
         #: Latched protocol: the bids the mutexes hold for this node (None: no standing bid).
         self._standing: dict[str, float] | None = None
@@ -298,12 +296,10 @@ class BehaviorNode(Node):
         self.arm = None
 
     def deactivated(self) -> None:
-        if self._grants:
+        if self._grants:  # a grant that came too late goes back at once
             self._release_stray_grants()
 
-    def idle_done(self) -> None:
-        if self._grants:
-            self._release_stray_grants()
+    idle_done = deactivated
 
     def snapshot(self) -> dict[str, object]:
         snap = super().snapshot()
@@ -311,7 +307,43 @@ class BehaviorNode(Node):
         return snap
 
 
-class PickAndPlace(BehaviorNode):
+class MotionBehavior(BehaviorNode):
+    """A behaviour that moves an arm through a :class:`~flexhrc.behavior.world.PickAndPlaceMotion`
+    of its world: :meth:`start_action` (a subclass's) sets ``self._motion``, and ``self._check``
+    when validity checking watches an object — until the grasp (or the dwell) is over; then
+    :meth:`step_action` and :meth:`abort_action` are the same for every such behaviour."""
+
+    def __init__(
+        self,
+        name: str,
+        world: TabletopWorld,
+        transport: Transport,
+        params: NetworkParams,
+        obj: str | None = None,
+    ) -> None:
+        super().__init__(name, world.arm_names, transport, params, obj)
+        self._world = world
+        self._motion: PickAndPlaceMotion | None = None
+        self._check: ValidityCheck | None = None
+
+    def step_action(self) -> str:
+        motion = self._motion
+        assert motion is not None
+        check = self._check
+        if not motion.grasped(self.now) and check is not None and not check.valid(self._world):
+            return "invalid"
+        return "done" if self.now >= motion.t_end else "running"
+
+    def abort_action(self) -> dict[str, object]:
+        assert self._motion is not None
+        moved = self._check.displacement(self._world) if self._check is not None else 0.0
+        self._world.abort(self._motion.arm, self.now)
+        self._motion = None
+        self._check = None
+        return {"object": self.object, "reason": "object moved", "moved": round(moved, 4)}
+
+
+class PickAndPlace(MotionBehavior):
     """Pick an object from the table and place it at its target (Algorithms 8–9)."""
 
     kind = "BEHAVIOR"
@@ -325,13 +357,10 @@ class PickAndPlace(BehaviorNode):
         transport: Transport,
         params: NetworkParams,
     ) -> None:
-        super().__init__(name, world.arm_names, transport, params, obj)
+        super().__init__(name, world, transport, params, obj)
         self.object: str = obj
-        self._world = world
         self._index = world.object_index(obj)
         self._version = -1
-        self._motion: PickAndPlaceMotion | None = None
-        self._check: ValidityCheck | None = None
         self._threshold = params.validity_threshold
 
     def update(self, tick: int, now: float) -> None:
@@ -382,20 +411,6 @@ class PickAndPlace(BehaviorNode):
         self._check = ValidityCheck.watch(self._world, self.object, self._threshold)
         return {"object": self.object, "duration": round(self._motion.duration, 3)}
 
-    def step_action(self) -> str:
-        motion = self._motion
-        assert motion is not None and self._check is not None
-        if not motion.grasped(self.now) and not self._check.valid(self._world):
-            return "invalid"
-        if self.now >= motion.t_end:
-            return "done"
-        return "running"
-
     def abort_action(self) -> dict[str, object]:
-        assert self._motion is not None and self._check is not None
-        moved = self._check.displacement(self._world)
-        self._world.abort(self._motion.arm, self.now)
-        self._motion = None
-        self._check = None
-        self._version = -1
-        return {"object": self.object, "reason": "object moved", "moved": round(moved, 4)}
+        self._version = -1  # where the arm stopped is sensed anew
+        return super().abort_action()

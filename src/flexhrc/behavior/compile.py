@@ -32,13 +32,12 @@ is its lower graph's task) and refuses, with the reason, a graph that is not ser
 
 from __future__ import annotations
 
-from collections.abc import Iterable
 from typing import Any
 
 from flexhrc.behavior.task import AND, BEHAVIOR, OR, THEN, Task, TaskNode, build_task
 from flexhrc.errors import FlexhrcError
 from flexhrc.representation.graph import AndOrGraph, Hyperarc
-from flexhrc.representation.hierarchy import HierarchicalGraph, split_qualified
+from flexhrc.representation.hierarchy import HierarchicalGraph
 
 TOP = "task"
 START = "start"
@@ -103,21 +102,6 @@ def _emit(node: TaskNode, g: AndOrGraph, s: str, t: str, graphs: dict[str, AndOr
         lower.add_hyperarc(Hyperarc(node.name, tuple(ends), f"{node.name}@done"))
         graphs[node.name] = lower
         g.add_hyperarc(Hyperarc(f"{node.name}@expand", (started,), t, lower=node.name))
-
-
-def behavior_order(hierarchy: HierarchicalGraph, steps: Iterable[dict[str, Any]]) -> list[str]:
-    """The behaviours carried out by a played cooperation path (``graph play`` steps, in
-    order): the actions of the solved hyper-arcs that have any."""
-    actions: dict[str, tuple[str, ...]] = {}
-    for g in hierarchy.graphs.values():
-        for h in g.hyperarcs.values():
-            if h.actions:
-                actions[h.name] = h.actions
-    order: list[str] = []
-    for step in steps:
-        if step.get("kind") == "hyperarc":
-            order.extend(actions.get(split_qualified(str(step["element"]))[1], ()))
-    return order
 
 
 # ----------------------------------------------------------------------------- graph -> task
@@ -190,7 +174,7 @@ class _Converter:
 
     def arc(self, key: str, h: Hyperarc, depth: int) -> _Part:
         children = [self.node(key, c, depth + 1) for c in h.children]
-        parts: list[_Part] = [_and([c for c in children if c is not None])]
+        parts: list[_Part] = [_flat(AND, [c for c in children if c is not None])]
         if h.lower is not None:
             if h.actions:
                 raise self.fail(
@@ -215,35 +199,24 @@ class _Converter:
                     "(letters, digits, _ - .)"
                 )
             parts.append(h.name)
-        return _then([p for p in parts if p is not None])
+        return _flat(THEN, [p for p in parts if p is not None])
 
 
-def _then(parts: list[_Part]) -> _Part:
+def _flat(kind: str, parts: list[_Part]) -> _Part:
+    """``kind`` (THEN, AND or OR) of ``parts``, parts of the same kind merged into it and empty
+    ones left out; a single part is itself (the same object: the OR factoring below compares by
+    identity), no part at all is None."""
     if len(parts) == 1:
         return parts[0]
     flat: list[_Part] = []
     for p in parts:
-        if isinstance(p, tuple) and p[0] == THEN:
+        if isinstance(p, tuple) and p[0] == kind:
             flat.extend(p[1])
         elif p is not None:
             flat.append(p)
     if not flat:
         return None
-    return flat[0] if len(flat) == 1 else (THEN, flat)
-
-
-def _and(parts: list[_Part]) -> _Part:
-    if len(parts) == 1:
-        return parts[0]  # the same object: the OR factoring below compares by identity
-    flat: list[_Part] = []
-    for p in parts:
-        if isinstance(p, tuple) and p[0] == AND:
-            flat.extend(p[1])
-        else:
-            flat.append(p)
-    if not flat:
-        return None
-    return flat[0] if len(flat) == 1 else (AND, flat)
+    return flat[0] if len(flat) == 1 else (kind, flat)
 
 
 def _alternatives(options: list[_Part]) -> _Part:
@@ -262,19 +235,16 @@ def _or_of(seqs: list[list[_Part]]) -> _Part:
     out: list[_Part] = []
     for group in groups.values():
         if len(group) == 1:
-            out.append(_then(group[0]))
-            continue
-        rests = [seq[1:] for seq in group]
-        if any(not rest for rest in rests):
-            raise _EmptyAlternative
-        out.append(_then([group[0][0], _or_of(rests)]))
-    flat: list[_Part] = []
-    for part in out:
-        if isinstance(part, tuple) and part[0] == OR:
-            flat.extend(part[1])
+            part = _flat(THEN, group[0])
         else:
-            flat.append(part)
-    return flat[0] if len(flat) == 1 else (OR, flat)
+            rests = [seq[1:] for seq in group]
+            if any(not rest for rest in rests):
+                raise _EmptyAlternative
+            part = _flat(THEN, [group[0][0], _or_of(rests)])
+        if part is None:  # an alternative that does nothing
+            raise _EmptyAlternative
+        out.append(part)
+    return _flat(OR, out)
 
 
 def _behaviours(part: _Part) -> list[str]:
@@ -305,18 +275,7 @@ def normalise(task: Task) -> str:
     def norm(node: TaskNode) -> _Part:
         if node.kind == BEHAVIOR:
             return node.name
-        parts = [norm(c) for c in node.children]
-        if node.kind == THEN:
-            return _then(parts)
-        if node.kind == AND:
-            return _and(parts)
-        flat: list[_Part] = []
-        for p in parts:
-            if isinstance(p, tuple) and p[0] == OR:
-                flat.extend(p[1])
-            else:
-                flat.append(p)
-        return flat[0] if len(flat) == 1 else (OR, flat)
+        return _flat(node.kind, [norm(c) for c in node.children])
 
     def text(p: _Part) -> str:
         if isinstance(p, str):

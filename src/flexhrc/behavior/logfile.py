@@ -10,8 +10,9 @@ A log is JSON lines (``flexhrc behave ... --log F``)::
      "order": [...], "resets": 0, "violations": []}
 
 Every event of :class:`~flexhrc.behavior.messages.LogEvent` is one ``event`` line, appended and
-flushed as it happens (:class:`flexhrc.files.EventLogWriter`), so a run killed mid-way leaves a
-log that :func:`read_log` reads up to its last event and reports as cut short (no end line).
+flushed as it happens (:func:`stream_log`, on a :class:`flexhrc.files.EventLogWriter`), so a
+run killed mid-way leaves a log that :func:`read_log` reads up to its last event and reports as
+cut short (no end line).
 :meth:`BehaveLog.result` rebuilds the :class:`~flexhrc.behavior.network.RunResult` from the events
 alone — the same runs, order and Gantt chart as the live run.
 """
@@ -20,13 +21,17 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass, field
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from flexhrc.behavior.messages import LogEvent
-from flexhrc.behavior.network import RunResult, runs_from_log
+from flexhrc.behavior.network import BehaviorNetwork, RunResult
 from flexhrc.errors import FormatError
+
+if TYPE_CHECKING:
+    from flexhrc.files import EventLogWriter
 
 HEADER = "behave_start"
 EVENT = "event"
@@ -36,27 +41,38 @@ OUTCOMES = ("done", "timeout", "interrupted")
 CUT_SHORT = "cut short"
 
 
-def header_record(
+def stream_log(
+    net: BehaviorNetwork,
+    path: str | Path,
     target: str,
-    task: str,
-    behaviors: list[str],
-    arms: list[str],
     seed: int,
-    tick_period: float,
+    record: Callable[[LogEvent], dict[str, Any]] | None = None,
     **extra: Any,
-) -> dict[str, Any]:
-    return {
-        "type": HEADER,
-        "kind": "header",
-        "t": 0.0,
-        "target": target,
-        "task": task,
-        "behaviors": list(behaviors),
-        "arms": list(arms),
-        "seed": seed,
-        "tick_period": tick_period,
-        **extra,
-    }
+) -> EventLogWriter:
+    """Open the log of ``net`` at ``path``, write its header (``target`` names the run; ``extra``
+    keys are added) and append every event as it happens (``record`` makes its line, default
+    :func:`event_record`); the caller writes the :func:`end_record` and closes the writer."""
+    from flexhrc.files import EventLogWriter
+
+    writer = EventLogWriter(path)
+    task = net.task
+    writer.write(
+        {
+            "type": HEADER,
+            "kind": "header",
+            "t": 0.0,
+            "target": target,
+            "task": task.to_prefix(),
+            "behaviors": task.behaviors,
+            "arms": net.world.arm_names,
+            "seed": seed,
+            "tick_period": net.params.tick_period,
+            **extra,
+        }
+    )
+    line = record or event_record
+    net.listeners.append(lambda ev: writer.write(line(ev)))
+    return writer
 
 
 def event_record(ev: LogEvent) -> dict[str, Any]:
@@ -86,8 +102,6 @@ class BehaveLog:
     header: dict[str, Any]
     events: list[LogEvent]
     end: dict[str, Any] | None
-    lines: int = 0
-    extra: dict[str, Any] = field(default_factory=dict)
 
     @property
     def outcome(self) -> str:
@@ -107,18 +121,8 @@ class BehaveLog:
 
     def result(self) -> RunResult:
         """The run as the live network reported it, rebuilt from the events."""
-        runs = runs_from_log(self.events)
-        return RunResult(
-            outcome=self.outcome,
-            ticks=self.ticks,
-            time=self.time,
-            order=[r.behavior for r in runs if r.outcome == "done"],
-            runs=runs,
-            resets=sum(1 for r in runs if r.outcome == "reset"),
-            log=list(self.events),
-            behaviors=list(self.header["behaviors"]),
-            arms=list(self.header["arms"]),
-        )
+        behaviors, arms = list(self.header["behaviors"]), list(self.header["arms"])
+        return RunResult.of_log(self.outcome, self.ticks, self.time, self.events, behaviors, arms)
 
     def states_at(self, t: float) -> dict[str, str]:
         """Every node's state at time ``t`` (the last state event at or before ``t``)."""
@@ -219,4 +223,4 @@ def read_log(path: str | Path) -> BehaveLog:
             raise _fail(p, n, f"unknown record type {kind!r}")
     if header is None:
         raise FormatError("empty log", p)
-    return BehaveLog(p, header, events, end, n)
+    return BehaveLog(p, header, events, end)

@@ -21,6 +21,7 @@ All are ``NamedTuple`` records of plain values so any transport can serialise th
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any, NamedTuple
 
 
@@ -129,9 +130,16 @@ def to_wire(msg: NamedTuple) -> dict[str, Any]:
     return {"type": type(msg).__name__, **msg._asdict()}
 
 
-def from_wire(data: dict[str, Any]) -> Any:
-    kind = data.get("type")
-    cls = _TYPES.get(str(kind))
+def from_wire(data: Any, types: Mapping[str, type] = _TYPES) -> Any:
+    """A message from its JSON form (:func:`to_wire`), one of ``types`` (by class name);
+    ``ValueError`` for anything else."""
+    if not isinstance(data, dict):
+        raise ValueError("a message is a JSON object")
+    cls = types.get(str(data.get("type")))
     if cls is None:
-        raise ValueError(f"unknown message type {kind!r}")
-    return cls(**{k: v for k, v in data.items() if k != "type"})
+        raise ValueError(f"unknown message type {data.get('type')!r}")
+    try:
+        return cls(**{k: v for k, v in data.items() if k != "type"})
+    except TypeError:  # a field missing or one too many
+        fields = ", ".join(getattr(cls, "_fields", ()))
+        raise ValueError(f"{cls.__name__}: expected fields {fields}") from None

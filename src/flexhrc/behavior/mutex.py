@@ -90,14 +90,10 @@ class ArmMutex:
             self._window_close = None  # a window closing with no fresh bid grants nothing
             return
         bids = self._bids()
+        count = {} if len(bids) <= LOGGED_BIDS else {"count": len(bids)}
         if self._window_close is None:
             self._window_close = tick + self.window_ticks
-            if len(bids) <= LOGGED_BIDS:
-                self._log(tick, now, "window", closes=self._window_close, bidders=sorted(bids))
-            else:
-                top = _top(bids)
-                closes = self._window_close
-                self._log(tick, now, "window", closes=closes, bidders=top, count=len(bids))
+            self._log(tick, now, "window", closes=self._window_close, bidders=_top(bids), **count)
             return
         self._window_close = None
         winner = min(bids, key=lambda n: (-bids[n], n))
@@ -107,27 +103,18 @@ class ArmMutex:
         for name in bids:
             if name != winner:
                 publish(reply_topic(name), self._deny)
-        logged = bids if len(bids) <= LOGGED_BIDS else {n: bids[n] for n in _top(bids)}
-        extra = {} if len(bids) <= LOGGED_BIDS else {"count": len(bids)}
-        self._log(
-            tick,
-            now,
-            "grant",
-            to=winner,
-            bid=round(bids[winner], 6),
-            bids={n: round(b, 6) for n, b in sorted(logged.items())},
-            **extra,
-        )
+        logged = {n: round(bids[n], 6) for n in _top(bids)}
+        self._log(tick, now, "grant", to=winner, bid=round(bids[winner], 6), bids=logged, **count)
 
     def _log(self, tick: int, now: float, kind: str, **data: object) -> None:
         self._transport.publish(LOG_TOPIC, LogEvent(tick, now, f"mutex:{self.name}", kind, data))
 
-    def snapshot(self) -> dict[str, object]:
-        return {"name": self.name, "kind": self.kind, "holder": self.holder}
-
 
 def _top(bids: dict[str, float]) -> list[str]:
-    """The names of the :data:`LOGGED_BIDS` highest bids, sorted by name."""
+    """The names of the :data:`LOGGED_BIDS` highest bids (all, when there are no more), sorted
+    by name."""
+    if len(bids) <= LOGGED_BIDS:
+        return sorted(bids)
     import heapq
 
     return sorted(heapq.nsmallest(LOGGED_BIDS, bids, key=lambda n: (-bids[n], n)))

@@ -22,11 +22,11 @@ topic (for the event log).
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from typing import Any
 
 from flexhrc.behavior.behaviors import BehaviorNode, PickAndPlace
-from flexhrc.behavior.goals import GOAL_CLASSES, GoalNode
+from flexhrc.behavior.goals import GOAL_CLASSES
 from flexhrc.behavior.messages import (
     LOG_TOPIC,
     ActivationMsg,
@@ -60,13 +60,7 @@ class Run:
     outcome: str  # "done", "reset" or "unfinished"
 
     def to_dict(self) -> dict[str, Any]:
-        return {
-            "behavior": self.behavior,
-            "arm": self.arm,
-            "start": self.start,
-            "end": self.end,
-            "outcome": self.outcome,
-        }
+        return asdict(self)
 
 
 @dataclass
@@ -83,12 +77,41 @@ class RunResult:
     behaviors: list[str] = field(default_factory=list)
     arms: list[str] = field(default_factory=list)
 
+    @classmethod
+    def of_log(
+        cls,
+        outcome: str,
+        ticks: int,
+        time: float,
+        log: list[LogEvent],
+        behaviors: list[str],
+        arms: list[str],
+    ) -> RunResult:
+        """The result whose runs, order and resets are those of the event ``log``."""
+        runs = runs_from_log(log)
+        order = [r.behavior for r in runs if r.outcome == "done"]
+        resets = sum(1 for r in runs if r.outcome == "reset")
+        return cls(outcome, ticks, time, order, runs, resets, list(log), behaviors, arms)
+
     def state_intervals(self) -> dict[str, list[tuple[str, float, float]]]:
         """Per behaviour, the (state, start, end) intervals of the paper's Fig. 4 Gantt chart."""
-        return state_intervals(self.log, self.behaviors, self.time)
+        wanted = set(self.behaviors)
+        current: dict[str, tuple[str, float]] = {b: ("inactive", 0.0) for b in self.behaviors}
+        out: dict[str, list[tuple[str, float, float]]] = {b: [] for b in self.behaviors}
+        for ev in self.log:
+            if ev.kind != "state" or ev.source not in wanted:
+                continue
+            state, since = current[ev.source]
+            if ev.t > since:
+                out[ev.source].append((state, since, ev.t))
+            current[ev.source] = (str(ev.data["to"]), ev.t)
+        for b, (state, since) in current.items():
+            if self.time > since:
+                out[b].append((state, since, self.time))
+        return out
 
-    def to_dict(self, with_log: bool = False) -> dict[str, Any]:
-        data: dict[str, Any] = {
+    def to_dict(self) -> dict[str, Any]:
+        return {
             "outcome": self.outcome,
             "order": list(self.order),
             "ticks": self.ticks,
@@ -97,28 +120,6 @@ class RunResult:
             "arms": list(self.arms),
             "runs": [r.to_dict() for r in self.runs],
         }
-        if with_log:
-            data["log"] = [e.to_dict() for e in self.log]
-        return data
-
-
-def state_intervals(
-    log: list[LogEvent], behaviors: list[str], end: float
-) -> dict[str, list[tuple[str, float, float]]]:
-    wanted = set(behaviors)
-    current: dict[str, tuple[str, float]] = {b: ("inactive", 0.0) for b in behaviors}
-    out: dict[str, list[tuple[str, float, float]]] = {b: [] for b in behaviors}
-    for ev in log:
-        if ev.kind != "state" or ev.source not in wanted:
-            continue
-        state, since = current[ev.source]
-        if ev.t > since:
-            out[ev.source].append((state, since, ev.t))
-        current[ev.source] = (str(ev.data["to"]), ev.t)
-    for b, (state, since) in current.items():
-        if end > since:
-            out[b].append((state, since, end))
-    return out
 
 
 def runs_from_log(log: list[LogEvent]) -> list[Run]:
@@ -221,21 +222,11 @@ class BehaviorNetwork:
         if msg.state == DONE:
             self.finished = True
 
-    @property
-    def tick_count(self) -> int:
-        return self.clock.tick
-
     def node(self, name: str) -> Node:
         try:
             return self.nodes[name]
         except KeyError:
             raise UnknownNameError(f"no node named {name!r}") from None
-
-    def goals(self) -> list[GoalNode]:
-        return [n for n in self.nodes.values() if isinstance(n, GoalNode)]
-
-    def behaviors(self) -> list[BehaviorNode]:
-        return [n for n in self.nodes.values() if isinstance(n, BehaviorNode)]
 
     def tick(self) -> None:
         """One update loop of the whole network (see the module docstring)."""
@@ -281,18 +272,13 @@ class BehaviorNetwork:
         return self.result()
 
     def result(self) -> RunResult:
-        runs = runs_from_log(self.log)
-        done_runs = [r for r in runs if r.outcome == "done"]
-        return RunResult(
-            outcome="done" if self.finished else "timeout",
-            ticks=self.clock.tick,
-            time=self.clock.now(),
-            order=[r.behavior for r in done_runs],
-            runs=runs,
-            resets=sum(1 for r in runs if r.outcome == "reset"),
-            log=list(self.log),
-            behaviors=self.task.behaviors,
-            arms=self.world.arm_names,
+        return RunResult.of_log(
+            "done" if self.finished else "timeout",
+            self.clock.tick,
+            self.clock.now(),
+            self.log,
+            self.task.behaviors,
+            self.world.arm_names,
         )
 
 

@@ -40,9 +40,6 @@ class NodeState(StrEnum):
     RUNNING = "running"
     DONE = "done"
 
-    def __str__(self) -> str:
-        return self.value
-
 
 AND_SPREAD_MODES = ("auto", "divide", "fixed")
 

@@ -31,6 +31,7 @@ from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Any, NamedTuple
 
+from flexhrc.behavior import messages
 from flexhrc.behavior.behaviors import BehaviorNode
 from flexhrc.behavior.network import BehaviorNetwork, Run, RunResult
 from flexhrc.behavior.params import NetworkParams
@@ -65,30 +66,16 @@ class PeerRelease(NamedTuple):
     behavior: str
 
 
-PEER_MESSAGES: tuple[type, ...] = (PeerClaim, PeerReply, PeerDone, PeerRelease)
+PEER_MESSAGES = {c.__name__: c for c in (PeerClaim, PeerReply, PeerDone, PeerRelease)}
 
 
 def peer_topic(robot: str) -> str:
     return f"bnpeer/{robot}"
 
 
-def to_wire(msg: NamedTuple) -> dict[str, Any]:
-    return {"type": type(msg).__name__, **msg._asdict()}
-
-
 def from_wire(data: Any) -> Any:
     """A peer message from its JSON form; ``ValueError`` for anything else."""
-    if not isinstance(data, dict):
-        raise ValueError("a peer message is a JSON object")
-    kinds = {c.__name__: c for c in PEER_MESSAGES}
-    cls = kinds.get(str(data.get("type")))
-    if cls is None:
-        raise ValueError(f"unknown peer message type {data.get('type')!r}")
-    fields = {k: v for k, v in data.items() if k != "type"}
-    expected: tuple[str, ...] = getattr(cls, "_fields", ())
-    if set(fields) != set(expected):
-        raise ValueError(f"{cls.__name__}: expected fields {', '.join(expected)}")
-    return cls(**fields)
+    return messages.from_wire(data, PEER_MESSAGES)
 
 
 @dataclass
@@ -313,9 +300,6 @@ def _or_paths(task: Task) -> dict[str, tuple[tuple[str, int], ...]]:
 # ----------------------------------------------------------------------------- a team, one process
 
 
-ROBOT_HOMES = [arm.home for arm in default_arms(2)]
-
-
 def robot_names(count: int) -> list[str]:
     if not 1 <= count <= 4:
         raise FlexhrcError(f"--robots must be in 1..4, got {count}")
@@ -324,7 +308,7 @@ def robot_names(count: int) -> list[str]:
 
 def robot_world(world: TabletopWorld, index: int, robot: str) -> TabletopWorld:
     """Robot ``index``'s model of the shared table: the same objects (a copy), its own arm."""
-    homes = [*ROBOT_HOMES, (0.15, 0.0, 0.95), (1.05, 0.0, 0.95)]
+    homes = [*(arm.home for arm in default_arms(2)), (0.15, 0.0, 0.95), (1.05, 0.0, 0.95)]
     speed = next(iter(world.arms.values())).speed
     return TabletopWorld(
         copy.deepcopy(list(world.objects.values())),
@@ -368,17 +352,6 @@ class TeamResult:
             },
             "runs": [r.to_dict() for r in self.runs],
         }
-
-
-def team_runs(results: Mapping[str, RunResult]) -> list[Run]:
-    """Every robot's runs, the arm named ``robot/arm``, in start order."""
-    runs = [
-        Run(r.behavior, f"{robot}/{r.arm}", r.start, r.end, r.outcome)
-        for robot, result in results.items()
-        for r in result.runs
-    ]
-    runs.sort(key=lambda r: (r.start, r.behavior))
-    return runs
 
 
 def run_team(
@@ -434,6 +407,12 @@ def run_team(
         if on_tick is not None:
             on_tick(tick)
     results = {name: nets[name].result() for name in names}
+    runs = [  # every robot's runs, the arm named robot/arm, in start order
+        Run(r.behavior, f"{robot}/{r.arm}", r.start, r.end, r.outcome)
+        for robot, result in results.items()
+        for r in result.runs
+    ]
+    runs.sort(key=lambda r: (r.start, r.behavior))
     done = bool(alive) and all(nets[n].finished for n in alive)
     period = nets[names[0]].params.tick_period
     return TeamResult(
@@ -442,6 +421,6 @@ def run_team(
         lost,
         tick,
         round(tick * period, 9),
-        team_runs(results),
+        runs,
         lost_at,
     )

@@ -14,12 +14,16 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 from flexhrc.behavior.network import Run, RunResult
 from flexhrc.behavior.render import STATE_COLOURS
 from flexhrc.errors import OptionalDependencyError
 
 STATE_ORDER = ("inactive", "active", "running", "done")
+#: How the chart (and its legend) marks a reset by validity checking and an object moved.
+RESET_MARK: dict[str, Any] = {"marker": "x", "color": "#cc0000", "markersize": 10, "mew": 2.5}
+MOVE_MARK: dict[str, Any] = {"marker": "v", "color": "#cc0000", "markersize": 7}
 
 
 def _pyplot():  # type: ignore[no-untyped-def, unused-ignore]
@@ -42,8 +46,7 @@ def gantt(result: RunResult, path: str | Path, title: str | None = None) -> Path
     intervals = result.state_intervals()
     arms = list(result.arms)
     run_arm: dict[tuple[str, float], str] = {(r.behavior, r.start): r.arm for r in result.runs}
-    fig_h = 0.9 + 0.42 * len(behaviors)
-    fig, ax = plt.subplots(figsize=(11, max(2.8, fig_h)))
+    fig, ax = _chart(plt, behaviors, max(result.time, 1e-6))
     for row, name in enumerate(reversed(behaviors)):
         for state, t0, t1 in intervals.get(name, []):
             kwargs = {"color": STATE_COLOURS[state], "edgecolor": "none"}
@@ -58,20 +61,13 @@ def gantt(result: RunResult, path: str | Path, title: str | None = None) -> Path
                     (t0 + t1) / 2, row, arm, ha="center", va="center", fontsize=7, color="white"
                 )
     rows = {name: row for row, name in enumerate(reversed(behaviors))}
+    moved = False
     for ev in result.log:
         if ev.kind == "reset" and ev.source in rows:
-            ax.plot(ev.t, rows[ev.source], marker="x", color="#cc0000", markersize=10, mew=2.5)
+            ax.plot(ev.t, rows[ev.source], **RESET_MARK)
         elif ev.kind == "move" and str(ev.data.get("object")) in rows:
-            ax.plot(
-                ev.t, rows[str(ev.data["object"])] + 0.42, marker="v", color="#cc0000", markersize=7
-            )
-    ax.set_yticks(range(len(behaviors)))
-    ax.set_yticklabels(list(reversed(behaviors)))
-    ax.set_xlabel("time (s)")
-    ax.set_xlim(0, max(result.time, 1e-6))
-    ax.set_ylim(-0.6, len(behaviors) - 0.3)
-    ax.grid(axis="x", color="#bbbbbb", linewidth=0.5, alpha=0.7)
-    ax.set_axisbelow(True)
+            ax.plot(ev.t, rows[str(ev.data["object"])] + 0.42, **MOVE_MARK)
+            moved = True
     handles = [
         Patch(
             color=STATE_COLOURS[s],
@@ -88,52 +84,15 @@ def gantt(result: RunResult, path: str | Path, title: str | None = None) -> Path
                 label=f"running ({arms[1]})",
             )
         )
-    moved = any(ev.kind == "move" and str(ev.data.get("object")) in rows for ev in result.log)
-    if moved:
-        handles.append(
-            plt.Line2D(
-                [],
-                [],
-                marker="v",
-                color="#cc0000",
-                linestyle="none",
-                markersize=7,
-                label="object moved by the experimenter",
-            )
-        )
-    if result.resets:
-        handles.append(
-            plt.Line2D(
-                [],
-                [],
-                marker="x",
-                color="#cc0000",
-                linestyle="none",
-                mew=2.5,
-                label="reset (validity check)",
-            )
-        )
-    ax.legend(
-        handles=handles,
-        loc="upper center",
-        bbox_to_anchor=(0.5, -0.12),
-        ncol=min(len(handles), 4),
-        frameon=False,
-    )
+    for shown, mark, label in (
+        (moved, MOVE_MARK, "object moved by the experimenter"),
+        (result.resets, RESET_MARK, "reset (validity check)"),
+    ):
+        if shown:
+            handles.append(plt.Line2D([], [], linestyle="none", label=label, **mark))
     order = ", ".join(result.order)
-    ax.set_title(title or f"Behaviour states over time — order: {order}", fontsize=10)
-    fig.tight_layout()
-    out = Path(path)
-    from flexhrc.files import OutputPathError, atomic_output
-
-    try:
-        with atomic_output(out) as tmp:
-            fig.savefig(tmp, dpi=120, format=out.suffix.lstrip(".").lower() or None)
-    except OSError as exc:
-        raise OutputPathError(f"--plot {out}: cannot write: {exc.strerror or exc}") from None
-    finally:
-        plt.close(fig)
-    return out
+    title = title or f"Behaviour states over time — order: {order}"
+    return _save(plt, fig, ax, handles, min(len(handles), 4), title, path)
 
 
 ROBOT_COLOURS = ("#3c78d8", "#e69138", "#6aa84f", "#8e7cc3")
@@ -157,7 +116,7 @@ def team_gantt(
     colour = {robot: ROBOT_COLOURS[i % len(ROBOT_COLOURS)] for i, robot in enumerate(robots)}
     end = max([r.end or r.start for r in runs] + [1e-6])
     rows = {name: row for row, name in enumerate(reversed(behaviors))}
-    fig, ax = plt.subplots(figsize=(11, max(2.8, 0.9 + 0.42 * len(behaviors))))
+    fig, ax = _chart(plt, behaviors, end)
     for r in runs:
         if r.behavior not in rows:
             continue
@@ -169,13 +128,6 @@ def team_gantt(
         elif r.outcome == "unfinished":
             kwargs.update(edgecolor="#cc0000", linewidth=2, alpha=0.5)
         ax.barh(rows[r.behavior], stop - r.start, left=r.start, height=0.62, **kwargs)
-    ax.set_yticks(range(len(behaviors)))
-    ax.set_yticklabels(list(reversed(behaviors)))
-    ax.set_xlabel("time (s)")
-    ax.set_xlim(0, end)
-    ax.set_ylim(-0.6, len(behaviors) - 0.3)
-    ax.grid(axis="x", color="#bbbbbb", linewidth=0.5, alpha=0.7)
-    ax.set_axisbelow(True)
     handles = [Patch(color=colour[robot], label=f"running on {robot}") for robot in robots]
     if any(r.outcome == "reset" for r in runs):
         handles.append(Patch(facecolor="#999999", hatch="///", edgecolor="white", label="reset"))
@@ -185,17 +137,37 @@ def team_gantt(
                 facecolor="#dddddd", edgecolor="#cc0000", linewidth=2, label="cut off (robot lost)"
             )
         )
-    ax.legend(
-        handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=4, frameon=False
-    )
     heading = title or "Who did what"
     if lost:
         heading += f" — lost: {', '.join(lost)}"
-    ax.set_title(heading, fontsize=10)
-    fig.tight_layout()
-    out = Path(path)
+    return _save(plt, fig, ax, handles, 4, heading, path)
+
+
+def _chart(plt: Any, behaviors: list[str], end: float) -> tuple[Any, Any]:
+    """A figure with one row per behaviour (the first at the top), time along x up to ``end``."""
+    fig, ax = plt.subplots(figsize=(11, max(2.8, 0.9 + 0.42 * len(behaviors))))
+    ax.set_yticks(range(len(behaviors)))
+    ax.set_yticklabels(list(reversed(behaviors)))
+    ax.set_xlabel("time (s)")
+    ax.set_xlim(0, end)
+    ax.set_ylim(-0.6, len(behaviors) - 0.3)
+    ax.grid(axis="x", color="#bbbbbb", linewidth=0.5, alpha=0.7)
+    ax.set_axisbelow(True)
+    return fig, ax
+
+
+def _save(
+    plt: Any, fig: Any, ax: Any, handles: list[Any], ncol: int, title: str, path: str | Path
+) -> Path:
+    """The legend under the chart, the title, and the file written atomically."""
     from flexhrc.files import OutputPathError, atomic_output
 
+    ax.legend(
+        handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=ncol, frameon=False
+    )
+    ax.set_title(title, fontsize=10)
+    fig.tight_layout()
+    out = Path(path)
     try:
         with atomic_output(out) as tmp:
             fig.savefig(tmp, dpi=120, format=out.suffix.lstrip(".").lower() or None)

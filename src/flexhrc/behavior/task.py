@@ -91,21 +91,6 @@ class Task:
     def size(self) -> int:
         return sum(1 for _ in self.walk())
 
-    def node(self, name: str) -> TaskNode:
-        for n in self.walk():
-            if n.name == name:
-                return n
-        from flexhrc.errors import UnknownNameError
-
-        raise UnknownNameError(f"no node named {name!r} in the task")
-
-    def parents(self) -> dict[str, str | None]:
-        out: dict[str, str | None] = {self.root.name: None}
-        for n in self.walk():
-            for c in n.children:
-                out[c.name] = n.name
-        return out
-
     def to_prefix(self) -> str:
         return self.root.to_prefix()
 

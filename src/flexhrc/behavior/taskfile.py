@@ -33,6 +33,8 @@ Every error names the file and the line (``file:line: message``).
 from __future__ import annotations
 
 import re
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -101,78 +103,77 @@ def _check_keys(fields: dict[str, Any], allowed: set[str], what: str, source: st
             )
 
 
+def _fields(
+    node: Any, what: str, source: str, allowed: set[str], required: tuple[str, ...] = ()
+) -> dict[str, Any]:
+    """A mapping with only ``allowed`` keys and every ``required`` one: key -> value node."""
+    fields = _mapping(node, what, source)
+    _check_keys(fields, allowed, what, source)
+    missing = [repr(key) for key in required if key not in fields]
+    if missing:
+        raise FormatError(f"{what}: missing {' and '.join(missing)}", source, _line(node))
+    return fields
+
+
+def _sequence(node: Any, message: str, source: str, *, empty: bool = True) -> list[Any]:
+    """The items of a list node (none for a key not given)."""
+    import yaml
+
+    if node is None:
+        return []
+    if not isinstance(node, yaml.SequenceNode) or not (empty or node.value):
+        raise FormatError(message, source, _line(node))
+    return list(node.value)
+
+
+@contextmanager
+def _at(source: str, node: Any) -> Iterator[None]:
+    """A :class:`FlexhrcError` of the world's own checks, with the file and line of ``node``."""
+    try:
+        yield
+    except FlexhrcError as exc:
+        raise FormatError(str(exc), source, _line(node)) from None
+
+
 def world_from_yaml_node(node: Any, source: str, arms: int | None = None) -> TabletopWorld:
     """Build a :class:`TabletopWorld` from a composed YAML ``world:`` node."""
-    fields = _mapping(node, "world", source)
-    _check_keys(fields, {"arms", "objects", "moves", "grasp_time", "place_time"}, "world", source)
-    if "objects" not in fields:
-        raise FormatError("world: missing 'objects'", source, _line(node))
+    keys = {"arms", "objects", "moves", "grasp_time", "place_time"}
+    fields = _fields(node, "world", source, keys, ("objects",))
     objects = []
     for k, v in _mapping(fields["objects"], "world.objects", source).items():
-        spec = _mapping(v, f"object {k!r}", source)
-        _check_keys(spec, {"position", "target"}, f"object {k!r}", source)
-        if "position" not in spec:
-            raise FormatError(f"object {k!r}: missing 'position'", source, _line(v))
+        spec = _fields(v, f"object {k!r}", source, {"position", "target"}, ("position",))
         target = _vec(spec["target"], f"object {k!r} target", source) if "target" in spec else None
         objects.append(
             WorldObject(k, _vec(spec["position"], f"object {k!r} position", source), target)
         )
-    arm_list: list[Arm]
+    arm_list: list[Arm] = []
     if "arms" in fields and arms is None:
-        import yaml
-
-        seq = fields["arms"]
-        if not isinstance(seq, yaml.SequenceNode) or not seq.value:
-            raise FormatError("world.arms must be a non-empty list", source, _line(seq))
-        arm_list = []
-        for a in seq.value:
-            spec = _mapping(a, "arm", source)
-            _check_keys(spec, {"name", "home", "speed"}, "arm", source)
-            if "name" not in spec or "home" not in spec:
-                raise FormatError("arm: needs 'name' and 'home'", source, _line(a))
+        listed = _sequence(
+            fields["arms"], "world.arms must be a non-empty list", source, empty=False
+        )
+        for a in listed:
+            spec = _fields(a, "arm", source, {"name", "home", "speed"}, ("name", "home"))
             speed = _number(spec["speed"], "arm speed", source) if "speed" in spec else 0.25
-            try:
+            with _at(source, a):
                 arm_list.append(
                     Arm(str(spec["name"].value), _vec(spec["home"], "arm home", source), speed)
                 )
-            except FlexhrcError as exc:
-                raise FormatError(str(exc), source, _line(a)) from None
     else:
         arm_list = default_arms(arms or 1)
     moves = []
-    if "moves" in fields:
-        import yaml
-
-        seq = fields["moves"]
-        if not isinstance(seq, yaml.SequenceNode):
-            raise FormatError("world.moves must be a list", source, _line(seq))
-        for m in seq.value:
-            spec = _mapping(m, "move", source)
-            _check_keys(spec, {"object", "to", "at", "during_grasp"}, "move", source)
-            if "object" not in spec or "to" not in spec:
-                raise FormatError("move: needs 'object' and 'to'", source, _line(m))
-            at = _number(spec["at"], "move 'at'", source) if "at" in spec else None
-            dg = (
-                _number(spec["during_grasp"], "move 'during_grasp'", source)
-                if "during_grasp" in spec
-                else None
+    for m in _sequence(fields.get("moves"), "world.moves must be a list", source):
+        spec = _fields(m, "move", source, {"object", "to", "at", "during_grasp"}, ("object", "to"))
+        at, dg = (
+            _number(spec[k], f"move {k!r}", source) if k in spec else None
+            for k in ("at", "during_grasp")
+        )
+        with _at(source, m):
+            moves.append(
+                MoveRule(str(spec["object"].value), _vec(spec["to"], "move 'to'", source), at, dg)
             )
-            try:
-                moves.append(
-                    MoveRule(
-                        str(spec["object"].value), _vec(spec["to"], "move 'to'", source), at, dg
-                    )
-                )
-            except FlexhrcError as exc:
-                raise FormatError(str(exc), source, _line(m)) from None
-    kwargs = {}
-    for key in ("grasp_time", "place_time"):
-        if key in fields:
-            kwargs[key] = _number(fields[key], key, source)
-    try:
-        return TabletopWorld(objects, arm_list, moves, **kwargs)
-    except FlexhrcError as exc:
-        raise FormatError(str(exc), source, _line(node)) from None
+    times = {k: _number(fields[k], k, source) for k in ("grasp_time", "place_time") if k in fields}
+    with _at(source, node):
+        return TabletopWorld(objects, arm_list, moves, **times)
 
 
 def compose(text: str, source: str) -> Any:
@@ -198,10 +199,8 @@ def load_task_document(text: str, source: str = "<task>", arms: int | None = Non
         raise FormatError("empty task file", source, 1)
     if isinstance(root, yaml.ScalarNode):
         return TaskDocument(build_task(task_spec_from_yaml_node(root, source), source), None)
-    fields = _mapping(root, "task file", source)
-    _check_keys(
-        fields, {"name", "task", "world", "description", "types", "behaviors"}, "task file", source
-    )
+    keys = {"name", "task", "world", "description", "types", "behaviors"}
+    fields = _fields(root, "task file", source, keys)
     if "task" not in fields:
         raise FormatError("missing 'task' (e.g. task: {THEN: [a, b]})", source, _line(root))
     task = build_task(task_spec_from_yaml_node(fields["task"], source), source)
@@ -251,20 +250,9 @@ def _types(node: Any, source: str) -> dict[str, BehaviorTypeBuilder]:
             )
         base = str(spec["base"].value)
         defaults = {k: _plain(v) for k, v in spec.items() if k != "base"}
-        try:  # a base declared earlier in this file, or a registered type
-            out[key] = (
-                _derive_local(out[base], defaults) if base in out else derived_type(base, defaults)
-            )
-        except FlexhrcError as exc:
-            raise FormatError(str(exc), source, _line(spec["base"])) from None
+        with _at(source, spec["base"]):  # a base declared earlier in this file, or registered
+            out[key] = derived_type(out.get(base, base), defaults)
     return out
-
-
-def _derive_local(parent: BehaviorTypeBuilder, defaults: dict[str, Any]) -> BehaviorTypeBuilder:
-    def builder(leaf: str, params: Any) -> BehaviorFactory:
-        return parent(leaf, {**defaults, **params})
-
-    return builder
 
 
 def _behaviors(

@@ -31,10 +31,10 @@ import math
 from collections.abc import Callable, Mapping
 from typing import Any
 
-from flexhrc.behavior.behaviors import BehaviorNode, PickAndPlace
+from flexhrc.behavior.behaviors import BehaviorNode, MotionBehavior, PickAndPlace
 from flexhrc.behavior.params import NetworkParams
 from flexhrc.behavior.validity import ValidityCheck
-from flexhrc.behavior.world import PickAndPlaceMotion, TabletopWorld, Vec, vec
+from flexhrc.behavior.world import TabletopWorld, Vec, vec
 from flexhrc.errors import FlexhrcError, UnknownNameError
 from flexhrc.transport.base import Transport
 
@@ -67,9 +67,12 @@ def behavior_type(name: str) -> BehaviorTypeBuilder:
         ) from None
 
 
-def derived_type(base: str, defaults: Mapping[str, Any]) -> BehaviorTypeBuilder:
-    """A type declared in YAML: ``base`` with default parameters."""
-    parent = behavior_type(base)
+def derived_type(
+    base: str | BehaviorTypeBuilder, defaults: Mapping[str, Any]
+) -> BehaviorTypeBuilder:
+    """A type declared in YAML: ``base`` (a registered name, or a type itself) with default
+    parameters."""
+    parent = behavior_type(base) if isinstance(base, str) else base
 
     def builder(leaf: str, params: Mapping[str, Any]) -> BehaviorFactory:
         return parent(leaf, {**defaults, **params})
@@ -98,7 +101,7 @@ def _pick_and_place(leaf: str, params: Mapping[str, Any]) -> BehaviorFactory:
     return make
 
 
-class Visit(BehaviorNode):
+class Visit(MotionBehavior):
     """Move an arm to a pose (absolute, or relative to an object), hold, return (type ``visit``)."""
 
     def __init__(
@@ -113,15 +116,12 @@ class Visit(BehaviorNode):
         offset: Vec = (0.0, 0.0, 0.2),
         dwell: float = 1.0,
     ) -> None:
-        super().__init__(name, world.arm_names, transport, params, obj)
+        super().__init__(name, world, transport, params, obj)
         if obj is not None:
             world.object_index(obj)
-        self._world = world
         self._pose = pose
         self._offset = offset
         self.dwell = dwell
-        self._motion: PickAndPlaceMotion | None = None
-        self._check: ValidityCheck | None = None
 
     def pose(self) -> Vec:
         if self._pose is not None:
@@ -145,22 +145,6 @@ class Visit(BehaviorNode):
                 self._world, self.object, self._params.validity_threshold
             )
         return {"pose": [round(v, 3) for v in self.pose()], "duration": self._motion.duration}
-
-    def step_action(self) -> str:
-        motion = self._motion
-        assert motion is not None
-        holding = self.now < motion.t_grasp  # until the dwell at the pose is over
-        if holding and self._check is not None and not self._check.valid(self._world):
-            return "invalid"
-        return "done" if self.now >= motion.t_end else "running"
-
-    def abort_action(self) -> dict[str, object]:
-        assert self._motion is not None
-        moved = self._check.displacement(self._world) if self._check is not None else 0.0
-        self._world.abort(self._motion.arm, self.now)
-        self._motion = None
-        self._check = None
-        return {"object": self.object, "reason": "object moved", "moved": round(moved, 4)}
 
 
 def _vec_param(value: Any, what: str) -> Vec:

@@ -21,11 +21,15 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
+from itertools import pairwise
 from typing import Any
 
 from flexhrc.errors import FlexhrcError, UnknownNameError
 
 Vec = tuple[float, float, float]
+
+#: The phases of a :class:`PickAndPlaceMotion`, in order (then ``finished``).
+PHASES = ("reach", "grasp", "carry", "place", "return")
 
 #: Table height and reach region used by generated default worlds (metres, robot base frame).
 TABLE_Z = 0.75
@@ -106,39 +110,28 @@ class PickAndPlaceMotion:
     t_end: float
 
     def phase_at(self, t: float) -> str:
-        if t < self.t_reach:
-            return "reach"
-        if t < self.t_grasp:
-            return "grasp"
-        if t < self.t_carry:
-            return "carry"
-        if t < self.t_place:
-            return "place"
-        if t < self.t_end:
-            return "return"
-        return "finished"
+        ends = (self.t_reach, self.t_grasp, self.t_carry, self.t_place, self.t_end)
+        return next((phase for phase, end in zip(PHASES, ends, strict=True) if t < end), "finished")
 
     def grasped(self, t: float) -> bool:
         """True once the gripper has closed on the object (validity checking stops then)."""
         return t >= self.t_grasp
 
     def position_at(self, t: float) -> Vec:
+        """Straight lines between the poses of the phases: the arm's position at time ``t``."""
         if t <= self.start:
             return self.start_pos
-        if t < self.t_reach:
-            return _lerp(
-                self.start_pos, self.grasp_pos, (t - self.start) / (self.t_reach - self.start)
-            )
-        if t < self.t_grasp:
-            return self.grasp_pos
-        if t < self.t_carry:
-            return _lerp(
-                self.grasp_pos, self.target, (t - self.t_grasp) / (self.t_carry - self.t_grasp)
-            )
-        if t < self.t_place:
-            return self.target
-        if t < self.t_end:
-            return _lerp(self.target, self.home, (t - self.t_place) / (self.t_end - self.t_place))
+        poses = (
+            (self.start, self.start_pos),
+            (self.t_reach, self.grasp_pos),
+            (self.t_grasp, self.grasp_pos),
+            (self.t_carry, self.target),
+            (self.t_place, self.target),
+            (self.t_end, self.home),
+        )
+        for (t0, p0), (t1, p1) in pairwise(poses):
+            if t < t1:
+                return p0 if p0 is p1 else _lerp(p0, p1, (t - t0) / (t1 - t0))
         return self.home
 
     @property
@@ -185,8 +178,6 @@ class TabletopWorld:
         self._fired = [False] * len(self.moves)
         self.grasp_time = float(grasp_time)
         self.place_time = float(place_time)
-        #: Incremented whenever an object or an arm moves.
-        self.version = 0
         #: Incremented by :meth:`step` when something the activation potentials depend on changed
         #: (an object position, an arm's free position), so behaviours can cache their sensing.
         self.sensing_version = 0
@@ -217,10 +208,6 @@ class TabletopWorld:
 
     def arm_position(self, arm: str) -> Vec:
         return self._arm(arm).position
-
-    def distance(self, arm: str, obj: str) -> float:
-        """Distance from the arm's free position (see :attr:`Arm.free_position`) to the object."""
-        return math.dist(self._arm(arm).free_position, self._object(obj).position)
 
     def object_index(self, name: str) -> int:
         """Stable index of an object, for :meth:`potentials`."""
@@ -312,64 +299,37 @@ class TabletopWorld:
 
     # -- acting --------------------------------------------------------------------------------
     def start_pick_and_place(self, arm: str, obj: str, now: float) -> PickAndPlaceMotion:
-        a = self._arm(arm)
         o = self._object(obj)
-        if a.motion is not None:
-            raise FlexhrcError(f"arm {arm!r} is busy with {a.motion.object!r}")
         target = o.target if o.target is not None else o.position
-        t_reach = now + math.dist(a.position, o.position) / a.speed
-        t_grasp = t_reach + self.grasp_time
-        t_carry = t_grasp + math.dist(o.position, target) / a.speed
-        t_place = t_carry + self.place_time
-        t_end = t_place + math.dist(target, a.home) / a.speed
-        motion = PickAndPlaceMotion(
-            arm,
-            obj,
-            now,
-            a.position,
-            o.position,
-            target,
-            a.home,
-            t_reach,
-            t_grasp,
-            t_carry,
-            t_place,
-            t_end,
-        )
-        a.motion = motion
-        self._sensing_changed(set())
-        return motion
+        return self._start(arm, obj, o.position, target, self.grasp_time, self.place_time, now)
 
     def start_move(self, arm: str, pose: Vec, dwell: float, now: float) -> PickAndPlaceMotion:
         """Move ``arm`` to ``pose``, hold it there ``dwell`` seconds, and return home — for
         behaviours that carry nothing (look at an object, point, wait for a hand-over). The
         motion's phases are ``reach``, ``grasp`` (the dwell) and ``return``."""
-        a = self._arm(arm)
-        if a.motion is not None:
-            raise FlexhrcError(f"arm {arm!r} is busy with {a.motion.object!r}")
         if not (math.isfinite(dwell) and dwell >= 0):
             raise FlexhrcError(f"dwell must be a finite number >= 0, got {dwell}")
         pose = vec(pose)
-        t_reach = now + math.dist(a.position, pose) / a.speed
-        t_dwell = t_reach + dwell
-        t_end = t_dwell + math.dist(pose, a.home) / a.speed
-        motion = PickAndPlaceMotion(
-            arm,
-            None,
-            now,
-            a.position,
-            pose,
-            pose,
-            a.home,
-            t_reach,
-            t_dwell,
-            t_dwell,
-            t_dwell,
-            t_end,
+        return self._start(arm, None, pose, pose, dwell, 0.0, now)
+
+    def _start(
+        self, arm: str, obj: str | None, at: Vec, to: Vec, hold: float, place: float, now: float
+    ) -> PickAndPlaceMotion:
+        """Reach ``at``, hold ``hold`` s, carry to ``to``, hold ``place`` s, return home: the
+        straight-line motion of every behaviour, at the arm's speed."""
+        a = self._arm(arm)
+        if a.motion is not None:
+            raise FlexhrcError(f"arm {arm!r} is busy with {a.motion.object!r}")
+        t_reach = now + math.dist(a.position, at) / a.speed
+        t_grasp = t_reach + hold
+        t_carry = t_grasp + math.dist(at, to) / a.speed
+        t_place = t_carry + place
+        t_end = t_place + math.dist(to, a.home) / a.speed
+        a.motion = PickAndPlaceMotion(
+            arm, obj, now, a.position, at, to, a.home, t_reach, t_grasp, t_carry, t_place, t_end
         )
-        a.motion = motion
         self._sensing_changed(set())
-        return motion
+        return a.motion
 
     def abort(self, arm: str, now: float) -> None:
         """Stop the arm where it is (the behaviour was reset by validity checking)."""
@@ -380,12 +340,10 @@ class TabletopWorld:
             if o is not None and o.held_by == arm:
                 o.held_by = None
             a.motion = None
-            self.version += 1
             self._sensing_changed()
 
     def move_object(self, name: str, to: Vec) -> None:
         self._object(name).position = to
-        self.version += 1
         self._sensing_changed({name})
 
     def step(self, now: float) -> list[dict[str, Any]]:
@@ -428,7 +386,6 @@ class TabletopWorld:
                     a.motion = None
                     a.position = a.home
                     self._sensing_changed(set())
-                self.version += 1
                 continue
             obj = self.objects[m.object]
             moved_object = False
@@ -444,7 +401,6 @@ class TabletopWorld:
             if phase == "finished":
                 a.motion = None
                 a.position = a.home
-            self.version += 1
             if phase == "finished" or moved_object:
                 self._sensing_changed({obj.name} if moved_object else set())
         self._publish_sensing()

@@ -11,36 +11,23 @@ Actions on a task or a log (the first argument names the action):
   flexhrc behave render TASK -o OUT.svg [--log LOG --at SECONDS]
                                                      the network, coloured by node state
   flexhrc behave compile TASK -o graph.yaml          the task as a flexhrc AND/OR graph
+
+Each only translates its arguments into a config of flexhrc.behavior.behave, calls it and prints
+the report (a scenario name becomes the task it names here).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import math
-import signal
-import sys
-import time
+from dataclasses import fields, replace
 from pathlib import Path
 from typing import Any
 
-from flexhrc.cli.behave_common import (
-    check_plot,
-    is_file,
-    live_line,
-    resolve,
-    resolve_document,
-    summary_lines,
-    trace_line,
-)
 from flexhrc.cli.common import add_json_flag, emit, log
-from flexhrc.errors import FlexhrcError
+from flexhrc.errors import FlexhrcError, UnknownNameError
 
-RENDER_SUFFIXES = (".dot", ".gv", ".svg", ".png", ".pdf")
-GRAPH_SUFFIXES = (".yaml", ".yml")
 ACTIONS = ("replay", "render", "compile")
-MAX_SEED = 2**63 - 1
-MAX_TICKS = 10**9
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:  # type: ignore[type-arg, unused-ignore]
@@ -147,25 +134,19 @@ def register(subparsers: argparse._SubParsersAction) -> None:  # type: ignore[ty
     p.set_defaults(func=run)
 
 
-# ----------------------------------------------------------------------------- checks
+# ----------------------------------------------------------------------------- translation
+
+#: The options each action takes (a run: ``--layout`` and those of BehaveConfig).
+OPTIONS = {
+    "replay": {"plot"},
+    "render": {"layout", "arms", "seed", "log", "at", "output"},
+    "compile": {"layout", "arms", "seed", "output"},
+}
 
 
-def _check_args(args: argparse.Namespace) -> None:
-    """Numbers and option combinations, before anything is loaded or run."""
-    if args.target == "" or (args.target in ACTIONS and args.operand == ""):
-        raise FlexhrcError(
-            "TASK_OR_SCENARIO is empty: give a scenario name (table-setting, "
-            "table-setting-robustness, abstract), a task file or an inline task such as "
-            "'(THEN a (AND b c))'"
-        )
-    if not 0 <= args.seed <= MAX_SEED:
-        raise FlexhrcError(f"--seed must be an integer in 0..2**63-1, got {args.seed}")
-    if args.max_ticks is not None and not 1 <= args.max_ticks <= MAX_TICKS:
-        raise FlexhrcError(f"--max-ticks must be in 1..{MAX_TICKS}, got {args.max_ticks}")
-    if args.realtime is not None and not (math.isfinite(args.realtime) and args.realtime > 0):
-        raise FlexhrcError(f"--realtime SPEED must be a finite number > 0, got {args.realtime}")
-    if args.at is not None and not (math.isfinite(args.at) and args.at >= 0):
-        raise FlexhrcError(f"--at must be a finite number of seconds >= 0, got {args.at}")
+def _action(args: argparse.Namespace) -> str | None:
+    """The action, once the operand and the options fit it (the values are the configs' to
+    check)."""
     action = args.target if args.target in ACTIONS else None
     if action is None and args.operand is not None:
         raise FlexhrcError(
@@ -175,363 +156,79 @@ def _check_args(args: argparse.Namespace) -> None:
     if action is not None and args.operand is None:
         what = "LOG" if action == "replay" else "TASK"
         raise FlexhrcError(f"behave {action} needs a {what}")
-    if args.robots is not None and not 1 <= args.robots <= 4:
-        raise FlexhrcError(f"--robots must be in 1..4, got {args.robots}")
-    team = args.robots is not None and args.robots > 1
-    if args.transport is not None and not team:
-        raise FlexhrcError("--transport needs --robots 2 (or more)")
-    if (args.robot is not None or args.peer_port is not None) and args.transport != "zenoh":
-        raise FlexhrcError("--robot and --peer-port are for --robots N --transport zenoh")
-    if args.robot is not None and args.peer_port is None:
-        raise FlexhrcError("--robot needs --peer-port")
-    if args.peer_port is not None and not 1 <= args.peer_port <= 65535:
-        raise FlexhrcError(f"--peer-port must be in 1..65535, got {args.peer_port}")
-    if team:
-        for name, flag in (("arms", "--arms"), ("render", "--render")):
-            if getattr(args, name) is not None:
-                raise FlexhrcError(f"{flag} does not apply with --robots (each robot has one arm)")
-    allowed = {
-        None: {
-            "layout",
-            "arms",
-            "seed",
-            "plot",
-            "render",
-            "log",
-            "max_ticks",
-            "realtime",
-            "robots",
-            "transport",
-        },
-        "replay": {"plot"},
-        "render": {"layout", "arms", "seed", "log", "at", "output"},
-        "compile": {"layout", "arms", "seed", "output"},
-    }[action]
-    defaults = {"seed": 0}
-    for name in (
+    from flexhrc.behavior.command import BehaveConfig
+
+    given_anywhere = ("target", "types", "child_args")  # the task itself, --types; internal
+    run_options = [
         "layout",
-        "arms",
-        "seed",
-        "plot",
-        "render",
-        "log",
-        "max_ticks",
-        "realtime",
-        "robots",
-        "transport",
-    ):
+        *(f.name for f in fields(BehaveConfig) if f.name not in given_anywhere),
+    ]
+    allowed = OPTIONS[action] if action else set(run_options)
+    for name in run_options:
         value = getattr(args, name)
-        if name not in allowed and value is not None and value != defaults.get(name):
-            flag = "--" + name.replace("_", "-")
+        if name not in allowed and value is not None and not (name == "seed" and value == 0):
             where = f"behave {action}" if action else "a run"
-            raise FlexhrcError(f"{flag} does not apply to {where}")
+            raise FlexhrcError(f"--{name.replace('_', '-')} does not apply to {where}")
     for name, flag in (("output", "-o"), ("at", "--at")):
         if getattr(args, name) is not None and name not in allowed:
-            raise FlexhrcError(
-                f"{flag} only applies to behave render"
-                + (" and behave compile" if name == "output" else "")
-            )
-    if args.render is not None:
-        for name in ("log", "plot", "max_ticks", "realtime"):
-            if getattr(args, name) is not None:
-                flag = "--" + name.replace("_", "-")
-                raise FlexhrcError(
-                    f"{flag} does not apply with --render (it prints the network and exits)"
-                )
+            also = " and behave compile" if name == "output" else ""
+            raise FlexhrcError(f"{flag} only applies to behave render{also}")
     if action in ("render", "compile") and args.output is None:
         raise FlexhrcError(f"behave {action} needs -o OUT")
-    if args.at is not None and args.log is None:
-        raise FlexhrcError("--at needs --log (the run whose states to show)")
+    return action
 
 
-# ----------------------------------------------------------------------------- commands
+def _task(args: argparse.Namespace, text: str) -> Any:
+    """A scenario name as the task it names (``--layout``, ``--arms``, ``--seed``); a task file
+    or an inline task as it is, for the library to read."""
+    from flexhrc.behavior.command import LoadedTask, is_task_text
+    from flexhrc.scenario.builtin.table_setting import SCENARIOS, load_scenario
+
+    if text in SCENARIOS:
+        sc = load_scenario(text, args.layout, args.arms or 1, args.seed)
+        label = sc.name + (f" (layout {sc.layout})" if sc.layout else "")
+        return LoadedTask(label, sc.task, sc.world)
+    if args.layout is not None:
+        raise FlexhrcError("--layout only applies to the table-setting scenario")
+    if not is_task_text(text):
+        raise UnknownNameError(
+            f"unknown scenario {text!r} (known: {', '.join(SCENARIOS)}); "
+            "or give a task file (.yaml/.txt) or an inline task such as '(THEN a (AND b c))'"
+        )
+    return text
 
 
-def import_types(modules: list[str] | None) -> None:
-    """Import the ``--types`` modules (they register behaviour types when imported)."""
-    import importlib
-    import importlib.util
-
-    for name in modules or ():
-        try:
-            if name.endswith(".py") or "/" in name:
-                path = Path(name)
-                if not path.is_file():
-                    raise FlexhrcError(f"--types {name}: no such file")
-                spec = importlib.util.spec_from_file_location(f"flexhrc_types_{path.stem}", path)
-                if spec is None or spec.loader is None:
-                    raise FlexhrcError(f"--types {name}: not a Python module")
-                module = importlib.util.module_from_spec(spec)
-                sys.modules[spec.name] = module
-                spec.loader.exec_module(module)
-            else:
-                importlib.import_module(name)
-        except FlexhrcError:
-            raise
-        except Exception as exc:  # the user's module failed: say which and how
-            raise FlexhrcError(f"--types {name}: {type(exc).__name__}: {exc}") from None
+def _config(cls: Any, args: argparse.Namespace, **given: Any) -> Any:
+    """A ``cls`` config: ``given``, and the options of the same names that were given."""
+    names = {f.name for f in fields(cls)} - set(given)
+    return cls(
+        **{n: getattr(args, n) for n in names if getattr(args, n, None) is not None}, **given
+    )
 
 
 def run(args: argparse.Namespace) -> int:
-    _check_args(args)
-    import_types(args.types)
-    if args.target == "replay":
-        return _replay(args)
-    if args.target == "render":
-        return _render(args)
-    if args.target == "compile":
-        return _compile(args)
-    if args.robots is not None and args.robots > 1:
-        from flexhrc.cli.behave_team import run_team_command
+    from flexhrc.behavior import behave
 
-        return run_team_command(args)
-    return _run(args)
-
-
-class _Terminated(Exception):
-    """SIGTERM during a run: finish the log, then exit like an interrupt."""
-
-
-def _run(args: argparse.Namespace) -> int:
-    from flexhrc.behavior.logfile import end_record, event_record, header_record
-    from flexhrc.behavior.network import BehaviorNetwork, default_max_ticks
-    from flexhrc.behavior.params import NetworkParams
-    from flexhrc.behavior.render import to_ascii, to_dot
-    from flexhrc.behavior.validate import check_run
-    from flexhrc.files import EventLogWriter, check_output
-
-    inputs = (args.target,) if is_file(args.target) else ()
-    if args.log:
-        check_output(args.log, option="--log", inputs=inputs)
-    check_plot(args.plot, inputs)
-    if args.log and args.plot and Path(args.log).resolve() == Path(args.plot).resolve():
-        raise FlexhrcError("--log and --plot name the same file")
-    label, task, world, factories = resolve_document(args.target, args.layout, args.arms, args.seed)
-    if args.render:
-        rendered = to_ascii(task) if args.render == "ascii" else to_dot(task)
-        emit(args, {"task": task.to_prefix(), "render": rendered}, rendered)
-        return 0
-    params = NetworkParams(seed=args.seed)
-    net = BehaviorNetwork(task, world, params, behaviors=factories)
-    max_ticks = args.max_ticks if args.max_ticks is not None else default_max_ticks(task)
-    writer = EventLogWriter(args.log) if args.log else None
-    realtime = args.realtime
-    behaviors = set(task.behaviors)
-    try:
-        if writer is not None:
-            writer.write(
-                header_record(
-                    label,
-                    task.to_prefix(),
-                    task.behaviors,
-                    world.arm_names,
-                    args.seed,
-                    params.tick_period,
-                )
-            )
-            net.listeners.append(lambda ev: writer.write(event_record(ev)))
-        if realtime is not None:
-            log(args, f"{label}: {task.to_prefix()} (real time x{realtime:g})")
-
-            def live(ev: Any) -> None:
-                line = live_line(ev, behaviors)
-                if line:
-                    log(args, line)
-
-            net.listeners.append(live)
-        _tick_loop(net, max_ticks, realtime)
-        result = net.result()
-        violations = check_run(task, result.runs)
-        if writer is not None:
-            writer.write(end_record(result, violations))
-    except (KeyboardInterrupt, _Terminated):
-        if writer is not None:
-            result = net.result()
-            writer.write(end_record(result, [], outcome="interrupted"))
-            writer.close()
-        raise KeyboardInterrupt from None
-    finally:
-        if writer is not None:
-            writer.close()
-    plot_path = None
-    if args.plot:
-        from flexhrc.behavior.plot import gantt
-
-        plot_path = gantt(result, args.plot, title=f"{label}: {', '.join(result.order)}")
-    data = result.to_dict()
-    data.update(
-        target=label,
-        task=task.to_prefix(),
-        seed=args.seed,
-        violations=violations,
-        plot=str(plot_path) if plot_path else None,
-        log=args.log,
-    )
-
-    def text() -> str:
-        lines = [f"{label}: {task.to_prefix()}", to_ascii(task), ""]
-        lines.append(f"world: {len(world.objects)} objects; arms: {', '.join(world.arm_names)}")
-        if realtime is None:
-            lines.append("trace:")
-            lines += [s for s in (trace_line(ev) for ev in result.log) if s]
-        lines.append("")
-        lines += summary_lines(result, violations, str(plot_path) if plot_path else None)
-        if args.log:
-            lines.append(f"event log: {args.log}")
-        return "\n".join(lines)
-
-    emit(args, data, text)
-    if args.json and plot_path:
-        log(args, f"gantt chart: {plot_path}")
-    return 0 if result.outcome == "done" and not violations else 1
-
-
-def _tick_loop(net: Any, max_ticks: int, realtime: float | None) -> None:
-    """Tick to the end; with ``realtime`` keep simulated time at SPEED x wall time. SIGTERM
-    stops the loop like Ctrl-C (the caller writes the log's last line)."""
-
-    def on_term(signum: int, frame: Any) -> None:
-        raise _Terminated
-
-    previous = None
-    try:
-        previous = signal.signal(signal.SIGTERM, on_term)
-    except ValueError:  # not the main thread (an embedding application): leave it alone
-        previous = None
-    try:
-        start = time.monotonic()
-        while not net.finished and net.clock.tick < max_ticks:
-            net.tick()
-            if realtime is not None:
-                delay = start + net.clock.now() / realtime - time.monotonic()
-                if delay > 0:
-                    time.sleep(delay)
-    finally:
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
-
-
-def _replay(args: argparse.Namespace) -> int:
-    from flexhrc.behavior.logfile import CUT_SHORT, read_log
-    from flexhrc.behavior.network import Run
-    from flexhrc.behavior.task import parse_prefix
-    from flexhrc.behavior.validate import check_run
-
-    check_plot(args.plot, (args.operand,))
-    blog = read_log(args.operand)
-    task = parse_prefix(str(blog.header["task"]), f"{args.operand}:1")
-    result = blog.result()
-    # a robot of a team: what the others completed counts (learned at the time of the event)
-    elsewhere = [
-        Run(ev.source, f"{ev.data.get('by')}/elsewhere", ev.t, ev.t, "done")
-        for ev in blog.events
-        if ev.kind == "done_elsewhere"
-    ]
-    violations = check_run(task, sorted([*result.runs, *elsewhere], key=lambda r: r.start))
-    plot_path = None
-    if args.plot:
-        from flexhrc.behavior.plot import gantt
-
-        label = str(blog.header.get("target", "replay"))
-        plot_path = gantt(result, args.plot, title=f"{label}: {', '.join(result.order)}")
-    data = result.to_dict()
-    data.update(
-        target=blog.header.get("target"),
-        task=task.to_prefix(),
-        seed=blog.header.get("seed"),
-        violations=violations,
-        plot=str(plot_path) if plot_path else None,
-        events=len(blog.events),
-        cut_short=blog.end is None,
-        robot=blog.header.get("robot"),
-        done_elsewhere=[{"behavior": r.behavior, "by": r.arm.split("/")[0]} for r in elsewhere],
-    )
-
-    def text() -> str:
-        lines = [f"{blog.header.get('target', 'replay')}: {task.to_prefix()}"]
-        lines.append(f"log: {args.operand}, {len(blog.events)} events")
-        if blog.end is None:
-            lines.append(
-                f"warning: the run was {CUT_SHORT}: the log ends after {result.time:.1f} s "
-                "without its end line (killed?)"
-            )
-        if elsewhere:
-            others = ", ".join(f"{r.behavior} ({r.arm.split('/')[0]})" for r in elsewhere)
-            lines.append(f"done by other robots: {others}")
-        lines.append("")
-        lines += summary_lines(result, violations, str(plot_path) if plot_path else None)
-        return "\n".join(lines)
-
-    emit(args, data, text)
-    return 0 if result.outcome == "done" and not violations else 1
-
-
-def _render(args: argparse.Namespace) -> int:
-    from flexhrc.behavior.render import to_dot
-    from flexhrc.files import atomic_output, check_output
-
-    inputs = tuple(p for p in (args.operand, args.log) if p and is_file(p))
-    check_output(args.output, option="-o", suffixes=RENDER_SUFFIXES, inputs=inputs)
-    label, task, _world = resolve(args.operand, args.layout, args.arms, args.seed)
-    snapshots = None
-    at = None
-    if args.log:
-        from flexhrc.behavior.logfile import read_log
-
-        blog = read_log(args.log)
-        if str(blog.header["task"]) != task.to_prefix():
-            raise FlexhrcError(
-                f"{args.log}: the log is of another task ({blog.header['task']}), "
-                f"not {task.to_prefix()}"
-            )
-        at = blog.time if args.at is None else args.at
-        states = blog.states_at(at)
-        snapshots = {n.name: {"state": states.get(n.name, "inactive")} for n in task.walk()}
-    dot = to_dot(task, snapshots, legend=snapshots is not None, caption=_caption(label, at))
-    out = Path(args.output)
-    if out.suffix.lower() in (".dot", ".gv"):
-        from flexhrc.files import atomic_write_text
-
-        atomic_write_text(out, dot)
+    action = _action(args)
+    text = args.operand if action else args.target
+    types = tuple(args.types or ())
+    if action == "replay":
+        report = behave.replay(_config(behave.ReplayConfig, args, log=text))
+    elif action == "render":
+        config = _config(behave.RenderConfig, args, target=text, types=types)
+        report = behave.render(replace(config, target=_task(args, text)))
+    elif action == "compile":
+        config = _config(behave.CompileConfig, args, target=text, types=types)
+        report = behave.compile_to_file(replace(config, target=_task(args, text)))
     else:
-        from flexhrc.representation.formats.dot import render
-
-        with atomic_output(out) as tmp:
-            render(dot, tmp)
-    emit(args, {"output": str(out), "task": task.to_prefix(), "at": at}, f"wrote {out}")
-    return 0
-
-
-def _caption(label: str, at: float | None) -> str:
-    return label if at is None else f"{label} at {at:.1f} s"
-
-
-def _compile(args: argparse.Namespace) -> int:
-    from flexhrc.behavior.compile import compile_task
-    from flexhrc.files import atomic_write_text, check_output
-    from flexhrc.representation.formats.yaml_format import dump_yaml
-
-    inputs = (args.operand,) if is_file(args.operand) else ()
-    check_output(args.output, option="-o", suffixes=GRAPH_SUFFIXES, inputs=inputs)
-    _label, task, _world = resolve(args.operand, args.layout, args.arms, args.seed)
-    hierarchy = compile_task(task)
-    atomic_write_text(args.output, dump_yaml(hierarchy))
-    st = hierarchy.stats()
-    data = {
-        "output": args.output,
-        "task": task.to_prefix(),
-        "behaviors": len(task.behaviors),
-        "graphs": st["graphs"],
-        "nodes": st["nodes"],
-        "hyperarcs": st["hyperarcs"],
-    }
-    emit(
-        args,
-        data,
-        f"wrote {args.output}: {st['graphs']} graph(s), {st['nodes']} nodes, "
-        f"{st['hyperarcs']} hyper-arcs for {len(task.behaviors)} behaviours",
-    )
-    return 0
+        layout = () if args.layout is None else ("--layout", str(args.layout))
+        config = _config(behave.BehaveConfig, args, target=text, types=types)
+        config = replace(config, target=_task(args, text), child_args=(text, *layout))
+        report = behave.run_behave(config, on_line=lambda line: log(args, line))
+    emit(args, report.data, report.text)
+    if args.json and report.plot and action is None and not config.team:
+        log(args, f"gantt chart: {report.plot}")
+    return report.exit_code
 
 
 # ----------------------------------------------------------------------------- graph to-task
