@@ -312,9 +312,6 @@ class Objective:
     #: goal objectives store ``(metres, radians)`` of their error at the last ``evaluate``
     last_error: tuple[float, float] = (0.0, 0.0)
 
-    def describe(self) -> dict[str, Any]:
-        return {"kind": self.kind, "priority": self.priority}
-
 
 class JointLimits(Objective):
     """Inequality ``q_min + margin <= q <= q_max - margin`` for every joint of the controlled arms.
@@ -408,9 +405,6 @@ class MinimumDistance(Objective):
             return None
         return Task(np.array(rows_J), np.array(refs), np.array(acts), inequality=True)
 
-    def describe(self) -> dict[str, Any]:
-        return {**super().describe(), "label": self.label, "d_min": self.d_min}
-
 
 class EndEffectorPose(Objective):
     """Equality: TCP of ``arm`` to a goal position and/or orientation.
@@ -484,12 +478,6 @@ class EndEffectorPose(Objective):
             J = np.zeros((rows, ctx.n))
             J[:, k.cols] = Jk
         return Task(J, ref[:rows], None)
-
-    def describe(self) -> dict[str, Any]:
-        d = {**super().describe(), "arm": self.arm}
-        if self.position is not None:
-            d["position"] = self.position.tolist()
-        return d
 
 
 def _slide(v: Array, nrm: Array, a: float) -> Array:

@@ -224,10 +224,6 @@ class ExecutionManager:
         self.disturbances.append(d)
         return d
 
-    def clear_disturbances(self) -> None:
-        """Remove speed and obstacle disturbances (moved objects stay where they are)."""
-        self.disturbances = [d for d in self.disturbances if d.kind == "object_moved"]
-
     def _real_obstacles(self) -> list[Obstacle]:
         extra = [parse_obstacle(d.obstacle) for d in self.disturbances if d.kind == "blocked_path"]
         return self.obstacles + extra

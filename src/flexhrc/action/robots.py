@@ -262,9 +262,6 @@ class ArmModel:
         J = pin.getFrameJacobian(self.model, self.data, self.tcp_frame, _LWA or _lwa())
         return oMf.translation.copy(), oMf.rotation.copy(), J
 
-    def within_limits(self, q: Array, tol: float = 1e-9) -> bool:
-        return bool(np.all(q >= self.q_min - tol) and np.all(q <= self.q_max + tol))
-
 
 @dataclass
 class DualArmRobot:
@@ -369,10 +366,3 @@ def _measure_workspace(pin: Any, arm: ArmModel, samples: int = 2000) -> None:
         pin.forwardKinematics(m, d, q)
         best = max(best, float(np.linalg.norm(d.oMi[6].translation - d.oMi[2].translation)))
     arm.reach_m = 1.02 * best
-
-
-def write_default_urdf(path: Path = DEFAULT_URDF) -> Path:
-    """(Re)write the shipped URDF from :func:`dual_arm_urdf` (used when the parameters change)."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(dual_arm_urdf(), encoding="utf-8")
-    return path

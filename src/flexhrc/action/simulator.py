@@ -54,7 +54,6 @@ from flexhrc.action.control import (
     build_objectives,
     load_lapack,
     parse_obstacle,
-    rotation_log,
     top_down_rotation,
     yaw_of,
 )
@@ -312,8 +311,9 @@ class Trajectory:
         """Chain trajectories in time (each part starts where the previous ended)."""
         arms = tuple(dict.fromkeys(a for p in parts for a in p.arms))
         ts: list[Array] = []
-        qs: list[tuple[str, Array | None, int]] = []
+        qs: dict[str, list[Array]] = {a: [] for a in arms}
         tcps: dict[str, list[Array]] = {a: [] for a in arms}
+        last = {a: np.full(7, np.nan) for a in arms}  # NaN until the arm first moves
         offset = 0.0
         for p in parts:
             if len(p) == 0:
@@ -322,28 +322,17 @@ class Trajectory:
             offset = float(ts[-1][-1])
             for a in arms:
                 if a in p.arms:
-                    qs_a = p.arm_q(a)
+                    qs[a].append(p.arm_q(a))
                     tcps[a].append(p.tcp[a])
                 else:  # arm idle in this part: hold its last known value
-                    qs_a = None
+                    qs[a].append(np.tile(last[a], (len(p), 1)))
                     tcps[a].append(np.full((len(p), 3), np.nan))
-                qs.append((a, qs_a, len(p)))
-        q_cols: dict[str, list[Array]] = {a: [] for a in arms}
-        last: dict[str, Array | None] = {a: None for a in arms}
-        for a, qa, n in qs:
-            if qa is None:
-                held = last[a]
-                qa = np.tile(np.full(7, np.nan) if held is None else held, (n, 1))
-            q_cols[a].append(qa)
-            last[a] = qa[-1]
-        t = np.concatenate(ts) if ts else np.zeros(0)
-        q = (
-            np.hstack([np.concatenate(q_cols[a]) for a in arms])
-            if ts
-            else np.zeros((0, 7 * len(arms)))
-        )
-        tcp = {a: np.concatenate(tcps[a]) if ts else np.zeros((0, 3)) for a in arms}
-        return Trajectory(arms, t, q, tcp)
+                last[a] = qs[a][-1][-1]
+        if not ts:
+            empty = {a: np.zeros((0, 3)) for a in arms}
+            return Trajectory(arms, np.zeros(0), np.zeros((0, 7 * len(arms))), empty)
+        q = np.hstack([np.concatenate(qs[a]) for a in arms])
+        return Trajectory(arms, np.concatenate(ts), q, {a: np.concatenate(tcps[a]) for a in arms})
 
 
 @dataclass
@@ -991,11 +980,6 @@ def _xyz(p: Array) -> str:
     return "(" + ", ".join(f"{v:.3f}" for v in p) + ")"
 
 
-def orientation_error(R_goal: Array, R: Array) -> float:
-    """Angle (rad) between two rotations."""
-    return float(np.linalg.norm(rotation_log(R_goal @ R.T)))
-
-
 __all__ = [
     "ACTIONS",
     "ARM_NAMES",
@@ -1008,5 +992,4 @@ __all__ = [
     "SequenceOutcome",
     "SimEvent",
     "Trajectory",
-    "orientation_error",
 ]

@@ -13,10 +13,7 @@ atomically (:mod:`flexhrc.files`), so no folder is created here.
 
 from __future__ import annotations
 
-import contextlib
-import os
-import sys
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -26,40 +23,13 @@ from flexhrc.action.control import Box, Sphere, parse_obstacle
 from flexhrc.action.robots import DEFAULT_URDF
 from flexhrc.action.simulator import Trajectory
 from flexhrc.errors import FlexhrcError, OptionalDependencyError
+from flexhrc.perception.scene.sim_render import _pybullet
 
 VIEW_SUFFIXES = (".png", ".gif")
 OBSTACLE_RGBA = (0.85, 0.15, 0.1, 1)
 HAND_RGBA = (0.95, 0.75, 0.6, 1)
 GOAL_RGBA = (0.1, 0.8, 0.2, 1)
 PATH_RGBA = (0.2, 0.4, 0.9, 1)
-
-
-@contextlib.contextmanager
-def _stdout_to_stderr() -> Iterator[None]:
-    """PyBullet's C library prints its build time on stdout when imported; under ``--json``
-    stdout must hold the JSON document only, so the file descriptor is pointed at stderr."""
-    try:
-        fd = sys.stdout.fileno()
-    except (AttributeError, OSError, ValueError):  # captured stdout (tests): nothing to redirect
-        yield
-        return
-    sys.stdout.flush()
-    saved = os.dup(fd)
-    try:
-        os.dup2(sys.stderr.fileno(), fd)
-        yield
-    finally:
-        os.dup2(saved, fd)
-        os.close(saved)
-
-
-def _import_pybullet() -> Any:
-    try:
-        with _stdout_to_stderr():
-            import pybullet
-    except ImportError as exc:  # pragma: no cover - depends on the environment
-        raise OptionalDependencyError("the trajectory view", "sim", "pybullet") from exc
-    return pybullet
 
 
 def _project(view: Sequence[float], proj: Sequence[float], xyz: Sequence[float], w: int, h: int):
@@ -144,7 +114,7 @@ def render(
         raise FlexhrcError(f"--view: {out}: the view is saved as .png or .gif")
     if len(trajectory) == 0:
         raise FlexhrcError("nothing to view: the trajectory is empty")
-    p = _import_pybullet()
+    p = _pybullet("the trajectory view")  # stdout stays clean for --json
     Image = _import_pil()
     cid = p.connect(p.DIRECT)
     try:
