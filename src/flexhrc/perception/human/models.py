@@ -87,11 +87,9 @@ class ActionModel:
     log_length_std: float = 1.0
     duration_weight: float = 0.0
     _precisions: list[np.ndarray] = field(default_factory=list, repr=False, compare=False)
-    _logdets: list[np.ndarray] = field(default_factory=list, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         self._precisions = [np.linalg.inv(c) for c in self.covariances]
-        self._logdets = [np.linalg.slogdet(c)[1] for c in self.covariances]
 
     @property
     def n_features(self) -> int:
@@ -126,18 +124,6 @@ class ActionModel:
             d = x[:, list(g)] - mu
             m2 = np.einsum("ld,lde,le->l", d, prec, d)
             total += float(np.mean(np.sqrt(np.maximum(m2, 0.0) / len(g))))
-        return total / len(self.groups)
-
-    def neg_log_likelihood(self, features: np.ndarray) -> float:
-        """Mean negative log-likelihood per sample and feature under the GMR template."""
-        x = resample(features, self.length)
-        total = 0.0
-        for g, mu, prec, logdet in zip(
-            self.groups, self.means, self._precisions, self._logdets, strict=True
-        ):
-            d = x[:, list(g)] - mu
-            m2 = np.einsum("ld,lde,le->l", d, prec, d)
-            total += float(np.mean(0.5 * (m2 + logdet + len(g) * np.log(2 * np.pi)))) / len(g)
         return total / len(self.groups)
 
 

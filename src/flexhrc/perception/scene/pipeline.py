@@ -197,20 +197,15 @@ class ScenePerception:
         return [idx[~upper], *pieces]
 
     # ---------------------------------------------------------------------------- helpers
-    def fit_primitive(
+    def fit_primitives(
         self, pts: np.ndarray, rng: np.random.Generator, tol: float | None = None
-    ) -> PrimitiveFit:
-        """Best primitive for a cluster in the support frame (highest inlier ratio).
+    ) -> list[PrimitiveFit]:
+        """Every primitive fitted to a cluster in the support frame, best (highest inlier
+        ratio) first.
 
         A box explains any compact cluster a little, so a curved primitive wins ties: it is
         preferred when its inlier ratio is within 0.05 of the box's.
         """
-        return self.fit_primitives(pts, rng, tol)[0]
-
-    def fit_primitives(
-        self, pts: np.ndarray, rng: np.random.Generator, tol: float | None = None
-    ) -> list[PrimitiveFit]:
-        """Every primitive fitted to the cluster, best first (see :meth:`fit_primitive`)."""
         fits: list[PrimitiveFit] = []
         tol = self.fit_tol if tol is None else tol
         if "box" in self.primitives:
