@@ -39,6 +39,19 @@ FORMAT_VERSION = 1
 #: Feature groups modelled by separate GMMs: gravity (0..2) and body (3..5), as in Bruno et al.
 DEFAULT_GROUPS: tuple[tuple[int, ...], ...] = ((0, 1, 2), (3, 4, 5))
 
+#: What a model file keeps of the recogniser's parameters (with its groups and pre-processor)
+#: and of each action model (with its arrays), in the order of the file's metadata.
+_SAVED_PARAMS = (
+    "max_components",
+    "threshold_quantile",
+    "threshold_scale",
+    "min_std",
+    "max_points",
+    "duration_weight",
+    "random_state",
+)
+_SAVED_MODEL = ("name", "length", "threshold", "n_components", "log_length_mean", "log_length_std")
+
 
 def gmr(
     weights: np.ndarray, means: np.ndarray, covariances: np.ndarray, t: np.ndarray
@@ -299,26 +312,12 @@ class GMMGMRRecognizer:
             "format": "flexhrc-hmp-gmr",
             "version": FORMAT_VERSION,
             "params": {
-                "max_components": self.max_components,
-                "threshold_quantile": self.threshold_quantile,
-                "threshold_scale": self.threshold_scale,
-                "min_std": self.min_std,
-                "max_points": self.max_points,
-                "duration_weight": self.duration_weight,
-                "random_state": self.random_state,
+                **{k: getattr(self, k) for k in _SAVED_PARAMS},
                 "groups": [list(g) for g in self.groups],
                 "preprocessor": asdict(self.preprocessor),
             },
             "models": [
-                {
-                    "name": m.name,
-                    "length": m.length,
-                    "threshold": m.threshold,
-                    "n_components": m.n_components,
-                    "log_length_mean": m.log_length_mean,
-                    "log_length_std": m.log_length_std,
-                }
-                for m in (self.models_[c] for c in self.classes_)
+                {k: getattr(self.models_[c], k) for k in _SAVED_MODEL} for c in self.classes_
             ],
         }
         arrays: dict[str, np.ndarray] = {"meta": np.array(json.dumps(meta))}
@@ -375,30 +374,17 @@ class GMMGMRRecognizer:
         p = meta["params"]
         groups = tuple(tuple(g) for g in p["groups"])
         rec = cls(
-            max_components=p["max_components"],
-            threshold_quantile=p["threshold_quantile"],
-            threshold_scale=p["threshold_scale"],
-            min_std=p["min_std"],
-            max_points=p["max_points"],
-            duration_weight=p["duration_weight"],
+            **{k: p[k] for k in _SAVED_PARAMS},
             preprocessor=Preprocessor(**p["preprocessor"]),
             groups=groups,
-            random_state=p["random_state"],
         )
         for i, m in enumerate(meta["models"]):
-            means = [arrays[f"m{i}_g{j}_mean"] for j in range(len(groups))]
-            covs = [arrays[f"m{i}_g{j}_cov"] for j in range(len(groups))]
             rec.models_[m["name"]] = ActionModel(
-                m["name"],
-                m["length"],
-                means,
-                covs,
-                m["n_components"],
-                m["threshold"],
-                groups,
-                m["log_length_mean"],
-                m["log_length_std"],
-                p["duration_weight"],
+                **{k: m[k] for k in _SAVED_MODEL},
+                means=[arrays[f"m{i}_g{j}_mean"] for j in range(len(groups))],
+                covariances=[arrays[f"m{i}_g{j}_cov"] for j in range(len(groups))],
+                groups=groups,
+                duration_weight=p["duration_weight"],
             )
         return rec
 

@@ -44,6 +44,12 @@ def _quaternion(R: np.ndarray) -> np.ndarray:
     return qa / np.linalg.norm(qa)
 
 
+def _perpendicular(n: np.ndarray) -> np.ndarray:
+    """A unit vector perpendicular to ``n`` (horizontal when ``n`` is the vertical)."""
+    x = np.cross(n, [0.0, 1.0, 0.0]) if abs(n[1]) < 0.9 else np.cross(n, [1.0, 0.0, 0.0])
+    return x / np.linalg.norm(x)
+
+
 def _mad_sigma(residuals: np.ndarray) -> float:
     if len(residuals) == 0:
         return 0.0
@@ -123,8 +129,7 @@ class ScenePerception:
         height = points @ n + d
         objects_pts = points[height > min_height]
         # Support frame: z along the plane normal, origin on the plane below the centroid.
-        ex = np.cross(n, [0.0, 1.0, 0.0]) if abs(n[1]) < 0.9 else np.cross(n, [1.0, 0.0, 0.0])
-        ex /= np.linalg.norm(ex)
+        ex = _perpendicular(n)
         ey = np.cross(n, ex)
         R = np.column_stack([ex, ey, n])
         origin = -d * n
@@ -222,13 +227,8 @@ class ScenePerception:
     @staticmethod
     def _orientation(axis: np.ndarray, normal: np.ndarray) -> np.ndarray:
         x = axis - (axis @ normal) * normal
-        if np.linalg.norm(x) < 1e-6:  # vertical axis (sphere, cone): any horizontal x
-            x = (
-                np.cross(normal, [0.0, 1.0, 0.0])
-                if abs(normal[1]) < 0.9
-                else np.cross(normal, [1.0, 0.0, 0.0])
-            )
-        x /= np.linalg.norm(x)
+        # a vertical axis (sphere, cone) gives no x: any horizontal one
+        x = _perpendicular(normal) if np.linalg.norm(x) < 1e-6 else x / np.linalg.norm(x)
         z = normal / np.linalg.norm(normal)
         y = np.cross(z, x)
         return _quaternion(np.column_stack([x, y, z]))
