@@ -15,6 +15,7 @@ from __future__ import annotations
 import contextlib
 import time
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -45,7 +46,7 @@ def run_bench(
     perception: ScenePerception | None = None,
     progress: Callable[[str], None] | None = None,
     renderer: str = "raycast",
-) -> dict[str, float | int]:
+) -> dict[str, Any]:
     if n_scenes < 1:
         raise ValueError(f"--scenes must be >= 1, got {n_scenes}")
     if noise < 0:
