@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -75,14 +75,7 @@ class Command:
             target = target.to_dict()
         elif target is not None:
             target = [float(v) for v in target]
-        return {
-            "action": self.action,
-            "arm": self.arm,
-            "target": target,
-            "object": self.object,
-            "timeout_s": self.timeout_s,
-            "id": self.id,
-        }
+        return {**asdict(self), "target": target}
 
 
 @dataclass(frozen=True)

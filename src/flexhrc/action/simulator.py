@@ -40,7 +40,7 @@ import math
 import time
 from collections import OrderedDict
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from typing import Any
 
 import numpy as np
@@ -217,21 +217,12 @@ class ActionSpec:
         return replace(self, hierarchy=tuple(s for s in self.hierarchy if s.kind not in kinds))
 
     def to_dict(self) -> dict[str, Any]:
-        return {
-            "name": self.name,
-            "goal": self.goal,
-            "gripper": self.gripper,
-            "gripper_time_s": self.gripper_time_s,
-            "approach_height": self.approach_height,
-            "turn_rad": self.turn_rad,
-            "speed_scale": self.speed_scale,
-            "default_target": None if self.default_target is None else list(self.default_target),
-            "yaw_period": self.yaw_period,
-            "untargeted_offset": None
-            if self.untargeted_offset is None
-            else list(self.untargeted_offset),
-            "hierarchy": [s.to_dict() for s in self.hierarchy],
-        }
+        """The fields, points as lists and the hierarchy last (what :meth:`from_dict` reads)."""
+        d = {f.name: getattr(self, f.name) for f in fields(self)}
+        for key in ("default_target", "untargeted_offset"):
+            d[key] = None if d[key] is None else list(d[key])
+        d["hierarchy"] = [s.to_dict() for s in d.pop("hierarchy")]
+        return d
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> ActionSpec:
@@ -580,23 +571,15 @@ class KinematicSimulator:
         velocities (the execution manager's ``slow_arm`` disturbance); ``events`` change the
         world during the action (:class:`SimEvent`).
         """
-        obstacles = list(obstacles)
-        key = None
-        if self.cache_size > 0:
-            key = _cache_key(
-                arm, action, target, start, obstacles, human_hand, time_budget_s, velocity_scale,
-                record, events,
-            )  # fmt: skip
-            hit = self._cache.get(key) if key is not None else None
-            if hit is not None:
-                self._cache.move_to_end(key)
-                return replace(hit, final_state=hit.final_state.copy(), wall_s=0.0)
+        request = (arm, action, target, start, list(obstacles), human_hand, time_budget_s,
+                   velocity_scale, record, events)  # fmt: skip
+        key = _cache_key(*request) if self.cache_size > 0 else None
+        hit = self._cache.get(key) if key is not None else None
+        if hit is not None:
+            self._cache.move_to_end(key)
+            return replace(hit, final_state=hit.final_state.copy(), wall_s=0.0)
         with _single_threaded():
-            out = self._simulate(
-                arm, action, target, start=start, obstacles=obstacles, human_hand=human_hand,
-                time_budget_s=time_budget_s, velocity_scale=velocity_scale, record=record,
-                events=events,
-            )  # fmt: skip
+            out = self._simulate(*request)
         if key is not None:
             self._cache[key] = replace(out, final_state=out.final_state.copy())
             if len(self._cache) > self.cache_size:
@@ -607,17 +590,16 @@ class KinematicSimulator:
         self,
         arm: str,
         action: str | ActionSpec,
-        target: Pose | Sequence[float] | None = None,
-        *,
-        start: RobotState | None = None,
-        obstacles: Iterable[Any] = (),
-        human_hand: Sequence[float] | None = None,
-        time_budget_s: float | None = None,
-        velocity_scale: float = 1.0,
-        record: bool = True,
-        events: Sequence[SimEvent] = (),
+        target: Pose | Sequence[float] | None,
+        start: RobotState | None,
+        obstacles: list[Any],
+        human_hand: Sequence[float] | None,
+        time_budget_s: float | None,
+        velocity_scale: float,
+        record: bool,
+        events: Sequence[SimEvent],
     ) -> ActionOutcome:
-        """See :meth:`simulate`."""
+        """:meth:`simulate` without the cache (the same arguments, in their order)."""
         t_wall = time.perf_counter()
         spec = _action_spec(action, self.actions)
         arms = _arms_of(arm, self.robot)

@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Iterable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import numpy as np
@@ -60,17 +60,7 @@ class AnchoringReport:
     ignored: int = 0  # percepts of no known type
 
     def to_dict(self) -> dict[str, Any]:
-        return {
-            "frame": self.frame,
-            "t": round(self.t, 6),
-            "anchored": dict(self.anchored),
-            "new_objects": list(self.new_objects),
-            "moved": list(self.moved),
-            "missing": list(self.missing),
-            "inconsistencies": list(self.inconsistencies),
-            "cleared": list(self.cleared),
-            "ignored": self.ignored,
-        }
+        return {**asdict(self), "t": round(self.t, 6)}
 
 
 class Anchoring:
