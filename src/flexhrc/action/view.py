@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from flexhrc.action.control import Box, Sphere, parse_obstacle
+from flexhrc.action.control import Sphere, parse_obstacle
 from flexhrc.action.robots import DEFAULT_URDF
 from flexhrc.action.simulator import Trajectory
 from flexhrc.errors import FlexhrcError, OptionalDependencyError
@@ -127,13 +127,11 @@ def render(
         marks: list[tuple[str, Sequence[float]]] = []  # (label, world point)
         parsed = [parse_obstacle(o) for o in obstacles]
         for n, obs in enumerate(parsed, 1):
-            name = "obstacle" if len(parsed) == 1 else f"obstacle {n}"
             if isinstance(obs, Sphere):
                 _visual(p, cid, "sphere", max(obs.radius, 0.01), obs.center, OBSTACLE_RGBA)
-                marks.append((name, obs.center))
-            elif isinstance(obs, Box):
+            else:
                 _visual(p, cid, "box", obs.half_extents, obs.center, OBSTACLE_RGBA)
-                marks.append((name, obs.center))
+            marks.append(("obstacle" if len(parsed) == 1 else f"obstacle {n}", obs.center))
         if human_hand is not None:
             _visual(p, cid, "sphere", 0.04, human_hand, HAND_RGBA)
             marks.append(("human hand", human_hand))
@@ -155,18 +153,14 @@ def render(
             legend.append(("human hand (kept 15 cm away)", HAND_RGBA))
 
         def pose(k: int) -> None:
-            for arm_name, q_rest in (rest or {}).items():
+            moving = [(a, trajectory.arm_q(a)[k]) for a in trajectory.arms]
+            for arm_name, q in [*(rest or {}).items(), *moving]:
+                if not np.all(np.isfinite(q)):  # arm idle before its first action: at rest
+                    continue
                 for i in range(7):
                     j = joints.get(f"{arm_name}_joint{i + 1}")
                     if j is not None:
-                        p.resetJointState(robot, j, float(q_rest[i]), physicsClientId=cid)
-            for arm_name in trajectory.arms:
-                q = trajectory.arm_q(arm_name)[k]
-                if not np.all(np.isfinite(q)):  # arm idle before its first action
-                    continue
-                for i in range(7):
-                    p.resetJointState(robot, joints[f"{arm_name}_joint{i + 1}"], float(q[i]),
-                                      physicsClientId=cid)  # fmt: skip
+                        p.resetJointState(robot, j, float(q[i]), physicsClientId=cid)
 
         view = p.computeViewMatrix(cameraEyePosition=[1.75, 1.0, 1.25],
                                    cameraTargetPosition=[0.3, 0.0, 0.3],
