@@ -134,10 +134,6 @@ class ExecutionReport:
     disturbances: list[str] = field(default_factory=list)
     observed: dict[str, Any] = field(default_factory=dict)
 
-    @property
-    def ok(self) -> bool:
-        return self.status == "done"
-
     def to_dict(self) -> dict[str, Any]:
         return {
             "command": self.command.to_dict(),

@@ -48,10 +48,6 @@ class SimulatedWearable:
         self.deviation = deviation
         self._rng = np.random.default_rng(seed)
 
-    @property
-    def actions(self) -> list[str]:
-        return self.model.classes_
-
     def stream(self, action_name: str, lead_s: float = 0.0, tail_s: float = 0.0) -> np.ndarray:
         """One execution of ``action_name`` (optionally framed by still periods), in g.
 
