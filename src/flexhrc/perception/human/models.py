@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 
 import numpy as np
@@ -39,17 +39,8 @@ FORMAT_VERSION = 1
 #: Feature groups modelled by separate GMMs: gravity (0..2) and body (3..5), as in Bruno et al.
 DEFAULT_GROUPS: tuple[tuple[int, ...], ...] = ((0, 1, 2), (3, 4, 5))
 
-#: What a model file keeps of the recogniser's parameters (with its groups and pre-processor)
-#: and of each action model (with its arrays), in the order of the file's metadata.
-_SAVED_PARAMS = (
-    "max_components",
-    "threshold_quantile",
-    "threshold_scale",
-    "min_std",
-    "max_points",
-    "duration_weight",
-    "random_state",
-)
+#: What a model file keeps of each action model (with its arrays), in the order of the file's
+#: metadata; of the recogniser it keeps every parameter.
 _SAVED_MODEL = ("name", "length", "threshold", "n_components", "log_length_mean", "log_length_std")
 
 
@@ -140,6 +131,7 @@ class ActionModel:
         return total / len(self.groups)
 
 
+@dataclass(eq=False)
 class GMMGMRRecognizer:
     """Human motion primitive recogniser: one GMM/GMR template per action.
 
@@ -165,28 +157,20 @@ class GMMGMRRecognizer:
         seed of the GMM initialisation and sub-sampling (results are deterministic).
     """
 
-    def __init__(
-        self,
-        max_components: int = 4,
-        threshold_quantile: float = 0.95,
-        threshold_scale: float = 2.0,
-        min_std: float = 0.01,
-        max_points: int = 2000,
-        duration_weight: float = 0.1,
-        preprocessor: Preprocessor | None = None,
-        groups: tuple[tuple[int, ...], ...] = DEFAULT_GROUPS,
-        random_state: int = 0,
-    ):
-        self.max_components = max_components
-        self.threshold_quantile = threshold_quantile
-        self.threshold_scale = threshold_scale
-        self.min_std = min_std
-        self.max_points = max_points
-        self.duration_weight = duration_weight
-        self.preprocessor = preprocessor or Preprocessor()
-        self.groups = groups
-        self.random_state = random_state
-        self.models_: dict[str, ActionModel] = {}
+    max_components: int = 4
+    threshold_quantile: float = 0.95
+    threshold_scale: float = 2.0
+    min_std: float = 0.01
+    max_points: int = 2000
+    duration_weight: float = 0.1
+    preprocessor: Preprocessor = field(default_factory=Preprocessor)
+    groups: tuple[tuple[int, ...], ...] = DEFAULT_GROUPS
+    random_state: int = 0
+    models_: dict[str, ActionModel] = field(default_factory=dict, init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        if self.preprocessor is None:  # accepted, as before: the default pre-processing
+            self.preprocessor = Preprocessor()
 
     # ----------------------------------------------------------------------------------- fit
     def _validate(self) -> None:
@@ -312,7 +296,7 @@ class GMMGMRRecognizer:
             "format": "flexhrc-hmp-gmr",
             "version": FORMAT_VERSION,
             "params": {
-                **{k: getattr(self, k) for k in _SAVED_PARAMS},
+                **{k: getattr(self, k) for k in _saved_params()},
                 "groups": [list(g) for g in self.groups],
                 "preprocessor": asdict(self.preprocessor),
             },
@@ -374,7 +358,7 @@ class GMMGMRRecognizer:
         p = meta["params"]
         groups = tuple(tuple(g) for g in p["groups"])
         rec = cls(
-            **{k: p[k] for k in _SAVED_PARAMS},
+            **{k: p[k] for k in _saved_params()},
             preprocessor=Preprocessor(**p["preprocessor"]),
             groups=groups,
         )
@@ -387,6 +371,12 @@ class GMMGMRRecognizer:
                 duration_weight=p["duration_weight"],
             )
         return rec
+
+
+def _saved_params() -> list[str]:
+    """The recogniser's plain parameters, in their order (groups and pre-processor apart)."""
+    plain = (f.name for f in fields(GMMGMRRecognizer) if f.init)
+    return [name for name in plain if name not in ("preprocessor", "groups")]
 
 
 def _as_trials(X, y, rate_hz: float) -> list[Trial]:
