@@ -234,6 +234,7 @@ class ScenePerception:
         return _quaternion(np.column_stack([x, y, z]))
 
 
+@dataclass(eq=False)
 class Tracker:
     """Persistent identities across frames: optimal assignment of detections to tracks.
 
@@ -242,21 +243,18 @@ class Tracker:
     open new tracks (``<prefix>_<n>``); a track unseen for more than ``max_missed`` frames ends.
     """
 
-    def __init__(
-        self,
-        max_distance: float = 0.05,
-        max_missed: int = 3,
-        type_penalty: float = 0.03,
-        prefix: str = "obj",
-    ):
-        if max_distance <= 0:
-            raise ValueError(f"max_distance must be > 0, got {max_distance}")
-        self.max_distance = max_distance
-        self.max_missed = max_missed
-        self.type_penalty = type_penalty
-        self.prefix = prefix
-        self._tracks: dict[str, tuple[DetectedObject, int]] = {}
-        self._next = 1
+    max_distance: float = 0.05
+    max_missed: int = 3
+    type_penalty: float = 0.03
+    prefix: str = "obj"
+    _tracks: dict[str, tuple[DetectedObject, int]] = field(
+        default_factory=dict, init=False, repr=False
+    )
+    _next: int = field(default=1, init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        if self.max_distance <= 0:
+            raise ValueError(f"max_distance must be > 0, got {self.max_distance}")
 
     @property
     def tracks(self) -> dict[str, DetectedObject]:
