@@ -176,26 +176,18 @@ def dual_arm_urdf(bases: dict[str, tuple[float, float, float]] | None = None) ->
 
 
 _PIN: Any = None
+_LWA: Any = None  # pinocchio's LOCAL_WORLD_ALIGNED frame, read once: kinematics runs each step
 
 
 def _import_pinocchio() -> Any:
-    global _PIN
+    global _PIN, _LWA
     if _PIN is None:
         try:
             import pinocchio
         except ImportError as exc:  # pragma: no cover - depends on the environment
             raise OptionalDependencyError("kinematic robot models", "sim", "pin") from exc
-        _PIN = pinocchio
+        _PIN, _LWA = pinocchio, pinocchio.ReferenceFrame.LOCAL_WORLD_ALIGNED
     return _PIN
-
-
-_LWA: Any = None
-
-
-def _lwa() -> Any:
-    global _LWA
-    _LWA = _import_pinocchio().ReferenceFrame.LOCAL_WORLD_ALIGNED
-    return _LWA
 
 
 @dataclass
@@ -250,7 +242,7 @@ class ArmModel:
         pin = _PIN or _import_pinocchio()
         pin.computeJointJacobians(self.model, self.data, q)
         oMf = pin.updateFramePlacement(self.model, self.data, self.tcp_frame)
-        J = pin.getFrameJacobian(self.model, self.data, self.tcp_frame, _LWA or _lwa())
+        J = pin.getFrameJacobian(self.model, self.data, self.tcp_frame, _LWA)
         return oMf.translation.copy(), oMf.rotation.copy(), J
 
 
