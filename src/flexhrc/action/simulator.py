@@ -467,11 +467,7 @@ def _cache_key(
         key = (arm, act, tgt, state, obs, hand, budget, velocity_scale, record, evs)
         hash(key)
         return key
-    except (
-        TypeError,
-        ValueError,
-        AttributeError,
-    ):  # pragma: no cover - unusual inputs: just do not cache
+    except (TypeError, ValueError, AttributeError):  # pragma: no cover - odd input: no caching
         return None
 
 
