@@ -109,8 +109,10 @@ class CellConfig:
             raise FlexhrcError(f"--wait must be a positive number of seconds, got {self.wait}")
         if self.agents == "external" and self.transport != "zenoh":
             raise FlexhrcError("--agents external needs --transport zenoh")
-        if self.transport == "inprocess" and (self.listen or self.connect or self.zenoh_config):
-            raise FlexhrcError("--listen, --connect and --zenoh-config go with --transport zenoh")
+        if self.transport == "inprocess" and (self.listen or self.connect):
+            raise FlexhrcError("--listen and --connect go with --transport zenoh")
+        if self.transport == "inprocess" and self.zenoh_config:
+            raise FlexhrcError("--zenoh-config goes with --transport zenoh")
         if self.resume and not self.store:
             raise FlexhrcError("--resume needs --store FILE.db")
         if self.human != "passive" and self.agents == "external":
