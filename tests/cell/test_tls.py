@@ -14,6 +14,7 @@ from __future__ import annotations
 import json
 import stat
 import subprocess
+import time
 from pathlib import Path
 from typing import Any
 
@@ -73,6 +74,10 @@ def test_certs_writes_a_ca_and_a_certificate_key_and_config_per_name(tmp_path: P
     assert again.kept == ["cell", "left"] and lab.cert("left").read_bytes() == before
     cert = x509.load_pem_x509_certificate(again.cert("camera").read_bytes())
     cert.verify_directly_issued_by(ca)
+    # the cell's access control names every agent of the lab, the one added later too
+    acl = json.loads(load_zenoh_config(lab.config("cell")).get_json("access_control"))
+    assert acl["enabled"] and acl["default_permission"] == "deny"
+    assert [s["cert_common_names"] for s in acl["subjects"]] == [["camera"], ["left"]]
 
 
 @pytest.mark.parametrize(
@@ -171,6 +176,17 @@ def test_a_zenoh_config_zenoh_refuses_is_one_error(tmp_path: Path) -> None:
 # -- a TLS cell of four processes and three peers without a certificate ---------------------------
 
 
+def _agent(
+    scenario: str, kind: str, name: str, endpoint: str, config: Path, tmp_path: Path
+) -> subprocess.Popen[str]:
+    """`flexhrc agent robot|human` with the lab's config for ``name``."""
+    option = "--arm" if kind == "robot" else "--name"
+    return flexhrc(
+        "agent", kind, scenario, option, name, "--connect", endpoint,
+        "--zenoh-config", str(config), log=tmp_path / f"{name}.err",
+    )  # fmt: skip
+
+
 def _spoofer(endpoint: str, config: Path | None) -> tuple[ZenohTransport, list[Any]]:
     """A peer that tries the cell's endpoint and listens to what the cell sends."""
     bus = ZenohTransport(
@@ -206,21 +222,7 @@ def test_tls_cell_is_solved_and_peers_without_a_certificate_change_nothing(
         port = listening_port(ready, manager)
         endpoint = f"tls/127.0.0.1:{port}"
         for kind, name in (("robot", "left"), ("robot", "right"), ("human", "human")):
-            option = "--arm" if kind == "robot" else "--name"
-            procs.append(
-                flexhrc(
-                    "agent",
-                    kind,
-                    scenario,
-                    option,
-                    name,
-                    "--connect",
-                    endpoint,
-                    "--zenoh-config",
-                    str(lab.config(name)),
-                    log=tmp_path / f"{name}.err",
-                )
-            )
+            procs.append(_agent(scenario, kind, name, endpoint, lab.config(name), tmp_path))
         # a peer of the lab (the control: the cell's messages do reach a certified peer)
         observer, seen = _spoofer(endpoint, lab.config("observer"))
         buses.append(observer)
@@ -333,3 +335,54 @@ def test_p14_a_stop_of_another_run_is_dropped() -> None:
     bus.publish(P.cmd_topic("left"), {"v": 1, "type": "stop", "id": 9, "run": "other"})
     assert 9 in arm.running and arm.dropped == 1
     arm.close()
+
+
+# -- access control: a certified peer speaks only for itself ---------------------------------------
+
+
+@pytest.mark.parametrize("acl", [True, False], ids=["with_access_control", "control_without"])
+def test_p27_a_certified_peer_cannot_declare_another_agents_token(
+    tmp_path: Path, acl: bool
+) -> None:
+    """`flexhrc certs` gives the cell Zenoh's access control: a lab certificate named
+    `intruder` may not declare `alive/right`, so the cell still waits for the real arm and
+    gives up after --wait naming it. The control, the same config without access control: the
+    token counts as the arm (a cell would start and send right's commands to nobody)."""
+    lab = make_lab(tmp_path / "lab", names=["cell", "intruder"])
+    config = lab.config("cell")
+    if not acl:
+        text = "\n".join(x for x in config.read_text().splitlines() if not x.startswith("//"))
+        plain = json.loads(text)
+        assert plain.pop("access_control")["enabled"] is True
+        config = tmp_path / "cell_plain.json5"
+        config.write_text(json.dumps(plain))
+    ready = tmp_path / "cell.ready"
+    manager = flexhrc(
+        "cell", "table_assembly", "--transport", "zenoh", "--agents", "external",
+        "--listen", "tls/127.0.0.1:0", "--zenoh-config", str(config), "--json", "--wait", "10",
+        "--ready-file", str(ready), log=tmp_path / "cell.err",
+    )  # fmt: skip
+    intruder: ZenohTransport | None = None
+    try:
+        endpoint = f"tls/127.0.0.1:{listening_port(ready, manager)}"
+        intruder = ZenohTransport(
+            zenoh_config(connect=[endpoint], file=lab.config("intruder")),
+            prefix="flexhrc/default",
+        )
+        alive: set[str] = set()
+        intruder.watch_liveliness("alive/*", lambda key, up: alive.add(key) if up else None)
+        deadline = time.monotonic() + 30
+        while "alive/manager" not in alive:  # connected: it sees the manager's token
+            assert time.monotonic() < deadline and manager.poll() is None, "never connected"
+            intruder.wait(0.1)
+            intruder.flush()
+        intruder.declare_token("alive/right")
+        manager.communicate(timeout=60)
+    finally:
+        if intruder is not None:
+            intruder.close()
+        kill_all([manager])
+    assert manager.returncode == 2
+    err = (tmp_path / "cell.err").read_text()
+    missing = err.split("error: no agent process for ", 1)[1].split(" after ", 1)[0]
+    assert set(missing.split(", ")) == ({"left", "right", "human"} if acl else {"left", "human"})

@@ -51,7 +51,7 @@ try:
 except ImportError as exc:  # pragma: no cover - exercised only without the extra
     raise OptionalDependencyError("flexhrc certs", "zenoh", "cryptography") from exc
 
-__all__ = ["CELL", "DEFAULT_HOSTS", "DEFAULT_NAMES", "Lab", "make_lab"]
+__all__ = ["CELL", "DEFAULT_HOSTS", "DEFAULT_NAMES", "Lab", "access_control", "make_lab"]
 
 #: The name of the cell's (the manager's) certificate.
 CELL = "cell"
@@ -152,6 +152,9 @@ def make_lab(
             )
             _write(lab.key(name), _key_pem(key), private=True, lab=lab)
             _write(lab.cert(name), cert.public_bytes(serialization.Encoding.PEM), lab=lab)
+    # the cell's last: its access control names every agent of the lab, earlier ones too
+    for name in sorted(set(names) | ({CELL} if lab.cert(CELL).exists() else set()),
+                       key=lambda n: n == CELL):  # fmt: skip
         _write(lab.config(name), _config(lab, name, listen).encode(), lab=lab)
     return lab
 
@@ -255,7 +258,7 @@ def _config(lab: Lab, name: str, listen: str) -> str:
         "connect_private_key": str(lab.key(name)),
     }
     cell = name == CELL
-    config = {
+    config: dict[str, Any] = {
         "mode": "peer",
         "listen": {"endpoints": [listen] if cell else []},
         "connect": {"endpoints": [] if cell else [listen]},
@@ -269,7 +272,93 @@ def _config(lab: Lab, name: str, listen: str) -> str:
         "// TLS with mutual authentication: only holders of a certificate of this lab's CA\n"
         '// connect. See docs/cell.md, "Securing a cell".\n'
     )
+    if cell:
+        agents = sorted(p.stem for p in lab.dir.glob("*.pem") if p.stem not in ("ca", CELL))
+        config["access_control"] = access_control(agents)
+        head += (
+            "// access_control: each agent, known by its certificate's common name, may send\n"
+            "// only the manager's inputs and declare only its own liveliness token.\n"
+        )
     return head + json.dumps(config, indent=2) + "\n"
+
+
+#: Every kind of message Zenoh's access control filters.
+_ALL_MESSAGES = [
+    "put", "delete", "declare_subscriber", "query", "reply", "declare_queryable",
+    "liveliness_token", "liveliness_query", "declare_liveliness_subscriber",
+]  # fmt: skip
+#: What an agent sends the manager (``docs/protocol.md``): the rest (``cmd/``, ``suggest/``,
+#: ``options/``, ``state``) only the manager publishes.
+_AGENT_INPUTS = ("ack", "human", "intent", "percept")
+
+
+def access_control(agents: Sequence[str]) -> dict[str, Any]:
+    """Zenoh's access control for the cell's session (``access_control`` of its config): every
+    message goes out to the lab's agents; from an agent — matched by its certificate's common
+    name — come only publications on the manager's inputs (:data:`_AGENT_INPUTS`), its own
+    liveliness token ``alive/NAME``, and subscriptions (reading within the lab is allowed).
+    So a certified ``left`` cannot send a ``stop`` on ``cmd/right``, an ``end`` on ``state`` or
+    the token of ``right``. Anything else is denied (``default_permission``)."""
+    rules: list[dict[str, Any]] = [
+        {
+            "id": "to_the_agents",
+            "messages": _ALL_MESSAGES,
+            "flows": ["egress"],
+            "permission": "allow",
+            "key_exprs": ["flexhrc/**"],
+        },
+        {
+            "id": "agents_listen",
+            "messages": [
+                "declare_subscriber",
+                "declare_liveliness_subscriber",
+                "liveliness_query",
+                "reply",
+            ],
+            "flows": ["ingress"],
+            "permission": "allow",
+            "key_exprs": ["flexhrc/**"],
+        },
+        {
+            "id": "agents_send_inputs",
+            "messages": ["put"],
+            "flows": ["ingress"],
+            "permission": "allow",
+            "key_exprs": [f"flexhrc/*/{topic}" for topic in _AGENT_INPUTS],
+        },
+    ]
+    policies: list[dict[str, Any]] = []
+    subjects: list[dict[str, Any]] = []
+    for agent in agents:
+        rules.append(
+            {
+                "id": f"token_of_{agent}",
+                "messages": ["liveliness_token"],
+                "flows": ["ingress"],
+                "permission": "allow",
+                "key_exprs": [f"flexhrc/*/alive/{agent}"],
+            }
+        )
+        subjects.append({"id": agent, "cert_common_names": [agent]})
+        policies.append(
+            {
+                "id": f"agent_{agent}",
+                "rules": [
+                    "to_the_agents",
+                    "agents_listen",
+                    "agents_send_inputs",
+                    f"token_of_{agent}",
+                ],
+                "subjects": [agent],
+            }
+        )
+    return {
+        "enabled": True,
+        "default_permission": "deny",
+        "rules": rules,
+        "subjects": subjects,
+        "policies": policies,
+    }
 
 
 def _write(path: Path, data: bytes, *, lab: Lab, private: bool = False) -> None:
