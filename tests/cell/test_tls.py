@@ -164,6 +164,33 @@ def test_ca14b_a_config_with_tls_and_mtls_may_listen_beyond_loopback(tmp_path: P
     check_exposure(zenoh_config(listen=["tcp/127.0.0.1:7448", "tcp/[::1]:7448"]))
 
 
+def test_a_zenoh_config_file_is_taken_as_is_the_options_replace_its_endpoints(
+    tmp_path: Path,
+) -> None:
+    file = tmp_path / "z.json5"
+    file.write_text(
+        '// a comment: json5\n{ mode: "peer", scouting: { multicast: { enabled: true } },\n'
+        '  listen: { endpoints: ["tcp/127.0.0.1:7450"] }, connect: { endpoints: [] } }\n'
+    )
+
+    def get(config: Any, key: str) -> Any:
+        return json.loads(config.get_json(key))
+
+    config = zenoh_config(file=file)
+    assert get(config, "listen/endpoints") == ["tcp/127.0.0.1:7450"]
+    assert get(config, "scouting/multicast/enabled") is True  # the file said so
+    assert get(config, "connect/retry")["period_max_ms"] == 1000  # flexhrc's, left at default
+    config = zenoh_config(listen=["tcp/127.0.0.1:0"], connect=["tcp/127.0.0.1:7451"], file=file)
+    assert get(config, "listen/endpoints") == ["tcp/127.0.0.1:0"]
+    assert get(config, "connect/endpoints") == ["tcp/127.0.0.1:7451"]
+    assert get(config, "adminspace/enabled") is True  # port 0: the cell reports its port
+    # a file that leaves the listeners to Zenoh (every interface, plain tcp) is refused
+    bare = tmp_path / "bare.json5"
+    bare.write_text("{}")
+    with pytest.raises(TransportError, match=r"--listen tcp/\[::\]:0"):
+        check_exposure(zenoh_config(file=bare))
+
+
 def test_a_zenoh_config_zenoh_refuses_is_one_error(tmp_path: Path) -> None:
     bad = tmp_path / "bad.json5"
     bad.write_text("{ trasnport: {} }")
@@ -386,3 +413,25 @@ def test_p27_a_certified_peer_cannot_declare_another_agents_token(
     err = (tmp_path / "cell.err").read_text()
     missing = err.split("error: no agent process for ", 1)[1].split(" after ", 1)[0]
     assert set(missing.split(", ")) == ({"left", "right", "human"} if acl else {"left", "human"})
+
+
+@pytest.mark.parametrize(
+    ("argv", "says"),
+    [
+        (["cell", "table_assembly", "--zenoh-config", "z.json5"], "--zenoh-config goes with"),
+        (["cell", "table_assembly", "--transport", "zenoh", "--zenoh-config", "missing.json5"],
+         "--zenoh-config missing.json5: no such file"),
+        (["agent", "robot", "table_assembly", "--arm", "left", "--zenoh-config", "missing.json5"],
+         "--zenoh-config missing.json5: no such file"),
+        (["agent", "perception", "table_assembly", "--zenoh-config", "missing.json5"],
+         "--zenoh-config missing.json5: no such file"),
+    ],
+)  # fmt: skip
+def test_zenoh_config_option_errors_are_one_line(
+    argv: list[str], says: str, capsys: pytest.CaptureFixture[str], tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:  # fmt: skip
+    monkeypatch.chdir(tmp_path)
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("error: ") and says in err
