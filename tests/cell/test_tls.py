@@ -227,6 +227,7 @@ def _spoofer(endpoint: str, config: Path | None) -> tuple[ZenohTransport, list[A
     return bus, heard
 
 
+@pytest.mark.slow
 def test_tls_cell_is_solved_and_peers_without_a_certificate_change_nothing(
     tmp_path: Path,
 ) -> None:
@@ -367,6 +368,7 @@ def test_p14_a_stop_of_another_run_is_dropped() -> None:
 # -- access control: a certified peer speaks only for itself ---------------------------------------
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("acl", [True, False], ids=["with_access_control", "control_without"])
 def test_p27_a_certified_peer_cannot_declare_another_agents_token(
     tmp_path: Path, acl: bool

@@ -33,16 +33,16 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
     )
     p.add_argument(
         "--hosts",
-        default="localhost,127.0.0.1,::1",
+        default="",
         metavar="H,...",
-        help="host names and addresses the certificates are valid for: add the cell host's "
-        "(default localhost,127.0.0.1,::1); the first other one is where the cell listens",
+        help="host names and addresses the certificates are valid for besides loopback: the "
+        "cell host's, for agents on other hosts (the first is where the cell's config listens)",
     )
     p.add_argument(
         "--listen",
         metavar="ENDPOINT",
         help="the cell's endpoint, in the configs (default tls/127.0.0.1:7447, or tls/HOST:7447 "
-        "for the first non-loopback --hosts entry)",
+        "for the first non-loopback --hosts entry HOST)",
     )
     add_json_flag(p)
     p.set_defaults(func=cmd_certs)

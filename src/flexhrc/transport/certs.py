@@ -19,7 +19,8 @@ Files in ``DIR`` (each written atomically; private keys readable by their owner 
   added later (``flexhrc certs DIR --names cell,left,right,human,camera``) joins the same lab;
   a name whose certificate exists is kept as it is.
 * ``NAME.pem``, ``NAME.key``: the certificate (common name ``NAME``, the names Zenoh's access
-  control matches with ``cert_common_names``; valid for every address in ``hosts``) and its key.
+  control matches with ``cert_common_names``; valid for loopback and every address in
+  ``hosts``) and its key.
 * ``NAME.json5``: a Zenoh configuration with these files (absolute paths), ``enable_mtls``,
   multicast scouting off. The cell's (``cell``) listens on ``tls/HOST:PORT``; an agent's
   connects there and listens nowhere, so nothing else reaches it.
@@ -89,12 +90,13 @@ def make_lab(
     *,
     names: Sequence[str] = DEFAULT_NAMES,
     days: int = 365,
-    hosts: Iterable[str] = DEFAULT_HOSTS,
+    hosts: Iterable[str] = (),
     listen: str | None = None,
 ) -> Lab:
     """Write a CA and a key, certificate and Zenoh config for each of ``names`` into
     ``directory`` (created if needed; see the module docstring). ``days``: how long the
-    certificates are valid; ``hosts``: the DNS names and IP addresses they are valid for;
+    certificates are valid; ``hosts``: the DNS names and IP addresses they are valid for
+    besides :data:`DEFAULT_HOSTS` (loopback; the cell host's, for agents on other hosts);
     ``listen``: the cell's endpoint (default ``tls/127.0.0.1:7447``; the first non-loopback
     host of ``hosts`` makes ``tls/HOST:7447``), which the agents' configs connect to. Bad
     arguments raise one :class:`~flexhrc.errors.FlexhrcError` naming the option."""
@@ -109,9 +111,7 @@ def make_lab(
     if not isinstance(days, int) or isinstance(days, bool) or not 1 <= days <= 36500:
         raise FlexhrcError(f"--days must be a whole number of days in 1..36500, got {days!r}")
     hosts = list(dict.fromkeys(h.strip() for h in hosts if h.strip()))
-    if not hosts:
-        raise FlexhrcError("--hosts: give at least one host name or address")
-    sans = [_san(h) for h in hosts]
+    sans = [_san(h) for h in dict.fromkeys([*DEFAULT_HOSTS, *hosts])]
     if listen is None:
         outside = [h for h in hosts if not _loopback(h)]
         listen = f"tls/{_hostport(outside[0] if outside else '127.0.0.1', 7447)}"
