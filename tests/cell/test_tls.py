@@ -437,3 +437,56 @@ def test_zenoh_config_option_errors_are_one_line(
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith("error: ") and says in err
+
+
+# -- ROS 2: the same rule, with SROS2 for TLS ------------------------------------------------------
+
+
+def _ros2_check() -> Any:
+    from flexhrc.ros2 import available
+
+    if not available():
+        pytest.skip("rclpy or a standard ROS 2 message package is not importable")
+    from flexhrc.ros2.transport import check_exposure as check
+
+    return check
+
+
+@pytest.mark.parametrize(
+    ("env", "refused"),
+    [
+        ({}, "unset: SUBNET"),
+        ({"ROS_AUTOMATIC_DISCOVERY_RANGE": "SUBNET"}, "=SUBNET"),
+        ({"ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST", "ROS_STATIC_PEERS": "192.0.2.5"},
+         "ROS_STATIC_PEERS names 192.0.2.5"),
+        ({"ROS_SECURITY_ENABLE": "true", "ROS_SECURITY_STRATEGY": "Permissive"}, "SUBNET"),
+        ({"ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"}, None),
+        ({"ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST", "ROS_STATIC_PEERS": "127.0.0.1"}, None),
+        ({"ROS_LOCALHOST_ONLY": "1"}, None),
+        ({"ROS_SECURITY_ENABLE": "true", "ROS_SECURITY_STRATEGY": "Enforce"}, None),
+    ],
+)  # fmt: skip
+def test_ros2_discovery_beyond_this_host_needs_sros2(
+    env: dict[str, str], refused: str | None
+) -> None:
+    check = _ros2_check()
+    if refused is None:
+        check(env)
+    else:
+        with pytest.raises(FlexhrcError, match=refused):
+            check(env)
+
+
+def test_ros2_cell_with_subnet_discovery_is_refused_before_it_starts(
+    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    _ros2_check()
+    for var in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_LOCALHOST_ONLY", "ROS_SECURITY_ENABLE"):
+        monkeypatch.delenv(var, raising=False)
+    for argv in (
+        ["ros2", "cell", "table_assembly"],
+        ["ros2", "arm", "table_assembly", "--arm", "left"],
+    ):
+        assert main([*argv, "--quiet"]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and err.startswith("error: ROS 2 discovery reaches other hosts")
