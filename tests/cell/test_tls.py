@@ -187,7 +187,7 @@ def test_a_zenoh_config_file_is_taken_as_is_the_options_replace_its_endpoints(
     # a file that leaves the listeners to Zenoh (every interface, plain tcp) is refused
     bare = tmp_path / "bare.json5"
     bare.write_text("{}")
-    with pytest.raises(TransportError, match=r"--listen tcp/\[::\]:0"):
+    with pytest.raises(TransportError, match=r"--zenoh-config: listen endpoint tcp/\[::\]:0"):
         check_exposure(zenoh_config(file=bare))
 
 

@@ -276,23 +276,35 @@ def _is_loopback(endpoint: str) -> bool:
         return False
 
 
-def check_exposure(config: Any) -> None:
+def check_exposure(config: Any, given: Sequence[str] = ()) -> None:
     """Refuse ``config`` when it listens where other hosts reach it without Zenoh's TLS with
     mutual authentication: a peer that can connect can publish anything into the cell (a
     ``stop``, an ``end``, an ack), so such a listener needs a ``tls/`` endpoint and a
     configuration (``--zenoh-config``) with the listener's certificate and key, the CA the
     peers' certificates are checked against and ``enable_mtls: true`` (``flexhrc certs DIR``
-    writes one). Raises one :class:`TransportError` naming the endpoint."""
+    writes one). Raises one :class:`TransportError` naming the endpoint — as ``--listen EP``
+    when it is one of ``given`` (the option's), else as the config file's."""
 
     def tls(key: str) -> Any:
         return json.loads(config.get_json(f"transport/link/tls/{key}"))
 
+    given_eps = {normalise_endpoint(e) for e in given}
+    zenohs = config.get_json("listen/endpoints") == _zenoh.Config().get_json("listen/endpoints")
     for ep in _endpoints_of(config, "listen"):
         if _is_loopback(ep):
             continue
+        if ep in given_eps:
+            where = f"--listen {ep}"
+        elif zenohs:
+            where = (
+                f"--zenoh-config: listen endpoint {ep} (Zenoh's default where the file names "
+                "none: give listen: {endpoints: [...]})"
+            )
+        else:
+            where = f"--zenoh-config: listen endpoint {ep}"
         if not ep.startswith("tls/"):
             raise TransportError(
-                f"--listen {ep}: other hosts reach this address and a plain {ep.split('/')[0]}"
+                f"{where}: other hosts reach this address and a plain {ep.split('/')[0]}"
                 " link lets any of them drive the cell; listen on a tls/ endpoint with a "
                 "--zenoh-config that has certificates (`flexhrc certs DIR` writes them; "
                 'docs/cell.md, "Securing a cell"), or on 127.0.0.1'
@@ -305,7 +317,7 @@ def check_exposure(config: Any) -> None:
         if missing or tls("enable_mtls") is not True:
             what = ", ".join(missing + ([] if tls("enable_mtls") is True else ["enable_mtls"]))
             raise TransportError(
-                f"--listen {ep}: TLS without mutual authentication lets any host drive the "
+                f"{where}: TLS without mutual authentication lets any host drive the "
                 f"cell; the Zenoh config lacks transport.link.tls {what} (`flexhrc certs DIR` "
                 'writes a config with all of them; docs/cell.md, "Securing a cell")'
             )
@@ -325,7 +337,7 @@ def open_zenoh(
     (:func:`check_exposure`) before anything is opened. ``warn``: kept for callers that pass
     it; nothing is only warned of any more."""
     config = zenoh_config(listen=listen, connect=connect, file=config_file)
-    check_exposure(config)
+    check_exposure(config, given=listen)
     transport = ZenohTransport(config, prefix=prefix)
     transport.listen_endpoints = _endpoints_of(config, "listen")
     return transport
