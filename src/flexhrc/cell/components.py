@@ -215,7 +215,11 @@ class _Agent:
 
     def _on_state(self, data: Any) -> None:
         if isinstance(data, dict) and data.get("type") == "end":
-            self.ended = str(data.get("outcome"))
+            # only the manager's own end: a spoofed or foreign one is dropped (P15, P16)
+            try:
+                self.ended = str(P.parse_end(data, run=getattr(self, "run", None))["outcome"])
+            except P.ProtocolError as exc:
+                self._bad(data, exc)
 
     def _bad(self, data: Any, exc: Exception) -> None:
         self.dropped += 1
@@ -327,6 +331,8 @@ class RobotAgent(_Agent):
 
     def _stop(self, msg: dict[str, Any]) -> None:
         cid = int(msg["id"])
+        if not P.from_run(msg, getattr(self, "run", None)):
+            raise P.ProtocolError(f"a stop of run {msg.get('run')!r} for cmd {cid}: not ours")
         if cid in self.running:
             self.running.discard(cid)
             self.stopped.add(cid)
@@ -352,8 +358,28 @@ class RobotAgent(_Agent):
             self.trace(f"cmd {cid} repeated: ack sent again")
             self.transport.publish(P.ACK_TOPIC, self.acks[cid])
             return
-        if cid in self.running or cid in self.stopped:
+        if cid in self.running:
             self.trace(f"cmd {cid} repeated while running: ignored")
+            return
+        if cid in self.stopped:
+            # the manager sends a command again that this arm was told to stop: it did not
+            # send that stop (a spoofed one, P14) or no longer knows of it; a failed ack lets
+            # it re-plan instead of waiting for an answer that never comes
+            ack = P.message(
+                "ack",
+                id=cid,
+                agent=self.name,
+                status="failed",
+                reason="stopped before its end",
+                t=float(msg["t"]),
+                duration=0.0,
+                positions={},
+            )
+            self.stopped.discard(cid)
+            self.acks[cid] = ack
+            self._journal({"id": cid, "event": "ack", "ack": ack})
+            self.transport.publish(P.ACK_TOPIC, ack)
+            self.trace(f"cmd {cid} repeated after a stop: failed")
             return
         if cid in self.interrupted:  # started by a process of this agent that died
             ack = P.message(

@@ -73,7 +73,10 @@ class CellConfig:
     neither, the cell listens on :data:`DEFAULT_LISTEN`); ``cell`` the name its keys live under
     (``flexhrc/NAME/``). ``agents`` ``internal``: simulated arms and operators in this process,
     the operators with the ``human`` profile, seeded from ``seed`` as ``flexhrc run`` seeds them;
-    ``external``: agent processes (Zenoh only), waited for ``wait`` seconds. ``store`` an SQLite
+    ``external``: agent processes (Zenoh only), waited for ``wait`` seconds. ``zenoh_config``: a
+    Zenoh configuration file (json5, ``--zenoh-config``) the session starts from — TLS
+    certificates, access control (``docs/cell.md``, "Securing a cell"); without
+    ``listen``/``connect`` its endpoints are used. ``store`` an SQLite
     event store; ``resume`` continues the cooperation kept there. ``realtime`` 0: as fast as the
     agents answer, else simulated seconds per wall second. ``simulator`` the branch simulator and
     the internal arms' world. ``ready_file``: once the cell listens, JSON with the endpoints as
@@ -93,6 +96,7 @@ class CellConfig:
     wait: float = 30.0
     human: str = "passive"
     ready_file: str | Path | None = None
+    zenoh_config: str | Path | None = None
 
     def __post_init__(self) -> None:
         _choice("--transport", self.transport, ("inprocess", "zenoh"))
@@ -107,6 +111,8 @@ class CellConfig:
             raise FlexhrcError("--agents external needs --transport zenoh")
         if self.transport == "inprocess" and (self.listen or self.connect):
             raise FlexhrcError("--listen and --connect go with --transport zenoh")
+        if self.transport == "inprocess" and self.zenoh_config:
+            raise FlexhrcError("--zenoh-config goes with --transport zenoh")
         if self.resume and not self.store:
             raise FlexhrcError("--resume needs --store FILE.db")
         if self.human != "passive" and self.agents == "external":
@@ -120,8 +126,8 @@ class CellConfig:
     @property
     def listen_on(self) -> list[str]:
         """The Zenoh endpoints to listen on: ``listen``, else :data:`DEFAULT_LISTEN` unless the
-        cell only connects."""
-        return list(self.listen) or ([] if self.connect else [DEFAULT_LISTEN])
+        cell only connects or its ``zenoh_config`` file says where."""
+        return list(self.listen) or ([] if self.connect or self.zenoh_config else [DEFAULT_LISTEN])
 
 
 def serve_cell(
@@ -145,7 +151,13 @@ def serve_cell(
     try:
         zenoh = config.transport == "zenoh"
         if zenoh:
-            transport = zenoh_for_cell(config.cell, config.listen_on, config.connect, warn=say)
+            transport = zenoh_for_cell(
+                config.cell,
+                config.listen_on,
+                config.connect,
+                warn=say,
+                config_file=config.zenoh_config,
+            )
         else:
             transport = InProcessBus()
         internal = config.agents == "internal"
@@ -189,7 +201,7 @@ def serve_cell(
         if zenoh:
             from flexhrc.transport.zenoh import listening_on
 
-            endpoints = listening_on(transport, config.listen_on)
+            endpoints = listening_on(transport, config.listen_on or transport.listen_endpoints)
             where = ", ".join(endpoints)
             say(
                 f"cell {config.cell!r} on zenoh"
@@ -298,14 +310,18 @@ def zenoh_for_cell(
     connect: Iterable[str] = (),
     *,
     warn: Callable[[str], None] | None = None,
+    config_file: str | Path | None = None,
 ) -> Any:
     """A Zenoh transport for the cell named ``cell`` (keys under ``flexhrc/CELL/``), for the
-    cell itself or an agent of it (:func:`flexhrc.transport.zenoh.open_zenoh`; without the
-    ``zenoh`` extra, an :class:`~flexhrc.errors.OptionalDependencyError` that says so)."""
+    cell itself or an agent of it (:func:`flexhrc.transport.zenoh.open_zenoh`, which refuses
+    a listener other hosts reach without TLS; ``config_file``: ``--zenoh-config``; without
+    the ``zenoh`` extra, an :class:`~flexhrc.errors.OptionalDependencyError` that says so)."""
     _check_cell_name(cell)
     from flexhrc.transport.zenoh import open_zenoh
 
-    return open_zenoh(list(listen), list(connect), prefix=f"flexhrc/{cell}", warn=warn)
+    return open_zenoh(
+        list(listen), list(connect), prefix=f"flexhrc/{cell}", warn=warn, config_file=config_file
+    )
 
 
 # -- an agent process -------------------------------------------------------------------------
@@ -316,8 +332,9 @@ class AgentConfig:
     ``kind`` ``robot`` (the arm ``name``; ``simulator`` its simulated world; ``journal`` keeps
     the commands it started and finished, so a restarted process never executes a command id
     twice) or ``human`` (the operator ``name`` with ``profile``, its choices seeded by
-    ``seed``). ``connect``/``listen``: Zenoh endpoints (at least one; the cell's ``--listen``
-    endpoint to connect to); ``cell`` the cell's name.
+    ``seed``). ``connect``/``listen``: Zenoh endpoints (at least one, or a ``zenoh_config``
+    file that names them; the cell's ``--listen`` endpoint to connect to); ``cell`` the cell's
+    name; ``zenoh_config`` a Zenoh configuration file (``--zenoh-config``: its certificate).
     """
 
     kind: str
@@ -329,11 +346,12 @@ class AgentConfig:
     simulator: str = "auto"
     journal: str | Path | None = None
     profile: str = "passive"
+    zenoh_config: str | Path | None = None
 
     def __post_init__(self) -> None:
         _choice("KIND", self.kind, ("robot", "human"))
         _choice("--simulator", self.simulator, SIMULATORS)
-        if not self.connect and not self.listen:
+        if not self.connect and not self.listen and not self.zenoh_config:
             raise FlexhrcError("--connect ENDPOINT is needed (the cell's --listen endpoint)")
         _check_cell_name(self.cell)
 
@@ -357,7 +375,9 @@ def join_cell(
         check_profile(config.profile)
     if config.journal:
         check_output(config.journal, option="--journal")
-    transport = zenoh_for_cell(config.cell, config.listen, config.connect, warn=progress)
+    transport = zenoh_for_cell(
+        config.cell, config.listen, config.connect, warn=progress, config_file=config.zenoh_config
+    )
 
     def make() -> RobotAgent | HumanAgent:
         if config.kind == "robot":

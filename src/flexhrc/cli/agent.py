@@ -89,6 +89,7 @@ def cmd_agent(args: argparse.Namespace) -> int:
         simulator=args.simulator if robot else "auto",
         journal=args.journal if robot else None,
         profile="passive" if robot else args.profile,
+        zenoh_config=args.zenoh_config,
     )
     scenario = load_scenario(args.scenario, seed=args.seed, segments=args.segments)
     data = join_cell(
@@ -116,7 +117,7 @@ def cmd_agent_perception(args: argparse.Namespace) -> int:
     from flexhrc.cell.serve import zenoh_for_cell
     from flexhrc.scenario import load_scenario
 
-    if not args.connect and not args.listen:
+    if not args.connect and not args.listen and not args.zenoh_config:
         raise FlexhrcError("--connect ENDPOINT is needed (the cell's --listen endpoint)")
     try:
         from flexhrc.sensing.agent import PerceptionAgent
@@ -129,7 +130,11 @@ def cmd_agent_perception(args: argparse.Namespace) -> int:
 
     trace = _say(args, "perception")
     transport = zenoh_for_cell(
-        args.cell, args.listen, args.connect, warn=None if args.quiet else progress
+        args.cell,
+        args.listen,
+        args.connect,
+        warn=None if args.quiet else progress,
+        config_file=args.zenoh_config,
     )
     agent, _ = serve_agent(
         lambda: PerceptionAgent(scenario, transport, trace=trace),

@@ -88,6 +88,7 @@ def cmd_cell(args: argparse.Namespace) -> int:
         wait=args.wait,
         human=args.human,
         ready_file=args.ready_file,
+        zenoh_config=args.zenoh_config,
     )
     web = check_web(args)  # a non-loopback --web without --token is refused before any work
     scenario = load_scenario(args.scenario, seed=args.seed, segments=args.segments)

@@ -80,6 +80,13 @@ def add_transport_options(p: argparse.ArgumentParser, *, default: str = "inproce
         metavar="NAME",
         help="cell name: keys live under flexhrc/NAME/ (default 'default')",
     )
+    p.add_argument(
+        "--zenoh-config",
+        metavar="FILE",
+        help="a Zenoh configuration file (json5, passed to Zenoh as is): TLS certificates, "
+        "access control (`flexhrc certs DIR` writes one per agent; docs/cell.md, "
+        '"Securing a cell"); --listen/--connect replace its endpoints',
+    )
 
 
 def add_simulator_option(p: argparse.ArgumentParser, help: str) -> None:

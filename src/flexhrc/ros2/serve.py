@@ -303,9 +303,10 @@ def _scenario(config: Ros2NodeConfig) -> Any:
 
 
 def _transport(config: Ros2NodeConfig, role: str) -> Any:
-    from flexhrc.ros2.transport import Ros2Transport, ros_topic
+    from flexhrc.ros2.transport import Ros2Transport, check_exposure, ros_topic
 
     ros_topic("flexhrc", config.cell)  # a cell name must be a valid ROS name part
+    check_exposure()  # other hosts' nodes only with SROS2, as a Zenoh cell only with TLS
     return Ros2Transport(
         prefix=f"flexhrc/{config.cell}",
         node_name=f"flexhrc_{config.cell}_{role}",

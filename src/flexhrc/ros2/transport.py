@@ -49,7 +49,7 @@ import re
 import threading
 import time
 import uuid
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import Any, Literal
 
 from flexhrc.errors import FlexhrcError
@@ -68,6 +68,7 @@ __all__ = [
     "LIVELINESS_TOPIC",
     "Ros2Transport",
     "Ros2TransportError",
+    "check_exposure",
     "domain_id_from_env",
     "json_decode",
     "json_encode",
@@ -146,6 +147,40 @@ def domain_id_from_env(value: str | int | None = None) -> int:
     if not 0 <= n <= 232:
         raise Ros2TransportError(f"ROS domain id must be in 0..232, got {n}")
     return n
+
+
+def check_exposure(environ: Mapping[str, str] | None = None) -> None:
+    """Refuse a ROS 2 node of a cell that other hosts' nodes can reach unauthenticated — the
+    rule of a Zenoh cell's ``--listen`` (``docs/cell.md``, "Securing a cell"). DDS discovery
+    stays on this host with ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`` (or ``OFF``; or, unset,
+    the older ``ROS_LOCALHOST_ONLY=1``) and no ``ROS_STATIC_PEERS`` beyond loopback; else SROS2
+    must be enforced (``ROS_SECURITY_ENABLE=true``, ``ROS_SECURITY_STRATEGY=Enforce``): signed,
+    encrypted traffic and per-topic permissions. Raises one :class:`Ros2TransportError`."""
+    env = os.environ if environ is None else environ
+    if env.get("ROS_SECURITY_ENABLE", "").lower() == "true" and (
+        env.get("ROS_SECURITY_STRATEGY") == "Enforce"
+    ):
+        return
+    scope = env.get("ROS_AUTOMATIC_DISCOVERY_RANGE", "").strip().upper()
+    local = scope in ("LOCALHOST", "OFF") or (
+        scope in ("", "SYSTEM_DEFAULT") and env.get("ROS_LOCALHOST_ONLY") == "1"
+    )
+    peers = [p.strip() for p in env.get("ROS_STATIC_PEERS", "").split(";") if p.strip()]
+    remote = [p for p in peers if p not in ("localhost", "::1") and not p.startswith("127.")]
+    if local and not remote:
+        return
+    if local:
+        why = f"ROS_STATIC_PEERS names {remote[0]}"
+    elif scope:
+        why = f"ROS_AUTOMATIC_DISCOVERY_RANGE={scope}"
+    else:
+        why = "ROS_AUTOMATIC_DISCOVERY_RANGE is unset: SUBNET, ROS 2's default"
+    raise Ros2TransportError(
+        f"ROS 2 discovery reaches other hosts ({why}) and SROS2 is not enforced: any node "
+        "there could drive the cell; on one host export ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST, "
+        "across hosts enforce SROS2 (ROS_SECURITY_ENABLE=true, ROS_SECURITY_STRATEGY=Enforce, "
+        'ROS_SECURITY_KEYSTORE; docs/cell.md, "Securing a cell")'
+    )
 
 
 class _Token:

@@ -112,7 +112,10 @@ class PerceptionAgent:
 
     def _on_state(self, data: Any) -> None:
         if isinstance(data, dict) and data.get("type") == "end":
-            self.ended = str(data.get("outcome"))
+            try:  # only the manager's own end (a spoofed "v": 99 one is dropped)
+                self.ended = str(P.parse_end(data, run=getattr(self, "run", None))["outcome"])
+            except P.ProtocolError as exc:
+                self._bad(exc)
         elif self.truth is not None and isinstance(data, dict) and data.get("type") == "state":
             self._watch(data)
 

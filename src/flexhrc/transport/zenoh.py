@@ -36,9 +36,17 @@ API (everything below is public and stable):
   port 0 and reports the port it got.
   ``zenoh_config(..., adminspace=True)`` makes the admin space readable; it is on by default
   when a ``listen`` endpoint has port 0 (the system picks the port).
-* :func:`open_zenoh` ``(listen, connect, *, prefix, warn)``: a transport on those endpoints,
-  warning of a ``listen`` endpoint other hosts reach; :func:`listening_on`: the endpoints as
-  bound (what ``flexhrc cell --ready-file`` tells the agents).
+* ``zenoh_config(..., file=PATH)`` starts from a Zenoh configuration file (json5, Zenoh's own
+  format, ``--zenoh-config``): TLS certificates, access control, anything Zenoh offers. The
+  endpoints the options name replace the file's; flexhrc's own defaults (multicast scouting
+  off, quick re-dial, the read-only admin space for a port-0 endpoint) fill only what the file
+  leaves at Zenoh's default. :func:`load_zenoh_config` reads such a file with one clear error.
+* :func:`check_exposure` refuses a configuration that listens on an address other hosts reach
+  without TLS and mutual authentication (a ``tls/`` endpoint, the listener's certificate and
+  key, the CA and ``enable_mtls: true``): such a cell would obey anyone on the network.
+* :func:`open_zenoh` ``(listen, connect, *, prefix, warn, config_file)``: a transport on those
+  endpoints, checked by :func:`check_exposure`; :func:`listening_on`: the endpoints as bound
+  (what ``flexhrc cell --ready-file`` tells the agents).
 * :class:`ZenohTransport` ``(config=None, *, session=None, prefix="", encode=json_encode,
   decode=json_decode, deliver="flush", on_drop=None)``.
 
@@ -79,12 +87,14 @@ wildcards (``a/b/c``: no empty chunk, no leading or trailing ``/``, none of ``* 
 from __future__ import annotations
 
 import contextlib
+import ipaddress
 import json
 import logging
 import re
 import socket
 import threading
 from collections.abc import Callable, Sequence
+from pathlib import Path
 from typing import Any, Literal
 
 from flexhrc.errors import FlexhrcError, OptionalDependencyError
@@ -100,10 +110,12 @@ __all__ = [
     "LivelinessCallback",
     "TransportError",
     "ZenohTransport",
+    "check_exposure",
     "free_tcp_port",
     "json_decode",
     "json_encode",
     "listening_on",
+    "load_zenoh_config",
     "loopback_config",
     "normalise_endpoint",
     "open_zenoh",
@@ -166,6 +178,7 @@ def zenoh_config(
     mode: Literal["peer", "client", "router"] = "peer",
     multicast: bool = False,
     adminspace: bool | None = None,
+    file: str | Path | None = None,
 ) -> Any:
     """A ``zenoh.Config`` for flexhrc: explicit endpoints, multicast scouting off by default.
 
@@ -173,31 +186,141 @@ def zenoh_config(
     so other peers learned by gossip can reach it on this host) instead of every interface.
     ``adminspace`` (read-only) lets :meth:`ZenohTransport.locators` tell which port the system
     gave a ``listen`` endpoint with port 0; by default it is on exactly when one has port 0.
+
+    ``file``: a Zenoh configuration file (``--zenoh-config``) to start from, taken as Zenoh
+    reads it (:func:`load_zenoh_config`); ``mode`` and ``multicast`` are then the file's, a
+    ``listen``/``connect`` given here replaces the file's endpoints, and flexhrc's defaults
+    (no multicast, quick re-dial, the admin space for port 0) fill only the keys the file leaves
+    at Zenoh's default.
     """
     if mode not in ("peer", "client", "router"):
         raise TransportError(f"zenoh mode must be peer, client or router, not {mode!r}")
     listen_eps = [normalise_endpoint(e) for e in listen]
     connect_eps = [normalise_endpoint(e) for e in connect]
-    if adminspace is None:
-        adminspace = any(_port_of(e) == 0 for e in listen_eps)
-    if not listen_eps and mode != "client":
-        listen_eps = ["tcp/127.0.0.1:0"]
-    config = _zenoh.Config()
-    config.insert_json5("mode", json.dumps(mode))
-    config.insert_json5("scouting/multicast/enabled", json.dumps(bool(multicast)))
-    config.insert_json5("listen/endpoints", json.dumps(listen_eps))
-    config.insert_json5("connect/endpoints", json.dumps(connect_eps))
-    # Re-dial a lost or not-yet-started peer quickly (Zenoh's default backs off to several
-    # seconds): agents started before the manager, or a manager restarted with --resume, are
-    # found again within about a second.
-    config.insert_json5(
-        "connect/retry",
-        json.dumps({"period_init_ms": 100, "period_max_ms": 1000, "period_increase_factor": 2}),
-    )
+    if file is not None:
+        config = load_zenoh_config(file)
+        if listen_eps:
+            config.insert_json5("listen/endpoints", json.dumps(listen_eps))
+        if connect_eps:
+            config.insert_json5("connect/endpoints", json.dumps(connect_eps))
+        defaults = _zenoh.Config()
+        for key, value in _FLEXHRC_DEFAULTS.items():
+            if config.get_json(key) == defaults.get_json(key):
+                config.insert_json5(key, json.dumps(value))
+        bound = _endpoints_of(config, "listen")
+        if adminspace is None and config.get_json("adminspace/enabled") == "false":
+            adminspace = any(_port_of(e) == 0 for e in bound)
+    else:
+        if adminspace is None:
+            adminspace = any(_port_of(e) == 0 for e in listen_eps)
+        if not listen_eps and mode != "client":
+            listen_eps = ["tcp/127.0.0.1:0"]
+        config = _zenoh.Config()
+        config.insert_json5("mode", json.dumps(mode))
+        config.insert_json5("scouting/multicast/enabled", json.dumps(bool(multicast)))
+        config.insert_json5("listen/endpoints", json.dumps(listen_eps))
+        config.insert_json5("connect/endpoints", json.dumps(connect_eps))
+        for key, value in _FLEXHRC_DEFAULTS.items():
+            config.insert_json5(key, json.dumps(value))
     if adminspace:
         admin = {"enabled": True, "permissions": {"read": True, "write": False}}
         config.insert_json5("adminspace", json.dumps(admin))
     return config
+
+
+#: What flexhrc changes in Zenoh's defaults. Multicast scouting off: a cell is found only where
+#: an endpoint says. Re-dial a lost or not-yet-started peer quickly (Zenoh's default backs off
+#: to several seconds): agents started before the manager, or a manager restarted with
+#: --resume, are found again within about a second.
+_FLEXHRC_DEFAULTS: dict[str, Any] = {
+    "scouting/multicast/enabled": False,
+    "connect/retry": {"period_init_ms": 100, "period_max_ms": 1000, "period_increase_factor": 2},
+}
+
+
+def load_zenoh_config(path: str | Path) -> Any:
+    """A Zenoh configuration file (json5, Zenoh's own format) as a ``zenoh.Config``; a file
+    that is missing or that Zenoh refuses is one :class:`TransportError` naming
+    ``--zenoh-config`` and the file."""
+    p = Path(path)
+    if not p.is_file():
+        raise TransportError(f"--zenoh-config {p}: no such file")
+    try:
+        return _zenoh.Config.from_file(str(p))
+    except Exception as exc:  # zenoh.ZError: a json5 syntax error, an unknown key...
+        why = re.sub(r"\s+at\s+\S+\.rs:\d+\.?", "", str(exc)).strip()
+        raise TransportError(f"--zenoh-config {p}: Zenoh refuses it: {why}") from None
+
+
+def _endpoints_of(config: Any, which: str) -> list[str]:
+    """The ``listen`` or ``connect`` endpoints of ``config`` for its mode (a mode-dependent
+    value in a file is a dict by mode)."""
+    value = json.loads(config.get_json(f"{which}/endpoints"))
+    if isinstance(value, dict):
+        mode = json.loads(config.get_json("mode")) or "peer"
+        value = value.get(mode) or []
+    return [str(e) for e in value or []]
+
+
+def _is_loopback(endpoint: str) -> bool:
+    """An endpoint only this host reaches: a Unix socket, ``localhost`` or a loopback IP."""
+    proto, _, rest = endpoint.partition("/")
+    if proto == "unixsock-stream":
+        return True
+    host = rest.split("#", 1)[0].split("?", 1)[0].rsplit(":", 1)[0].strip("[]")
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:  # a host name: it may resolve to any interface
+        return False
+
+
+def check_exposure(config: Any, given: Sequence[str] = ()) -> None:
+    """Refuse ``config`` when it listens where other hosts reach it without Zenoh's TLS with
+    mutual authentication: a peer that can connect can publish anything into the cell (a
+    ``stop``, an ``end``, an ack), so such a listener needs a ``tls/`` endpoint and a
+    configuration (``--zenoh-config``) with the listener's certificate and key, the CA the
+    peers' certificates are checked against and ``enable_mtls: true`` (``flexhrc certs DIR``
+    writes one). Raises one :class:`TransportError` naming the endpoint — as ``--listen EP``
+    when it is one of ``given`` (the option's), else as the config file's."""
+
+    def tls(key: str) -> Any:
+        return json.loads(config.get_json(f"transport/link/tls/{key}"))
+
+    given_eps = {normalise_endpoint(e) for e in given}
+    zenohs = config.get_json("listen/endpoints") == _zenoh.Config().get_json("listen/endpoints")
+    for ep in _endpoints_of(config, "listen"):
+        if _is_loopback(ep):
+            continue
+        if ep in given_eps:
+            where = f"--listen {ep}"
+        elif zenohs:
+            where = (
+                f"--zenoh-config: listen endpoint {ep} (Zenoh's default where the file names "
+                "none: give listen: {endpoints: [...]})"
+            )
+        else:
+            where = f"--zenoh-config: listen endpoint {ep}"
+        if not ep.startswith("tls/"):
+            raise TransportError(
+                f"{where}: other hosts reach this address and a plain {ep.split('/')[0]}"
+                " link lets any of them drive the cell; listen on a tls/ endpoint with a "
+                "--zenoh-config that has certificates (`flexhrc certs DIR` writes them; "
+                'docs/cell.md, "Securing a cell"), or on 127.0.0.1'
+            )
+        missing = [
+            k
+            for k in ("listen_certificate", "listen_private_key", "root_ca_certificate")
+            if not tls(k)
+        ]
+        if missing or tls("enable_mtls") is not True:
+            what = ", ".join(missing + ([] if tls("enable_mtls") is True else ["enable_mtls"]))
+            raise TransportError(
+                f"{where}: TLS without mutual authentication lets any host drive the "
+                f"cell; the Zenoh config lacks transport.link.tls {what} (`flexhrc certs DIR` "
+                'writes a config with all of them; docs/cell.md, "Securing a cell")'
+            )
 
 
 def open_zenoh(
@@ -206,20 +329,18 @@ def open_zenoh(
     *,
     prefix: str = "",
     warn: Callable[[str], None] | None = None,
+    config_file: str | Path | None = None,
 ) -> ZenohTransport:
-    """A :class:`ZenohTransport` (peer, no multicast) on these endpoints, its topics under
-    ``prefix``. Each ``listen`` endpoint reachable from other hosts is named to ``warn`` first:
-    flexhrc configures neither Zenoh's access control nor TLS (``docs/cell.md``)."""
-    for ep in listen:
-        proto, _, rest = normalise_endpoint(ep).partition("/")
-        host = rest.rsplit(":", 1)[0].strip("[]")
-        local = proto == "unixsock-stream" or host in ("127.0.0.1", "localhost", "::1")
-        if not local and warn is not None:
-            warn(
-                f"warning: --listen {ep}: reachable from other hosts; Zenoh's access control "
-                "and TLS are not configured by flexhrc (docs/cell.md)"
-            )
-    return ZenohTransport(zenoh_config(listen=listen, connect=connect), prefix=prefix)
+    """A :class:`ZenohTransport` (peer, no multicast, unless the ``config_file`` says
+    otherwise) on these endpoints, its topics under ``prefix``. A configuration that listens
+    where other hosts reach it without TLS and mutual authentication is refused
+    (:func:`check_exposure`) before anything is opened. ``warn``: kept for callers that pass
+    it; nothing is only warned of any more."""
+    config = zenoh_config(listen=listen, connect=connect, file=config_file)
+    check_exposure(config, given=listen)
+    transport = ZenohTransport(config, prefix=prefix)
+    transport.listen_endpoints = _endpoints_of(config, "listen")
+    return transport
 
 
 def listening_on(transport: ZenohTransport, configured: Sequence[str]) -> list[str]:
@@ -319,6 +440,8 @@ class ZenohTransport(QueuedDelivery, Transport):
                 )
                 raise TransportError(f"cannot open a Zenoh session: {why}{hint}") from None
         self.session = session
+        # the endpoints it was configured to listen on (set by open_zenoh; port 0 unresolved)
+        self.listen_endpoints: list[str] = []
         self._publishers: dict[str, Any] = {}
         self._zsubs: dict[int, Any] = {}
         self._tokens: list[_Token] = []
