@@ -569,8 +569,14 @@ def _percept_shape(m: Mapping[str, Any]) -> str | None:
         return f"percept: 'pose' quaternion {pose[3:]} is not a rotation (not of unit length)"
     size = m.get("size")
     values = list(size.values()) if isinstance(size, dict) else (size or [])
-    if not all(_finite(x) and x >= 0 for x in values):
-        return "percept: 'size' values must be finite numbers >= 0"
+    if not all(_finite(x) and 0 <= x <= 2 * WORKSPACE_M for x in values):
+        return f"percept: 'size' values must be finite numbers from 0 to {2 * WORKSPACE_M:g} m"
+    return None
+
+
+def _starts_before_it_ends(m: Mapping[str, Any]) -> str | None:
+    if "start" in m and m["start"] > m["t"] + 1e-9:
+        return f"human_action: 'start' {m['start']} is after its end t = {m['t']}"
     return None
 
 
@@ -610,7 +616,8 @@ _MESSAGE_SCHEMAS = [
          id=ID, element=Field(S, True), actions=Field((list,), True), cost=Field(NUM), t=TIME,
          world=Field((dict,)), realtime=OPT_TIME, step=_nonneg((int,)),
          own=Field((bool,), doc="the operator's own plan (its intent), not the manager's ask")),
-    _msg("human_action", "human → `human`: a person did this", (_positions("human_action"),),
+    _msg("human_action", "human → `human`: a person did this",
+         (_positions("human_action"), _starts_before_it_ends),
          id=ID, agent=Field(S, True), action=Field(S, True), suggestion=OPT_NAME,
          step=_nonneg((int,)), start=OPT_TIME, t=TIME, positions=Field((dict,)),
          recognised=Field((bool,), doc="false: a wearable sensor missed it (the manager is "

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import logging
 import re
+import threading
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -358,3 +359,93 @@ def test_r2p5_an_absurd_ros2_pose_is_dropped() -> None:
     ps.pose.position.x = 0.4
     ifaces._pose("leg1", ps)
     assert ifaces.dropped == 1 and len(percepts) == 1
+
+
+@pytest.mark.slow
+def test_p32_malformed_world_in_a_live_zenoh_cell_kills_no_agent(tmp_path: Any) -> None:
+    """The report's reproduction: ``spoof.py world_garbage`` into a cell whose arms are their
+    own processes over Zenoh. Each arm logs the command and drops it; the cell is solved."""
+    pytest.importorskip("zenoh")
+    from flexhrc.transport.zenoh import ZenohTransport, loopback_config
+
+    from .helpers import TABLE_NO_HUMAN, finish, kill_all, robot, start_cell, wait_until
+
+    scenario = tmp_path / "table.yaml"
+    scenario.write_text(TABLE_NO_HUMAN)
+    store = tmp_path / "cell.db"
+    manager, port = start_cell(str(scenario), store, "--realtime", "20", log=tmp_path / "cell.err")
+    procs = [manager]
+    procs += [robot(str(scenario), arm, port, tmp_path / f"{arm}.err") for arm in ("left", "right")]
+    bus = ZenohTransport(loopback_config(connect=port), prefix="flexhrc/default", deliver="thread")
+    seen: set[str] = set()
+    both = threading.Event()
+
+    def on_token(key: str, alive: bool) -> None:
+        seen.add(key)
+        if {"alive/left", "alive/right"} <= seen:
+            both.set()
+
+    try:
+        # an arm declares its token after its subscriptions, and Zenoh keeps them in order:
+        # once this session has both tokens, what it publishes reaches both arms
+        bus.watch_liveliness("alive/*", on_token)
+        assert both.wait(30), seen
+        wait_until(store, lambda r: any(k == "ack" for _, _, k, _ in r), 30)
+        for n, arm in enumerate(("left", "right")):
+            for k, value in enumerate(["abc", [1, "a", 3], None]):
+                bus.publish(
+                    P.cmd_topic(arm),
+                    {"v": 1, "type": "command", "id": 900 + 10 * n + k, "agents": [arm],
+                     "action": f"rest({arm})", "t": 0.0,
+                     "world": {"positions": {"leg1": value}}},
+                )  # fmt: skip
+        data = finish(procs[0])
+        codes = [p.wait(15) for p in procs[1:]]
+    finally:
+        bus.close()
+        kill_all(procs)
+    assert data["outcome"] == "solved", (tmp_path / "cell.err").read_text()[-2000:]
+    assert codes == [0, 0]  # both arms lived to the end and left when the cell ended
+    for arm in ("left", "right"):
+        log = (tmp_path / f"{arm}.err").read_text()
+        assert "Traceback" not in log
+        said = f"[{arm}] dropped: command: world position of 'leg1' must be [x, y, z] finite"
+        assert log.count(said) == 3, log[-2000:]
+
+
+# -- the one declaration, as the parser applies it --------------------------------------------
+_PERCEPT = {"v": 1, "type": "percept", "id": "p", "object": "leg1", "object_type": "leg",
+            "pose": [0.3, 0.3, 0.0]}  # fmt: skip
+_HUMAN = {"v": 1, "type": "human_action", "id": "h", "agent": "human",
+          "action": "pick_up(human, leg1)", "t": 2.0}  # fmt: skip
+_CMD = {"v": 1, "type": "command", "id": 1, "agents": ["left"], "action": "rest(left)", "t": 0.0}
+
+
+@pytest.mark.parametrize(
+    ("case", "data", "match"),
+    [
+        ("P23", {**_PERCEPT, "pose": [0.3, 0.3, 0, 0, 0, 0, 0]}, "not a rotation"),
+        ("P23", {**_PERCEPT, "pose": [0.3, 0.3, 0, 0, 0, 0.1]}, r"\[x, y, z\] \(\+ a quaternion\)"),
+        ("P23", {**_PERCEPT, "size": [1e300]}, "'size' values must be finite numbers from 0 to 20"),
+        ("P28", {**_PERCEPT, "pose": [1e300, -1e300, 0.0]}, "outside the workspace"),
+        ("P28", {**_PERCEPT, "pose": [0.0, 10.5, 0.0]}, "outside the workspace"),
+        ("P20", {**_HUMAN, "t": 1e300}, "'t' must be <= 1e\\+06"),
+        ("P20", {**_HUMAN, "start": 3.0}, "'start' 3.0 is after its end t = 2.0"),
+        ("P20", {**_HUMAN, "positions": {"human": [0, 0, 1e9]}}, "outside the workspace"),
+        ("P32", {**_CMD, "world": {"positions": {"leg1": "abc"}}}, "world position of 'leg1'"),
+        ("P32", {**_CMD, "world": {"positions": ["leg1"]}}, "world 'positions' must be an object"),
+        ("P32", {**_CMD, "world": {"facts": [["free", 3]]}}, "world 'facts' must be a list"),
+        ("P32", {**_CMD, "world": {"facts": "free"}}, "world 'facts' must be a list"),
+        ("P32", {**_CMD, "expected_s": 1e300}, "'expected_s' must be <= 1e\\+06"),
+    ],
+)  # fmt: skip
+def test_probe_values_are_refused_by_the_one_declaration(case: str, data: Msg, match: str) -> None:
+    with pytest.raises(P.ProtocolError, match=match):
+        P.parse(data)
+
+
+def test_probe_values_at_the_bounds_are_taken() -> None:
+    # the bounds refuse nothing a cell sends: a position at 10 m, a unit quaternion rounded
+    P.parse({**_PERCEPT, "pose": [10.0, -10.0, 0.0, 0.0, 0.0, 0.70711, 0.70711]})
+    P.parse({**_HUMAN, "start": 2.0, "t": 1e6})
+    P.parse({**_CMD, "world": {"positions": {"leg1": [0.1, 0.2, 0.0]}, "facts": [["free", "x"]]}})

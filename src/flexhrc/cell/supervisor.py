@@ -383,6 +383,8 @@ class Cell:
             if st is None or st.kind != "human":
                 raise P.ProtocolError(f"{msg['agent']!r} is not a human agent of this cell")
             if msg["type"] == "answer":
+                if msg["object"] not in self.kb.objects:
+                    raise P.ProtocolError(f"answer about {msg['object']!r}, not an object here")
                 if msg["report"] not in self._reports:
                     raise P.ProtocolError(f"answer about {msg['report']!r}, not a report here")
                 self._arrive(msg["t"], "operator_answers", _body(msg))
@@ -496,7 +498,9 @@ class Cell:
                 )
             if msg["type"] == "intent":
                 for a in msg.get("actions") or []:
-                    ground(self.domain, a)
+                    said = unknown_name(self.domain, self.kb, ground(self.domain, a))
+                    if said is not None:
+                        raise P.ProtocolError(said)
         except FlexhrcError as exc:
             self._drop(f"{data.get('type') if isinstance(data, dict) else 'intent'}: {exc}")
             return
