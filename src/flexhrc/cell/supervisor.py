@@ -400,13 +400,13 @@ class Cell:
         except FlexhrcError as exc:
             self._drop(f"human_action: {exc}")
             return
-        if self._repeated_report(str(msg["agent"]), action):
-            self._drop(f"human_action {msg['id']}: {_REPEATED.format(action=action)}")
-            return
         if msg["id"] in self.human_ids or any(
             k == "human_action" and b["id"] == msg["id"] for *_, k, b in self.pending
         ):
             self._drop(f"duplicate human_action {msg['id']}")
+            return
+        if self._repeated_report(str(msg["agent"]), action):
+            self._drop(f"human_action {msg['id']}: {_REPEATED.format(action=action)}")
             return
         replaced = self.superseded.get(str(msg.get("suggestion")))
         if replaced is not None and self.ordered and float(msg["t"]) > replaced:
