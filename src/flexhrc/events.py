@@ -131,6 +131,35 @@ StoreKind = Literal[
 StoreRole = Literal["input", "output", "record"]
 
 
+# -- bounds --------------------------------------------------------------------------------------
+#: How far a position a message carries may lie from the cell's origin, per axis, in metres. A
+#: cell is a table and the arms and people around it, a few metres across; a position beyond
+#: this is a broken sensor or a hostile message, and a finite but absurd one (1e300 m) once made
+#: an operator "walk" for 1e299 s so that the cell never ended (probe 2026-12-02, P28/P29/R2P5).
+WORKSPACE_M = 10.0
+#: The latest time on the cell's clock a message may carry, in seconds. A cooperation lasts
+#: minutes to hours; a time past 1e6 s (11.6 days) is a broken clock, and one of 1e300 s became
+#: the run's makespan (probe 2026-12-02, P20/P30).
+MAX_TIME_S = 1e6
+#: How far a pose's quaternion may be from unit length: a rotation is a unit quaternion, and
+#: a zero one (probe P23) is no rotation at all; rounding to 5 decimals stays well inside.
+QUATERNION_TOLERANCE = 1e-3
+
+
+def position_problem(p: Any, what: str = "a position") -> str | None:
+    """``None`` when ``p`` is ``[x, y, z]``, finite and within :data:`WORKSPACE_M` of the
+    origin on every axis, else why not (one line naming ``what``). The one check of a position
+    that crosses the cell's boundary: protocol messages, the ROS 2 bridge's poses."""
+    if not isinstance(p, list | tuple) or len(p) != 3 or not all(_finite(x) for x in p):
+        return f"{what} must be [x, y, z] finite numbers, got {p!r:.60}"
+    if not all(abs(x) <= WORKSPACE_M for x in p):
+        return (
+            f"{what} [x, y, z] = {list(p)!r:.60} lies outside the workspace "
+            f"(|x|, |y|, |z| <= {WORKSPACE_M:g} m)"
+        )
+    return None
+
+
 # -- schemas -------------------------------------------------------------------------------------
 NUM: tuple[type, ...] = (int, float)
 NONE = type(None)
@@ -157,7 +186,7 @@ class Field:
     """One field of a schema.
 
     ``types`` are the JSON types it may hold (``bool`` only when named; a float must be finite);
-    ``minimum`` bounds a number from below; ``check`` is a further test of the value. When
+    ``minimum`` and ``maximum`` bound a number; ``check`` is a further test of the value. When
     ``message`` is given it is the whole problem for a missing or wrong value (``{type}``,
     ``{value!r}`` and the record's ``{t}`` are filled in), else the protocol's generic wording.
     """
@@ -168,6 +197,7 @@ class Field:
     check: Callable[[Any], bool] | None = None
     message: str | None = None
     doc: str = ""
+    maximum: float | None = None
 
     def problem(self, kind: str, name: str, data: Mapping[str, Any]) -> str | None:
         if name not in data:
@@ -194,6 +224,13 @@ class Field:
             return (
                 self._say(kind, value, data) or f"{kind}: field {name!r} must be >= 0, not {value}"
             )
+        if (
+            self.maximum is not None
+            and isinstance(value, int | float)
+            and not isinstance(value, bool)
+            and value > self.maximum
+        ):
+            return f"{kind}: field {name!r} must be <= {self.maximum:g}, not {value:g}"
         if self.check is not None and not self.check(value):
             return self._say(kind, value, data) or f"{kind}: field {name!r} is not valid"
         return None
@@ -207,7 +244,10 @@ class Field:
         names = ["null" if t is NONE else t.__name__ for t in self.types]
         if "float" in names:  # a JSON number
             names = ["number" if n == "float" else n for n in names if n != "int"]
-        want = " or ".join(names) + (" >= 0" if self.minimum is not None else "")
+        bound = " >= 0" if self.minimum is not None else ""
+        if self.maximum is not None:  # 1e+06 as 1e6
+            bound = f" in [0, {f'{self.maximum:g}'.replace('e+0', 'e').replace('e+', 'e')}]"
+        want = " or ".join(names) + bound
         return want if self.required else f"({want})?" if " " in want else f"{want}?"
 
 
@@ -437,8 +477,36 @@ def _ack_status(m: Mapping[str, Any]) -> str | None:
 def _positions(kind: str) -> Rule:
     def rule(m: Mapping[str, Any]) -> str | None:
         for obj, p in m.get("positions", {}).items():
-            if not isinstance(p, list) or len(p) != 3 or not all(_finite(x) for x in p):
-                return f"{kind}: position of {obj!r} must be [x, y, z] finite numbers"
+            said = position_problem(p, f"position of {obj!r}")
+            if said is not None:
+                return f"{kind}: {said}"
+        return None
+
+    return rule
+
+
+def _fact(f: Any) -> bool:
+    return isinstance(f, list) and bool(f) and all(isinstance(x, str) and x for x in f)
+
+
+def _world(kind: str) -> Rule:
+    """``world``: ``positions`` (object -> ``[x, y, z]`` in the workspace) and ``facts`` (lists
+    of names): what an agent acts in, so a value it cannot use never reaches it (P32, P33)."""
+
+    def rule(m: Mapping[str, Any]) -> str | None:
+        world = m.get("world")
+        if world is None:
+            return None
+        positions = world.get("positions", {})
+        if not isinstance(positions, dict):
+            return f"{kind}: world 'positions' must be an object of [x, y, z] positions"
+        for obj, p in positions.items():
+            said = position_problem(p, f"world position of {obj!r}")
+            if said is not None:
+                return f"{kind}: {said}"
+        facts = world.get("facts", [])
+        if not isinstance(facts, list) or not all(_fact(f) for f in facts):
+            return f"{kind}: world 'facts' must be a list of facts, each a list of names"
         return None
 
     return rule
@@ -492,12 +560,23 @@ def _options_steps(m: Mapping[str, Any]) -> str | None:
 
 def _percept_shape(m: Mapping[str, Any]) -> str | None:
     pose = m["pose"]
-    if not 3 <= len(pose) <= 7 or not all(_finite(x) for x in pose):
+    if len(pose) not in (3, 7) or not all(_finite(x) for x in pose):
         return "percept: 'pose' must be [x, y, z] (+ a quaternion), finite"
+    said = position_problem(pose[:3], "'pose' position")
+    if said is not None:
+        return f"percept: {said}"
+    if len(pose) == 7 and abs(math.hypot(*pose[3:]) - 1.0) > QUATERNION_TOLERANCE:
+        return f"percept: 'pose' quaternion {pose[3:]} is not a rotation (not of unit length)"
     size = m.get("size")
     values = list(size.values()) if isinstance(size, dict) else (size or [])
-    if not all(_finite(x) and x >= 0 for x in values):
-        return "percept: 'size' values must be finite numbers >= 0"
+    if not all(_finite(x) and 0 <= x <= 2 * WORKSPACE_M for x in values):
+        return f"percept: 'size' values must be finite numbers from 0 to {2 * WORKSPACE_M:g} m"
+    return None
+
+
+def _starts_before_it_ends(m: Mapping[str, Any]) -> str | None:
+    if "start" in m and m["start"] > m["t"] + 1e-9:
+        return f"human_action: 'start' {m['start']} is after its end t = {m['t']}"
     return None
 
 
@@ -509,11 +588,16 @@ def _msg(kind: MessageType, doc: str, rules: tuple[Rule, ...] = (), **fields: Fi
     return EventSchema(kind, doc, MappingProxyType(fields), rules)
 
 
-ID, INT_ID, TIME, OPT_TIME = Field(S, True), Field((int,), True), _nonneg(NUM, True), _nonneg(NUM)
+def _time(required: bool = False, doc: str = "") -> Field:
+    """A time (or a duration) on the cell's clock: finite, >= 0, at most :data:`MAX_TIME_S`."""
+    return Field(NUM, required, minimum=0, maximum=MAX_TIME_S, doc=doc)
+
+
+ID, INT_ID, TIME, OPT_TIME = Field(S, True), Field((int,), True), _time(True), _time()
 # fmt: off
 _MESSAGE_SCHEMAS = [
     _msg("command", "manager → `cmd/<agent>`: do this action",
-         (_listed("command", "agents"), _joints("command")),
+         (_listed("command", "agents"), _joints("command"), _world("command")),
          id=INT_ID, agents=Field((list,), True), action=Field(S, True), element=OPT_NAME,
          t=TIME, expected_s=OPT_TIME, world=Field((dict,)), realtime=OPT_TIME,
          process=Field((bool,)),
@@ -528,11 +612,12 @@ _MESSAGE_SCHEMAS = [
          joints=Field((dict,), doc="where the command left the arms it moved (rad, "
                       "{arm: [q]}); the manager's robot model takes them")),
     _msg("suggestion", "manager → `suggest/<human>`: please do this step",
-         (_listed("suggestion", "actions"),),
+         (_listed("suggestion", "actions"), _world("suggestion")),
          id=ID, element=Field(S, True), actions=Field((list,), True), cost=Field(NUM), t=TIME,
          world=Field((dict,)), realtime=OPT_TIME, step=_nonneg((int,)),
          own=Field((bool,), doc="the operator's own plan (its intent), not the manager's ask")),
-    _msg("human_action", "human → `human`: a person did this", (_positions("human_action"),),
+    _msg("human_action", "human → `human`: a person did this",
+         (_positions("human_action"), _starts_before_it_ends),
          id=ID, agent=Field(S, True), action=Field(S, True), suggestion=OPT_NAME,
          step=_nonneg((int,)), start=OPT_TIME, t=TIME, positions=Field((dict,)),
          recognised=Field((bool,), doc="false: a wearable sensor missed it (the manager is "
@@ -551,10 +636,11 @@ _MESSAGE_SCHEMAS = [
     # a perception agent the ordered loop waits for: it looked at the state numbered ``upto``
     _msg("looked", "perception → `percept`: a watcher has looked",
          agent=Field(S, True), upto=_nonneg((int,), True), t=TIME,
-         at=_nonneg(NUM, doc="when it looks again by itself")),
+         at=_time(doc="when it looks again by itself")),
     # an operator that acts on its own: what it may do (steps -> hyper-arcs -> ground branches)
     _msg("options", "manager → `options/<human>`: what the operator may do on its own",
-         (_options_steps,), id=ID, t=TIME, steps=Field((list,), True), world=Field((dict,))),
+         (_options_steps, _world("options")), id=ID, t=TIME, steps=Field((list,), True),
+         world=Field((dict,))),
     # ``scripted``: it takes exactly the steps it was told to (a test or demo script), whatever
     # its profile says, so it is offered ``options`` even when ``passive``
     _msg("operator", "human → `intent`: its profile",
@@ -721,16 +807,19 @@ __all__ = [
     "GRAPH_EVENTS",
     "INPUT_KINDS",
     "LOG_EVENTS",
+    "MAX_TIME_S",
     "MESSAGES",
     "OUTCOMES",
     "OUTPUT_KINDS",
     "PROFILES",
+    "QUATERNION_TOLERANCE",
     "RECORD_KINDS",
     "REPLAY_TYPES",
     "SIMULATORS",
     "STORED_LOG_TYPES",
     "STORE_KINDS",
     "TRACE_TYPES",
+    "WORKSPACE_M",
     "AckStatus",
     "Event",
     "EventError",
@@ -745,5 +834,6 @@ __all__ = [
     "StoreKind",
     "StoreKindSpec",
     "catalogue_markdown",
+    "position_problem",
     "schema_of",
 ]

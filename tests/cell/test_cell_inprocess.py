@@ -237,13 +237,15 @@ def test_percepts_are_inputs_stored_and_checked() -> None:
     sent: list[bool] = []
 
     def pump(timeout: float) -> None:
-        if cell.started and not sent:  # a perception process reports an object it found
-            good = P.message(
-                "percept", id="cam:1", object="box9", object_type="obstacle", pose=[1, 1, 0]
-            )
+        if cell.started and not sent:  # a perception process reports a leg where it lies
+            where = list(cell.kb.position("leg2"))
+            good = P.message("percept", id="cam:1", object="leg2", object_type="leg", pose=where)
             bus.publish(P.PERCEPT_TOPIC, good)
             bus.publish(P.PERCEPT_TOPIC, good)  # the same percept twice
             bus.publish(P.PERCEPT_TOPIC, {**good, "id": "cam:2", "pose": [1, float("nan"), 0]})
+            # an object the scenario's world does not know is not added: it is refused
+            unknown = {**good, "id": "cam:3", "object": "box9", "object_type": "obstacle"}
+            bus.publish(P.PERCEPT_TOPIC, unknown)
             sent.append(True)
         bus.flush()
         for a in agents:
@@ -251,10 +253,11 @@ def test_percepts_are_inputs_stored_and_checked() -> None:
 
     data = cell.run(pump=pump)
     assert data["outcome"] == "solved"
-    assert [e.body["object"] for e in cell.events if e.kind == "percept"] == ["box9"]
-    assert "box9" in cell.kb.objects
-    assert data["cell"]["dropped"] == 2
+    assert [e.body["object"] for e in cell.events if e.kind == "percept"] == ["leg2"]
+    assert "box9" not in cell.kb.objects
+    assert data["cell"]["dropped"] == 3
     assert any("duplicate percept" in d for d in cell.dropped)
+    assert any("no object 'box9' in this cell's world" in d for d in cell.dropped)
 
 
 class TokenBus(InProcessBus):

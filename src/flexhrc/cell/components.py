@@ -136,6 +136,28 @@ def ground(
     return GroundAction(schema, tuple(str(t) for t in terms), tuple(agents))
 
 
+def unknown_name(domain: Domain, kb: KnowledgeBase, action: GroundAction) -> str | None:
+    """``None`` when every argument of ``action`` names what its parameter's type asks for — an
+    agent of the domain for ``agent``, else an agent or an object of the world of that type (or
+    a subtype) — else why not, in one line: a person cannot pick up an object the world does not
+    know, nor the robot arm ``left`` as a ``leg`` (probe 2026-12-02, P31)."""
+    for (var, typ), arg in zip(action.schema.parameters, action.args, strict=True):
+        agent = domain.agents.get(arg)
+        rec = kb.objects.get(arg)
+        if agent is None and rec is None:
+            return f"{action}: no agent or object {arg!r} in this cell's world"
+        if typ == "agent":
+            ok = agent is not None
+        else:
+            ok = (rec is not None and typ in kb.type_chain(rec.type)) or (
+                agent is not None and (typ == agent.kind or typ in agent.types)
+            )
+        if not ok:
+            what = rec.type if rec is not None else f"{agent.kind if agent else '?'} agent"
+            return f"{action}: {arg!r} ({what}) is not what {var} of {action.name} takes ({typ})"
+    return None
+
+
 def check_agent_name(domain: Domain, name: str, kind: str, option: str) -> None:
     """``name`` is a ``kind`` (``robot`` or ``human``) agent of the domain, or one
     :class:`~flexhrc.errors.UnknownNameError` naming ``option`` and the agents there are."""

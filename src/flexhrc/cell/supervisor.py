@@ -55,11 +55,12 @@ from dataclasses import dataclass
 from typing import Any
 
 from flexhrc.cell import protocol as P
-from flexhrc.cell.components import ScenarioLike, ground, world_of
+from flexhrc.cell.components import ScenarioLike, ground, unknown_name, world_of
 from flexhrc.cell.store import EventStore, StoredEvent, log_events
 from flexhrc.errors import FlexhrcError
 from flexhrc.events import STORED_LOG_TYPES  # the manager records the store keeps
 from flexhrc.knowledge import Inconsistency
+from flexhrc.logic import apply_substitution
 from flexhrc.taskmanager.diagnose import stall_reason
 from flexhrc.taskmanager.domain import GroundAction
 from flexhrc.taskmanager.manager import (
@@ -144,6 +145,7 @@ class Cell:
         self._start_joints: dict[int, dict[str, Any]] = {}  # command id -> its "joints"
         self._stop_reason: str | None = None
         self._command_start: dict[int, float] = {}
+        self._issued_at: dict[int, float] = {}  # command id -> when the manager issued it
         self.graph = scenario.online_graph()
         self.domain = scenario.domain
         self.kb = scenario.world()
@@ -173,6 +175,7 @@ class Cell:
         self._sent_step: dict[str, int] = {}
         self._down_reason: dict[str, str] = {}
         self.human_ids: set[str] = set()
+        self._reported: set[tuple[str, str]] = set()  # (person, action) of reports handled
         self.superseded: dict[str, float] = {}  # suggestion id -> when a new request replaced it
         self._last_suggestion: dict[str, str] = {}  # human -> the suggestion last sent to them
         self.pending: list[tuple[float, int, str, dict[str, Any]]] = []
@@ -357,8 +360,21 @@ class Cell:
             log.info("ack for command %d, which was stopped: ignored", cid)
         elif self.tm.busy.get(msg["agent"]) is not cmd:
             self._drop(f"ack for command {cid}, which is no longer running")
+        elif (said := self._ack_problem(cmd, msg)) is not None:
+            self._drop(said)
         else:
             self._arrive(msg["t"], "ack", _body(msg))
+
+    def _ack_problem(self, cmd: Command, msg: dict[str, Any]) -> str | None:
+        """What an ack of a running command says that cannot be: that it ended before the
+        manager issued it (P13), or that it moved objects its action does not touch (P12)."""
+        issued = self._issued_at.get(cmd.id)
+        if issued is not None and msg["t"] < issued - 1e-9:
+            return (
+                f"ack for command {cmd.id} ends at t = {msg['t']}, before the command was "
+                f"issued (t = {issued})"
+            )
+        return _moves_untouched(f"ack for command {cmd.id}", cmd.action, cmd.agents, msg)
 
     def _on_human_message(self, data: Any) -> None:
         try:
@@ -367,11 +383,20 @@ class Cell:
             if st is None or st.kind != "human":
                 raise P.ProtocolError(f"{msg['agent']!r} is not a human agent of this cell")
             if msg["type"] == "answer":
+                if msg["object"] not in self.kb.objects:
+                    raise P.ProtocolError(f"answer about {msg['object']!r}, not an object here")
                 if msg["report"] not in self._reports:
                     raise P.ProtocolError(f"answer about {msg['report']!r}, not a report here")
                 self._arrive(msg["t"], "operator_answers", _body(msg))
                 return
-            ground(self.domain, msg["action"])
+            action = ground(self.domain, msg["action"])
+            said = unknown_name(self.domain, self.kb, action) or _moves_untouched(
+                f"human_action {msg['id']}", action, (str(msg["agent"]),), msg
+            )
+            if said is not None:
+                raise P.ProtocolError(said)
+            if msg["agent"] not in action.agents:
+                raise P.ProtocolError(f"{action} is not an action of {msg['agent']}")
         except FlexhrcError as exc:
             self._drop(f"human_action: {exc}")
             return
@@ -380,11 +405,40 @@ class Cell:
         ):
             self._drop(f"duplicate human_action {msg['id']}")
             return
+        if self._repeated_report(str(msg["agent"]), action):
+            self._drop(f"human_action {msg['id']}: {_REPEATED.format(action=action)}")
+            return
         replaced = self.superseded.get(str(msg.get("suggestion")))
         if replaced is not None and self.ordered and float(msg["t"]) > replaced:
             log.info("human_action %s of a replaced request: ignored", msg["id"])
             return
         self._arrive(msg["t"], "human_action", _body(msg))
+
+    def _repeated_report(self, human: str, action: GroundAction) -> bool:
+        """A report of what ``human`` already reported, that no step of a request expects and
+        whose effects all hold already: it would change nothing but add one more stored input
+        (2000 reports of one finished ``check`` were once all stored: probe P25). A person who
+        does a thing again after undoing it (put down, pick up) changes the world: kept."""
+        text = str(action)
+        if (human, text) not in self._reported and not any(
+            k == "human_action"
+            and b["agent"] == human
+            and str(ground(self.domain, b["action"])) == text
+            for *_, k, b in self.pending
+        ):
+            return False
+        for ex in self.tm.executions.values():
+            steps = ex.branch.steps
+            if (
+                ex.owner == "human"
+                and ex.next_index < len(steps)
+                and str(steps[ex.next_index]) == text
+            ):
+                return False
+        facts, binding = self.kb.facts, action.binding
+        added = (apply_substitution(lit, binding).key() for lit in action.schema.add)
+        deleted = (apply_substitution(lit, binding).key() for lit in action.schema.delete)
+        return all(f in facts for f in added) and not any(f in facts for f in deleted)
 
     def _on_percept_message(self, data: Any) -> None:
         """A percept of one object from a perception process: applied when it arrives (the
@@ -403,6 +457,17 @@ class Cell:
             return
         if not self.started:
             self._drop(f"percept {msg['id']} before the cooperation started")
+            return
+        rec = self.kb.objects.get(msg["object"])
+        if rec is None:  # the world knows its objects (P31): a percept does not add one
+            self._drop(f"percept {msg['id']}: no object {msg['object']!r} in this cell's world")
+            return
+        if not self.kb.compatible(rec.type, msg["object_type"]):
+            # not a contradiction to wait on: no look can make a tabletop a leg (P21)
+            self._drop(
+                f"percept {msg['id']}: {rec.id} is a {rec.type} in this cell's world, "
+                f"not a {msg['object_type']}"
+            )
             return
         self._input("percept", _body(msg))  # at the cell's time: a percept never moves the clock
 
@@ -433,7 +498,9 @@ class Cell:
                 )
             if msg["type"] == "intent":
                 for a in msg.get("actions") or []:
-                    ground(self.domain, a)
+                    said = unknown_name(self.domain, self.kb, ground(self.domain, a))
+                    if said is not None:
+                        raise P.ProtocolError(said)
         except FlexhrcError as exc:
             self._drop(f"{data.get('type') if isinstance(data, dict) else 'intent'}: {exc}")
             return
@@ -668,6 +735,7 @@ class Cell:
         if kind == "human_action":
             self.human_ids.add(str(body["id"]))
             action = ground(self.domain, body["action"])
+            self._reported.add((str(body["agent"]), str(action)))
             missed = body.get("recognised") is False  # the wrist sensor missed it
             if not missed:
                 self._physical(action, body.get("positions") or {})
@@ -862,6 +930,7 @@ class Cell:
         for d in directives:
             if isinstance(d, Command):
                 self.commands[d.id] = d
+                self._issued_at.setdefault(d.id, self.now)
                 body = {**d.to_dict(), "t": self.now}
                 body.pop("type", None)
                 if not self.replaying:
@@ -1234,6 +1303,11 @@ class Cell:
             self.now = max(self.now, t)
             self._publish_state()
             return True
+        if kind == "human_action" and self._repeated_report(
+            str(body["agent"]), ground(self.domain, body["action"])
+        ):  # its twin, handled just before it, did what it says (P25)
+            self._drop(f"human_action {body['id']}: {_REPEATED.format(action=body['action'])}")
+            return True
         if kind == "human_action" and self._held_elsewhere(t, body):
             return True
         self._input(kind, body, t)
@@ -1382,6 +1456,25 @@ def _percept_of(body: dict[str, Any]) -> dict[str, Any]:
         "size": dict(size) if isinstance(size, dict) else {},
         "attrs": {},
     }
+
+
+_REPEATED = (
+    "{action} was reported before and would change nothing now (its effects hold, no step "
+    "expects it): a repeated report"
+)
+
+
+def _moves_untouched(
+    what: str, action: GroundAction, agents: Sequence[str], msg: dict[str, Any]
+) -> str | None:
+    """An answer's ``positions`` name only what its action touches — its agents and its
+    arguments — else why not: an ack of ``approach(left, leg1)`` cannot move the tabletop
+    (probe 2026-12-02, P12)."""
+    touched = {*agents, *action.agents, *action.args}
+    extra = sorted(set(msg.get("positions") or {}) - touched)
+    if extra:
+        return f"{what} moves {', '.join(extra)}, which {action} does not touch"
+    return None
 
 
 def _body(msg: dict[str, Any]) -> dict[str, Any]:

@@ -37,6 +37,7 @@ import time
 from collections.abc import Callable, Iterable
 from typing import Any
 
+from flexhrc.errors import FlexhrcError
 from flexhrc.ros2 import messages as rm
 from flexhrc.ros2._deps import msg
 
@@ -96,13 +97,13 @@ class ManagerInterfaces:
     def _pose(self, name: str, m: Any) -> None:
         try:
             percept = rm.percept_from_pose(name, m)
-        except ValueError as exc:
+            if self.on_percept is not None:  # it builds a protocol percept: checked again
+                self.on_percept(percept)
+        except (ValueError, FlexhrcError) as exc:
             self.dropped += 1
             log.warning("dropped a pose of %s: %s", name, exc)
             return
         self.percepts += 1
-        if self.on_percept is not None:
-            self.on_percept(percept)
 
     def _imu(self, operator: str, m: Any) -> None:
         try:

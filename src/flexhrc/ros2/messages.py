@@ -23,6 +23,7 @@ import zlib
 from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
+from flexhrc.events import position_problem
 from flexhrc.ros2._deps import msg
 
 Vec3 = tuple[float, float, float]
@@ -351,7 +352,9 @@ def marker_array(
 def percept_from_pose(name: str, m: Any) -> dict[str, Any]:
     """An object pose from outside perception (``geometry_msgs/PoseStamped`` in the world
     frame) as a plain dict: ``{"object", "position", "orientation" (x, y, z, w), "yaw", "t"}``.
-    Raises ``ValueError`` for a non-finite pose or a frame other than ``world`` (or empty)."""
+    Raises ``ValueError`` for a non-finite pose, a position outside the workspace (the cell
+    protocol's own check, :func:`flexhrc.events.position_problem`) or a frame other than
+    ``world`` (or empty)."""
     if m.header.frame_id not in ("", WORLD_FRAME):
         raise ValueError(
             f"pose of {name!r} is in frame {m.header.frame_id!r}; flexhrc expects {WORLD_FRAME!r}"
@@ -359,6 +362,9 @@ def percept_from_pose(name: str, m: Any) -> dict[str, Any]:
     p = m.pose.position
     q = m.pose.orientation
     position = _finite((p.x, p.y, p.z), f"position of {name}")
+    said = position_problem(position, f"position of {name}")
+    if said is not None:
+        raise ValueError(said)
     quat = _finite((q.x, q.y, q.z, q.w), f"orientation of {name}")
     norm = math.sqrt(sum(v * v for v in quat))
     # an unset orientation (all zeros) is the identity, as RViz reads it

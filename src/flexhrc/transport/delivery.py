@@ -90,10 +90,19 @@ class QueuedDelivery:
         with self._cond:
             batch = list(self._queue)
             self._queue.clear()
-        count = 0
-        for sub, payload in batch:
-            if sub.active:
-                sub.callback(payload)
-                count += 1
-        self.delivered += count
+        count = handed = 0
+        try:
+            for sub, payload in batch:
+                handed += 1
+                if sub.active:
+                    count += 1
+                    sub.callback(payload)
+        except BaseException:
+            # a callback that raises loses no message behind its own: they go back to the
+            # front of the queue for the next flush
+            with self._cond:
+                self._queue.extendleft(reversed(batch[handed:]))
+            raise
+        finally:
+            self.delivered += count
         return count

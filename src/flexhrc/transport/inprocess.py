@@ -54,15 +54,23 @@ class InProcessBus(Transport):
         """Deliver everything published before this call; payloads published by the callbacks
         themselves wait for the next flush (so one flush is exactly one network hop)."""
         batch, self._pending = self._pending, []
-        count = 0
+        count = handed = 0
         subs = self._subs
-        for topic, payload in batch:
-            targets = subs.get(topic)
-            if targets:
-                for sub in targets:
-                    sub.callback(payload)
-                count += len(targets)
-        self.delivered += count
+        try:
+            for topic, payload in batch:
+                handed += 1
+                targets = subs.get(topic)
+                if targets:
+                    for sub in targets:
+                        sub.callback(payload)
+                    count += len(targets)
+        except BaseException:
+            # a callback that raises loses no payload behind its own: they wait for the next
+            # flush, ahead of what the callbacks published
+            self._pending[:0] = batch[handed:]
+            raise
+        finally:
+            self.delivered += count
         return count
 
     def _deliver(self, topic: str, payload: Any) -> None:

@@ -33,7 +33,7 @@ from concurrent.futures import TimeoutError as FutureTimeout
 from typing import Any
 
 from flexhrc.cell import protocol as P
-from flexhrc.cell.components import ground
+from flexhrc.cell.components import ground, unknown_name
 from flexhrc.errors import FlexhrcError
 from flexhrc.taskmanager.manager import HumanAction, TakeRefused
 from flexhrc.web import operator
@@ -206,6 +206,9 @@ class CellPanel:
             if a not in c.domain.agents and a not in c.kb.objects:
                 raise PanelInputError(f"unknown agent or object {a!r} in {text!r}", 404)
         step = ground(c.domain, f"{name}({', '.join(args)})")
+        wrong = unknown_name(c.domain, c.kb, step)  # the manager's own check of a report
+        if wrong is not None:
+            raise PanelInputError(wrong, 400)
         people = [a for a in step.agents if c.agents.get(a) and c.agents[a].kind == "human"]
         if not people or len(people) != len(step.agents):
             raise PanelInputError(f"{step} is not an operator's action", 409)
