@@ -56,8 +56,8 @@ from typing import Any
 
 from flexhrc.cell import protocol as P
 from flexhrc.cell.components import ScenarioLike, ground, world_of
-from flexhrc.cell.store import EventStore, StoredEvent, log_events
-from flexhrc.errors import FlexhrcError
+from flexhrc.cell.store import EventStore, StoredEvent, check_events, log_events, wal_hint
+from flexhrc.errors import FlexhrcError, FormatError
 from flexhrc.events import STORED_LOG_TYPES  # the manager records the store keeps
 from flexhrc.knowledge import Inconsistency
 from flexhrc.taskmanager.diagnose import stall_reason
@@ -95,6 +95,8 @@ class AgentState:
 
 class Cell:
     """The manager side of a cell (see the module docstring)."""
+
+    _captured: list[tuple[str, dict[str, Any]]] | None = None
 
     def __init__(
         self,
@@ -142,6 +144,9 @@ class Cell:
         self.quiescent = quiescent
         self.shared_model = shared_model
         self._start_joints: dict[int, dict[str, Any]] = {}  # command id -> its "joints"
+        # command id -> when it was issued: a command sent again (after a resume, or overdue)
+        # still starts then, so an arm that executes it only now ends when it would have
+        self._issued_at: dict[int, float] = {}
         self._stop_reason: str | None = None
         self._command_start: dict[int, float] = {}
         self.graph = scenario.online_graph()
@@ -510,6 +515,8 @@ class Cell:
     # -- store, feed, send --------------------------------------------------------------------
     def _record(self, kind: str, body: dict[str, Any], *, observe: bool = True) -> None:
         if self.replaying:
+            if self._captured is not None:  # the outputs of the last stored input (_replay)
+                self._captured.append((kind, body))
             return
         t = self.now  # unrounded, so a resumed clock continues exactly
         seq = self.store.append(kind, body, t) if self.store is not None else len(self.events) + 1
@@ -868,6 +875,7 @@ class Cell:
                     self._record("command", body)
                     self.stored_commands.add(d.id)
                 self._start_joints[d.id] = self._joints_of(d.agents)
+                self._issued_at[d.id] = self.now
                 self._predict(d)
                 # a joint command goes to its first agent, which drives all of them (as one
                 # execution model does); the others are busy with it
@@ -965,7 +973,7 @@ class Cell:
                 agents=list(cmd.agents),
                 action=str(cmd.action),
                 element=cmd.element,
-                t=self.now,
+                t=self._issued_at.get(cmd.id, self.now),
                 expected_s=float(cmd.expected_s),
                 world=world_of(self.kb),
                 realtime=self.agent_speed,
@@ -1072,23 +1080,39 @@ class Cell:
 
     # -- resume -------------------------------------------------------------------------------
     def _replay(self, events: list[StoredEvent]) -> None:
-        if not events or events[0].kind != "start":
+        source = self.store.path if self.store else "store"
+        if not events:  # e.g. a copy of a killed cell's store made without its -wal file
             raise FlexhrcError(
-                f"{self.store.path if self.store else 'store'}: nothing to resume (no start event)"
+                f"{source}: nothing to resume (the store holds no events)" + wal_hint(source)
             )
+        if events[0].kind != "start":
+            raise FlexhrcError(f"{source}: nothing to resume (no start event)")
+        check_events(events, source)  # a corrupted row: one clear error naming it, no replay
+        last = max(i for i, ev in enumerate(events) if ev.is_input)
         self.replaying = True
         try:
-            for ev in events:
+            for i, ev in enumerate(events):
                 self.events.append(ev)
                 if ev.kind == "command":
                     self.stored_commands.add(int(ev.body["id"]))
                 if ev.is_input:
                     self.now = max(self.now, ev.t)
-                    self._handle(self._feed(ev.kind, ev.body))
-                    self._settle()
+                    if i == last:
+                        self._captured = []
+                    try:
+                        self._handle(self._feed(ev.kind, ev.body))
+                        self._settle()
+                    except (FlexhrcError, KeyError, TypeError, ValueError, AttributeError) as exc:
+                        raise FormatError(
+                            f"event {ev.seq} ({ev.kind}): cannot be replayed "
+                            f"({type(exc).__name__}: {exc})",
+                            source,
+                        ) from None
         finally:
             self.replaying = False
         self.resumed = True
+        self._record_kept_outputs(events[last + 1 :])
+        self._stored_end(self.events)
         self._refresh_suggestions()
         # outputs of the last input that the crash kept from the store
         for cmd in sorted(self.tm.busy.values(), key=lambda c: c.id):
@@ -1097,6 +1121,35 @@ class Cell:
                 body.pop("type", None)
                 self._record("command", body)
                 self.stored_commands.add(cmd.id)
+
+    def _record_kept_outputs(self, stored: list[StoredEvent]) -> None:
+        """What the manager made of the last stored input — its records (``decision``,
+        ``solved``, ``fixed``, ``outcome`` ...) and outputs — that the crash kept from the store:
+        the replay made them again, in the same order; those past the stored ones are recorded
+        now, so the store holds the run as the uninterrupted one would (a resume after the
+        ``start`` lost no decision, after the last ack no ``solved``)."""
+        made, self._captured = self._captured or [], None
+        kinds = [ev.kind for ev in stored]
+        if [k for k, _ in made[: len(kinds)]] != kinds:
+            return  # the loop's own records (an end it decided): the outputs were all stored
+        for kind, body in made[len(kinds) :]:
+            self._record(kind, body, observe=kind not in STORED_LOG_TYPES)
+            if kind == "command":
+                self.stored_commands.add(int(body["id"]))
+
+    def _stored_end(self, events: list[StoredEvent]) -> None:
+        """A stored ``outcome`` the loop decided itself (failed: stuck or out of time,
+        interrupted) is no input, so the replay does not reach it: the run ended all the same,
+        and a resume must not run its end again (probe ST32: each resume appended another
+        outcome). The closing summary a crash kept from the store is written now."""
+        end = next((ev for ev in reversed(events) if ev.kind == "outcome"), None)
+        if end is None:
+            return
+        if not self.tm.done:
+            self.tm.outcome = str(end.body.get("outcome"))
+            self.tm.reason = end.body.get("reason")
+        if not any(ev.kind == "summary" for ev in events):
+            self._record("summary", self.summary())
 
     def _refresh_suggestions(self) -> None:
         runs = {
