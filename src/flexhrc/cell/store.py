@@ -106,8 +106,16 @@ class EventStore:
             raise StoreError(
                 f"{option} {self.path}: in use by another running cell (the file is locked)"
             ) from None
+        had_wal = _has_wal(self.path)  # before SQLite makes one
         try:
             self._db = sqlite3.connect(self.path, isolation_level=None, check_same_thread=False)
+            if resume and not _has_events_table(self._db):  # never add a table to such a file
+                self._db.close()
+                os.close(self._lock_fd)
+                raise StoreError(
+                    f"{option} {self.path}: not a flexhrc event store (no events table)"
+                    + wal_hint(self.path, had_wal)
+                )
             self._db.execute("PRAGMA journal_mode=WAL")
             # NORMAL in WAL mode: a committed event survives the process being killed (the
             # WAL is written before commit returns); only a power loss may drop the last ones.
@@ -115,7 +123,14 @@ class EventStore:
             self._db.execute(SCHEMA)
             row = self._db.execute("SELECT COALESCE(MAX(seq), 0), COUNT(*) FROM events").fetchone()
         except sqlite3.DatabaseError as exc:
+            os.close(self._lock_fd)
             raise StoreError(f"{option} {self.path}: not a flexhrc event store ({exc})") from None
+        if resume and not row[1]:
+            os.close(self._lock_fd)
+            raise StoreError(
+                f"{option} {self.path}: nothing to resume (the store holds no events)"
+                + wal_hint(self.path, had_wal)
+            )
         self.last_seq = int(row[0])
         if int(row[1]) != self.last_seq:
             raise StoreError(f"{option} {self.path}: seq has gaps ({row[1]} rows, last {row[0]})")
@@ -307,12 +322,13 @@ def read_store(path: str | Path) -> list[StoredEvent]:
         raise FormatError("no such file" if not p.exists() else "is not a file", p)
     if not os.access(p, os.R_OK):
         raise FormatError("cannot read: permission denied", p)
+    had_wal = _has_wal(p)
     try:
         db = sqlite3.connect(f"file:{p}?mode=ro", uri=True)
         try:
-            cols = [r[1] for r in db.execute("PRAGMA table_info(events)")]
-            if cols[:4] != ["seq", "t", "kind", "body"]:
-                raise FormatError("not a flexhrc event store (no events table)", p)
+            if not _has_events_table(db):
+                hint = wal_hint(p, had_wal)
+                raise FormatError("not a flexhrc event store (no events table)" + hint, p)
             events = list(iter_events(db, p))
         finally:
             db.close()
@@ -420,7 +436,7 @@ def store_log(path: str | Path) -> list[dict[str, Any]]:
 
     events = read_store(path)
     if not events:
-        raise FormatError("empty store" + wal_hint(path), path)
+        raise FormatError("empty store" + wal_hint(path, _has_wal(path)), path)
     check_events(events, path)
     lines = _log_lines(events)
     try:
@@ -430,15 +446,36 @@ def store_log(path: str | Path) -> list[dict[str, Any]]:
     return [ev for _, ev in lines]
 
 
-def wal_hint(path: str | Path) -> str:
-    """Why a store may look empty: a copy of a store whose cell was killed, made without its
-    ``-wal`` file, lacks every event not yet checkpointed into the main file."""
-    if Path(f"{path}-wal").exists():
+def wal_hint(path: str | Path, had_wal: bool) -> str:
+    """Why a store may look empty: a copy of a killed cell's store made without its ``-wal``
+    file lacks every event not yet checkpointed into the main file (probe ST42). ``had_wal``:
+    a ``-wal`` file with something in it was beside the store before SQLite opened it."""
+    try:
+        with open(path, "rb") as fh:
+            wal_mode = fh.read(20)[18:20] == b"\x02\x02"  # the header's WAL format version
+    except OSError:
         return ""
+    if had_wal or not wal_mode:
+        return ""
+    name = Path(path).name
     return (
-        f" (if it is a copy of a cell's store, copy its {Path(path).name}-wal file with it: "
-        "the events of a cell that did not end cleanly are there)"
+        f"; if it is a copy of a cell's store, copy {name}-wal with it: the events of a cell "
+        "that was killed, or still runs, are there"
     )
+
+
+def _has_wal(path: str | Path) -> bool:
+    """Is there a ``-wal`` file with something in it beside the store? (A reader leaves an
+    empty one behind.)"""
+    try:
+        return os.path.getsize(f"{path}-wal") > 0
+    except OSError:
+        return False
+
+
+def _has_events_table(db: sqlite3.Connection) -> bool:
+    cols = [r[1] for r in db.execute("PRAGMA table_info(events)")]
+    return cols[:4] == ["seq", "t", "kind", "body"]
 
 
 def summarise_store(path: str | Path) -> tuple[dict[str, Any], list[dict[str, Any]]]:
