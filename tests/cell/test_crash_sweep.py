@@ -23,7 +23,7 @@ from flexhrc.cell.serve import CellConfig, serve_cell
 from flexhrc.cell.store import CRASH_AFTER_ENV, read_store, summarise_store
 from flexhrc.scenario import load_scenario
 
-from .helpers import finish, kill_all, listening_port, robot, rows, start_cell
+from .helpers import finish, human, kill_all, listening_port, robot, rows, start_cell
 
 # the table task, and an operator that acts on its own in the kitchen (options and intents)
 SWEEPS = [("table_assembly", "passive"), ("kitchen_drawer", "takeover")]
@@ -98,50 +98,67 @@ def _journal(path: Path) -> list[dict[str, Any]]:
     return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
 
 
-@pytest.mark.slow
-def test_crash_with_agent_processes_over_zenoh_executes_no_command_twice(tmp_path: Path) -> None:
-    """A manager with arm processes (journals) killed at a few events while commands are in
-    flight: right after a command is stored (sent or about to be), right after its ack, and
-    right after an ack that completes a hyper-arc; each resumed run ends as the uninterrupted
-    one and no arm executed a command twice."""
-    scenario = tmp_path / "table.yaml"
-    scenario.write_text("scenario: table_assembly\nhuman: false\n")
-    ref = serve_cell(load_scenario(str(scenario)), CellConfig())
-    ref_store = tmp_path / "ref.db"
-    serve_cell(load_scenario(str(scenario)), CellConfig(store=ref_store))
-    kinds = [e.kind for e in read_store(ref_store)]
-    first_cmd = kinds.index("command") + 1
-    points = sorted(
+def _crash_points(events: list[Any]) -> list[int]:
+    """Events to crash after, each with work in flight: a command stored while another runs,
+    an operator's report while commands run, an ack while another command runs, a report in
+    the middle of a request of several steps, the last ack."""
+    in_flight: list[set[int]] = []
+    running: set[int] = set()
+    for ev in events:
+        if ev.kind == "ack":
+            running.discard(ev.body["id"])
+        in_flight.append(set(running))  # sent before this event was stored, not answered
+        if ev.kind == "command":
+            running.add(ev.body["id"])
+    kinds = [ev.kind for ev in events]
+
+    def first(kind: str, also: Any = lambda i: True) -> int:
+        return next(i + 1 for i, k in enumerate(kinds) if k == kind and in_flight[i] and also(i))
+
+    return sorted(
         {
-            first_cmd,  # the very first command
-            kinds.index("command", len(kinds) // 2) + 1,  # a command mid-run, in flight
-            kinds.index("ack", len(kinds) // 3) + 1,  # right after an ack
-            kinds.index("solved", 10) + 1,  # after a hyper-arc is solved
+            first("command"),
+            first("human_action"),
+            first("ack"),
+            next(i + 1 for i in range(len(kinds) - 1) if kinds[i : i + 2] == ["human_action"] * 2),
+            len(kinds) - kinds[::-1].index("ack"),
         }
     )
+
+
+@pytest.mark.slow
+def test_crash_with_agent_processes_over_zenoh_executes_no_command_twice(tmp_path: Path) -> None:
+    """The manager of the kitchen drawer over Zenoh, its arms (with journals) and operator as
+    processes, killed at events with commands and requests in flight (:func:`_crash_points`);
+    each resumed run ends as the uninterrupted one and no arm executed a command twice."""
+    name = "kitchen_drawer"
+    ref_store = tmp_path / "ref.db"
+    ref = serve_cell(load_scenario(name), CellConfig(store=ref_store))
+    points = _crash_points(read_store(ref_store))
+    assert len(points) == 5
     for n in points:
         case = tmp_path / f"n{n}"
         case.mkdir()
         store = case / "cell.db"
         os.environ[CRASH_AFTER_ENV] = str(n)
         try:
-            manager, port = start_cell(str(scenario), store, log=case / "cell.err")
+            manager, port = start_cell(name, store, log=case / "cell.err")
         finally:
             del os.environ[CRASH_AFTER_ENV]
-        arms = [
-            robot(str(scenario), arm, port, case / f"{arm}.err", "--journal", str(case / arm))
+        agents = [
+            robot(name, arm, port, case / f"{arm}.err", "--journal", str(case / f"{arm}.jsonl"))
             for arm in ("left", "right")
         ]
-        procs = [manager, *arms]
+        agents.append(human(name, "human", port, case / "human.err"))
+        procs = [manager, *agents]
         try:
-            assert manager.wait(60) == -signal.SIGKILL
+            assert manager.wait(60) == -signal.SIGKILL, (case / "cell.err").read_text()[-2000:]
             assert len(rows(store)) == n
-            ready = case / "cell2.ready"
-            resumed = start_resumed(str(scenario), store, port, case, ready)
+            resumed = start_resumed(name, store, port, case, case / "cell2.ready")
             procs.append(resumed)
             data = finish(resumed)
-            for arm in arms:
-                assert arm.wait(30) == 0
+            for agent in agents:
+                assert agent.wait(30) == 0
         finally:
             kill_all(procs)
         _same_result(data, ref, n)
@@ -150,11 +167,13 @@ def test_crash_with_agent_processes_over_zenoh_executes_no_command_twice(tmp_pat
         started = [
             line["id"]
             for arm in ("left", "right")
-            for line in _journal(case / arm)
+            for line in _journal(case / f"{arm}.jsonl")
             if line.get("event") == "start"
         ]
         assert len(started) == len(set(started)), f"N={n}: a command was executed twice"
         assert set(started) == issued, f"N={n}: not every command was executed once"
+        reports = [e.body["id"] for e in events if e.kind == "human_action"]
+        assert len(reports) == len(set(reports)) == ref["human_actions"], n
 
 
 def start_resumed(scenario: str, store: Path, port: int, case: Path, ready: Path) -> Any:

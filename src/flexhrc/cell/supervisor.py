@@ -79,6 +79,9 @@ from flexhrc.transport import Transport
 log = logging.getLogger("flexhrc.cell")
 
 AGENT_LOST = "agent lost"
+#: How long a resumed cell whose run had already ended waits for agent processes to come back
+#: and hear the end (seconds).
+END_WAIT_S = 5.0
 
 
 @dataclass
@@ -481,7 +484,7 @@ class Cell:
         st.alive = alive
         if alive:
             st.seen = True
-        if not self.started:
+        if not self.started or self.tm.done:  # an ended run takes no input any more
             return
         if not alive and st.available:
             self._agent_down(name)
@@ -1325,7 +1328,7 @@ class Cell:
         elif self.tm.done:  # the stored cooperation had already ended: nothing to add
             if progress:
                 progress(f"the stored cooperation already ended: {self.tm.outcome}")
-            self.transport.publish(P.STATE_TOPIC, P.message("end", outcome=self.tm.outcome))
+            self._tell_the_end(pump, agents_timeout)
             return self.summary()
         else:
             self.started = True
@@ -1375,6 +1378,15 @@ class Cell:
         self.transport.publish(P.STATE_TOPIC, P.message("end", outcome=self.tm.outcome))
         self._publish_state()
         return summary
+
+    def _tell_the_end(self, pump: Callable[[float], None], timeout: float) -> None:
+        """The stored run had ended (the manager died after its end, before the agents heard
+        of it): agent processes that kept running learn it once they are back, so wait a
+        little for them (they re-dial within a second) — and not longer, for none may be left."""
+        deadline = time.monotonic() + min(timeout, END_WAIT_S)
+        while self.token is not None and self._missing() and time.monotonic() < deadline:
+            pump(0.05)
+        self.transport.publish(P.STATE_TOPIC, P.message("end", outcome=self.tm.outcome))
 
     def summary(self) -> dict[str, Any]:
         """The keys of ``flexhrc run --json`` (counted from the stored events), plus the cell's
