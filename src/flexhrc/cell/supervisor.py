@@ -56,7 +56,7 @@ from typing import Any
 
 from flexhrc.cell import protocol as P
 from flexhrc.cell.components import ScenarioLike, ground, world_of
-from flexhrc.cell.store import EventStore, StoredEvent, check_events, log_events, wal_hint
+from flexhrc.cell.store import EventStore, StoredEvent, check_events, log_events
 from flexhrc.errors import FlexhrcError, FormatError
 from flexhrc.events import STORED_LOG_TYPES  # the manager records the store keeps
 from flexhrc.knowledge import Inconsistency
@@ -1084,10 +1084,8 @@ class Cell:
     # -- resume -------------------------------------------------------------------------------
     def _replay(self, events: list[StoredEvent]) -> None:
         source = self.store.path if self.store else "store"
-        if not events:  # e.g. a copy of a killed cell's store made without its -wal file
-            raise FlexhrcError(
-                f"{source}: nothing to resume (the store holds no events)" + wal_hint(source)
-            )
+        if not events:  # (EventStore refuses an empty store first, with a hint)
+            raise FlexhrcError(f"{source}: nothing to resume (the store holds no events)")
         if events[0].kind != "start":
             raise FlexhrcError(f"{source}: nothing to resume (no start event)")
         check_events(events, source)  # a corrupted row: one clear error naming it, no replay
