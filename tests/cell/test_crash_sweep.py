@@ -10,6 +10,7 @@ are in flight, and checks the agents' journals: no command executed twice."""
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import signal
@@ -193,3 +194,51 @@ def test_the_hook_is_a_whole_number(tmp_path: Path, monkeypatch: pytest.MonkeyPa
         EventStore(tmp_path / "s.db")
     monkeypatch.setenv(CRASH_AFTER_ENV, "")
     EventStore(tmp_path / "t.db").close()
+
+
+@pytest.mark.slow
+def test_k06_a_manager_stopped_longer_than_the_lease_loses_no_work(tmp_path: Path) -> None:
+    """The probe's K06: the manager of a running cell gets SIGSTOP for 12 s (the Zenoh lease is
+    10 s), then SIGCONT. No agent is recorded lost, no command failed, every command executed
+    once, and the cooperation ends as the uninterrupted one (its times aside: the cell's clock
+    is the wall clock here, and it ran on during the stall)."""
+    from .helpers import TABLE_NO_HUMAN, wait_until
+
+    scenario = tmp_path / "table.yaml"
+    scenario.write_text(TABLE_NO_HUMAN)
+    ref = serve_cell(load_scenario(str(scenario)), CellConfig())
+    store = tmp_path / "cell.db"
+    manager, port = start_cell(str(scenario), store, "--realtime", "4", log=tmp_path / "cell.err")
+    arms = [
+        robot(str(scenario), arm, port, tmp_path / f"{arm}.err", "--journal",
+              str(tmp_path / f"{arm}.jsonl"))
+        for arm in ("left", "right")
+    ]  # fmt: skip
+    procs = [manager, *arms]
+    try:
+        wait_until(store, lambda r: sum(k == "ack" for _, _, k, _ in r) >= 2, 60)
+        os.kill(manager.pid, signal.SIGSTOP)
+        time.sleep(12.0)  # the stall itself (longer than the lease), not a synchronisation
+        os.kill(manager.pid, signal.SIGCONT)
+        data = finish(manager, timeout=120)
+        for arm in arms:
+            assert arm.wait(30) == 0
+    finally:
+        with contextlib.suppress(ProcessLookupError):
+            os.kill(manager.pid, signal.SIGCONT)
+        kill_all(procs)
+    log = (tmp_path / "cell.err").read_text()
+    assert data["outcome"] == "solved", log[-2000:]
+    events = _sound_store(store)
+    assert [e.body for e in events if e.kind == "agent_down"] == [], log[-2000:]
+    assert [e.body for e in events if e.kind == "ack" and e.body["status"] != "done"] == []
+    assert data["knowledge"] == ref["knowledge"]
+    assert data["by_agent"] == ref["by_agent"]
+    assert data["robot_actions"] == ref["robot_actions"]
+    started = [
+        line["id"]
+        for arm in ("left", "right")
+        for line in _journal(tmp_path / f"{arm}.jsonl")
+        if line.get("event") == "start"
+    ]
+    assert sorted(started) == sorted(e.body["id"] for e in events if e.kind == "command")

@@ -249,3 +249,123 @@ def test_st42_a_store_copied_without_its_wal_says_so(tmp_path: Path) -> None:
     assert len(read_store(copy)) == 28
     data = serve_cell(TABLE, CellConfig(store=copy, resume=True))
     assert data["outcome"] == "solved" and data["cell"]["resumed"]
+
+
+# -- K06: a manager stalled longer than the liveliness lease ------------------------------------
+class LeaseBus:
+    """The in-process bus with liveliness tokens, delivered in order with the messages; while
+    ``lapsed`` the manager's session is gone: the acks agents send are lost on the way."""
+
+    def __init__(self) -> None:
+        from flexhrc.transport import InProcessBus
+
+        self.bus = InProcessBus()
+        self.tokens: set[str] = set()
+        self.lapsed = False
+        self.lost_acks = 0
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.bus, name)
+
+    def publish(self, topic: str, payload: Any) -> None:
+        if self.lapsed and topic == P.ACK_TOPIC:
+            self.lost_acks += 1
+            return
+        self.bus.publish(topic, payload)
+
+    def declare_token(self, key: str) -> Any:
+        from types import SimpleNamespace
+
+        self.tokens.add(key)
+        self.bus.publish("liveliness", (key, True))
+        return SimpleNamespace(undeclare=lambda: self.tokens.discard(key))
+
+    def watch_liveliness(self, pattern: str, callback: Any, *, history: bool = True) -> Any:
+        from fnmatch import fnmatchcase
+
+        def relay(event: tuple[str, bool]) -> None:
+            if fnmatchcase(event[0], pattern):
+                callback(*event)
+
+        for key in sorted(self.tokens) if history else ():
+            callback(key, True)
+        return self.bus.subscribe("liveliness", relay)
+
+    def wait(self, timeout: float) -> None:
+        """Nothing arrives from elsewhere: the next flush delivers what is queued."""
+
+
+class FakeClock:
+    """``time`` for the cell's module, with a monotonic clock the test moves (a stall)."""
+
+    def __init__(self) -> None:
+        import time
+
+        self.real, self.offset = time, 0.0
+
+    def monotonic(self) -> float:
+        return self.real.monotonic() + self.offset
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.real, name)
+
+
+@pytest.mark.parametrize("back", [("human", "left", "right"), ("human", "left")])
+def test_k06_a_stalled_manager_counts_the_work_that_was_done(
+    monkeypatch: pytest.MonkeyPatch, back: tuple[str, ...]
+) -> None:
+    """The manager does not run for 12 s (longer than the lease) while the left arm executes
+    a command: when it wakes every token is gone (its own session lapsed) and the ack the arm
+    sent meanwhile was lost. The tokens that come back are agents that were there all along:
+    nothing is recorded lost, the done command counts (its ack is asked for again). A token
+    that does not come back within the grace is a lost agent, as before."""
+    from flexhrc.cell import Cell, HumanAgent, RobotAgent
+    from flexhrc.cell import supervisor as S
+    from flexhrc.cell.components import execution_model
+
+    scenario = load_scenario("table_assembly")
+    ref = serve_cell(scenario, CellConfig())
+    clock = FakeClock()
+    monkeypatch.setattr(S, "time", clock)
+    bus = LeaseBus()
+    cell = Cell(scenario, bus, simulator=execution_model("analytic"))  # type: ignore[arg-type]
+    agents = [
+        (HumanAgent if a.is_human else RobotAgent)(
+            a.name, scenario, bus, execution=execution_model("analytic")
+        )
+        for a in scenario.domain.agents.values()
+    ]
+    phase = ["run"]
+
+    def pump(timeout: float) -> None:
+        if phase[0] == "run" and "left" in cell.tm.busy and len(cell.events) > 12:
+            phase[0] = "stalled"  # SIGSTOP: 12 s pass, the lease lapses, every token goes
+            clock.offset += 12.0
+            bus.lapsed = True
+            for name in cell.agents:
+                bus.bus.publish("liveliness", (f"alive/{name}", False))
+        elif phase[0] == "stalled":
+            phase[0] = "woken"  # SIGCONT: the agents that are there re-dial
+            bus.lapsed = False
+            for name in back:
+                bus.bus.publish("liveliness", (f"alive/{name}", True))
+        elif phase[0] == "woken":
+            clock.offset += 0.5  # time goes on: a token that is not back is lost after a grace
+        bus.flush()
+        for agent in agents:
+            if agent.name in back or phase[0] == "run":
+                agent.poll()
+
+    data = cell.run(pump=pump)
+    assert bus.lost_acks >= 1  # the arm's answer during the stall was lost on the way
+    downs = [e.body["agent"] for e in cell.events if e.kind == "agent_down"]
+    failed = [e.body for e in cell.events if e.kind == "ack" and e.body["status"] != "done"]
+    if len(back) == 3:
+        assert downs == [] and failed == []
+        assert data["outcome"] == "solved"
+        assert data["knowledge"] == ref["knowledge"]
+        assert data["by_agent"] == ref["by_agent"]
+        assert data["timing"]["total_s"] == ref["timing"]["total_s"]
+    else:  # right never came back: lost once the grace passed, and only right
+        assert downs == ["right"]
+        assert all(b["agent"] == "right" and b["reason"] == "agent lost" for b in failed)

@@ -79,6 +79,12 @@ from flexhrc.transport import Transport
 log = logging.getLogger("flexhrc.cell")
 
 AGENT_LOST = "agent lost"
+#: The loop did not run for this long (seconds, its own pacing aside): the manager process was
+#: stalled, and liveliness tokens lost then are doubted (:meth:`Cell._pump`).
+STALL_S = 2.0
+#: How long a token lost during or just after a stall may take to come back (seconds): agents
+#: re-dial within a second (``flexhrc.transport.zenoh``).
+STALL_GRACE_S = 5.0
 #: How long a resumed cell whose run had already ended waits for agent processes to come back
 #: and hear the end (seconds).
 END_WAIT_S = 5.0
@@ -180,6 +186,12 @@ class Cell:
         self.suggestion_step: dict[str, tuple[int, float]] = {}
         self._sent_step: dict[str, int] = {}
         self._down_reason: dict[str, str] = {}
+        # a stalled manager (see _pump): agents whose token went while it did not run, and
+        # until when their token may come back before they count as lost
+        self._doubtful: dict[str, float] = {}
+        self._turn_end = time.monotonic()  # when the loop last got its messages
+        self._slept = 0.0  # the loop's own pacing since then (not a stall)
+        self._stalled_until = 0.0
         self.human_ids: set[str] = set()
         self.superseded: dict[str, float] = {}  # suggestion id -> when a new request replaced it
         self._last_suggestion: dict[str, str] = {}  # human -> the suggestion last sent to them
@@ -486,7 +498,10 @@ class Cell:
             st.seen = True
         if not self.started or self.tm.done:  # an ended run takes no input any more
             return
-        if not alive and st.available:
+        if not alive and st.available and self._stalled():
+            log.info("token of %s gone while the cell was stalled: doubted", name)
+            self._doubtful.setdefault(name, time.monotonic() + STALL_GRACE_S)
+        elif not alive and st.available:
             self._agent_down(name)
         elif alive and not st.available:
             self._input("agent_up", {"agent": name, "wall": time.time()})
@@ -1275,6 +1290,7 @@ class Cell:
                 lag = (t - self.now) / self.realtime - (time.perf_counter() - self._last_wall)
                 if lag > 0:
                     time.sleep(min(lag, 5.0))
+                    self._slept += min(lag, 5.0)
         else:
             self.pending.sort(key=lambda x: x[1])  # arrival order
             # an operator's intent is due when the person starts (after thinking)
@@ -1370,12 +1386,45 @@ class Cell:
             if time.monotonic() > deadline:
                 self._end("failed", f"wall time {max_wall_s} s exceeded")
                 break
-            pump(0.05)
+            self._pump(pump)
         summary = self.summary()
         self._record("summary", summary)
         self.transport.publish(P.STATE_TOPIC, P.message("end", outcome=self.tm.outcome))
         self._publish_state()
         return summary
+
+    def _pump(self, pump: Callable[[float], None]) -> None:
+        """Let the transport deliver, and notice a stalled manager (probe K06).
+
+        A process that did not run for longer than the transport's lease (SIGSTOP, a paused
+        VM, a starved machine) finds every agent's liveliness token gone when it wakes — its
+        own session lapsed, not the agents — and the acks they sent meanwhile lost with it.
+        Declaring them lost would fail commands that were done. So a token that goes while
+        the loop did not run for :data:`STALL_S`, or within :data:`STALL_GRACE_S` after, is
+        doubted: the agent counts as lost only if its token is not back by then; when it is,
+        its commands are sent again and it answers the done ones from its memory."""
+        pump(0.05)
+        now = time.monotonic()
+        if now - self._turn_end - self._slept > STALL_S:
+            self._stalled_until = now + STALL_GRACE_S
+            log.warning(
+                "the cell did not run for %.1f s: a liveliness token lost now is doubted for "
+                "%.0f s",
+                now - self._turn_end - self._slept,
+                STALL_GRACE_S,
+            )
+        self._turn_end, self._slept = now, 0.0
+        for name, until in sorted(self._doubtful.items()):
+            if self.agents[name].alive:
+                del self._doubtful[name]
+            elif now > until:
+                del self._doubtful[name]
+                if self.agents[name].available and not self.tm.done:
+                    self._agent_down(name)
+
+    def _stalled(self) -> bool:
+        now = time.monotonic()
+        return now - self._turn_end - self._slept > STALL_S or now < self._stalled_until
 
     def _tell_the_end(self, pump: Callable[[float], None], timeout: float) -> None:
         """The stored run had ended (the manager died after its end, before the agents heard
