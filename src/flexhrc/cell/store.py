@@ -14,6 +14,10 @@ JSON object. The kinds are catalogued in :data:`flexhrc.events.STORE_KINDS`. Inp
 ``human_take``. Output kinds: ``command``, ``suggestion``, ``stop``, ``options``; the manager's
 ``decision``, ``solved``, ``outcome`` ... records and a closing ``summary`` are stored too so
 that ``flexhrc replay FILE.db`` can rebuild the summary of ``flexhrc replay LOG.jsonl``.
+
+``--resume`` and ``replay`` read a store through the same checks (:func:`iter_events` for each
+row, :func:`check_events` for the whole): a corrupted store is one :class:`FormatError` naming
+the file and the row's ``seq``, never a traceback or a manager that waits for ever.
 """
 
 from __future__ import annotations
@@ -301,7 +305,7 @@ def check_events(events: list[StoredEvent], source: str | Path) -> None:
                         f"an ack for command {cid} from {b['agent']!r}, not one of its agents"
                     )
                 acked[cid] = ev.seq
-            elif "id" in b:
+            elif kind in ("human_action", "percept", "intent"):  # ids the cell dedupes
                 seen = ids.setdefault(kind, {})
                 if str(b["id"]) in seen:
                     raise fail(
