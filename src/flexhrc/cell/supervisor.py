@@ -1407,7 +1407,7 @@ class Cell:
         now = time.monotonic()
         if now - self._turn_end - self._slept > STALL_S:
             self._stalled_until = now + STALL_GRACE_S
-            log.warning(
+            log.info(  # (a long plan on a loaded machine too: then it only delays a loss)
                 "the cell did not run for %.1f s: a liveliness token lost now is doubted for "
                 "%.0f s",
                 now - self._turn_end - self._slept,
