@@ -147,6 +147,8 @@ def serve_cell(
     config = config or CellConfig()
     say = progress or (lambda line: None)
     store = EventStore(config.store, resume=config.resume) if config.store else None
+    if store is not None:
+        store.on_lost = lambda reason: say(f"warning: {reason}")
     transport: Any = None
     try:
         zenoh = config.transport == "zenoh"
@@ -212,6 +214,8 @@ def serve_cell(
             record = {"listen": endpoints, "pid": os.getpid(), "cell": config.cell}
             write_ready_file(config.ready_file, record)
         data = cell.run(pump=pump, agents_timeout=config.wait, progress=progress)
+        if store is not None and store.lost:
+            data["cell"]["store_lost"] = store.lost
         for agent in agents:
             agent.close()
         cell.close()
@@ -255,7 +259,12 @@ def summary_line(data: dict[str, Any], store: str | Path | None = None) -> str:
         + f"; {solved_by_line(data)}; {data['decisions']} decision trees; "
         f"{data['robot_actions']} robot and {data['human_actions']} human actions; "
         f"{data['cell']['events']} events"
-        + (f" in {store}" if store else "")
+        + (f" in {store}" if store and not data["cell"].get("store_lost") else "")
+        + (
+            "; NOT STORED: the store was deleted while the cell ran"
+            if data["cell"].get("store_lost")
+            else ""
+        )
         + (
             f"; {data['cell']['dropped']} malformed messages dropped"
             if data["cell"]["dropped"]

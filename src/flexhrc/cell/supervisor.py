@@ -56,8 +56,8 @@ from typing import Any
 
 from flexhrc.cell import protocol as P
 from flexhrc.cell.components import ScenarioLike, ground, unknown_name, world_of
-from flexhrc.cell.store import EventStore, StoredEvent, log_events
-from flexhrc.errors import FlexhrcError
+from flexhrc.cell.store import EventStore, StoredEvent, check_events, log_events
+from flexhrc.errors import FlexhrcError, FormatError
 from flexhrc.events import STORED_LOG_TYPES  # the manager records the store keeps
 from flexhrc.knowledge import Inconsistency
 from flexhrc.logic import apply_substitution
@@ -80,6 +80,15 @@ from flexhrc.transport import Transport
 log = logging.getLogger("flexhrc.cell")
 
 AGENT_LOST = "agent lost"
+#: The loop did not run for this long (seconds, its own pacing aside): the manager process was
+#: stalled, and liveliness tokens lost then are doubted (:meth:`Cell._pump`).
+STALL_S = 2.0
+#: How long a token lost during or just after a stall may take to come back (seconds): agents
+#: re-dial within a second (``flexhrc.transport.zenoh``).
+STALL_GRACE_S = 5.0
+#: How long a resumed cell whose run had already ended waits for agent processes to come back
+#: and hear the end (seconds).
+END_WAIT_S = 5.0
 
 
 @dataclass
@@ -96,6 +105,8 @@ class AgentState:
 
 class Cell:
     """The manager side of a cell (see the module docstring)."""
+
+    _captured: list[tuple[str, dict[str, Any]]] | None = None
 
     def __init__(
         self,
@@ -143,9 +154,11 @@ class Cell:
         self.quiescent = quiescent
         self.shared_model = shared_model
         self._start_joints: dict[int, dict[str, Any]] = {}  # command id -> its "joints"
+        # command id -> when it was issued: a command sent again (after a resume, or overdue)
+        # still starts then, so an arm that executes it only now ends when it would have
+        self._issued_at: dict[int, float] = {}
         self._stop_reason: str | None = None
         self._command_start: dict[int, float] = {}
-        self._issued_at: dict[int, float] = {}  # command id -> when the manager issued it
         self.graph = scenario.online_graph()
         self.domain = scenario.domain
         self.kb = scenario.world()
@@ -174,6 +187,12 @@ class Cell:
         self.suggestion_step: dict[str, tuple[int, float]] = {}
         self._sent_step: dict[str, int] = {}
         self._down_reason: dict[str, str] = {}
+        # a stalled manager (see _pump): agents whose token went while it did not run, and
+        # until when their token may come back before they count as lost
+        self._doubtful: dict[str, float] = {}
+        self._turn_end = time.monotonic()  # when the loop last got its messages
+        self._slept = 0.0  # the loop's own pacing since then (not a stall)
+        self._stalled_until = 0.0
         self.human_ids: set[str] = set()
         self._reported: set[tuple[str, str]] = set()  # (person, action) of reports handled
         self.superseded: dict[str, float] = {}  # suggestion id -> when a new request replaced it
@@ -543,9 +562,12 @@ class Cell:
         st.alive = alive
         if alive:
             st.seen = True
-        if not self.started:
+        if not self.started or self.tm.done:  # an ended run takes no input any more
             return
-        if not alive and st.available:
+        if not alive and st.available and self._stalled():
+            log.info("token of %s gone while the cell was stalled: doubted", name)
+            self._doubtful.setdefault(name, time.monotonic() + STALL_GRACE_S)
+        elif not alive and st.available:
             self._agent_down(name)
         elif alive and not st.available:
             self._input("agent_up", {"agent": name, "wall": time.time()})
@@ -577,6 +599,8 @@ class Cell:
     # -- store, feed, send --------------------------------------------------------------------
     def _record(self, kind: str, body: dict[str, Any], *, observe: bool = True) -> None:
         if self.replaying:
+            if self._captured is not None:  # the outputs of the last stored input (_replay)
+                self._captured.append((kind, body))
             return
         t = self.now  # unrounded, so a resumed clock continues exactly
         seq = self.store.append(kind, body, t) if self.store is not None else len(self.events) + 1
@@ -1034,7 +1058,7 @@ class Cell:
                 agents=list(cmd.agents),
                 action=str(cmd.action),
                 element=cmd.element,
-                t=self.now,
+                t=self._issued_at.get(cmd.id, self.now),
                 expected_s=float(cmd.expected_s),
                 world=world_of(self.kb),
                 realtime=self.agent_speed,
@@ -1141,23 +1165,37 @@ class Cell:
 
     # -- resume -------------------------------------------------------------------------------
     def _replay(self, events: list[StoredEvent]) -> None:
-        if not events or events[0].kind != "start":
-            raise FlexhrcError(
-                f"{self.store.path if self.store else 'store'}: nothing to resume (no start event)"
-            )
+        source = self.store.path if self.store else "store"
+        if not events:  # (EventStore refuses an empty store first, with a hint)
+            raise FlexhrcError(f"{source}: nothing to resume (the store holds no events)")
+        if events[0].kind != "start":
+            raise FlexhrcError(f"{source}: nothing to resume (no start event)")
+        check_events(events, source)  # a corrupted row: one clear error naming it, no replay
+        last = max(i for i, ev in enumerate(events) if ev.is_input)
         self.replaying = True
         try:
-            for ev in events:
+            for i, ev in enumerate(events):
                 self.events.append(ev)
                 if ev.kind == "command":
                     self.stored_commands.add(int(ev.body["id"]))
                 if ev.is_input:
                     self.now = max(self.now, ev.t)
-                    self._handle(self._feed(ev.kind, ev.body))
-                    self._settle()
+                    if i == last:
+                        self._captured = []
+                    try:
+                        self._handle(self._feed(ev.kind, ev.body))
+                        self._settle()
+                    except (FlexhrcError, KeyError, TypeError, ValueError, AttributeError) as exc:
+                        raise FormatError(
+                            f"event {ev.seq} ({ev.kind}): cannot be replayed "
+                            f"({type(exc).__name__}: {exc})",
+                            source,
+                        ) from None
         finally:
             self.replaying = False
         self.resumed = True
+        self._record_kept_outputs(events[last + 1 :])
+        self._stored_end(self.events)
         self._refresh_suggestions()
         # outputs of the last input that the crash kept from the store
         for cmd in sorted(self.tm.busy.values(), key=lambda c: c.id):
@@ -1166,6 +1204,35 @@ class Cell:
                 body.pop("type", None)
                 self._record("command", body)
                 self.stored_commands.add(cmd.id)
+
+    def _record_kept_outputs(self, stored: list[StoredEvent]) -> None:
+        """What the manager made of the last stored input — its records (``decision``,
+        ``solved``, ``fixed``, ``outcome`` ...) and outputs — that the crash kept from the store:
+        the replay made them again, in the same order; those past the stored ones are recorded
+        now, so the store holds the run as the uninterrupted one would (a resume after the
+        ``start`` lost no decision, after the last ack no ``solved``)."""
+        made, self._captured = self._captured or [], None
+        kinds = [ev.kind for ev in stored]
+        if [k for k, _ in made[: len(kinds)]] != kinds:
+            return  # the loop's own records (an end it decided): the outputs were all stored
+        for kind, body in made[len(kinds) :]:
+            self._record(kind, body, observe=kind not in STORED_LOG_TYPES)
+            if kind == "command":
+                self.stored_commands.add(int(body["id"]))
+
+    def _stored_end(self, events: list[StoredEvent]) -> None:
+        """A stored ``outcome`` the loop decided itself (failed: stuck or out of time,
+        interrupted) is no input, so the replay does not reach it: the run ended all the same,
+        and a resume must not run its end again (probe ST32: each resume appended another
+        outcome). The closing summary a crash kept from the store is written now."""
+        end = next((ev for ev in reversed(events) if ev.kind == "outcome"), None)
+        if end is None:
+            return
+        if not self.tm.done:
+            self.tm.outcome = str(end.body.get("outcome"))
+            self.tm.reason = end.body.get("reason")
+        if not any(ev.kind == "summary" for ev in events):
+            self._record("summary", self.summary())
 
     def _refresh_suggestions(self) -> None:
         runs = {
@@ -1290,6 +1357,7 @@ class Cell:
                 lag = (t - self.now) / self.realtime - (time.perf_counter() - self._last_wall)
                 if lag > 0:
                     time.sleep(min(lag, 5.0))
+                    self._slept += min(lag, 5.0)
         else:
             self.pending.sort(key=lambda x: x[1])  # arrival order
             # an operator's intent is due when the person starts (after thinking)
@@ -1346,7 +1414,7 @@ class Cell:
         elif self.tm.done:  # the stored cooperation had already ended: nothing to add
             if progress:
                 progress(f"the stored cooperation already ended: {self.tm.outcome}")
-            self.transport.publish(P.STATE_TOPIC, P.message("end", outcome=self.tm.outcome))
+            self._tell_the_end(pump, agents_timeout)
             return self.summary()
         else:
             self.started = True
@@ -1390,12 +1458,54 @@ class Cell:
             if time.monotonic() > deadline:
                 self._end("failed", f"wall time {max_wall_s} s exceeded")
                 break
-            pump(0.05)
+            self._pump(pump)
         summary = self.summary()
         self._record("summary", summary)
         self.transport.publish(P.STATE_TOPIC, P.message("end", outcome=self.tm.outcome))
         self._publish_state()
         return summary
+
+    def _pump(self, pump: Callable[[float], None]) -> None:
+        """Let the transport deliver, and notice a stalled manager (probe K06).
+
+        A process that did not run for longer than the transport's lease (SIGSTOP, a paused
+        VM, a starved machine) finds every agent's liveliness token gone when it wakes — its
+        own session lapsed, not the agents — and the acks they sent meanwhile lost with it.
+        Declaring them lost would fail commands that were done. So a token that goes while
+        the loop did not run for :data:`STALL_S`, or within :data:`STALL_GRACE_S` after, is
+        doubted: the agent counts as lost only if its token is not back by then; when it is,
+        its commands are sent again and it answers the done ones from its memory."""
+        pump(0.05)
+        now = time.monotonic()
+        if now - self._turn_end - self._slept > STALL_S:
+            self._stalled_until = now + STALL_GRACE_S
+            log.info(  # (a long plan on a loaded machine too: then it only delays a loss)
+                "the cell did not run for %.1f s: a liveliness token lost now is doubted for "
+                "%.0f s",
+                now - self._turn_end - self._slept,
+                STALL_GRACE_S,
+            )
+        self._turn_end, self._slept = now, 0.0
+        for name, until in sorted(self._doubtful.items()):
+            if self.agents[name].alive:
+                del self._doubtful[name]
+            elif now > until:
+                del self._doubtful[name]
+                if self.agents[name].available and not self.tm.done:
+                    self._agent_down(name)
+
+    def _stalled(self) -> bool:
+        now = time.monotonic()
+        return now - self._turn_end - self._slept > STALL_S or now < self._stalled_until
+
+    def _tell_the_end(self, pump: Callable[[float], None], timeout: float) -> None:
+        """The stored run had ended (the manager died after its end, before the agents heard
+        of it): agent processes that kept running learn it once they are back, so wait a
+        little for them (they re-dial within a second) — and not longer, for none may be left."""
+        deadline = time.monotonic() + min(timeout, END_WAIT_S)
+        while self.token is not None and self._missing() and time.monotonic() < deadline:
+            pump(0.05)
+        self.transport.publish(P.STATE_TOPIC, P.message("end", outcome=self.tm.outcome))
 
     def summary(self) -> dict[str, Any]:
         """The keys of ``flexhrc run --json`` (counted from the stored events), plus the cell's

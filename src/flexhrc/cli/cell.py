@@ -119,4 +119,6 @@ def cmd_cell(args: argparse.Namespace) -> int:
         for server in servers:
             server.stop(grace=0.3)  # the page gets the last state first
     emit(args, data, lambda: summary_line(data, args.store))
+    if data["cell"].get("store_lost"):  # said even under --quiet: the run cannot be resumed
+        progress(f"warning: {data['cell']['store_lost']}")
     return 0 if data["outcome"] == "solved" else 1
