@@ -128,6 +128,32 @@ def test_w29_the_same_action_asked_again_is_new_work(local_panel: Any) -> None:
     assert panel.call(asked_again) is False
 
 
+def test_w28_a_double_click_in_the_browser_is_one_record(tmp_path: Path, open_page: Any) -> None:
+    from flexhrc.web.local import PanelConfig, serve_panel
+
+    scenario = tmp_path / "table.yaml"
+    scenario.write_text(TABLE_HUMAN_BOLT_1)
+    panel = serve_panel(PanelConfig(scenario=str(scenario), port=0, speed=40, simulator="analytic"))
+    try:
+        until(panel, waiting_for_operator)
+        (first,) = human_next(panel)
+        page = open_page(panel.url)
+        page.wait_for_selector(f"#suggestions tr.mine button.done[data-action='{first}']")
+        # two clicks on the one button before the page can redraw (a double click)
+        page.evaluate(
+            "(action) => { const b = document.querySelector("
+            "`#suggestions tr.mine button.done[data-action='${action}']`); b.click(); b.click(); }",
+            first,
+        )
+        page.wait_for_selector(f"#message:has-text('already done: {first}')")
+        page.wait_for_selector("#suggestions tr.mine button.done[data-action^='screw(human, ']")
+        assert _human_actions(panel.cell) == [first]
+        timeline = page.locator("#timeline-list li", has_text="pick_up(human, ")
+        assert timeline.count() == 1
+    finally:
+        panel.close()
+
+
 # -- WS07: the stop is always answered -----------------------------------------------------------
 
 
@@ -142,6 +168,13 @@ def _post(port: int, path: str, body: dict[str, Any]) -> tuple[int, dict[str, An
             return resp.status, json.loads(resp.read())
     except urllib.error.HTTPError as exc:
         return exc.code, json.loads(exc.read())
+
+
+def _run(coro: Any) -> Any:
+    """``asyncio.run(coro)`` on a thread of its own: the browser tests' Playwright keeps an
+    event loop on this one."""
+    with ThreadPoolExecutor(1) as pool:
+        return pool.submit(asyncio.run, coro).result()
 
 
 def _get(port: int, path: str) -> tuple[int, bytes]:
@@ -181,7 +214,7 @@ def test_ws07_260_idle_websockets_do_not_deny_the_operators_stop(tmp_path: Path)
                 for ws in sockets:
                     await ws.close()
 
-        kept, refused, stop, page = asyncio.run(flood())
+        kept, refused, stop, page = _run(flood())
         assert stop == (200, {"ok": True, "stopped": "left"})
         assert page == 200
         assert kept == MAX_WEBSOCKETS
@@ -193,7 +226,7 @@ def test_ws07_260_idle_websockets_do_not_deny_the_operators_stop(tmp_path: Path)
             async with websockets_client.connect(url) as ws:
                 return dict(json.loads(await ws.recv()))
 
-        assert asyncio.run(one_more())["outcome"] == "running"
+        assert _run(one_more())["outcome"] == "running"
     finally:
         panel.close()
 
