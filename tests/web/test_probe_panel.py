@@ -139,13 +139,33 @@ def test_w28_a_double_click_in_the_browser_is_one_record(tmp_path: Path, open_pa
         (first,) = human_next(panel)
         page = open_page(panel.url)
         page.wait_for_selector(f"#suggestions tr.mine button.done[data-action='{first}']")
-        # two clicks on the one button before the page can redraw (a double click)
+        # two clicks on the one button before the page can redraw (a double click); the page's
+        # answers are collected as they come (in either order: two requests at once)
         page.evaluate(
-            "(action) => { const b = document.querySelector("
-            "`#suggestions tr.mine button.done[data-action='${action}']`); b.click(); b.click(); }",
+            """(action) => {
+                window.__answers = [];
+                const fetch0 = window.fetch;
+                window.fetch = async (...args) => {
+                    const r = await fetch0(...args);
+                    r.clone().json().then((d) => {
+                        window.__answers.push(d);
+                        document.body.dataset.answers = String(window.__answers.length);
+                    });
+                    return r;
+                };
+                const b = document.querySelector(
+                    `#suggestions tr.mine button.done[data-action='${action}']`);
+                b.click();
+                b.click();
+            }""",
             first,
         )
-        page.wait_for_selector(f"#message:has-text('already done: {first}')")
+        page.wait_for_selector("body[data-answers='2']", state="attached")
+        answers = page.evaluate("window.__answers")
+        assert sorted(bool(a.get("already_done")) for a in answers) == [False, True], answers
+        assert all(a["ok"] and a["action"] == first for a in answers)
+        message = page.locator("#message").text_content()
+        assert message in (f"done: {first}", f"already done: {first}")
         page.wait_for_selector("#suggestions tr.mine button.done[data-action^='screw(human, ']")
         assert _human_actions(panel.cell) == [first]
         timeline = page.locator("#timeline-list li", has_text="pick_up(human, ")
