@@ -137,10 +137,16 @@ class PanelServer:
         self._thread: threading.Thread | None = None
 
     @property
-    def url(self) -> str:
+    def address(self) -> str:
+        """``http://HOST:PORT/`` with the port as bound (port 0: the one the system gave), no
+        token (what a ready file may hold)."""
         host = f"[{self.host}]" if ":" in self.host else self.host
-        base = f"http://{host}:{self.port}/"
-        return f"{base}?token={self.token}" if self.token else base
+        return f"http://{host}:{self.port}/"
+
+    @property
+    def url(self) -> str:
+        """The page's address to open, with ``?token=`` when there is a token."""
+        return f"{self.address}?token={self.token}" if self.token else self.address
 
     def start(self, timeout: float = 10.0) -> PanelServer:
         self._thread = threading.Thread(
