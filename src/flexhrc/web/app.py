@@ -308,8 +308,15 @@ def create_app(
     hub = _Hub(backend)
     root = static_dir()
     # the operator's stop and resume: threads of their own, never queued behind requests that
-    # wait for the cell in the shared pool
-    operator_threads = ThreadPoolExecutor(max_workers=2, thread_name_prefix="flexhrc-panel-stop")
+    # wait for the cell in the shared pool (made when first needed, ended with the server)
+    operator_threads: list[ThreadPoolExecutor] = []
+
+    def operator_pool() -> ThreadPoolExecutor:
+        if not operator_threads:
+            operator_threads.append(
+                ThreadPoolExecutor(max_workers=2, thread_name_prefix="flexhrc-panel-stop")
+            )
+        return operator_threads[0]
 
     async def index(request: Request) -> Response:
         return FileResponse(f"{root}/index.html", headers={"cache-control": "no-store"})
@@ -328,7 +335,7 @@ def create_app(
                 parsed = parse(await _read_body(request))
                 if reserved:
                     loop = asyncio.get_running_loop()
-                    result = await loop.run_in_executor(operator_threads, call, parsed)
+                    result = await loop.run_in_executor(operator_pool(), call, parsed)
                 else:
                     result = await run_in_threadpool(call, parsed)
             except PanelInputError as exc:
@@ -380,7 +387,9 @@ def create_app(
             yield
         finally:
             await hub.stop()
-            operator_threads.shutdown(wait=False)
+            for pool in operator_threads:
+                pool.shutdown(wait=False)
+            operator_threads.clear()
 
     app = Starlette(
         routes=[
