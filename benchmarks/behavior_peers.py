@@ -87,7 +87,6 @@ def main() -> None:
     try:
         from flexhrc.transport.zenoh import (
             ZenohTransport,
-            free_tcp_port,
             json_decode,
             json_encode,
             zenoh_config,
@@ -96,13 +95,13 @@ def main() -> None:
         rows["zenoh_team_ms"] = None
         rows["zenoh_error"] = str(exc)
     else:
-        port = free_tcp_port()
         codec = {
             "encode": lambda m: json_encode(to_wire(m)),
             "decode": lambda b: from_wire(json_decode(b)),
         }
-        z1 = ZenohTransport(zenoh_config(listen=[f"tcp/127.0.0.1:{port}"]), **codec)
-        z2 = ZenohTransport(zenoh_config(connect=[f"tcp/127.0.0.1:{port}"]), **codec)
+        # the first session takes a port the system gives it; the second connects there
+        z1 = ZenohTransport(zenoh_config(listen=["tcp/127.0.0.1:0"]), **codec)
+        z2 = ZenohTransport(zenoh_config(connect=z1.locators()), **codec)
         time.sleep(0.5)  # the two sessions find each other
         try:
             rows["zenoh_team_ms"] = team(

@@ -124,8 +124,16 @@ def test_load_target_reads_inline_tasks_and_files(tmp_path):
             "--robot needs --peer-port",
         ),
         (
-            lambda: BehaveConfig("(A)", robots=2, transport="zenoh", robot="r", peer_port=0),
-            "--peer-port must be in 1..65535",
+            lambda: BehaveConfig("(A)", robots=2, transport="zenoh", robot="r", peer_port=-1),
+            "--peer-port must be in 0..65535",
+        ),
+        (  # only the listener takes a port the system picks; the others need the port it got
+            lambda: BehaveConfig("(A)", robots=2, transport="zenoh", robot="robot2", peer_port=0),
+            "--peer-port 0 is for robot1",
+        ),
+        (
+            lambda: BehaveConfig("(A)", robots=2, transport="zenoh", ready_file="r.json"),
+            "--ready-file is for --robot",
         ),
         (
             lambda: BehaveConfig("(THEN a b)", robots=2, arms=2),

@@ -1,5 +1,6 @@
-"""Two robot processes over Zenoh (loopback, multicast scouting off, a free port) set the table of
-Fraser et al.; SIGKILL of one robot mid-task -> the other completes."""
+"""Two robot processes over Zenoh (loopback, multicast scouting off; robot1 binds port 0 and
+reports the port it got) set the table of Fraser et al.; SIGKILL of one robot mid-task -> the
+other completes."""
 
 from __future__ import annotations
 
@@ -17,6 +18,7 @@ from flexhrc.behavior import check_run
 from flexhrc.behavior.messages import LogEvent
 from flexhrc.behavior.network import Run, runs_from_log
 from flexhrc.scenario.builtin.table_setting import table_setting_task
+from tests.cell.helpers import listening_port
 from tests.conftest import subprocess_env
 
 pytest.importorskip("zenoh")
@@ -72,38 +74,25 @@ def _log_runs(path: Path, robot: str) -> list[Run]:
 
 @pytest.mark.parametrize("layout", [1, 2, 3])
 def test_sigkill_of_one_robot_the_other_completes(tmp_path, layout):
-    from flexhrc.transport.zenoh import free_tcp_port
-
-    port = free_tcp_port()
     logs = {r: tmp_path / f"{r}.jsonl" for r in ("robot1", "robot2")}
-    procs = {
-        robot: subprocess.Popen(
-            behave(
-                "table-setting",
-                "--layout",
-                str(layout),
-                "--robots",
-                "2",
-                "--transport",
-                "zenoh",
-                "--robot",
-                robot,
-                "--peer-port",
-                str(port),
-                "--realtime",
-                "20",
-                "--json",
-                "--log",
-                str(logs[robot]),
-            ),
+
+    def robot(name: str, port: int, *extra: str) -> subprocess.Popen[str]:
+        argv = ["table-setting", "--layout", str(layout), "--robots", "2"]
+        argv += ["--transport", "zenoh", "--robot", name, "--peer-port", str(port)]
+        argv += ["--realtime", "20", "--json", "--log", str(logs[name]), *extra]
+        return subprocess.Popen(
+            behave(*argv),
             env=subprocess_env(),
             stdout=subprocess.PIPE,
             stderr=subprocess.PIPE,
             text=True,
         )
-        for robot in ("robot1", "robot2")
-    }
+
+    # robot1 listens on a port the system gives it and says which; robot2 connects there
+    ready = tmp_path / "robot1.ready"
+    procs = {"robot1": robot("robot1", 0, "--ready-file", str(ready))}
     try:
+        procs["robot2"] = robot("robot2", listening_port(ready, procs["robot1"]))
         # kill robot1 once it is in the middle of its second behaviour
         deadline = time.monotonic() + 60
         while time.monotonic() < deadline:

@@ -10,6 +10,7 @@ import time
 from typing import Any
 
 import rclpy
+from rclpy.duration import Duration
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import String
@@ -98,7 +99,8 @@ class PlainClient:
     def close(self) -> None:
         for key in self.tokens:
             self.live.publish(String(data=json.dumps({"key": key, "alive": False})))
-        time.sleep(0.05)
+        # the goodbyes reach every matched subscriber before the node goes (reliable QoS)
+        self.live.wait_for_all_acked(Duration(seconds=2))
         self.running = False
         self.thread.join(2)
         self.executor.shutdown()

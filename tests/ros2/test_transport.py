@@ -88,15 +88,16 @@ def test_malformed_payloads_are_dropped_and_never_reach_a_callback(pair):
 def test_unsubscribe_stops_deliveries_and_close_is_final(pair):
     a, b = pair
     got: list[object] = []
+    witness: list[object] = []  # stays subscribed: shows when a message has arrived at b
+    b.subscribe("t", witness.append)
     sub = b.subscribe("t", got.append)
     assert a.wait_matched("t", minimum=1, timeout=5.0)
     a.publish("t", 1)
     assert wait_for(lambda: got == [1], 5.0, b.flush)
     sub.cancel()
     a.publish("t", 2)
-    time.sleep(0.1)  # nothing may arrive: give it the chance to
-    b.flush()
-    assert got == [1]
+    assert wait_for(lambda: witness == [1, 2], 5.0, b.flush)  # 2 reached b ...
+    assert got == [1]  # ... and not the cancelled subscription
     a.close()
     a.close()
     with pytest.raises(Ros2TransportError, match="closed"):

@@ -81,7 +81,11 @@ def test_an_ack_that_overtakes_its_command_is_applied_when_the_command_arrives()
 def test_flexhrc_agent_perception_joins_a_cell_over_zenoh(tmp_path) -> None:
     pytest.importorskip("zenoh")
     import json
+    import threading
     import time
+
+    from flexhrc.cell import protocol as P
+    from flexhrc.transport.zenoh import ZenohTransport, zenoh_config
 
     from ..cell.helpers import finish, flexhrc, human, kill_all, robot, start_cell
 
@@ -93,13 +97,21 @@ def test_flexhrc_agent_perception_joins_a_cell_over_zenoh(tmp_path) -> None:
         log=tmp_path / "perception.err",
     )  # fmt: skip
     procs.append(eye)
-    # the camera is up before the arms join (the cell waits for the arms, not for it)
+    # the camera is up before the arms join (the cell waits for the arms, not for it): the
+    # arms come once its subscription to the left arm's commands has reached the cell, as Zenoh
+    # itself tells a publisher on that key (only the camera subscribes to it before the arms)
     log = tmp_path / "perception.err"
-    deadline = time.monotonic() + 90
-    while "ready" not in (log.read_text() if log.exists() else "") and time.monotonic() < deadline:
-        assert eye.poll() is None, log.read_text()
-        time.sleep(0.2)
-    time.sleep(0.5)  # its subscriptions reach the cell's router
+    with ZenohTransport(zenoh_config(connect=[f"tcp/127.0.0.1:{port}"])) as probe:
+        heard = threading.Event()
+        publisher = probe.session.declare_publisher(f"flexhrc/default/{P.cmd_topic('left')}")
+        listener = publisher.declare_matching_listener(
+            lambda status: heard.set() if status.matching else None
+        )
+        deadline = time.monotonic() + 90
+        while not (heard.wait(0.2) or publisher.matching_status.matching):
+            assert eye.poll() is None and time.monotonic() < deadline, log.read_text()
+        listener.undeclare()
+        publisher.undeclare()
     procs += [robot(scenario, arm, port, tmp_path / f"{arm}.err") for arm in ("left", "right")]
     procs.append(human(scenario, "human", port, tmp_path / "human.err"))
     try:

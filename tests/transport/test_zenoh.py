@@ -7,6 +7,7 @@ import signal
 import subprocess
 import sys
 import textwrap
+import threading
 import time
 from collections.abc import Callable
 from typing import Any
@@ -19,7 +20,6 @@ from flexhrc.transport import Transport
 from flexhrc.transport.zenoh import (
     TransportError,
     ZenohTransport,
-    free_tcp_port,
     json_decode,
     json_encode,
     loopback_config,
@@ -57,9 +57,19 @@ def pump(bus: ZenohTransport, until: Callable[[], bool], timeout: float = 10.0) 
     return True
 
 
+# Every session here listens on port 0: the system gives it a port nobody else holds, and
+# :meth:`ZenohTransport.locators` says which (never a port picked, closed and bound again).
+ANY_PORT = ["tcp/127.0.0.1:0"]
+
+
+def port_of(bus: ZenohTransport) -> int:
+    (endpoint,) = bus.locators()
+    return int(endpoint.rsplit(":", 1)[1])
+
+
 @pytest.fixture
 def bus() -> Any:
-    b = ZenohTransport(loopback_config(free_tcp_port()))
+    b = ZenohTransport(zenoh_config(listen=ANY_PORT))
     yield b
     b.close()
 
@@ -104,13 +114,17 @@ def test_cancelled_subscription_gets_nothing(bus: ZenohTransport) -> None:
 
 
 def test_thread_delivery_calls_back_without_flush() -> None:
-    with ZenohTransport(loopback_config(free_tcp_port()), deliver="thread") as b:
+    with ZenohTransport(zenoh_config(listen=ANY_PORT), deliver="thread") as b:
         got: list[Any] = []
-        b.subscribe("a/x", got.append)
+        arrived = threading.Event()
+
+        def on_message(payload: Any) -> None:  # on Zenoh's thread
+            got.append(payload)
+            arrived.set()
+
+        b.subscribe("a/x", on_message)
         b.publish("a/x", "hi")
-        deadline = time.monotonic() + 5
-        while not got and time.monotonic() < deadline:
-            time.sleep(0.01)
+        assert arrived.wait(5)
         assert got == ["hi"]
         assert b.flush() == 0
 
@@ -133,11 +147,10 @@ def test_bad_topics_endpoints_and_closed_use() -> None:
         zenoh_config(listen=["tcp/127.0.0.1:70000"])
     assert normalise_endpoint("127.0.0.1:7447") == "tcp/127.0.0.1:7447"
     assert normalise_endpoint("tcp/[::1]:7447") == "tcp/[::1]:7447"
-    port = free_tcp_port()
-    b = ZenohTransport(loopback_config(port))
+    b = ZenohTransport(zenoh_config(listen=ANY_PORT))
     try:
         with pytest.raises(TransportError, match="cannot open"):
-            ZenohTransport(loopback_config(port))  # the port is taken
+            ZenohTransport(loopback_config(port_of(b)))  # the port is taken
         for topic in ("", "a//b", "/a", "a/", "a/*", "a/$x"):
             with pytest.raises(ValueError):
                 b.publish(topic, 1)
@@ -174,8 +187,8 @@ def test_json_codec_is_strict() -> None:
 
 
 def test_two_processes_round_trip_and_liveliness_on_sigkill() -> None:
-    port = free_tcp_port()
-    bus = ZenohTransport(loopback_config(port), prefix="test")
+    bus = ZenohTransport(zenoh_config(listen=ANY_PORT), prefix="test")
+    port = port_of(bus)  # bound here before the child is told it
     alive: list[tuple[str, bool]] = []
     pongs: list[dict[str, Any]] = []
     bus.watch_liveliness("alive/*", lambda k, a: alive.append((k, a)))

@@ -39,18 +39,6 @@ def _flexhrc(*args: str, log: Path) -> subprocess.Popen[str]:
     )
 
 
-def _panel_url(log: Path, proc: subprocess.Popen[str], timeout: float = 30.0) -> str:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        m = re.search(r"panel: (http://127\.0\.0\.1:\d+/)", log.read_text())
-        if m:
-            return m.group(1)
-        if proc.poll() is not None:
-            break
-        time.sleep(0.05)
-    raise AssertionError(f"no panel address; cell log:\n{log.read_text()[-2000:]}")
-
-
 def test_operator_only_at_the_panel_with_manager_and_arms_as_processes(
     tmp_path: Path, open_page: Any
 ) -> None:
@@ -74,7 +62,9 @@ def test_operator_only_at_the_panel_with_manager_and_arms_as_processes(
                      log=tmp_path / f"{arm}.err")
             for arm in ("left", "right")
         ]  # fmt: skip
-        url = _panel_url(cell_log, procs[0])
+        # the ready file says where the panel listens too (--web 127.0.0.1:0: as bound)
+        url = json.loads(ready.read_text())["web"]
+        assert re.fullmatch(r"http://127\.0\.0\.1:\d+/", url) and not url.endswith(":0/")
         page = open_page(url)
         page.evaluate("window.__marker = 'not reloaded'")
         clicked: list[str] = []

@@ -17,6 +17,7 @@ from flexhrc.taskmanager.simulator import AnalyticSimulator
 from flexhrc.transport import InProcessBus
 from flexhrc.web import PanelInputError
 from flexhrc.web.live import CellPanel
+from tests.web.helpers import until
 
 
 class Running:
@@ -50,7 +51,7 @@ class Running:
             for arm in arms:
                 arm.poll()
             self.panel.poll()
-            time.sleep(0.002)
+            time.sleep(0.002)  # paces the loop (the arms answer on their next poll)
 
         self.thread = threading.Thread(
             target=lambda: self.summary.update(self.cell.run(pump=pump, max_wall_s=60)),
@@ -59,13 +60,9 @@ class Running:
         self.thread.start()
 
     def until(self, check: Any, timeout: float = 20.0) -> dict[str, Any]:
-        deadline = time.monotonic() + timeout
-        while time.monotonic() < deadline:
-            snap = self.panel.snapshot()
-            if check(snap):
-                return snap
-            time.sleep(0.01)
-        raise AssertionError(f"timed out; last state: {self.panel.snapshot()['waiting']}")
+        """The first snapshot for which ``check`` holds (woken by the panel's change
+        notifications, not a sleep)."""
+        return until(self.panel, check, timeout)
 
 
 @pytest.fixture

@@ -80,7 +80,9 @@ class BehaveConfig:
 
     ``robots`` (1..4) robots share the task, each with one arm, all in this process
     (``transport`` ``inprocess``) or one process per robot over Zenoh (``zenoh``); ``robot`` and
-    ``peer_port`` make this process one robot of such a team. Over Zenoh the robot processes load
+    ``peer_port`` make this process one robot of such a team (``peer_port`` 0: the first robot
+    listens on a port the system picks and writes it as JSON to ``ready_file``, so no port is
+    chosen for it that another process could take first). Over Zenoh the robot processes load
     the task themselves from ``child_args`` (``flexhrc behave`` arguments; by default the target,
     which must then be text).
     """
@@ -98,6 +100,7 @@ class BehaveConfig:
     transport: str | None = None
     robot: str | None = None
     peer_port: int | None = None
+    ready_file: str | None = None
     child_args: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
@@ -120,8 +123,15 @@ class BehaveConfig:
             raise FlexhrcError("--robot and --peer-port are for --robots N --transport zenoh")
         if self.robot is not None and self.peer_port is None:
             raise FlexhrcError("--robot needs --peer-port")
-        if self.peer_port is not None and not 1 <= self.peer_port <= 65535:
-            raise FlexhrcError(f"--peer-port must be in 1..65535, got {self.peer_port}")
+        if self.peer_port is not None and not 0 <= self.peer_port <= 65535:
+            raise FlexhrcError(f"--peer-port must be in 0..65535, got {self.peer_port}")
+        if self.ready_file is not None and self.robot is None:
+            raise FlexhrcError("--ready-file is for --robot (the robot that listens)")
+        if self.peer_port == 0 and self.robot is not None and self.robot != "robot1":
+            raise FlexhrcError(
+                "--peer-port 0 is for robot1 (it listens where the system lets it and says where"
+                " in --ready-file); the others connect to that port"
+            )
         if self.team:
             for flag, team_value in (("--arms", self.arms), ("--render", self.render)):
                 if team_value is not None:

@@ -16,8 +16,10 @@
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 from typing import Any
@@ -39,7 +41,7 @@ from flexhrc.behavior.network import Run
 from flexhrc.behavior.peers import robot_names
 from flexhrc.behavior.validate import check_run
 from flexhrc.errors import FlexhrcError
-from flexhrc.files import EventLogWriter, check_output
+from flexhrc.files import EventLogWriter, atomic_write_text, check_output
 
 BARRIER_TIMEOUT_S = 30.0
 
@@ -148,8 +150,11 @@ def _in_process(config: BehaveConfig, loaded: LoadedTask, on_line: LineSink) -> 
 # ----------------------------------------------------------------------------- over Zenoh
 
 
-def _child_command(config: BehaveConfig, robot: str, port: int, speed: float) -> list[str]:
-    """``flexhrc behave`` for one robot process of the team."""
+def _child_command(
+    config: BehaveConfig, robot: str, port: int, speed: float, ready: Path | None = None
+) -> list[str]:
+    """``flexhrc behave`` for one robot process of the team (``ready``: the listener's
+    ready file, with ``port`` 0)."""
     if config.child_args:
         task_args = list(config.child_args)
     elif isinstance(config.target, str):
@@ -163,6 +168,8 @@ def _child_command(config: BehaveConfig, robot: str, port: int, speed: float) ->
     cmd += ["--robots", str(config.robots), "--transport", "zenoh", "--robot", robot]
     cmd += ["--peer-port", str(port), "--realtime", repr(speed), "--seed", str(config.seed)]
     cmd.append("--json")
+    if ready is not None:
+        cmd += ["--ready-file", str(ready)]
     if config.max_ticks is not None:
         cmd += ["--max-ticks", str(config.max_ticks)]
     if config.log:
@@ -175,15 +182,28 @@ def _child_command(config: BehaveConfig, robot: str, port: int, speed: float) ->
 def _spawn_team(
     config: BehaveConfig, loaded: LoadedTask, robots: list[str], on_line: LineSink
 ) -> dict[str, Any]:
-    from flexhrc.transport.zenoh import free_tcp_port  # OptionalDependencyError without zenoh
+    import flexhrc.transport.zenoh  # noqa: F401  (OptionalDependencyError without zenoh)
 
     speed = config.realtime if config.realtime is not None else DEFAULT_TEAM_SPEED
-    port = free_tcp_port()
-    commands = [(robot, _child_command(config, robot, port, speed)) for robot in robots]
-    procs = [
-        (robot, subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True))
-        for robot, cmd in commands
-    ]
+
+    def spawn(robot: str, port: int, ready: Path | None = None) -> subprocess.Popen[str]:
+        cmd = _child_command(config, robot, port, speed, ready)
+        return subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+    # the first robot listens on a port the system gives it and says which (a port picked here
+    # and handed over could be taken by another process before the child binds it)
+    with tempfile.TemporaryDirectory(prefix="flexhrc-team-") as tmp:
+        ready = Path(tmp) / f"{robots[0]}.ready"
+        procs = [(robots[0], spawn(robots[0], 0, ready))]
+        try:
+            port = _listening_port(ready, procs[0][1], robots[0])
+            procs += [(robot, spawn(robot, port)) for robot in robots[1:]]
+        except BaseException:
+            for _robot, proc in procs:
+                if proc.poll() is None:
+                    proc.kill()
+                proc.communicate()
+            raise
     on_line(f"{loaded.label}: {len(robots)} robot processes over Zenoh on 127.0.0.1:{port}")
     outputs: dict[str, dict[str, Any]] = {}
     lost = []
@@ -230,13 +250,37 @@ def _spawn_team(
     }
 
 
+def _listening_port(ready: Path, proc: subprocess.Popen[str], robot: str) -> int:
+    """The port ``robot``'s process listens on, from the ready file it writes once it does."""
+    deadline = time.monotonic() + BARRIER_TIMEOUT_S
+    while not ready.exists():
+        try:
+            proc.wait(timeout=0.02)  # wakes at once if the process ends
+        except subprocess.TimeoutExpired:
+            if time.monotonic() > deadline:
+                raise FlexhrcError(
+                    f"{robot} did not listen within {BARRIER_TIMEOUT_S:.0f} s"
+                ) from None
+            continue
+        _, err = proc.communicate()
+        raise FlexhrcError(f"{robot}: exited with code {proc.returncode}: {err.strip()[-300:]}")
+    endpoint = json.loads(ready.read_text())["listen"][0]
+    return int(str(endpoint).rsplit(":", 1)[1])
+
+
 def _robot_process(config: BehaveConfig) -> BehaveReport:
     """One robot of a team over Zenoh: its own network, peer messages on Zenoh."""
     from flexhrc.behavior.messages import to_wire
     from flexhrc.behavior.network import BehaviorNetwork, runs_from_log
     from flexhrc.behavior.params import NetworkParams
     from flexhrc.behavior.peers import PeerLink, from_wire, robot_world
-    from flexhrc.transport.zenoh import ZenohTransport, json_decode, json_encode, zenoh_config
+    from flexhrc.transport.zenoh import (
+        ZenohTransport,
+        json_decode,
+        json_encode,
+        listening_on,
+        zenoh_config,
+    )
 
     robots = robot_names(config.robots)
     me = str(config.robot)
@@ -270,6 +314,9 @@ def _robot_process(config: BehaveConfig) -> BehaveReport:
 
     bus.watch_liveliness("bnpeer/alive/*", on_alive)
     token = bus.declare_token(f"bnpeer/alive/{me}")
+    if config.ready_file:  # listening, subscribed and announced: the others may come
+        record = {"listen": listening_on(bus, [endpoint]), "pid": os.getpid(), "robot": me}
+        atomic_write_text(config.ready_file, json.dumps(record) + "\n")
     writer: EventLogWriter | None = None
     wall_events: list[Any] = []
     try:

@@ -20,7 +20,7 @@ import math
 import os
 import re
 import time
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Protocol, TypeVar
@@ -137,13 +137,16 @@ def serve_cell(
     trace: Callable[[dict[str, Any]], None] | None = None,
     progress: Callable[[str], None] | None = None,
     attach: Iterable[Callable[[Cell], Component]] = (),
+    ready_extra: Callable[[], Mapping[str, Any]] | None = None,
 ) -> dict[str, Any]:
     """Run the cooperation of ``scenario`` as a cell configured by ``config`` to its end:
     ``flexhrc cell`` as a function. ``trace`` gets every event as it happens (:func:`trace_line`
     is the command's words for it), ``progress`` the lines the command prints on stderr (where
     it listens, what it waits for, a warning). ``attach``: factories of components the loop
-    polls beside its agents, e.g. the panel (module docstring). Returns the cell's summary (the
-    keys of ``flexhrc cell --json``); the store and the transport are closed on the way out."""
+    polls beside its agents, e.g. the panel (module docstring); ``ready_extra()``: more keys for
+    the ready file (the panel's address, once the attached panel listens). Returns the cell's
+    summary (the keys of ``flexhrc cell --json``); the store and the transport are closed on the
+    way out."""
     config = config or CellConfig()
     say = progress or (lambda line: None)
     store = EventStore(config.store, resume=config.resume) if config.store else None
@@ -212,6 +215,8 @@ def serve_cell(
             )
         if config.ready_file:  # the manager's subscriptions and token are declared: agents may come
             record = {"listen": endpoints, "pid": os.getpid(), "cell": config.cell}
+            if ready_extra is not None:
+                record.update(ready_extra())
             write_ready_file(config.ready_file, record)
         data = cell.run(pump=pump, agents_timeout=config.wait, progress=progress)
         if store is not None and store.lost:

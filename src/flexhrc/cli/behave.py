@@ -129,7 +129,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:  # type: ignore[ty
         "--peer-port",
         type=int,
         metavar="PORT",
-        help="internal, with --robot: the loopback TCP port robot1 listens on for its peers",
+        help="internal, with --robot: the loopback TCP port robot1 listens on for its peers "
+        "(0: robot1 takes a port the system picks and writes it to --ready-file)",
+    )
+    p.add_argument(
+        "--ready-file",
+        metavar="PATH",
+        help="internal, with --robot robot1: once it listens, JSON with its endpoints "
+        '({"listen": ["tcp/127.0.0.1:PORT"], ...}) is written here',
     )
     p.set_defaults(func=run)
 

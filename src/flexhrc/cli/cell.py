@@ -59,7 +59,8 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
         "--ready-file",
         metavar="PATH",
         help="once the cell listens, write PATH (atomically): JSON with the endpoints it listens "
-        "on as bound (`--listen tcp/127.0.0.1:0`: the port the system gave), its pid and name",
+        "on as bound (`--listen tcp/127.0.0.1:0`: the port the system gave), its pid and name "
+        "(and with --web the panel's address, its port as bound)",
     )
     from flexhrc.cli.panel import add_web_options
 
@@ -114,6 +115,8 @@ def cmd_cell(args: argparse.Namespace) -> int:
             trace=None if args.quiet else trace,
             progress=None if args.quiet else progress,
             attach=[panel] if web else [],
+            # the panel's address as bound (--web 127.0.0.1:0), without the token
+            ready_extra=lambda: {"web": servers[0].address} if servers else {},
         )
     finally:
         for server in servers:

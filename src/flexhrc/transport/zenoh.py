@@ -32,8 +32,10 @@ API (everything below is public and stable):
   interface, so nothing is exposed beyond the host unless an endpoint says so.
   :func:`loopback_config` is the test helper: ``loopback_config(port)`` listens on
   ``127.0.0.1:port``, ``loopback_config(connect=port)`` connects to it. :func:`free_tcp_port`
-  returns a free loopback port — for this process to bind at once; a child process is given
-  port 0 and reports the port it got.
+  returns a free loopback port (kept for callers; flexhrc itself no longer uses it): a port
+  picked, closed and bound again may be taken in between, so a listener binds port 0 itself and
+  reports the port it got (:meth:`ZenohTransport.locators`; a child process writes it to its
+  ready file, as ``flexhrc cell --ready-file`` and ``flexhrc behave --ready-file`` do).
   ``zenoh_config(..., adminspace=True)`` makes the admin space readable; it is on by default
   when a ``listen`` endpoint has port 0 (the system picks the port).
 * ``zenoh_config(..., file=PATH)`` starts from a Zenoh configuration file (json5, Zenoh's own

@@ -12,7 +12,15 @@ Routes (the JSON keys are documented in ``docs/panel.md``):
   client sends on it is ignored).
 
 Errors are ``{"error": "<message>"}`` with 400 (malformed), 401 (no or wrong token), 404
-(unknown name), 409 (not possible now), 413 (too large) or 415 (not JSON); nothing changes.
+(unknown name), 409 (not possible now), 413 (too large), 415 (not JSON) or 503 (busy: more than
+:data:`MAX_REQUESTS` requests at once); nothing changes. A websocket beyond
+:data:`MAX_WEBSOCKETS` open ones is closed at once with code 1013 ("try again later") and the
+reason.
+
+The operator's stop is always answered: ``/api/stop`` and ``/api/resume`` are never counted
+against those limits and run on threads of their own, so neither idle websockets nor requests
+waiting for a busy cell can keep an arm from being stopped (uvicorn's own ``limit_concurrency``
+counted every websocket and answered the stop 503; the panel does not use it).
 
 Security: with a ``token`` every request and websocket must carry it (``Authorization: Bearer
 T``, ``?token=T`` or the cookie the page sets), else 401. Without one (loopback only, see
@@ -30,6 +38,7 @@ import hmac
 import json
 import logging
 from collections.abc import AsyncIterator, Awaitable, Callable, MutableMapping
+from concurrent.futures import ThreadPoolExecutor
 from importlib import resources
 from typing import Any
 from urllib.parse import urlsplit
@@ -58,6 +67,14 @@ except ImportError as exc:  # pragma: no cover - exercised without the web extra
 log = logging.getLogger("flexhrc.web")
 
 COOKIE = "flexhrc_panel_token"
+#: open websockets (pages) at most; one more is closed at once and told why
+MAX_WEBSOCKETS = 64
+#: the websocket close code of that refusal (RFC 6455 registry: "Try Again Later")
+TRY_AGAIN_LATER = 1013
+#: HTTP requests in progress at most, the operator's stop and resume apart; one more gets 503
+MAX_REQUESTS = 128
+#: the operator's stop and resume never wait for a thread another request holds
+OPERATOR_PATHS = frozenset({"/api/stop", "/api/resume"})
 LOOPBACK_HOSTS = frozenset({"127.0.0.1", "localhost", "::1"})
 
 
@@ -84,6 +101,7 @@ class _Hub:
         self._unsubscribe: Callable[[], None] | None = None
         self.text = ""
         self.pushes = 0
+        self.sockets = 0  # open or opening websockets (counted before the first await)
 
     async def start(self) -> None:
         loop = asyncio.get_running_loop()
@@ -147,10 +165,12 @@ class _Client:
 class _Guard:
     """Token, Host and Origin checks for HTTP and websocket alike (ASGI middleware)."""
 
-    def __init__(self, app: ASGIApp, token: str | None):
+    def __init__(self, app: ASGIApp, token: str | None, max_requests: int = MAX_REQUESTS):
         self.app = app
         self.token = token
         self.hub: _Hub | None = None
+        self.max_requests = max_requests
+        self.requests = 0  # HTTP requests in progress, the operator's stop and resume apart
 
     def _refusal(self, conn: HTTPConnection) -> tuple[int, str] | None:
         if self.token is None:
@@ -181,11 +201,22 @@ class _Guard:
         refusal = self._refusal(conn)
         if scope["type"] == "http":
             send = _with_headers(send, SECURITY_HEADERS)
-        if refusal is None:
-            if self.token is not None and scope["type"] == "http" and "token" in conn.query_params:
-                await self._with_cookie(scope, receive, send)
+        if refusal is None and scope["type"] == "http" and scope["path"] not in OPERATOR_PATHS:
+            if self.requests >= self.max_requests:
+                refusal = (
+                    503,
+                    f"the panel is busy ({self.requests} requests in progress); try again"
+                    " (the operator's stop is always answered)",
+                )
             else:
-                await self.app(scope, receive, send)
+                self.requests += 1
+                try:
+                    await self._pass(conn, scope, receive, send)
+                finally:
+                    self.requests -= 1
+                return
+        if refusal is None:
+            await self._pass(conn, scope, receive, send)
             return
         status, message = refusal
         response = _error(message, status)
@@ -194,6 +225,12 @@ class _Guard:
             await ws.send_denial_response(response)
         else:
             await response(scope, receive, send)
+
+    async def _pass(self, conn: HTTPConnection, scope: Scope, receive: Receive, send: Send) -> None:
+        if self.token is not None and scope["type"] == "http" and "token" in conn.query_params:
+            await self._with_cookie(scope, receive, send)
+        else:
+            await self.app(scope, receive, send)
 
     async def _with_cookie(self, scope: Scope, receive: Receive, send: Send) -> None:
         """A page opened with ?token=T remembers it, so its script and style load too."""
@@ -259,10 +296,27 @@ async def _read_body(request: Request) -> bytes:
     return b"".join(chunks)
 
 
-def create_app(backend: PanelBackend, *, token: str | None = None) -> ASGIApp:
-    """The panel app over ``backend``; ``token`` (None: loopback use only) guards everything."""
+def create_app(
+    backend: PanelBackend,
+    *,
+    token: str | None = None,
+    max_websockets: int = MAX_WEBSOCKETS,
+    max_requests: int = MAX_REQUESTS,
+) -> ASGIApp:
+    """The panel app over ``backend``; ``token`` (None: loopback use only) guards everything;
+    ``max_websockets`` and ``max_requests`` bound what clients may hold open."""
     hub = _Hub(backend)
     root = static_dir()
+    # the operator's stop and resume: threads of their own, never queued behind requests that
+    # wait for the cell in the shared pool (made when first needed, ended with the server)
+    operator_threads: list[ThreadPoolExecutor] = []
+
+    def operator_pool() -> ThreadPoolExecutor:
+        if not operator_threads:
+            operator_threads.append(
+                ThreadPoolExecutor(max_workers=2, thread_name_prefix="flexhrc-panel-stop")
+            )
+        return operator_threads[0]
 
     async def index(request: Request) -> Response:
         return FileResponse(f"{root}/index.html", headers={"cache-control": "no-store"})
@@ -271,12 +325,19 @@ def create_app(backend: PanelBackend, *, token: str | None = None) -> ASGIApp:
         return JSONResponse(await run_in_threadpool(backend.snapshot))
 
     def handler(
-        parse: Callable[[bytes], Any], call: Callable[[Any], dict[str, Any]]
+        parse: Callable[[bytes], Any],
+        call: Callable[[Any], dict[str, Any]],
+        *,
+        reserved: bool = False,
     ) -> Callable[[Request], Awaitable[Response]]:
         async def endpoint(request: Request) -> Response:
             try:
                 parsed = parse(await _read_body(request))
-                result = await run_in_threadpool(call, parsed)
+                if reserved:
+                    loop = asyncio.get_running_loop()
+                    result = await loop.run_in_executor(operator_pool(), call, parsed)
+                else:
+                    result = await run_in_threadpool(call, parsed)
             except PanelInputError as exc:
                 return _error(str(exc), exc.status)
             return JSONResponse(result)
@@ -284,6 +345,23 @@ def create_app(backend: PanelBackend, *, token: str | None = None) -> ASGIApp:
         return endpoint
 
     async def websocket(ws: WebSocket) -> None:
+        if hub.sockets >= max_websockets:
+            # refused with the websocket close code "try again later" and the reason (an HTTP
+            # denial would do as well, but uvicorn logs each one as an error: a flood of them
+            # would flood the log)
+            await ws.accept()
+            await ws.close(
+                code=TRY_AGAIN_LATER,
+                reason=f"too many open panels (at most {max_websockets}); close one and reload",
+            )
+            return
+        hub.sockets += 1
+        try:
+            await _serve_socket(ws)
+        finally:
+            hub.sockets -= 1
+
+    async def _serve_socket(ws: WebSocket) -> None:
         await ws.accept()
         client = _Client(ws)
         client.offer(hub.text)
@@ -309,22 +387,33 @@ def create_app(backend: PanelBackend, *, token: str | None = None) -> ASGIApp:
             yield
         finally:
             await hub.stop()
+            for pool in operator_threads:
+                pool.shutdown(wait=False)
+            operator_threads.clear()
 
     app = Starlette(
         routes=[
             Route("/", index),
             Route("/api/state", state),
             Route("/api/human", handler(parse_human_body, backend.submit), methods=["POST"]),
-            Route("/api/stop", handler(parse_robot_body, backend.stop_robot), methods=["POST"]),
-            Route("/api/resume", handler(parse_robot_body, backend.resume_robot), methods=["POST"]),
+            Route(
+                "/api/stop",
+                handler(parse_robot_body, backend.stop_robot, reserved=True),
+                methods=["POST"],
+            ),
+            Route(
+                "/api/resume",
+                handler(parse_robot_body, backend.resume_robot, reserved=True),
+                methods=["POST"],
+            ),
             WebSocketRoute("/ws", websocket),
             Mount("/static", StaticFiles(directory=root), name="static"),
         ],
         lifespan=lifespan,
     )
-    guard = _Guard(app, token)
+    guard = _Guard(app, token, max_requests)
     guard.hub = hub
     return guard
 
 
-__all__ = ["COOKIE", "create_app", "static_dir"]
+__all__ = ["COOKIE", "MAX_REQUESTS", "MAX_WEBSOCKETS", "create_app", "static_dir"]

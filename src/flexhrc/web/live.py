@@ -213,6 +213,14 @@ class CellPanel:
         if not people or len(people) != len(step.agents):
             raise PanelInputError(f"{step} is not an operator's action", 409)
         action = HumanAction(step.name, step.args)
+        if self._already_done(str(action), people[0]):
+            # a double click, a second tab, a retried request: the same report once (W27-W29)
+            return {
+                "ok": True,
+                "action": str(action),
+                "already_done": True,
+                "outcome": c.tm.outcome,
+            }
         now = c.now
         if not c.tm.advances(now, action):
             raise PanelInputError(
@@ -228,6 +236,35 @@ class CellPanel:
                 pass
         self.refresh(force=True)
         return {"ok": True, "action": str(action), "outcome": c.tm.outcome}
+
+    def _already_done(self, action: str, agent: str) -> bool:
+        """Is ``action`` the operator's report of a step already recorded — the latest
+        ``human_action`` of ``agent``, still queued for the loop (the ordered loop takes inputs
+        at their time) or taken and not asked of the operator again since?
+
+        The manager would take a repeat as the operator starting the hyper-arc over ("human
+        changed plan"), and the store would hold a phantom action, so "done" pressed twice on
+        one step is recorded once."""
+        c = self.cell
+        for *_, kind, body in reversed(c.pending):
+            if kind == "human_action" and body.get("agent") == agent:
+                return str(body.get("action")) == action
+        last = next(
+            (
+                str(ev.body.get("action"))
+                for ev in reversed(c.events)
+                if ev.kind == "human_action" and ev.body.get("agent") == agent
+            ),
+            None,
+        )
+        if last != action:
+            return False
+        asked = {
+            str(ex.branch.steps[ex.next_index])
+            for ex in c.tm.executions.values()
+            if ex.owner == "human" and ex.next_index < len(ex.branch.steps)
+        }
+        return action not in asked  # asked again (re-planned): doing it again is new work
 
     def _take(self, element: str) -> dict[str, Any]:
         c = self.cell

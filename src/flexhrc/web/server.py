@@ -93,16 +93,25 @@ class PanelServer:
         port: int = DEFAULT_PORT,
         *,
         token: str | None = None,
+        max_websockets: int | None = None,
+        max_requests: int | None = None,
     ):
+        """``max_websockets`` / ``max_requests``: the app's bounds (None: its defaults,
+        :data:`flexhrc.web.app.MAX_WEBSOCKETS` and :data:`flexhrc.web.app.MAX_REQUESTS`)."""
         check_bind(host, token)
         try:
             import uvicorn
         except ImportError as exc:
             raise OptionalDependencyError("the operator panel", "web", "uvicorn") from exc
-        from flexhrc.web.app import create_app
+        from flexhrc.web.app import MAX_REQUESTS, MAX_WEBSOCKETS, create_app
 
         self.host, self.port, self.token = host, port, token
-        self.app = create_app(backend, token=token)
+        self.app = create_app(
+            backend,
+            token=token,
+            max_websockets=MAX_WEBSOCKETS if max_websockets is None else max_websockets,
+            max_requests=MAX_REQUESTS if max_requests is None else max_requests,
+        )
         family = socket.AF_INET6 if ":" in host else socket.AF_INET
         self._sock = socket.socket(family, socket.SOCK_STREAM)
         self._sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
@@ -120,16 +129,24 @@ class PanelServer:
             ws="websockets-sansio",
             ws_max_size=64 * 1024,
             lifespan="on",
-            limit_concurrency=256,
+            # no limit_concurrency: uvicorn counts websockets in it and then answers every
+            # request 503, the operator's stop included (probe WS07); the app bounds websockets
+            # and requests itself and keeps the stop apart (flexhrc.web.app)
         )
         self._server = uvicorn.Server(config)
         self._thread: threading.Thread | None = None
 
     @property
-    def url(self) -> str:
+    def address(self) -> str:
+        """``http://HOST:PORT/`` with the port as bound (port 0: the one the system gave), no
+        token (what a ready file may hold)."""
         host = f"[{self.host}]" if ":" in self.host else self.host
-        base = f"http://{host}:{self.port}/"
-        return f"{base}?token={self.token}" if self.token else base
+        return f"http://{host}:{self.port}/"
+
+    @property
+    def url(self) -> str:
+        """The page's address to open, with ``?token=`` when there is a token."""
+        return f"{self.address}?token={self.token}" if self.token else self.address
 
     def start(self, timeout: float = 10.0) -> PanelServer:
         self._thread = threading.Thread(

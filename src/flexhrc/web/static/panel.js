@@ -36,7 +36,8 @@ async function post(path, body) {
     const r = await fetch(path, { method: "POST", headers, body: JSON.stringify(body) });
     const data = await r.json().catch(() => ({}));
     if (!r.ok) { say(data.error || ("HTTP " + r.status), true); return null; }
-    text = data.action ? "done: " + data.action : data.take ? "you take " + data.take
+    text = data.already_done ? "already done: " + data.action
+         : data.action ? "done: " + data.action : data.take ? "you take " + data.take
          : data.stopped ? "stopped " + data.stopped : data.resumed ? "resumed " + data.resumed : "ok";
     say(text, false);
     return data;
