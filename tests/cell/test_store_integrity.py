@@ -134,8 +134,10 @@ def test_the_commands_exit_2_without_a_traceback(
 
 
 class Spoof:
-    """A perception process that reports the tabletop as a leg once the cell has started:
-    the cooperation fails at once (a deadlock), as in the probe (spoof.py percept_contra)."""
+    """A perception process that reports, once the cell has started, that leg1 is not where
+    the knowledge base has it: the knowledge base is inconsistent and the cooperation fails at
+    once (a deadlock). (The probe's spoof.py percept_contra, the tabletop reported as a leg, is
+    refused since P21.)"""
 
     def __init__(self, cell: Any) -> None:
         self.cell, self.sent = cell, False
@@ -144,8 +146,9 @@ class Spoof:
         if self.cell.started and not self.sent:
             self.sent = True
             percept = P.message(
-                "percept", id="p1", object="tabletop", object_type="leg", pose=[0.5, 0.0, 0.0]
-            )
+                "percept", id="p1", object="leg1", object_type="leg", pose=[0.5, 0.0, 0.0],
+                contradicts="leg1 is not where the knowledge base has it",
+            )  # fmt: skip
             self.cell.transport.publish(P.PERCEPT_TOPIC, percept)
 
     def close(self) -> None:
