@@ -21,6 +21,7 @@ from __future__ import annotations
 import contextlib
 import fcntl
 import json
+import math
 import os
 import sqlite3
 from collections.abc import Iterator
@@ -85,6 +86,13 @@ class EventStore:
                 f"{option} {self.path}: in use by another running cell (the file is locked)"
             ) from None
         try:
+            self._open(option)
+        except StoreError:
+            os.close(self._lock_fd)  # (the lock with it)
+            raise
+
+    def _open(self, option: str) -> None:
+        try:
             self._db = sqlite3.connect(self.path, isolation_level=None, check_same_thread=False)
             self._db.execute("PRAGMA journal_mode=WAL")
             # NORMAL in WAL mode: a committed event survives the process being killed (the
@@ -92,11 +100,22 @@ class EventStore:
             self._db.execute("PRAGMA synchronous=NORMAL")
             self._db.execute(SCHEMA)
             row = self._db.execute("SELECT COALESCE(MAX(seq), 0), COUNT(*) FROM events").fetchone()
+            problem = None
+            if not _has_events_table(self._db):
+                problem = "not a flexhrc event store (no events table)"
+            elif type(row[0]) is not int:
+                problem = (
+                    f"not a flexhrc event store (a seq that is not an integer: {row[0]!r:.40})"
+                )
+            elif row[0] != row[1]:
+                problem = f"seq has gaps ({row[1]} rows, last {row[0]})"
         except sqlite3.DatabaseError as exc:
-            raise StoreError(f"{option} {self.path}: not a flexhrc event store ({exc})") from None
-        self.last_seq = int(row[0])
-        if int(row[1]) != self.last_seq:
-            raise StoreError(f"{option} {self.path}: seq has gaps ({row[1]} rows, last {row[0]})")
+            problem = f"not a flexhrc event store ({exc})"
+        if problem is not None:
+            with contextlib.suppress(sqlite3.Error, AttributeError):
+                self._db.close()
+            raise StoreError(f"{option} {self.path}: {problem}")
+        self.last_seq = row[0]
 
     def append(self, kind: str, body: dict[str, Any], t: float) -> int:
         """Commit one event; returns its ``seq`` (the previous one + 1)."""
@@ -113,7 +132,16 @@ class EventStore:
         return seq
 
     def events(self) -> list[StoredEvent]:
-        return list(iter_events(self._db))
+        """Every event stored so far; a corrupted row is a :class:`StoreError` naming the file
+        and the row's ``seq``."""
+        try:
+            return list(iter_events(self._db, self.path))
+        except FormatError as exc:
+            raise StoreError(f"{self.option} {exc}") from None
+        except sqlite3.DatabaseError as exc:
+            raise StoreError(
+                f"{self.option} {self.path}: not a flexhrc event store ({exc})"
+            ) from None
 
     def close(self) -> None:
         with contextlib.suppress(sqlite3.Error):
@@ -129,9 +157,42 @@ class EventStore:
         self.close()
 
 
-def iter_events(db: sqlite3.Connection) -> Iterator[StoredEvent]:
+def _has_events_table(db: sqlite3.Connection) -> bool:
+    cols = {r[1] for r in db.execute("PRAGMA table_info(events)")}
+    return {"seq", "t", "kind", "body"} <= cols
+
+
+def _refuse_constant(name: str) -> Any:
+    raise ValueError(f"{name} is not a JSON number")
+
+
+def iter_events(db: sqlite3.Connection, source: str | Path = "<store>") -> Iterator[StoredEvent]:
+    """The events of a store in ``seq`` order, each row checked as the store writes it (an
+    integer ``seq``, a finite time ``t``, a ``kind`` name, a JSON object ``body``); a row
+    that is not is a :class:`FormatError` naming ``source`` and the row's ``seq``. SQLite
+    keeps whatever a column is given, so an edited or damaged file can hold anything."""
     for seq, t, kind, body in db.execute("SELECT seq, t, kind, body FROM events ORDER BY seq"):
-        yield StoredEvent(int(seq), float(t), str(kind), json.loads(body))
+        if type(seq) is not int:
+            raise FormatError(f"an event's seq is not an integer ({seq!r:.40})", source)
+        if type(t) not in (int, float) or not math.isfinite(t):
+            raise FormatError(f"event {seq}: t must be a finite time, got {t!r:.40}", source)
+        if type(kind) is not str or not kind:
+            raise FormatError(f"event {seq}: kind must be a name, got {kind!r:.40}", source)
+        if type(body) is not str:
+            raise FormatError(f"event {seq} ({kind}): the body is not JSON text", source)
+        try:
+            data = json.loads(body, parse_constant=_refuse_constant)
+        except RecursionError:
+            raise FormatError(
+                f"event {seq} ({kind}): the body is nested too deeply", source
+            ) from None
+        except ValueError as exc:  # (JSONDecodeError among them)
+            raise FormatError(
+                f"event {seq} ({kind}): the body is not JSON ({exc})", source
+            ) from None
+        if not isinstance(data, dict):
+            raise FormatError(f"event {seq} ({kind}): the body must be a JSON object", source)
+        yield StoredEvent(seq, float(t), kind, data)
 
 
 def read_store(path: str | Path) -> list[StoredEvent]:
@@ -144,16 +205,13 @@ def read_store(path: str | Path) -> list[StoredEvent]:
     try:
         db = sqlite3.connect(f"file:{p}?mode=ro", uri=True)
         try:
-            cols = [r[1] for r in db.execute("PRAGMA table_info(events)")]
-            if cols[:4] != ["seq", "t", "kind", "body"]:
+            if not _has_events_table(db):
                 raise FormatError("not a flexhrc event store (no events table)", p)
-            events = list(iter_events(db))
+            events = list(iter_events(db, p))
         finally:
             db.close()
     except sqlite3.DatabaseError as exc:
         raise FormatError(f"not a flexhrc event store ({exc})", p) from None
-    except json.JSONDecodeError as exc:
-        raise FormatError(f"an event body is not JSON ({exc})", p) from None
     return events
 
 
@@ -166,15 +224,53 @@ def is_store(path: str | Path) -> bool:
         return False
 
 
-def log_events(events: list[StoredEvent]) -> list[dict[str, Any]]:
+#: The fields :func:`log_events` reads of a stored body, by kind: (key, test, what it must be).
+_LOG_FIELDS: dict[str, tuple[tuple[str, Any, str], ...]] = {
+    "command": (
+        ("id", lambda v: type(v) is int, "an integer"),
+        ("agents", lambda v: isinstance(v, list), "a list of agents"),
+        ("action", lambda v: isinstance(v, str), "an action"),
+    ),
+    "ack": (
+        ("id", lambda v: type(v) is int, "an integer"),
+        ("status", lambda v: isinstance(v, str), "a status"),
+    ),
+    "human_action": (
+        ("action", lambda v: isinstance(v, str), "an action"),
+        ("start", lambda v: type(v) in (int, float) and math.isfinite(v), "a finite time"),
+    ),
+    "stop": (("id", lambda v: type(v) is int, "an integer"),),
+}
+_OPTIONAL = {("human_action", "start")}
+
+
+def _readable(ev: StoredEvent, source: str | Path) -> None:
+    """Raise a :class:`FormatError` naming the event when a field :func:`log_events` reads
+    is missing or of the wrong type (a damaged store)."""
+    for key, ok, what in _LOG_FIELDS.get(ev.kind, ()):
+        if key not in ev.body:
+            if (ev.kind, key) in _OPTIONAL:
+                continue
+            raise FormatError(f"event {ev.seq} ({ev.kind}): missing {key!r}", source)
+        if not ok(ev.body[key]):
+            raise FormatError(
+                f"event {ev.seq} ({ev.kind}): {key!r} must be {what}, not {ev.body[key]!r:.40}",
+                source,
+            )
+
+
+def log_events(events: list[StoredEvent], source: str | Path | None = None) -> list[dict[str, Any]]:
     """The store as the JSON-lines events of ``flexhrc run --log`` (``start``, ``decision``,
     ``command``, ``action_start``/``action_end``, ``outcome``, ``summary`` ...), for
     :func:`~flexhrc.taskmanager.replay.summarise_log` and the timeline plot. Cell-only kinds
     (``agent_up``/``agent_down``, ``human_action`` inputs) become the runner's events or are
-    left out."""
+    left out. With ``source`` (a store read from disk) every field read is checked first: a
+    damaged one is a :class:`FormatError` naming ``source`` and the event's ``seq``."""
     out: list[dict[str, Any]] = []
     commands: dict[int, tuple[float, dict[str, Any]]] = {}
     for ev in events:
+        if source is not None:
+            _readable(ev, source)
         b = ev.body
         t = round(ev.t, 6)
         if ev.kind == "start":
@@ -247,7 +343,7 @@ def store_log(path: str | Path) -> list[dict[str, Any]]:
     events = read_store(path)
     if not events:
         raise FormatError("empty store", path)
-    log = log_events(events)
+    log = log_events(events, path)
     check_log([(i + 1, ev) for i, ev in enumerate(log)], f"{path} (as a log, event)")
     return log
 
