@@ -20,7 +20,7 @@ from flexhrc.cell.replay import replay
 from flexhrc.cell.store import EventStore, StoreError, read_store
 from flexhrc.errors import FlexhrcError, FormatError
 
-from .targets import KNOWN, Workspace, read_graph, store_rows
+from .targets import KNOWN, Workspace, alias_bomb, probe_scenario, read_graph, store_rows
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "logs"
 
@@ -215,6 +215,35 @@ def test_replay_a_start_event_with_unhashable_humans_is_refused(tmp_path: Path) 
     path.write_text("\n".join(lines) + "\n")
     with pytest.raises(FormatError, match="humans"):
         replay(path)
+
+
+@pytest.mark.xfail(
+    strict=True, reason="scenario/format.py: a value of the wrong type is a traceback"
+)
+@pytest.mark.parametrize("case", ["S01", "S02", "S03", "S07"])
+def test_scenario_a_value_of_the_wrong_type_is_a_fault(case: str, tmp_path: Path) -> None:
+    """Probe S01 ``attrs: abc``, S02 ``attrs: [1, 2]``, S03 ``reachable_by: 5``, S07 agent
+    ``types: 5`` in lid_task.yaml: ``ValueError``/``TypeError`` tracebacks of ``check``
+    (the fuzz target finds them again from these seeds). Owner: ``flexhrc/scenario/format.py``."""
+    from flexhrc.scenario.format import check
+
+    path = tmp_path / "lid_task.yaml"
+    path.write_bytes(probe_scenario(case))
+    scenario, faults = check(path)
+    assert scenario is None and any(f.severity == "error" and f.line for f in faults)
+
+
+@pytest.mark.xfail(strict=True, reason="scenario/format.py: str() of an aliased list in a message")
+def test_scenario_s32v_an_alias_is_not_expanded_into_a_message(tmp_path: Path) -> None:
+    """Probe S32v in small: 6 levels of YAML aliases (1.6 kB) for the facts of lid_task.yaml;
+    every fact is quoted expanded, ten faults of 522 kB each (8 levels: 522 MB). Owner:
+    ``flexhrc/scenario/format.py`` (``_world``: ``parse_literal(str(f))``, ``{f!r}``)."""
+    from flexhrc.scenario.format import check
+
+    path = tmp_path / "lid_task.yaml"
+    path.write_bytes(alias_bomb(6))
+    _, faults = check(path)
+    assert faults and sum(len(str(f)) for f in faults) < 3 * path.stat().st_size
 
 
 def test_every_known_finding_has_its_xfail_test() -> None:
