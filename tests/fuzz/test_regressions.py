@@ -260,3 +260,11 @@ def test_the_workspace_puts_a_placed_file_back(tmp_path: Path) -> None:
     with ws.placed(folder, "a.txt", b"mutated") as p:
         assert p.read_bytes() == b"mutated"
     assert p.read_bytes() == b"original" and (folder / "a.txt").read_bytes() == b"original"
+
+
+def test_the_watchdog_turns_a_hang_into_a_failure() -> None:
+    from .targets import Hang, watchdog
+
+    with pytest.raises(Hang), watchdog(0.05):
+        while True:
+            pass
