@@ -606,13 +606,70 @@ def andor_seeds() -> list[tuple[Path, str]]:
     return sorted(out)
 
 
+@dataclass(frozen=True)
+class AndorEdit:
+    """An edit that knows the ANDOR layout (header, node lines, hyper-arc lines and their
+    children), so the input gets past the syntax into the structure checks: ``op`` picks it,
+    ``line`` and ``arg`` where and what (reduced modulo what fits)."""
+
+    op: int
+    line: int
+    arg: int
+
+    def apply(self, data: bytes) -> bytes:
+        lines = data.split(b"\n")
+        rows = [i for i, ln in enumerate(lines) if ln.strip()]
+        if not rows:
+            return data
+        i = rows[self.line % len(rows)]
+        words = lines[i].split()
+        arcs = [k for k in rows if len(lines[k].split()) == 5]
+        op = self.op % 5
+        if op == 0:  # a field of another line of its kind (a repeated name, a wrong parent)
+            alike = [lines[k].split() for k in rows if len(lines[k].split()) == len(words)]
+            j = self.arg % max(len(words), 1)
+            if words:
+                words[j] = alike[self.arg % len(alike)][j]
+        elif op == 1 and arcs:  # a hyper-arc's parent made one of its children, or the root
+            k = arcs[self.arg % len(arcs)]
+            words = lines[k].split()
+            i = k
+            child = lines[k + 1].strip() if k + 1 < len(lines) else b""
+            words[2] = child if self.arg % 2 and child else lines[rows[0]].split()[-1]
+        elif op == 2 and len(lines[rows[0]].split()) == 3:  # another node made the root
+            words = lines[rows[0]].split()
+            i = rows[0]
+            names = [lines[k].split()[0] for k in rows if len(lines[k].split()) in (1, 2)]
+            if names:
+                words[2] = names[self.arg % len(names)]
+        elif op == 3 and arcs:  # a lower-graph reference: none, missing, odd, itself
+            i = arcs[self.arg % len(arcs)]
+            words = lines[i].split()
+            refs = [b"-", b"Sub", b"a/b", b"--", b"../x", b"/etc/passwd", b".", b"", b"g"]
+            words[4] = refs[self.arg % len(refs)] or b"-"
+        elif words:  # a count one more or less (nodes of the header, children of a hyper-arc)
+            j = 1 if len(words) in (3, 5) else len(words) - 1
+            if words[j].isdigit():
+                words[j] = str(max(int(words[j]) + (1 if self.arg % 2 else -1), 0)).encode()
+        lines[i] = b" ".join(words)
+        return b"\n".join(lines)
+
+
+ANDOR_EDITS = st.builds(
+    AndorEdit, st.integers(0, 4), st.integers(0, 1 << 16), st.integers(0, 1 << 16)
+)
+
+
 def _andor_inputs() -> st.SearchStrategy[tuple[Path, str, bytes]]:
     seeds = andor_seeds()
 
     @st.composite
     def build(draw: st.DrawFn) -> tuple[Path, str, bytes]:
         folder, rel = draw(st.sampled_from(seeds))
-        data = draw(mutated([(folder / rel).read_bytes()]))
+        data = (folder / rel).read_bytes()
+        for edit in draw(st.lists(ANDOR_EDITS, max_size=3)):
+            data = edit.apply(data)
+        data = draw(mutated([data], 3))
         return folder, rel, data
 
     return build()

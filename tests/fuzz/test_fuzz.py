@@ -19,7 +19,7 @@ from hypothesis import HealthCheck, given, settings
 from .targets import TARGETS, Hang, Target, Workspace
 
 #: Examples per target in CI (the whole module well under a minute on two busy cores).
-BUDGET = {"protocol": 300, "events": 300, "andor": 150, "scenario": 40, "store": 60, "replay": 150}
+BUDGET = {"protocol": 300, "events": 300, "andor": 300, "scenario": 40, "store": 60, "replay": 400}
 
 
 @pytest.fixture(scope="module")
