@@ -19,6 +19,8 @@ Exit status 1 when a target failed. CI runs the same targets with a small fixed 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import io
 import random
 import sys
 import time
@@ -47,9 +49,21 @@ class Tally:
     failures: list[str] = field(default_factory=list)
 
 
-def one_round(target: Target, ws: Workspace, seed: int, examples: int, tally: Tally) -> bool:
-    """Run ``examples`` inputs of ``target`` from ``seed``; False (and a report in the tally)
-    when one broke the property."""
+class _OutOfTime(BaseException):
+    """The round's time is up (a BaseException: Hypothesis stops at once, no shrinking)."""
+
+
+def one_round(
+    target: Target,
+    ws: Workspace,
+    seed: int,
+    examples: int,
+    tally: Tally,
+    until: float = float("inf"),
+) -> bool:
+    """Run ``examples`` inputs of ``target`` from ``seed`` (fewer when ``until``, a
+    ``perf_counter`` time, comes first); False (and a report in the tally) when one broke the
+    property."""
     failing: dict[str, tuple[str, Any]] = {}  # where -> (message, its last, smallest, input)
 
     @settings(
@@ -64,6 +78,8 @@ def one_round(target: Target, ws: Workspace, seed: int, examples: int, tally: Ta
     @with_seed(seed)
     @given(target.inputs())
     def run(value: Any) -> None:
+        if time.perf_counter() > until and not failing:
+            raise _OutOfTime
         tally.inputs += 1
         try:
             finding = target.run(ws, value, known=True)
@@ -82,7 +98,10 @@ def one_round(target: Target, ws: Workspace, seed: int, examples: int, tally: Ta
 
     start = time.perf_counter()
     try:
-        run()
+        with contextlib.redirect_stdout(io.StringIO()):  # (its report: ours is below)
+            run()
+    except _OutOfTime:
+        pass
     except (Exception, Hang):
         cause = traceback.format_exc(limit=-3)
         for where, (what, value) in failing.items():
@@ -122,8 +141,10 @@ def main(argv: list[str] | None = None) -> int:
             for n in names:
                 tally = tallies[n]
                 print(f"{n}: fuzzing for {share:.0f} s ...", flush=True)
-                while tally.seconds < share:
-                    if not one_round(TARGETS[n], ws, rng.randrange(2**32), args.examples, tally):
+                until = time.perf_counter() + share
+                while time.perf_counter() < until:
+                    seed = rng.randrange(2**32)
+                    if not one_round(TARGETS[n], ws, seed, args.examples, tally, until):
                         break  # one failure per target: a second would mostly repeat it
     finally:
         ws.close()
