@@ -127,9 +127,12 @@ class EventStore:
             self._db.execute(SCHEMA)
             row = self._db.execute("SELECT COALESCE(MAX(seq), 0), COUNT(*) FROM events").fetchone()
         except sqlite3.DatabaseError as exc:
+            if hasattr(self, "_db"):
+                self._db.close()
             os.close(self._lock_fd)
             raise StoreError(f"{option} {self.path}: not a flexhrc event store ({exc})") from None
         if resume and not row[1]:
+            self._db.close()
             os.close(self._lock_fd)
             raise StoreError(
                 f"{option} {self.path}: nothing to resume (the store holds no events)"
@@ -137,6 +140,8 @@ class EventStore:
             )
         self.last_seq = int(row[0])
         if int(row[1]) != self.last_seq:
+            self._db.close()  # a refused store is let go: a corrected file opens at once
+            os.close(self._lock_fd)
             raise StoreError(f"{option} {self.path}: seq has gaps ({row[1]} rows, last {row[0]})")
         self._inode = os.fstat(self._lock_fd).st_ino
         self._crash_after = crash_after()
@@ -210,6 +215,11 @@ def iter_events(db: sqlite3.Connection, source: str | Path = "store") -> Iterato
         yield _row(seq, t, kind, body, source)
 
 
+def _no_constant(name: str) -> Any:
+    """The store writes strict JSON (``allow_nan=False``): NaN or Infinity in a row is damage."""
+    raise ValueError(f"{name} is not a JSON number")
+
+
 def _row(seq: Any, t: Any, kind: Any, body: Any, source: str | Path) -> StoredEvent:
     if not isinstance(seq, int):
         raise FormatError(f"a row's seq must be a whole number, got {seq!r:.40}", source)
@@ -219,9 +229,13 @@ def _row(seq: Any, t: Any, kind: Any, body: Any, source: str | Path) -> StoredEv
     if isinstance(t, bool) or not isinstance(t, int | float) or not math.isfinite(t) or t < 0:
         raise FormatError(f"{where}: 't' must be a finite time >= 0, got {t!r:.40}", source)
     try:
-        data = json.loads(body) if isinstance(body, str | bytes) else body
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        data = (
+            json.loads(body, parse_constant=_no_constant) if isinstance(body, str | bytes) else body
+        )
+    except (json.JSONDecodeError, UnicodeDecodeError, ValueError) as exc:
         raise FormatError(f"{where}: the body is not JSON ({exc})", source) from None
+    except RecursionError:
+        raise FormatError(f"{where}: the body is nested too deeply", source) from None
     if not isinstance(data, dict):
         raise FormatError(
             f"{where}: the body must be a JSON object, not {type(data).__name__}", source

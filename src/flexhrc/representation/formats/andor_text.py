@@ -97,6 +97,12 @@ def _rows(path: str | Path, data: bytes | None) -> tuple[list[list[str]], list[i
     return [toks for toks in rows if toks], nums
 
 
+def _excerpt(text: str, limit: int = 120) -> str:
+    """``text`` quoted, cut to its first ``limit`` characters: a message names the faulty
+    line, it does not repeat a line of any length."""
+    return repr(text) if len(text) <= limit else f"{text[:limit]!r}... ({len(text)} characters)"
+
+
 def _weight(tok: str, kind: str, name: str, path: str | Path, line: int) -> float:
     if tok.isdigit() and tok.isascii():  # the common case, cheap ("²" is a digit too)
         return float(tok)
@@ -104,7 +110,7 @@ def _weight(tok: str, kind: str, name: str, path: str | Path, line: int) -> floa
     try:
         w = float(tok)
     except ValueError:
-        raise FormatError(f"{what}: weight {tok!r} is not a number", path, line) from None
+        raise FormatError(f"{what}: weight {_excerpt(tok)} is not a number", path, line) from None
     if not (w >= 0) or w == float("inf"):
         raise FormatError(f"{what}: weight must be a finite number >= 0, got {tok}", path, line)
     return w
@@ -174,7 +180,9 @@ def parse_graph(path: str | Path) -> tuple[AndOrGraph, list[tuple[str, int]]]:
         if len(toks) != 2:
             hint = " (the header announces more nodes than are listed?)" if len(toks) == 5 else ""
             raise FormatError(
-                f"node line must be '<name> <weight>', got {' '.join(toks)!r}{hint}", path, ln
+                f"node line must be '<name> <weight>', got {_excerpt(' '.join(toks))}{hint}",
+                path,
+                ln,
             )
         n, w = toks
         if "/" in n or n in nodes:
@@ -192,7 +200,7 @@ def parse_graph(path: str | Path) -> tuple[AndOrGraph, list[tuple[str, int]]]:
             extra = " (a node line after the announced number of nodes?)" if len(toks) == 2 else ""
             raise FormatError(
                 "hyper-arc line must be '<name> <number of children> <parent> <weight> "
-                f"<lower graph or ->', got {' '.join(toks)!r}{extra}",
+                f"<lower graph or ->', got {_excerpt(' '.join(toks))}{extra}",
                 path,
                 ln,
             )
@@ -203,7 +211,9 @@ def parse_graph(path: str | Path) -> tuple[AndOrGraph, list[tuple[str, int]]]:
             k = int(k_tok)
         except ValueError:
             raise FormatError(
-                f"hyper-arc {hname!r}: number of children {k_tok!r} is not an integer", path, ln
+                f"hyper-arc {hname!r}: number of children {_excerpt(k_tok)} is not an integer",
+                path,
+                ln,
             ) from None
         if k < 1:
             raise FormatError(f"hyper-arc {hname!r}: needs at least one child, got {k}", path, ln)
@@ -584,16 +594,19 @@ def load_andor_text(path: str | Path) -> HierarchicalGraph:
                 target = found[ref] = _resolve(ref, here, top_dir, is_dir)
             if target is None:
                 raise FormatError(
-                    f"lower graph file {ref!r} not found (looked for {ref}{SUFFIX} next to this "
-                    f"file and in {top_dir})",
+                    f"lower graph file {_excerpt(ref)} not found (looked for {ref}{SUFFIX} next "
+                    f"to this file and in {top_dir})"
+                    if len(ref) <= 120
+                    else f"lower graph file {_excerpt(ref)} not found",
                     p,
                     ln,
                 )
             if target not in key_of:
                 if not target.startswith(prefix) or not _inside(target, top_dir, plain):
                     raise FormatError(
-                        f"lower graph {ref!r} resolves to a file outside the top graph's folder "
-                        f"{top_dir}; lower graphs must lie in that folder or below it",
+                        f"lower graph {_excerpt(ref)} resolves to a file outside the top "
+                        f"graph's folder {top_dir}; lower graphs must lie in that folder or "
+                        "below it",
                         p,
                         ln,
                     )

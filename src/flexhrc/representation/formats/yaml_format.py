@@ -33,6 +33,7 @@ Every error names the file and line.
 from __future__ import annotations
 
 import os
+import reprlib
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -71,13 +72,28 @@ def _construct_mapping(loader: _Loader, node: yaml.MappingNode) -> _LineDict:
                 "unhashable mapping key", None, key_node.start_mark.line + 1
             ) from None
         if key in d:
-            raise FormatError(f"duplicate key {key!r}", None, key_node.start_mark.line + 1)
+            raise FormatError(f"duplicate key {_shown(key)}", None, key_node.start_mark.line + 1)
         d[key] = loader.construct_object(value_node, deep=True)
         d.lines[key] = key_node.start_mark.line + 1
     return d
 
 
 _Loader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_mapping)
+
+
+_SHOWN = reprlib.Repr()
+_SHOWN.maxstring = _SHOWN.maxother = 80
+_SHOWN.maxlevel = 3
+
+
+def _shown(value: Any) -> str:
+    """A value as a message quotes it: bounded, whatever its size (a YAML alias can make a
+    few bytes stand for a structure of millions of elements; ``repr`` would expand it)."""
+    return _SHOWN.repr(value)
+
+
+def _code_point(c: Any) -> str:
+    return f"U+{c:04X}" if isinstance(c, int) else repr(c)
 
 
 def read_yaml(path: str | Path) -> Any:
@@ -97,6 +113,15 @@ def read_yaml(path: str | Path) -> Any:
         mark = exc.problem_mark or exc.context_mark
         line = mark.line + 1 if mark else None
         raise FormatError(f"YAML syntax error: {exc.problem or exc}", path, line) from None
+    except yaml.reader.ReaderError as exc:  # a character YAML does not allow (a control one)
+        line = text.count("\n", 0, max(exc.position, 0)) + 1
+        raise FormatError(
+            f"YAML syntax error: character {_code_point(exc.character)} is not allowed in YAML",
+            path,
+            line,
+        ) from None
+    except yaml.YAMLError as exc:  # (any other: no position known)
+        raise FormatError(f"YAML syntax error: {str(exc)[:200]}", path) from None
 
 
 def _line(d: Any, key: Any = None) -> int | None:
@@ -116,7 +141,7 @@ def _check_keys(d: _LineDict, allowed: set[str], what: str, path: Path) -> None:
     for k in d:
         if k not in allowed:
             raise FormatError(
-                f"unknown key {k!r} in {what} (allowed: {', '.join(sorted(allowed))})",
+                f"unknown key {_shown(k)} in {what} (allowed: {', '.join(sorted(allowed))})",
                 path,
                 _line(d, k),
             )
@@ -140,14 +165,14 @@ def _name(v: Any, what: str, path: Path, line: int | None) -> str:
         raise FormatError(f"{what} must be a non-empty name", path, line)
     s = str(v)
     if "/" in s or any(c.isspace() for c in s):
-        raise FormatError(f"{what} {s!r} must not contain '/' or spaces", path, line)
+        raise FormatError(f"{what} {_shown(s)} must not contain '/' or spaces", path, line)
     return s
 
 
 def _key(v: Any, path: Path, line: int | None) -> str:
     if not isinstance(v, str) or not v.strip() or any(c.isspace() for c in v):
         raise FormatError(
-            f"lower graph key {v!r} must be a non-empty name without spaces", path, line
+            f"lower graph key {_shown(v)} must be a non-empty name without spaces", path, line
         )
     return v
 
@@ -238,7 +263,7 @@ def load_yaml(path: str | Path, _including: tuple[str, ...] = ()) -> Hierarchica
     version = doc.get("flexhrc", FORMAT_VERSION)
     if version != FORMAT_VERSION:
         raise FormatError(
-            f"unsupported format version {version!r} (this flexhrc reads {FORMAT_VERSION})",
+            f"unsupported format version {_shown(version)} (this flexhrc reads {FORMAT_VERSION})",
             path,
             _line(doc, "flexhrc"),
         )
