@@ -231,3 +231,41 @@ def test_rn15_scenario_new_with_an_empty_name_writes_nothing(tmp_path, monkeypat
     assert main(["scenario", "new", ""]) == 2
     assert any("DIR is empty" in x for x in error_lines(capsys))
     assert not (tmp_path / "scenario.yaml").exists()
+
+
+#: section 20: CLI options. id: (argv, the message)
+OPTIONS: dict[str, tuple[list[str], str]] = {
+    "CA19": (["cell", "table_assembly", "--seed", "-1"], "--seed: must be in [0, 4294967295]"),
+    "CA20": (
+        ["cell", "table_assembly", "--seed", "1180591620717411303424"],
+        "--seed: must be in [0, 4294967295]",
+    ),
+    "CA33": (
+        ["agent", "human", "table_assembly", "--name", "human", "--seed", "-5"],
+        "--seed: must be in [0, 4294967295]",
+    ),
+    "CA33r": (["ros2", "cell", "table_assembly", "--seed", "-5"], "--seed: must be in"),
+    "CA33b": (["behave", "run", "(THEN a b)", "--seed", "-5"], "--seed: must be in"),
+    "CA35": (
+        ["agent", "robot", "table_assembly", "--arm", "left", "--connect", "tcp/127.0.0.1:0"],
+        "--connect tcp/127.0.0.1:0: port 0 is no port to connect to",
+    ),
+}
+
+
+@pytest.mark.parametrize("case", sorted(OPTIONS))
+def test_cli_options_are_refused_alike(case, capsys):
+    """CA19/CA20/CA33: one --seed range in every command; CA35: no cell listens on port 0."""
+    argv, message = OPTIONS[case]
+    assert main(argv) == 2
+    lines = error_lines(capsys)
+    assert any(message in x for x in lines), lines
+
+
+def test_rc12_a_ros2_cell_names_the_ros2_nodes_to_start(capsys):
+    """RC12: `ros2 cell --wait 1` said to start the Zenoh agents, not `flexhrc ros2 arm|human`."""
+    pytest.importorskip("rclpy")
+    assert main(["ros2", "cell", "table_assembly", "--wait", "1", "--cell", "rc12"]) == 2
+    lines = error_lines(capsys)
+    assert any("flexhrc ros2 arm SCENARIO --arm NAME" in x for x in lines), lines
+    assert not any("flexhrc agent robot" in x for x in lines), lines
