@@ -269,3 +269,27 @@ def test_rc12_a_ros2_cell_names_the_ros2_nodes_to_start(capsys):
     lines = error_lines(capsys)
     assert any("flexhrc ros2 arm SCENARIO --arm NAME" in x for x in lines), lines
     assert not any("flexhrc agent robot" in x for x in lines), lines
+
+
+def test_r12_a_query_does_not_walk_the_done_part_of_a_deep_chain(monkeypatch):
+    """R12: playing an n-node chain to the end recomputed the outside cost of everything
+    already done below the frontier at every query (about 2 n**2 in all). Counted, not
+    timed: the top-down pass queues O(n) elements over the whole play."""
+    import flexhrc.representation.online as online_mod
+    from flexhrc.representation import HierarchicalGraph
+    from flexhrc.representation.play import play
+    from flexhrc.representation.synthetic import chain
+
+    queued = 0
+    real = online_mod.heappush
+
+    def counting(heap, item):  # type: ignore[no-untyped-def]
+        nonlocal queued
+        queued += 1
+        real(heap, item)
+
+    monkeypatch.setattr(online_mod, "heappush", counting)
+    n = 400
+    report = play(HierarchicalGraph.single(chain(n)), "cheapest")
+    assert report.outcome == "solved" and report.queries == 2 * n
+    assert queued <= 4 * n, queued  # was 318 004 (about 2 n**2)
