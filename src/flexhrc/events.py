@@ -98,6 +98,10 @@ ACK_STATUSES: tuple[str, ...] = tuple(s.value for s in AckStatus if s is not Ack
 ACTION_STATUSES: tuple[str, ...] = tuple(s.value for s in AckStatus)
 SIMULATORS: tuple[str, ...] = tuple(s.value for s in SimulatorName)
 GRAPH_EVENTS: tuple[str, ...] = tuple(e.value for e in GraphEvent)
+#: How far from the origin (metres, on every axis) a position of a scenario or a task world
+#: may be: a cell is a few metres across; beyond, a value is a typo (or 1e300) that would
+#: stall the simulators rather than run.
+WORKSPACE_BOUND = 10.0
 
 # -- type tags -----------------------------------------------------------------------------------
 # fmt: off

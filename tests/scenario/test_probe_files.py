@@ -245,7 +245,7 @@ OPTIONS: dict[str, tuple[list[str], str]] = {
         "--seed: must be in [0, 4294967295]",
     ),
     "CA33r": (["ros2", "cell", "table_assembly", "--seed", "-5"], "--seed: must be in"),
-    "CA33b": (["behave", "run", "(THEN a b)", "--seed", "-5"], "--seed: must be in"),
+    "CA33b": (["behave", "(THEN a b)", "--seed", "-5"], "--seed: must be in"),
     "CA35": (
         ["agent", "robot", "table_assembly", "--arm", "left", "--connect", "tcp/127.0.0.1:0"],
         "--connect tcp/127.0.0.1:0: port 0 is no port to connect to",
@@ -293,3 +293,25 @@ def test_r12_a_query_does_not_walk_the_done_part_of_a_deep_chain(monkeypatch):
     report = play(HierarchicalGraph.single(chain(n)), "cheapest")
     assert report.outcome == "solved" and report.queries == 2 * n
     assert queued <= 4 * n, queued  # was 318 004 (about 2 n**2)
+
+
+@pytest.mark.parametrize(
+    "position, message",
+    [
+        ("[1e300, 0, 0]", "position [1e+300, 0, 0] is outside the workspace"),
+        ("[.inf, 0, 0]", "position must be"),
+        ("[.nan, 0, 0]", "position must be"),
+    ],
+)
+def test_b21_a_behave_world_object_far_away_is_refused_at_load(position, message, tmp_path, capsys):
+    """B21: an object at [1e300, 0, 0] ran 52 000 ticks to a timeout (numpy overflow
+    warnings); it is refused when the task file is read, at its line."""
+    path = tmp_path / "b21.yaml"
+    path.write_text(
+        "task:\n  THEN: [placemat, plate]\nworld:\n  objects:\n"
+        f"    placemat: {{position: {position}, target: [0.8, 0.0, 0.75]}}\n"
+        "    plate: {position: [0.5, 0.2, 0.75], target: [0.8, 0.2, 0.75]}\n"
+    )
+    assert main(["behave", str(path)]) == 2
+    lines = error_lines(capsys)
+    assert any(f"{path}:5: object 'placemat' {message}" in x for x in lines), lines

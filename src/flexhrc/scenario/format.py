@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import Any
 
 from flexhrc.errors import FlexhrcError, FormatError
+from flexhrc.events import WORKSPACE_BOUND
 from flexhrc.logic import Literal, parse_literal
 from flexhrc.representation import HierarchicalGraph
 from flexhrc.representation.graph import AndOrGraph
@@ -45,10 +46,6 @@ FORMAT_VERSION = 1
 # holds (said in the message when it holds something else) and the check that turns the file's
 # value into the scenario's. A value of another kind is refused, never coerced: a string is no
 # list of names (``reachable_by: arm`` is not ``[a, r, m]``), ``'no'`` is no boolean.
-
-#: How far from the origin (metres, on every axis) a position of a scenario may be: a cell is a
-#: few metres across; a position beyond is a typo (or 1e300) that would stall the simulators.
-WORKSPACE_BOUND = 10.0
 
 
 class _Bad(ValueError):
