@@ -315,3 +315,30 @@ def test_b21_a_behave_world_object_far_away_is_refused_at_load(position, message
     assert main(["behave", str(path)]) == 2
     lines = error_lines(capsys)
     assert any(f"{path}:5: object 'placemat' {message}" in x for x in lines), lines
+
+
+def test_t14_a_url_given_to_web_is_named_as_such(capsys):
+    """T14: `--web http://127.0.0.1:0/` said to write an IPv6 address as [ADDRESS]:PORT."""
+    assert main(["panel", "--web", "http://127.0.0.1:0/"]) == 2
+    lines = error_lines(capsys)
+    assert any("give HOST:PORT, not a URL" in x for x in lines), lines
+    assert not any("write an IPv6 address" in x for x in lines), lines
+
+
+def test_t15_the_panel_on_another_loopback_address_answers_it():
+    """T15: `panel --web 127.0.0.2:PORT` (loopback, so no token asked) refused every request:
+    the Host check knew 127.0.0.1 only; all of 127.0.0.0/8 and ::1 are this machine."""
+    pytest.importorskip("starlette")
+    from flexhrc.web.app import _loopback
+
+    assert all(_loopback(h) for h in ("127.0.0.1", "127.0.0.2", "127.1.2.3", "::1", "localhost"))
+    assert not any(_loopback(h) for h in ("evil.example", "10.0.0.1", "0.0.0.0", "", "::"))
+
+
+def test_t11_panel_legs_does_not_suggest_an_option_panel_lacks(capsys):
+    """T11: `panel --legs 40` suggested `tabletop 0.65x0.65 would do`; panel has no
+    --tabletop, so the message says what holds and stops there."""
+    assert main(["panel", "--legs", "40"]) == 2
+    lines = error_lines(capsys)
+    assert any("--legs 40: too many" in x for x in lines), lines
+    assert not any("would do" in x or "tabletop:" in x for x in lines), lines
