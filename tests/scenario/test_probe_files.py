@@ -342,3 +342,29 @@ def test_t11_panel_legs_does_not_suggest_an_option_panel_lacks(capsys):
     lines = error_lines(capsys)
     assert any("--legs 40: too many" in x for x in lines), lines
     assert not any("would do" in x or "tabletop:" in x for x in lines), lines
+
+
+@pytest.mark.parametrize(
+    "where, old, new, message",
+    [
+        ("node state", '"on_box(?l)"}', "5}", "state must be a formula"),
+        ("pre", 'pre: ["on_table(?l)"]', "pre: 5", "expected a list of literals"),
+        ("choice", 'agents: {choice: "?who"}', "agents: {choice: [1, 2]}", "takes one name"),
+    ],
+)
+def test_values_of_the_wrong_kind_in_graph_and_domain_are_refused(
+    where, old, new, message, tmp_path, capsys
+):
+    """Found by mutating lid_task.yaml's every value (2584 files, the probe's way): a node
+    state, a precondition or an agent choice of the wrong kind was a TypeError traceback."""
+    path = lid_file(tmp_path, where.replace(" ", "_"), old, new)
+    assert main(["scenario", "validate", str(path)]) == 2
+    assert any(message in x and f"{path}:" in x for x in error_lines(capsys))
+
+
+def test_a_legacy_table_with_an_astronomic_leg_count_is_refused_at_once(tmp_path, capsys):
+    """`legs: 1e30` as a whole number listed every leg's name before checking the capacity."""
+    path = tmp_path / "big.yaml"
+    path.write_text("scenario: table_assembly\nlegs: 1000000000000000000000000000000\n")
+    assert main(["run", str(path)]) == 2
+    assert any(f"{path}:2: legs: " in x and "too many" in x for x in error_lines(capsys))

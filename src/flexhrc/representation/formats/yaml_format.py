@@ -227,7 +227,17 @@ def _graph_from_dict(key: str, d: _LineDict, path: Path, key_line: int | None) -
         n = _name(nd["name"], "node", path, ln)
         formula = None
         if "state" in nd:
-            formula = parse_conjunction(nd["state"], str(path), _line(nd, "state"))
+            state = nd["state"]
+            if not isinstance(state, str) and not (
+                isinstance(state, list) and all(isinstance(x, str) for x in state)
+            ):
+                raise FormatError(
+                    f"{what}: state must be a formula such as 'on(?a, ?b) & not held(?a)' (or "
+                    f"a list of literals), got {type(state).__name__}",
+                    path,
+                    _line(nd, "state"),
+                )
+            formula = parse_conjunction(state, str(path), _line(nd, "state"))
         g.add_node(
             Node(
                 n,
