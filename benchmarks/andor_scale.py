@@ -4,6 +4,8 @@
   weights 1-9) played to the end by the random test client: per-query median (target <= 1 ms),
   90th percentile and maximum, over 3 seeds;
 * a 10 000-node chain (review case A13): build, first answer, then 200 queries;
+* a chain played to the end (probe case R12, ``--chain-play``, default 2000 nodes): whole
+  play and per-query median: a query must not pay for the done part below it;
 * the table assembly with 500 legs (review case A2), played to the end (cheapest policy).
 
 Per-query time is the time of ``OnlineGraph.update`` (the answer with every feasible element's
@@ -105,6 +107,20 @@ def chain_run(n: int, queries: int = 200) -> dict[str, float]:
     return {"nodes": n, "offline_s": build, "per_query_median_s": statistics.median(times)}
 
 
+def chain_play(n: int) -> dict[str, float]:
+    h = HierarchicalGraph.single(chain(n))
+    t0 = time.perf_counter()
+    report = play(h, "cheapest")
+    wall = time.perf_counter() - t0
+    assert report.outcome == "solved", report.outcome
+    return {
+        "nodes": n,
+        "queries": report.queries,
+        "per_query_median_s": report.online_s_per_query_median,
+        "wall_s": wall,
+    }
+
+
 def table_run(legs: int) -> dict[str, float]:
     from flexhrc.scenario.builtin.table import build_graph
 
@@ -127,14 +143,17 @@ def main() -> int:
     ap.add_argument("--nodes", type=int, default=10_000)
     ap.add_argument("--seeds", type=int, default=3)
     ap.add_argument("--legs", type=int, default=500)
+    ap.add_argument("--chain-play", type=int, default=2000, metavar="N")
     ap.add_argument("--json", type=Path, default=None)
     args = ap.parse_args()
-    if args.nodes < 2 or args.seeds < 1 or args.legs < 1:
-        ap.error("--nodes must be >= 2, --seeds and --legs >= 1")
+    if args.nodes < 2 or args.seeds < 1 or args.legs < 1 or args.chain_play < 2:
+        ap.error("--nodes and --chain-play must be >= 2, --seeds and --legs >= 1")
     print(f"random tree, {args.nodes} nodes ...", file=sys.stderr, flush=True)
     tree = tree_play(args.nodes, args.seeds)
     print(f"chain, {args.nodes} nodes ...", file=sys.stderr, flush=True)
     ch = chain_run(args.nodes)
+    print(f"chain played to the end, {args.chain_play} nodes ...", file=sys.stderr, flush=True)
+    played = chain_play(args.chain_play)
     print(f"table assembly, {args.legs} legs ...", file=sys.stderr, flush=True)
     table = table_run(args.legs)
     ok = tree["per_query_median_s"] <= TARGET_PER_QUERY_S
@@ -155,13 +174,20 @@ def main() -> int:
         "cost of every node above it)"
     )
     print(
+        f"chain played to the end: {played['nodes']} nodes, {played['queries']:.0f} queries, "
+        f"per query median {played['per_query_median_s'] * 1e6:.0f} µs, "
+        f"{played['wall_s']:.1f} s wall"
+    )
+    print(
         f"table assembly, {table['legs']} legs: {table['queries']} queries, offline "
         f"{table['offline_s'] * 1e3:.1f} ms, per query median "
         f"{table['per_query_median_s'] * 1e6:.0f} µs, {table['wall_s']:.1f} s wall"
     )
     if args.json:
         args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(json.dumps({"tree": tree, "chain": ch, "table": table}, indent=2))
+        args.json.write_text(
+            json.dumps({"tree": tree, "chain": ch, "chain_play": played, "table": table}, indent=2)
+        )
     return 0 if ok else 1
 
 

@@ -132,10 +132,11 @@ StoreRole = Literal["input", "output", "record"]
 
 
 # -- bounds --------------------------------------------------------------------------------------
-#: How far a position a message carries may lie from the cell's origin, per axis, in metres. A
-#: cell is a table and the arms and people around it, a few metres across; a position beyond
-#: this is a broken sensor or a hostile message, and a finite but absurd one (1e300 m) once made
-#: an operator "walk" for 1e299 s so that the cell never ended (probe 2026-12-02, P28/P29/R2P5).
+#: How far a position may lie from the cell's origin, per axis, in metres — a position a
+#: message carries, one of a scenario or of a ``behave`` task world. A cell is a table and the
+#: arms and people around it, a few metres across; a position beyond this is a broken sensor, a
+#: typo or a hostile message, and a finite but absurd one (1e300 m) once made an operator
+#: "walk" for 1e299 s so that the cell never ended (probe 2026-12-02, P28/P29/R2P5, B21).
 WORKSPACE_M = 10.0
 #: The latest time on the cell's clock a message may carry, in seconds. A cooperation lasts
 #: minutes to hours; a time past 1e6 s (11.6 days) is a broken clock, and one of 1e300 s became

@@ -210,9 +210,17 @@ def run_scenario(
         for given, option in ((config.human, f"--human {config.human}"), (takes, "--human-takes")):
             if given and not sc.humans:
                 raise FlexhrcError(f"{option} needs an operator, but {name} has no humans")
+        # a step is a node some hyper-arc reaches: no more steps than hyper-arcs
+        most = sc.graph.stats()["instantiated_hyperarcs"]
+        assert isinstance(most, int)
         for k in takes or []:
             if k < 1:
                 raise FlexhrcError(f"--human-takes {k}: steps are counted from 1")
+            if k > most:
+                raise FlexhrcError(
+                    f"--human-takes {k}: {sc.name} has at most {most} steps (one per node a "
+                    "hyper-arc reaches)"
+                )
     robot_actions = _robot_actions(sc)
     failures = _failures(config.fail, robot_actions)
     legs = sum(1 for o in sc.world().objects.values() if o.type == "leg")

@@ -32,6 +32,7 @@ Every error names the file and the line (``file:line: message``).
 
 from __future__ import annotations
 
+import math
 import re
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -43,6 +44,7 @@ from flexhrc.behavior.task import Task, build_task, parse_prefix, task_spec_from
 from flexhrc.behavior.types import BehaviorFactory, BehaviorTypeBuilder, behavior_type, derived_type
 from flexhrc.behavior.world import Arm, MoveRule, TabletopWorld, WorldObject, default_arms
 from flexhrc.errors import FlexhrcError, FormatError
+from flexhrc.events import WORKSPACE_M
 
 
 @dataclass
@@ -83,6 +85,16 @@ def _vec(node: Any, what: str, source: str) -> tuple[float, float, float]:
         raise FormatError(
             f"{what} must be a list of 3 numbers [x, y, z]", source, _line(node)
         ) from None
+    if not all(math.isfinite(v) for v in (x, y, z)):
+        raise FormatError(f"{what} must be 3 finite numbers [x, y, z]", source, _line(node))
+    if any(abs(v) > WORKSPACE_M for v in (x, y, z)):
+        # an arm would take for ever to get there (the tick loop ran to its timeout, B21)
+        raise FormatError(
+            f"{what} [{x:g}, {y:g}, {z:g}] is outside the workspace (within "
+            f"{WORKSPACE_M:g} m of the origin on every axis)",
+            source,
+            _line(node),
+        )
     return (x, y, z)
 
 

@@ -107,6 +107,8 @@ class Cell:
     """The manager side of a cell (see the module docstring)."""
 
     _captured: list[tuple[str, dict[str, Any]]] | None = None
+    #: how to start a missing agent, said when none came (a ROS 2 cell names its own nodes)
+    agents_hint = "start them with `flexhrc agent robot|human SCENARIO ... --connect ENDPOINT`"
 
     def __init__(
         self,
@@ -1329,7 +1331,7 @@ class Cell:
             if time.monotonic() > deadline:
                 raise FlexhrcError(
                     f"no agent process for {', '.join(self._missing())} after {timeout:g} s; "
-                    "start them with `flexhrc agent robot|human SCENARIO ... --connect ENDPOINT`"
+                    + self.agents_hint
                 )
             for n in self._missing():
                 if progress and n not in said:

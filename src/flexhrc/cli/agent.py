@@ -8,6 +8,7 @@ from typing import Any
 
 from flexhrc.cli.common import (
     TermFlag,
+    add_seed_option,
     add_segments_option,
     add_simulator_option,
     add_transport_options,
@@ -66,7 +67,7 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("scenario", metavar="SCENARIO", help="the cell's scenario (name or file)")
     add_transport_options(p, default="zenoh")
     add_segments_option(p)
-    p.add_argument("--seed", type=int, default=0, help="scenario seed (same as the cell's)")
+    add_seed_option(p, "scenario seed (same as the cell's)")
     p.add_argument("--quiet", action="store_true", help="no trace on stderr")
     p.add_argument(
         "--json", action="store_true", help="print a JSON summary on stdout when the cell ends"

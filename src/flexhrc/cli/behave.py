@@ -24,7 +24,7 @@ from dataclasses import fields, replace
 from pathlib import Path
 from typing import Any
 
-from flexhrc.cli.common import add_json_flag, emit, log
+from flexhrc.cli.common import add_json_flag, add_seed_option, emit, log
 from flexhrc.errors import FlexhrcError, UnknownNameError
 
 ACTIONS = ("replay", "render", "compile")
@@ -59,9 +59,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:  # type: ignore[ty
         choices=(1, 2),
         help="number of arms, each with its own mutex (default 1)",
     )
-    p.add_argument(
-        "--seed", type=int, default=0, help="seed for OR ties and generated worlds (default 0)"
-    )
+    add_seed_option(p, "seed for OR ties and generated worlds (default 0)")
     add_json_flag(p)
     p.add_argument(
         "--plot", metavar="FILE", help="write a Gantt chart of behaviour states (PNG/SVG/PDF)"

@@ -9,6 +9,7 @@ from flexhrc.cell.serve import trace_line
 from flexhrc.cli.common import (
     add_cell_options,
     add_json_flag,
+    add_seed_option,
     add_segments_option,
     add_transport_options,
     emit,
@@ -43,7 +44,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
         simulator_help="branch simulator and, for internal agents, the simulated world",
         realtime_type=float,  # checked by the cell, which names the option
     )
-    p.add_argument("--seed", type=int, default=0, help="scenario seed (default 0)")
+    add_seed_option(p, "scenario seed (default 0)")
     from flexhrc.taskmanager.operator import PROFILES
 
     p.add_argument(

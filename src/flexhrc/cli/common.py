@@ -201,6 +201,12 @@ def _bounds(
 seed_type = int_range(0, MAX_SEED)
 
 
+def add_seed_option(p: argparse.ArgumentParser, help: str = "random seed (default 0)") -> None:
+    """``--seed N``, the same range in every command (0..MAX_SEED: what numpy's generators and
+    the scenario builders take), so no command accepts a seed another refuses."""
+    p.add_argument("--seed", type=seed_type, default=0, metavar="N", help=help)
+
+
 def needs(args: argparse.Namespace, option: str, given: bool, companion: str, ok: bool) -> None:
     """Refuse ``option`` when its companion is missing (``--folds`` without ``--cv``) rather
     than ignoring it."""

@@ -11,7 +11,7 @@ import gc
 import sys
 from typing import Any
 
-from flexhrc.cli.common import add_json_flag, emit, int_range
+from flexhrc.cli.common import add_json_flag, add_seed_option, emit, int_range
 from flexhrc.taskmanager.replay import plural
 
 MAX_PATH_LIMIT = 100_000_000
@@ -119,13 +119,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
         default="cheapest",
         help="which feasible element to report: the cheapest (default) or one at random",
     )
-    pl.add_argument(
-        "--seed",
-        type=int_range(0, MAX_SEED),
-        default=0,
-        metavar="N",
-        help="random seed (0..2**63-1, default 0)",
-    )
+    add_seed_option(pl, "random seed (default 0)")
     pl.add_argument(
         "--steps", action="store_true", help="list every reported element with its query number"
     )

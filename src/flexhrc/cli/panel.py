@@ -12,7 +12,13 @@ import sys
 import time
 from typing import Any
 
-from flexhrc.cli.common import add_json_flag, add_segments_option, add_simulator_option, emit
+from flexhrc.cli.common import (
+    add_json_flag,
+    add_seed_option,
+    add_segments_option,
+    add_simulator_option,
+    emit,
+)
 from flexhrc.errors import FlexhrcError
 
 
@@ -89,7 +95,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
         help="the table's legs fix, no arm reaching bolt K: the robot asks the operator "
         "(paper Fig. 12; table only)",
     )
-    p.add_argument("--seed", type=int, default=0)
+    add_seed_option(p, "scenario seed (default 0)")
     add_segments_option(p)
     p.add_argument(
         "--speed",

@@ -26,6 +26,7 @@ from flexhrc.cli.common import (
     TermFlag,
     add_cell_options,
     add_json_flag,
+    add_seed_option,
     add_segments_option,
     emit,
     progress,
@@ -47,7 +48,7 @@ def _add_common(p: argparse.ArgumentParser) -> None:
         default=None,
         help="ROS domain id 0..232 (default: $ROS_DOMAIN_ID, else 0)",
     )
-    p.add_argument("--seed", type=int, default=0, help="scenario seed (the same in every node)")
+    add_seed_option(p, "scenario seed (the same in every node)")
     p.add_argument("--quiet", action="store_true", help="no live trace")
 
 

@@ -13,6 +13,7 @@ import math
 
 from flexhrc.cli.common import (
     add_json_flag,
+    add_seed_option,
     check_outputs,
     emit,
     float_range,
@@ -97,7 +98,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     f.add_argument(
         "-o", "--output", required=True, metavar="FILE.png", help="where to write the picture"
     )
-    f.add_argument("--seed", type=int, default=0, help="layout of the legs")
+    add_seed_option(f, "layout of the legs")
     add_json_flag(f)
     f.set_defaults(func=_frame)
 

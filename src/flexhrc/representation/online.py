@@ -192,6 +192,7 @@ class OnlineGraph:
         "_inside",
         "_inst",
         "_kind",
+        "_live_below",
         "_log",
         "_lower",
         "_lrank",
@@ -206,6 +207,7 @@ class OnlineGraph:
         "_rank_span",
         "_reason",
         "_root_of",
+        "_spent",
         "_touched",
         "_unmet",
         "_w",
@@ -360,6 +362,14 @@ class OnlineGraph:
         # mutable state
         self._done = [False] * n  # met (nodes) / solved (hyper-arcs)
         self._blocked = [False] * n  # can no longer be taken (infeasible for good)
+        # spent: met, solved or blocked, and so is everything below it (the incoming arcs of a
+        # node, the children of an arc): no live element reads its outside cost any more, so
+        # the top-down pass stops there instead of walking down everything already done (a
+        # deep chain: each query would walk the whole done part of it, R12)
+        self._spent = [False] * n
+        # of an element met, solved or blocked: how many of the elements below it are not
+        # spent yet (-1 before: counted when it is retired, :meth:`_retire`)
+        self._live_below = [-1] * n
         self._unmet = unmet
         self._active = [False] * n_inst
         self._closed = [False] * n_inst
@@ -489,7 +499,7 @@ class OnlineGraph:
 
     def _push(self, e: int) -> None:
         """Queue the outside cost of e for the top-down pass of this query."""
-        if e not in self._queued:
+        if e not in self._queued and not self._spent[e]:
             self._queued.add(e)
             rank = self._i_depth[self._inst[e]] * self._rank_span + self._lrank[e]
             heappush(self._heap, (rank << 32) | e)
@@ -526,7 +536,7 @@ class OnlineGraph:
         idepth, lrank, span = self._i_depth, self._lrank, self._rank_span
         lower, children, incoming, outgoing = self._lower, self._children, self._in, self._out
         parent, done, blocked, w = self._parent, self._done, self._blocked, self._w
-        ins, roots, root_of = self._inside, self._i_root, self._root_of
+        ins, roots, root_of, spent = self._inside, self._i_root, self._root_of, self._spent
         dirty = self._off_dirty
         mask = (1 << 32) - 1
         while heap:
@@ -542,7 +552,7 @@ class OnlineGraph:
                 out[e] = v
                 touched.add(e)
                 for c in children[e]:
-                    if c not in queued and not (done[c] and not incoming[c]):
+                    if c not in queued and not spent[c]:
                         queued.add(c)
                         heappush(heap, (((idepth[inst[c]] * span + lrank[c]) << 32) | c))
                 if lower[e] >= 0:
@@ -571,7 +581,7 @@ class OnlineGraph:
             out[e] = v
             touched.add(e)
             for h in incoming[e]:
-                if h not in queued and not blocked[h]:
+                if h not in queued and not blocked[h] and not spent[h]:
                     queued.add(h)
                     heappush(heap, (((idepth[inst[h]] * span + lrank[h]) << 32) | h))
         self._settle_offsets()
@@ -633,6 +643,7 @@ class OnlineGraph:
         touched, dirty = self._touched, self._off_dirty
         heap, queued, inst = self._heap, self._queued, self._inst
         idepth, lrank, span = self._i_depth, self._lrank, self._rank_span
+        spent = self._spent
         stack = [start]
         while stack:
             e = stack.pop()
@@ -673,8 +684,8 @@ class OnlineGraph:
             touched.add(e)
             for h in outgoing[e]:
                 for s in children[h]:
-                    # a met leaf's outside cost is never read again (statuses are for good)
-                    if s != e and s not in queued and not (done[s] and not incoming[s]):
+                    # a spent element's outside cost is never read again (statuses are for good)
+                    if s != e and s not in queued and not spent[s]:
                         queued.add(s)
                         heappush(heap, (((idepth[inst[s]] * span + lrank[s]) << 32) | s))
                 if lower[h] >= 0:
@@ -685,7 +696,7 @@ class OnlineGraph:
                 u = upper[k]
                 if u >= 0:
                     for s in children[u]:  # inside(e) is the weight of u (eq. 19)
-                        if s not in queued and not (done[s] and not incoming[s]):
+                        if s not in queued and not spent[s]:
                             queued.add(s)
                             heappush(heap, (((idepth[inst[s]] * span + lrank[s]) << 32) | s))
                     if v == INF and self._active[k]:
@@ -697,6 +708,30 @@ class OnlineGraph:
         self._feasible[e] = None
         self._i_feas[self._inst[e]][e] = None
         self._touched.add(e)
+
+    def _retire(self, e: int) -> None:
+        """e is now met, solved or blocked: count what below it is still live; when nothing
+        is, e is spent, and so, in turn, may be the elements above it."""
+        live, spent, kind = self._live_below, self._spent, self._kind
+        if live[e] >= 0:
+            return  # retired already (blocked after met)
+        below = self._children[e] if kind[e] else self._in[e]
+        live[e] = sum(1 for c in below if not spent[c])
+        if live[e]:
+            return
+        todo = [e]
+        parent, outgoing = self._parent, self._out
+        while todo:
+            x = todo.pop()
+            if spent[x]:
+                continue
+            spent[x] = True
+            # above x: the arcs a node feeds, the node an arc reaches (within its instance)
+            for p in outgoing[x] if not kind[x] else (parent[x],):
+                if live[p] > 0:  # retired, waiting for what is below it
+                    live[p] -= 1
+                    if not live[p]:
+                        todo.append(p)
 
     def _drop_feasible(self, e: int) -> None:
         self._feasible.pop(e, None)
@@ -780,6 +815,7 @@ class OnlineGraph:
         # hot path: _drop_feasible, _status_changed, _arc_enabled, _add_feasible inlined
         done = self._done
         done[n] = True
+        self._retire(n)
         k = self._inst[n]
         self._feasible.pop(n, None)
         self._i_feas[k].pop(n, None)
@@ -812,6 +848,7 @@ class OnlineGraph:
         # weight, or for a lower graph its root's inside cost (0 when eq. 18 solves h)
         own = self._inside[self._i_root[lower]] if lower >= 0 else self._w[h]
         self._done[h] = True
+        self._retire(h)
         self._drop_feasible(h)
         self._touched.add(h)
         if own:
@@ -842,6 +879,7 @@ class OnlineGraph:
             if self._blocked[e]:
                 continue
             self._blocked[e] = True
+            self._retire(e)
             k = self._inst[e]
             while k >= 0 and self._i_pristine[k]:
                 self._i_pristine[k] = False
@@ -1174,7 +1212,18 @@ class OnlineGraph:
             )
 
     # ---------------------------------------------------------------- snapshot/state ----
-    _STATE = ("_done", "_blocked", "_unmet", "_active", "_closed", "_inside", "_out_val", "_i_off")
+    _STATE = (
+        "_done",
+        "_blocked",
+        "_spent",
+        "_live_below",
+        "_unmet",
+        "_active",
+        "_closed",
+        "_inside",
+        "_out_val",
+        "_i_off",
+    )
 
     def _snapshot(self) -> tuple[Any, ...]:
         return (

@@ -187,6 +187,10 @@ def serve_ros2_cell(
             trace=observe,
             seed=config.seed,
         )
+        cell.agents_hint = (
+            "start them with `flexhrc ros2 arm SCENARIO --arm NAME` and `flexhrc ros2 human "
+            "SCENARIO --name NAME` (the same --cell)"
+        )
         session = uuid.uuid4().hex[:8]  # percept ids stay unique across restarts and resumes
         counter = itertools.count(1)
 

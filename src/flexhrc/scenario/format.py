@@ -17,12 +17,14 @@ import fnmatch
 import math
 import os
 import re
-from collections.abc import Iterable, Mapping
+import reprlib
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 from flexhrc.errors import FlexhrcError, FormatError
+from flexhrc.events import WORKSPACE_M
 from flexhrc.logic import Literal, parse_literal
 from flexhrc.representation import HierarchicalGraph
 from flexhrc.representation.graph import AndOrGraph
@@ -38,6 +40,142 @@ from flexhrc.taskmanager.domain import ActionSchema, Domain
 from flexhrc.taskmanager.kinds import find_action_kind, unknown_kind
 
 FORMAT_VERSION = 1
+
+# --------------------------------------------------------------------------- declarations --
+# Every key a scenario gives an object, an agent or an operator is declared once, here: what it
+# holds (said in the message when it holds something else) and the check that turns the file's
+# value into the scenario's. A value of another kind is refused, never coerced: a string is no
+# list of names (``reachable_by: arm`` is not ``[a, r, m]``), ``'no'`` is no boolean.
+
+
+class _Bad(ValueError):
+    """A declared value check failed; the message says what the key holds."""
+
+
+def show(value: Any, limit: int = 60) -> str:
+    """``repr(value)``, cut to ``limit`` characters: a message quotes a value, never a file."""
+    text = _short_repr(value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def _short_repr(value: Any) -> str:
+    r = reprlib.Repr()
+    r.maxstring = r.maxother = 60
+    r.maxlist = r.maxtuple = r.maxdict = r.maxset = 6
+    r.maxlevel = 3
+    return r.repr(value)
+
+
+@dataclass(frozen=True)
+class Key:
+    """One declared key: ``what`` it holds (for messages) and ``check``, which returns the
+    value as the scenario keeps it or raises :class:`_Bad`."""
+
+    what: str
+    check: Callable[[Any], Any]
+    #: the fault's words: ``{key}``, ``{what}``, ``{value}`` (the value, cut short)
+    template: str = "{key} must be {what}, got {value}"
+
+    def fault(self, key: str, value: Any, exc: _Bad) -> str:
+        if exc.args:  # the check knows better what is wrong (a position out of bounds)
+            return f"{key} {show(value)} {exc.args[0]}"
+        return self.template.format(key=key, what=self.what, value=show(value))
+
+
+def _number(lo: float, hi: float, *, hi_open: bool = False) -> Callable[[Any], float]:
+    """A finite number in (lo, hi] (or (lo, hi) with ``hi_open``)."""
+
+    def check(v: Any) -> float:
+        if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
+            raise _Bad
+        if v <= lo or v > hi or (hi_open and v == hi):
+            raise _Bad
+        return float(v)
+
+    return check
+
+
+def _boolean(v: Any) -> bool:
+    if not isinstance(v, bool):
+        raise _Bad
+    return v
+
+
+def _name(v: Any) -> str:
+    if not isinstance(v, str) or not v.strip():
+        raise _Bad
+    return v
+
+
+def _names(v: Any) -> tuple[str, ...]:
+    if not isinstance(v, list) or not all(isinstance(x, str) and x.strip() for x in v):
+        raise _Bad
+    return tuple(v)
+
+
+def _position(v: Any) -> tuple[float, float, float]:
+    if not _is_pose(v):
+        raise _Bad
+    if any(abs(x) > WORKSPACE_M for x in v):
+        raise _Bad(
+            f"is outside the workspace (within {WORKSPACE_M:g} m of the origin on every axis)"
+        )
+    return (float(v[0]), float(v[1]), float(v[2]))
+
+
+def _attrs(v: Any) -> dict[str, Any]:
+    if not isinstance(v, Mapping) or not all(isinstance(k, str) for k in v):
+        raise _Bad
+    return dict(v)
+
+
+def _choice(*names: str) -> Callable[[Any], str]:
+    def check(v: Any) -> str:
+        if not isinstance(v, str) or v not in names:
+            raise _Bad
+        return v
+
+    return check
+
+
+def _size_key(v: Any) -> dict[str, float]:
+    size = _size(v)
+    if size is None:
+        raise _Bad
+    return size
+
+
+_POSITION = Key(
+    "three finite numbers [x, y, z] in metres", _position, "malformed pose {key}: {value} ({what})"
+)
+_NAMES = Key("a list of names, such as [arm]", _names)
+
+#: ``world.objects.NAME``
+OBJECT_DECL: dict[str, Key] = {
+    "type": Key("a type name", _name),
+    "position": _POSITION,
+    "size": Key("a list of up to three positive numbers, or {name: number}", _size_key),
+    "fixed": Key("true or false", _boolean),
+    "reachable_by": Key("a list of agent names, such as [arm]", _names),
+    "attrs": Key("a mapping {name: value}", _attrs),
+}
+#: ``domain.agents.NAME``
+AGENT_DECL: dict[str, Key] = {
+    "kind": Key("human or robot", _choice("human", "robot")),
+    "types": Key("a list of type names, such as [robot]", _names),
+    "base": _POSITION,
+    "rest": _POSITION,
+    "hand": _POSITION,
+    "reach": Key("a number of metres in (0, 10]", _number(0.0, 10.0)),
+    "speed": Key("a number of m/s in (0, 100)", _number(0.0, 100.0, hi_open=True)),
+}
+#: ``humans[i]``
+HUMAN_DECL: dict[str, Key] = {
+    "name": Key("a human agent of the domain", _name),
+    "profile": Key(f"one of {', '.join(PROFILES)}", _choice(*PROFILES)),
+    "speed": Key("a number of m/s in (0, 100)", _number(0.0, 100.0, hi_open=True)),
+}
+
 TOP_KEYS = {
     "flexhrc",
     "name",
@@ -53,8 +191,6 @@ TOP_KEYS = {
     "simulator",
 }
 WORLD_KEYS = {"objects", "places", "facts", "supertypes"}
-OBJECT_KEYS = {"type", "position", "size", "fixed", "reachable_by", "attrs"}
-HUMAN_KEYS = {"name", "profile", "speed"}
 
 
 @dataclass(frozen=True)
@@ -100,10 +236,33 @@ class _Checker:
         self.types: set[str] = set()  # every object type named, even of a malformed object
 
     def error(self, message: str, line: int | None, source: str | Path | None = None) -> None:
+        if len(message) > 1000:  # a message quotes the file, it never repeats it
+            message = message[:1000] + "..."
         self.faults.append(Fault(str(source or self.path), line, message))
 
     def warn(self, message: str, line: int | None, source: str | Path | None = None) -> None:
         self.faults.append(Fault(str(source or self.path), line, message, "warning"))
+
+    def fields(
+        self, d: Mapping[Any, Any], decl: Mapping[str, Key], what: str, src: Any = None
+    ) -> dict[str, Any]:
+        """``d``'s keys checked against their declaration ``decl``: a fault for each unknown
+        key and each bad value (at its line), the values of the good ones."""
+        out: dict[str, Any] = {}
+        for key, value in d.items():
+            k = decl.get(key) if isinstance(key, str) else None
+            if k is None:
+                self.error(
+                    f"{what}: unknown key {show(key)} (allowed: {', '.join(decl)})",
+                    _line(d, key),
+                    src,
+                )
+                continue
+            try:
+                out[key] = k.check(value)
+            except _Bad as exc:
+                self.error(f"{what}: {k.fault(key, value, exc)}", _line(d, key) or _line(d), src)
+        return out
 
     def from_format_error(self, exc: FormatError) -> None:
         self.faults.append(Fault(exc.source or str(self.path), exc.line, exc.message))
@@ -136,7 +295,8 @@ def check(path: str | Path) -> tuple[Scenario | None, list[Fault]]:
     if "flexhrc" not in doc:
         c.error("not a scenario file: 'flexhrc: 1' is missing", 1)
         return None, c.faults
-    if doc.get("flexhrc") != FORMAT_VERSION:
+    version = doc.get("flexhrc")
+    if isinstance(version, bool) or version != FORMAT_VERSION:  # true == 1 in Python
         c.error(
             f"unsupported scenario format {doc.get('flexhrc')!r} (this flexhrc reads "
             f"{FORMAT_VERSION})",
@@ -216,16 +376,19 @@ def graph_of(path: str | Path) -> HierarchicalGraph:
 # ------------------------------------------------------------------------------- building --
 def _build(doc: Any, c: _Checker) -> Scenario | None:
     path = c.path
+    for key, what in (("name", "a name"), ("description", "a text")):
+        if key in doc and not isinstance(doc[key], str):
+            c.error(f"{key} must be {what} (a string), got {show(doc[key])}", _line(doc, key))
     name = str(doc.get("name") or path.stem.removesuffix(".scenario"))
     description = str(doc.get("description") or "")
     graph = _graph(doc, c)
     domain, domain_doc, domain_src = _domain(doc, c)
     world = _world(doc.get("world"), c, _line(doc, "world"))
     humans = _humans(doc.get("humans"), c, _line(doc, "humans"), domain)
-    simulator = str(doc.get("simulator", "analytic"))
-    if simulator not in SIMULATORS:
+    simulator = doc.get("simulator", "analytic")
+    if not isinstance(simulator, str) or simulator not in SIMULATORS:
         c.error(
-            f"simulator {simulator!r}: choose one of {', '.join(SIMULATORS)}",
+            f"simulator {show(simulator)}: choose one of {', '.join(SIMULATORS)}",
             _line(doc, "simulator"),
         )
     robot = doc.get("robot") or {}
@@ -350,16 +513,9 @@ def _precheck_domain(d: Mapping[str, Any], c: _Checker, src: Path) -> None:
         return
     for name, ad in agents.items():
         if not isinstance(ad, Mapping) or ad.get("kind") not in ("human", "robot"):
-            c.error(f"agent {name!r}: needs kind: human or robot", _line(agents, name), src)
+            c.error(f"agent {show(name)}: needs kind: human or robot", _line(agents, name), src)
             continue
-        for key in ("base", "rest", "hand"):
-            if key in ad and not _is_pose(ad[key]):
-                c.error(
-                    f"agent {name!r}: malformed pose {key}: {ad[key]!r} (three finite numbers "
-                    "[x, y, z] in metres)",
-                    _line(ad, key),
-                    src,
-                )
+        c.fields(ad, AGENT_DECL, f"agent {show(name)}", src)
     for section in ("actions", "processes"):
         block = d.get(section) or {}
         if not isinstance(block, Mapping):
@@ -380,6 +536,8 @@ def _precheck_domain(d: Mapping[str, Any], c: _Checker, src: Path) -> None:
                 names = [str(spec["single"])]
             elif isinstance(spec, Mapping) and "joint" in spec and isinstance(spec["joint"], list):
                 names = [str(x) for x in spec["joint"]]
+                _check_joint(section[:-1], aname, names, agents, c, _line(sd, "agents"), src)
+            _check_free_variables(section[:-1], aname, sd, c, src)
             for n in names:
                 if n not in agents:
                     c.error(
@@ -388,6 +546,60 @@ def _precheck_domain(d: Mapping[str, Any], c: _Checker, src: Path) -> None:
                         _line(sd, "agents"),
                         src,
                     )
+
+
+_VARIABLE = re.compile(r"\?[A-Za-z_][\w-]*")
+
+
+def _check_free_variables(
+    what: str, name: Any, sd: Mapping[str, Any], c: _Checker, src: Path
+) -> None:
+    """A variable of ``add`` or ``delete`` that is no parameter: nothing binds it, so the
+    effect is never ground. (In ``pre`` and ``until`` such a variable means *some* object:
+    ``pre: ["in(?b, ?box)"]`` holds when any ball is in the box.)"""
+    params = sd.get("parameters")
+    if not isinstance(params, Mapping):
+        return
+    known = {str(v) for v in params}
+    for key in ("add", "delete"):
+        value = sd.get(key)
+        texts = [value] if isinstance(value, str) else value if isinstance(value, list) else []
+        free = sorted({v for t in texts for v in _VARIABLE.findall(str(t))} - known)
+        if free:
+            c.error(
+                f"{what} {show(name)}: {key} uses {', '.join(free)}, which is no parameter "
+                f"(parameters: {', '.join(sorted(known)) or 'none'})",
+                _line(sd, key) or _line(sd),
+                src,
+            )
+
+
+def _check_joint(
+    what: str,
+    name: Any,
+    names: list[str],
+    agents: Mapping[Any, Any],
+    c: _Checker,
+    line: int | None,
+    src: Path,
+) -> None:
+    """A joint action is one command for several robot arms at once (a bimanual action)."""
+    humans = [
+        n for n in names if isinstance(agents.get(n), Mapping) and agents[n].get("kind") == "human"
+    ]
+    if humans:
+        c.error(
+            f"{what} {show(name)}: joint agents must be robot arms; {', '.join(humans)} is a "
+            "human (give the operator and the arm each an action of their own)",
+            line,
+            src,
+        )
+    if len(names) < 2 or len(set(names)) != len(names):
+        c.error(
+            f"{what} {show(name)}: joint needs two or more different agents, got {show(names)}",
+            line,
+            src,
+        )
 
 
 def _is_pose(p: Any) -> bool:
@@ -421,45 +633,27 @@ def _world(w: Any, c: _Checker, line: int | None) -> WorldSpec | None:
     for name, spec in od.items():
         ln = _line(od, name)
         if not isinstance(spec, Mapping):
-            c.error(f"object {name!r}: must be a mapping {{type, position, size, fixed}}", ln)
+            c.error(f"object {show(name)}: must be a mapping {{type, position, size, fixed}}", ln)
             continue
-        for key in spec:
-            if key not in OBJECT_KEYS:
-                c.error(
-                    f"object {name!r}: unknown key {key!r} (allowed: "
-                    f"{', '.join(sorted(OBJECT_KEYS))})",
-                    _line(spec, key),
-                )
-        if not isinstance(spec.get("type"), str) or not spec.get("type"):
-            c.error(f"object {name!r}: needs a type", ln)
+        n0 = len(c.faults)
+        got = c.fields(spec, OBJECT_DECL, f"object {show(name)}")
+        if isinstance(got.get("type"), str):
+            c.types.add(got["type"])
+        for key in ("type", "position"):
+            if key not in spec:
+                c.error(f"object {show(name)}: needs a {key} ({OBJECT_DECL[key].what})", ln)
+        if len(c.faults) > n0:
             continue
-        c.types.add(str(spec["type"]))
-        pos: Any = spec.get("position")
-        if not _is_pose(pos):
-            c.error(
-                f"object {name!r}: malformed pose position: {pos!r} (three finite numbers "
-                "[x, y, z] in metres)",
-                _line(spec, "position") or ln,
-            )
-            continue
-        size = _size(spec.get("size"))
-        if size is None:
-            c.error(
-                f"object {name!r}: malformed size {spec.get('size')!r} (a list of up to three "
-                "positive numbers, or {name: number})",
-                _line(spec, "size"),
-            )
-            continue
-        attrs = dict(spec.get("attrs") or {})
-        if "reachable_by" in spec:
-            attrs["reachable_by"] = [str(a) for a in spec["reachable_by"] or []]
+        attrs = dict(got.get("attrs", {}))
+        if "reachable_by" in got:
+            attrs["reachable_by"] = list(got["reachable_by"])
         objects.append(
             ObjectSpec(
                 str(name),
-                str(spec["type"]),
-                (float(pos[0]), float(pos[1]), float(pos[2])),
-                size,
-                bool(spec.get("fixed", False)),
+                got["type"],
+                got["position"],
+                got.get("size", {}),
+                got.get("fixed", False),
                 attrs,
             )
         )
@@ -470,13 +664,11 @@ def _world(w: Any, c: _Checker, line: int | None) -> WorldSpec | None:
         pd = {}
     c.names.update(str(n) for n in pd)
     for name, pos in pd.items():
-        if not _is_pose(pos):
-            c.error(
-                f"place {name!r}: malformed pose {pos!r} (three finite numbers [x, y, z])",
-                _line(pd, name),
-            )
-            continue
-        places[str(name)] = (float(pos[0]), float(pos[1]), float(pos[2]))
+        try:
+            places[str(name)] = _POSITION.check(pos)
+        except _Bad as exc:
+            why = exc.args[0] if exc.args else "(three finite numbers [x, y, z])"
+            c.error(f"place {show(name)}: malformed pose {show(pos)} {why}", _line(pd, name))
     facts: list[Literal] = []
     fl = w.get("facts") or []
     if not isinstance(fl, list):
@@ -493,9 +685,25 @@ def _world(w: Any, c: _Checker, line: int | None) -> WorldSpec | None:
             continue
         facts.append(lit)
     st = w.get("supertypes") or {}
-    if not isinstance(st, Mapping):
-        c.error("world.supertypes must be a mapping {SUBTYPE: SUPERTYPE}", _line(w, "supertypes"))
+    if not isinstance(st, Mapping) or not all(
+        isinstance(k, str) and isinstance(v, str) for k, v in st.items()
+    ):
+        c.error(
+            f"world.supertypes must be a mapping {{SUBTYPE: SUPERTYPE}} of type names, got "
+            f"{show(st)}",
+            _line(w, "supertypes"),
+        )
         st = {}
+    for sub in st:
+        cycle = [sub]
+        while cycle[-1] in st and st[cycle[-1]] not in cycle:
+            cycle.append(st[cycle[-1]])
+        # a cycle through ``sub``, reported once: at its smallest type
+        if cycle[-1] in st and st[cycle[-1]] == sub and sub == min(cycle):
+            c.error(
+                f"world.supertypes form a cycle: {' -> '.join([*cycle, sub])}",
+                _line(st, sub) or _line(w, "supertypes"),
+            )
     names = [o.name for o in objects] + list(places)
     dup = {n for n in names if names.count(n) > 1}
     for n in sorted(dup):
@@ -529,31 +737,23 @@ def _humans(h: Any, c: _Checker, line: int | None, domain: Domain | None) -> lis
     if not isinstance(h, list):
         c.error("humans must be a list of {name, profile, speed}", line)
         return out
+    seen: dict[str, int | None] = {}
     for i, hd in enumerate(h):
         if not isinstance(hd, Mapping) or "name" not in hd:
             c.error(f"humans #{i + 1}: needs a name (a human agent of the domain)", line)
             continue
         ln = _line(hd)
-        for key in hd:
-            if key not in HUMAN_KEYS:
-                c.error(
-                    f"humans #{i + 1}: unknown key {key!r} (allowed: name, profile, speed)",
-                    _line(hd, key),
-                )
         name = str(hd["name"])
-        profile = str(hd.get("profile", "passive"))
-        if profile not in PROFILES:
+        got = c.fields(hd, HUMAN_DECL, f"operator {show(name)}")
+        if name in seen:
             c.error(
-                f"operator {name!r}: unknown profile {profile!r} (choose {', '.join(PROFILES)})",
-                _line(hd, "profile"),
+                f"operator {show(name)}: listed twice under humans (one entry per human agent; "
+                f"the first is at line {seen[name]})",
+                ln,
             )
-        speed = hd.get("speed", 1.0)
-        if isinstance(speed, bool) or not isinstance(speed, int | float) or not 0 < speed < 100:
-            c.error(
-                f"operator {name!r}: speed must be a number of m/s in (0, 100), got {speed!r}",
-                _line(hd, "speed"),
-            )
-            speed = 1.0
+        seen[name] = ln
+        profile = got.get("profile", "passive")
+        speed = got.get("speed", 1.0)
         if domain is not None:
             agent = domain.agents.get(name)
             if agent is None:

@@ -226,6 +226,8 @@ def _built(
         if exc.fix is not None:
             message += f"; {exc.fix[0]}: {exc.fix[1]} holds them"
         raise FormatError(message, path, line(exc.key)) from None
+    except FormatError:
+        raise  # a value of the file, already located (chain: 'no')
     except FlexhrcError as exc:  # the bench's settings: the message names the setting
         key = str(exc).split(" ", 1)[0]
         raise FormatError(str(exc), path, line(key)) from None

@@ -113,6 +113,8 @@ def write_starter(folder: str | Path, *, force: bool = False) -> Path:
     file is kept unless ``force``) and return its path."""
     from flexhrc.files import atomic_write_text
 
+    if not str(folder).strip():  # Path("") is ".": an empty name must not mean "here"
+        raise FlexhrcError("DIR is empty: name the folder to write scenario.yaml into (. for here)")
     folder = Path(folder)
     if folder.exists() and not folder.is_dir():
         raise FlexhrcError(f"{folder}: exists and is not a folder (DIR must be a folder)")

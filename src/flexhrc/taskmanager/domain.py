@@ -382,9 +382,16 @@ def _schema(
 
 
 def _formula(v: Any, source: str | Path | None, line: int | None = None) -> Conjunction:
-    if not v:
+    if v is None or v == [] or v == "":
         return ()
-    return parse_conjunction(v if isinstance(v, str) else [str(x) for x in v], str(source), line)
+    if not isinstance(v, str) and not (isinstance(v, list) and all(isinstance(x, str) for x in v)):
+        raise FormatError(
+            f'expected a list of literals such as ["on_table(?p)"], got {type(v).__name__} '
+            f"{str(v)[:60]}",
+            source,
+            line,
+        )
+    return parse_conjunction(v, str(source), line)
 
 
 def _agent_spec(
@@ -404,6 +411,19 @@ def _agent_spec(
             line,
         )
     mode, value = next(iter(v.items()))
+    if mode in ("single", "choice") and not isinstance(value, str):
+        raise FormatError(
+            f"action {action!r}: agents {{{mode}: ...}} takes one name, got {value!r}"[:200],
+            source,
+            line,
+        )
+    if mode == "joint" and not (isinstance(value, list) and all(isinstance(x, str) for x in value)):
+        raise FormatError(
+            f"action {action!r}: agents {{joint: [...]}} takes a list of agent names, "
+            f"got {value!r}"[:200],
+            source,
+            line,
+        )
     if mode == "single":
         if value not in agents:
             raise FormatError(f"action {action!r}: unknown agent {value!r}", source, line)

@@ -199,6 +199,12 @@ def zenoh_config(
         raise TransportError(f"zenoh mode must be peer, client or router, not {mode!r}")
     listen_eps = [normalise_endpoint(e) for e in listen]
     connect_eps = [normalise_endpoint(e) for e in connect]
+    for given, ep in zip(connect, connect_eps, strict=True):
+        if _port_of(ep) == 0:  # port 0 means "any port" to listen on; nothing listens on it
+            raise TransportError(
+                f"--connect {given}: port 0 is no port to connect to (give the port the cell "
+                "listens on, e.g. tcp/127.0.0.1:7447)"
+            )
     if file is not None:
         config = load_zenoh_config(file)
         if listen_eps:

@@ -33,6 +33,11 @@ def parse_web_address(text: str, option: str = "--web") -> tuple[str, int]:
     value = text.strip()
     if not value:
         return DEFAULT_HOST, DEFAULT_PORT
+    if "://" in value or "/" in value:  # a URL, not an address (T14)
+        raise FlexhrcError(
+            f"{option} {text!r}: give HOST:PORT, not a URL (e.g. {DEFAULT_ADDRESS}, or "
+            "[::1]:8080 for an IPv6 address)"
+        )
     if value.startswith("["):  # [v6]:port
         end = value.find("]")
         if end < 0:

@@ -101,7 +101,15 @@ def read_yaml(path: str | Path) -> Any:
     path = Path(path)
     text = read_text(path)  # missing, folder, unreadable, binary, not UTF-8: one clear error
     try:
-        return yaml.load(text, Loader=_Loader)
+        loader = _Loader(text)
+        try:
+            node = loader.get_single_node()
+            if node is None:
+                return None
+            _check_aliases(node, path)
+            return loader.construct_document(node)
+        finally:
+            loader.dispose()
     except RecursionError:
         # PyYAML composes nested collections recursively; past Python's limit, say so
         raise FormatError(
@@ -122,6 +130,53 @@ def read_yaml(path: str | Path) -> Any:
         ) from None
     except yaml.YAMLError as exc:  # (any other: no position known)
         raise FormatError(f"YAML syntax error: {str(exc)[:200]}", path) from None
+
+
+#: How many values a document may stand for once its aliases are expanded, beyond which it is
+#: refused: PyYAML shares an aliased value rather than copying it, but every reader that walks,
+#: prints or converts it pays for the expansion (nested aliases: a 400-byte file of 10**8 values)
+MAX_EXPANDED = 1_000_000
+
+
+def _check_aliases(root: yaml.Node, path: Path) -> None:
+    """Refuse a document whose aliases stand for more than :data:`MAX_EXPANDED` values (and
+    more than ten times its own size): one pass over the distinct nodes, each counted once."""
+    expanded: dict[int, int] = {}
+    open_nodes: set[int] = set()  # entered, not yet counted: an alias to one is a cycle
+    distinct = 0
+    # iterative post-order walk: a deep document must not exhaust Python's stack here
+    stack: list[tuple[yaml.Node, bool]] = [(root, False)]
+    while stack:
+        node, done = stack.pop()
+        if id(node) in expanded:
+            continue
+        children: list[yaml.Node] = []
+        if isinstance(node, yaml.SequenceNode):
+            children = list(node.value)
+        elif isinstance(node, yaml.MappingNode):
+            children = [n for kv in node.value for n in kv]
+        if not done:
+            if id(node) in open_nodes:  # an alias inside its own anchor
+                raise FormatError(
+                    "YAML alias refers to a value that contains it (a recursive '*' reference)",
+                    path,
+                    node.start_mark.line + 1,
+                )
+            open_nodes.add(id(node))
+            stack.append((node, True))
+            stack.extend((c, False) for c in children if id(c) not in expanded)
+            continue
+        open_nodes.discard(id(node))
+        distinct += 1
+        size = 1 + sum(expanded.get(id(c), 0) for c in children)
+        expanded[id(node)] = size
+        if size > MAX_EXPANDED and size > 10 * distinct:
+            raise FormatError(
+                f"YAML aliases expand to more than {MAX_EXPANDED} values (nested '*' "
+                "references); write the values out or use fewer levels of aliases",
+                path,
+                node.start_mark.line + 1,
+            )
 
 
 def _line(d: Any, key: Any = None) -> int | None:
@@ -197,7 +252,17 @@ def _graph_from_dict(key: str, d: _LineDict, path: Path, key_line: int | None) -
         n = _name(nd["name"], "node", path, ln)
         formula = None
         if "state" in nd:
-            formula = parse_conjunction(nd["state"], str(path), _line(nd, "state"))
+            state = nd["state"]
+            if not isinstance(state, str) and not (
+                isinstance(state, list) and all(isinstance(x, str) for x in state)
+            ):
+                raise FormatError(
+                    f"{what}: state must be a formula such as 'on(?a, ?b) & not held(?a)' (or "
+                    f"a list of literals), got {type(state).__name__}",
+                    path,
+                    _line(nd, "state"),
+                )
+            formula = parse_conjunction(state, str(path), _line(nd, "state"))
         g.add_node(
             Node(
                 n,
