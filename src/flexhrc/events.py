@@ -33,6 +33,7 @@ This module sits at the bottom of the layering: it imports only the standard lib
 from __future__ import annotations
 
 import math
+import sys
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from enum import StrEnum
@@ -169,7 +170,10 @@ Rule = Callable[[Mapping[str, Any]], "str | None"]
 
 
 def _finite(v: Any) -> bool:
-    return isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
+    if isinstance(v, bool) or not isinstance(v, int | float):
+        return False
+    # an int of 400 digits is valid JSON, and math.isfinite() of it overflows
+    return abs(v) <= sys.float_info.max if isinstance(v, int) else math.isfinite(v)
 
 
 def _names(v: Any) -> bool:
@@ -364,7 +368,10 @@ def _one_of(kind: str, key: str, values: tuple[str, ...]) -> Field:
 
 # fmt: off
 _LOG_SCHEMAS = [
-    _log("start", "a run begins", agents=AGENTS, humans=Field((list,)), simulator=OPT_NAME,
+    _log("start", "a run begins", agents=AGENTS,
+         humans=Field((list,), check=lambda v: all(isinstance(a, str) and a for a in v),
+                      message="start: 'humans' must be a list of agent names"),
+         simulator=OPT_NAME,
          profile=Field(S, True, message="start: 'profile' must be a string")),
     _log("query", "the Task Manager asked the representation", report=Field((dict,))),
     _log("decision", "a hyper-arc's branches simulated, one chosen", "replay trace store",
@@ -386,7 +393,9 @@ _LOG_SCHEMAS = [
     _log("abort", "a running hyper-arc is abandoned", "replay trace store",
          element=NAME, reason=OPT_NAME),
     _log("stop", "an agent is told to stop a command", "replay trace", reason=OPT_NAME),
-    _log("solved", "a hyper-arc is done", "replay store", agents=Field((list,)),
+    _log("solved", "a hyper-arc is done", "replay store",
+         agents=Field((list,), check=lambda v: all(isinstance(a, str) and a for a in v),
+                      message="solved: 'agents' must be a list of agent names"),
          element=Field(S, True, message="solved: 'element' must be a hyper-arc name")),
     _log("human_action", "a person's action reached the Task Manager", action=NAME),
     _log("human_action_unmatched", "a person's action that no hyper-arc expects",

@@ -399,52 +399,8 @@ def known_finding(target: str, exc: BaseException) -> Known | None:
     return None
 
 
-#: Findings in modules other helpers own (issue 20): reported to the lead, pinned by xfail tests.
-KNOWN: list[Known] = [
-    Known(
-        "flexhrc/events.py (_finite)",
-        ("protocol", "events", "replay", "store"),
-        OverflowError,
-        "int too large to convert to float",
-        "test_events_a_huge_integer_position_is_refused",
-    ),
-    Known(
-        "flexhrc/events.py (solved: 'agents' not checked) -> taskmanager/replay.py",
-        ("replay", "store"),
-        TypeError,
-        "sequence item \\d+: expected str instance",
-        "test_replay_a_solved_event_with_a_null_agent_is_refused",
-    ),
-    Known(
-        "flexhrc/events.py (a non-finite number in an unchecked field is accepted)",
-        ("protocol",),
-        ValueError,
-        "Out of range float values are not JSON compliant",
-        "test_protocol_an_infinite_number_in_any_field_is_refused",
-    ),
-    Known(
-        "flexhrc/events.py (start: 'humans' not checked) -> taskmanager/replay.py",
-        ("replay", "store"),
-        TypeError,
-        "unhashable type",
-        "test_replay_a_start_event_with_unhashable_humans_is_refused",
-    ),
-    Known(
-        "flexhrc/scenario/format.py (values of the wrong type: probe S01-S03, S07)",
-        ("scenario",),
-        (TypeError, ValueError, AttributeError),
-        "",
-        "test_scenario_a_value_of_the_wrong_type_is_a_fault",
-        where="scenario/format.py",
-    ),
-    Known(
-        "flexhrc/scenario/format.py (a YAML alias expanded into a message: probe S32v)",
-        ("scenario",),
-        Unclear,
-        "a message of \\d+ characters",
-        "test_scenario_s32v_an_alias_is_not_expanded_into_a_message",
-    ),
-]
+#: Findings not fixed yet, each pinned by a strict xfail test in test_regressions.py.
+KNOWN: list[Known] = []  # each finding so far is fixed (tests/fuzz/test_regressions.py)
 
 
 def _dumps(v: Any) -> bytes:

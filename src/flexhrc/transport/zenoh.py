@@ -91,6 +91,7 @@ from __future__ import annotations
 import contextlib
 import ipaddress
 import json
+import math
 import logging
 import re
 import socket
@@ -146,9 +147,19 @@ def _refuse_constant(name: str) -> Any:
     raise ValueError(f"{name} is not valid JSON")
 
 
+def _finite_float(text: str) -> float:
+    value = float(text)
+    if not math.isfinite(value):  # 1e999 is valid JSON text, but no number the store can keep
+        raise ValueError(f"{text[:40]} is out of range for a number")
+    return value
+
+
 def json_decode(data: bytes) -> Any:
-    """Inverse of :func:`json_encode`; raises ``ValueError`` on anything that is not strict JSON."""
-    return json.loads(data.decode("utf-8"), parse_constant=_refuse_constant)
+    """Inverse of :func:`json_encode`; raises ``ValueError`` on anything that is not strict JSON
+    (NaN, Infinity, or a number such as 1e999 that overflows to infinity)."""
+    return json.loads(
+        data.decode("utf-8"), parse_constant=_refuse_constant, parse_float=_finite_float
+    )
 
 
 def normalise_endpoint(endpoint: str) -> str:
