@@ -13,8 +13,13 @@ topic               from -> to          message ``type``
 ``intent``          human -> manager    ``operator`` (its profile), ``intent`` (its answer)
 ``percept``         perception -> mgr   ``percept``, ``looked`` (a watcher has looked)
 ``state``           manager -> all      ``state`` (the cell snapshot), ``end``
+``join``            agent -> manager    ``join`` (its name and scenario fingerprint)
 ``alive/<agent>``   liveliness tokens   (``alive/manager`` for the manager)
 ==================  ==================  ====================================================
+
+Run identity (:mod:`flexhrc.cell.identity`): the manager's commands, stops, suggestions,
+``options`` and ``end`` carry the run id as ``run`` (and the first three the scenario's
+``fingerprint``); an agent's answers carry the ``run`` of what they answer.
 
 Every message is a JSON object with ``"v": 1`` and ``"type"``. :func:`parse` checks one against
 its schema in the catalogue (:data:`flexhrc.events.MESSAGES`) and raises :class:`ProtocolError`
@@ -53,6 +58,7 @@ HUMAN_TOPIC = "human"
 PERCEPT_TOPIC = "percept"
 INTENT_TOPIC = "intent"
 STATE_TOPIC = "state"
+JOIN_TOPIC = "join"
 ALIVE_PREFIX = "alive"
 
 

@@ -64,6 +64,9 @@ API (everything below is public and stable):
     ``undeclare()``); it disappears for every watcher when undeclared, when the transport is
     closed, or when the process dies (the TCP link drops: within milliseconds on one host, after
     the lease — 10 s by default — if a remote host vanishes without closing its link).
+  - :meth:`ZenohTransport.liveliness_holders` lists the tokens matching a key expression that
+    are alive now (a liveliness query): a cell's manager and each agent ask for their own key
+    before declaring it, and are refused when another process holds it.
   - :meth:`ZenohTransport.watch_liveliness` calls ``callback(key, alive)`` for tokens matching a
     key expression (wildcards allowed); with ``history=True`` (default) the tokens already alive
     are reported first. Returns a :class:`~flexhrc.transport.Subscription`.
@@ -408,6 +411,24 @@ class ZenohTransport(QueuedDelivery, Transport):
         token = _Token(key, self.session.liveliness().declare_token(full))
         self._tokens.append(token)
         return token
+
+    def liveliness_holders(self, key_expr: str, timeout: float = 1.0) -> list[str]:
+        """The keys of the tokens matching ``key_expr`` alive now (under the prefix, stripped
+        as in :meth:`watch_liveliness`): a query to every connected session, answered within
+        ``timeout`` seconds. A process asks before it declares a token that must have one
+        holder (an agent's name, a cell's manager): the first holder keeps it."""
+        self._check_open()
+        kexpr = self._key(key_expr, wildcards=True)
+        try:
+            replies = list(self.session.liveliness().get(kexpr, timeout=timeout))
+        except Exception as exc:  # zenoh.ZError
+            raise TransportError(f"cannot query the Zenoh liveliness tokens: {exc}") from None
+        keys = []
+        for reply in replies:
+            ok = getattr(reply, "ok", None)
+            if ok is not None:
+                keys.append(self._unkey(str(ok.key_expr)))
+        return sorted(set(keys))
 
     def unsubscribe(self, subscription: Subscription) -> None:
         with self._lock:
