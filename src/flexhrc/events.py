@@ -112,12 +112,12 @@ LogEventType = Literal[
     "human_report_ignored", "human_report_unusable", "human_sensing_uncovered",
     # the manager's, the cell's and the panel's own records (not in a cooperation log)
     "agent_available", "agent_unavailable", "taken", "agent_up", "agent_down", "human_take",
-    "operator", "intent", "options", "dropped", "operator_stop", "operator_resume",
+    "operator", "intent", "options", "dropped", "refused", "operator_stop", "operator_resume",
     "operator_takes",
 ]
 MessageType = Literal[
     "command", "stop", "ack", "suggestion", "human_action", "percept", "answer", "looked",
-    "options", "operator", "intent", "state", "end", "follow", "follow_stop", "join",
+    "options", "operator", "intent", "state", "end", "join", "follow", "follow_stop",
 ]
 StoreKind = Literal[
     "start", "ack", "human_action", "percept", "agent_up", "agent_down", "operator", "intent",
@@ -399,6 +399,8 @@ _LOG_SCHEMAS = [
     _log("intent", "an operator's answer to its options (cell)", ""),
     _log("options", "what an operator may do on its own (cell)", ""),
     _log("dropped", "a malformed message was dropped (cell trace)", ""),
+    _log("refused", "an agent's process of another scenario was refused (cell trace)", "",
+         agent=NAME, reason=NAME),
     _log("operator_stop", "the panel's operator stopped an arm", ""),
     _log("operator_resume", "the panel's operator resumed an arm", ""),
     _log("operator_takes", "the panel's operator takes a hyper-arc", ""),

@@ -624,8 +624,8 @@ class Cell:
         if ev.kind == "start":
             profiles = list((b.get("operators") or {}).values())
             profile = profiles[0] if profiles else "passive"
-            # the cooperation log is the same on every run: without its random run id
-            same = {k: v for k, v in b.items() if k not in (identity.RUN, "fingerprint")}
+            # the cooperation log of `flexhrc run --log` as it always was
+            same = {k: v for k, v in b.items() if k != "fingerprint"}
             return [{"profile": profile, **same, "t": t, "type": "start"}]
         if ev.kind in ("fixed", "human_decides", "human_gives_up", "outcome", "summary"):
             return [{**b, "t": t, "type": ev.kind}]
@@ -1155,7 +1155,9 @@ class Cell:
             if self.refused.get(name) != why:
                 self.refused[name] = why
                 log.error("%s", why)
-                self.trace({"t": round(self.now, 6), "type": "dropped", "reason": why})
+                self.trace(
+                    {"t": round(self.now, 6), "type": "refused", "agent": name, "reason": why}
+                )
             st = self.agents[name]
             if st.alive:
                 st.alive = False
@@ -1381,7 +1383,6 @@ class Cell:
             self._input(
                 "start",
                 {
-                    "run": self.run_id,
                     "agents": list(self.domain.agents),
                     "humans": [n for n, st in self.agents.items() if st.kind == "human"],
                     "scenario": self.scenario.name,
@@ -1514,4 +1515,6 @@ def _percept_of(body: dict[str, Any]) -> dict[str, Any]:
 
 
 def _body(msg: dict[str, Any]) -> dict[str, Any]:
-    return {k: v for k, v in msg.items() if k not in ("v", "type")}
+    """A received message as the input it is (its ``run`` was checked; the store adds it to
+    every row)."""
+    return {k: v for k, v in msg.items() if k not in ("v", "type", identity.RUN)}
