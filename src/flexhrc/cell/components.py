@@ -883,5 +883,6 @@ def _check_single_holder(transport: Any, name: str) -> None:
     if holders is not None and holders(P.alive_key(name)):
         raise FlexhrcError(
             f"agent {name}: another process already serves this agent in the cell (its "
-            f"liveliness token {P.alive_key(name)} is alive); a second one is refused"
+            f"liveliness token {P.alive_key(name)} is alive); a second one is refused (a "
+            "process that just died keeps it until the Zenoh lease ends, about 10 s)"
         )

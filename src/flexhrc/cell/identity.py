@@ -79,20 +79,22 @@ def _plain(value: Any) -> Any:
     return str(value)
 
 
-def fingerprint(scenario: Any) -> str:
+def fingerprint(scenario: Any, *, graph: Any = None, world: Any = None) -> str:
     """The scenario's fingerprint: 16 hex digits of a SHA-256 over its graph (elements, kinds,
     weights), domain (agents, action schemas, processes) and world (objects, facts), as a cell
     and its agents read them. Two processes that load the same scenario (same file, same
     ``--seed``) agree; another task, or the same task with another table, does not. Computed
-    once per scenario object."""
+    once per scenario object; ``graph`` and ``world``: the scenario's fresh online graph and
+    knowledge base when the caller has them already (not yet changed by a run)."""
     cached = getattr(scenario, "_flexhrc_fingerprint", None)
     if isinstance(cached, str):
         return cached
-    graph = scenario.online_graph()
+    graph = scenario.online_graph() if graph is None else graph
+    world = scenario.world() if world is None else world
     shape = {
         "graph": [[n, graph.kind(n), _plain(graph.weight(n))] for n in graph.elements()],
         "domain": _plain(scenario.domain),
-        "world": _plain(scenario.world().to_dict()),
+        "world": _plain(world.to_dict()),
     }
     text = json.dumps(shape, sort_keys=True, separators=(",", ":"))
     out = hashlib.sha256(text.encode()).hexdigest()[:16]

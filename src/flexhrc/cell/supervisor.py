@@ -131,7 +131,6 @@ class Cell:
             self._check_single_manager(transport, name)
         # run identity (flexhrc.cell.identity): a new run's id; a resume takes the stored one
         self.run_id = identity.new_run_id()
-        self.fingerprint = identity.fingerprint(scenario)
         self.refused: dict[str, str] = {}  # agent -> why its process was refused (join)
         self._token_alive: dict[str, bool] = {}  # agent -> its token, as Zenoh reports it
         self.store = store
@@ -155,6 +154,7 @@ class Cell:
         self.graph = scenario.online_graph()
         self.domain = scenario.domain
         self.kb = scenario.world()
+        self.fingerprint = identity.fingerprint(scenario, graph=self.graph, world=self.kb)
         if simulator is None:
             simulator = scenario.make_simulator(None)  # the scenario's own choice
         self.tm = TaskManager(
@@ -1126,7 +1126,8 @@ class Cell:
             raise FlexhrcError(
                 f"--cell {name}: another manager already runs this cell (its liveliness token "
                 f"{P.alive_key(P.MANAGER)} is alive); a second one is refused: stop it first "
-                "or choose another --cell name"
+                "or choose another --cell name (a manager that just died keeps it until the "
+                "Zenoh lease ends, about 10 s)"
             )
 
     def _other_run(self, msg: dict[str, Any]) -> bool:
