@@ -850,15 +850,19 @@ def run_agent(agent: _Agent, transport: Any, *, until: Callable[[], bool] | None
     """Serve until the cell announces its end (returns its outcome) or ``until()`` is true;
     a :class:`~flexhrc.errors.FlexhrcError` when the agent was refused (:attr:`_Agent.fatal`:
     a cell of another scenario, a journal of another run)."""
-    while agent.ended is None and agent.fatal is None and not (until and until()):
+    def fatal() -> str | None:  # an agent of another kind (perception) is never refused
+        return getattr(agent, "fatal", None)
+
+    while agent.ended is None and fatal() is None and not (until and until()):
         due = agent.next_due()
         timeout = 0.2 if due is None else max(0.0, min(0.2, due - time.monotonic()))
         transport.wait(timeout)
         transport.flush()
         agent.poll()
-    if agent.fatal is not None:
+    refused = fatal()
+    if refused is not None:
         transport.flush()  # let the join that names the refusal leave
-        raise FlexhrcError(agent.fatal)
+        raise FlexhrcError(refused)
     return agent.ended or "stopped"
 
 
