@@ -850,6 +850,7 @@ def run_agent(agent: _Agent, transport: Any, *, until: Callable[[], bool] | None
     """Serve until the cell announces its end (returns its outcome) or ``until()`` is true;
     a :class:`~flexhrc.errors.FlexhrcError` when the agent was refused (:attr:`_Agent.fatal`:
     a cell of another scenario, a journal of another run)."""
+
     def fatal() -> str | None:  # an agent of another kind (perception) is never refused
         return getattr(agent, "fatal", None)
 

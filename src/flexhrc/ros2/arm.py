@@ -458,6 +458,7 @@ class ArmNode(RobotAgent):
                 t=round(motion.t_cell + motion.timeout_s, 6),
                 duration=round(motion.timeout_s, 6),
                 positions={},
+                **self._run_field(),
             )
             self.acks[motion.command_id] = ack
             self.transport.publish(P.ACK_TOPIC, ack)
