@@ -574,7 +574,7 @@ _MESSAGE_SCHEMAS = [
          actions=Field((list,)), delay=OPT_TIME, run=RUN),
     _msg("state", "manager → `state`: the cell snapshot"),
     _msg("end", "manager → `state`: the cooperation ended", outcome=Field(S, True), run=RUN),
-    # an agent joins: the manager refuses one of another scenario (its answer: a ``state``
+    # an agent joins: the manager refuses one of another scenario (and answers it with a ``state``
     # with the cell's ``fingerprint``, which the agent compares with its own)
     _msg("join", "agent → `join`: who it is and its scenario's fingerprint",
          agent=Field(S, True), role=Field(S, True, doc="robot or human"),

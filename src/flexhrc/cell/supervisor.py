@@ -1164,9 +1164,11 @@ class Cell:
                 st.alive = False
                 if self.started and st.available:
                     self._agent_down(name)
+            # the answer: a snapshot with this cell's fingerprint (a matching agent gets none,
+            # so the first state of a cell still comes with its start)
+            self._publish_state(force=True)
         elif self.refused.pop(name, None) is not None and self._token_alive.get(name):
             self._on_alive(P.alive_key(name), True)  # this agent's own process: counted now
-        self._publish_state(force=True)
 
     def _own_run(self, events: list[StoredEvent]) -> list[StoredEvent]:
         """The stored events of the run to resume: the store must be of this scenario, seed
