@@ -54,6 +54,8 @@ log = logging.getLogger("flexhrc.cell")
 HUMAN_PROFILES = PROFILES
 # an operator agent's profile goes out again this often until the manager has acknowledged it
 ANNOUNCE_RETRY_S = 0.5
+# how long a process that dials asks whether its agent name is held before taking it
+HOLDER_SETTLE_S = 0.5
 
 
 class ScenarioLike(Protocol):
@@ -885,7 +887,16 @@ def _check_single_holder(transport: Any, name: str) -> None:
     this one (the first holder keeps it). Over a transport that cannot be asked (the
     in-process bus), nothing is checked."""
     holders = getattr(transport, "liveliness_holders", None)
-    if holders is not None and holders(P.alive_key(name)):
+    if holders is None:
+        return
+    # a session that just connected learns the tokens of peers beyond its first one a moment
+    # later: ask again for a short while (at start only) before taking the name as free
+    settle = time.monotonic() + (HOLDER_SETTLE_S if getattr(transport, "dials", False) else 0.0)
+    held = holders(P.alive_key(name))
+    while not held and time.monotonic() < settle:
+        time.sleep(0.02)
+        held = holders(P.alive_key(name))
+    if held:
         raise FlexhrcError(
             f"agent {name}: another process already serves this agent in the cell (its "
             f"liveliness token {P.alive_key(name)} is alive); a second one is refused (a "

@@ -87,6 +87,7 @@ import logging
 import re
 import socket
 import threading
+import time
 from collections.abc import Callable, Sequence
 from typing import Any, Literal
 
@@ -222,7 +223,9 @@ def open_zenoh(
                 f"warning: --listen {ep}: reachable from other hosts; Zenoh's access control "
                 "and TLS are not configured by flexhrc (docs/cell.md)"
             )
-    return ZenohTransport(zenoh_config(listen=listen, connect=connect), prefix=prefix)
+    transport = ZenohTransport(zenoh_config(listen=listen, connect=connect), prefix=prefix)
+    transport.dials = bool(connect)
+    return transport
 
 
 def listening_on(transport: ZenohTransport, configured: Sequence[str]) -> list[str]:
@@ -327,6 +330,9 @@ class ZenohTransport(QueuedDelivery, Transport):
         self._tokens: list[_Token] = []
         self._lock = threading.Lock()
         self._closed = False
+        #: the session dials endpoints (``connect``): a liveliness query first waits until it is
+        #: connected, else it would ask no one (see :meth:`liveliness_holders`)
+        self.dials = False
 
     # -- keys -------------------------------------------------------------------------------
     def _key(self, topic: str, *, wildcards: bool = False) -> str:
@@ -416,9 +422,14 @@ class ZenohTransport(QueuedDelivery, Transport):
         """The keys of the tokens matching ``key_expr`` alive now (under the prefix, stripped
         as in :meth:`watch_liveliness`): a query to every connected session, answered within
         ``timeout`` seconds. A process asks before it declares a token that must have one
-        holder (an agent's name, a cell's manager): the first holder keeps it."""
+        holder (an agent's name, a cell's manager): the first holder keeps it. A session that
+        dials (:attr:`dials`) first waits, up to ``timeout``, until it is connected to a peer
+        or a router: under load the link may come up after the session opened."""
         self._check_open()
         kexpr = self._key(key_expr, wildcards=True)
+        deadline = time.monotonic() + timeout
+        while self.dials and not self._connected() and time.monotonic() < deadline:
+            time.sleep(0.01)  # at start only: polls the link to come up, bounded by timeout
         try:
             replies = list(self.session.liveliness().get(kexpr, timeout=timeout))
         except Exception as exc:  # zenoh.ZError
@@ -429,6 +440,10 @@ class ZenohTransport(QueuedDelivery, Transport):
             if ok is not None:
                 keys.append(self._unkey(str(ok.key_expr)))
         return sorted(set(keys))
+
+    def _connected(self) -> bool:
+        info = self.session.info
+        return bool(list(info.peers_zid()) or list(info.routers_zid()))
 
     def unsubscribe(self, subscription: Subscription) -> None:
         with self._lock:
