@@ -21,7 +21,7 @@ def test_two_seven_dof_arms_with_limits(robot):
         assert arm.dof == 7
         assert np.all(arm.q_min < arm.q_max)
         assert np.all(arm.v_max > 0)
-        assert arm.within_limits(arm.q_rest)
+        assert np.all(arm.q_min <= arm.q_rest) and np.all(arm.q_rest <= arm.q_max)
     assert robot.arm("left").shoulder_xyz[1] > 0 > robot.arm("right").shoulder_xyz[1]
 
 

@@ -13,7 +13,6 @@ from flexhrc.perception.scene import (
     generate_scene,
     publish_objects,
     render_depth,
-    voxel_downsample,
 )
 from flexhrc.perception.scene.bench import match, run_bench
 from flexhrc.perception.scene.primitives import fit_box, fit_cone, fit_cylinder, fit_sphere, pca
@@ -36,16 +35,14 @@ def test_depth_to_cloud_pinhole():
         depth_to_cloud(np.ones((2, 2)), intr)
 
 
-def test_voxel_and_clusters():
+def test_clusters():
     rng = np.random.default_rng(0)
     a = rng.uniform(0, 0.05, (300, 3))
     b = rng.uniform(0, 0.05, (200, 3)) + np.array([0.5, 0.0, 0.0])
     pts = np.vstack([a, b])
-    vox, inv = voxel_downsample(pts, 0.01)
-    assert len(inv) == len(pts) and len(vox) <= len(pts)
-    clusters = euclidean_clusters(vox, 0.03)
-    assert len(clusters) == 2
-    assert len(euclidean_clusters(vox, 0.03, min_points=10**6)) == 0
+    clusters = euclidean_clusters(pts, 0.03)
+    assert sorted(len(c) for c in clusters) == [200, 300]
+    assert len(euclidean_clusters(pts, 0.03, min_points=10**6)) == 0
 
 
 def test_ransac_plane_finds_the_table():

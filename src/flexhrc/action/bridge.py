@@ -155,11 +155,10 @@ class KinematicTaskSimulator:
 
     @staticmethod
     def obstacles(kb: KnowledgeBase) -> list[tuple[float, float, float, float]]:
-        out = []
-        for o in kb.objects_of_type("obstacle"):
-            x, y, z = o.position
-            out.append((x, y, z, float(o.attrs.get("radius", o.size.get("radius", 0.05)))))
-        return out
+        return [
+            (*o.position, float(o.attrs.get("radius", o.size.get("radius", 0.05))))
+            for o in kb.objects_of_type("obstacle")
+        ]
 
     @staticmethod
     def human_hand(kb: KnowledgeBase) -> Vec3 | None:
@@ -172,14 +171,15 @@ class KinematicTaskSimulator:
         return "both"
 
     def _check(self, action: GroundAction) -> str | None:
-        if len(action.agents) != 1:
-            arms = set(self.sim.robot.arm_names)
-            if set(action.agents) != arms or len(action.agents) != len(arms):
-                return (
-                    f"{action}: a joint action needs the robot's arms "
-                    f"{' and '.join(sorted(arms))}, got {', '.join(action.agents)}"
-                )
-        return None
+        arms = set(self.sim.robot.arm_names)
+        if len(action.agents) == 1 or (
+            set(action.agents) == arms and len(action.agents) == len(arms)
+        ):
+            return None
+        return (
+            f"{action}: a joint action needs the robot's arms "
+            f"{' and '.join(sorted(arms))}, got {', '.join(action.agents)}"
+        )
 
     # -- Simulator protocol ---------------------------------------------------------------
     def simulate(

@@ -161,35 +161,32 @@ def parse_obstacle(value: Any, what: str = "obstacle") -> Obstacle:
     ``x y z hx hy hz`` (box)."""
     if isinstance(value, Sphere | Box):
         return value
-    if isinstance(value, Mapping):
-        kind = value.get("type", "sphere")
-        if kind == "sphere":
-            r = _nonneg(value.get("radius", 0.0), f"{what} radius")
-            return Sphere(_three(value.get("center"), f"{what} center"), r)
-        if kind == "box":
-            he = _three(value.get("half_extents"), f"{what} half_extents")
-            if min(he) <= 0:
-                raise FlexhrcError(f"{what} half_extents must be positive, got {list(he)}")
-            return Box(_three(value.get("center"), f"{what} center"), he)
-        raise FlexhrcError(f"{what}: unknown obstacle type {kind!r} (expected 'sphere' or 'box')")
-    try:
-        nums = [float(v) for v in value]
-    except (TypeError, ValueError):
-        raise FlexhrcError(
-            f"{what} must be 'x y z r' (sphere) or 'x y z hx hy hz' (box), got {value!r}"
-        ) from None
-    if not all(math.isfinite(v) for v in nums):
-        raise FlexhrcError(f"{what} must be finite numbers, got {value!r}")
-    if len(nums) == 4:
-        return Sphere((nums[0], nums[1], nums[2]), _nonneg(nums[3], f"{what} radius"))
-    if len(nums) == 6:
-        if min(nums[3:]) <= 0:
-            raise FlexhrcError(f"{what} half extents must be positive, got {nums[3:]}")
-        return Box((nums[0], nums[1], nums[2]), (nums[3], nums[4], nums[5]))
-    raise FlexhrcError(
-        f"{what} must be 4 numbers 'x y z r' (sphere) or 6 numbers 'x y z hx hy hz' (box), "
-        f"got {len(nums)}"
-    )
+    if not isinstance(value, Mapping):  # numbers: checked as the mapping they stand for
+        try:
+            nums = [float(v) for v in value]
+        except (TypeError, ValueError):
+            raise FlexhrcError(
+                f"{what} must be 'x y z r' (sphere) or 'x y z hx hy hz' (box), got {value!r}"
+            ) from None
+        if not all(math.isfinite(v) for v in nums):
+            raise FlexhrcError(f"{what} must be finite numbers, got {value!r}")
+        if len(nums) not in (4, 6):
+            raise FlexhrcError(
+                f"{what} must be 4 numbers 'x y z r' (sphere) or 6 numbers 'x y z hx hy hz' "
+                f"(box), got {len(nums)}"
+            )
+        size = {"radius": nums[3]} if len(nums) == 4 else {"half_extents": nums[3:]}
+        value = {"type": "sphere" if len(nums) == 4 else "box", "center": nums[:3], **size}
+    kind = value.get("type", "sphere")
+    if kind == "sphere":
+        r = _nonneg(value.get("radius", 0.0), f"{what} radius")
+        return Sphere(_three(value.get("center"), f"{what} center"), r)
+    if kind == "box":
+        he = _three(value.get("half_extents"), f"{what} half_extents")
+        if min(he) <= 0:
+            raise FlexhrcError(f"{what} half_extents must be positive, got {list(he)}")
+        return Box(_three(value.get("center"), f"{what} center"), he)
+    raise FlexhrcError(f"{what}: unknown obstacle type {kind!r} (expected 'sphere' or 'box')")
 
 
 def _nonneg(v: Any, what: str) -> float:
@@ -312,9 +309,6 @@ class Objective:
     #: goal objectives store ``(metres, radians)`` of their error at the last ``evaluate``
     last_error: tuple[float, float] = (0.0, 0.0)
 
-    def describe(self) -> dict[str, Any]:
-        return {"kind": self.kind, "priority": self.priority}
-
 
 class JointLimits(Objective):
     """Inequality ``q_min + margin <= q <= q_max - margin`` for every joint of the controlled arms.
@@ -408,9 +402,6 @@ class MinimumDistance(Objective):
             return None
         return Task(np.array(rows_J), np.array(refs), np.array(acts), inequality=True)
 
-    def describe(self) -> dict[str, Any]:
-        return {**super().describe(), "label": self.label, "d_min": self.d_min}
-
 
 class EndEffectorPose(Objective):
     """Equality: TCP of ``arm`` to a goal position and/or orientation.
@@ -484,12 +475,6 @@ class EndEffectorPose(Objective):
             J = np.zeros((rows, ctx.n))
             J[:, k.cols] = Jk
         return Task(J, ref[:rows], None)
-
-    def describe(self) -> dict[str, Any]:
-        d = {**super().describe(), "arm": self.arm}
-        if self.position is not None:
-            d["position"] = self.position.tolist()
-        return d
 
 
 def _slide(v: Array, nrm: Array, a: float) -> Array:

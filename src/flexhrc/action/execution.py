@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -75,14 +75,7 @@ class Command:
             target = target.to_dict()
         elif target is not None:
             target = [float(v) for v in target]
-        return {
-            "action": self.action,
-            "arm": self.arm,
-            "target": target,
-            "object": self.object,
-            "timeout_s": self.timeout_s,
-            "id": self.id,
-        }
+        return {**asdict(self), "target": target}
 
 
 @dataclass(frozen=True)
@@ -118,6 +111,10 @@ class Disturbance:
         if self.at_s is not None and not (math.isfinite(self.at_s) and self.at_s >= 0):
             raise FlexhrcError(f"disturbance at_s must be >= 0 s, got {self.at_s}")
 
+    def affects(self, arms: Sequence[str]) -> bool:
+        """Does this speed or obstacle disturbance act on a command of ``arms``?"""
+        return self.kind != "object_moved" and (self.arm is None or self.arm in arms)
+
     def describe(self) -> str:
         if self.kind == "object_moved":
             return f"object {self.object!r} moved by {list(self.offset)} m"
@@ -140,10 +137,6 @@ class ExecutionReport:
     outcome: ActionOutcome | None = None
     disturbances: list[str] = field(default_factory=list)
     observed: dict[str, Any] = field(default_factory=dict)
-
-    @property
-    def ok(self) -> bool:
-        return self.status == "done"
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -224,20 +217,13 @@ class ExecutionManager:
         self.disturbances.append(d)
         return d
 
-    def clear_disturbances(self) -> None:
-        """Remove speed and obstacle disturbances (moved objects stay where they are)."""
-        self.disturbances = [d for d in self.disturbances if d.kind == "object_moved"]
-
     def _real_obstacles(self) -> list[Obstacle]:
         extra = [parse_obstacle(d.obstacle) for d in self.disturbances if d.kind == "blocked_path"]
         return self.obstacles + extra
 
     def _speed(self, arms: Sequence[str]) -> float:
-        f = 1.0
-        for d in self.disturbances:
-            if d.kind == "slow_arm" and (d.arm is None or d.arm in arms):
-                f = min(f, d.factor)
-        return f
+        slowed = [d.factor for d in self.disturbances if d.kind == "slow_arm" and d.affects(arms)]
+        return min([1.0, *slowed])
 
     # -- commands -------------------------------------------------------------------------------
 
@@ -266,11 +252,7 @@ class ExecutionManager:
             timeout = (
                 expected or self.sim.time_budget_s
             ) * self.timeout_factor + self.timeout_margin_s
-        active = [
-            d.describe()
-            for d in self.disturbances
-            if d.kind != "object_moved" and (d.arm is None or d.arm in arms)
-        ]
+        active = [d.describe() for d in self.disturbances if d.affects(arms)]
         speed = self._speed(arms)
         scheduled = list(self.scheduled)
         events = [
@@ -278,7 +260,7 @@ class ExecutionManager:
                 float(d.at_s or 0.0),
                 obstacle=d.obstacle if d.kind == "blocked_path" else None,
                 velocity_scale=min(speed, d.factor)
-                if d.kind == "slow_arm" and (d.arm is None or d.arm in arms)
+                if d.kind == "slow_arm" and d.affects(arms)
                 else None,
             )
             for d in scheduled
@@ -318,11 +300,7 @@ class ExecutionManager:
                 if cmd.action == "grasp":
                     self.state.holding[a] = False
         self.time_s += out.duration_s
-        self.disturbances = [
-            d
-            for d in self.disturbances
-            if not (d.once and d.kind != "object_moved" and (d.arm is None or d.arm in arms))
-        ]
+        self.disturbances = [d for d in self.disturbances if not (d.once and d.affects(arms))]
         report = ExecutionReport(
             cmd, status, reason, out.duration_s, started, expected, timeout, out, active, observed
         )

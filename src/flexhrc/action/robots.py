@@ -78,6 +78,14 @@ def _fmt(values: tuple[float, ...] | list[float]) -> str:
     return " ".join(f"{v:.12g}" for v in values)
 
 
+def _visual(geometry: str, material: str, origin: str = "") -> str:
+    """URDF visual: a geometry element, a material name, the origin's attributes if any."""
+    at = f"<origin {origin}/>" if origin else ""
+    return (
+        f'    <visual>{at}<geometry>{geometry}</geometry><material name="{material}"/></visual>\n'
+    )
+
+
 def _cylinder_between(vec: tuple[float, float, float], radius: float) -> str:
     """URDF visual of a cylinder from the link origin to ``vec`` (the next joint), for the view."""
     x, y, z = vec
@@ -86,26 +94,15 @@ def _cylinder_between(vec: tuple[float, float, float], radius: float) -> str:
         return ""
     pitch = math.atan2(math.hypot(x, y), z)
     yaw = math.atan2(y, x)
-    return (
-        f'    <visual><origin xyz="{_fmt((x / 2, y / 2, z / 2))}" rpy="0 {pitch:.6g} {yaw:.6g}"/>'
-        f'<geometry><cylinder radius="{radius}" length="{length:.6g}"/></geometry>'
-        '<material name="white"/></visual>\n'
-    )
+    origin = f'xyz="{_fmt((x / 2, y / 2, z / 2))}" rpy="0 {pitch:.6g} {yaw:.6g}"'
+    return _visual(f'<cylinder radius="{radius}" length="{length:.6g}"/>', "white", origin)
 
 
-def _sphere(radius: float, material: str = "grey") -> str:
-    return (
-        f'    <visual><geometry><sphere radius="{radius}"/></geometry>'
-        f'<material name="{material}"/></visual>\n'
-    )
-
-
-def _inertial() -> str:
-    # PyBullet wants an inertial block; the kinematic models ignore it.
-    return (
-        '    <inertial><mass value="1"/>'
-        '<inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial>\n'
-    )
+# PyBullet wants an inertial block; the kinematic models ignore it.
+_INERTIAL = (
+    '    <inertial><mass value="1"/>'
+    '<inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial>\n'
+)
 
 
 def dual_arm_urdf(bases: dict[str, tuple[float, float, float]] | None = None) -> str:
@@ -122,17 +119,12 @@ def dual_arm_urdf(bases: dict[str, tuple[float, float, float]] | None = None) ->
         '  <material name="grey"><color rgba="0.35 0.35 0.38 1"/></material>\n',
         '  <material name="blue"><color rgba="0.2 0.4 0.8 1"/></material>\n',
         '  <link name="torso">\n',
-        '    <visual><origin xyz="-0.05 0 -0.01"/><geometry><box size="0.4 0.6 0.02"/></geometry>'
-        '<material name="grey"/></visual>\n',
-        '    <visual><origin xyz="0 0.15 0.05"/><geometry><cylinder radius="0.07" length="0.1"/>'
-        '</geometry><material name="grey"/></visual>\n',
-        '    <visual><origin xyz="0 -0.15 0.05"/><geometry><cylinder radius="0.07" length="0.1"/>'
-        '</geometry><material name="grey"/></visual>\n',
-        '    <visual><origin xyz="-0.2 0 0.3"/><geometry><box size="0.1 0.3 0.6"/></geometry>'
-        '<material name="grey"/></visual>\n',
-        '    <visual><origin xyz="-0.2 0 0.68"/><geometry><sphere radius="0.1"/></geometry>'
-        '<material name="blue"/></visual>\n',
-        _inertial(),
+        _visual('<box size="0.4 0.6 0.02"/>', "grey", 'xyz="-0.05 0 -0.01"'),
+        _visual('<cylinder radius="0.07" length="0.1"/>', "grey", 'xyz="0 0.15 0.05"'),
+        _visual('<cylinder radius="0.07" length="0.1"/>', "grey", 'xyz="0 -0.15 0.05"'),
+        _visual('<box size="0.1 0.3 0.6"/>', "grey", 'xyz="-0.2 0 0.3"'),
+        _visual('<sphere radius="0.1"/>', "blue", 'xyz="-0.2 0 0.68"'),
+        _INERTIAL,
         "  </link>\n",
     ]
     for arm in ARM_NAMES:
@@ -155,9 +147,9 @@ def dual_arm_urdf(bases: dict[str, tuple[float, float, float]] | None = None) ->
             nxt = origins[i + 1][0]
             out.append(
                 f'  <link name="{link}">\n'
-                + _sphere(0.06)
+                + _visual('<sphere radius="0.06"/>', "grey")
                 + _cylinder_between(nxt, 0.05)
-                + _inertial()
+                + _INERTIAL
                 + "  </link>\n"
             )
             parent = link
@@ -168,43 +160,34 @@ def dual_arm_urdf(bases: dict[str, tuple[float, float, float]] | None = None) ->
             f'    <origin xyz="0 0 {PANDA_FLANGE_Z}" rpy="0 0 {-math.pi / 4:.12g}"/>\n'
             "  </joint>\n"
             f'  <link name="{arm}_hand">\n'
-            '    <visual><origin xyz="0 0 0.03"/><geometry><box size="0.05 0.2 0.06"/></geometry>'
-            '<material name="white"/></visual>\n'
-            '    <visual><origin xyz="0 0.04 0.08"/><geometry><box size="0.02 0.02 0.05"/>'
-            '</geometry><material name="grey"/></visual>\n'
-            '    <visual><origin xyz="0 -0.04 0.08"/><geometry><box size="0.02 0.02 0.05"/>'
-            '</geometry><material name="grey"/></visual>\n' + _inertial() + "  </link>\n"
+            + _visual('<box size="0.05 0.2 0.06"/>', "white", 'xyz="0 0 0.03"')
+            + _visual('<box size="0.02 0.02 0.05"/>', "grey", 'xyz="0 0.04 0.08"')
+            + _visual('<box size="0.02 0.02 0.05"/>', "grey", 'xyz="0 -0.04 0.08"')
+            + _INERTIAL
+            + "  </link>\n"
             f'  <joint name="{arm}_tcp_joint" type="fixed">\n'
             f'    <parent link="{arm}_hand"/><child link="{arm}_tcp"/>\n'
             f'    <origin xyz="0 0 {PANDA_TCP_Z}" rpy="0 0 0"/>\n'
             "  </joint>\n"
-            f'  <link name="{arm}_tcp">\n' + _inertial() + "  </link>\n"
+            f'  <link name="{arm}_tcp">\n' + _INERTIAL + "  </link>\n"
         )
     out.append("</robot>\n")
     return "".join(out)
 
 
 _PIN: Any = None
+_LWA: Any = None  # pinocchio's LOCAL_WORLD_ALIGNED frame, read once: kinematics runs each step
 
 
 def _import_pinocchio() -> Any:
-    global _PIN
+    global _PIN, _LWA
     if _PIN is None:
         try:
             import pinocchio
         except ImportError as exc:  # pragma: no cover - depends on the environment
             raise OptionalDependencyError("kinematic robot models", "sim", "pin") from exc
-        _PIN = pinocchio
+        _PIN, _LWA = pinocchio, pinocchio.ReferenceFrame.LOCAL_WORLD_ALIGNED
     return _PIN
-
-
-_LWA: Any = None
-
-
-def _lwa() -> Any:
-    global _LWA
-    _LWA = _import_pinocchio().ReferenceFrame.LOCAL_WORLD_ALIGNED
-    return _LWA
 
 
 @dataclass
@@ -259,11 +242,8 @@ class ArmModel:
         pin = _PIN or _import_pinocchio()
         pin.computeJointJacobians(self.model, self.data, q)
         oMf = pin.updateFramePlacement(self.model, self.data, self.tcp_frame)
-        J = pin.getFrameJacobian(self.model, self.data, self.tcp_frame, _LWA or _lwa())
+        J = pin.getFrameJacobian(self.model, self.data, self.tcp_frame, _LWA)
         return oMf.translation.copy(), oMf.rotation.copy(), J
-
-    def within_limits(self, q: Array, tol: float = 1e-9) -> bool:
-        return bool(np.all(q >= self.q_min - tol) and np.all(q <= self.q_max + tol))
 
 
 @dataclass
@@ -369,10 +349,3 @@ def _measure_workspace(pin: Any, arm: ArmModel, samples: int = 2000) -> None:
         pin.forwardKinematics(m, d, q)
         best = max(best, float(np.linalg.norm(d.oMi[6].translation - d.oMi[2].translation)))
     arm.reach_m = 1.02 * best
-
-
-def write_default_urdf(path: Path = DEFAULT_URDF) -> Path:
-    """(Re)write the shipped URDF from :func:`dual_arm_urdf` (used when the parameters change)."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(dual_arm_urdf(), encoding="utf-8")
-    return path

@@ -40,7 +40,7 @@ import math
 import time
 from collections import OrderedDict
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from typing import Any
 
 import numpy as np
@@ -54,7 +54,6 @@ from flexhrc.action.control import (
     build_objectives,
     load_lapack,
     parse_obstacle,
-    rotation_log,
     top_down_rotation,
     yaw_of,
 )
@@ -218,21 +217,12 @@ class ActionSpec:
         return replace(self, hierarchy=tuple(s for s in self.hierarchy if s.kind not in kinds))
 
     def to_dict(self) -> dict[str, Any]:
-        return {
-            "name": self.name,
-            "goal": self.goal,
-            "gripper": self.gripper,
-            "gripper_time_s": self.gripper_time_s,
-            "approach_height": self.approach_height,
-            "turn_rad": self.turn_rad,
-            "speed_scale": self.speed_scale,
-            "default_target": None if self.default_target is None else list(self.default_target),
-            "yaw_period": self.yaw_period,
-            "untargeted_offset": None
-            if self.untargeted_offset is None
-            else list(self.untargeted_offset),
-            "hierarchy": [s.to_dict() for s in self.hierarchy],
-        }
+        """The fields, points as lists and the hierarchy last (what :meth:`from_dict` reads)."""
+        d = {f.name: getattr(self, f.name) for f in fields(self)}
+        for key in ("default_target", "untargeted_offset"):
+            d[key] = None if d[key] is None else list(d[key])
+        d["hierarchy"] = [s.to_dict() for s in d.pop("hierarchy")]
+        return d
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> ActionSpec:
@@ -312,8 +302,9 @@ class Trajectory:
         """Chain trajectories in time (each part starts where the previous ended)."""
         arms = tuple(dict.fromkeys(a for p in parts for a in p.arms))
         ts: list[Array] = []
-        qs: list[tuple[str, Array | None, int]] = []
+        qs: dict[str, list[Array]] = {a: [] for a in arms}
         tcps: dict[str, list[Array]] = {a: [] for a in arms}
+        last = {a: np.full(7, np.nan) for a in arms}  # NaN until the arm first moves
         offset = 0.0
         for p in parts:
             if len(p) == 0:
@@ -322,28 +313,17 @@ class Trajectory:
             offset = float(ts[-1][-1])
             for a in arms:
                 if a in p.arms:
-                    qs_a = p.arm_q(a)
+                    qs[a].append(p.arm_q(a))
                     tcps[a].append(p.tcp[a])
                 else:  # arm idle in this part: hold its last known value
-                    qs_a = None
+                    qs[a].append(np.tile(last[a], (len(p), 1)))
                     tcps[a].append(np.full((len(p), 3), np.nan))
-                qs.append((a, qs_a, len(p)))
-        q_cols: dict[str, list[Array]] = {a: [] for a in arms}
-        last: dict[str, Array | None] = {a: None for a in arms}
-        for a, qa, n in qs:
-            if qa is None:
-                held = last[a]
-                qa = np.tile(np.full(7, np.nan) if held is None else held, (n, 1))
-            q_cols[a].append(qa)
-            last[a] = qa[-1]
-        t = np.concatenate(ts) if ts else np.zeros(0)
-        q = (
-            np.hstack([np.concatenate(q_cols[a]) for a in arms])
-            if ts
-            else np.zeros((0, 7 * len(arms)))
-        )
-        tcp = {a: np.concatenate(tcps[a]) if ts else np.zeros((0, 3)) for a in arms}
-        return Trajectory(arms, t, q, tcp)
+                last[a] = qs[a][-1][-1]
+        if not ts:
+            empty = {a: np.zeros((0, 3)) for a in arms}
+            return Trajectory(arms, np.zeros(0), np.zeros((0, 7 * len(arms))), empty)
+        q = np.hstack([np.concatenate(qs[a]) for a in arms])
+        return Trajectory(arms, np.concatenate(ts), q, {a: np.concatenate(tcps[a]) for a in arms})
 
 
 @dataclass
@@ -487,11 +467,7 @@ def _cache_key(
         key = (arm, act, tgt, state, obs, hand, budget, velocity_scale, record, evs)
         hash(key)
         return key
-    except (
-        TypeError,
-        ValueError,
-        AttributeError,
-    ):  # pragma: no cover - unusual inputs: just do not cache
+    except (TypeError, ValueError, AttributeError):  # pragma: no cover - odd input: no caching
         return None
 
 
@@ -591,23 +567,15 @@ class KinematicSimulator:
         velocities (the execution manager's ``slow_arm`` disturbance); ``events`` change the
         world during the action (:class:`SimEvent`).
         """
-        obstacles = list(obstacles)
-        key = None
-        if self.cache_size > 0:
-            key = _cache_key(
-                arm, action, target, start, obstacles, human_hand, time_budget_s, velocity_scale,
-                record, events,
-            )  # fmt: skip
-            hit = self._cache.get(key) if key is not None else None
-            if hit is not None:
-                self._cache.move_to_end(key)
-                return replace(hit, final_state=hit.final_state.copy(), wall_s=0.0)
+        request = (arm, action, target, start, list(obstacles), human_hand, time_budget_s,
+                   velocity_scale, record, events)  # fmt: skip
+        key = _cache_key(*request) if self.cache_size > 0 else None
+        hit = self._cache.get(key) if key is not None else None
+        if hit is not None:
+            self._cache.move_to_end(key)
+            return replace(hit, final_state=hit.final_state.copy(), wall_s=0.0)
         with _single_threaded():
-            out = self._simulate(
-                arm, action, target, start=start, obstacles=obstacles, human_hand=human_hand,
-                time_budget_s=time_budget_s, velocity_scale=velocity_scale, record=record,
-                events=events,
-            )  # fmt: skip
+            out = self._simulate(*request)
         if key is not None:
             self._cache[key] = replace(out, final_state=out.final_state.copy())
             if len(self._cache) > self.cache_size:
@@ -618,17 +586,16 @@ class KinematicSimulator:
         self,
         arm: str,
         action: str | ActionSpec,
-        target: Pose | Sequence[float] | None = None,
-        *,
-        start: RobotState | None = None,
-        obstacles: Iterable[Any] = (),
-        human_hand: Sequence[float] | None = None,
-        time_budget_s: float | None = None,
-        velocity_scale: float = 1.0,
-        record: bool = True,
-        events: Sequence[SimEvent] = (),
+        target: Pose | Sequence[float] | None,
+        start: RobotState | None,
+        obstacles: list[Any],
+        human_hand: Sequence[float] | None,
+        time_budget_s: float | None,
+        velocity_scale: float,
+        record: bool,
+        events: Sequence[SimEvent],
     ) -> ActionOutcome:
-        """See :meth:`simulate`."""
+        """:meth:`simulate` without the cache (the same arguments, in their order)."""
         t_wall = time.perf_counter()
         spec = _action_spec(action, self.actions)
         arms = _arms_of(arm, self.robot)
@@ -991,11 +958,6 @@ def _xyz(p: Array) -> str:
     return "(" + ", ".join(f"{v:.3f}" for v in p) + ")"
 
 
-def orientation_error(R_goal: Array, R: Array) -> float:
-    """Angle (rad) between two rotations."""
-    return float(np.linalg.norm(rotation_log(R_goal @ R.T)))
-
-
 __all__ = [
     "ACTIONS",
     "ARM_NAMES",
@@ -1008,5 +970,4 @@ __all__ = [
     "SequenceOutcome",
     "SimEvent",
     "Trajectory",
-    "orientation_error",
 ]

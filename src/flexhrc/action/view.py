@@ -13,53 +13,23 @@ atomically (:mod:`flexhrc.files`), so no folder is created here.
 
 from __future__ import annotations
 
-import contextlib
-import os
-import sys
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from flexhrc.action.control import Box, Sphere, parse_obstacle
+from flexhrc.action.control import Sphere, parse_obstacle
 from flexhrc.action.robots import DEFAULT_URDF
 from flexhrc.action.simulator import Trajectory
 from flexhrc.errors import FlexhrcError, OptionalDependencyError
+from flexhrc.perception.scene.sim_render import _pybullet
 
 VIEW_SUFFIXES = (".png", ".gif")
 OBSTACLE_RGBA = (0.85, 0.15, 0.1, 1)
 HAND_RGBA = (0.95, 0.75, 0.6, 1)
 GOAL_RGBA = (0.1, 0.8, 0.2, 1)
 PATH_RGBA = (0.2, 0.4, 0.9, 1)
-
-
-@contextlib.contextmanager
-def _stdout_to_stderr() -> Iterator[None]:
-    """PyBullet's C library prints its build time on stdout when imported; under ``--json``
-    stdout must hold the JSON document only, so the file descriptor is pointed at stderr."""
-    try:
-        fd = sys.stdout.fileno()
-    except (AttributeError, OSError, ValueError):  # captured stdout (tests): nothing to redirect
-        yield
-        return
-    sys.stdout.flush()
-    saved = os.dup(fd)
-    try:
-        os.dup2(sys.stderr.fileno(), fd)
-        yield
-    finally:
-        os.dup2(saved, fd)
-        os.close(saved)
-
-
-def _import_pybullet() -> Any:
-    try:
-        with _stdout_to_stderr():
-            import pybullet
-    except ImportError as exc:  # pragma: no cover - depends on the environment
-        raise OptionalDependencyError("the trajectory view", "sim", "pybullet") from exc
-    return pybullet
 
 
 def _project(view: Sequence[float], proj: Sequence[float], xyz: Sequence[float], w: int, h: int):
@@ -144,7 +114,7 @@ def render(
         raise FlexhrcError(f"--view: {out}: the view is saved as .png or .gif")
     if len(trajectory) == 0:
         raise FlexhrcError("nothing to view: the trajectory is empty")
-    p = _import_pybullet()
+    p = _pybullet("the trajectory view")  # stdout stays clean for --json
     Image = _import_pil()
     cid = p.connect(p.DIRECT)
     try:
@@ -157,13 +127,11 @@ def render(
         marks: list[tuple[str, Sequence[float]]] = []  # (label, world point)
         parsed = [parse_obstacle(o) for o in obstacles]
         for n, obs in enumerate(parsed, 1):
-            name = "obstacle" if len(parsed) == 1 else f"obstacle {n}"
             if isinstance(obs, Sphere):
                 _visual(p, cid, "sphere", max(obs.radius, 0.01), obs.center, OBSTACLE_RGBA)
-                marks.append((name, obs.center))
-            elif isinstance(obs, Box):
+            else:
                 _visual(p, cid, "box", obs.half_extents, obs.center, OBSTACLE_RGBA)
-                marks.append((name, obs.center))
+            marks.append(("obstacle" if len(parsed) == 1 else f"obstacle {n}", obs.center))
         if human_hand is not None:
             _visual(p, cid, "sphere", 0.04, human_hand, HAND_RGBA)
             marks.append(("human hand", human_hand))
@@ -185,18 +153,14 @@ def render(
             legend.append(("human hand (kept 15 cm away)", HAND_RGBA))
 
         def pose(k: int) -> None:
-            for arm_name, q_rest in (rest or {}).items():
+            moving = [(a, trajectory.arm_q(a)[k]) for a in trajectory.arms]
+            for arm_name, q in [*(rest or {}).items(), *moving]:
+                if not np.all(np.isfinite(q)):  # arm idle before its first action: at rest
+                    continue
                 for i in range(7):
                     j = joints.get(f"{arm_name}_joint{i + 1}")
                     if j is not None:
-                        p.resetJointState(robot, j, float(q_rest[i]), physicsClientId=cid)
-            for arm_name in trajectory.arms:
-                q = trajectory.arm_q(arm_name)[k]
-                if not np.all(np.isfinite(q)):  # arm idle before its first action
-                    continue
-                for i in range(7):
-                    p.resetJointState(robot, joints[f"{arm_name}_joint{i + 1}"], float(q[i]),
-                                      physicsClientId=cid)  # fmt: skip
+                        p.resetJointState(robot, j, float(q[i]), physicsClientId=cid)
 
         view = p.computeViewMatrix(cameraEyePosition=[1.75, 1.0, 1.25],
                                    cameraTargetPosition=[0.3, 0.0, 0.3],

@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from flexhrc.errors import FormatError, UnknownNameError
+from flexhrc.perception._io import load_yaml
 from flexhrc.perception.human.online import OnlineRecognizer, RecognisedAction
 
 
@@ -59,19 +60,7 @@ class ActionMapping:
 
     @classmethod
     def load(cls, path: str | Path) -> ActionMapping:
-        import yaml
-
-        path = Path(path)
-        try:
-            data = yaml.safe_load(path.read_text(encoding="utf-8"))
-        except OSError as exc:
-            raise FormatError(f"cannot read: {exc.strerror}", path) from None
-        except yaml.YAMLError as exc:
-            line = getattr(getattr(exc, "problem_mark", None), "line", None)
-            raise FormatError(
-                f"invalid YAML: {exc}", path, None if line is None else line + 1
-            ) from None
-        return cls.from_dict(data or {}, str(path))
+        return cls.from_dict(load_yaml(path) or {}, str(path))
 
     def check(self, known: Iterable[str]) -> None:
         """Raise if the mapping names actions the recogniser does not know."""

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 
 import numpy as np
@@ -38,6 +38,10 @@ FORMAT_VERSION = 1
 
 #: Feature groups modelled by separate GMMs: gravity (0..2) and body (3..5), as in Bruno et al.
 DEFAULT_GROUPS: tuple[tuple[int, ...], ...] = ((0, 1, 2), (3, 4, 5))
+
+#: What a model file keeps of each action model (with its arrays), in the order of the file's
+#: metadata; of the recogniser it keeps every parameter.
+_SAVED_MODEL = ("name", "length", "threshold", "n_components", "log_length_mean", "log_length_std")
 
 
 def gmr(
@@ -87,11 +91,9 @@ class ActionModel:
     log_length_std: float = 1.0
     duration_weight: float = 0.0
     _precisions: list[np.ndarray] = field(default_factory=list, repr=False, compare=False)
-    _logdets: list[np.ndarray] = field(default_factory=list, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         self._precisions = [np.linalg.inv(c) for c in self.covariances]
-        self._logdets = [np.linalg.slogdet(c)[1] for c in self.covariances]
 
     @property
     def n_features(self) -> int:
@@ -128,19 +130,8 @@ class ActionModel:
             total += float(np.mean(np.sqrt(np.maximum(m2, 0.0) / len(g))))
         return total / len(self.groups)
 
-    def neg_log_likelihood(self, features: np.ndarray) -> float:
-        """Mean negative log-likelihood per sample and feature under the GMR template."""
-        x = resample(features, self.length)
-        total = 0.0
-        for g, mu, prec, logdet in zip(
-            self.groups, self.means, self._precisions, self._logdets, strict=True
-        ):
-            d = x[:, list(g)] - mu
-            m2 = np.einsum("ld,lde,le->l", d, prec, d)
-            total += float(np.mean(0.5 * (m2 + logdet + len(g) * np.log(2 * np.pi)))) / len(g)
-        return total / len(self.groups)
 
-
+@dataclass(eq=False)
 class GMMGMRRecognizer:
     """Human motion primitive recogniser: one GMM/GMR template per action.
 
@@ -166,28 +157,20 @@ class GMMGMRRecognizer:
         seed of the GMM initialisation and sub-sampling (results are deterministic).
     """
 
-    def __init__(
-        self,
-        max_components: int = 4,
-        threshold_quantile: float = 0.95,
-        threshold_scale: float = 2.0,
-        min_std: float = 0.01,
-        max_points: int = 2000,
-        duration_weight: float = 0.1,
-        preprocessor: Preprocessor | None = None,
-        groups: tuple[tuple[int, ...], ...] = DEFAULT_GROUPS,
-        random_state: int = 0,
-    ):
-        self.max_components = max_components
-        self.threshold_quantile = threshold_quantile
-        self.threshold_scale = threshold_scale
-        self.min_std = min_std
-        self.max_points = max_points
-        self.duration_weight = duration_weight
-        self.preprocessor = preprocessor or Preprocessor()
-        self.groups = groups
-        self.random_state = random_state
-        self.models_: dict[str, ActionModel] = {}
+    max_components: int = 4
+    threshold_quantile: float = 0.95
+    threshold_scale: float = 2.0
+    min_std: float = 0.01
+    max_points: int = 2000
+    duration_weight: float = 0.1
+    preprocessor: Preprocessor = field(default_factory=Preprocessor)
+    groups: tuple[tuple[int, ...], ...] = DEFAULT_GROUPS
+    random_state: int = 0
+    models_: dict[str, ActionModel] = field(default_factory=dict, init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        if self.preprocessor is None:  # accepted, as before: the default pre-processing
+            self.preprocessor = Preprocessor()
 
     # ----------------------------------------------------------------------------------- fit
     def _validate(self) -> None:
@@ -313,26 +296,12 @@ class GMMGMRRecognizer:
             "format": "flexhrc-hmp-gmr",
             "version": FORMAT_VERSION,
             "params": {
-                "max_components": self.max_components,
-                "threshold_quantile": self.threshold_quantile,
-                "threshold_scale": self.threshold_scale,
-                "min_std": self.min_std,
-                "max_points": self.max_points,
-                "duration_weight": self.duration_weight,
-                "random_state": self.random_state,
+                **{k: getattr(self, k) for k in _saved_params()},
                 "groups": [list(g) for g in self.groups],
                 "preprocessor": asdict(self.preprocessor),
             },
             "models": [
-                {
-                    "name": m.name,
-                    "length": m.length,
-                    "threshold": m.threshold,
-                    "n_components": m.n_components,
-                    "log_length_mean": m.log_length_mean,
-                    "log_length_std": m.log_length_std,
-                }
-                for m in (self.models_[c] for c in self.classes_)
+                {k: getattr(self.models_[c], k) for k in _SAVED_MODEL} for c in self.classes_
             ],
         }
         arrays: dict[str, np.ndarray] = {"meta": np.array(json.dumps(meta))}
@@ -389,32 +358,25 @@ class GMMGMRRecognizer:
         p = meta["params"]
         groups = tuple(tuple(g) for g in p["groups"])
         rec = cls(
-            max_components=p["max_components"],
-            threshold_quantile=p["threshold_quantile"],
-            threshold_scale=p["threshold_scale"],
-            min_std=p["min_std"],
-            max_points=p["max_points"],
-            duration_weight=p["duration_weight"],
+            **{k: p[k] for k in _saved_params()},
             preprocessor=Preprocessor(**p["preprocessor"]),
             groups=groups,
-            random_state=p["random_state"],
         )
         for i, m in enumerate(meta["models"]):
-            means = [arrays[f"m{i}_g{j}_mean"] for j in range(len(groups))]
-            covs = [arrays[f"m{i}_g{j}_cov"] for j in range(len(groups))]
             rec.models_[m["name"]] = ActionModel(
-                m["name"],
-                m["length"],
-                means,
-                covs,
-                m["n_components"],
-                m["threshold"],
-                groups,
-                m["log_length_mean"],
-                m["log_length_std"],
-                p["duration_weight"],
+                **{k: m[k] for k in _SAVED_MODEL},
+                means=[arrays[f"m{i}_g{j}_mean"] for j in range(len(groups))],
+                covariances=[arrays[f"m{i}_g{j}_cov"] for j in range(len(groups))],
+                groups=groups,
+                duration_weight=p["duration_weight"],
             )
         return rec
+
+
+def _saved_params() -> list[str]:
+    """The recogniser's plain parameters, in their order (groups and pre-processor apart)."""
+    plain = (f.name for f in fields(GMMGMRRecognizer) if f.init)
+    return [name for name in plain if name not in ("preprocessor", "groups")]
 
 
 def _as_trials(X, y, rate_hz: float) -> list[Trial]:

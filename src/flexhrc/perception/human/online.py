@@ -16,7 +16,7 @@ within one window length, usually a fraction of a second. The confidence is
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -124,11 +124,6 @@ class OnlineRecognizer:
             out.extend(self.push(samples[start : start + chunk]))
         out.extend(self.finish())
         return out
-
-    def iter_replay(self, samples: np.ndarray, chunk: int = 32) -> Iterator[RecognisedAction]:
-        for start in range(0, len(samples), chunk):
-            yield from self.push(samples[start : start + chunk])
-        yield from self.finish()
 
     # ---------------------------------------------------------------------------- internals
     def _append(self, feats: np.ndarray) -> None:

@@ -18,7 +18,7 @@ synthetic motions (``pick_up``, ``put_down``, ``screw``, ``wave``; no dataset ne
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from typing import Any
 
 from flexhrc.perception.human.mapping import ActionMapping
@@ -41,14 +41,8 @@ class Sensed:
     latency_s: float  # from the end of the motion to the recognition
 
     def to_dict(self) -> dict[str, Any]:
-        return {
-            "performed": self.performed,
-            "recognised": self.recognised,
-            "motion": self.motion,
-            "confidence": round(self.confidence, 4),
-            "samples": self.samples,
-            "latency_s": round(self.latency_s, 4),
-        }
+        rounded = {"confidence": round(self.confidence, 4), "latency_s": round(self.latency_s, 4)}
+        return {**asdict(self), **rounded}
 
 
 def train_toy_model(seed: int = 0) -> GMMGMRRecognizer:

@@ -48,10 +48,6 @@ class SimulatedWearable:
         self.deviation = deviation
         self._rng = np.random.default_rng(seed)
 
-    @property
-    def actions(self) -> list[str]:
-        return self.model.classes_
-
     def stream(self, action_name: str, lead_s: float = 0.0, tail_s: float = 0.0) -> np.ndarray:
         """One execution of ``action_name`` (optionally framed by still periods), in g.
 
@@ -82,9 +78,8 @@ class SimulatedWearable:
         if pre.body_smoothing_s > 0:
             # The body features are the smoothed |body acceleration|. A sinusoidal carrier per
             # axis (2.5-4 Hz: arm motion, above the gravity cut-off) has a steady |.| average
-            # of 2/π, so
-            # ``envelope × π/2 × carrier`` reproduces the modelled energy without the
-            # fluctuations a noise carrier would add.
+            # of 2/π, so ``envelope × π/2 × carrier`` reproduces the modelled energy without
+            # the fluctuations a noise carrier would add.
             t = np.arange(n) / self.rate_hz
             freq = self._rng.uniform(2.5, 4.0, 3)
             phase = self._rng.uniform(0.0, 2 * np.pi, 3)

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from flexhrc.perception.scene.anchoring import Anchoring, AnchoringReport
 from flexhrc.perception.scene.classify import ClassificationRule, RuleSet
-from flexhrc.perception.scene.cloud import depth_to_cloud, voxel_downsample
+from flexhrc.perception.scene.cloud import depth_to_cloud
 from flexhrc.perception.scene.pipeline import ScenePerception, Tracker
 from flexhrc.perception.scene.synthetic import Scene, SceneObject, generate_scene, render_depth
 from flexhrc.perception.scene.types import (
@@ -40,5 +40,4 @@ __all__ = [
     "generate_scene",
     "publish_objects",
     "render_depth",
-    "voxel_downsample",
 ]

@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Iterable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import numpy as np
@@ -60,17 +60,7 @@ class AnchoringReport:
     ignored: int = 0  # percepts of no known type
 
     def to_dict(self) -> dict[str, Any]:
-        return {
-            "frame": self.frame,
-            "t": round(self.t, 6),
-            "anchored": dict(self.anchored),
-            "new_objects": list(self.new_objects),
-            "moved": list(self.moved),
-            "missing": list(self.missing),
-            "inconsistencies": list(self.inconsistencies),
-            "cleared": list(self.cleared),
-            "ignored": self.ignored,
-        }
+        return {**asdict(self), "t": round(self.t, 6)}
 
 
 class Anchoring:
@@ -112,8 +102,6 @@ class Anchoring:
         self.last_seen: dict[str, tuple[tuple[float, float, float], float]] = {}
         self.misses: dict[str, int] = {}
         self.reported_missing: set[str] = set()
-        self.created: list[str] = []
-        self.history: dict[str, set[str]] = {}  # symbol -> every percept type anchored to it
         self.expected: set[str] = set()  # beliefs the next percepts must confirm
 
     def expect(self, symbol: str) -> None:
@@ -147,6 +135,26 @@ class Anchoring:
             and self._h(seen[0], rec.position) > self.gate_m
         )
 
+    def _assign(
+        self,
+        percepts: Sequence[DetectedObject],
+        symbols: Sequence[ObjectRecord],
+        cost: Callable[[DetectedObject, ObjectRecord], float | None],
+    ) -> list[tuple[int, int]]:
+        """The optimal pairs ``(percept index, symbol index)`` of compatible types (Hungarian
+        assignment); ``cost`` None: the pair is never made."""
+        if not percepts or not symbols:
+            return []
+        optimize = require("scipy.optimize", "anchoring percepts")
+        matrix = np.full((len(percepts), len(symbols)), _BIG)
+        for i, p in enumerate(percepts):
+            for j, s in enumerate(symbols):
+                c = cost(p, s) if self.kb.compatible(s.type, p.type) else None
+                if c is not None:
+                    matrix[i, j] = c
+        rows, cols = optimize.linear_sum_assignment(matrix)
+        return [(int(r), int(c)) for r, c in zip(rows, cols, strict=True) if matrix[r, c] < _BIG]
+
     # -- one frame ------------------------------------------------------------------------
     def update(self, percepts: Sequence[DetectedObject], now: float) -> AnchoringReport:
         """Anchor one frame's percepts at time ``now`` (s); updates the base."""
@@ -157,58 +165,38 @@ class Anchoring:
         good = [p for p in percepts if p.type != "unknown" and self._known(p.type)]
         report.ignored = len(percepts) - len(good)
         symbols = self.symbols()
-        optimize = require("scipy.optimize", "anchoring percepts") if good and symbols else None
-        pending = set(range(len(good)))
         unmatched = {s.id for s in symbols}
         was_inconsistent = {i.object_id for i in self.kb.inconsistencies}
 
         # 1. gated assignment against the belief
-        if optimize is not None:
-            cost = np.full((len(good), len(symbols)), _BIG)
-            for i, p in enumerate(good):
-                for j, s in enumerate(symbols):
-                    if not self.kb.compatible(s.type, p.type):
-                        continue
-                    if not s.anchored:
-                        cost[i, j] = self.gate_m
-                        continue
-                    d = self._h(p.position, s.position)
-                    # a fixed part cannot have moved: only a percept where it is can be it
-                    gate = 2 * self.kb.position_tolerance if s.fixed else self.gate_m
-                    if d <= gate + (0.0 if s.fixed else self._hidden(s, p) / 2):
-                        cost[i, j] = d
-            rows, cols = optimize.linear_sum_assignment(cost)
-            for r, c in zip(rows, cols, strict=True):
-                if cost[r, c] >= _BIG:
-                    continue
-                p, s = good[int(r)], symbols[int(c)]
-                partial = s.anchored and self._hidden(s, p) > 0.0
-                shift = self._h(p.position, s.position) if s.anchored else 0.0
-                ok = self._apply(s, p, now, report, keep_position=partial)
-                if ok and not partial and shift > self.move_threshold_m:
-                    report.moved.append(s.id)
-                pending.discard(int(r))
-                unmatched.discard(s.id)
+        def belief_cost(p: DetectedObject, s: ObjectRecord) -> float | None:
+            if not s.anchored:
+                return self.gate_m
+            d = self._h(p.position, s.position)
+            # a fixed part cannot have moved: only a percept where it is can be it
+            gate = 2 * self.kb.position_tolerance if s.fixed else self.gate_m
+            return d if d <= gate + (0.0 if s.fixed else self._hidden(s, p) / 2) else None
+
+        pairs = self._assign(good, symbols, belief_cost)
+        for i, j in pairs:
+            p, s = good[i], symbols[j]
+            partial = s.anchored and self._hidden(s, p) > 0.0
+            shift = self._h(p.position, s.position) if s.anchored else 0.0
+            ok = self._apply(s, p, now, report, keep_position=partial)
+            if ok and not partial and shift > self.move_threshold_m:
+                report.moved.append(s.id)
+            unmatched.discard(s.id)
+        paired = {i for i, _ in pairs}
 
         # 2. continuity: what is left, against where it was last seen
-        left = [good[i] for i in sorted(pending)]
+        left = [p for i, p in enumerate(good) if i not in paired]
         olds = [s for s in symbols if s.id in unmatched and s.id in self.last_seen and not s.fixed]
-        if left and olds and optimize is not None:
-            cost = np.full((len(left), len(olds)), _BIG)
-            for i, p in enumerate(left):
-                for j, s in enumerate(olds):
-                    if self.kb.compatible(s.type, p.type):
-                        cost[i, j] = self._h(p.position, self.last_seen[s.id][0])
-            rows, cols = optimize.linear_sum_assignment(cost)
-            consumed = set()
-            for r, c in zip(rows, cols, strict=True):
-                if cost[r, c] >= _BIG:
-                    continue
-                p, s = left[int(r)], olds[int(c)]
-                consumed.add(int(r))
-                unmatched.discard(s.id)
-                self._continuity(s, p, now, report)
-            left = [p for i, p in enumerate(left) if i not in consumed]
+        pairs = self._assign(left, olds, lambda p, s: self._h(p.position, self.last_seen[s.id][0]))
+        for i, j in pairs:
+            unmatched.discard(olds[j].id)
+            self._continuity(olds[j], left[i], now, report)
+        paired = {i for i, _ in pairs}
+        left = [p for i, p in enumerate(left) if i not in paired]
 
         # a fixed part left unseen, and a percept near it that nothing else explains: the
         # fixed part is not where it is fixed (kb.observe records the inconsistency)
@@ -230,11 +218,8 @@ class Anchoring:
         for p in left:
             name = self._new_name(p.type)
             rec = self.kb.add_object(name, p.type, _xyz(p.position), _extents(p.size))
-            self.created.append(name)
             report.new_objects.append(name)
-            report.anchored[name] = p.id
-            self.last_seen[name] = (_xyz(p.position), float(now))
-            self.history.setdefault(name, set()).add(p.type)
+            self._seen(rec, p, now, report)
             if self.on_new is not None:
                 self.on_new(rec)
 
@@ -257,7 +242,6 @@ class Anchoring:
         self.last_seen[s.id] = (_xyz(p.position), float(now))
         self.misses[s.id] = 0
         self.reported_missing.discard(s.id)
-        self.history.setdefault(s.id, set()).add(p.type)
 
     def _hidden(self, s: ObjectRecord, p: DetectedObject) -> float:
         """How much shorter than the symbol's known size the percept is (m): a part partly
@@ -317,11 +301,8 @@ class Anchoring:
                 report.inconsistencies.append(reason)
             self.misses[s.id] = 0  # it is seen, only not where it should be
             return
-        if self.kb.observe(s.id, pos, p.type):
-            self._seen(s, p, now, report)
+        if self._apply(s, p, now, report):
             report.moved.append(s.id)
-        else:
-            report.inconsistencies.append(self.kb.inconsistencies[-1].reason)
 
     def _new_name(self, type: str) -> str:
         base = self.kb.type_chain(type)[-1]
@@ -329,13 +310,6 @@ class Anchoring:
         while f"{base}_{k}" in self.kb.objects:
             k += 1
         return f"{base}_{k}"
-
-    def summary(self) -> dict[str, Any]:
-        return {
-            "frames": self.frame,
-            "symbols": {s: sorted(t) for s, t in sorted(self.history.items())},
-            "new_objects": list(self.created),
-        }
 
 
 def _xyz(p: Any) -> tuple[float, float, float]:

@@ -15,6 +15,7 @@ from __future__ import annotations
 import contextlib
 import time
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -45,7 +46,7 @@ def run_bench(
     perception: ScenePerception | None = None,
     progress: Callable[[str], None] | None = None,
     renderer: str = "raycast",
-) -> dict[str, float | int]:
+) -> dict[str, Any]:
     if n_scenes < 1:
         raise ValueError(f"--scenes must be >= 1, got {n_scenes}")
     if noise < 0:
@@ -63,50 +64,41 @@ def run_bench(
     else:
         limits = threadpool_limits(1)
     with limits:
-        res = _run(n_scenes, seed, noise, width, height, dropout, match_radius, perception, rng,
-                   progress, renderer)  # fmt: skip
-    res["renderer"] = renderer
-    return res
+        n_truth = n_matched = n_type_ok = n_false = 0
+        pos_err: list[float] = []
+        size_err: list[float] = []
+        frame_s: list[float] = []
+        frame_cpu: list[float] = []
+        n_points: list[int] = []
+        for i in range(n_scenes):
+            scene = generate_scene(rng, width=width, height=height)
+            if renderer == "pybullet":
+                from flexhrc.perception.scene.sim_render import render_depth_pybullet
 
-
-def _run(
-    n_scenes, seed, noise, width, height, dropout, match_radius, perception, rng, progress, renderer
-):
-    n_truth = n_matched = n_type_ok = n_false = 0
-    pos_err: list[float] = []
-    size_err: list[float] = []
-    frame_s: list[float] = []
-    frame_cpu: list[float] = []
-    n_points: list[int] = []
-    for i in range(n_scenes):
-        scene = generate_scene(rng, width=width, height=height)
-        if renderer == "pybullet":
-            from flexhrc.perception.scene.sim_render import render_depth_pybullet
-
-            depth = render_depth_pybullet(scene, noise=noise, rng=rng)
-            if dropout > 0:
-                depth[rng.random(depth.shape) < dropout] = 0.0
-        else:
-            depth = render_depth(scene, noise=noise, dropout=dropout, rng=rng)
-        t0, c0 = time.perf_counter(), time.process_time()
-        cloud = depth_to_cloud(depth, scene.intrinsics, scene.extrinsics)
-        objs = perception.process(cloud)
-        frame_s.append(time.perf_counter() - t0)
-        frame_cpu.append(time.process_time() - c0)
-        n_points.append(len(cloud))
-        truth = np.array([o.center for o in scene.objects])
-        det = np.array([o.position for o in objs]) if objs else np.empty((0, 3))
-        pairs = match(truth, det, match_radius)
-        n_truth += len(scene.objects)
-        n_matched += len(pairs)
-        n_false += len(objs) - len(pairs)
-        for ti, di in pairs:
-            t, o = scene.objects[ti], objs[di]
-            pos_err.append(float(np.linalg.norm(t.center - o.position)))
-            size_err.append(float(np.linalg.norm(t.size - o.size) / np.linalg.norm(t.size)))
-            n_type_ok += t.type == o.type
-        if progress:
-            progress(f"scene {i + 1}/{n_scenes}: {len(pairs)}/{len(scene.objects)} matched")
+                depth = render_depth_pybullet(scene, noise=noise, rng=rng)
+                if dropout > 0:
+                    depth[rng.random(depth.shape) < dropout] = 0.0
+            else:
+                depth = render_depth(scene, noise=noise, dropout=dropout, rng=rng)
+            t0, c0 = time.perf_counter(), time.process_time()
+            cloud = depth_to_cloud(depth, scene.intrinsics, scene.extrinsics)
+            objs = perception.process(cloud)
+            frame_s.append(time.perf_counter() - t0)
+            frame_cpu.append(time.process_time() - c0)
+            n_points.append(len(cloud))
+            truth = np.array([o.center for o in scene.objects])
+            det = np.array([o.position for o in objs]) if objs else np.empty((0, 3))
+            pairs = match(truth, det, match_radius)
+            n_truth += len(scene.objects)
+            n_matched += len(pairs)
+            n_false += len(objs) - len(pairs)
+            for ti, di in pairs:
+                t, o = scene.objects[ti], objs[di]
+                pos_err.append(float(np.linalg.norm(t.center - o.position)))
+                size_err.append(float(np.linalg.norm(t.size - o.size) / np.linalg.norm(t.size)))
+                n_type_ok += t.type == o.type
+            if progress:
+                progress(f"scene {i + 1}/{n_scenes}: {len(pairs)}/{len(scene.objects)} matched")
     return {
         "scenes": n_scenes,
         "seed": seed,
@@ -120,4 +112,5 @@ def _run(
         "false_positives": n_false,
         "frame_s": round(float(np.median(frame_s)), 4),
         "frame_cpu_s": round(float(np.median(frame_cpu)), 4),
+        "renderer": renderer,
     }

@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from flexhrc.errors import FormatError
+from flexhrc.perception._io import load_yaml
 
 PRIMITIVES = ("box", "cylinder", "sphere", "cone")
 
@@ -115,24 +116,7 @@ class RuleSet:
 
     @classmethod
     def load(cls, path: str | Path) -> RuleSet:
-        import yaml
-
-        from flexhrc.files import read_text
-
-        path = Path(path)
-        text = read_text(path)  # missing, folder, unreadable, binary, not UTF-8: one error
-        try:
-            data = yaml.safe_load(text)
-        except RecursionError:
-            raise FormatError("nested too deeply to be a rules file", path) from None
-        except yaml.YAMLError as exc:
-            mark = getattr(exc, "problem_mark", None)
-            raise FormatError(
-                f"invalid YAML: {getattr(exc, 'problem', exc)}",
-                path,
-                None if mark is None else mark.line + 1,
-            ) from None
-        return cls.from_data(data, str(path))
+        return cls.from_data(load_yaml(path), str(path))
 
     def classify(self, primitive: str, size: np.ndarray) -> tuple[str, float]:
         """``(type, normalised error)``; ``("unknown", inf)`` when no rule matches."""

@@ -1,4 +1,4 @@
-"""Depth image → point cloud, rigid transforms and voxel down-sampling (numpy only)."""
+"""Depth image → point cloud and rigid transforms (numpy only)."""
 
 from __future__ import annotations
 
@@ -39,22 +39,3 @@ def transform(points: np.ndarray, T: np.ndarray) -> np.ndarray:
     if T.shape != (4, 4):
         raise ValueError(f"expected a 4x4 transform, got {T.shape}")
     return points @ T[:3, :3].T + T[:3, 3]
-
-
-def voxel_downsample(points: np.ndarray, voxel: float) -> tuple[np.ndarray, np.ndarray]:
-    """One point (the centroid) per occupied voxel; returns ``(centroids, voxel index of each
-    input point)`` so labels computed on the centroids can be given back to every point."""
-    if voxel <= 0:
-        raise ValueError(f"voxel size must be > 0, got {voxel}")
-    if len(points) == 0:
-        return np.empty((0, 3)), np.empty(0, dtype=int)
-    keys = np.floor(points / voxel).astype(np.int64)
-    keys -= keys.min(axis=0)
-    dims = keys.max(axis=0) + 1
-    # One int64 per voxel (row-major index): a 1-D unique is much faster than unique(axis=0).
-    flat = (keys[:, 0] * dims[1] + keys[:, 1]) * dims[2] + keys[:, 2]
-    _, inverse, counts = np.unique(flat, return_inverse=True, return_counts=True)
-    inverse = inverse.ravel()
-    sums = np.zeros((len(counts), 3))
-    np.add.at(sums, inverse, points)
-    return sums / counts[:, None], inverse

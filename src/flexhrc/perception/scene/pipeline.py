@@ -44,6 +44,12 @@ def _quaternion(R: np.ndarray) -> np.ndarray:
     return qa / np.linalg.norm(qa)
 
 
+def _perpendicular(n: np.ndarray) -> np.ndarray:
+    """A unit vector perpendicular to ``n`` (horizontal when ``n`` is the vertical)."""
+    x = np.cross(n, [0.0, 1.0, 0.0]) if abs(n[1]) < 0.9 else np.cross(n, [1.0, 0.0, 0.0])
+    return x / np.linalg.norm(x)
+
+
 def _mad_sigma(residuals: np.ndarray) -> float:
     if len(residuals) == 0:
         return 0.0
@@ -123,8 +129,7 @@ class ScenePerception:
         height = points @ n + d
         objects_pts = points[height > min_height]
         # Support frame: z along the plane normal, origin on the plane below the centroid.
-        ex = np.cross(n, [0.0, 1.0, 0.0]) if abs(n[1]) < 0.9 else np.cross(n, [1.0, 0.0, 0.0])
-        ex /= np.linalg.norm(ex)
+        ex = _perpendicular(n)
         ey = np.cross(n, ex)
         R = np.column_stack([ex, ey, n])
         origin = -d * n
@@ -197,20 +202,15 @@ class ScenePerception:
         return [idx[~upper], *pieces]
 
     # ---------------------------------------------------------------------------- helpers
-    def fit_primitive(
+    def fit_primitives(
         self, pts: np.ndarray, rng: np.random.Generator, tol: float | None = None
-    ) -> PrimitiveFit:
-        """Best primitive for a cluster in the support frame (highest inlier ratio).
+    ) -> list[PrimitiveFit]:
+        """Every primitive fitted to a cluster in the support frame, best (highest inlier
+        ratio) first.
 
         A box explains any compact cluster a little, so a curved primitive wins ties: it is
         preferred when its inlier ratio is within 0.05 of the box's.
         """
-        return self.fit_primitives(pts, rng, tol)[0]
-
-    def fit_primitives(
-        self, pts: np.ndarray, rng: np.random.Generator, tol: float | None = None
-    ) -> list[PrimitiveFit]:
-        """Every primitive fitted to the cluster, best first (see :meth:`fit_primitive`)."""
         fits: list[PrimitiveFit] = []
         tol = self.fit_tol if tol is None else tol
         if "box" in self.primitives:
@@ -227,18 +227,14 @@ class ScenePerception:
     @staticmethod
     def _orientation(axis: np.ndarray, normal: np.ndarray) -> np.ndarray:
         x = axis - (axis @ normal) * normal
-        if np.linalg.norm(x) < 1e-6:  # vertical axis (sphere, cone): any horizontal x
-            x = (
-                np.cross(normal, [0.0, 1.0, 0.0])
-                if abs(normal[1]) < 0.9
-                else np.cross(normal, [1.0, 0.0, 0.0])
-            )
-        x /= np.linalg.norm(x)
+        # a vertical axis (sphere, cone) gives no x: any horizontal one
+        x = _perpendicular(normal) if np.linalg.norm(x) < 1e-6 else x / np.linalg.norm(x)
         z = normal / np.linalg.norm(normal)
         y = np.cross(z, x)
         return _quaternion(np.column_stack([x, y, z]))
 
 
+@dataclass(eq=False)
 class Tracker:
     """Persistent identities across frames: optimal assignment of detections to tracks.
 
@@ -247,21 +243,18 @@ class Tracker:
     open new tracks (``<prefix>_<n>``); a track unseen for more than ``max_missed`` frames ends.
     """
 
-    def __init__(
-        self,
-        max_distance: float = 0.05,
-        max_missed: int = 3,
-        type_penalty: float = 0.03,
-        prefix: str = "obj",
-    ):
-        if max_distance <= 0:
-            raise ValueError(f"max_distance must be > 0, got {max_distance}")
-        self.max_distance = max_distance
-        self.max_missed = max_missed
-        self.type_penalty = type_penalty
-        self.prefix = prefix
-        self._tracks: dict[str, tuple[DetectedObject, int]] = {}
-        self._next = 1
+    max_distance: float = 0.05
+    max_missed: int = 3
+    type_penalty: float = 0.03
+    prefix: str = "obj"
+    _tracks: dict[str, tuple[DetectedObject, int]] = field(
+        default_factory=dict, init=False, repr=False
+    )
+    _next: int = field(default=1, init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        if self.max_distance <= 0:
+            raise ValueError(f"max_distance must be > 0, got {self.max_distance}")
 
     @property
     def tracks(self) -> dict[str, DetectedObject]:

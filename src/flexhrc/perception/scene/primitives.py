@@ -111,13 +111,13 @@ def _circle_3pts(p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return centers, np.linalg.norm(a - centers, axis=1)
 
 
-def _circle_lsq(p: np.ndarray) -> tuple[np.ndarray, float]:
-    """Algebraic (Kåsa) least-squares circle."""
+def _round_lsq(p: np.ndarray) -> tuple[np.ndarray, float]:
+    """Algebraic (Kåsa) least-squares circle (points ``(n, 2)``) or sphere (``(n, 3)``)."""
     A = np.column_stack([2 * p, np.ones(len(p))])
     b = (p**2).sum(1)
     sol, *_ = np.linalg.lstsq(A, b, rcond=None)
-    c = sol[:2]
-    return c, float(np.sqrt(max(sol[2] + c @ c, 0.0)))
+    c = sol[:-1]
+    return c, float(np.sqrt(max(sol[-1] + c @ c, 0.0)))
 
 
 def fit_cylinder(
@@ -157,7 +157,7 @@ def fit_cylinder(
     scores = (np.abs(d - radii[:, None]) < tol).sum(axis=1)
     best = int(np.argmax(scores))
     inl = np.abs(d[best] - radii[best]) < tol
-    c, r = _circle_lsq(p2[inl]) if inl.sum() >= 3 else (centers[best], float(radii[best]))
+    c, r = _round_lsq(p2[inl]) if inl.sum() >= 3 else (centers[best], float(radii[best]))
     dist = np.abs(np.linalg.norm(p2 - c, axis=1) - r)
     s0, s1 = _robust_range(s)
     if grounded:
@@ -171,14 +171,6 @@ def fit_cylinder(
 
 
 # ---------------------------------------------------------------------------------- sphere
-def _sphere_lsq(p: np.ndarray) -> tuple[np.ndarray, float]:
-    A = np.column_stack([2 * p, np.ones(len(p))])
-    b = (p**2).sum(1)
-    sol, *_ = np.linalg.lstsq(A, b, rcond=None)
-    c = sol[:3]
-    return c, float(np.sqrt(max(sol[3] + c @ c, 0.0)))
-
-
 def fit_sphere(
     points: np.ndarray, tol: float, iterations: int = 60, rng: np.random.Generator | None = None
 ) -> PrimitiveFit:
@@ -202,7 +194,7 @@ def fit_sphere(
             best_c, best_r, best_score = cs[k], float(rs[k]), int(scores[k])
     if best_score > 3:
         inl = np.abs(np.linalg.norm(points - best_c, axis=1) - best_r) < tol
-        best_c, best_r = _sphere_lsq(points[inl])
+        best_c, best_r = _round_lsq(points[inl])
     dist = np.abs(np.linalg.norm(points - best_c, axis=1) - best_r)
     ratio = float(np.mean(dist < tol)) if best_r > 0 else 0.0
     return PrimitiveFit(
@@ -224,12 +216,13 @@ def fit_cone(
     z = points[:, 2]
     # The apex is the top of the cluster and lies on the axis, whichever side is visible.
     c = xy[z >= np.percentile(z, 95)].mean(axis=0)
+    no_cone = PrimitiveFit("cone", np.array([*c, 0.0]), _UP.copy(), np.zeros(3), 0.0)
     r = np.linalg.norm(xy - c, axis=1)
     pair = rng.integers(0, len(z), size=(iterations, 2))
     dz = z[pair[:, 0]] - z[pair[:, 1]]
     okp = np.abs(dz) > 1e-3
     if not okp.any():
-        return PrimitiveFit("cone", np.array([*c, 0.0]), _UP.copy(), np.zeros(3), 0.0)
+        return no_cone
     k = -(r[pair[okp, 0]] - r[pair[okp, 1]]) / dz[okp]  # r = R - k z
     R = r[pair[okp, 0]] + k * z[pair[okp, 0]]
     # A cone stands on the support with its apex at the top of the cluster, and its base fits
@@ -239,14 +232,14 @@ def fit_cone(
     H_all = R / np.where(k > 0, k, np.inf)
     valid = (k > 0.05) & (R > 0.005) & (r_max > R) & (np.abs(H_all - zmax) < 0.25 * zmax + tol)
     if not valid.any():
-        return PrimitiveFit("cone", np.array([*c, 0.0]), _UP.copy(), np.zeros(3), 0.0)
+        return no_cone
     k, R = k[valid], R[valid]
     # Perpendicular distance to the cone surface ≈ |r - (R - k z)| cos(atan k).
     res = np.abs(r[None] - (R[:, None] - k[:, None] * z[None])) / np.sqrt(1 + k[:, None] ** 2)
     scores = (res < tol).sum(1)
     b = int(np.argmax(scores))
     if scores[b] < 0.5 * len(points):  # not a cone: skip the (comparatively costly) refinement
-        return PrimitiveFit("cone", np.array([*c, 0.0]), _UP.copy(), np.zeros(3), 0.0)
+        return no_cone
     # Refine axis position, base radius and slope together (robust least squares): the
     # footprint circle is biased when only one side of the cone is visible.
     optimize = require("scipy.optimize", "cone fitting")

@@ -71,11 +71,7 @@ def grid_clusters(
     grid = np.zeros(tuple(dims), dtype=bool)
     grid[keys[:, 0], keys[:, 1], keys[:, 2]] = True
     labels, _ = ndimage.label(grid, structure=np.ones((3, 3, 3), dtype=bool))
-    point_labels = labels[keys[:, 0], keys[:, 1], keys[:, 2]] - 1
-    order = np.argsort(point_labels, kind="stable")
-    counts = np.bincount(point_labels)
-    clusters = [c for c in np.split(order, np.cumsum(counts)[:-1]) if len(c) >= min_points]
-    return sorted(clusters, key=len, reverse=True)
+    return _clusters(labels[keys[:, 0], keys[:, 1], keys[:, 2]] - 1, min_points)
 
 
 def euclidean_clusters(points: np.ndarray, radius: float, min_points: int = 1) -> list[np.ndarray]:
@@ -90,6 +86,12 @@ def euclidean_clusters(points: np.ndarray, radius: float, min_points: int = 1) -
     n = len(points)
     graph = sparse.coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
     _, labels = csgraph.connected_components(graph, directed=False)
+    return _clusters(labels, min_points)
+
+
+def _clusters(labels: np.ndarray, min_points: int) -> list[np.ndarray]:
+    """Point indices per label (labels 0..k-1), largest first, without those below
+    ``min_points``."""
     order = np.argsort(labels, kind="stable")
     counts = np.bincount(labels)
     clusters = [c for c in np.split(order, np.cumsum(counts)[:-1]) if len(c) >= min_points]

@@ -21,7 +21,7 @@ from flexhrc.perception.scene.synthetic import Scene
 _NEAR, _FAR = 0.05, 5.0
 
 
-def _pybullet():
+def _pybullet(feature: str = "rendering scenes with pybullet"):
     # pybullet prints its build time on stdout (from C) when imported: keep stdout clean for
     # ``--json`` by pointing file descriptor 1 at /dev/null meanwhile.
     sys.stdout.flush()
@@ -32,9 +32,7 @@ def _pybullet():
             try:
                 import pybullet
             except ImportError as exc:  # pragma: no cover - only without the extra
-                raise OptionalDependencyError(
-                    "rendering scenes with pybullet", "sim", "pybullet"
-                ) from exc
+                raise OptionalDependencyError(feature, "sim", "pybullet") from exc
     finally:
         os.dup2(saved, 1)
         os.close(saved)

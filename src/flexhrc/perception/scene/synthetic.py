@@ -49,11 +49,9 @@ class SceneObject:
     def size(self) -> np.ndarray:
         if self.primitive == "box":
             s = list(self.dims)
-        elif self.primitive == "cylinder":
-            s = [self.dims[0], 2 * self.dims[1], 2 * self.dims[1]]
         elif self.primitive == "sphere":
             s = [2 * self.dims[0]] * 3
-        else:  # cone
+        else:  # cylinder: length and radius; cone: height and base radius
             s = [self.dims[0], 2 * self.dims[1], 2 * self.dims[1]]
         return np.sort(np.asarray(s, dtype=float))[::-1]
 
