@@ -113,12 +113,12 @@ LogEventType = Literal[
     "human_report_ignored", "human_report_unusable", "human_sensing_uncovered",
     # the manager's, the cell's and the panel's own records (not in a cooperation log)
     "agent_available", "agent_unavailable", "taken", "agent_up", "agent_down", "human_take",
-    "operator", "intent", "options", "dropped", "operator_stop", "operator_resume",
+    "operator", "intent", "options", "dropped", "refused", "operator_stop", "operator_resume",
     "operator_takes",
 ]
 MessageType = Literal[
     "command", "stop", "ack", "suggestion", "human_action", "percept", "answer", "looked",
-    "options", "operator", "intent", "state", "end", "follow", "follow_stop",
+    "options", "operator", "intent", "state", "end", "join", "follow", "follow_stop",
 ]
 StoreKind = Literal[
     "start", "ack", "human_action", "percept", "agent_up", "agent_down", "operator", "intent",
@@ -449,6 +449,8 @@ _LOG_SCHEMAS = [
     _log("intent", "an operator's answer to its options (cell)", ""),
     _log("options", "what an operator may do on its own (cell)", ""),
     _log("dropped", "a malformed message was dropped (cell trace)", ""),
+    _log("refused", "an agent's process of another scenario was refused (cell trace)", "",
+         agent=NAME, reason=NAME),
     _log("operator_stop", "the panel's operator stopped an arm", ""),
     _log("operator_resume", "the panel's operator resumed an arm", ""),
     _log("operator_takes", "the panel's operator takes a hyper-arc", ""),
@@ -604,6 +606,9 @@ def _time(required: bool = False, doc: str = "") -> Field:
 
 
 ID, INT_ID, TIME, OPT_TIME = Field(S, True), Field((int,), True), _time(True), _time()
+# run identity (flexhrc.cell.identity): optional, so a message of an older peer is legacy
+RUN = Field(S, check=bool, doc="the run it belongs to (from `start`; absent: legacy)")
+FINGERPRINT = Field(S, check=bool, doc="the sender's scenario fingerprint")
 # fmt: off
 _MESSAGE_SCHEMAS = [
     _msg("command", "manager → `cmd/<agent>`: do this action",
@@ -612,27 +617,30 @@ _MESSAGE_SCHEMAS = [
          t=TIME, expected_s=OPT_TIME, world=Field((dict,)), realtime=OPT_TIME,
          process=Field((bool,)),
          joints=Field((dict,), doc="where the manager's robot model has the command's arms "
-                      "(rad, {arm: [q]}); the agent starts from there")),
+                      "(rad, {arm: [q]}); the agent starts from there"),
+         run=RUN, fingerprint=FINGERPRINT),
     _msg("stop", "manager → `cmd/<agent>`: stop that command",
-         id=INT_ID, reason=OPT_NAME, t=OPT_TIME),
+         id=INT_ID, reason=OPT_NAME, t=OPT_TIME, run=RUN),
     _msg("ack", "robot → `ack`: how a command ended",
          (_ack_status, _positions("ack"), _joints("ack")),
          id=INT_ID, agent=Field(S, True), status=Field(S, True), reason=OPT_NAME, t=TIME,
          duration=OPT_TIME, positions=Field((dict,)),
          joints=Field((dict,), doc="where the command left the arms it moved (rad, "
-                      "{arm: [q]}); the manager's robot model takes them")),
+                      "{arm: [q]}); the manager's robot model takes them"),
+         run=RUN),
     _msg("suggestion", "manager → `suggest/<human>`: please do this step",
          (_listed("suggestion", "actions"), _world("suggestion")),
          id=ID, element=Field(S, True), actions=Field((list,), True), cost=Field(NUM), t=TIME,
          world=Field((dict,)), realtime=OPT_TIME, step=_nonneg((int,)),
-         own=Field((bool,), doc="the operator's own plan (its intent), not the manager's ask")),
+         own=Field((bool,), doc="the operator's own plan (its intent), not the manager's ask"),
+         run=RUN, fingerprint=FINGERPRINT),
     _msg("human_action", "human → `human`: a person did this",
          (_positions("human_action"), _starts_before_it_ends),
          id=ID, agent=Field(S, True), action=Field(S, True), suggestion=OPT_NAME,
          step=_nonneg((int,)), start=OPT_TIME, t=TIME, positions=Field((dict,)),
          recognised=Field((bool,), doc="false: a wearable sensor missed it (the manager is "
                           "not told)"),
-         sensed=Field((dict,), doc="the wearable sensor's figures")),
+         sensed=Field((dict,), doc="the wearable sensor's figures"), run=RUN),
     _msg("percept", "perception → `percept`: an object seen", (_percept_shape,),
          id=ID, object=Field(S, True), object_type=Field(S, True), pose=Field((list,), True),
          size=Field((dict, list, NONE)), t=OPT_TIME,
@@ -642,7 +650,7 @@ _MESSAGE_SCHEMAS = [
     # the operator's answer to a repair question about a report (human_action id)
     _msg("answer", "human → `human`: did you do what was reported?", (_yes_no,),
          id=ID, agent=Field(S, True), report=Field(S, True), object=Field(S, True),
-         question=Field(S, True), answer=Field(S, True), t=TIME),
+         question=Field(S, True), answer=Field(S, True), t=TIME, run=RUN),
     # a perception agent the ordered loop waits for: it looked at the state numbered ``upto``
     _msg("looked", "perception → `percept`: a watcher has looked",
          agent=Field(S, True), upto=_nonneg((int,), True), t=TIME,
@@ -650,7 +658,7 @@ _MESSAGE_SCHEMAS = [
     # an operator that acts on its own: what it may do (steps -> hyper-arcs -> ground branches)
     _msg("options", "manager → `options/<human>`: what the operator may do on its own",
          (_options_steps, _world("options")), id=ID, t=TIME, steps=Field((list,), True),
-         world=Field((dict,))),
+         world=Field((dict,)), run=RUN, fingerprint=FINGERPRINT),
     # ``scripted``: it takes exactly the steps it was told to (a test or demo script), whatever
     # its profile says, so it is offered ``options`` even when ``passive``
     _msg("operator", "human → `intent`: its profile",
@@ -658,9 +666,15 @@ _MESSAGE_SCHEMAS = [
     _msg("intent", "human → `intent`: its answer to options", (_intent,),
          id=ID, agent=Field(S, True), options=Field(S, True), act=Field((bool,), True),
          decided=Field((list,), True), t=TIME, step=NAME, hyperarc=NAME,
-         actions=Field((list,)), delay=OPT_TIME),
+         actions=Field((list,)), delay=OPT_TIME, run=RUN),
     _msg("state", "manager → `state`: the cell snapshot"),
-    _msg("end", "manager → `state`: the cooperation ended", outcome=Field(S, True)),
+    _msg("end", "manager → `state`: the cooperation ended", outcome=Field(S, True), run=RUN),
+    # an agent joins: the manager refuses one of another scenario (and answers it with a ``state``
+    # with the cell's ``fingerprint``, which the agent compares with its own)
+    _msg("join", "agent → `join`: who it is and its scenario's fingerprint",
+         agent=Field(S, True), role=Field(S, True, doc="robot or human"),
+         scenario=Field(S, True),
+         fingerprint=Field(S, True, check=bool)),
     # between the arm nodes of one robot over ROS 2 (docs/ros2.md): a joint command reaches its
     # first arm only, which sends each other arm its part of the motion
     _msg("follow", "leading arm → `arm/<arm>/follow`: this arm's part of a joint command",
@@ -685,7 +699,12 @@ def _stored_records() -> list[StoreKindSpec]:
 
 
 _STORE_SPECS = [
-    StoreKindSpec("start", "input", "the run begins (agents, humans, scenario, seed, ...)"),
+    StoreKindSpec(
+        "start",
+        "input",
+        "the run begins (run id, agents, humans, scenario, its "
+        "fingerprint, seed, realtime, ...); every row carries the run id as `run`",
+    ),
     StoreKindSpec("ack", "input", "an ack message"),
     StoreKindSpec("human_action", "input", "a human_action message"),
     StoreKindSpec("percept", "input", "a percept message"),

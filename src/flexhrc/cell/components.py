@@ -11,7 +11,9 @@ its controller.
   :class:`~flexhrc.cell.local.LocalCell` — and answers with an ``ack`` carrying
   where things are afterwards. **It never executes one command id twice**: a repeated id (the
   manager resumed after a crash) gets the stored ack again, or nothing while it is running; with
-  a ``journal`` this holds across restarts of the agent's process too.
+  a ``journal`` this holds across restarts of the agent's process too. Its memory is per run
+  (the command's ``run``, :mod:`flexhrc.cell.identity`): another run's command 3 is a new
+  command, and a repeated id with another action is refused, never answered from memory.
 * :class:`HumanAgent` follows suggestions step by step: it carries out the step the manager
   names, in the world the message carries, and reports it as a ``human_action``; a repeated step
   gets its report again. With a profile that acts on its own (``takeover``, ``cooperative``,
@@ -32,10 +34,11 @@ import json
 import logging
 import time
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Protocol
 
+from flexhrc.cell import identity
 from flexhrc.cell import protocol as P
 from flexhrc.errors import FlexhrcError, UnknownNameError
 from flexhrc.files import EventLogWriter
@@ -51,6 +54,8 @@ log = logging.getLogger("flexhrc.cell")
 HUMAN_PROFILES = PROFILES
 # an operator agent's profile goes out again this often until the manager has acknowledged it
 ANNOUNCE_RETRY_S = 0.5
+# how long a process that dials asks whether its agent name is held before taking it
+HOLDER_SETTLE_S = 0.5
 
 
 class ScenarioLike(Protocol):
@@ -214,7 +219,12 @@ class _Agent:
         execution: ExecutionModel | None = None,
         trace: Callable[[str], None] | None = None,
     ) -> None:
+        _check_single_holder(transport, name)
         self.name = name
+        self.scenario = scenario
+        # why this agent must stop (a cell of another scenario, a journal of another run): the
+        # agent's loop ends with this error (``run_agent``)
+        self.fatal: str | None = None
         self.domain: Domain = scenario.domain
         self.kb: KnowledgeBase = scenario.world()
         self.transport = transport
@@ -226,6 +236,51 @@ class _Agent:
         self._timers: list[tuple[float, Callable[[], None]]] = []
         self._subs = [transport.subscribe(P.STATE_TOPIC, self._on_state)]
         self.token: Any = None
+        watch = getattr(transport, "watch_liveliness", None)
+        if watch is not None:  # a manager that (re)appears is told who joins
+            self._subs.append(watch(P.alive_key(P.MANAGER), self._on_manager_alive))
+
+    @property
+    def fingerprint(self) -> str:
+        """This agent's scenario fingerprint (:func:`flexhrc.cell.identity.fingerprint`)."""
+        return identity.fingerprint(self.scenario)
+
+    def _join(self) -> None:
+        """Tell the manager who joins and of which scenario (over a transport with liveliness
+        tokens: agents of other processes); the manager refuses one of another scenario."""
+        if getattr(self.transport, "declare_token", None) is None:
+            return
+        role = "robot" if isinstance(self, RobotAgent) else "human"
+        msg = P.message(
+            "join",
+            agent=self.name,
+            role=role,
+            scenario=str(self.scenario.name),
+            fingerprint=self.fingerprint,
+        )
+        self.transport.publish(P.JOIN_TOPIC, msg)
+
+    def _on_manager_alive(self, key: str, alive: bool) -> None:
+        if alive and self.fatal is None:
+            self._join()
+
+    def _of_this_scenario(self, msg: dict[str, Any]) -> bool:
+        """The message's ``fingerprint`` (if any) is this agent's scenario's; else the agent
+        stops with a clear error (:attr:`fatal`) and tells the manager why (its ``join``)."""
+        theirs = msg.get("fingerprint")
+        if not isinstance(theirs, str) or theirs == self.fingerprint:
+            return True
+        if self.fatal is None:
+            scenario = msg.get("scenario")
+            named = f"scenario {scenario}, " if isinstance(scenario, str) else ""
+            self.fatal = (
+                f"agent {self.name}: the cell runs another scenario ({named}fingerprint {theirs}) "
+                f"than this agent's {self.scenario.name} (fingerprint {self.fingerprint}): "
+                "start the agent with the cell's scenario and --seed"
+            )
+            log.error("%s", self.fatal)
+            self._join()  # the manager logs the refusal too
+        return False
 
     def _announce(self) -> None:
         """Declare the liveliness token — last, once every subscription is declared, so the
@@ -242,6 +297,8 @@ class _Agent:
                 self.ended = str(P.parse_end(data, run=getattr(self, "run", None))["outcome"])
             except P.ProtocolError as exc:
                 self._bad(data, exc)
+        elif isinstance(data, dict) and data.get("type") == "state":
+            self._of_this_scenario(data)
 
     def _bad(self, data: Any, exc: Exception) -> None:
         self.dropped += 1
@@ -294,18 +351,60 @@ class RobotAgent(_Agent):
         self.timeout_factor = timeout_factor
         # an observer of what this arm physically does (a simulated workspace's truth)
         self.on_executed = on_executed
-        self.acks: dict[int, dict[str, Any]] = {}  # command id -> its ack (sent again on repeat)
-        self.running: set[int] = set()
-        self.stopped: set[int] = set()
-        self.executed: list[int] = []  # command ids in execution order (each once)
-        # commands an earlier process of this agent started but never finished (it died)
-        self.interrupted: set[int] = set()
+        # what this arm did, per run (a command id names a command of one run only)
+        self.runs: dict[str | None, _RunMemory] = {}
+        self.run: str | None = None  # the run of the last command
+        self._mem = self.runs.setdefault(None, _RunMemory())
+        self.executed: list[int] = []  # command ids in execution order (each once per run)
         self.journal: EventLogWriter | None = None
+        self.journal_path = Path(journal) if journal is not None else None
+        self.journal_run: str | None = None  # the run the journal keeps (None: none yet)
         if journal is not None:
             self._load_journal(Path(journal))
             self.journal = EventLogWriter(journal, option="--journal", append=True)
         self._subs.append(transport.subscribe(P.cmd_topic(name), self._on_message))
+        self._join()
         self._announce()
+
+    # the memory of the current run (the ROS 2 arm reads these three)
+    @property
+    def acks(self) -> dict[int, dict[str, Any]]:
+        """Command id -> its ack, sent again when the id is repeated (this run)."""
+        return self._mem.acks
+
+    @property
+    def running(self) -> set[int]:
+        return self._mem.running
+
+    @property
+    def stopped(self) -> set[int]:
+        return self._mem.stopped
+
+    @property
+    def interrupted(self) -> set[int]:
+        """Commands of this run an earlier process of this agent started and never finished."""
+        return self._mem.interrupted
+
+    def _enter_run(self, msg: dict[str, Any]) -> bool:
+        """Switch the memory to the run ``msg`` belongs to; False (and :attr:`fatal`) when the
+        journal keeps another run."""
+        run = msg.get(identity.RUN)
+        if run is not None and self.journal_path is not None:
+            if self.journal_run is None:
+                self.journal_run = str(run)
+            elif run != self.journal_run:
+                if self.fatal is None:
+                    self.fatal = (
+                        f"--journal {self.journal_path}: the journal is of run "
+                        f"{self.journal_run}, the cell runs run {run}: a journal keeps one "
+                        "run; give this agent a new journal file"
+                    )
+                    log.error("%s", self.fatal)
+                return False
+        if run != self.run:
+            self.run = run
+            self._mem = self.runs.setdefault(run, _RunMemory())
+        return True
 
     def _load_journal(self, path: Path) -> None:
         """What earlier processes of this agent did (``--journal``): their acks are answered
@@ -314,22 +413,37 @@ class RobotAgent(_Agent):
             return
         from flexhrc.files import read_text
 
-        started: set[int] = set()
+        started: dict[str | None, set[int]] = {}
         for n, line in enumerate(read_text(path).splitlines(), 1):
             try:
                 rec = json.loads(line)
                 cid = int(rec["id"])
+                run = rec.get(identity.RUN)
+                if run is not None and not isinstance(run, str):
+                    raise TypeError("run")
             except (ValueError, KeyError, TypeError):
                 log.warning("%s:%d: not a journal record (a write cut short?): skipped", path, n)
                 continue
+            mem = self.runs.setdefault(run, _RunMemory())
+            if run is not None:
+                self.journal_run = run  # a journal keeps one run (``_enter_run``)
             if rec.get("event") == "start":
-                started.add(cid)
+                started.setdefault(run, set()).add(cid)
+                if isinstance(rec.get("action"), str):
+                    mem.actions[cid] = rec["action"]
             elif rec.get("event") == "ack" and isinstance(rec.get("ack"), dict):
-                self.acks[cid] = rec["ack"]
-        self.interrupted = started - set(self.acks)
-        self.trace(
-            f"journal {path}: {len(self.acks)} commands done, {len(self.interrupted)} interrupted"
-        )
+                mem.acks[cid] = rec["ack"]
+        for run, ids in started.items():
+            mem = self.runs[run]
+            mem.interrupted = ids - set(mem.acks)
+        done = sum(len(m.acks) for m in self.runs.values())
+        cut = sum(len(m.interrupted) for m in self.runs.values())
+        of = f" of run {self.journal_run}" if self.journal_run else ""
+        self.trace(f"journal {path}{of}: {done} commands done, {cut} interrupted")
+
+    def _run_field(self) -> dict[str, Any]:
+        """``{"run": ...}`` of the current run for an answer or a journal line (none: legacy)."""
+        return {identity.RUN: self.run} if self.run is not None else {}
 
     def _journal(self, record: dict[str, Any]) -> None:
         if self.journal is not None:
@@ -353,7 +467,7 @@ class RobotAgent(_Agent):
 
     def _stop(self, msg: dict[str, Any]) -> None:
         cid = int(msg["id"])
-        if not P.from_run(msg, getattr(self, "run", None)):
+        if self.run is not None and msg.get("run") != self.run:
             raise P.ProtocolError(f"a stop of run {msg.get('run')!r} for cmd {cid}: not ours")
         if cid in self.running:
             self.running.discard(cid)
@@ -376,6 +490,15 @@ class RobotAgent(_Agent):
 
     def _command(self, msg: dict[str, Any]) -> None:
         cid = int(msg["id"])
+        if not self._of_this_scenario(msg) or not self._enter_run(msg):
+            return
+        mem = self._mem
+        known = mem.actions.get(cid)
+        if known is not None and known != msg["action"]:
+            raise P.ProtocolError(
+                f"command {cid} repeated with another action: {msg['action']} (it was "
+                f"{known}); refused, not answered from memory"
+            )
         if cid in self.acks:  # already done: the manager missed the answer (it restarted)
             self.trace(f"cmd {cid} repeated: ack sent again")
             self.transport.publish(P.ACK_TOPIC, self.acks[cid])
@@ -413,10 +536,11 @@ class RobotAgent(_Agent):
                 t=float(msg["t"]),
                 duration=0.0,
                 positions={},
+                **self._run_field(),
             )
             self.interrupted.discard(cid)
             self.acks[cid] = ack
-            self._journal({"id": cid, "event": "ack", "ack": ack})
+            self._journal({"id": cid, "event": "ack", "ack": ack, **self._run_field()})
             self.transport.publish(P.ACK_TOPIC, ack)
             self.trace(f"cmd {cid} was interrupted by a restart: failed")
             return
@@ -430,7 +554,8 @@ class RobotAgent(_Agent):
         positions = {k: o.position for k, o in self.kb.objects.items()}
         before = dict(positions)
         self.executed.append(cid)
-        self._journal({"id": cid, "event": "start", "action": msg["action"]})
+        mem.actions[cid] = msg["action"]
+        self._journal({"id": cid, "event": "start", "action": msg["action"], **self._run_field()})
         report = self.execution.execute(action, positions, self.kb, self.domain)
         status, duration = report.status, float(report.duration_s)
         reason = None if status == "done" else report.reason
@@ -456,17 +581,19 @@ class RobotAgent(_Agent):
             duration=round(duration, 6),
             positions=moved if status == "done" else {},
             **({"joints": joints} if joints else {}),
+            **self._run_field(),
         )
         self.running.add(cid)
+        run = self._run_field()
         self.trace(f"execute cmd {cid} {action} ({duration:.2f} s)")
         self._started(cid, action, ack)
 
         def finish() -> None:
-            if cid not in self.running:
+            if cid not in mem.running:
                 return  # stopped meanwhile
-            self.running.discard(cid)
-            self.acks[cid] = ack
-            self._journal({"id": cid, "event": "ack", "ack": ack})
+            mem.running.discard(cid)
+            mem.acks[cid] = ack
+            self._journal({"id": cid, "event": "ack", "ack": ack, **run})
             self.transport.publish(P.ACK_TOPIC, ack)
             self.trace(f"cmd {cid} {status}")
 
@@ -503,8 +630,10 @@ class HumanAgent(_Agent):
         # sensor recognised (a miss is a miss: the report says nothing was recognised)
         self.sensing = sensing
         self.sensed: list[dict[str, Any]] = []  # what the sensor made of each action done
-        self.reports: dict[str, dict[int, dict[str, Any]]] = {}  # suggestion -> step -> report
-        self.busy: set[tuple[str, int]] = set()  # steps being carried out
+        # (run, suggestion) -> step -> report; (run, suggestion) -> its actions
+        self.reports: dict[tuple[str | None, str], dict[int, dict[str, Any]]] = {}
+        self.asked: dict[tuple[str | None, str], list[str]] = {}
+        self.busy: set[tuple[str | None, str, int]] = set()  # steps being carried out
         # when the action in hand ends (simulated clock): a person finishes it before the next,
         # even when the manager has dropped the request it belonged to
         self.free_at = 0.0
@@ -517,7 +646,9 @@ class HumanAgent(_Agent):
             if profile != "passive" or self.takes is not None
             else None
         )
-        self.intents: dict[str, dict[str, Any]] = {}  # options id -> the intent sent for it
+        # (run, options id) -> the intent sent for it, and the steps it answered
+        self.intents: dict[tuple[str | None, str], dict[str, Any]] = {}
+        self._offered: dict[tuple[str | None, str], Any] = {}
         self._announced_at = float("-inf")
         # the manager's ``state`` showed this operator's profile: only then its token goes out
         self.heard = self.operator is None
@@ -527,6 +658,7 @@ class HumanAgent(_Agent):
             if watch is not None:  # a manager that (re)appears has not heard it yet
                 self._subs.append(watch(P.alive_key(P.MANAGER), self._on_manager))
             self._announce_profile()
+        self._join()
         self._announce()
 
     def _announce(self) -> None:
@@ -590,9 +722,17 @@ class HumanAgent(_Agent):
         and answer with an ``intent``; a repeated ``options`` gets the same answer."""
         op = self.operator
         assert op is not None
+        if not self._of_this_scenario(msg):
+            return
+        run = msg.get(identity.RUN)
         oid = msg["id"]
-        if oid in self.intents:
-            self.transport.publish(P.INTENT_TOPIC, self.intents[oid])
+        key = (run, oid)
+        if key in self.intents:
+            if self._offered.get(key) != msg["steps"]:
+                raise P.ProtocolError(
+                    f"options {oid} repeated with other steps; refused, not answered from memory"
+                )
+            self.transport.publish(P.INTENT_TOPIC, self.intents[key])
             return
         sync_world(self.kb, msg.get("world") or {})
         t = float(msg["t"])
@@ -624,9 +764,10 @@ class HumanAgent(_Agent):
             break
         intent = P.message(
             "intent", id=f"{self.name}:{oid}", agent=self.name, options=oid, decided=decided,
-            t=t, **fields,
+            t=t, **fields, **({identity.RUN: run} if run is not None else {}),
         )  # fmt: skip
-        self.intents[oid] = intent
+        self.intents[key] = intent
+        self._offered[key] = msg["steps"]
         self.transport.publish(P.INTENT_TOPIC, intent)
 
     def _on_message(self, data: Any) -> None:
@@ -640,13 +781,23 @@ class HumanAgent(_Agent):
     def _suggestion(self, msg: dict[str, Any]) -> None:
         """Carry out step ``step`` of a suggestion in the world the message carries; the manager
         sends the next step, with the world as it is then, once it has handled this one."""
+        if not self._of_this_scenario(msg):
+            return
         sid, k = msg["id"], int(msg.get("step", 0))
-        done = self.reports.setdefault(sid, {})
+        run = msg.get(identity.RUN)
+        key = (run, sid)
+        asked = self.asked.setdefault(key, list(msg["actions"]))
+        if asked != msg["actions"]:
+            raise P.ProtocolError(
+                f"suggestion {sid} repeated with other actions: {'; '.join(msg['actions'])} "
+                f"(it was {'; '.join(asked)}); refused, not answered from memory"
+            )
+        done = self.reports.setdefault(key, {})
         if k in done:  # the manager missed the report (it restarted): send it again
             self.trace(f"suggestion {sid} step {k} repeated: report sent again")
             self.transport.publish(P.HUMAN_TOPIC, done[k])
             return
-        if (sid, k) in self.busy:
+        if (run, sid, k) in self.busy:
             return
         steps = [ground(self.domain, a) for a in msg["actions"]]
         if not 0 <= k < len(steps):
@@ -675,13 +826,14 @@ class HumanAgent(_Agent):
             t=t + dt,
             positions=moved,
             **fields,
+            **({identity.RUN: run} if run is not None else {}),
         )
         if k == 0:
             self.trace(f"suggestion {sid}: {msg['element']}")
-        self.busy.add((sid, k))
+        self.busy.add((run, sid, k))
 
         def send() -> None:
-            self.busy.discard((sid, k))
+            self.busy.discard((run, sid, k))
             done[k] = rep
             self.transport.publish(P.HUMAN_TOPIC, rep)
             self.trace(f"did {rep['action']}")
@@ -743,11 +895,56 @@ def _fit(domain: Domain, name: str, step: GroundAction, plan: list[GroundAction]
 
 
 def run_agent(agent: _Agent, transport: Any, *, until: Callable[[], bool] | None = None) -> str:
-    """Serve until the cell announces its end (returns its outcome) or ``until()`` is true."""
-    while agent.ended is None and not (until and until()):
+    """Serve until the cell announces its end (returns its outcome) or ``until()`` is true;
+    a :class:`~flexhrc.errors.FlexhrcError` when the agent was refused (:attr:`_Agent.fatal`:
+    a cell of another scenario, a journal of another run)."""
+
+    def fatal() -> str | None:  # an agent of another kind (perception) is never refused
+        return getattr(agent, "fatal", None)
+
+    while agent.ended is None and fatal() is None and not (until and until()):
         due = agent.next_due()
         timeout = 0.2 if due is None else max(0.0, min(0.2, due - time.monotonic()))
         transport.wait(timeout)
         transport.flush()
         agent.poll()
+    refused = fatal()
+    if refused is not None:
+        transport.flush()  # let the join that names the refusal leave
+        raise FlexhrcError(refused)
     return agent.ended or "stopped"
+
+
+@dataclass
+class _RunMemory:
+    """What a robot agent did in one run: acks (sent again on a repeated id), the action of
+    each command id (a repeat with another action is refused), what runs, what was stopped,
+    what an earlier process of the agent started and never finished."""
+
+    acks: dict[int, dict[str, Any]] = field(default_factory=dict)
+    actions: dict[int, str] = field(default_factory=dict)
+    running: set[int] = field(default_factory=set)
+    stopped: set[int] = field(default_factory=set)
+    interrupted: set[int] = field(default_factory=set)
+
+
+def _check_single_holder(transport: Any, name: str) -> None:
+    """One process per agent name in a cell: a token ``alive/<name>`` already alive refuses
+    this one (the first holder keeps it). Over a transport that cannot be asked (the
+    in-process bus), nothing is checked."""
+    holders = getattr(transport, "liveliness_holders", None)
+    if holders is None:
+        return
+    # a session that just connected learns the tokens of peers beyond its first one a moment
+    # later: ask again for a short while (at start only) before taking the name as free
+    settle = time.monotonic() + (HOLDER_SETTLE_S if getattr(transport, "dials", False) else 0.0)
+    held = holders(P.alive_key(name))
+    while not held and time.monotonic() < settle:
+        time.sleep(0.02)
+        held = holders(P.alive_key(name))
+    if held:
+        raise FlexhrcError(
+            f"agent {name}: another process already serves this agent in the cell (its "
+            f"liveliness token {P.alive_key(name)} is alive); a second one is refused (a "
+            "process that just died keeps it until the Zenoh lease ends, about 10 s)"
+        )

@@ -13,8 +13,13 @@ topic               from -> to          message ``type``
 ``intent``          human -> manager    ``operator`` (its profile), ``intent`` (its answer)
 ``percept``         perception -> mgr   ``percept``, ``looked`` (a watcher has looked)
 ``state``           manager -> all      ``state`` (the cell snapshot), ``end``
+``join``            agent -> manager    ``join`` (its name and scenario fingerprint)
 ``alive/<agent>``   liveliness tokens   (``alive/manager`` for the manager)
 ==================  ==================  ====================================================
+
+Run identity (:mod:`flexhrc.cell.identity`): the manager's commands, stops, suggestions,
+``options`` and ``end`` carry the run id as ``run`` (and the first three the scenario's
+``fingerprint``); an agent's answers carry the ``run`` of what they answer.
 
 Every message is a JSON object with ``"v": 1`` and ``"type"``. :func:`parse` checks one against
 its schema in the catalogue (:data:`flexhrc.events.MESSAGES`) and raises :class:`ProtocolError`
@@ -53,6 +58,7 @@ HUMAN_TOPIC = "human"
 PERCEPT_TOPIC = "percept"
 INTENT_TOPIC = "intent"
 STATE_TOPIC = "state"
+JOIN_TOPIC = "join"
 ALIVE_PREFIX = "alive"
 
 
@@ -96,10 +102,11 @@ def from_run(msg: dict[str, Any], run: Any) -> bool:
 
 def parse_end(data: Any, *, run: Any = None) -> dict[str, Any]:
     """An ``end`` an agent may obey: a well-formed ``end`` of this protocol version (an agent
-    never leaves on ``{"v": 99, "type": "end"}``) of the agent's run ``run`` when both know
-    one; raises :class:`ProtocolError` saying why not. The caller takes it only from the
-    ``state`` key of its own cell's manager (the transport's prefix names the cell)."""
+    never leaves on ``{"v": 99, "type": "end"}``) of the agent's run ``run`` once it knows one
+    (an end without a run is then refused: probe P15); raises :class:`ProtocolError` saying
+    why not. The caller takes it only from the ``state`` key of its own cell's manager (the
+    transport's prefix names the cell)."""
     msg = parse(data, expect="end")
-    if not from_run(msg, run):
+    if run is not None and msg.get("run") != run:  # the manager's own end names the run (P15)
         raise ProtocolError(f"an 'end' of run {msg.get('run')!r}, not of this run {run!r}")
     return msg

@@ -299,6 +299,8 @@ def trace_line(ev: dict[str, Any]) -> str | None:
         line = f"agent back: {ev['agent']}"
     elif kind == "dropped":
         line = f"dropped a message: {ev['reason']}"
+    elif kind == "refused":
+        line = str(ev["reason"])
     elif kind in ("abort", "action_failed", "infeasible"):
         line = f"{kind} {ev['element']}: {ev.get('reason')}"
     elif kind == "outcome":

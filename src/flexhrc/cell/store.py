@@ -13,7 +13,9 @@ JSON object. The kinds are catalogued in :data:`flexhrc.events.STORE_KINDS`. Inp
 ``human_action``, ``percept``, ``agent_up``, ``agent_down``, ``operator``, ``intent``,
 ``human_take``. Output kinds: ``command``, ``suggestion``, ``stop``, ``options``; the manager's
 ``decision``, ``solved``, ``outcome`` ... records and a closing ``summary`` are stored too so
-that ``flexhrc replay FILE.db`` can rebuild the summary of ``flexhrc replay LOG.jsonl``.
+that ``flexhrc replay FILE.db`` can rebuild the summary of ``flexhrc replay LOG.jsonl``. Every
+body the cell writes names its run (``"run"``, :mod:`flexhrc.cell.identity`); a row without it
+was written before run ids existed.
 
 ``--resume`` and ``replay`` read a store through the same checks (:func:`iter_events` for each
 row, :func:`check_events` for the whole): a corrupted store is one :class:`FormatError` naming

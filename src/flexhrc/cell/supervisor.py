@@ -54,6 +54,7 @@ from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+from flexhrc.cell import identity
 from flexhrc.cell import protocol as P
 from flexhrc.cell.components import ScenarioLike, ground, unknown_name, world_of
 from flexhrc.cell.store import EventStore, StoredEvent, check_events, log_events
@@ -140,6 +141,12 @@ class Cell:
         self.name = name
         self.seed = seed
         self.transport = transport
+        if liveliness:
+            self._check_single_manager(transport, name)
+        # run identity (flexhrc.cell.identity): a new run's id; a resume takes the stored one
+        self.run_id = identity.new_run_id()
+        self.refused: dict[str, str] = {}  # agent -> why its process was refused (join)
+        self._token_alive: dict[str, bool] = {}  # agent -> its token, as Zenoh reports it
         self.store = store
         self.realtime = float(realtime)
         self.ordered = (self.realtime == 0) if ordered is None else ordered
@@ -164,6 +171,7 @@ class Cell:
         self.graph = scenario.online_graph()
         self.domain = scenario.domain
         self.kb = scenario.world()
+        self.fingerprint = identity.fingerprint(scenario, graph=self.graph, world=self.kb)
         if simulator is None:
             simulator = scenario.make_simulator(None)  # the scenario's own choice
         self.tm = TaskManager(
@@ -224,6 +232,7 @@ class Cell:
             transport.subscribe(P.HUMAN_TOPIC, self._on_human_message),
             transport.subscribe(P.PERCEPT_TOPIC, self._on_percept_message),
             transport.subscribe(P.INTENT_TOPIC, self._on_intent_message),
+            transport.subscribe(P.JOIN_TOPIC, self._on_join),
         ]
         self.percept_ids: set[str] = set()
         # perception agents the ordered loop waits for (see the module docstring): the manager
@@ -278,6 +287,8 @@ class Cell:
         return {
             "cell": self.name,
             "scenario": self.scenario.name,
+            "run": self.run_id,
+            "fingerprint": self.fingerprint,
             "t": round(self.now, 6),
             "outcome": self.tm.outcome,
             "reason": self.tm.reason,
@@ -307,6 +318,7 @@ class Cell:
                 agent=human,
                 action=action,
                 t=round(self.now, 6),
+                run=self.run_id,
             )
         )
 
@@ -332,7 +344,9 @@ class Cell:
             raise FlexhrcError(f"unknown agent {name!r}")
         cmd = self.tm.busy.get(name)
         if cmd is not None and st.alive:  # the arm itself stops at once
-            stop = P.message("stop", id=cmd.id, reason=f"stopped by the {by}", t=self.now)
+            stop = P.message(
+                "stop", id=cmd.id, reason=f"stopped by the {by}", t=self.now, run=self.run_id
+            )
             self.transport.publish(P.cmd_topic(name), stop)
         self._input("agent_down", {"agent": name, "wall": time.time(), "by": by})
 
@@ -369,7 +383,9 @@ class Cell:
             return
         cid = msg["id"]
         cmd = self.commands.get(cid)
-        if cmd is None:
+        if self._other_run(msg):
+            self._drop(f"ack for command {cid} of another run ({msg['run']})")
+        elif cmd is None:
             self._drop(f"ack for unknown command {cid}")
         elif cid in self.acked or any(k == "ack" and b["id"] == cid for *_, k, b in self.pending):
             self._drop(f"duplicate ack for command {cid}")
@@ -408,6 +424,8 @@ class Cell:
                     raise P.ProtocolError(f"answer about {msg['object']!r}, not an object here")
                 if msg["report"] not in self._reports:
                     raise P.ProtocolError(f"answer about {msg['report']!r}, not a report here")
+                if self._other_run(msg):
+                    raise P.ProtocolError(f"answer of another run ({msg['run']})")
                 self._arrive(msg["t"], "operator_answers", _body(msg))
                 return
             action = ground(self.domain, msg["action"])
@@ -420,6 +438,12 @@ class Cell:
                 raise P.ProtocolError(f"{action} is not an action of {msg['agent']}")
         except FlexhrcError as exc:
             self._drop(f"human_action: {exc}")
+            return
+        if self._other_run(msg):
+            self._drop(f"human_action {msg['id']} of another run ({msg['run']})")
+            return
+        if not self.started:  # nothing was asked yet: a report of another cell's request
+            self._drop(f"human_action {msg['id']} before the cooperation started")
             return
         if msg["id"] in self.human_ids or any(
             k == "human_action" and b["id"] == msg["id"] for *_, k, b in self.pending
@@ -541,7 +565,9 @@ class Cell:
             # ``state`` shows its profile, so the start never misses a profile announced
             self._publish_state(force=True)
             return
-        if msg["id"] in self.intent_ids or any(
+        if self._other_run(msg):
+            self._drop(f"intent {msg['id']} of another run ({msg['run']})")
+        elif msg["id"] in self.intent_ids or any(
             k == "intent" and b["id"] == msg["id"] for *_, k, b in self.pending
         ):
             self._drop(f"duplicate intent {msg['id']}")
@@ -560,6 +586,9 @@ class Cell:
         if st is None:
             if name != P.MANAGER:
                 log.info("liveliness of %s, not an agent of this cell: ignored", name)
+            return
+        self._token_alive[name] = alive
+        if name in self.refused and alive:  # the process of another scenario: not this agent
             return
         st.alive = alive
         if alive:
@@ -605,7 +634,10 @@ class Cell:
                 self._captured.append((kind, body))
             return
         t = self.now  # unrounded, so a resumed clock continues exactly
-        seq = self.store.append(kind, body, t) if self.store is not None else len(self.events) + 1
+        if self.store is not None:  # every row names its run (flexhrc.cell.identity)
+            seq = self.store.append(kind, {**body, identity.RUN: self.run_id}, t)
+        else:
+            seq = len(self.events) + 1
         ev = StoredEvent(seq, t, kind, body)
         self.events.append(ev)
         self.trace({**body, "t": t, "type": kind})
@@ -685,7 +717,9 @@ class Cell:
         if ev.kind == "start":
             profiles = list((b.get("operators") or {}).values())
             profile = profiles[0] if profiles else "passive"
-            return [{"profile": profile, **b, "t": t, "type": "start"}]
+            # the cooperation log of `flexhrc run --log` as it always was
+            same = {k: v for k, v in b.items() if k != "fingerprint"}
+            return [{"profile": profile, **same, "t": t, "type": "start"}]
         if ev.kind in ("fixed", "human_decides", "human_gives_up", "outcome", "summary"):
             return [{**b, "t": t, "type": ev.kind}]
         if ev.kind in ("percept", "inconsistent", "consistent_again", "repaired"):
@@ -899,7 +933,14 @@ class Cell:
         msg = {k: v for k, v in self.options[oid].items() if k != "agent"}
         self._options_sent_at[oid] = time.monotonic()
         self.transport.publish(
-            P.options_topic(human), P.message("options", **msg, world=world_of(self.kb))
+            P.options_topic(human),
+            P.message(
+                "options",
+                **msg,
+                world=world_of(self.kb),
+                run=self.run_id,
+                fingerprint=self.fingerprint,
+            ),
         )
 
     def _intent(self, body: dict[str, Any]) -> None:
@@ -997,7 +1038,9 @@ class Cell:
                 if not self.replaying and self.agents[d.agent].alive:
                     self.transport.publish(
                         P.cmd_topic(d.agent),
-                        P.message("stop", id=d.command_id, reason=d.reason, t=self.now),
+                        P.message(
+                            "stop", id=d.command_id, reason=d.reason, t=self.now, run=self.run_id
+                        ),
                     )
 
     def _held_elsewhere(self, t: float, body: dict[str, Any]) -> bool:
@@ -1066,6 +1109,8 @@ class Cell:
                 realtime=self.agent_speed,
                 process=bool(getattr(cmd, "process", False)),
                 **self._start_joints.get(cmd.id, {}),
+                run=self.run_id,
+                fingerprint=self.fingerprint,
             ),
         )
 
@@ -1095,6 +1140,7 @@ class Cell:
             return
         msg.pop("agent", None)
         msg.update(t=start, step=step, world=world_of(self.kb), realtime=self.agent_speed)
+        msg.update(run=self.run_id, fingerprint=self.fingerprint)
         if self._sent_step.get(sid) != step and self.observers:  # the person starts this step
             self._observe(
                 {
@@ -1165,6 +1211,87 @@ class Cell:
         except Exception as exc:  # a panel's view must never stop the cell
             log.warning("state not published: %s", exc)
 
+    # -- identity (flexhrc.cell.identity) -----------------------------------------------------
+    @staticmethod
+    def _check_single_manager(transport: Transport, name: str) -> None:
+        """One manager per cell name: a manager's token already alive refuses this one (the
+        first keeps the cell). Over a transport that cannot be asked, nothing is checked."""
+        holders = getattr(transport, "liveliness_holders", None)
+        if holders is not None and holders(P.alive_key(P.MANAGER)):
+            raise FlexhrcError(
+                f"--cell {name}: another manager already runs this cell (its liveliness token "
+                f"{P.alive_key(P.MANAGER)} is alive); a second one is refused: stop it first "
+                "or choose another --cell name (a manager that just died keeps it until the "
+                "Zenoh lease ends, about 10 s)"
+            )
+
+    def _other_run(self, msg: dict[str, Any]) -> bool:
+        """The message names a run other than this cell's (none named: legacy, accepted)."""
+        run = msg.get(identity.RUN)
+        return run is not None and run != self.run_id
+
+    def _on_join(self, data: Any) -> None:
+        """An agent joins with its scenario's fingerprint: one of another scenario is refused
+        (a log line here; its token is not counted as the agent's; the ``state`` this
+        publishes shows it the cell's fingerprint, and it exits with a clear error)."""
+        try:
+            msg = P.parse(data, expect="join")
+            if msg["agent"] not in self.agents:
+                raise P.ProtocolError(f"{msg['agent']!r} is not an agent of this cell")
+        except FlexhrcError as exc:
+            self._drop(f"join: {exc}")
+            return
+        name = str(msg["agent"])
+        if msg["fingerprint"] != self.fingerprint:
+            why = (
+                f"agent {name} refused: its scenario {msg['scenario']} (fingerprint "
+                f"{msg['fingerprint']}) is not this cell's {self.scenario.name} (fingerprint "
+                f"{self.fingerprint})"
+            )
+            if self.refused.get(name) != why:
+                self.refused[name] = why
+                log.error("%s", why)
+                self.trace(
+                    {"t": round(self.now, 6), "type": "refused", "agent": name, "reason": why}
+                )
+            st = self.agents[name]
+            if st.alive:
+                st.alive = False
+                if self.started and st.available:
+                    self._agent_down(name)
+            # the answer: a snapshot with this cell's fingerprint (a matching agent gets none,
+            # so the first state of a cell still comes with its start)
+            self._publish_state(force=True)
+        elif self.refused.pop(name, None) is not None and self._token_alive.get(name):
+            self._on_alive(P.alive_key(name), True)  # this agent's own process: counted now
+
+    def _own_run(self, events: list[StoredEvent]) -> list[StoredEvent]:
+        """The stored events of the run to resume: the store must be of this scenario, seed
+        and pace (:func:`identity.check_resume`) and hold one run; the run id is taken from
+        it. Returns the events without their ``run`` (the cell's own records leave it out)."""
+        where = f"{self.store.option} {self.store.path}" if self.store is not None else "store"
+        start = events[0].body
+        identity.check_resume(
+            start,
+            where=where,
+            scenario=str(self.scenario.name),
+            fingerprint=self.fingerprint,
+            seed=self.seed,
+            realtime=self.realtime,
+        )
+        self.run_id = identity.run_of(start)
+        out = []
+        for ev in events:
+            run = ev.body.get(identity.RUN)
+            if run is not None and run != self.run_id:
+                raise FlexhrcError(
+                    f"{where}: event {ev.seq} ({ev.kind}) is of run {run}, not of the stored "
+                    f"run {self.run_id}: the store mixes two runs"
+                )
+            body = {k: v for k, v in ev.body.items() if k != identity.RUN}
+            out.append(StoredEvent(ev.seq, ev.t, ev.kind, body))
+        return out
+
     # -- resume -------------------------------------------------------------------------------
     def _replay(self, events: list[StoredEvent]) -> None:
         source = self.store.path if self.store else "store"
@@ -1172,6 +1299,7 @@ class Cell:
             raise FlexhrcError(f"{source}: nothing to resume (the store holds no events)")
         if events[0].kind != "start":
             raise FlexhrcError(f"{source}: nothing to resume (no start event)")
+        events = self._own_run(events)
         check_events(events, source)  # a corrupted row: one clear error naming it, no replay
         last = max(i for i, ev in enumerate(events) if ev.is_input)
         self.replaying = True
@@ -1405,6 +1533,7 @@ class Cell:
                     "agents": list(self.domain.agents),
                     "humans": [n for n, st in self.agents.items() if st.kind == "human"],
                     "scenario": self.scenario.name,
+                    "fingerprint": self.fingerprint,
                     "seed": self.seed,
                     "realtime": self.realtime,
                     "simulator": _simulator_name(self.tm.simulator),
@@ -1463,7 +1592,9 @@ class Cell:
             self._pump(pump)
         summary = self.summary()
         self._record("summary", summary)
-        self.transport.publish(P.STATE_TOPIC, P.message("end", outcome=self.tm.outcome))
+        self.transport.publish(
+            P.STATE_TOPIC, P.message("end", outcome=self.tm.outcome, run=self.run_id)
+        )
         self._publish_state()
         return summary
 
@@ -1507,7 +1638,9 @@ class Cell:
         deadline = time.monotonic() + min(timeout, END_WAIT_S)
         while self.token is not None and self._missing() and time.monotonic() < deadline:
             pump(0.05)
-        self.transport.publish(P.STATE_TOPIC, P.message("end", outcome=self.tm.outcome))
+        self.transport.publish(
+            P.STATE_TOPIC, P.message("end", outcome=self.tm.outcome, run=self.run_id)
+        )
 
     def summary(self) -> dict[str, Any]:
         """The keys of ``flexhrc run --json`` (counted from the stored events), plus the cell's
@@ -1590,4 +1723,6 @@ def _moves_untouched(
 
 
 def _body(msg: dict[str, Any]) -> dict[str, Any]:
-    return {k: v for k, v in msg.items() if k not in ("v", "type")}
+    """A received message as the input it is (its ``run`` was checked; the store adds it to
+    every row)."""
+    return {k: v for k, v in msg.items() if k not in ("v", "type", identity.RUN)}

@@ -231,6 +231,8 @@ class ArmNode(RobotAgent):
     # -- commands (the cell's RobotAgent does the protocol) ---------------------------------
     def _command(self, message: dict[str, Any]) -> None:
         cid = int(message["id"])
+        if not self._of_this_scenario(message) or not self._enter_run(message):
+            return  # the agent stops with the error (``fatal``)
         fresh = cid not in self.acks and cid not in self.running and cid not in self.stopped
         em = self.execution.execution  # type: ignore[attr-defined]
         if fresh:
@@ -456,6 +458,7 @@ class ArmNode(RobotAgent):
                 t=round(motion.t_cell + motion.timeout_s, 6),
                 duration=round(motion.timeout_s, 6),
                 positions={},
+                **self._run_field(),
             )
             self.acks[motion.command_id] = ack
             self.transport.publish(P.ACK_TOPIC, ack)

@@ -203,6 +203,7 @@ class _Repair:
         self.reports: list[tuple[float, str, str, str, bool]] = []  # t, id, agent, action, real
         self.open: dict[str, float] = {}  # object -> when a percept contradicted it
         self.asked: set[str] = set()
+        self.run: str | None = None  # the run the reports belong to (the answers name it)
         self._subs = [
             bus.subscribe(P.HUMAN_TOPIC, self._on_report),
             bus.subscribe(P.PERCEPT_TOPIC, self._on_percept),
@@ -211,6 +212,8 @@ class _Repair:
     def _on_report(self, data: Any) -> None:
         if not isinstance(data, dict) or data.get("type") != "human_action":
             return
+        if isinstance(data.get("run"), str):
+            self.run = data["run"]
         if data.get("recognised") is False:
             return
         sensed = data.get("sensed") or {}
@@ -267,6 +270,7 @@ class _Repair:
                 P.message(
                     "answer", id=f"answer:{rid}", agent=agent, report=rid, object=obj,
                     question=question, answer="yes" if real else "no", t=t + self.confirm_s,
+                    **({"run": self.run} if self.run else {}),
                 ),
             )  # fmt: skip
 

@@ -74,6 +74,9 @@ API (everything below is public and stable):
     ``undeclare()``); it disappears for every watcher when undeclared, when the transport is
     closed, or when the process dies (the TCP link drops: within milliseconds on one host, after
     the lease — 10 s by default — if a remote host vanishes without closing its link).
+  - :meth:`ZenohTransport.liveliness_holders` lists the tokens matching a key expression that
+    are alive now (a liveliness query): a cell's manager and each agent ask for their own key
+    before declaring it, and are refused when another process holds it.
   - :meth:`ZenohTransport.watch_liveliness` calls ``callback(key, alive)`` for tokens matching a
     key expression (wildcards allowed); with ``history=True`` (default) the tokens already alive
     are reported first. Returns a :class:`~flexhrc.transport.Subscription`.
@@ -91,11 +94,12 @@ from __future__ import annotations
 import contextlib
 import ipaddress
 import json
-import math
 import logging
+import math
 import re
 import socket
 import threading
+import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any, Literal
@@ -359,6 +363,7 @@ def open_zenoh(
     check_exposure(config, given=listen)
     transport = ZenohTransport(config, prefix=prefix)
     transport.listen_endpoints = _endpoints_of(config, "listen")
+    transport.dials = bool(connect)
     return transport
 
 
@@ -466,6 +471,9 @@ class ZenohTransport(QueuedDelivery, Transport):
         self._tokens: list[_Token] = []
         self._lock = threading.Lock()
         self._closed = False
+        #: the session dials endpoints (``connect``): a liveliness query first waits until it is
+        #: connected, else it would ask no one (see :meth:`liveliness_holders`)
+        self.dials = False
 
     # -- keys -------------------------------------------------------------------------------
     def _key(self, topic: str, *, wildcards: bool = False) -> str:
@@ -550,6 +558,33 @@ class ZenohTransport(QueuedDelivery, Transport):
         token = _Token(key, self.session.liveliness().declare_token(full))
         self._tokens.append(token)
         return token
+
+    def liveliness_holders(self, key_expr: str, timeout: float = 1.0) -> list[str]:
+        """The keys of the tokens matching ``key_expr`` alive now (under the prefix, stripped
+        as in :meth:`watch_liveliness`): a query to every connected session, answered within
+        ``timeout`` seconds. A process asks before it declares a token that must have one
+        holder (an agent's name, a cell's manager): the first holder keeps it. A session that
+        dials (:attr:`dials`) first waits, up to ``timeout``, until it is connected to a peer
+        or a router: under load the link may come up after the session opened."""
+        self._check_open()
+        kexpr = self._key(key_expr, wildcards=True)
+        deadline = time.monotonic() + timeout
+        while self.dials and not self._connected() and time.monotonic() < deadline:
+            time.sleep(0.01)  # at start only: polls the link to come up, bounded by timeout
+        try:
+            replies = list(self.session.liveliness().get(kexpr, timeout=timeout))
+        except Exception as exc:  # zenoh.ZError
+            raise TransportError(f"cannot query the Zenoh liveliness tokens: {exc}") from None
+        keys = []
+        for reply in replies:
+            ok = getattr(reply, "ok", None)
+            if ok is not None:
+                keys.append(self._unkey(str(ok.key_expr)))
+        return sorted(set(keys))
+
+    def _connected(self) -> bool:
+        info = self.session.info
+        return bool(list(info.peers_zid()) or list(info.routers_zid()))
 
     def unsubscribe(self, subscription: Subscription) -> None:
         with self._lock:
