@@ -322,6 +322,7 @@ def _arm(bus: InProcessBus) -> RobotAgent:
         ("R2P6", {"v": 7, "type": "end"}),
         ("P15_no_outcome", {"v": 1, "type": "end"}),
         ("P15_other_run", {"v": 1, "type": "end", "outcome": "solved", "run": "someone-else"}),
+        ("P15_no_run", {"v": 1, "type": "end", "outcome": "solved"}),
         ("P15_not_json_object", ["end"]),
     ],
 )
@@ -332,7 +333,7 @@ def test_p15_p16_r2p6_an_agent_leaves_only_on_its_managers_end(case: str, end: A
     bus.publish(P.STATE_TOPIC, end)
     assert arm.ended is None, case
     assert arm.dropped == (1 if isinstance(end, dict) else 0)
-    bus.publish(P.STATE_TOPIC, P.message("end", outcome="solved"))  # the manager's (no run id)
+    bus.publish(P.STATE_TOPIC, P.message("end", outcome="solved", run="this-run"))  # the manager's
     assert arm.ended == "solved"
     arm.close()
 
@@ -358,8 +359,8 @@ def test_p14_a_command_resent_after_a_spoofed_stop_is_answered_failed() -> None:
 def test_p14_a_stop_of_another_run_is_dropped() -> None:
     bus = InProcessBus(immediate=True)
     arm = _arm(bus)
-    arm.run = "this-run"  # type: ignore[attr-defined]
-    bus.publish(P.cmd_topic("left"), _command(9))
+    command = {**_command(9), "run": "this-run"}  # the manager's commands name its run
+    bus.publish(P.cmd_topic("left"), command)
     bus.publish(P.cmd_topic("left"), {"v": 1, "type": "stop", "id": 9, "run": "other"})
     assert 9 in arm.running and arm.dropped == 1
     arm.close()
