@@ -152,6 +152,12 @@ def position_problem(p: Any, what: str = "a position") -> str | None:
     """``None`` when ``p`` is ``[x, y, z]``, finite and within :data:`WORKSPACE_M` of the
     origin on every axis, else why not (one line naming ``what``). The one check of a position
     that crosses the cell's boundary: protocol messages, the ROS 2 bridge's poses."""
+    if type(p) is list and len(p) == 3:  # the common case, checked cheaply (every message)
+        x, y, z = p
+        if type(x) is float and type(y) is float and type(z) is float:
+            w = WORKSPACE_M  # (NaN fails every comparison: it takes the slow path)
+            if -w <= x <= w and -w <= y <= w and -w <= z <= w:
+                return None
     if not isinstance(p, list | tuple) or len(p) != 3 or not all(_finite(x) for x in p):
         return f"{what} must be [x, y, z] finite numbers, got {p!r:.60}"
     if not all(abs(x) <= WORKSPACE_M for x in p):
@@ -498,7 +504,7 @@ def _positions(kind: str) -> Rule:
 
 
 def _fact(f: Any) -> bool:
-    return isinstance(f, list) and bool(f) and all(isinstance(x, str) and x for x in f)
+    return type(f) is list and bool(f) and all(type(x) is str and x for x in f)
 
 
 def _world(kind: str) -> Rule:
