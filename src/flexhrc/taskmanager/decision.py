@@ -22,8 +22,8 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from flexhrc.knowledge import KnowledgeBase
-from flexhrc.logic import Literal, Substitution, apply_substitution, is_variable, satisfy
-from flexhrc.taskmanager.domain import ActionSchema, Domain, GroundAction
+from flexhrc.logic import Literal, Substitution, is_variable, satisfy
+from flexhrc.taskmanager.domain import ActionSchema, Domain, GroundAction, GroundedSchema
 from flexhrc.taskmanager.simulator import SimulationResult, Simulator
 
 
@@ -258,24 +258,28 @@ def unmet_precondition(
     state: set[tuple[str, ...]] | None = None  # copied on the first effect only
     current: Facts = facts
     for i, step in enumerate(steps):
-        schema = step.schema
-        binding = step.binding
-        if i >= from_index and schema.pre:
-            pre = [apply_substitution(lit, binding) for lit in schema.pre]
-            if not holds(pre, current):
-                # name the literals that fail (all of them when they share free variables)
-                bad = [x for x in pre if x.is_ground and (x.key() in current) == x.negated]
-                bad = bad or [x for x in pre if not x.is_ground] or pre
-                return f"pre({step}) does not hold: {' & '.join(str(x) for x in bad)}"
-        if schema.add or schema.delete:
+        g = step.schema.grounded(step.args)
+        if i >= from_index and g.pre and not _pre_holds(g, current):
+            pre = g.pre
+            # name the literals that fail (all of them when they share free variables)
+            bad = [x for x in pre if x.is_ground and (x.key() in current) == x.negated]
+            bad = bad or [x for x in pre if not x.is_ground] or list(pre)
+            return f"pre({step}) does not hold: {' & '.join(str(x) for x in bad)}"
+        if g.add or g.delete:
             if state is None:
                 state = set(current)
                 current = state
-            for lit in schema.delete:
-                state.discard(apply_substitution(lit, binding).key())
-            for lit in schema.add:
-                state.add(apply_substitution(lit, binding).key())
+            state.difference_update(g.delete)
+            state.update(g.add)
     return None
+
+
+def _pre_holds(g: GroundedSchema, facts: Facts) -> bool:
+    """:func:`holds` for a grounded pre(a): its ground literals are set lookups made once."""
+    for key, negated in g.pre_ground:
+        if (key in facts) == negated:
+            return False
+    return not g.pre_open or next(satisfy(g.pre_open, facts), None) is not None
 
 
 def _ground(schema: ActionSchema, args: Sequence[str], subst: Mapping[str, str]) -> GroundAction:
