@@ -32,7 +32,14 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from flexhrc.errors import FlexhrcError, UnknownNameError
-from flexhrc.logic import Conjunction, Literal, Substitution, apply_substitution, satisfy
+from flexhrc.logic import (
+    Conjunction,
+    Literal,
+    Substitution,
+    apply_substitution,
+    index_facts,
+    satisfy,
+)
 
 Vec3 = tuple[float, float, float]
 
@@ -83,6 +90,10 @@ class KnowledgeBase:
         self.objects: dict[str, ObjectRecord] = {}
         self.supertypes: dict[str, str] = dict(supertypes or {})
         self._facts: set[tuple[str, ...]] = set()
+        # views of _facts made on demand and kept until the next change (_facts_change):
+        # every decision reads the facts many times between two changes
+        self._frozen: frozenset[tuple[str, ...]] | None = None
+        self._index: dict[str, list[tuple[str, ...]]] | None = None
         self.size_tolerance = size_tolerance
         self.position_tolerance = position_tolerance
         self.inconsistencies: list[Inconsistency] = []
@@ -101,6 +112,7 @@ class KnowledgeBase:
             raise FlexhrcError(f"object {obj_id!r} already exists")
         rec = ObjectRecord(obj_id, type, _vec(position), dict(size or {}), dict(attrs))
         self.objects[obj_id] = rec
+        self._facts_change()
         self._facts.update((t, obj_id) for t in self.type_chain(type))
         self.version += 1
         return rec
@@ -253,6 +265,7 @@ class KnowledgeBase:
                 continue
             if accept:
                 rec = self.objects[inc.object_id]
+                self._facts_change()
                 self._facts.difference_update((t, rec.id) for t in self.type_chain(rec.type))
                 rec.type = inc.percept["type"]
                 rec.position = inc.percept["position"]
@@ -264,10 +277,12 @@ class KnowledgeBase:
 
     # -- facts --------------------------------------------------------------------------
     def assert_fact(self, *fact: str) -> None:
+        self._facts_change()
         self._facts.add(tuple(fact))
         self.version += 1
 
     def retract_fact(self, *fact: str) -> None:
+        self._facts_change()
         self._facts.discard(tuple(fact))
         self.version += 1
 
@@ -276,23 +291,40 @@ class KnowledgeBase:
 
     @property
     def facts(self) -> frozenset[tuple[str, ...]]:
-        return frozenset(self._facts)
+        frozen = self._frozen
+        if frozen is None:
+            frozen = self._frozen = frozenset(self._facts)
+        return frozen
+
+    def _facts_change(self) -> None:
+        """Called before ``_facts`` changes: the views of the old facts go (they are replaced,
+        never changed in place, so a query running over the old ones stays consistent)."""
+        self._frozen = None
+        self._index = None
+
+    def _facts_index(self) -> dict[str, list[tuple[str, ...]]]:
+        index = self._index
+        if index is None:
+            index = self._index = index_facts(self._facts)
+        return index
 
     def query(
         self, formula: Iterable[Literal], subst: Mapping[str, str] | None = None
     ) -> list[Substitution]:
         """Every substitution making the conjunction true (closed world), deterministic order."""
-        return list(satisfy(formula, self._facts, subst))
+        return list(satisfy(formula, self._facts, subst, index=self._facts_index()))
 
     def iter_query(
         self, formula: Iterable[Literal], subst: Mapping[str, str] | None = None
     ) -> Iterator[Substitution]:
-        return satisfy(formula, self._facts, subst)
+        # a generator: the index is taken when the caller starts iterating, as satisfy's own
+        yield from satisfy(formula, self._facts, subst, index=self._facts_index())
 
     def apply_effects(
         self, add: Conjunction, delete: Conjunction, subst: Mapping[str, str]
     ) -> None:
         """Action effects (eq. 20): delete first, then add, both grounded by ``subst``."""
+        self._facts_change()
         for lit in delete:
             self._facts.discard(apply_substitution(lit, subst).key())
         for lit in add:

@@ -197,14 +197,17 @@ class DecisionTree:
         branches: list[Branch] = []
         pruned: list[Branch] = []
         facts = kb.facts if check_pre else frozenset()
+        grounders = [(schema, args, _choice_index(schema)) for schema, args in parsed]
         for g in groundings:
             combos: list[dict[str, str]] = [dict(g)]
             for choices in agent_choices:
                 combos = [{**c, v: n} for c in combos for v, n in choices]
             for full in combos:
-                if any(all(full.get(k) == v for k, v in ex.items()) for ex in excluded):
+                if excluded and any(
+                    all(full.get(k) == v for k, v in ex.items()) for ex in excluded
+                ):
                     continue
-                steps = [_ground(schema, args, full) for schema, args in parsed]
+                steps = [_ground(schema, args, full, i) for schema, args, i in grounders]
                 if any(a not in available for s in steps for a in s.agents):
                     continue
                 why = unmet_precondition(steps, facts, from_index) if check_pre else None
@@ -282,12 +285,16 @@ def _pre_holds(g: GroundedSchema, facts: Facts) -> bool:
     return not g.pre_open or next(satisfy(g.pre_open, facts), None) is not None
 
 
-def _ground(schema: ActionSchema, args: Sequence[str], subst: Mapping[str, str]) -> GroundAction:
-    values = tuple(subst.get(a, a) if is_variable(a) else a for a in args)
+def _choice_index(schema: ActionSchema) -> int | None:
+    """The position of the argument that names the agent (``choice``), or None (fixed)."""
     spec = schema.agents
-    if spec.mode == "choice":
-        idx = schema.variables.index(str(spec.variable))
-        agents: tuple[str, ...] = (values[idx],)
-    else:
-        agents = spec.names
+    return schema.variables.index(str(spec.variable)) if spec.mode == "choice" else None
+
+
+def _ground(
+    schema: ActionSchema, args: Sequence[str], subst: Mapping[str, str], choice: int | None
+) -> GroundAction:
+    # a[:1] == "?" is is_variable(a), inline: this runs for every action of every branch
+    values = tuple([subst.get(a, a) if a[:1] == "?" else a for a in args])
+    agents = schema.agents.names if choice is None else (values[choice],)
     return GroundAction(schema, values, agents)

@@ -266,6 +266,8 @@ class TaskManager:
         self._process_of: dict[int, str] = {}  # command id -> node of that process
         self._extra: list[Directive] = []  # directives raised deep inside (process stops)
         self._answer = graph.query()
+        self._answer_views: tuple[Any, dict[str, float], list[tuple[float, int, str]]] | None
+        self._answer_views = None  # (answer, its feasible, its hyper-arcs): see _feasible
         self._formulas = self._collect_formulas()
         self._node_processes = self._collect_processes()
 
@@ -437,6 +439,29 @@ class TaskManager:
             inner = (self.timing.task_representation_s - rep0) + (self.timing.simulator_s - sim0)
             self.timing.task_manager_s += max(0.0, spent - inner)
 
+    def _feasible(self) -> dict[str, float]:
+        """The graph's answer's feasible elements (eq. 10), made once per answer: a plan
+        reads them at every step it takes (read only)."""
+        return self._views()[1]
+
+    def _hyperarcs_by_cost(self) -> list[tuple[float, int, str]]:
+        """(cost, element id, name) of the answer's feasible hyper-arcs, cheapest first (ties:
+        element id), made once per answer (read only)."""
+        return self._views()[2]
+
+    def _views(self) -> tuple[Any, dict[str, float], list[tuple[float, int, str]]]:
+        views = self._answer_views
+        if views is None or views[0] is not self._answer:
+            feasible = self._answer.feasible
+            graph = self.graph
+            arcs = sorted(
+                (cost, graph.element_id(name), name)
+                for name, cost in feasible.items()
+                if graph.kind(name) == "hyperarc"
+            )
+            views = self._answer_views = (self._answer, feasible, arcs)
+        return views
+
     def _emit(self, kind: LogEventType, **data: Any) -> None:
         data.pop("type", None)  # a misspelt kind is a type error: the tags of flexhrc.events
         self._log({"t": round(self._now, 6), "type": kind, **data})
@@ -449,7 +474,7 @@ class TaskManager:
             "query",
             report={k: list(v) for k, v in kw.items() if v},
             outcome=self._answer.outcome,
-            feasible={k: _num(v) for k, v in self._answer.feasible.items()},
+            feasible={k: _num(v) for k, v in self._feasible().items()},
         )
         if self._answer.solved:
             self._finish("solved", None)
@@ -512,7 +537,7 @@ class TaskManager:
         """Meet feasible nodes whose state holds and whose processes have ended (eq. 5)."""
         while self.outcome == "running":
             met = []
-            for name in self._answer.feasible:
+            for name in self._feasible():
                 if self.graph.kind(name) != "node" or not self._node_holds(name):
                     continue
                 if name in self._node_processes and not self._processes_ended(name):
@@ -646,7 +671,7 @@ class TaskManager:
         for _ in range(10_000):
             if self.done:
                 return out
-            self.table.refresh(self._answer.feasible, self._describe)
+            self.table.refresh(self._feasible(), self._describe)
             started = self._start_next(out)
             if not started:
                 break
@@ -698,13 +723,7 @@ class TaskManager:
 
     def _start_next(self, out: list[Directive]) -> bool:
         """Start the cheapest startable element; True if something changed."""
-        candidates = sorted(
-            (
-                (cost, self.graph.element_id(name), name)
-                for name, cost in self._answer.feasible.items()
-                if self.graph.kind(name) == "hyperarc"
-            ),
-        )
+        candidates = self._hyperarcs_by_cost()
         robots_idle = self.idle_robots
         busy_humans = self._busy_humans()
         for cost, _, name in candidates:
@@ -1177,12 +1196,7 @@ class TaskManager:
         """Which feasible hyper-arc does this unsuggested action advance? The action may be any
         action of A(h) whose earlier actions are already done; the binding it gives must ground
         the whole list. Cheapest hyper-arc first, then the earliest position in its list."""
-        candidates = sorted(
-            (cost, self.graph.element_id(n), n)
-            for n, cost in self._answer.feasible.items()
-            if self.graph.kind(n) == "hyperarc"
-        )
-        for cost, _, name in candidates:
+        for cost, _, name in self._hyperarcs_by_cost():
             actions = self._describe(name)[1]
             if not actions:
                 continue
