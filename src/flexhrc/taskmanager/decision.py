@@ -263,10 +263,9 @@ def unmet_precondition(
     for i, step in enumerate(steps):
         g = step.schema.grounded(step.args)
         if i >= from_index and g.pre and not _pre_holds(g, current):
-            pre = g.pre
             # name the literals that fail (all of them when they share free variables)
-            bad = [x for x in pre if x.is_ground and (x.key() in current) == x.negated]
-            bad = bad or [x for x in pre if not x.is_ground] or list(pre)
+            bad = [lit for lit, key, negated in g.pre_ground if (key in current) == negated]
+            bad = bad or list(g.pre_open) or list(g.pre)
             return f"pre({step}) does not hold: {' & '.join(str(x) for x in bad)}"
         if g.add or g.delete:
             if state is None:
@@ -279,7 +278,7 @@ def unmet_precondition(
 
 def _pre_holds(g: GroundedSchema, facts: Facts) -> bool:
     """:func:`holds` for a grounded pre(a): its ground literals are set lookups made once."""
-    for key, negated in g.pre_ground:
+    for _, key, negated in g.pre_ground:
         if (key in facts) == negated:
             return False
     return not g.pre_open or next(satisfy(g.pre_open, facts), None) is not None

@@ -136,7 +136,7 @@ class ActionSchema:
             pre = tuple(apply_substitution(lit, binding) for lit in self.pre)
             g = cache[args] = GroundedSchema(
                 pre=pre,
-                pre_ground=tuple((lit.key(), lit.negated) for lit in pre if lit.is_ground),
+                pre_ground=tuple((lit, lit.key(), lit.negated) for lit in pre if lit.is_ground),
                 pre_open=tuple(lit for lit in pre if not lit.is_ground),
                 add=tuple(apply_substitution(lit, binding).key() for lit in self.add),
                 delete=tuple(apply_substitution(lit, binding).key() for lit in self.delete),
@@ -157,7 +157,8 @@ class GroundedSchema:
     """An action schema's formulas under one argument tuple (:meth:`ActionSchema.grounded`)."""
 
     pre: Conjunction  # pre(a), literal by literal
-    pre_ground: tuple[tuple[tuple[str, ...], bool], ...]  # (fact, negated) of its ground literals
+    # (literal, its fact, negated) of each ground literal of pre(a), in order
+    pre_ground: tuple[tuple[Lit, tuple[str, ...], bool], ...]
     pre_open: Conjunction  # its literals with variables left (free in pre(a), not parameters)
     add: tuple[tuple[str, ...], ...]  # eff+(a) as facts
     delete: tuple[tuple[str, ...], ...]  # eff-(a) as facts

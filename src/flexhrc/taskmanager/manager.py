@@ -157,6 +157,9 @@ class Stop:
 
 
 Directive = Command | Suggest | Stop
+#: A graph answer with what the manager reads of it at every step: its feasible elements, its
+#: feasible hyper-arcs as (cost, element id, name) cheapest first, its feasible nodes.
+_AnswerViews = tuple[Any, dict[str, float], list[tuple[float, int, str]], list[str]]
 
 
 @dataclass
@@ -266,8 +269,7 @@ class TaskManager:
         self._process_of: dict[int, str] = {}  # command id -> node of that process
         self._extra: list[Directive] = []  # directives raised deep inside (process stops)
         self._answer = graph.query()
-        self._answer_views: tuple[Any, dict[str, float], list[tuple[float, int, str]]] | None
-        self._answer_views = None  # (answer, its feasible, its hyper-arcs): see _feasible
+        self._answer_views: _AnswerViews | None = None  # see _feasible
         self._formulas = self._collect_formulas()
         self._node_processes = self._collect_processes()
 
@@ -449,17 +451,23 @@ class TaskManager:
         element id), made once per answer (read only)."""
         return self._views()[2]
 
-    def _views(self) -> tuple[Any, dict[str, float], list[tuple[float, int, str]]]:
+    def _feasible_nodes(self) -> list[str]:
+        """The answer's feasible nodes, in its order, made once per answer (read only)."""
+        return self._views()[3]
+
+    def _views(self) -> _AnswerViews:
         views = self._answer_views
         if views is None or views[0] is not self._answer:
             feasible = self._answer.feasible
             graph = self.graph
+            kinds = [(name, cost, graph.kind(name)) for name, cost in feasible.items()]
             arcs = sorted(
                 (cost, graph.element_id(name), name)
-                for name, cost in feasible.items()
-                if graph.kind(name) == "hyperarc"
+                for name, cost, kind in kinds
+                if kind == "hyperarc"
             )
-            views = self._answer_views = (self._answer, feasible, arcs)
+            nodes = [name for name, _, kind in kinds if kind == "node"]
+            views = self._answer_views = (self._answer, feasible, arcs, nodes)
         return views
 
     def _emit(self, kind: LogEventType, **data: Any) -> None:
@@ -537,8 +545,8 @@ class TaskManager:
         """Meet feasible nodes whose state holds and whose processes have ended (eq. 5)."""
         while self.outcome == "running":
             met = []
-            for name in self._feasible():
-                if self.graph.kind(name) != "node" or not self._node_holds(name):
+            for name in self._feasible_nodes():
+                if not self._node_holds(name):
                     continue
                 if name in self._node_processes and not self._processes_ended(name):
                     continue
