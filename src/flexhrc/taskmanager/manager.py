@@ -270,6 +270,11 @@ class TaskManager:
         self._extra: list[Directive] = []  # directives raised deep inside (process stops)
         self._answer = graph.query()
         self._answer_views: _AnswerViews | None = None  # see _feasible
+        # what the graph's definitions say of an element (fixed): read at every step
+        self._described: dict[str, tuple[str, tuple[str, ...]]] = {}
+        self._children_of: dict[str, list[str]] = {}
+        self._parent_of: dict[str, str] = {}
+        self._constraints_of: dict[str, list[Literal]] = {}
         self._formulas = self._collect_formulas()
         self._node_processes = self._collect_processes()
 
@@ -412,7 +417,7 @@ class TaskManager:
 
     def constraints_of(self, hyperarc: str) -> list[Literal]:
         """The state formulas of h's children."""
-        return self._constraints(hyperarc)
+        return list(self._constraints(hyperarc))
 
     def binding_of(self, hyperarc: str) -> dict[str, str]:
         """The groundings h's children were reached with."""
@@ -512,6 +517,12 @@ class TaskManager:
         return out
 
     def _describe(self, name: str) -> tuple[str, tuple[str, ...]]:
+        found = self._described.get(name)
+        if found is None:
+            found = self._described[name] = self._read_description(name)
+        return found
+
+    def _read_description(self, name: str) -> tuple[str, tuple[str, ...]]:
         g = self.graph.definition_of(name)
         local = self.graph.local_name(name)
         if self.graph.kind(name) == "node":
@@ -519,16 +530,24 @@ class TaskManager:
         return "hyperarc", tuple(g.hyperarcs[local].actions)
 
     def _children(self, element: str) -> list[str]:
-        g = self.graph.definition_of(element)
-        h = g.hyperarcs[self.graph.local_name(element)]
-        prefix = self.graph.graph_of(element)
-        return [f"{prefix}/{c}" if prefix else c for c in h.children]
+        """The hyper-arc's children (kept: read only)."""
+        found = self._children_of.get(element)
+        if found is None:
+            g = self.graph.definition_of(element)
+            h = g.hyperarcs[self.graph.local_name(element)]
+            prefix = self.graph.graph_of(element)
+            found = [f"{prefix}/{c}" if prefix else c for c in h.children]
+            self._children_of[element] = found
+        return found
 
     def _parent(self, element: str) -> str:
-        g = self.graph.definition_of(element)
-        h = g.hyperarcs[self.graph.local_name(element)]
-        prefix = self.graph.graph_of(element)
-        return f"{prefix}/{h.parent}" if prefix else h.parent
+        found = self._parent_of.get(element)
+        if found is None:
+            g = self.graph.definition_of(element)
+            h = g.hyperarcs[self.graph.local_name(element)]
+            prefix = self.graph.graph_of(element)
+            found = self._parent_of[element] = f"{prefix}/{h.parent}" if prefix else h.parent
+        return found
 
     # -- deciding -------------------------------------------------------------------------
     def _node_holds(self, name: str) -> bool:
@@ -710,8 +729,13 @@ class TaskManager:
         return any(children & set(self._children(e)) for e in self.executions)
 
     def _constraints(self, element: str) -> list[Literal]:
-        """The children's state formulas (h starts from the state its children describe)."""
-        return [lit for c in self._children(element) for lit in self._formulas.get(c, ())]
+        """The children's state formulas (h starts from the state its children describe; kept:
+        read only)."""
+        found = self._constraints_of.get(element)
+        if found is None:
+            found = [lit for c in self._children(element) for lit in self._formulas.get(c, ())]
+            self._constraints_of[element] = found
+        return found
 
     def _child_binding(self, element: str) -> dict[str, str]:
         """The groundings h's children were reached with (carried from their hyper-arcs)."""
