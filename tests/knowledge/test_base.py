@@ -142,6 +142,13 @@ def test_kept_views_of_the_facts_follow_every_change():
         assert k.query(on_table) == [s for s in satisfy(on_table, set(k._facts))]
         assert seen != k.facts
     assert ("on_table", "leg1") in before and ("leg", "leg3") not in before
+    # an effect refused half-way (not ground) leaves the views of what was applied
+    assert k.facts == frozenset(k._facts)  # a view is kept
+    with pytest.raises(FlexhrcError, match="not ground"):
+        k.apply_effects(
+            parse_conjunction("held(?x)"), parse_conjunction("on_table(?l)"), {"?l": "leg1"}
+        )
+    assert ("on_table", "leg1") not in k.facts and k.facts == frozenset(k._facts)
     # an accepted percept changes the object's type facts
     k.update_object("leg3", "tabletop", (0.1, 0.1, 0.0))
     types = k.facts

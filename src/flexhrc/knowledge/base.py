@@ -90,10 +90,12 @@ class KnowledgeBase:
         self.objects: dict[str, ObjectRecord] = {}
         self.supertypes: dict[str, str] = dict(supertypes or {})
         self._facts: set[tuple[str, ...]] = set()
-        # views of _facts made on demand and kept until the next change (_facts_change):
-        # every decision reads the facts many times between two changes
-        self._frozen: frozenset[tuple[str, ...]] | None = None
-        self._index: dict[str, list[tuple[str, ...]]] | None = None
+        # views of _facts made on demand and kept, with the generation of the facts they were
+        # made from, until the facts change (_facts_changed): every decision reads the facts
+        # many times between two changes
+        self._facts_gen = 0
+        self._frozen: tuple[int, frozenset[tuple[str, ...]]] | None = None
+        self._index: tuple[int, dict[str, list[tuple[str, ...]]]] | None = None
         self.size_tolerance = size_tolerance
         self.position_tolerance = position_tolerance
         self.inconsistencies: list[Inconsistency] = []
@@ -112,8 +114,8 @@ class KnowledgeBase:
             raise FlexhrcError(f"object {obj_id!r} already exists")
         rec = ObjectRecord(obj_id, type, _vec(position), dict(size or {}), dict(attrs))
         self.objects[obj_id] = rec
-        self._facts_change()
         self._facts.update((t, obj_id) for t in self.type_chain(type))
+        self._facts_changed()
         self.version += 1
         return rec
 
@@ -265,25 +267,25 @@ class KnowledgeBase:
                 continue
             if accept:
                 rec = self.objects[inc.object_id]
-                self._facts_change()
                 self._facts.difference_update((t, rec.id) for t in self.type_chain(rec.type))
                 rec.type = inc.percept["type"]
                 rec.position = inc.percept["position"]
                 rec.size.update(inc.percept["size"])
                 rec.fixed = False
                 self._facts.update((t, rec.id) for t in self.type_chain(rec.type))
+                self._facts_changed()
         self.inconsistencies = keep
         self.version += 1
 
     # -- facts --------------------------------------------------------------------------
     def assert_fact(self, *fact: str) -> None:
-        self._facts_change()
         self._facts.add(tuple(fact))
+        self._facts_changed()
         self.version += 1
 
     def retract_fact(self, *fact: str) -> None:
-        self._facts_change()
         self._facts.discard(tuple(fact))
+        self._facts_changed()
         self.version += 1
 
     def holds(self, *fact: str) -> bool:
@@ -291,21 +293,25 @@ class KnowledgeBase:
 
     @property
     def facts(self) -> frozenset[tuple[str, ...]]:
-        frozen = self._frozen
-        if frozen is None:
-            frozen = self._frozen = frozenset(self._facts)
+        gen, kept = self._facts_gen, self._frozen
+        if kept is not None and kept[0] == gen:
+            return kept[1]
+        frozen = frozenset(self._facts)
+        self._frozen = (gen, frozen)
         return frozen
 
-    def _facts_change(self) -> None:
-        """Called before ``_facts`` changes: the views of the old facts go (they are replaced,
-        never changed in place, so a query running over the old ones stays consistent)."""
-        self._frozen = None
-        self._index = None
+    def _facts_changed(self) -> None:
+        """Called after ``_facts`` changed: the kept views are of older facts now. (They are
+        replaced, never changed in place, so a query running over them stays consistent; one
+        made while a change was under way is of the generation before it, never taken after.)"""
+        self._facts_gen += 1
 
     def _facts_index(self) -> dict[str, list[tuple[str, ...]]]:
-        index = self._index
-        if index is None:
-            index = self._index = index_facts(self._facts)
+        gen, kept = self._facts_gen, self._index
+        if kept is not None and kept[0] == gen:
+            return kept[1]
+        index = index_facts(self._facts)
+        self._index = (gen, index)
         return index
 
     def query(
@@ -324,14 +330,16 @@ class KnowledgeBase:
         self, add: Conjunction, delete: Conjunction, subst: Mapping[str, str]
     ) -> None:
         """Action effects (eq. 20): delete first, then add, both grounded by ``subst``."""
-        self._facts_change()
-        for lit in delete:
-            self._facts.discard(apply_substitution(lit, subst).key())
-        for lit in add:
-            g = apply_substitution(lit, subst)
-            if not g.is_ground:
-                raise FlexhrcError(f"effect {lit} is not ground under {dict(subst)}")
-            self._facts.add(g.key())
+        try:
+            for lit in delete:
+                self._facts.discard(apply_substitution(lit, subst).key())
+            for lit in add:
+                g = apply_substitution(lit, subst)
+                if not g.is_ground:
+                    raise FlexhrcError(f"effect {lit} is not ground under {dict(subst)}")
+                self._facts.add(g.key())
+        finally:  # (a refused effect may follow effects already applied)
+            self._facts_changed()
         self.version += 1
 
     # -- copies -------------------------------------------------------------------------
