@@ -63,6 +63,7 @@ _qos = require("rclpy.qos")
 _executors = require("rclpy.executors")
 _signals = require("rclpy.signals")
 _Duration = require("rclpy.duration").Duration
+_events = require("rclpy.event_handler")
 
 __all__ = [
     "LIVELINESS_TOPIC",
@@ -184,11 +185,13 @@ def check_exposure(environ: Mapping[str, str] | None = None) -> None:
 
 
 class _Token:
-    """A declared liveliness token; ``undeclare()`` withdraws it (idempotent)."""
+    """A declared liveliness token; ``undeclare()`` withdraws it (idempotent). ``publisher``:
+    the DDS writer whose liveliness is the token's (:meth:`Ros2Transport.declare_token`)."""
 
-    def __init__(self, key: str, owner: Ros2Transport) -> None:
+    def __init__(self, key: str, owner: Ros2Transport, publisher: Any) -> None:
         self.key = key
         self._owner = owner
+        self.publisher = publisher
         self.active = True
 
     def undeclare(self) -> None:
@@ -203,7 +206,9 @@ class _Watch:
         self.sub = sub
         self.history = history
         self.started = started
-        self.alive: dict[str, float] = {}  # key -> deadline (monotonic)
+        self.alive: set[str] = set()  # the keys reported alive
+        self.beats: dict[str, float] = {}  # key -> deadline of its heartbeats (monotonic)
+        self.holder: dict[str, bytes] = {}  # key -> the DDS writer whose heartbeats hold it
         self.silent: set[str] = set()  # alive before the watch began, history=False
 
 
@@ -278,10 +283,24 @@ class Ros2Transport(QueuedDelivery, Transport):
         self._closed = False
         self._origin = uuid.uuid4().hex  # tells this transport's own beats from the others'
         self._heard_own = time.monotonic()  # when the latest own beat that came back was sent
+        # a token's own DDS writer: the middleware (not this process's Python) asserts its
+        # liveliness, and a watcher's reader declares it gone after ``lease_s`` of silence —
+        # a busy process stays alive, a killed one goes, and no other process can withdraw it
+        self._token_qos = _qos.QoSProfile(
+            depth=1,
+            reliability=_qos.ReliabilityPolicy.RELIABLE,
+            durability=_qos.DurabilityPolicy.VOLATILE,
+            history=_qos.HistoryPolicy.KEEP_LAST,
+            liveliness=_qos.LivelinessPolicy.AUTOMATIC,
+            liveliness_lease_duration=_Duration(seconds=self.lease_s),
+        )
+        self._writers: dict[str, Any] = {}  # key -> the readers of its token topic
+        self._writers_alive: dict[str, int] = {}  # key -> its token writers alive (DDS)
         self._live_topic = ros_topic(self.prefix, LIVELINESS_TOPIC)
+        self._token_root = self._live_topic + "/"
         self._live_pub = self.node.create_publisher(_String, self._live_topic, self._qos)
         self._live_sub = self.node.create_subscription(
-            _String, self._live_topic, self._on_liveliness, self._qos
+            _String, self._live_topic, self._on_liveliness_info, self._qos
         )
         self._timer = self.node.create_timer(self.heartbeat_s, self._tick)
         self._executor = _executors.SingleThreadedExecutor(context=self.context)
@@ -414,7 +433,9 @@ class Ros2Transport(QueuedDelivery, Transport):
         ``undeclare()``. Heartbeats start at the next tick (within ``heartbeat_s``)."""
         self._check_open()
         ros_topic(self.prefix, key)  # same name rules as topics
-        token = _Token(key.strip("/"), self)
+        key = key.strip("/")
+        publisher = self.node.create_publisher(_String, self._token_root + key, self._token_qos)
+        token = _Token(key, self, publisher)
         with self._lock:
             self._tokens.append(token)
         # the first heartbeat goes at the next tick (<= heartbeat_s), not now: subscriptions a
@@ -445,6 +466,8 @@ class Ros2Transport(QueuedDelivery, Transport):
                 self._tokens.remove(token)
         if not self._closed:
             self._beat(token.key, False)
+            with contextlib.suppress(Exception):  # its watchers see the writer go at once
+                self.node.destroy_publisher(token.publisher)
 
     def _beat(self, key: str, alive: bool, *, probe: bool = False) -> None:
         msg = _String()
@@ -459,29 +482,98 @@ class Ros2Transport(QueuedDelivery, Transport):
     def _tick(self) -> None:
         with self._lock:
             keys = [t.key for t in self._tokens if t.active]
+            watching = bool(self._watches)
         for key in keys:
             self._beat(key, True)
         if not keys:
             self._beat("", True, probe=True)
+        if watching:
+            self._discover_tokens()
         now = time.monotonic()
         # only what this transport had the chance to hear counts: a deadline is past only once
         # an own beat sent after it came back (or, should own beats never come back, after 5
         # leases)
         heard = self._heard_own if now - self._heard_own < 5 * self.lease_s else now
-        lost: list[tuple[_Watch, str]] = []
+        events: list[tuple[_Watch, str, bool]] = []
         with self._lock:
             for w in self._watches:
-                for key, deadline in list(w.alive.items()):
+                for key, deadline in list(w.beats.items()):
                     if now > deadline and heard > deadline:
-                        del w.alive[key]
-                        if key in w.silent:
-                            w.silent.discard(key)
-                        else:
-                            lost.append((w, key))
-        for w, key in lost:
-            self._hand(w.sub, (key, False))
+                        del w.beats[key]
+                        w.holder.pop(key, None)
+                        events.extend(self._settle(w, key, now))
+        self._report(events)
 
-    def _on_liveliness(self, msg: Any) -> None:
+    def _discover_tokens(self) -> None:
+        """Read the tokens' DDS writers of every watched key: the ROS graph names their topics
+        (``/<prefix>/liveliness/<key>``), and a reader with the cell's lease counts the alive
+        ones (:meth:`_on_writers`)."""
+        for name, _types in self.node.get_topic_names_and_types():
+            if not name.startswith(self._token_root):
+                continue
+            key = name[len(self._token_root) :]
+            with self._lock:
+                if key in self._writers or not any(
+                    key_matches(w.pattern, key) for w in self._watches
+                ):
+                    continue
+                self._writers[key] = None  # claimed: created once
+            callbacks = _events.SubscriptionEventCallbacks(
+                liveliness=lambda info, key=key: self._on_writers(key, info),
+                incompatible_qos=lambda info, key=key: log.warning(
+                    "liveliness token %s: its writer's lease is longer than this node's "
+                    "lease_s (%s s): it is not watched",
+                    key,
+                    self.lease_s,
+                ),
+            )
+            reader = self.node.create_subscription(
+                _String, name, lambda msg: None, self._token_qos, event_callbacks=callbacks
+            )
+            with self._lock:
+                self._writers[key] = reader
+
+    def _on_writers(self, key: str, info: Any) -> None:
+        # the middleware's own count of this key's writers alive: a token is there while one
+        # of them is; no message of another process changes it
+        now = time.monotonic()
+        events: list[tuple[_Watch, str, bool]] = []
+        with self._lock:
+            self._writers_alive[key] = int(info.alive_count)
+            for w in self._watches:
+                if key_matches(w.pattern, key):
+                    events.extend(self._settle(w, key, now))
+        self._report(events)
+
+    def _settle(self, w: _Watch, key: str, now: float) -> list[tuple[_Watch, str, bool]]:
+        """Bring ``w``'s view of ``key`` in line with its two witnesses — the token's DDS
+        writers and its heartbeats — and return the event to report, if any. A token appears
+        when either witness has it and goes only when both agree it went (call with the
+        lock held)."""
+        live = key in w.beats or self._writers_alive.get(key, 0) > 0
+        if live and key not in w.alive:
+            w.alive.add(key)
+            if not w.history and now - w.started < self.lease_s:
+                w.silent.add(key)
+                return []
+            return [(w, key, True)]
+        if not live and key in w.alive:
+            w.alive.discard(key)
+            if key in w.silent:
+                w.silent.discard(key)
+                return []
+            return [(w, key, False)]
+        return []
+
+    def _report(self, events: list[tuple[_Watch, str, bool]]) -> None:
+        for w, key, state in events:
+            self._hand(w.sub, (key, state))
+
+    def _on_liveliness_info(self, msg: Any, info: Any) -> None:
+        # two parameters: rclpy then hands the message's info (its writer's id) too
+        self._on_liveliness(msg, info)
+
+    def _on_liveliness(self, msg: Any, info: Any = None) -> None:
         try:
             data = json_decode(msg.data)
             key = str(data["key"])
@@ -499,29 +591,34 @@ class Ros2Transport(QueuedDelivery, Transport):
                 self._heard_own = max(self._heard_own, sent)
         if data.get("probe"):
             return
+        # who sent it: the DDS writer's id (each transport beats through one writer). A key's
+        # heartbeats count from the writer that began them, until they stop or it withdraws
+        # them; another writer's heartbeats or goodbyes for it are ignored (R2P2)
+        gid = info.get("publisher_gid") if isinstance(info, dict) else None
+        writer = bytes(gid["data"]) if isinstance(gid, dict) and "data" in gid else b""
         now = time.monotonic()
-        events: list[tuple[_Watch, bool]] = []
+        events: list[tuple[_Watch, str, bool]] = []
+        refused = False
         with self._lock:
             for w in self._watches:
                 if not key_matches(w.pattern, key):
                     continue
-                known = key in w.alive
+                holder = w.holder.get(key)
+                if holder is not None and holder != writer:
+                    refused = refused or not alive
+                    continue
                 if alive:
-                    w.alive[key] = now + lease
-                    if known:
-                        continue
-                    if not w.history and now - w.started < self.lease_s:
-                        w.silent.add(key)
-                        continue
-                    events.append((w, True))
-                elif known:
-                    del w.alive[key]
-                    if key in w.silent:
-                        w.silent.discard(key)
-                        continue
-                    events.append((w, False))
-        for w, state in events:
-            self._hand(w.sub, (key, state))
+                    w.beats[key] = now + lease
+                    w.holder[key] = writer
+                else:
+                    w.beats.pop(key, None)
+                    w.holder.pop(key, None)
+                events.extend(self._settle(w, key, now))
+        if refused:
+            log.warning(
+                "liveliness: a goodbye for %s from a node that does not hold it was ignored", key
+            )
+        self._report(events)
 
     def alive(self, key_expr: str = "**") -> list[str]:
         """Keys of the tokens currently alive and matching ``key_expr``, as seen by the
