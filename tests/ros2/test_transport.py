@@ -204,3 +204,78 @@ def test_another_process_answers_and_its_sigkill_is_noticed_within_the_lease(
         finally:
             proc.kill()
             proc.wait(5)
+
+
+def _plain_node(domain_id: int, name: str) -> tuple[object, object, object]:
+    """A node of plain rclpy (no flexhrc code): any process on the host could run it."""
+    import rclpy
+    from rclpy.executors import SingleThreadedExecutor
+
+    ctx = rclpy.Context()
+    rclpy.init(context=ctx, domain_id=domain_id)
+    node = rclpy.create_node(name, context=ctx)
+    executor = SingleThreadedExecutor(context=ctx)
+    executor.add_node(node)
+    return ctx, node, executor
+
+
+def test_r2p2_a_goodbye_from_a_node_that_does_not_hold_the_token_has_no_effect(
+    domain_id: int, cell_name: str
+):
+    from std_msgs.msg import String
+
+    prefix = f"flexhrc/{cell_name}"
+    with (
+        Ros2Transport(prefix=prefix, domain_id=domain_id) as arm,
+        Ros2Transport(prefix=prefix, domain_id=domain_id) as manager,
+    ):
+        events: list[tuple[str, bool]] = []
+        manager.watch_liveliness("alive/*", lambda k, alive: events.append((k, alive)))
+        arm.declare_token("alive/left")
+        assert wait_for(lambda: events == [("alive/left", True)], 10.0, manager.flush)
+        ctx, node, _ = _plain_node(domain_id, "spoof")
+        try:
+            pub = node.create_publisher(String, f"/{prefix}/liveliness", 10)  # type: ignore[attr-defined]
+            assert wait_for(lambda: pub.get_subscription_count() >= 2, 10.0)
+            for _ in range(3):
+                pub.publish(String(data='{"key": "alive/left", "alive": false}'))
+            # a witness behind the goodbyes on the same writer: once it is seen, they were read
+            pub.publish(String(data='{"key": "alive/witness", "alive": true, "lease_s": 600}'))
+            assert wait_for(lambda: ("alive/witness", True) in events, 10.0, manager.flush)
+            # ... and the witness's own goodbye, from the writer that holds it, is taken
+            pub.publish(String(data='{"key": "alive/witness", "alive": false}'))
+            assert wait_for(lambda: ("alive/witness", False) in events, 10.0, manager.flush)
+        finally:
+            node.destroy_node()  # type: ignore[attr-defined]
+            ctx.try_shutdown()  # type: ignore[attr-defined]
+        assert [e for e in events if e[0] == "alive/left"] == [("alive/left", True)]
+        assert manager.alive("alive/*") == ["alive/left"]
+
+
+def test_a_plain_rclpy_writer_with_a_liveliness_lease_is_a_token(domain_id: int, cell_name: str):
+    # the DDS way for a program of its own (docs/ros2.md): a publisher with a liveliness
+    # lease on /<prefix>/liveliness/<key>; it is there while the writer is, no heartbeats
+    from rclpy.duration import Duration
+    from rclpy.qos import LivelinessPolicy, QoSProfile
+    from std_msgs.msg import String
+
+    prefix = f"flexhrc/{cell_name}"
+    with Ros2Transport(prefix=prefix, domain_id=domain_id) as manager:
+        events: list[tuple[str, bool]] = []
+        manager.watch_liveliness("alive/*", lambda k, alive: events.append((k, alive)))
+        ctx, node, executor = _plain_node(domain_id, "plain_operator")
+        try:
+            qos = QoSProfile(
+                depth=1,
+                liveliness=LivelinessPolicy.AUTOMATIC,
+                liveliness_lease_duration=Duration(seconds=1.0),
+            )
+            pub = node.create_publisher(String, f"/{prefix}/liveliness/alive/human", qos)  # type: ignore[attr-defined]
+            assert wait_for(lambda: events == [("alive/human", True)], 10.0, manager.flush)
+            node.destroy_publisher(pub)  # type: ignore[attr-defined]
+            assert wait_for(lambda: events[-1] == ("alive/human", False), 10.0, manager.flush)
+        finally:
+            executor.shutdown()  # type: ignore[attr-defined]
+            node.destroy_node()  # type: ignore[attr-defined]
+            ctx.try_shutdown()  # type: ignore[attr-defined]
+        assert events == [("alive/human", True), ("alive/human", False)]
