@@ -14,16 +14,24 @@ method for method, so code written for one runs on the other:
   order (:meth:`Ros2Transport.wait` blocks until something is queued); ``deliver="thread"`` calls
   the callbacks on the executor thread at once;
 * :meth:`Ros2Transport.declare_token` / :meth:`Ros2Transport.watch_liveliness`: liveliness
-  tokens. ROS 2 has no liveliness tokens of Zenoh's kind and DDS drops a killed participant only
-  after its lease (20 s by default), so a token is a heartbeat: the declaring transport publishes
-  ``{"key": KEY, "alive": true, "lease_s": L}`` every ``heartbeat_s`` on the topic
-  ``/<prefix>/liveliness``, ``{"alive": false}`` when it is withdrawn or closed, and a watcher
-  declares the token gone when nothing was heard for ``lease_s`` (1 s by default) — so a process
-  killed with SIGKILL is noticed within about ``lease_s + heartbeat_s``. A watcher judges only
-  what it had the chance to hear: every tick it also sends a beat of its own (``origin``,
-  ``sent``; a ``probe`` when it holds no token) and declares a token gone only when one of its
-  own beats sent after the token's deadline has come back — so a process that was starved of
-  CPU (its executor behind, the heartbeats queued unread) never takes its peers for dead;
+  tokens. ROS 2 has no liveliness tokens of Zenoh's kind, but DDS has liveliness QoS: a token
+  ``KEY`` is a DDS writer of its own on ``/<prefix>/liveliness/KEY`` (``LivelinessPolicy.
+  AUTOMATIC``, ``liveliness_lease_duration`` = ``lease_s``, 1 s by default). The middleware
+  asserts it (a busy Python process stays alive), withdrawing the token destroys the writer,
+  and a process killed with SIGKILL stops asserting it: a watcher finds the token topics in
+  the ROS graph, reads each with the same lease and counts its writers alive from the
+  subscription's liveliness-changed events (``QoSLivelinessChangedInfo.alive_count``). No
+  message of another process can withdraw a writer that is not its own (R2P2). Beside it, for
+  ROS 2 tools and clients of plain rclpy, the declaring transport keeps publishing heartbeats
+  ``{"key": KEY, "alive": true, "lease_s": L}`` every ``heartbeat_s`` on ``/<prefix>/liveliness``
+  and ``{"alive": false}`` when it withdraws. A watcher takes a key's heartbeats only from the
+  DDS writer that began them (the message info's ``publisher_gid``) until they stop — a goodbye
+  from any other writer is ignored and logged — and declares them stopped after ``lease_s``
+  of silence. A token is there while its writer is alive or its heartbeats come, and goes
+  once both say so. A watcher judges heartbeats only by what it had the chance to hear: every
+  tick it also sends a beat of its own (``origin``, ``sent``; a ``probe`` when it holds no
+  token) and takes heartbeats as stopped only when one of its own beats sent after their
+  deadline has come back — so a process starved of CPU never takes its peers for dead;
 * a payload that is not strict JSON is dropped and logged, counted in ``dropped``, and handed to
   ``on_drop(topic, data, error)``; it never reaches a callback.
 
