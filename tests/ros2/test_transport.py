@@ -279,3 +279,20 @@ def test_a_plain_rclpy_writer_with_a_liveliness_lease_is_a_token(domain_id: int,
             node.destroy_node()  # type: ignore[attr-defined]
             ctx.try_shutdown()  # type: ignore[attr-defined]
         assert events == [("alive/human", True), ("alive/human", False)]
+
+
+def test_a_token_whose_heartbeats_stop_stays_while_its_writer_lives(pair):
+    # a busy process whose Python falls silent sends no heartbeats; the middleware still
+    # asserts its token's writer, so it is not taken for lost (issue 20, no false alarm)
+    a, b = pair
+    events: list[tuple[str, bool]] = []
+    b.watch_liveliness("alive/*", lambda k, alive: events.append((k, alive)))
+    token = a.declare_token("alive/left")
+    watch = b._watches[0]
+    assert wait_for(lambda: "alive/left" in watch.beats, 10.0, b.flush)  # heartbeats heard
+    a._timer.cancel()  # its heartbeats stop
+    assert wait_for(lambda: "alive/left" not in watch.beats, 10.0, b.flush)  # and lapsed
+    b.flush()
+    assert events == [("alive/left", True)] and b.alive("alive/*") == ["alive/left"]
+    token.undeclare()  # its writer goes: now both witnesses agree
+    assert wait_for(lambda: events[-1] == ("alive/left", False), 10.0, b.flush)
