@@ -440,3 +440,33 @@ def test_r2p2_a_spoofed_liveliness_goodbye_neither_loses_the_arm_nor_fails_its_c
     acks = [e.body for e in events if e.kind == "ack" and e.body["id"] == first["id"]]
     assert [(a["agent"], a["status"]) for a in acks] == [("left", "done")]  # the arm's own ack
     assert data["cell"]["agents"]["left"]["available"] is True
+
+
+def test_k08_a_second_manager_node_for_a_cell_is_refused(
+    tmp_path: Path, ros_env: dict[str, str], domain_id: int, cell_name: str
+):
+    # K08 over ROS 2: the second `ros2 cell` finds alive/manager held in the graph and exits 2
+    # before it stores anything; the first keeps the cell
+    watcher = Ros2Transport(prefix=f"flexhrc/{cell_name}", domain_id=domain_id)
+    alive: list[tuple[str, bool]] = []
+    watcher.watch_liveliness("alive/manager", lambda k, a: alive.append((k, a)))
+    procs: list[subprocess.Popen[str]] = []
+    try:
+        common = ["table_assembly", "--cell", cell_name, "--wait", "120"]
+        procs.append(_node(ros_env, "cell", *common, "--store", str(tmp_path / "a.db"),
+                           log=tmp_path / "manager.log"))  # fmt: skip
+        assert wait_for(lambda: ("alive/manager", True) in alive, 90.0, watcher.flush)
+        twin = subprocess.run(
+            [sys.executable, "-m", "flexhrc", "ros2", "cell", *common, "--store",
+             str(tmp_path / "b.db")],
+            env=ros_env, capture_output=True, text=True, timeout=120,
+        )  # fmt: skip
+        watcher.flush()
+        assert procs[0].poll() is None and ("alive/manager", False) not in alive
+    finally:
+        watcher.close()
+        _stop_all(procs)
+    assert twin.returncode == 2, twin.stderr[-2000:]
+    assert f"error: --cell {cell_name}: another manager already runs this cell" in twin.stderr
+    assert "Traceback" not in twin.stderr
+    assert not (tmp_path / "b.db").exists() or read_store(tmp_path / "b.db") == []

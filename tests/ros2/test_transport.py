@@ -186,10 +186,14 @@ def test_another_process_answers_and_its_sigkill_is_noticed_within_the_lease(
             assert wait_for(lambda: any(e[1] for e in events), 20.0, bus.flush), "no heartbeat"
             bus.publish("cmd", {"id": 7})
             assert wait_for(lambda: acks == [{"id": 7, "status": "done"}], 5.0, bus.flush)
+            assert bus.liveliness_holders("alive/*") == ["alive/echo"]
             proc.send_signal(signal.SIGKILL)
             killed = time.monotonic()
             assert wait_for(lambda: events[-1][1] is False, 5.0, bus.flush)
             assert events[-1][0] == "alive/echo"
+            # a new process may take the name now: DDS still lists the killed writer, but it
+            # is not asserted and its heartbeats stopped
+            assert bus.liveliness_holders("alive/*", timeout=0.0) == []
             assert events[-1][2] - killed < bus.lease_s + 0.5
             # DDS still lists the dead process's subscriber (until its 20 s lease); Fast DDS
             # matches a new publisher with it from its discovery data, so publishing to it
@@ -296,3 +300,16 @@ def test_a_token_whose_heartbeats_stop_stays_while_its_writer_lives(pair):
     assert events == [("alive/left", True)] and b.alive("alive/*") == ["alive/left"]
     token.undeclare()  # its writer goes: now both witnesses agree
     assert wait_for(lambda: events[-1] == ("alive/left", False), 10.0, b.flush)
+
+
+def test_liveliness_holders_name_the_tokens_of_other_transports(pair):
+    # what `ros2 arm` and `ros2 cell` ask before they declare their token (K08, K09)
+    a, b = pair
+    assert b.liveliness_holders("alive/left", timeout=0.0) == []
+    token = a.declare_token("alive/left")
+    assert wait_for(lambda: b.liveliness_holders("alive/*", timeout=0.0) == ["alive/left"], 10.0)
+    assert b.liveliness_holders("alive/left") == ["alive/left"]
+    assert b.liveliness_holders("alive/right", timeout=0.0) == []
+    assert a.liveliness_holders("alive/left", timeout=0.0) == []  # not its own
+    token.undeclare()
+    assert wait_for(lambda: b.liveliness_holders("alive/*", timeout=0.0) == [], 10.0)

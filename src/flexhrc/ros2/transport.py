@@ -32,6 +32,8 @@ method for method, so code written for one runs on the other:
   tick it also sends a beat of its own (``origin``, ``sent``; a ``probe`` when it holds no
   token) and takes heartbeats as stopped only when one of its own beats sent after their
   deadline has come back — so a process starved of CPU never takes its peers for dead;
+  :meth:`Ros2Transport.liveliness_holders` names the tokens of other transports alive now
+  (the cell's one-holder rule for an agent's name and a cell's manager, K08/K09);
 * a payload that is not strict JSON is dropped and logged, counted in ``dropped``, and handed to
   ``on_drop(topic, data, error)``; it never reaches a callback.
 
@@ -237,6 +239,7 @@ class Ros2Transport(QueuedDelivery, Transport):
         heartbeat_s: float = 0.1,
         match_timeout_s: float = 2.0,
         depth: int = 100,
+        discovery_s: float = 3.0,
     ) -> None:
         if deliver not in ("flush", "thread"):
             raise ValueError(f"deliver must be 'flush' or 'thread', not {deliver!r}")
@@ -251,6 +254,8 @@ class Ros2Transport(QueuedDelivery, Transport):
             )
         if not (isinstance(match_timeout_s, int | float) and 0 <= match_timeout_s < 3600):
             raise Ros2TransportError(f"match_timeout_s must be >= 0, not {match_timeout_s!r}")
+        if not (isinstance(discovery_s, int | float) and 0 <= discovery_s < 3600):
+            raise Ros2TransportError(f"discovery_s must be >= 0, not {discovery_s!r}")
         if not (isinstance(depth, int) and 1 <= depth <= 100_000):
             raise Ros2TransportError(f"depth must be an integer 1..100000, not {depth!r}")
         self.prefix = ros_topic("", prefix).lstrip("/") if prefix.strip("/") else ""
@@ -260,6 +265,7 @@ class Ros2Transport(QueuedDelivery, Transport):
         self.lease_s = float(lease_s)
         self.heartbeat_s = float(heartbeat_s)
         self.match_timeout_s = float(match_timeout_s)
+        self.discovery_s = float(discovery_s)
         self.published = 0
         self.domain_id = domain_id_from_env(domain_id)
         self._qos = _qos.QoSProfile(
@@ -304,6 +310,8 @@ class Ros2Transport(QueuedDelivery, Transport):
         )
         self._writers: dict[str, Any] = {}  # key -> the readers of its token topic
         self._writers_alive: dict[str, int] = {}  # key -> its token writers alive (DDS)
+        self._queries: list[str] = []  # key expressions :meth:`liveliness_holders` asks about
+        self._beating: dict[str, float] = {}  # key -> latest heartbeat of another transport
         self._live_topic = ros_topic(self.prefix, LIVELINESS_TOPIC)
         self._token_root = self._live_topic + "/"
         self._live_pub = self.node.create_publisher(_String, self._live_topic, self._qos)
@@ -521,9 +529,8 @@ class Ros2Transport(QueuedDelivery, Transport):
                 continue
             key = name[len(self._token_root) :]
             with self._lock:
-                if key in self._writers or not any(
-                    key_matches(w.pattern, key) for w in self._watches
-                ):
+                patterns = [w.pattern for w in self._watches] + self._queries
+                if key in self._writers or not any(key_matches(p, key) for p in patterns):
                     continue
                 self._writers[key] = None  # claimed: created once
             callbacks = _events.SubscriptionEventCallbacks(
@@ -599,6 +606,12 @@ class Ros2Transport(QueuedDelivery, Transport):
                 self._heard_own = max(self._heard_own, sent)
         if data.get("probe"):
             return
+        if not own:
+            with self._lock:
+                if alive:
+                    self._beating[key] = time.monotonic()
+                else:
+                    self._beating.pop(key, None)
         # who sent it: the DDS writer's id (each transport beats through one writer). A key's
         # heartbeats count from the writer that began them, until they stop or it withdraws
         # them; another writer's heartbeats or goodbyes for it are ignored (R2P2)
@@ -627,6 +640,40 @@ class Ros2Transport(QueuedDelivery, Transport):
                 "liveliness: a goodbye for %s from a node that does not hold it was ignored", key
             )
         self._report(events)
+
+    def liveliness_holders(self, key_expr: str, timeout: float | None = None) -> list[str]:
+        """The keys of the tokens of other transports matching ``key_expr`` alive now: a
+        token whose DDS writer the middleware reports alive, or whose heartbeats came within
+        the last lease. A process asks before it declares a token that must have one holder
+        (an agent's name, a cell's manager): the first holder keeps it. DDS discovery has no
+        end to wait for, so this looks for ``timeout`` seconds (``discovery_s``, 3 s, by
+        default; less when a holder shows itself): under load DDS took up to 1.8 s here to
+        show a node of the same host. A process killed less than a lease ago no longer
+        counts (its writer is not asserted, its heartbeats stopped), though DDS lists it in
+        the graph for a while."""
+        self._check_open()
+        pattern = key_expr.strip("/")
+        with self._lock:
+            self._queries.append(pattern)
+        try:
+            wait = self.discovery_s if timeout is None else timeout
+            deadline = time.monotonic() + wait
+            while True:
+                self._discover_tokens()
+                now = time.monotonic()
+                with self._lock:
+                    own = {t.key for t in self._tokens}
+                    held = {k for k, n in self._writers_alive.items() if n > 0 and k not in own} | {
+                        k for k, t in self._beating.items() if now - t < self.lease_s
+                    }
+                    keys = sorted(k for k in held if key_matches(pattern, k))
+                if keys or now >= deadline:
+                    return keys
+                # a bounded look at the graph, at start only: DDS has no "discovery done"
+                time.sleep(0.02)
+        finally:
+            with self._lock:
+                self._queries.remove(pattern)
 
     def alive(self, key_expr: str = "**") -> list[str]:
         """Keys of the tokens currently alive and matching ``key_expr``, as seen by the
