@@ -229,9 +229,10 @@ def test_r2p2_a_goodbye_from_a_node_that_does_not_hold_the_token_has_no_effect(
     from std_msgs.msg import String
 
     prefix = f"flexhrc/{cell_name}"
+    # the manager's lease is far longer than the test: a token goes only when withdrawn
     with (
         Ros2Transport(prefix=prefix, domain_id=domain_id) as arm,
-        Ros2Transport(prefix=prefix, domain_id=domain_id) as manager,
+        Ros2Transport(prefix=prefix, domain_id=domain_id, lease_s=600.0) as manager,
     ):
         events: list[tuple[str, bool]] = []
         manager.watch_liveliness("alive/*", lambda k, alive: events.append((k, alive)))
@@ -313,3 +314,26 @@ def test_liveliness_holders_name_the_tokens_of_other_transports(pair):
     assert a.liveliness_holders("alive/left", timeout=0.0) == []  # not its own
     token.undeclare()
     assert wait_for(lambda: b.liveliness_holders("alive/*", timeout=0.0) == [], 10.0)
+
+
+def test_r2p4_a_heartbeat_that_claims_an_hour_holds_a_key_for_one_lease(
+    domain_id: int, cell_name: str
+):
+    from std_msgs.msg import String
+
+    prefix = f"flexhrc/{cell_name}"
+    with Ros2Transport(prefix=prefix, domain_id=domain_id) as manager:
+        events: list[tuple[str, bool]] = []
+        manager.watch_liveliness("alive/*", lambda k, alive: events.append((k, alive)))
+        ctx, node, _ = _plain_node(domain_id, "spoof")
+        try:
+            pub = node.create_publisher(String, f"/{prefix}/liveliness", 10)  # type: ignore[attr-defined]
+            assert wait_for(lambda: pub.get_subscription_count() >= 1, 10.0)
+            pub.publish(String(data='{"key": "alive/right", "alive": true, "lease_s": 3500}'))
+            assert wait_for(lambda: ("alive/right", True) in events, 10.0, manager.flush)
+            # one heartbeat and silence: gone after the manager's lease (1 s), not 3500 s
+            assert wait_for(lambda: ("alive/right", False) in events, 30.0, manager.flush)
+        finally:
+            node.destroy_node()  # type: ignore[attr-defined]
+            ctx.try_shutdown()  # type: ignore[attr-defined]
+        assert events == [("alive/right", True), ("alive/right", False)]

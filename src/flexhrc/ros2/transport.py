@@ -629,7 +629,9 @@ class Ros2Transport(QueuedDelivery, Transport):
                     refused = refused or not alive
                     continue
                 if alive:
-                    w.beats[key] = now + lease
+                    # no longer than this watcher's lease, as a token writer's: a heartbeat
+                    # that claims an hour holds a key for a lease, not an hour (R2P4)
+                    w.beats[key] = now + min(lease, self.lease_s)
                     w.holder[key] = writer
                 else:
                     w.beats.pop(key, None)
