@@ -154,3 +154,16 @@ def test_kept_views_of_the_facts_follow_every_change():
     types = k.facts
     k.resolve("leg3", accept=True)
     assert ("tabletop", "leg3") in k.facts and ("tabletop", "leg3") not in types
+
+
+@pytest.mark.parametrize(
+    "p", [(float("nan"), 0.0, 0.0), [0.0, float("inf"), 0.0], (0.0, 0.0, -float("inf")), [1.0]]
+)
+def test_a_position_of_three_floats_is_checked_on_the_quick_path_too(p):
+    k = kb()
+    with pytest.raises(FlexhrcError, match="three finite numbers"):
+        k.move("leg1", p)
+    k.move("leg1", [0.1, 0.2, 0.3])
+    k.move("leg2", (1, 2, 3))  # ints are numbers too
+    assert k.position("leg1") == (0.1, 0.2, 0.3) and k.position("leg2") == (1.0, 2.0, 3.0)
+    assert all(type(v) is float for v in k.position("leg2"))

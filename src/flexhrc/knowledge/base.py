@@ -42,6 +42,7 @@ from flexhrc.logic import (
 )
 
 Vec3 = tuple[float, float, float]
+_INF = math.inf
 
 
 @dataclass
@@ -365,6 +366,19 @@ def _size(size: Mapping[str, float] | Iterable[float] | None) -> dict[str, float
 
 
 def _vec(p: Iterable[float]) -> Vec3:
+    # the common case, checked cheaply (every move); NaN and the infinities fail the
+    # comparisons and take the general path
+    if (type(p) is tuple or type(p) is list) and len(p) == 3:
+        x, y, z = p
+        if (
+            type(x) is float
+            and type(y) is float
+            and type(z) is float
+            and -_INF < x < _INF
+            and -_INF < y < _INF
+            and -_INF < z < _INF
+        ):
+            return (x, y, z)
     vals = [float(x) for x in p]
     if len(vals) != 3 or not all(math.isfinite(v) for v in vals):
         raise FlexhrcError(f"a position needs three finite numbers, got {vals}")
