@@ -27,7 +27,7 @@ from __future__ import annotations
 import contextlib
 import queue
 import threading
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from concurrent.futures import Future
 from concurrent.futures import TimeoutError as FutureTimeout
 from typing import Any
@@ -123,13 +123,17 @@ class CellPanel:
             ) from None
 
     # -- on the cell's thread ---------------------------------------------------------------
-    def poll(self) -> None:
-        """Carry out queued inputs; refresh the snapshot if the cell moved on (cell thread)."""
+    def _queued(self) -> Iterator[tuple[str, Any, Future[dict[str, Any]]]]:
+        """The inputs queued so far, taken off the inbox one by one."""
         while True:
             try:
-                kind, arg, answer = self._inbox.get_nowait()
+                yield self._inbox.get_nowait()
             except queue.Empty:
-                break
+                return
+
+    def poll(self) -> None:
+        """Carry out queued inputs; refresh the snapshot if the cell moved on (cell thread)."""
+        for kind, arg, answer in self._queued():
             try:
                 answer.set_result(self._apply(kind, arg))
             except PanelInputError as exc:
@@ -161,11 +165,7 @@ class CellPanel:
     def close(self) -> None:
         """Answer what is still queued (the cell has ended), drop the operator's tokens."""
         self.refresh(force=True)
-        while True:
-            try:
-                _, _, answer = self._inbox.get_nowait()
-            except queue.Empty:
-                break
+        for _, _, answer in self._queued():
             answer.set_exception(
                 PanelInputError(f"the cooperation has ended ({self.cell.tm.outcome})", 409)
             )
