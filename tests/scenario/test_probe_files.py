@@ -329,10 +329,10 @@ def test_t15_the_panel_on_another_loopback_address_answers_it():
     """T15: `panel --web 127.0.0.2:PORT` (loopback, so no token asked) refused every request:
     the Host check knew 127.0.0.1 only; all of 127.0.0.0/8 and ::1 are this machine."""
     pytest.importorskip("starlette")
-    from flexhrc.web.app import _loopback
+    from flexhrc.web.server import is_loopback  # the rule the app's Host check applies
 
-    assert all(_loopback(h) for h in ("127.0.0.1", "127.0.0.2", "127.1.2.3", "::1", "localhost"))
-    assert not any(_loopback(h) for h in ("evil.example", "10.0.0.1", "0.0.0.0", "", "::"))
+    assert all(is_loopback(h) for h in ("127.0.0.1", "127.0.0.2", "127.1.2.3", "::1", "localhost"))
+    assert not any(is_loopback(h) for h in ("evil.example", "10.0.0.1", "0.0.0.0", "", "::"))
 
 
 def test_t11_panel_legs_does_not_suggest_an_option_panel_lacks(capsys):
