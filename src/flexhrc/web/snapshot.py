@@ -16,15 +16,11 @@ from collections.abc import Callable, Mapping
 from typing import Any
 
 from flexhrc.representation import OnlineGraph
-from flexhrc.representation.hierarchy import SEP
+from flexhrc.representation.hierarchy import qualify
 from flexhrc.taskmanager.manager import TaskManager
 from flexhrc.web.backend import json_safe
 
 TIMELINE_LIMIT = 300  # entries of the timeline kept in a snapshot (the store keeps them all)
-
-
-def _qualify(path: str, local: str) -> str:
-    return f"{path}{SEP}{local}" if path else local
 
 
 def feasible_costs(graph: OnlineGraph) -> dict[str, float]:
@@ -55,7 +51,7 @@ def graph_snapshot(
     running = running or {}
 
     def element(path: str, local: str, done: str, is_done: Callable[[str], bool]) -> dict[str, Any]:
-        name = _qualify(path, local)
+        name = qualify(path, local)
         status = _status(graph, name, done, is_done)
         return {"id": name, "name": local, "status": status, "cost": costs.get(name)}
 
@@ -74,11 +70,11 @@ def graph_snapshot(
             {
                 **element(info.path, local, "solved", graph.is_solved),
                 "weight": h.weight,
-                "children": [_qualify(info.path, c) for c in h.children],
-                "parent": _qualify(info.path, h.parent),
+                "children": [qualify(info.path, c) for c in h.children],
+                "parent": qualify(info.path, h.parent),
                 "actions": list(h.actions),
-                "lower": _qualify(info.path, local) if h.lower is not None else None,
-                "running": running.get(_qualify(info.path, local)),
+                "lower": qualify(info.path, local) if h.lower is not None else None,
+                "running": running.get(qualify(info.path, local)),
             }
             for local, h in definition.hyperarcs.items()
         ]
