@@ -100,7 +100,6 @@ class _Hub:
         self._task: asyncio.Task[None] | None = None
         self._unsubscribe: Callable[[], None] | None = None
         self.text = ""
-        self.pushes = 0
         self.sockets = 0  # open or opening websockets (counted before the first await)
 
     async def start(self) -> None:
@@ -138,7 +137,6 @@ class _Hub:
             if text == self.text:
                 continue
             self.text = text
-            self.pushes += 1
             for client in list(self.clients):
                 client.offer(text)
 
