@@ -6,6 +6,7 @@ used, and the one clear error (``FILE:LINE: message``, exit 2) or result that is
 
 from __future__ import annotations
 
+import random
 from pathlib import Path
 
 import pytest
@@ -262,9 +263,12 @@ def test_cli_options_are_refused_alike(case, capsys):
     assert any(message in x for x in lines), lines
 
 
-def test_rc12_a_ros2_cell_names_the_ros2_nodes_to_start(capsys):
+def test_rc12_a_ros2_cell_names_the_ros2_nodes_to_start(capsys, monkeypatch):
     """RC12: `ros2 cell --wait 1` said to start the Zenoh agents, not `flexhrc ros2 arm|human`."""
     pytest.importorskip("rclpy")
+    # its own discovery settings: it passed only after tests/ros2/conftest.py had set them
+    monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    monkeypatch.setenv("ROS_DOMAIN_ID", str(random.SystemRandom().randint(1, 100)))
     assert main(["ros2", "cell", "table_assembly", "--wait", "1", "--cell", "rc12"]) == 2
     lines = error_lines(capsys)
     assert any("flexhrc ros2 arm SCENARIO --arm NAME" in x for x in lines), lines
