@@ -9,10 +9,12 @@ out of date until they are asked for, so the recomputation here is written out i
 
 from __future__ import annotations
 
+from unittest.mock import patch
+
 from hypothesis import given, note
 from hypothesis import strategies as st
 
-from flexhrc.representation import AndOrGraph, OnlineGraph
+from flexhrc.representation import AndOrGraph, HierarchicalGraph, OnlineGraph
 
 from .test_properties import SETTINGS, hierarchical_graph, tree_graph
 
@@ -150,28 +152,51 @@ def walk_and_recompute(data: st.DataObject, online: OnlineGraph) -> None:
     assert [online._pull(e) for e in range(len(ins))] == ins
 
 
+def lazy(graph: AndOrGraph | HierarchicalGraph) -> OnlineGraph:
+    """The online phase of ``graph`` leaving out of date every inside cost it may, however few
+    (by default only a long stretch of them is: a small graph would not exercise it)."""
+    with patch.object(OnlineGraph, "_LAZY_MIN", 0):
+        return OnlineGraph(graph)
+
+
 @SETTINGS
 @given(graph=tree_graph(weights=st.sampled_from(FRACTIONAL)), data=st.data())
 def test_incremental_costs_equal_a_recomputation(graph, data):
-    walk_and_recompute(data, OnlineGraph(graph))
+    walk_and_recompute(data, lazy(graph))
 
 
 @SETTINGS
 @given(graph=deep_graph(), data=st.data())
 def test_incremental_costs_equal_a_recomputation_deep(graph, data):
-    walk_and_recompute(data, OnlineGraph(graph))
+    walk_and_recompute(data, lazy(graph))
 
 
 @SETTINGS
 @given(graph=hierarchical_graph(), data=st.data())
 def test_incremental_costs_equal_a_recomputation_hierarchical(graph, data):
-    walk_and_recompute(data, OnlineGraph(graph))
+    walk_and_recompute(data, lazy(graph))
+
+
+class Counting(list):  # type: ignore[type-arg]
+    """A list that counts the reads and writes of its items: the test's measure of the work
+    of the cost passes (no clock)."""
+
+    n = 0
+
+    def __getitem__(self, i):  # type: ignore[no-untyped-def]
+        Counting.n += 1
+        return super().__getitem__(i)
+
+    def __setitem__(self, i, v):  # type: ignore[no-untyped-def]
+        Counting.n += 1
+        super().__setitem__(i, v)
 
 
 def test_r12_a_deep_chain_costs_each_query_a_few_elements():
     # the probe's chain: n0 <- h0 <- n1 <- ... <- n2999, nodes weigh 0, hyper-arcs 1. Each
     # solved hyper-arc lowers the inside cost of everything above it; recomputing them all
-    # made a play quadratic (10 000 nodes: 203 s). Work is counted, not timed.
+    # made a play quadratic (10 000 nodes: 203 s; here 27 million reads and writes of costs
+    # and 18 000 per query before, 111 000 and at most 22 after). Work is counted, not timed.
     n = 3000
     g = AndOrGraph("chain", root=f"n{n - 1}")
     for i in range(n):
@@ -179,6 +204,9 @@ def test_r12_a_deep_chain_costs_each_query_a_few_elements():
     for i in range(n - 1):
         g.add_hyperarc(f"h{i}", [f"n{i}"], f"n{i + 1}", 1)
     online = OnlineGraph(g)
+    # every inside and outside cost, and the out-of-date marks, read and written through these
+    for costs in ("_inside", "_out_val", "_stale"):
+        setattr(online, costs, Counting(getattr(online, costs)))
     answer = online.query()
     per_query = []
     solved = 0
@@ -186,17 +214,17 @@ def test_r12_a_deep_chain_costs_each_query_a_few_elements():
         ((e, cost),) = answer.element_ids.items()  # one feasible element at a time
         name = online.element_name(e)
         assert cost == n - 1 - solved  # the hyper-arcs left
-        before = online.work
+        before = Counting.n
         if online.kind(name) == "node":
             answer = online.update(met_nodes=[name])
         else:
             answer = online.update(solved_hyperarcs=[name])
             solved += 1
-        per_query.append(online.work - before)
-    assert answer.solved and len(per_query) == 2 * n - 1
+        per_query.append(Counting.n - before)
     elements = 2 * n - 1
+    assert answer.solved and len(per_query) == elements
     # the first solved hyper-arc marks everything above it out of date, once; then every
-    # query touches a few elements, however deep the chain still is above them
-    assert sum(per_query) <= 4 * elements
-    assert max(per_query[2:]) <= 4
+    # query reads and writes a few costs, however deep the chain still is above them
+    assert sum(per_query) <= 30 * elements
+    assert max(per_query[2:]) <= 50
     assert online.optimal_cost() == 0

@@ -14,24 +14,23 @@ its own instance — and keeps the statuses of every node and hyper-arc:
 * the graph is solved when the top root is met; it has failed when no feasible element is left
   on a way to the root — a distinct, explicit outcome.
 
-Costs (eqs. 9-11, 19) are computed by dynamic programming instead of enumerating cooperation
-paths (see ``docs/andor.md``): ``inside(x)`` is the cheapest remaining cost of achieving x from
-what is already met, maintained incrementally (a change propagates to ancestors only while the
-value changes, and only as far as an inside cost is read during a query: above that, in the top
-graph, it is marked out of date and recomputed when asked for — a feasible element's cost, the
-optimal cost — so a step up a deep chain does not recompute everything above it); ``outside(x)`` is the cheapest remaining cost from x to the root of its graph
-instance, kept exact by a top-down pass over what each query changed (a heap in top-down order,
-so every element is recomputed once, after everything above it); each lower instance has one
-*offset*, its root's outside cost in the whole hierarchy (the upper path through its hyper-arc,
-Algorithm 6 line 27), so a change above an instance moves one number, not its every element.
-Met and solved elements weigh 0 (eq. 11); hyper-arcs that can no longer be taken weigh
-infinity; the weight of a hyper-arc with a lower graph is the lower instance's optimal remaining
-cost (eq. 19). The suggestion cost of a feasible element is ``inside + outside + offset`` = the
-cheapest cooperation path through it (eq. 10). A query costs what it changes: there is no
-whole-graph pass, and no recursion anywhere (explicit stacks and queues). The DP equals
-exhaustive enumeration when no node is shared between AND branches; with
-sharing it counts the shared part once per branch (``flexhrc.representation.paths`` has the exact,
-exponential reference).
+Costs (eqs. 9-11, 19) are computed by dynamic programming instead of enumerating cooperation paths
+(see ``docs/andor.md``): ``inside(x)`` is the cheapest remaining cost of achieving x from what is
+already met, maintained incrementally (a change propagates to ancestors only while the value
+changes, and only as far as an inside cost is read during a query: above that, in the top graph, it
+is marked out of date and recomputed when asked for — a feasible element's cost, the optimal cost —
+so a step up a deep chain does not recompute everything above it); ``outside(x)`` is the cheapest
+remaining cost from x to the root of its graph instance, kept exact by a top-down pass over what
+each query changed (a heap in top-down order, so every element is recomputed once, after everything
+above it); each lower instance has one *offset*, its root's outside cost in the whole hierarchy (the
+upper path through its hyper-arc, Algorithm 6 line 27), so a change above an instance moves one
+number, not its every element. Met and solved elements weigh 0 (eq. 11); hyper-arcs that can no
+longer be taken weigh infinity; the weight of a hyper-arc with a lower graph is the lower instance's
+optimal remaining cost (eq. 19). The suggestion cost of a feasible element is ``inside + outside +
+offset`` = the cheapest cooperation path through it (eq. 10). A query costs what it changes: there
+is no whole-graph pass, and no recursion anywhere (explicit stacks and queues). The DP equals
+exhaustive enumeration when no node is shared between AND branches; with sharing it counts the
+shared part once per branch (``flexhrc.representation.paths`` has the exact, exponential reference).
 """
 
 from __future__ import annotations
@@ -215,9 +214,11 @@ class OnlineGraph:
         "_touched",
         "_unmet",
         "_w",
-        "_work",
         "hierarchy",
     )
+
+    # the fewest elements above which inside costs are left out of date (see _build)
+    _LAZY_MIN = 64
 
     def __init__(self, graph: HierarchicalGraph | AndOrGraph, *, validate: bool = True):
         if isinstance(graph, AndOrGraph):
@@ -407,10 +408,14 @@ class OnlineGraph:
         # inside costs nothing reads during a query (see _Template.unread_inside) are brought
         # up to date only when read (_pull): stale ones are marked, never recomputed on the way
         # up. A deep chain: each solved hyper-arc changes the inside cost of everything above
-        # it, O(depth) per query if every one were recomputed (R12)
-        self._lazy = t0.unread_inside() + [False] * rest
+        # it, O(depth) per query if every one were recomputed (R12). Where there are only a
+        # few such elements (the authors' graphs: at most 33), recomputing them costs a query
+        # less than the marks and the later reads would
+        unread = t0.unread_inside()
+        if sum(unread) < self._LAZY_MIN:
+            unread = [False] * t0.size
+        self._lazy = unread + [False] * rest
         self._stale = [False] * n
-        self._work = 0
 
     def _materialise(self, k: int) -> None:
         """Build the index structures of instance k (and of the instances above it) from its
@@ -551,11 +556,9 @@ class OnlineGraph:
         ins, roots, root_of, spent = self._inside, self._i_root, self._root_of, self._spent
         dirty = self._off_dirty
         mask = (1 << 32) - 1
-        work = 0
         while heap:
             e = heappop(heap) & mask
             queued.discard(e)
-            work += 1
             if not active[inst[e]]:
                 continue  # computed in full when the instance becomes active
             if kind[e]:
@@ -598,7 +601,6 @@ class OnlineGraph:
                 if h not in queued and not blocked[h] and not spent[h]:
                     queued.add(h)
                     heappush(heap, (((idepth[inst[h]] * span + lrank[h]) << 32) | h))
-        self._work += work
         self._settle_offsets()
 
     def _settle_offsets(self) -> None:
@@ -650,10 +652,6 @@ class OnlineGraph:
         The hot path of every query: what a changed inside(x) re-queues (the outside costs of
         x's AND siblings, lower-instance offsets) is inlined here.
         """
-        lazy = self._lazy
-        if lazy[start]:
-            self._stale_up(start)
-            return
         ins = self._inside
         kind, parent, outgoing = self._kind, self._parent, self._out
         root_of, upper = self._root_of, self._i_upper
@@ -662,15 +660,10 @@ class OnlineGraph:
         touched, dirty = self._touched, self._off_dirty
         heap, queued, inst = self._heap, self._queued, self._inst
         idepth, lrank, span = self._i_depth, self._lrank, self._rank_span
-        spent = self._spent
+        spent, lazy = self._spent, self._lazy
         stack = [start]
-        work = 0
         while stack:
             e = stack.pop()
-            work += 1
-            if lazy[e]:  # nothing reads it during a query: marked, read later (_pull)
-                self._stale_up(e)
-                continue
             if kind[e]:  # hyper-arc
                 if blocked[e]:
                     v = INF
@@ -703,6 +696,14 @@ class OnlineGraph:
                     v += best
             if v == ins[e]:
                 continue
+            if lazy[e]:
+                # nothing reads it during a query (nor what is above it): marked out of date
+                # with everything above it, computed when asked for (_pull). A hyper-arc below
+                # it may be computed from out-of-date children meanwhile: then it is out of
+                # date itself, so its value is never read before _pull recomputes it
+                if not self._stale[e]:
+                    self._stale_up(e)
+                continue
             ins[e] = v
             # outside costs that read inside(e): its AND siblings, lower-instance offsets
             touched.add(e)
@@ -726,7 +727,6 @@ class OnlineGraph:
                     if v == INF and self._active[k]:
                         self._dead.append(k)
                     stack.append(u)
-        self._work += work
 
     def _stale_up(self, x: int) -> None:
         """inside(x) is out of date, and so is everything that reads it, in turn: marked stale
@@ -736,19 +736,16 @@ class OnlineGraph:
             return
         kind, parent, outgoing, touched = self._kind, self._parent, self._out, self._touched
         todo = [x]
-        work = 0
         while todo:
             e = todo.pop()
             if stale[e]:
                 continue
             stale[e] = True
-            work += 1
             touched.add(e)  # a feasible one's cost is read (_pull) at the end of the query
             if kind[e]:
                 todo.append(parent[e])
             else:
                 todo.extend(outgoing[e])
-        self._work += work
 
     def _pull(self, x: int) -> float:
         """inside(x), brought up to date with whatever stale element is below it (children
@@ -759,7 +756,6 @@ class OnlineGraph:
         kind, children, incoming, roots = self._kind, self._children, self._in, self._i_root
         done, blocked, lower, w = self._done, self._blocked, self._lower, self._w
         stack = [x]
-        work = 0
         while stack:
             e = stack[-1]
             if not stale[e]:  # reached twice (a node shared by two hyper-arcs)
@@ -796,8 +792,6 @@ class OnlineGraph:
                     v += best
             ins[e] = v
             stale[e] = False
-            work += 1
-        self._work += work
         return ins[x]
 
     # -------------------------------------------------------------- feasibility rules ----
@@ -921,8 +915,9 @@ class OnlineGraph:
         if self._w[n]:
             for h in self._in[n]:  # their outside costs read w(n), which met(n) zeroes
                 self._push(h)
-        # a met node's inside cost is 0: nothing moves if it was already
-        if self._pull(n) if self._stale[n] else self._inside[n]:
+        # a met node's inside cost is 0: nothing moves if it was already (an out-of-date one is
+        # marked so, and what is above it too: nothing to do, but no need to look)
+        if self._inside[n] or self._stale[n]:
             self._propagate(n)
         unmet, blocked, lower = self._unmet, self._blocked, self._lower
         for h in self._out[n]:  # n was feasible: its instance (h's) is active
@@ -961,8 +956,8 @@ class OnlineGraph:
         # root. The alternatives blocked next (their inside cost INF) then stop where they meet
         # h's way up (an OR node keeps its cheapest arc: h), instead of each walking the whole
         # way up and h undoing it; the final costs are the same in either order.
-        # a solved hyper-arc's inside cost is 0
-        if self._pull(h) if self._stale[h] else self._inside[h]:
+        # a solved hyper-arc's inside cost is 0 (as in _meet)
+        if self._inside[h] or self._stale[h]:
             self._propagate(h)
         # Algorithm 2, lines 8-13: alternatives sharing a child with h become infeasible
         for c in self._children[h]:
@@ -1088,13 +1083,6 @@ class OnlineGraph:
     def elements(self) -> list[str]:
         self._materialise_all()
         return list(self._names)
-
-    @property
-    def work(self) -> int:
-        """Elements the cost passes have visited since the start (inside costs recomputed or
-        marked out of date, outside costs recomputed): a measure of what queries cost that
-        does not depend on the machine (for tests and benchmarks)."""
-        return self._work
 
     def optimal_cost(self) -> float:
         """Remaining cost of the cheapest cooperation path of the whole task (eq. 9/11)."""
