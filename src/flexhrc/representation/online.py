@@ -915,9 +915,9 @@ class OnlineGraph:
         if self._w[n]:
             for h in self._in[n]:  # their outside costs read w(n), which met(n) zeroes
                 self._push(h)
-        # a met node's inside cost is 0: nothing moves if it was already (an out-of-date one is
-        # marked so, and what is above it too: nothing to do, but no need to look)
-        if self._inside[n] or self._stale[n]:
+        # a met node's inside cost is 0: nothing moves if it was already (or if it is out of date:
+        # so is everything above it, and _pull will read the new status)
+        if self._inside[n]:
             self._propagate(n)
         unmet, blocked, lower = self._unmet, self._blocked, self._lower
         for h in self._out[n]:  # n was feasible: its instance (h's) is active
@@ -956,8 +956,7 @@ class OnlineGraph:
         # root. The alternatives blocked next (their inside cost INF) then stop where they meet
         # h's way up (an OR node keeps its cheapest arc: h), instead of each walking the whole
         # way up and h undoing it; the final costs are the same in either order.
-        # a solved hyper-arc's inside cost is 0 (as in _meet)
-        if self._inside[h] or self._stale[h]:
+        if self._inside[h]:  # a solved hyper-arc's inside cost is 0 (as in _meet)
             self._propagate(h)
         # Algorithm 2, lines 8-13: alternatives sharing a child with h become infeasible
         for c in self._children[h]:
