@@ -186,7 +186,7 @@ class KnowledgeBase:
             if known and abs(v - known) > self.size_tolerance * known:
                 return f"{rec.id}: {k} {known:g} known, {v:g} perceived"
         if rec.fixed and math.dist(rec.position, position) > self.position_tolerance:
-            return f"{rec.id} is fixed at {_fmt(rec.position)} but perceived at {_fmt(position)}"
+            return _fixed_elsewhere(rec, position)
         return None
 
     # -- anchoring --------------------------------------------------------------------------
@@ -225,7 +225,7 @@ class KnowledgeBase:
         if type is not None and not self.compatible(rec.type, type):
             reason = f"{rec.id} is a {rec.type}, perceived as a {type}"
         elif rec.fixed and rec.anchored and _hdist(rec.position, pos) > self.position_tolerance:
-            reason = f"{rec.id} is fixed at {_fmt(rec.position)} but perceived at {_fmt(pos)}"
+            reason = _fixed_elsewhere(rec, pos)
         if reason:
             self.contradict(obj_id, reason, percept)
             return False
@@ -335,5 +335,11 @@ def _hdist(a: Vec3, b: Vec3) -> float:
     return math.hypot(a[0] - b[0], a[1] - b[1])
 
 
-def _fmt(p: Vec3) -> str:
-    return "(" + ", ".join(f"{v:.3f}" for v in p) + ")"
+def _fixed_elsewhere(rec: ObjectRecord, position: Vec3) -> str:
+    at, seen = format_position(rec.position), format_position(position)
+    return f"{rec.id} is fixed at {at} but perceived at {seen}"
+
+
+def format_position(p: Iterable[float]) -> str:
+    """A position as messages print it: ``(0.450, -0.120, 0.020)`` (metres, to the millimetre)."""
+    return "(" + ", ".join(f"{float(v):.3f}" for v in p) + ")"
