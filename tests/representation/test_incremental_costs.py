@@ -196,7 +196,7 @@ def test_r12_a_deep_chain_costs_each_query_a_few_elements():
     # the probe's chain: n0 <- h0 <- n1 <- ... <- n2999, nodes weigh 0, hyper-arcs 1. Each
     # solved hyper-arc lowers the inside cost of everything above it; recomputing them all
     # made a play quadratic (10 000 nodes: 203 s; here 27 million reads and writes of costs
-    # and 18 000 per query before, 111 000 and at most 22 after). Work is counted, not timed.
+    # and 18 000 per query before, 90 000 and at most 16 after). Work is counted, not timed.
     n = 3000
     g = AndOrGraph("chain", root=f"n{n - 1}")
     for i in range(n):
