@@ -245,6 +245,25 @@ def test_store_a_command_without_its_action_is_refused(tmp_path: Path) -> None:
         replay(path)
 
 
+@pytest.mark.parametrize("kind", ["stop", "suggestion", "options"])
+def test_store_a_sent_message_without_its_id_is_refused(kind: str, tmp_path: Path) -> None:
+    """A stored ``stop`` without ``id`` passed ``check_events`` and broke the log a replay or a
+    resume builds (``KeyError: 'id'``; ``fuzz.py --target store --seed 1983041639``). What the
+    manager sent is read back as the message it was, like a command."""
+    rows = store_rows()
+    seq = rows[-1][0] + 1
+    body = {"stop": {"id": 1, "reason": "x"}, "suggestion": {"id": "s1", "agent": "human"},
+            "options": {"id": "o1", "agent": "human"}}[kind]  # fmt: skip
+    path = _store(tmp_path / "cell.db", None)
+    db = sqlite3.connect(path)
+    db.execute("INSERT INTO events VALUES (?, ?, ?, ?)", (seq, rows[-1][1], kind, json.dumps(body)))
+    db.execute("UPDATE events SET body=json_remove(body, '$.id') WHERE seq=?", (seq,))
+    db.commit()
+    db.close()
+    with pytest.raises(FormatError, match=f"event {seq} \\({kind}\\): {kind}: missing field 'id'"):
+        replay(path)
+
+
 @pytest.mark.parametrize("case", ["S01", "S02", "S03", "S07"])
 def test_scenario_a_value_of_the_wrong_type_is_a_fault(case: str, tmp_path: Path) -> None:
     """Probe S01 ``attrs: abc``, S02 ``attrs: [1, 2]``, S03 ``reachable_by: 5``, S07 agent

@@ -305,6 +305,10 @@ def check_events(events: list[StoredEvent], source: str | Path) -> None:
             if problem is not None:
                 raise fail(problem)
             commands[cid] = ev
+        elif kind in ("stop", "suggestion", "options"):  # what the manager sent, read back alike
+            problem = MESSAGES[kind].problem({"t": ev.t, **b, "v": 1, "type": kind})
+            if problem is not None:
+                raise fail(problem)
         elif kind in _MESSAGE_OF:
             problem = MESSAGES[_MESSAGE_OF[kind]].problem(
                 {"t": ev.t, **b, "v": 1, "type": _MESSAGE_OF[kind]}
