@@ -173,6 +173,37 @@ def test_p10_a_done_ack_from_another_session_is_dropped_and_the_arms_own_is_take
     _same_cooperation(data, reference)
 
 
+def test_an_ack_for_an_unknown_or_answered_command_is_dropped_by_its_reason() -> None:
+    """Without sessions (the in-process bus) the manager's own checks name the reason: an ack
+    of a command it never sent, a second ack of one it has handled."""
+    scenario = load_scenario("table_assembly")
+    bus = InProcessBus()
+    cell = Cell(scenario, bus, liveliness=False, simulator=execution_model("analytic"))
+    agents = [
+        (HumanAgent if a.is_human else RobotAgent)(
+            a.name, scenario, bus, execution=execution_model("analytic")
+        )
+        for a in scenario.domain.agents.values()
+    ]
+    first: list[Msg] = []
+
+    def spy(msg: Msg) -> None:
+        if not first:
+            first.append(msg)
+            bus.publish(P.ACK_TOPIC, dict(msg))  # the arm's ack, once more
+            bus.publish(P.ACK_TOPIC, {**msg, "id": 999})
+
+    bus.subscribe(P.ACK_TOPIC, spy)
+
+    def pump(timeout: float) -> None:
+        bus.flush()
+        for a in agents:
+            a.poll()
+
+    assert cell.run(pump=pump)["outcome"] == "solved"
+    assert cell.dropped == ["duplicate ack for command 1", "ack for unknown command 999"]
+
+
 # -- P17: a fake operator profile announced before the agents --------------------------------------
 @zenoh_only
 @pytest.mark.parametrize("when", ["before the agents", "after the operator joined"])

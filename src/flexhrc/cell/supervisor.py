@@ -1573,10 +1573,22 @@ class Cell:
         said: set[str] = set()
         while self._missing():
             if time.monotonic() > deadline:
-                raise FlexhrcError(
-                    f"no agent process for {', '.join(self._missing())} after {timeout:g} s; "
-                    + self.agents_hint
-                )
+                silent = [n for n in self._missing() if self.agents[n].alive]
+                absent = [n for n in self._missing() if not self.agents[n].alive]
+                why: list[str] = []
+                if absent:
+                    why.append(
+                        f"no agent process for {', '.join(absent)} after {timeout:g} s; "
+                        + self.agents_hint
+                    )
+                if silent:  # its token arrived, its ``join`` never did
+                    why.append(
+                        f"the process of {', '.join(silent)} is alive but never joined the "
+                        f"cell after {timeout:g} s (its `join` did not arrive: a Zenoh access "
+                        "control that denies it? `flexhrc certs DIR` writes configs that allow "
+                        'it; docs/cell.md, "Securing a cell")'
+                    )
+                raise FlexhrcError("; ".join(why))
             for n in self._missing():
                 if progress and n not in said:
                     progress(f"waiting for agent {n} ...")
