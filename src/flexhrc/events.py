@@ -158,7 +158,7 @@ def position_problem(p: Any, what: str = "a position") -> str | None:
             w = WORKSPACE_M  # (NaN fails every comparison: it takes the slow path)
             if -w <= x <= w and -w <= y <= w and -w <= z <= w:
                 return None
-    if not isinstance(p, list | tuple) or len(p) != 3 or not all(_finite(x) for x in p):
+    if not isinstance(p, list | tuple) or len(p) != 3 or not all(finite_number(x) for x in p):
         return f"{what} must be [x, y, z] finite numbers, got {p!r:.60}"
     if not all(abs(x) <= WORKSPACE_M for x in p):
         return (
@@ -175,7 +175,8 @@ NONE = type(None)
 Rule = Callable[[Mapping[str, Any]], "str | None"]
 
 
-def _finite(v: Any) -> bool:
+def finite_number(v: Any) -> bool:
+    """A JSON number that is a finite float (an int too large for a float is not)."""
     if isinstance(v, bool) or not isinstance(v, int | float):
         return False
     # an int of 400 digits is valid JSON, and math.isfinite() of it overflows
@@ -224,7 +225,11 @@ class Field:
                 self._say(kind, value, data)
                 or f"{kind}: field {name!r} must be {want}, not {value!r:.40}"
             )
-        if isinstance(value, float) and not math.isfinite(value):
+        if (
+            isinstance(value, int | float)
+            and not isinstance(value, bool)
+            and not finite_number(value)
+        ):
             return self._say(kind, value, data) or f"{kind}: field {name!r} must be finite"
         if (
             self.minimum is not None
@@ -233,7 +238,8 @@ class Field:
             and value < self.minimum
         ):
             return (
-                self._say(kind, value, data) or f"{kind}: field {name!r} must be >= 0, not {value}"
+                self._say(kind, value, data)
+                or f"{kind}: field {name!r} must be >= 0, not {value!r:.40}"
             )
         if (
             self.maximum is not None
@@ -241,7 +247,7 @@ class Field:
             and not isinstance(value, bool)
             and value > self.maximum
         ):
-            return f"{kind}: field {name!r} must be <= {self.maximum:g}, not {value:g}"
+            return f"{kind}: field {name!r} must be <= {self.maximum:g}, not {value!r:.40}"
         if self.check is not None and not self.check(value):
             return self._say(kind, value, data) or f"{kind}: field {name!r} is not valid"
         return None
@@ -308,7 +314,7 @@ class StoreKindSpec:
 
 
 # -- log events ------------------------------------------------------------------------------
-T = Field(NUM, True, 0, message="{type}: 't' must be a finite time >= 0, got {value!r}")
+T = Field(NUM, True, 0, message="{type}: 't' must be a finite time >= 0, got {value!r:.40}")
 S = (str,)
 OPT_S = (str, NONE)
 NAME = Field(S)
@@ -349,7 +355,7 @@ def _decision_chosen(ev: Mapping[str, Any]) -> str | None:
 
 def _summary_timing(ev: Mapping[str, Any]) -> str | None:
     for key, v in ev["timing"].items():
-        if not _finite(v) or v < 0:
+        if not finite_number(v) or v < 0:
             return f"summary: timing {key!r} must be a finite time >= 0"
     return None
 
@@ -533,7 +539,7 @@ def _world(kind: str) -> Rule:
 def _joints(kind: str) -> Rule:
     def rule(m: Mapping[str, Any]) -> str | None:
         for arm, q in m.get("joints", {}).items():
-            if not isinstance(q, list) or not q or not all(_finite(x) for x in q):
+            if not isinstance(q, list) or not q or not all(finite_number(x) for x in q):
                 return f"{kind}: joints of {arm!r} must be a list of finite numbers"
         return None
 
@@ -578,7 +584,7 @@ def _options_steps(m: Mapping[str, Any]) -> str | None:
 
 def _percept_shape(m: Mapping[str, Any]) -> str | None:
     pose = m["pose"]
-    if len(pose) not in (3, 7) or not all(_finite(x) for x in pose):
+    if len(pose) not in (3, 7) or not all(finite_number(x) for x in pose):
         return "percept: 'pose' must be [x, y, z] (+ a quaternion), finite"
     said = position_problem(pose[:3], "'pose' position")
     if said is not None:
@@ -587,7 +593,7 @@ def _percept_shape(m: Mapping[str, Any]) -> str | None:
         return f"percept: 'pose' quaternion {pose[3:]} is not a rotation (not of unit length)"
     size = m.get("size")
     values = list(size.values()) if isinstance(size, dict) else (size or [])
-    if not all(_finite(x) and 0 <= x <= 2 * WORKSPACE_M for x in values):
+    if not all(finite_number(x) and 0 <= x <= 2 * WORKSPACE_M for x in values):
         return f"percept: 'size' values must be finite numbers from 0 to {2 * WORKSPACE_M:g} m"
     return None
 

@@ -202,6 +202,49 @@ def test_replay_a_start_event_with_unhashable_humans_is_refused(tmp_path: Path) 
         replay(path)
 
 
+def test_protocol_a_huge_integer_time_is_refused() -> None:
+    """``"t": 10**400`` in a command: the bound check formatted it with ``:g`` and raised
+    ``OverflowError`` (``fuzz.py --target protocol --seed 2364653851``). An int too large for a
+    float is not a finite number."""
+    cmd = {"v": 1, "type": "command", "id": 7, "agents": ["left"], "element": "robot_1",
+           "action": "approach(left, leg1)", "t": 10**400}  # fmt: skip
+    with pytest.raises(ProtocolError, match=r"'t'.* finite") as err:
+        parse(cmd)
+    assert len(str(err.value)) < 200  # the 401 digits are cut, not quoted whole
+    with pytest.raises(ProtocolError, match=r"'expected_s'.* finite"):
+        parse({**cmd, "t": 1.0, "expected_s": -(10**400)})
+
+
+def test_replay_a_huge_integer_time_is_refused(tmp_path: Path) -> None:
+    """A log whose ``start`` has ``"t": 10**400``: ``math.isfinite`` of it raised
+    ``OverflowError`` in ``taskmanager/replay.py`` (``fuzz.py --target replay --seed
+    2652320755``)."""
+    lines = (DATA / "ball.jsonl").read_text().splitlines()
+    start = json.loads(lines[0])
+    start["t"] = 10**400
+    lines[0] = json.dumps(start)
+    path = tmp_path / "run.jsonl"
+    path.write_text("\n".join(lines) + "\n")
+    with pytest.raises(FormatError, match=r"run.jsonl:1: start: 't' must be a finite") as err:
+        replay(path)
+    assert len(str(err.value)) < 300
+
+
+def test_store_a_command_without_its_action_is_refused(tmp_path: Path) -> None:
+    """A stored ``command`` without ``action`` passed ``check_events`` and broke the log a
+    replay or a resume builds (``KeyError: 'action'``; ``fuzz.py --target store --seed
+    4041888080``). Every stored command is checked as the message it was."""
+    rows = store_rows()
+    seq = next(r[0] for r in rows if r[2] == "command")
+    path = _store(tmp_path / "cell.db", None)
+    db = sqlite3.connect(path)
+    db.execute("UPDATE events SET body=json_remove(body, '$.action') WHERE seq=?", (seq,))
+    db.commit()
+    db.close()
+    with pytest.raises(FormatError, match=f"event {seq} \\(command\\): command: .*'action'"):
+        replay(path)
+
+
 @pytest.mark.parametrize("case", ["S01", "S02", "S03", "S07"])
 def test_scenario_a_value_of_the_wrong_type_is_a_fault(case: str, tmp_path: Path) -> None:
     """Probe S01 ``attrs: abc``, S02 ``attrs: [1, 2]``, S03 ``reachable_by: 5``, S07 agent

@@ -299,6 +299,11 @@ def check_events(events: list[StoredEvent], source: str | Path) -> None:
                 raise fail(f"'id' must be a whole number, got {cid!r:.40}")
             if cid in commands:
                 raise fail(f"command {cid} was already issued in event {commands[cid].seq}")
+            # the log and a resumed manager read its action and agents: a row without them
+            # would be a KeyError far from here
+            problem = MESSAGES["command"].problem({"t": ev.t, **b, "v": 1, "type": "command"})
+            if problem is not None:
+                raise fail(problem)
             commands[cid] = ev
         elif kind in _MESSAGE_OF:
             problem = MESSAGES[_MESSAGE_OF[kind]].problem(

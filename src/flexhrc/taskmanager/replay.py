@@ -13,19 +13,18 @@ went down): it is summarised up to its last event and says so.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
 from flexhrc.errors import FormatError
-from flexhrc.events import LOG_EVENTS, REPLAY_TYPES
+from flexhrc.events import LOG_EVENTS, REPLAY_TYPES, finite_number
 
 CUT_SHORT = "cut_short"
 
 
 def _number(v: Any) -> bool:
-    return isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
+    return finite_number(v)
 
 
 def check_log(lines: Sequence[tuple[int, dict[str, Any]]], source: str | Path) -> None:
@@ -47,7 +46,7 @@ def check_log(lines: Sequence[tuple[int, dict[str, Any]]], source: str | Path) -
         if not isinstance(kind, str) or kind not in REPLAY_TYPES:
             raise fail(f"unknown event type {kind!r} (not a flexhrc cooperation log?)", line)
         if not _number(t) or t < 0:
-            raise fail(f"{kind}: 't' must be a finite time >= 0, got {t!r}", line)
+            raise fail(f"{kind}: 't' must be a finite time >= 0, got {t!r:.40}", line)
         if kind in ("start", "outcome", "summary"):
             if kind in seen:
                 what = "run starts" if kind == "start" else f"'{kind}' event"
