@@ -1070,17 +1070,29 @@ class Cell:
                     )
 
     def _not_possible(self, t: float, body: dict[str, Any]) -> str | None:
-        """Why a person's report cannot be taken when its time comes, or None: it is the next
-        step of what they were asked or decided to do, or it advances a feasible part of the
-        task now (:meth:`TaskManager.advances`, the panel's own check of a "done"); a report
-        that does neither (``check(human, bolt_1)`` before any bolt is screwed: probe P19)
-        would be stored and change the belief for an action no one could do. A wearable
+        """Why a person's report cannot be taken when its time comes, or None: it is a step of
+        a request the manager sent them (even if the world moved on meanwhile: the manager
+        then handles what they did), the next step of what they were asked or decided to do,
+        or it advances a feasible part of the task now (:meth:`TaskManager.advances`, the
+        panel's own check of a "done"). A report that does none of these (``check(human,
+        bolt_1)`` before any bolt is screwed: probe P19) would be stored and change the
+        belief for an action no one could do. A wearable
         sensor's reading (``sensed``) is kept as it is: what it makes of a motion is the
         sensor's word, and an unmatched reading is how the manager learns of it."""
         if body.get("recognised") is False or "sensed" in body:
             return None
         action = ground(self.domain, body["action"])
         text = str(action)
+        sid, k = body.get("suggestion"), body.get("step")
+        asked = self.suggestions.get(sid) if isinstance(sid, str) else None
+        if (
+            asked is not None
+            and asked.get("agent") == body["agent"]
+            and isinstance(k, int)
+            and 0 <= k < len(asked["actions"])
+            and asked["actions"][k] == text
+        ):
+            return None  # the step of a request it was sent: the manager handles what it did
         for ex in self.tm.executions.values():
             steps = ex.branch.steps
             if (
@@ -1355,6 +1367,13 @@ class Cell:
             log.error("%s (session %s)", why, key)
             self.trace({"t": round(self.now, 6), "type": "refused", "agent": name, "reason": why})
         return False
+
+    def played_here(self, name: str) -> None:
+        """This process plays agent ``name`` itself (the panel's operator, whose token it
+        declares on the manager's own session): the name is this session's, no join needed."""
+        own = getattr(self.transport, "session_id", None)
+        if self.sourced and isinstance(own, str):
+            self.sessions[name] = own
 
     def _foreign(self, agent: str, source: str | None) -> str | None:
         """Why a message speaking for ``agent`` from session ``source`` is not its granted
