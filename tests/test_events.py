@@ -312,3 +312,26 @@ def test_every_type_an_emitter_names_in_the_source_is_catalogued() -> None:
     assert len(found) > 40  # the scan sees the emitters
     missing = {tag: where for tag, where in found.items() if tag not in known}
     assert not missing, f"types emitted but not catalogued in flexhrc.events: {missing}"
+
+
+@pytest.mark.parametrize(
+    "facts, ok",
+    [
+        ([], True),
+        ([["free", "left"], ["on_table", "leg1"]], True),
+        ([["free", "left"], []], False),  # an empty fact
+        ([["free", ""]], False),  # an empty name
+        ([["free", 3]], False),
+        ([("free", "left")], False),  # not a JSON list
+        (["free"], False),
+        ([["free", "left"], None], False),
+    ],
+)
+def test_a_command_world_takes_facts_of_names_only(facts: list[Any], ok: bool) -> None:
+    msg = {"v": P.VERSION, "type": "command", "id": 1, "agents": ["left"]}
+    msg.update(action="rest(left)", t=0.0, expected_s=1.0, world={"facts": facts})
+    if ok:
+        assert P.parse(msg, expect="command") is msg
+    else:
+        with pytest.raises(P.ProtocolError, match="world 'facts' must be a list of facts"):
+            P.parse(msg, expect="command")

@@ -501,9 +501,8 @@ def _ack_status(m: Mapping[str, Any]) -> str | None:
 def _positions(kind: str) -> Rule:
     def rule(m: Mapping[str, Any]) -> str | None:
         for obj, p in m.get("positions", {}).items():
-            said = position_problem(p, f"position of {obj!r}")
-            if said is not None:
-                return f"{kind}: {said}"
+            if position_problem(p) is not None:  # (the name is formatted only then)
+                return f"{kind}: {position_problem(p, f'position of {obj!r}')}"
         return None
 
     return rule
@@ -511,6 +510,17 @@ def _positions(kind: str) -> Rule:
 
 def _fact(f: Any) -> bool:
     return type(f) is list and bool(f) and all(type(x) is str and x for x in f)
+
+
+def _all_facts(facts: list[Any]) -> bool:
+    """Every item is a :func:`_fact` (loops, not generators: every command's world has tens)."""
+    for f in facts:
+        if type(f) is not list or not f:
+            return False
+        for x in f:
+            if type(x) is not str or not x:
+                return False
+    return True
 
 
 def _world(kind: str) -> Rule:
@@ -525,11 +535,10 @@ def _world(kind: str) -> Rule:
         if not isinstance(positions, dict):
             return f"{kind}: world 'positions' must be an object of [x, y, z] positions"
         for obj, p in positions.items():
-            said = position_problem(p, f"world position of {obj!r}")
-            if said is not None:
-                return f"{kind}: {said}"
+            if position_problem(p) is not None:  # (the name is formatted only then)
+                return f"{kind}: {position_problem(p, f'world position of {obj!r}')}"
         facts = world.get("facts", [])
-        if not isinstance(facts, list) or not all(_fact(f) for f in facts):
+        if not isinstance(facts, list) or not _all_facts(facts):
             return f"{kind}: world 'facts' must be a list of facts, each a list of names"
         return None
 

@@ -164,7 +164,8 @@ def atomic_output(path: str | Path) -> Iterator[Path]:
         raise
 
 
-def _write_atomically(path: str | Path, data: bytes) -> None:
+def atomic_write_bytes(path: str | Path, data: bytes) -> None:
+    """Write ``data`` to ``path`` atomically (temporary file + rename)."""
     try:
         with atomic_output(path) as tmp, open(tmp, "wb") as fh:
             fh.write(data)
@@ -174,14 +175,9 @@ def _write_atomically(path: str | Path, data: bytes) -> None:
         raise OutputPathError(f"{path}: cannot write: {exc.strerror or exc}") from None
 
 
-def atomic_write_bytes(path: str | Path, data: bytes) -> None:
-    """Write ``data`` to ``path`` atomically (temporary file + rename)."""
-    _write_atomically(path, data)
-
-
 def atomic_write_text(path: str | Path, text: str) -> None:
     """Write UTF-8 ``text`` to ``path`` atomically (temporary file + rename)."""
-    _write_atomically(path, text.encode("utf-8"))
+    atomic_write_bytes(path, text.encode("utf-8"))
 
 
 class EventLogWriter:

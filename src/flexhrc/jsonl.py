@@ -10,12 +10,6 @@ from typing import Any
 from flexhrc.errors import FormatError
 
 
-def read_jsonl(path: str | Path, required: Iterable[str] = ()) -> list[dict[str, Any]]:
-    """Every object of a JSON-lines file; blank lines are skipped. A line that is not a JSON
-    object, or lacks one of the ``required`` keys, raises :class:`FormatError` with its line."""
-    return [obj for _, obj in read_jsonl_lines(path, required)]
-
-
 def _no_constant(name: str) -> Any:
     raise ValueError(f"{name} is not a JSON number")
 
@@ -23,7 +17,9 @@ def _no_constant(name: str) -> Any:
 def read_jsonl_lines(
     path: str | Path, required: Iterable[str] = ()
 ) -> list[tuple[int, dict[str, Any]]]:
-    """Like :func:`read_jsonl`, with the line number of every object.
+    """Every object of a JSON-lines file with its line number; blank lines are skipped. A line
+    that is not a JSON object, or lacks one of the ``required`` keys, raises
+    :class:`FormatError` with its line.
 
     The file is read with :func:`flexhrc.files.read_text` (missing, a folder, unreadable,
     binary and non-UTF-8 files are one clear error); ``NaN`` and ``Infinity``, which Python's

@@ -2,7 +2,7 @@ import pytest
 
 from flexhrc.errors import FlexhrcError, UnknownNameError
 from flexhrc.knowledge import KnowledgeBase
-from flexhrc.logic import parse_conjunction
+from flexhrc.logic import parse_conjunction, satisfy
 
 
 def kb() -> KnowledgeBase:
@@ -118,3 +118,52 @@ def test_supertypes_and_their_errors():
     bad = KnowledgeBase(supertypes={"a": "b", "b": "a"})
     with pytest.raises(FlexhrcError, match="cycle"):
         bad.add_object("x", "a", (0, 0, 0))
+
+
+def test_kept_views_of_the_facts_follow_every_change():
+    """``facts`` and the index behind ``query`` are kept between changes: every way the facts
+    change makes new ones, and a snapshot taken before a change stays what it was."""
+    k = kb()
+    on_table = parse_conjunction("on_table(?l)")
+    before = k.facts
+    assert k.facts is before  # kept while nothing changes
+    changes = [
+        lambda: k.retract_fact("on_table", "leg1"),
+        lambda: k.assert_fact("on_table", "leg1"),
+        lambda: k.apply_effects((), parse_conjunction("on_table(?l)"), {"?l": "leg2"}),
+        lambda: k.add_object("leg3", "leg", (0.1, 0.1, 0.0)),
+        lambda: k.assert_fact("on_table", "leg3"),
+    ]
+    for change in changes:
+        seen = k.facts
+        k.query(on_table)  # the index is made
+        change()
+        assert k.facts == frozenset(k._facts) and k.facts is not seen
+        assert k.query(on_table) == [s for s in satisfy(on_table, set(k._facts))]
+        assert seen != k.facts
+    assert ("on_table", "leg1") in before and ("leg", "leg3") not in before
+    # an effect refused half-way (not ground) leaves the views of what was applied
+    assert k.facts == frozenset(k._facts)  # a view is kept
+    with pytest.raises(FlexhrcError, match="not ground"):
+        k.apply_effects(
+            parse_conjunction("held(?x)"), parse_conjunction("on_table(?l)"), {"?l": "leg1"}
+        )
+    assert ("on_table", "leg1") not in k.facts and k.facts == frozenset(k._facts)
+    # an accepted percept changes the object's type facts
+    k.update_object("leg3", "tabletop", (0.1, 0.1, 0.0))
+    types = k.facts
+    k.resolve("leg3", accept=True)
+    assert ("tabletop", "leg3") in k.facts and ("tabletop", "leg3") not in types
+
+
+@pytest.mark.parametrize(
+    "p", [(float("nan"), 0.0, 0.0), [0.0, float("inf"), 0.0], (0.0, 0.0, -float("inf")), [1.0]]
+)
+def test_a_position_of_three_floats_is_checked_on_the_quick_path_too(p):
+    k = kb()
+    with pytest.raises(FlexhrcError, match="three finite numbers"):
+        k.move("leg1", p)
+    k.move("leg1", [0.1, 0.2, 0.3])
+    k.move("leg2", (1, 2, 3))  # ints are numbers too
+    assert k.position("leg1") == (0.1, 0.2, 0.3) and k.position("leg2") == (1.0, 2.0, 3.0)
+    assert all(type(v) is float for v in k.position("leg2"))

@@ -16,7 +16,14 @@ from flexhrc.representation.paths import exact_costs
 
 
 @st.composite
-def tree_graph(draw: st.DrawFn, name: str = "g", max_depth: int = 3) -> AndOrGraph:
+def tree_graph(
+    draw: st.DrawFn,
+    name: str = "g",
+    max_depth: int = 3,
+    weights: st.SearchStrategy[float] | None = None,
+) -> AndOrGraph:
+    """A random tree; ``weights``: of every node and hyper-arc (default integers 0-3 for
+    nodes, 0-4 for hyper-arcs)."""
     g = AndOrGraph(name)
     counter = [0]
 
@@ -26,7 +33,7 @@ def tree_graph(draw: st.DrawFn, name: str = "g", max_depth: int = 3) -> AndOrGra
 
     def build(depth: int) -> str:
         node = fresh("n")
-        g.add_node(node, draw(st.integers(0, 3)))
+        g.add_node(node, draw(st.integers(0, 3) if weights is None else weights))
         if depth == 0 or draw(st.integers(0, 3)) == 0:
             return node
         pool = [build(depth - 1) for _ in range(draw(st.integers(1, 3)))]
@@ -38,7 +45,12 @@ def tree_graph(draw: st.DrawFn, name: str = "g", max_depth: int = 3) -> AndOrGra
             extra = draw(st.lists(st.sampled_from(pool), max_size=2))
             chosen = sorted(set(sub) | set(extra), key=pool.index)
             if chosen:
-                g.add_hyperarc(fresh("h"), chosen, node, draw(st.integers(0, 4)))
+                g.add_hyperarc(
+                    fresh("h"),
+                    chosen,
+                    node,
+                    draw(st.integers(0, 4) if weights is None else weights),
+                )
         return node
 
     g.root = build(max_depth)

@@ -147,6 +147,32 @@ def test_a_stop_ends_the_motion_where_the_arm_is(arm_node):
 
 
 @pytest.mark.slow
+def test_k09_a_second_node_for_the_arm_is_refused_and_the_first_keeps_it(arm_node):
+    # K09 over ROS 2: the second node asks the graph whether alive/left is held (its DDS
+    # writer alive, its heartbeats coming) before it declares its own, and exits with code 2
+    from tests.conftest import subprocess_env
+
+    client, rec, proc = arm_node
+    env = subprocess_env()
+    env.update(ROS_DOMAIN_ID=str(client.domain_id), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
+    cell = client.prefix.split("/")[-1]
+    twin = subprocess.run(
+        [sys.executable, "-m", "flexhrc", "ros2", "arm", "table_assembly", "--arm", "left",
+         "--cell", cell],
+        env=env, capture_output=True, text=True, timeout=120,
+    )  # fmt: skip
+    assert twin.returncode == 2, twin.stderr[-2000:]
+    assert "error: agent left: another process already serves this agent" in twin.stderr
+    assert "Traceback" not in twin.stderr
+    client.flush()
+    assert proc.poll() is None and ("alive/left", False) not in rec["alive"]
+    acks = len(rec["acks"])
+    client.publish("cmd/left", _cmd(21, "rest(left)"))  # the first still serves the arm
+    assert wait_for(lambda: _ack(rec, 21) is not None, 20.0, client.flush)
+    assert [a["id"] for a in rec["acks"][acks:]] == [21]  # once: the twin executed nothing
+
+
+@pytest.mark.slow
 def test_the_node_exits_when_the_cell_ends(arm_node):
     client, _, proc = arm_node
     client.publish("state", {"v": 1, "type": "end", "outcome": "solved"})

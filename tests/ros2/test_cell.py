@@ -392,3 +392,81 @@ def test_an_operator_node_with_a_profile_takes_legs_on_its_own(
     assert profiles == {"human": "takeover"}
     assert any(e.kind == "human_decides" for e in events)
     assert data["legs_by_agent"].get("human", 0) >= 1
+
+
+def test_r2p2_a_spoofed_liveliness_goodbye_neither_loses_the_arm_nor_fails_its_command(
+    tmp_path: Path, ros_env: dict[str, str], domain_id: int, cell_name: str
+):
+    # R2P2: any node may publish on /flexhrc/<cell>/liveliness; three `alive: false` for the
+    # left arm while it runs its first command must change nothing — an arm's liveliness is
+    # its own DDS publisher's, which no other process can withdraw
+    scenario = tmp_path / "table.yaml"
+    scenario.write_text("scenario: table_assembly\n")
+    common = [str(scenario), "--cell", cell_name]
+    store = tmp_path / "c.db"
+    client = PlainClient(cell_name, domain_id)
+    suggestions = client.watch("suggest/human")
+    client.tokens.append("alive/human")
+    procs: list[subprocess.Popen[str]] = []
+    try:
+        procs.append(_node(ros_env, "cell", *common, "--json", "--realtime", "4", "--store",
+                           str(store), log=tmp_path / "manager.log"))  # fmt: skip
+        for arm in ("left", "right"):
+            procs.append(_node(ros_env, "arm", *common, "--arm", arm, log=tmp_path / f"{arm}.log"))
+
+        def left_command() -> dict | None:
+            try:
+                cmds = [e.body for e in read_store(store) if e.kind == "command"]
+            except FormatError:  # not created yet
+                return None
+            return next((c for c in cmds if c["agents"] == ["left"]), None)
+
+        assert wait_for(lambda: left_command() is not None, 90.0)
+        first = left_command()
+        assert first is not None
+        for _ in range(3):
+            client.publish_raw("liveliness", '{"key": "alive/left", "alive": false}')
+        _operate_until_the_end(client, suggestions, procs[0], 120.0)
+        data = _finish(procs[0], 30, tmp_path)
+    finally:
+        client.close()
+        _stop_all(procs)
+    assert data["outcome"] == "solved", data.get("reason")
+    events = read_store(store)
+    assert [e for e in events if e.kind in ("agent_down", "agent_up")] == []
+    assert [
+        e.body for e in events if e.kind == "ack" and e.body.get("reason") == "agent lost"
+    ] == []
+    acks = [e.body for e in events if e.kind == "ack" and e.body["id"] == first["id"]]
+    assert [(a["agent"], a["status"]) for a in acks] == [("left", "done")]  # the arm's own ack
+    assert data["cell"]["agents"]["left"]["available"] is True
+
+
+def test_k08_a_second_manager_node_for_a_cell_is_refused(
+    tmp_path: Path, ros_env: dict[str, str], domain_id: int, cell_name: str
+):
+    # K08 over ROS 2: the second `ros2 cell` finds alive/manager held in the graph and exits 2
+    # before it stores anything; the first keeps the cell
+    watcher = Ros2Transport(prefix=f"flexhrc/{cell_name}", domain_id=domain_id)
+    alive: list[tuple[str, bool]] = []
+    watcher.watch_liveliness("alive/manager", lambda k, a: alive.append((k, a)))
+    procs: list[subprocess.Popen[str]] = []
+    try:
+        common = ["table_assembly", "--cell", cell_name, "--wait", "120"]
+        procs.append(_node(ros_env, "cell", *common, "--store", str(tmp_path / "a.db"),
+                           log=tmp_path / "manager.log"))  # fmt: skip
+        assert wait_for(lambda: ("alive/manager", True) in alive, 90.0, watcher.flush)
+        twin = subprocess.run(
+            [sys.executable, "-m", "flexhrc", "ros2", "cell", *common, "--store",
+             str(tmp_path / "b.db")],
+            env=ros_env, capture_output=True, text=True, timeout=120,
+        )  # fmt: skip
+        watcher.flush()
+        assert procs[0].poll() is None and ("alive/manager", False) not in alive
+    finally:
+        watcher.close()
+        _stop_all(procs)
+    assert twin.returncode == 2, twin.stderr[-2000:]
+    assert f"error: --cell {cell_name}: another manager already runs this cell" in twin.stderr
+    assert "Traceback" not in twin.stderr
+    assert not (tmp_path / "b.db").exists() or read_store(tmp_path / "b.db") == []

@@ -186,10 +186,14 @@ def test_another_process_answers_and_its_sigkill_is_noticed_within_the_lease(
             assert wait_for(lambda: any(e[1] for e in events), 20.0, bus.flush), "no heartbeat"
             bus.publish("cmd", {"id": 7})
             assert wait_for(lambda: acks == [{"id": 7, "status": "done"}], 5.0, bus.flush)
+            assert bus.liveliness_holders("alive/*") == ["alive/echo"]
             proc.send_signal(signal.SIGKILL)
             killed = time.monotonic()
             assert wait_for(lambda: events[-1][1] is False, 5.0, bus.flush)
             assert events[-1][0] == "alive/echo"
+            # a new process may take the name now: DDS still lists the killed writer, but it
+            # is not asserted and its heartbeats stopped
+            assert bus.liveliness_holders("alive/*", timeout=0.0) == []
             assert events[-1][2] - killed < bus.lease_s + 0.5
             # DDS still lists the dead process's subscriber (until its 20 s lease); Fast DDS
             # matches a new publisher with it from its discovery data, so publishing to it
@@ -204,3 +208,132 @@ def test_another_process_answers_and_its_sigkill_is_noticed_within_the_lease(
         finally:
             proc.kill()
             proc.wait(5)
+
+
+def _plain_node(domain_id: int, name: str) -> tuple[object, object, object]:
+    """A node of plain rclpy (no flexhrc code): any process on the host could run it."""
+    import rclpy
+    from rclpy.executors import SingleThreadedExecutor
+
+    ctx = rclpy.Context()
+    rclpy.init(context=ctx, domain_id=domain_id)
+    node = rclpy.create_node(name, context=ctx)
+    executor = SingleThreadedExecutor(context=ctx)
+    executor.add_node(node)
+    return ctx, node, executor
+
+
+def test_r2p2_a_goodbye_from_a_node_that_does_not_hold_the_token_has_no_effect(
+    domain_id: int, cell_name: str
+):
+    from std_msgs.msg import String
+
+    prefix = f"flexhrc/{cell_name}"
+    # the manager's lease is far longer than the test: a token goes only when withdrawn
+    with (
+        Ros2Transport(prefix=prefix, domain_id=domain_id) as arm,
+        Ros2Transport(prefix=prefix, domain_id=domain_id, lease_s=600.0) as manager,
+    ):
+        events: list[tuple[str, bool]] = []
+        manager.watch_liveliness("alive/*", lambda k, alive: events.append((k, alive)))
+        arm.declare_token("alive/left")
+        assert wait_for(lambda: events == [("alive/left", True)], 10.0, manager.flush)
+        ctx, node, _ = _plain_node(domain_id, "spoof")
+        try:
+            pub = node.create_publisher(String, f"/{prefix}/liveliness", 10)  # type: ignore[attr-defined]
+            assert wait_for(lambda: pub.get_subscription_count() >= 2, 10.0)
+            for _ in range(3):
+                pub.publish(String(data='{"key": "alive/left", "alive": false}'))
+            # a witness behind the goodbyes on the same writer: once it is seen, they were read
+            pub.publish(String(data='{"key": "alive/witness", "alive": true, "lease_s": 600}'))
+            assert wait_for(lambda: ("alive/witness", True) in events, 10.0, manager.flush)
+            # ... and the witness's own goodbye, from the writer that holds it, is taken
+            pub.publish(String(data='{"key": "alive/witness", "alive": false}'))
+            assert wait_for(lambda: ("alive/witness", False) in events, 10.0, manager.flush)
+        finally:
+            node.destroy_node()  # type: ignore[attr-defined]
+            ctx.try_shutdown()  # type: ignore[attr-defined]
+        assert [e for e in events if e[0] == "alive/left"] == [("alive/left", True)]
+        assert manager.alive("alive/*") == ["alive/left"]
+
+
+def test_a_plain_rclpy_writer_with_a_liveliness_lease_is_a_token(domain_id: int, cell_name: str):
+    # the DDS way for a program of its own (docs/ros2.md): a publisher with a liveliness
+    # lease on /<prefix>/liveliness/<key>; it is there while the writer is, no heartbeats
+    from rclpy.duration import Duration
+    from rclpy.qos import LivelinessPolicy, QoSProfile
+    from std_msgs.msg import String
+
+    prefix = f"flexhrc/{cell_name}"
+    with Ros2Transport(prefix=prefix, domain_id=domain_id) as manager:
+        events: list[tuple[str, bool]] = []
+        manager.watch_liveliness("alive/*", lambda k, alive: events.append((k, alive)))
+        ctx, node, executor = _plain_node(domain_id, "plain_operator")
+        try:
+            qos = QoSProfile(
+                depth=1,
+                liveliness=LivelinessPolicy.AUTOMATIC,
+                liveliness_lease_duration=Duration(seconds=1.0),
+            )
+            pub = node.create_publisher(String, f"/{prefix}/liveliness/alive/human", qos)  # type: ignore[attr-defined]
+            assert wait_for(lambda: events == [("alive/human", True)], 10.0, manager.flush)
+            node.destroy_publisher(pub)  # type: ignore[attr-defined]
+            assert wait_for(lambda: events[-1] == ("alive/human", False), 10.0, manager.flush)
+        finally:
+            executor.shutdown()  # type: ignore[attr-defined]
+            node.destroy_node()  # type: ignore[attr-defined]
+            ctx.try_shutdown()  # type: ignore[attr-defined]
+        assert events == [("alive/human", True), ("alive/human", False)]
+
+
+def test_a_token_whose_heartbeats_stop_stays_while_its_writer_lives(pair):
+    # a busy process whose Python falls silent sends no heartbeats; the middleware still
+    # asserts its token's writer, so it is not taken for lost (issue 20, no false alarm)
+    a, b = pair
+    events: list[tuple[str, bool]] = []
+    b.watch_liveliness("alive/*", lambda k, alive: events.append((k, alive)))
+    token = a.declare_token("alive/left")
+    watch = b._watches[0]
+    assert wait_for(lambda: "alive/left" in watch.beats, 10.0, b.flush)  # heartbeats heard
+    a._timer.cancel()  # its heartbeats stop
+    assert wait_for(lambda: "alive/left" not in watch.beats, 10.0, b.flush)  # and lapsed
+    b.flush()
+    assert events == [("alive/left", True)] and b.alive("alive/*") == ["alive/left"]
+    token.undeclare()  # its writer goes: now both witnesses agree
+    assert wait_for(lambda: events[-1] == ("alive/left", False), 10.0, b.flush)
+
+
+def test_liveliness_holders_name_the_tokens_of_other_transports(pair):
+    # what `ros2 arm` and `ros2 cell` ask before they declare their token (K08, K09)
+    a, b = pair
+    assert b.liveliness_holders("alive/left", timeout=0.0) == []
+    token = a.declare_token("alive/left")
+    assert wait_for(lambda: b.liveliness_holders("alive/*", timeout=0.0) == ["alive/left"], 10.0)
+    assert b.liveliness_holders("alive/left") == ["alive/left"]
+    assert b.liveliness_holders("alive/right", timeout=0.0) == []
+    assert a.liveliness_holders("alive/left", timeout=0.0) == []  # not its own
+    token.undeclare()
+    assert wait_for(lambda: b.liveliness_holders("alive/*", timeout=0.0) == [], 10.0)
+
+
+def test_r2p4_a_heartbeat_that_claims_an_hour_holds_a_key_for_one_lease(
+    domain_id: int, cell_name: str
+):
+    from std_msgs.msg import String
+
+    prefix = f"flexhrc/{cell_name}"
+    with Ros2Transport(prefix=prefix, domain_id=domain_id) as manager:
+        events: list[tuple[str, bool]] = []
+        manager.watch_liveliness("alive/*", lambda k, alive: events.append((k, alive)))
+        ctx, node, _ = _plain_node(domain_id, "spoof")
+        try:
+            pub = node.create_publisher(String, f"/{prefix}/liveliness", 10)  # type: ignore[attr-defined]
+            assert wait_for(lambda: pub.get_subscription_count() >= 1, 10.0)
+            pub.publish(String(data='{"key": "alive/right", "alive": true, "lease_s": 3500}'))
+            assert wait_for(lambda: ("alive/right", True) in events, 10.0, manager.flush)
+            # one heartbeat and silence: gone after the manager's lease (1 s), not 3500 s
+            assert wait_for(lambda: ("alive/right", False) in events, 30.0, manager.flush)
+        finally:
+            node.destroy_node()  # type: ignore[attr-defined]
+            ctx.try_shutdown()  # type: ignore[attr-defined]
+        assert events == [("alive/right", True), ("alive/right", False)]

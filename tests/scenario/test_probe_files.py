@@ -6,6 +6,7 @@ used, and the one clear error (``FILE:LINE: message``, exit 2) or result that is
 
 from __future__ import annotations
 
+import random
 from pathlib import Path
 
 import pytest
@@ -262,9 +263,12 @@ def test_cli_options_are_refused_alike(case, capsys):
     assert any(message in x for x in lines), lines
 
 
-def test_rc12_a_ros2_cell_names_the_ros2_nodes_to_start(capsys):
+def test_rc12_a_ros2_cell_names_the_ros2_nodes_to_start(capsys, monkeypatch):
     """RC12: `ros2 cell --wait 1` said to start the Zenoh agents, not `flexhrc ros2 arm|human`."""
     pytest.importorskip("rclpy")
+    # its own discovery settings: it passed only after tests/ros2/conftest.py had set them
+    monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    monkeypatch.setenv("ROS_DOMAIN_ID", str(random.SystemRandom().randint(1, 100)))
     assert main(["ros2", "cell", "table_assembly", "--wait", "1", "--cell", "rc12"]) == 2
     lines = error_lines(capsys)
     assert any("flexhrc ros2 arm SCENARIO --arm NAME" in x for x in lines), lines
@@ -329,10 +333,10 @@ def test_t15_the_panel_on_another_loopback_address_answers_it():
     """T15: `panel --web 127.0.0.2:PORT` (loopback, so no token asked) refused every request:
     the Host check knew 127.0.0.1 only; all of 127.0.0.0/8 and ::1 are this machine."""
     pytest.importorskip("starlette")
-    from flexhrc.web.app import _loopback
+    from flexhrc.web.server import is_loopback  # the rule the app's Host check applies
 
-    assert all(_loopback(h) for h in ("127.0.0.1", "127.0.0.2", "127.1.2.3", "::1", "localhost"))
-    assert not any(_loopback(h) for h in ("evil.example", "10.0.0.1", "0.0.0.0", "", "::"))
+    assert all(is_loopback(h) for h in ("127.0.0.1", "127.0.0.2", "127.1.2.3", "::1", "localhost"))
+    assert not any(is_loopback(h) for h in ("evil.example", "10.0.0.1", "0.0.0.0", "", "::"))
 
 
 def test_t11_panel_legs_does_not_suggest_an_option_panel_lacks(capsys):

@@ -31,6 +31,7 @@ from flexhrc.action.control import Obstacle, parse_obstacle
 from flexhrc.action.simulator import ActionOutcome, KinematicSimulator, Pose, RobotState, SimEvent
 from flexhrc.errors import FlexhrcError, UnknownNameError
 from flexhrc.events import ACK_STATUSES as STATUSES  # what an agent may answer
+from flexhrc.knowledge.base import format_position
 
 DISTURBANCE_KINDS: tuple[str, ...] = ("object_moved", "slow_arm", "blocked_path")
 #: Actions that need the object to be where the command says.
@@ -374,7 +375,7 @@ class ExecutionManager:
             return (
                 "failed",
                 f"object {name!r} is not where expected: it is {off:.3f} m away "
-                f"(now at {_fmt(real.position)})",
+                f"(now at {format_position(real.position)})",
                 {"object": name, "position": list(real.position)},
             )
         return "done", "goal reached", {}
@@ -394,10 +395,6 @@ class ExecutionManager:
         elif cmd.action == "ungrasp":
             for a in arms:
                 self.held.pop(a, None)
-
-
-def _fmt(p: Sequence[float]) -> str:
-    return "(" + ", ".join(f"{v:.3f}" for v in p) + ")"
 
 
 __all__ = [

@@ -59,6 +59,7 @@ from flexhrc.action.control import (
 )
 from flexhrc.action.robots import ARM_NAMES, DualArmRobot, load_robot
 from flexhrc.errors import FlexhrcError, UnknownNameError
+from flexhrc.knowledge.base import format_position
 
 Array = np.ndarray
 
@@ -629,7 +630,7 @@ class KinematicSimulator:
             if far > model.reach_m:
                 return self._outcome(
                     spec, arm, arms, state, False,
-                    f"goal {_xyz(g)} is out of reach of arm {a!r} (wrist centre "
+                    f"goal {format_position(g)} is out of reach of arm {a!r} (wrist centre "
                     f"{far:.3f} m from the shoulder, reach {model.reach_m:.3f} m)",
                     0.0, q, math.inf, 0.0, (math.inf, math.inf), None, t_wall, 0,
                 )  # fmt: skip
@@ -952,10 +953,6 @@ class KinematicSimulator:
 def _num(x: float, digits: int) -> float | None:
     """JSON has no infinity: an unknown/unbounded figure is ``null``."""
     return None if not math.isfinite(x) else round(float(x), digits)
-
-
-def _xyz(p: Array) -> str:
-    return "(" + ", ".join(f"{v:.3f}" for v in p) + ")"
 
 
 __all__ = [

@@ -19,7 +19,6 @@ alone — the same runs, order and Gantt chart as the live run.
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -135,92 +134,78 @@ class BehaveLog:
         return states
 
 
-def _fail(path: Path, line: int, message: str) -> FormatError:
-    return FormatError(message, path, line)
-
-
 def _number(rec: dict[str, Any], key: str, path: Path, line: int, integer: bool = False) -> float:
     value = rec.get(key)
     if isinstance(value, bool) or not isinstance(value, int | float):
-        raise _fail(path, line, f"{key!r} must be a number, got {value!r}")
+        raise FormatError(f"{key!r} must be a number, got {value!r}", path, line)
     if not math.isfinite(value) or value < 0:
-        raise _fail(path, line, f"{key!r} must be finite and >= 0, got {value!r}")
+        raise FormatError(f"{key!r} must be finite and >= 0, got {value!r}", path, line)
     if integer and not float(value).is_integer():
-        raise _fail(path, line, f"{key!r} must be an integer, got {value!r}")
+        raise FormatError(f"{key!r} must be an integer, got {value!r}", path, line)
     return float(value)
 
 
 def _strings(rec: dict[str, Any], key: str, path: Path, line: int) -> list[str]:
     value = rec.get(key)
     if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
-        raise _fail(path, line, f"{key!r} must be a list of names")
+        raise FormatError(f"{key!r} must be a list of names", path, line)
     return value
 
 
 def read_log(path: str | Path) -> BehaveLog:
     """Read and check a behaviour log; every problem names the file and line."""
-    from flexhrc.files import read_text
+    from flexhrc.jsonl import read_jsonl_lines
 
     p = Path(path)
-    text = read_text(p)
     header: dict[str, Any] | None = None
     events: list[LogEvent] = []
     end: dict[str, Any] | None = None
     last_t = 0.0
-    n = 0
-    for n, raw in enumerate(text.splitlines(), start=1):
-        if not raw.strip():
-            continue
-        try:
-            rec = json.loads(raw)
-        except (ValueError, RecursionError):
-            raise _fail(p, n, "not a JSON line (a log cut mid-line?)") from None
-        if not isinstance(rec, dict):
-            raise _fail(p, n, "expected a JSON object")
+    for n, rec in read_jsonl_lines(p):  # (a line that is no JSON object: a log cut mid-line)
         kind = rec.get("type")
         if header is None:
             if kind != HEADER:
-                raise _fail(
-                    p,
-                    n,
+                raise FormatError(
                     "not a behaviour log (the first line must be a 'behave_start' record; "
                     "cooperation logs are read by `flexhrc replay`)",
+                    p,
+                    n,
                 )
             if not isinstance(rec.get("task"), str):
-                raise _fail(p, n, "'task' must be the task's prefix form")
+                raise FormatError("'task' must be the task's prefix form", p, n)
             _strings(rec, "behaviors", p, n)
             _strings(rec, "arms", p, n)
             header = rec
             continue
         if end is not None:
-            raise _fail(p, n, "a line after the end of the run")
+            raise FormatError("a line after the end of the run", p, n)
         if kind == EVENT:
             t = _number(rec, "t", p, n)
             tick = int(_number(rec, "tick", p, n, integer=True))
             if t + 1e-9 < last_t:
-                raise _fail(p, n, f"time goes backwards ({t} after {last_t})")
+                raise FormatError(f"time goes backwards ({t} after {last_t})", p, n)
             last_t = t
             source, ev_kind = rec.get("source"), rec.get("kind")
             if not isinstance(source, str) or not isinstance(ev_kind, str):
-                raise _fail(p, n, "an event needs a 'source' and a 'kind' (strings)")
+                raise FormatError("an event needs a 'source' and a 'kind' (strings)", p, n)
             data = {
                 k: v for k, v in rec.items() if k not in ("type", "tick", "t", "source", "kind")
             }
             if ev_kind == "state" and not isinstance(data.get("to"), str):
-                raise _fail(p, n, "a state event needs 'to' (the new state)")
+                raise FormatError("a state event needs 'to' (the new state)", p, n)
             if ev_kind in ("start", "done", "reset") and not isinstance(data.get("arm"), str):
-                raise _fail(p, n, f"a {ev_kind} event needs 'arm'")
+                raise FormatError(f"a {ev_kind} event needs 'arm'", p, n)
             events.append(LogEvent(tick, t, source, ev_kind, data))
         elif kind == END:
             _number(rec, "t", p, n)
             _number(rec, "ticks", p, n, integer=True)
             if rec.get("outcome") not in OUTCOMES:
-                raise _fail(
-                    p, n, f"unknown outcome {rec.get('outcome')!r} (one of {', '.join(OUTCOMES)})"
+                raise FormatError(
+                    f"unknown outcome {rec.get('outcome')!r} (one of {', '.join(OUTCOMES)})", p, n
                 )
             end = rec
         else:
-            raise _fail(p, n, f"unknown record type {kind!r}")
+            raise FormatError(f"unknown record type {kind!r}", p, n)
     if header is None:
         raise FormatError("empty log", p)
     return BehaveLog(p, header, events, end)

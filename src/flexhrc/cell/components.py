@@ -201,7 +201,8 @@ def sync_world(kb: KnowledgeBase, world: dict[str, Any]) -> None:
             kb.move(obj, p)
     facts = world.get("facts")
     if isinstance(facts, list):
-        want = {tuple(str(x) for x in f) for f in facts if isinstance(f, list)}
+        # a parsed message's facts are lists of names (events._world): no str() of each
+        want = {tuple(f) for f in facts if isinstance(f, list)}
         have = set(kb.facts)
         for f in have - want:
             kb.retract_fact(*f)

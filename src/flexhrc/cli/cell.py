@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from flexhrc.cell.serve import trace_line
 from flexhrc.cli.common import (
     add_cell_options,
     add_json_flag,
@@ -13,7 +12,6 @@ from flexhrc.cli.common import (
     add_segments_option,
     add_transport_options,
     emit,
-    log,
     progress,
     quiet_library_logs,
 )
@@ -73,7 +71,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
 def cmd_cell(args: argparse.Namespace) -> int:
     quiet_library_logs()
     from flexhrc.cell.serve import CellConfig, serve_cell, summary_line
-    from flexhrc.cli.panel import check_web, serve
+    from flexhrc.cli.panel import run_cell
     from flexhrc.scenario import load_scenario
 
     config = CellConfig(
@@ -92,36 +90,21 @@ def cmd_cell(args: argparse.Namespace) -> int:
         ready_file=args.ready_file,
         zenoh_config=args.zenoh_config,
     )
-    web = check_web(args)  # a non-loopback --web without --token is refused before any work
-    scenario = load_scenario(args.scenario, seed=args.seed, segments=args.segments)
 
-    def trace(ev: dict[str, Any]) -> None:  # on stderr under --json, as every live trace
-        line = trace_line(ev)
-        if line:
-            log(args, line)
-
-    servers: list[Any] = []
-
-    def panel(cell: Any) -> Any:  # polled by the loop like an agent; with external agents it
-        from flexhrc.web.live import CellPanel  # is the operator (holds their tokens)
-
-        backend = CellPanel(cell, operator=config.agents == "external")
-        servers.append(serve(web, args.token, backend))  # type: ignore[arg-type]
-        return backend
-
-    try:
-        data = serve_cell(
+    def start(trace: Any, attach: list[Any], servers: list[Any]) -> dict[str, Any]:
+        scenario = load_scenario(args.scenario, seed=args.seed, segments=args.segments)
+        return serve_cell(
             scenario,
             config,
-            trace=None if args.quiet else trace,
+            trace=trace,
             progress=None if args.quiet else progress,
-            attach=[panel] if web else [],
+            attach=attach,
             # the panel's address as bound (--web 127.0.0.1:0), without the token
             ready_extra=lambda: {"web": servers[0].address} if servers else {},
         )
-    finally:
-        for server in servers:
-            server.stop(grace=0.3)  # the page gets the last state first
+
+    # with external agents the panel is the operator (holds their tokens)
+    data = run_cell(args, start, operator=config.agents == "external")
     emit(args, data, lambda: summary_line(data, args.store))
     if data["cell"].get("store_lost"):  # said even under --quiet: the run cannot be resumed
         progress(f"warning: {data['cell']['store_lost']}")

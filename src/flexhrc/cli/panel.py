@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from collections.abc import Callable
 from typing import Any
 
 from flexhrc.cli.common import (
@@ -55,13 +56,44 @@ def check_web(args: argparse.Namespace) -> tuple[str, int] | None:
     return host, port
 
 
-def serve(address: tuple[str, int], token: str | None, backend: Any) -> Any:
-    """Start the panel for ``backend`` on a server thread; prints its address on stderr."""
-    from flexhrc.web.server import PanelServer
+def run_cell(
+    args: argparse.Namespace,
+    start: Callable[[Any, list[Any], list[Any]], dict[str, Any]],
+    *,
+    operator: bool,
+) -> dict[str, Any]:
+    """Run a cell as ``flexhrc cell`` and ``flexhrc ros2 cell`` do: ``start(trace, attach,
+    servers)`` runs it with the live trace (None under ``--quiet``; on stderr under ``--json``)
+    and, with ``--web``, the operator panel attached (``operator``: the page stands in for the
+    scenario's operators, their tokens); ``servers`` holds the panel's server once it listens.
+    ``--web``/``--token`` are checked before ``start``; the panel gets the last state, then
+    stops."""
+    from flexhrc.cell.serve import trace_line
+    from flexhrc.cli.common import log
 
-    server = PanelServer(backend, address[0], address[1], token=token).start()
-    server.announce()
-    return server
+    web = check_web(args)  # a non-loopback --web without --token is refused before any work
+    servers: list[Any] = []
+
+    def trace(ev: dict[str, Any]) -> None:
+        line = trace_line(ev)
+        if line:
+            log(args, line)
+
+    def panel(cell: Any) -> Any:  # polled by the cell's loop like an agent
+        from flexhrc.web.live import CellPanel
+        from flexhrc.web.server import PanelServer
+
+        assert web is not None  # attached only with --web
+        backend = CellPanel(cell, operator=operator)
+        servers.append(PanelServer(backend, web[0], web[1], token=args.token).start())
+        servers[-1].announce()  # its address, on stderr
+        return backend
+
+    try:
+        return start(None if args.quiet else trace, [panel] if web else [], servers)
+    finally:
+        for server in servers:
+            server.stop(grace=0.3)  # the page gets the last state first
 
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg, unused-ignore]

@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import sys
 from collections.abc import Callable
 from typing import Any
 
@@ -134,39 +133,17 @@ def cmd_node(args: argparse.Namespace) -> int:
 
 
 def cmd_cell(args: argparse.Namespace) -> int:
-    from flexhrc.cell.serve import summary_line, trace_line
-    from flexhrc.cli.panel import check_web, serve
+    from flexhrc.cell.serve import summary_line
+    from flexhrc.cli.panel import run_cell
     from flexhrc.ros2.serve import Ros2CellConfig, serve_ros2_cell
 
     config = _config(Ros2CellConfig, args)
-    web = check_web(args)  # a non-loopback --web without --token is refused before any work
-    stream = sys.stderr if args.json else sys.stdout
-    servers: list[Any] = []
 
-    def trace(ev: dict[str, Any]) -> None:
-        line = trace_line(ev)
-        if line:
-            print(line, file=stream, flush=True)
+    def start(trace: Any, attach: list[Any], servers: list[Any]) -> dict[str, Any]:
+        return serve_ros2_cell(config, trace=trace, progress=_progress(args), attach=attach)
 
-    def panel(cell: Any) -> Any:  # the page stands in for the scenario's operators (their tokens)
-        from flexhrc.web.live import CellPanel
-
-        assert web is not None  # asked for only with --web
-        backend = CellPanel(cell, operator=True)
-        servers.append(serve(web, args.token, backend))
-        return backend
-
-    try:
-        data = serve_ros2_cell(
-            config,
-            trace=None if args.quiet else trace,
-            progress=_progress(args),
-            attach=[] if web is None else [panel],
-        )
-    finally:
-        for server in servers:
-            server.stop(grace=0.3)  # the page gets the last state first
-
+    # the page stands in for the scenario's operators (their tokens)
+    data = run_cell(args, start, operator=True)
     emit(args, data, lambda: summary_line(data, args.store))
     return 0 if data["outcome"] == "solved" else 1
 

@@ -32,9 +32,17 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from flexhrc.errors import FlexhrcError, UnknownNameError
-from flexhrc.logic import Conjunction, Literal, Substitution, apply_substitution, satisfy
+from flexhrc.logic import (
+    Conjunction,
+    Literal,
+    Substitution,
+    apply_substitution,
+    index_facts,
+    satisfy,
+)
 
 Vec3 = tuple[float, float, float]
+_INF = math.inf
 
 
 @dataclass
@@ -83,6 +91,12 @@ class KnowledgeBase:
         self.objects: dict[str, ObjectRecord] = {}
         self.supertypes: dict[str, str] = dict(supertypes or {})
         self._facts: set[tuple[str, ...]] = set()
+        # views of _facts made on demand and kept, with the generation of the facts they were
+        # made from, until the facts change (_facts_changed): every decision reads the facts
+        # many times between two changes
+        self._facts_gen = 0
+        self._frozen: tuple[int, frozenset[tuple[str, ...]]] | None = None
+        self._index: tuple[int, dict[str, list[tuple[str, ...]]]] | None = None
         self.size_tolerance = size_tolerance
         self.position_tolerance = position_tolerance
         self.inconsistencies: list[Inconsistency] = []
@@ -102,6 +116,7 @@ class KnowledgeBase:
         rec = ObjectRecord(obj_id, type, _vec(position), dict(size or {}), dict(attrs))
         self.objects[obj_id] = rec
         self._facts.update((t, obj_id) for t in self.type_chain(type))
+        self._facts_changed()
         self.version += 1
         return rec
 
@@ -186,7 +201,7 @@ class KnowledgeBase:
             if known and abs(v - known) > self.size_tolerance * known:
                 return f"{rec.id}: {k} {known:g} known, {v:g} perceived"
         if rec.fixed and math.dist(rec.position, position) > self.position_tolerance:
-            return f"{rec.id} is fixed at {_fmt(rec.position)} but perceived at {_fmt(position)}"
+            return _fixed_elsewhere(rec, position)
         return None
 
     # -- anchoring --------------------------------------------------------------------------
@@ -225,7 +240,7 @@ class KnowledgeBase:
         if type is not None and not self.compatible(rec.type, type):
             reason = f"{rec.id} is a {rec.type}, perceived as a {type}"
         elif rec.fixed and rec.anchored and _hdist(rec.position, pos) > self.position_tolerance:
-            reason = f"{rec.id} is fixed at {_fmt(rec.position)} but perceived at {_fmt(pos)}"
+            reason = _fixed_elsewhere(rec, pos)
         if reason:
             self.contradict(obj_id, reason, percept)
             return False
@@ -259,16 +274,19 @@ class KnowledgeBase:
                 rec.size.update(inc.percept["size"])
                 rec.fixed = False
                 self._facts.update((t, rec.id) for t in self.type_chain(rec.type))
+                self._facts_changed()
         self.inconsistencies = keep
         self.version += 1
 
     # -- facts --------------------------------------------------------------------------
     def assert_fact(self, *fact: str) -> None:
         self._facts.add(tuple(fact))
+        self._facts_changed()
         self.version += 1
 
     def retract_fact(self, *fact: str) -> None:
         self._facts.discard(tuple(fact))
+        self._facts_changed()
         self.version += 1
 
     def holds(self, *fact: str) -> bool:
@@ -276,30 +294,53 @@ class KnowledgeBase:
 
     @property
     def facts(self) -> frozenset[tuple[str, ...]]:
-        return frozenset(self._facts)
+        gen, kept = self._facts_gen, self._frozen
+        if kept is not None and kept[0] == gen:
+            return kept[1]
+        frozen = frozenset(self._facts)
+        self._frozen = (gen, frozen)
+        return frozen
+
+    def _facts_changed(self) -> None:
+        """Called after ``_facts`` changed: the kept views are of older facts now. (They are
+        replaced, never changed in place, so a query running over them stays consistent; one
+        made while a change was under way is of the generation before it, never taken after.)"""
+        self._facts_gen += 1
+
+    def _facts_index(self) -> dict[str, list[tuple[str, ...]]]:
+        gen, kept = self._facts_gen, self._index
+        if kept is not None and kept[0] == gen:
+            return kept[1]
+        index = index_facts(self._facts)
+        self._index = (gen, index)
+        return index
 
     def query(
         self, formula: Iterable[Literal], subst: Mapping[str, str] | None = None
     ) -> list[Substitution]:
         """Every substitution making the conjunction true (closed world), deterministic order."""
-        return list(satisfy(formula, self._facts, subst))
+        return list(satisfy(formula, self._facts, subst, index=self._facts_index()))
 
     def iter_query(
         self, formula: Iterable[Literal], subst: Mapping[str, str] | None = None
     ) -> Iterator[Substitution]:
-        return satisfy(formula, self._facts, subst)
+        # a generator: the index is taken when the caller starts iterating, as satisfy's own
+        yield from satisfy(formula, self._facts, subst, index=self._facts_index())
 
     def apply_effects(
         self, add: Conjunction, delete: Conjunction, subst: Mapping[str, str]
     ) -> None:
         """Action effects (eq. 20): delete first, then add, both grounded by ``subst``."""
-        for lit in delete:
-            self._facts.discard(apply_substitution(lit, subst).key())
-        for lit in add:
-            g = apply_substitution(lit, subst)
-            if not g.is_ground:
-                raise FlexhrcError(f"effect {lit} is not ground under {dict(subst)}")
-            self._facts.add(g.key())
+        try:
+            for lit in delete:
+                self._facts.discard(apply_substitution(lit, subst).key())
+            for lit in add:
+                g = apply_substitution(lit, subst)
+                if not g.is_ground:
+                    raise FlexhrcError(f"effect {lit} is not ground under {dict(subst)}")
+                self._facts.add(g.key())
+        finally:  # (a refused effect may follow effects already applied)
+            self._facts_changed()
         self.version += 1
 
     # -- copies -------------------------------------------------------------------------
@@ -325,6 +366,19 @@ def _size(size: Mapping[str, float] | Iterable[float] | None) -> dict[str, float
 
 
 def _vec(p: Iterable[float]) -> Vec3:
+    # the common case, checked cheaply (every move); NaN and the infinities fail the
+    # comparisons and take the general path
+    if (type(p) is tuple or type(p) is list) and len(p) == 3:
+        x, y, z = p
+        if (
+            type(x) is float
+            and type(y) is float
+            and type(z) is float
+            and -_INF < x < _INF
+            and -_INF < y < _INF
+            and -_INF < z < _INF
+        ):
+            return (x, y, z)
     vals = [float(x) for x in p]
     if len(vals) != 3 or not all(math.isfinite(v) for v in vals):
         raise FlexhrcError(f"a position needs three finite numbers, got {vals}")
@@ -335,5 +389,11 @@ def _hdist(a: Vec3, b: Vec3) -> float:
     return math.hypot(a[0] - b[0], a[1] - b[1])
 
 
-def _fmt(p: Vec3) -> str:
-    return "(" + ", ".join(f"{v:.3f}" for v in p) + ")"
+def _fixed_elsewhere(rec: ObjectRecord, position: Vec3) -> str:
+    at, seen = format_position(rec.position), format_position(position)
+    return f"{rec.id} is fixed at {at} but perceived at {seen}"
+
+
+def format_position(p: Iterable[float]) -> str:
+    """A position as messages print it: ``(0.450, -0.120, 0.020)`` (metres, to the millimetre)."""
+    return "(" + ", ".join(f"{float(v):.3f}" for v in p) + ")"

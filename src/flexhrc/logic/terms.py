@@ -13,7 +13,7 @@ ground facts under the closed-world assumption: positive literals are matched ag
 from __future__ import annotations
 
 import re
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 
 from flexhrc.errors import FormatError
@@ -144,22 +144,32 @@ def match_literal(
     return out
 
 
+def index_facts(facts: Iterable[tuple[str, ...]]) -> dict[str, list[tuple[str, ...]]]:
+    """Ground facts by predicate, each list sorted: what :func:`satisfy` backtracks over."""
+    by_pred: dict[str, list[tuple[str, ...]]] = {}
+    for f in sorted(facts):
+        by_pred.setdefault(f[0], []).append(f)
+    return by_pred
+
+
 def satisfy(
     formula: Iterable[Literal],
     facts: Iterable[tuple[str, ...]],
     subst: Mapping[str, str] | None = None,
+    *,
+    index: Mapping[str, Sequence[tuple[str, ...]]] | None = None,
 ) -> Iterator[Substitution]:
     """Every substitution (extending ``subst``) that makes the conjunction true in ``facts``.
 
     Closed world: a negative literal holds when its ground form is not a fact. A negative literal
     whose variables are never bound by a positive one is unsafe and raises ``ValueError``.
-    Solutions come out in a deterministic order (facts sorted, literals in order).
+    Solutions come out in a deterministic order (facts sorted, literals in order). ``index`` is
+    :func:`index_facts` of ``facts`` when the caller keeps it (a knowledge base queried many
+    times between changes); it is made here otherwise.
     """
     lits = list(formula)
     fact_set = facts if isinstance(facts, set | frozenset) else set(facts)
-    by_pred: dict[str, list[tuple[str, ...]]] = {}
-    for f in sorted(fact_set):
-        by_pred.setdefault(f[0], []).append(f)
+    by_pred = index_facts(fact_set) if index is None else index
     positives = [lit for lit in lits if not lit.negated]
     negatives = [lit for lit in lits if lit.negated]
     bound_by_pos = set(variables_of(positives)) | set(subst or {})

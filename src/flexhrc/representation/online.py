@@ -14,22 +14,23 @@ its own instance — and keeps the statuses of every node and hyper-arc:
 * the graph is solved when the top root is met; it has failed when no feasible element is left
   on a way to the root — a distinct, explicit outcome.
 
-Costs (eqs. 9-11, 19) are computed by dynamic programming instead of enumerating cooperation
-paths (see ``docs/andor.md``): ``inside(x)`` is the cheapest remaining cost of achieving x from
-what is already met, maintained incrementally (a change propagates to ancestors only while the
-value changes); ``outside(x)`` is the cheapest remaining cost from x to the root of its graph
-instance, kept exact by a top-down pass over what each query changed (a heap in top-down order,
-so every element is recomputed once, after everything above it); each lower instance has one
-*offset*, its root's outside cost in the whole hierarchy (the upper path through its hyper-arc,
-Algorithm 6 line 27), so a change above an instance moves one number, not its every element.
-Met and solved elements weigh 0 (eq. 11); hyper-arcs that can no longer be taken weigh
-infinity; the weight of a hyper-arc with a lower graph is the lower instance's optimal remaining
-cost (eq. 19). The suggestion cost of a feasible element is ``inside + outside + offset`` = the
-cheapest cooperation path through it (eq. 10). A query costs what it changes: there is no
-whole-graph pass, and no recursion anywhere (explicit stacks and queues). The DP equals
-exhaustive enumeration when no node is shared between AND branches; with
-sharing it counts the shared part once per branch (``flexhrc.representation.paths`` has the exact,
-exponential reference).
+Costs (eqs. 9-11, 19) are computed by dynamic programming instead of enumerating cooperation paths
+(see ``docs/andor.md``): ``inside(x)`` is the cheapest remaining cost of achieving x from what is
+already met, maintained incrementally (a change propagates to ancestors only while the value
+changes, and only as far as an inside cost is read during a query: above that, in the top graph, it
+is marked out of date and recomputed when asked for — a feasible element's cost, the optimal cost —
+so a step up a deep chain does not recompute everything above it); ``outside(x)`` is the cheapest
+remaining cost from x to the root of its graph instance, kept exact by a top-down pass over what
+each query changed (a heap in top-down order, so every element is recomputed once, after everything
+above it); each lower instance has one *offset*, its root's outside cost in the whole hierarchy (the
+upper path through its hyper-arc, Algorithm 6 line 27), so a change above an instance moves one
+number, not its every element. Met and solved elements weigh 0 (eq. 11); hyper-arcs that can no
+longer be taken weigh infinity; the weight of a hyper-arc with a lower graph is the lower instance's
+optimal remaining cost (eq. 19). The suggestion cost of a feasible element is ``inside + outside +
+offset`` = the cheapest cooperation path through it (eq. 10). A query costs what it changes: there
+is no whole-graph pass, and no recursion anywhere (explicit stacks and queues). The DP equals
+exhaustive enumeration when no node is shared between AND branches; with sharing it counts the
+shared part once per branch (``flexhrc.representation.paths`` has the exact, exponential reference).
 """
 
 from __future__ import annotations
@@ -192,6 +193,7 @@ class OnlineGraph:
         "_inside",
         "_inst",
         "_kind",
+        "_lazy",
         "_live_below",
         "_log",
         "_lower",
@@ -208,11 +210,15 @@ class OnlineGraph:
         "_reason",
         "_root_of",
         "_spent",
+        "_stale",
         "_touched",
         "_unmet",
         "_w",
         "hierarchy",
     )
+
+    # the fewest elements above which inside costs are left out of date (see _build)
+    _LAZY_MIN = 64
 
     def __init__(self, graph: HierarchicalGraph | AndOrGraph, *, validate: bool = True):
         if isinstance(graph, AndOrGraph):
@@ -399,6 +405,17 @@ class OnlineGraph:
         for t in i_tmpl:
             ins.extend(t.inside)  # type: ignore[arg-type]
         self._inside = ins
+        # inside costs nothing reads during a query (see _Template.unread_inside) are brought
+        # up to date only when read (_pull): stale ones are marked, never recomputed on the way
+        # up. A deep chain: each solved hyper-arc changes the inside cost of everything above
+        # it, O(depth) per query if every one were recomputed (R12). Where there are only a
+        # few such elements (the authors' graphs: at most 33), recomputing them costs a query
+        # less than the marks and the later reads would
+        unread = t0.unread_inside()
+        if sum(unread) < self._LAZY_MIN:
+            unread = [False] * t0.size
+        self._lazy = unread + [False] * rest
+        self._stale = [False] * n
 
     def _materialise(self, k: int) -> None:
         """Build the index structures of instance k (and of the instances above it) from its
@@ -643,7 +660,7 @@ class OnlineGraph:
         touched, dirty = self._touched, self._off_dirty
         heap, queued, inst = self._heap, self._queued, self._inst
         idepth, lrank, span = self._i_depth, self._lrank, self._rank_span
-        spent = self._spent
+        spent, lazy = self._spent, self._lazy
         stack = [start]
         while stack:
             e = stack.pop()
@@ -679,6 +696,14 @@ class OnlineGraph:
                     v += best
             if v == ins[e]:
                 continue
+            if lazy[e]:
+                # nothing reads it during a query (nor what is above it): marked out of date
+                # with everything above it, computed when asked for (_pull). A hyper-arc below
+                # it may be computed from out-of-date children meanwhile: then it is out of
+                # date itself, so its value is never read before _pull recomputes it
+                if not self._stale[e]:
+                    self._stale_up(e)
+                continue
             ins[e] = v
             # outside costs that read inside(e): its AND siblings, lower-instance offsets
             touched.add(e)
@@ -702,6 +727,72 @@ class OnlineGraph:
                     if v == INF and self._active[k]:
                         self._dead.append(k)
                     stack.append(u)
+
+    def _stale_up(self, x: int) -> None:
+        """inside(x) is out of date, and so is everything that reads it, in turn: marked stale
+        up to the first element that already is (whatever is above a stale element is)."""
+        stale = self._stale
+        if stale[x]:
+            return
+        kind, parent, outgoing, touched = self._kind, self._parent, self._out, self._touched
+        todo = [x]
+        while todo:
+            e = todo.pop()
+            if stale[e]:
+                continue
+            stale[e] = True
+            touched.add(e)  # a feasible one's cost is read (_pull) at the end of the query
+            if kind[e]:
+                todo.append(parent[e])
+            else:
+                todo.extend(outgoing[e])
+
+    def _pull(self, x: int) -> float:
+        """inside(x), brought up to date with whatever stale element is below it (children
+        before parents, each once; everything below x is up to date afterwards)."""
+        stale, ins = self._stale, self._inside
+        if not stale[x]:
+            return ins[x]
+        kind, children, incoming, roots = self._kind, self._children, self._in, self._i_root
+        done, blocked, lower, w = self._done, self._blocked, self._lower, self._w
+        stack = [x]
+        while stack:
+            e = stack[-1]
+            if not stale[e]:  # reached twice (a node shared by two hyper-arcs)
+                stack.pop()
+                continue
+            n_waiting = len(stack)
+            for c in children[e] if kind[e] else incoming[e]:
+                if stale[c]:
+                    stack.append(c)
+            if len(stack) > n_waiting:
+                continue
+            stack.pop()
+            # the formulas of _propagate, in its order (the same floats)
+            if blocked[e]:
+                v = INF
+            elif kind[e]:
+                if done[e]:
+                    v = 0.0
+                elif lower[e] >= 0:
+                    v = ins[roots[lower[e]]]
+                else:
+                    v = w[e]
+                for c in children[e]:
+                    v += ins[c]
+            else:
+                v = 0.0 if done[e] else w[e]
+                arcs = incoming[e]
+                if arcs:
+                    best = INF
+                    for h in arcs:
+                        y = ins[h]
+                        if y < best:
+                            best = y
+                    v += best
+            ins[e] = v
+            stale[e] = False
+        return ins[x]
 
     # -------------------------------------------------------------- feasibility rules ----
     def _add_feasible(self, e: int) -> None:
@@ -824,7 +915,9 @@ class OnlineGraph:
         if self._w[n]:
             for h in self._in[n]:  # their outside costs read w(n), which met(n) zeroes
                 self._push(h)
-        if self._inside[n]:  # a met node's inside cost is 0: nothing moves if it was already
+        # a met node's inside cost is 0: nothing moves if it was already (or if it is out of date:
+        # so is everything above it, and _pull will read the new status)
+        if self._inside[n]:
             self._propagate(n)
         unmet, blocked, lower = self._unmet, self._blocked, self._lower
         for h in self._out[n]:  # n was feasible: its instance (h's) is active
@@ -863,7 +956,7 @@ class OnlineGraph:
         # root. The alternatives blocked next (their inside cost INF) then stop where they meet
         # h's way up (an OR node keeps its cheapest arc: h), instead of each walking the whole
         # way up and h undoing it; the final costs are the same in either order.
-        if self._inside[h]:  # a solved hyper-arc's inside cost is 0
+        if self._inside[h]:  # a solved hyper-arc's inside cost is 0 (as in _meet)
             self._propagate(h)
         # Algorithm 2, lines 8-13: alternatives sharing a child with h become infeasible
         for c in self._children[h]:
@@ -992,7 +1085,7 @@ class OnlineGraph:
 
     def optimal_cost(self) -> float:
         """Remaining cost of the cheapest cooperation path of the whole task (eq. 9/11)."""
-        return self._inside[self._i_root[0]]
+        return self._pull(self._i_root[0])
 
     def query(self) -> QueryResult:
         """The current answer without reporting anything (query 0 of the protocol)."""
@@ -1195,9 +1288,10 @@ class OnlineGraph:
         if touched:
             costs, feasible = self._costs, self._feasible
             ins, out, off, inst = self._inside, self._out_val, self._i_off, self._inst
+            stale = self._stale
             for e in touched:
                 if e in feasible:
-                    c = ins[e] + out[e] + off[inst[e]]
+                    c = (self._pull(e) if stale[e] else ins[e]) + out[e] + off[inst[e]]
                     if c < INF:
                         costs[e] = c
                     else:
@@ -1221,6 +1315,7 @@ class OnlineGraph:
         "_active",
         "_closed",
         "_inside",
+        "_stale",
         "_out_val",
         "_i_off",
     )
@@ -1477,6 +1572,26 @@ class _Template:
                     out[e] = v
             self.pristine_out = out
         return out
+
+    def unread_inside(self) -> list[bool]:
+        """Of each element of the top graph: whether its inside cost, and that of everything
+        above it, is read by nothing but the element above it during a query, so may be left
+        stale until asked for (``OnlineGraph._pull``: a feasible element's cost, the optimal
+        cost). A node's is read also by the other children of a hyper-arc it feeds (their
+        outside costs) and by the offset of a hyper-arc's lower graph; the root of a lower graph
+        is read by its upper hyper-arc's children and offsets (only the top graph is asked)."""
+        self.complete()
+        kinds, parent, outgoing, children = self.kinds, self.parent, self.outgoing, self.children
+        with_lower = set(self.lower_ids)
+        unread = [False] * self.size
+        for e in self.down:  # parents before children
+            if kinds[e]:
+                unread[e] = unread[parent[e]]
+            else:
+                unread[e] = all(
+                    unread[h] and len(children[h]) == 1 and h not in with_lower for h in outgoing[e]
+                )
+        return unread
 
     def root_inside(self) -> float:
         assert self.inside is not None

@@ -244,7 +244,7 @@ class ArmNode(RobotAgent):
                 em.state.q[self.name] = self._measured.copy()  # plan from where the real arm is
             for other, q in self._others.items():  # the other arms as they last reported
                 em.state.q[other] = q.copy()
-        self._start_q = {a: np.asarray(v, dtype=float).copy() for a, v in em.state.q.items()}
+        self._keep_start(em)
         self._log_at = len(em.log)
         self._message = message
         self._starting = cid if fresh else None
@@ -260,7 +260,11 @@ class ArmNode(RobotAgent):
         if self.execute_mode == "external":
             joints = {a: q for a, q in joints.items() if a != self.name}
         super()._take_joints(joints)
-        em = self.execution.execution  # type: ignore[attr-defined]
+        self._keep_start(self.execution.execution)  # type: ignore[attr-defined]
+
+    def _keep_start(self, em: Any) -> None:
+        """Where the arms are as the command begins: its trajectory starts there (the joints
+        a command carries move them before it runs, see :meth:`_take_joints`)."""
         self._start_q = {a: np.asarray(v, dtype=float).copy() for a, v in em.state.q.items()}
 
     def _started(self, cid: int, action: Any, ack: dict[str, Any]) -> None:

@@ -14,16 +14,26 @@ method for method, so code written for one runs on the other:
   order (:meth:`Ros2Transport.wait` blocks until something is queued); ``deliver="thread"`` calls
   the callbacks on the executor thread at once;
 * :meth:`Ros2Transport.declare_token` / :meth:`Ros2Transport.watch_liveliness`: liveliness
-  tokens. ROS 2 has no liveliness tokens of Zenoh's kind and DDS drops a killed participant only
-  after its lease (20 s by default), so a token is a heartbeat: the declaring transport publishes
-  ``{"key": KEY, "alive": true, "lease_s": L}`` every ``heartbeat_s`` on the topic
-  ``/<prefix>/liveliness``, ``{"alive": false}`` when it is withdrawn or closed, and a watcher
-  declares the token gone when nothing was heard for ``lease_s`` (1 s by default) — so a process
-  killed with SIGKILL is noticed within about ``lease_s + heartbeat_s``. A watcher judges only
-  what it had the chance to hear: every tick it also sends a beat of its own (``origin``,
-  ``sent``; a ``probe`` when it holds no token) and declares a token gone only when one of its
-  own beats sent after the token's deadline has come back — so a process that was starved of
-  CPU (its executor behind, the heartbeats queued unread) never takes its peers for dead;
+  tokens. ROS 2 has no liveliness tokens of Zenoh's kind, but DDS has liveliness QoS: a token
+  ``KEY`` is a DDS writer of its own on ``/<prefix>/liveliness/KEY`` (``LivelinessPolicy.
+  AUTOMATIC``, ``liveliness_lease_duration`` = ``lease_s``, 1 s by default). The middleware
+  asserts it (a busy Python process stays alive), withdrawing the token destroys the writer,
+  and a process killed with SIGKILL stops asserting it: a watcher finds the token topics in
+  the ROS graph, reads each with the same lease and counts its writers alive from the
+  subscription's liveliness-changed events (``QoSLivelinessChangedInfo.alive_count``). No
+  message of another process can withdraw a writer that is not its own (R2P2). Beside it, for
+  ROS 2 tools and clients of plain rclpy, the declaring transport keeps publishing heartbeats
+  ``{"key": KEY, "alive": true, "lease_s": L}`` every ``heartbeat_s`` on ``/<prefix>/liveliness``
+  and ``{"alive": false}`` when it withdraws. A watcher takes a key's heartbeats only from the
+  DDS writer that began them (the message info's ``publisher_gid``) until they stop — a goodbye
+  from any other writer is ignored and logged — and declares them stopped after ``lease_s``
+  of silence. A token is there while its writer is alive or its heartbeats come, and goes
+  once both say so. A watcher judges heartbeats only by what it had the chance to hear: every
+  tick it also sends a beat of its own (``origin``, ``sent``; a ``probe`` when it holds no
+  token) and takes heartbeats as stopped only when one of its own beats sent after their
+  deadline has come back — so a process starved of CPU never takes its peers for dead;
+  :meth:`Ros2Transport.liveliness_holders` names the tokens of other transports alive now
+  (the cell's one-holder rule for an agent's name and a cell's manager, K08/K09);
 * a payload that is not strict JSON is dropped and logged, counted in ``dropped``, and handed to
   ``on_drop(topic, data, error)``; it never reaches a callback.
 
@@ -63,6 +73,7 @@ _qos = require("rclpy.qos")
 _executors = require("rclpy.executors")
 _signals = require("rclpy.signals")
 _Duration = require("rclpy.duration").Duration
+_events = require("rclpy.event_handler")
 
 __all__ = [
     "LIVELINESS_TOPIC",
@@ -184,11 +195,13 @@ def check_exposure(environ: Mapping[str, str] | None = None) -> None:
 
 
 class _Token:
-    """A declared liveliness token; ``undeclare()`` withdraws it (idempotent)."""
+    """A declared liveliness token; ``undeclare()`` withdraws it (idempotent). ``publisher``:
+    the DDS writer whose liveliness is the token's (:meth:`Ros2Transport.declare_token`)."""
 
-    def __init__(self, key: str, owner: Ros2Transport) -> None:
+    def __init__(self, key: str, owner: Ros2Transport, publisher: Any) -> None:
         self.key = key
         self._owner = owner
+        self.publisher = publisher
         self.active = True
 
     def undeclare(self) -> None:
@@ -203,7 +216,9 @@ class _Watch:
         self.sub = sub
         self.history = history
         self.started = started
-        self.alive: dict[str, float] = {}  # key -> deadline (monotonic)
+        self.alive: set[str] = set()  # the keys reported alive
+        self.beats: dict[str, float] = {}  # key -> deadline of its heartbeats (monotonic)
+        self.holder: dict[str, bytes] = {}  # key -> the DDS writer whose heartbeats hold it
         self.silent: set[str] = set()  # alive before the watch began, history=False
 
 
@@ -224,6 +239,7 @@ class Ros2Transport(QueuedDelivery, Transport):
         heartbeat_s: float = 0.1,
         match_timeout_s: float = 2.0,
         depth: int = 100,
+        discovery_s: float = 3.0,
     ) -> None:
         if deliver not in ("flush", "thread"):
             raise ValueError(f"deliver must be 'flush' or 'thread', not {deliver!r}")
@@ -238,6 +254,8 @@ class Ros2Transport(QueuedDelivery, Transport):
             )
         if not (isinstance(match_timeout_s, int | float) and 0 <= match_timeout_s < 3600):
             raise Ros2TransportError(f"match_timeout_s must be >= 0, not {match_timeout_s!r}")
+        if not (isinstance(discovery_s, int | float) and 0 <= discovery_s < 3600):
+            raise Ros2TransportError(f"discovery_s must be >= 0, not {discovery_s!r}")
         if not (isinstance(depth, int) and 1 <= depth <= 100_000):
             raise Ros2TransportError(f"depth must be an integer 1..100000, not {depth!r}")
         self.prefix = ros_topic("", prefix).lstrip("/") if prefix.strip("/") else ""
@@ -247,6 +265,7 @@ class Ros2Transport(QueuedDelivery, Transport):
         self.lease_s = float(lease_s)
         self.heartbeat_s = float(heartbeat_s)
         self.match_timeout_s = float(match_timeout_s)
+        self.discovery_s = float(discovery_s)
         self.published = 0
         self.domain_id = domain_id_from_env(domain_id)
         self._qos = _qos.QoSProfile(
@@ -278,10 +297,26 @@ class Ros2Transport(QueuedDelivery, Transport):
         self._closed = False
         self._origin = uuid.uuid4().hex  # tells this transport's own beats from the others'
         self._heard_own = time.monotonic()  # when the latest own beat that came back was sent
+        # a token's own DDS writer: the middleware (not this process's Python) asserts its
+        # liveliness, and a watcher's reader declares it gone after ``lease_s`` of silence —
+        # a busy process stays alive, a killed one goes, and no other process can withdraw it
+        self._token_qos = _qos.QoSProfile(
+            depth=1,
+            reliability=_qos.ReliabilityPolicy.RELIABLE,
+            durability=_qos.DurabilityPolicy.VOLATILE,
+            history=_qos.HistoryPolicy.KEEP_LAST,
+            liveliness=_qos.LivelinessPolicy.AUTOMATIC,
+            liveliness_lease_duration=_Duration(seconds=self.lease_s),
+        )
+        self._writers: dict[str, Any] = {}  # key -> the readers of its token topic
+        self._writers_alive: dict[str, int] = {}  # key -> its token writers alive (DDS)
+        self._queries: list[str] = []  # key expressions :meth:`liveliness_holders` asks about
+        self._beating: dict[str, float] = {}  # key -> latest heartbeat of another transport
         self._live_topic = ros_topic(self.prefix, LIVELINESS_TOPIC)
+        self._token_root = self._live_topic + "/"
         self._live_pub = self.node.create_publisher(_String, self._live_topic, self._qos)
         self._live_sub = self.node.create_subscription(
-            _String, self._live_topic, self._on_liveliness, self._qos
+            _String, self._live_topic, self._on_liveliness_info, self._qos
         )
         self._timer = self.node.create_timer(self.heartbeat_s, self._tick)
         self._executor = _executors.SingleThreadedExecutor(context=self.context)
@@ -414,7 +449,9 @@ class Ros2Transport(QueuedDelivery, Transport):
         ``undeclare()``. Heartbeats start at the next tick (within ``heartbeat_s``)."""
         self._check_open()
         ros_topic(self.prefix, key)  # same name rules as topics
-        token = _Token(key.strip("/"), self)
+        key = key.strip("/")
+        publisher = self.node.create_publisher(_String, self._token_root + key, self._token_qos)
+        token = _Token(key, self, publisher)
         with self._lock:
             self._tokens.append(token)
         # the first heartbeat goes at the next tick (<= heartbeat_s), not now: subscriptions a
@@ -445,6 +482,8 @@ class Ros2Transport(QueuedDelivery, Transport):
                 self._tokens.remove(token)
         if not self._closed:
             self._beat(token.key, False)
+            with contextlib.suppress(Exception):  # its watchers see the writer go at once
+                self.node.destroy_publisher(token.publisher)
 
     def _beat(self, key: str, alive: bool, *, probe: bool = False) -> None:
         msg = _String()
@@ -459,29 +498,97 @@ class Ros2Transport(QueuedDelivery, Transport):
     def _tick(self) -> None:
         with self._lock:
             keys = [t.key for t in self._tokens if t.active]
+            watching = bool(self._watches)
         for key in keys:
             self._beat(key, True)
         if not keys:
             self._beat("", True, probe=True)
+        if watching:
+            self._discover_tokens()
         now = time.monotonic()
         # only what this transport had the chance to hear counts: a deadline is past only once
         # an own beat sent after it came back (or, should own beats never come back, after 5
         # leases)
         heard = self._heard_own if now - self._heard_own < 5 * self.lease_s else now
-        lost: list[tuple[_Watch, str]] = []
+        events: list[tuple[_Watch, str, bool]] = []
         with self._lock:
             for w in self._watches:
-                for key, deadline in list(w.alive.items()):
+                for key, deadline in list(w.beats.items()):
                     if now > deadline and heard > deadline:
-                        del w.alive[key]
-                        if key in w.silent:
-                            w.silent.discard(key)
-                        else:
-                            lost.append((w, key))
-        for w, key in lost:
-            self._hand(w.sub, (key, False))
+                        del w.beats[key]
+                        w.holder.pop(key, None)
+                        events.extend(self._settle(w, key, now))
+        self._report(events)
 
-    def _on_liveliness(self, msg: Any) -> None:
+    def _discover_tokens(self) -> None:
+        """Read the tokens' DDS writers of every watched key: the ROS graph names their topics
+        (``/<prefix>/liveliness/<key>``), and a reader with the cell's lease counts the alive
+        ones (:meth:`_on_writers`)."""
+        for name, _types in self.node.get_topic_names_and_types():
+            if not name.startswith(self._token_root):
+                continue
+            key = name[len(self._token_root) :]
+            with self._lock:
+                patterns = [w.pattern for w in self._watches] + self._queries
+                if key in self._writers or not any(key_matches(p, key) for p in patterns):
+                    continue
+                self._writers[key] = None  # claimed: created once
+            callbacks = _events.SubscriptionEventCallbacks(
+                liveliness=lambda info, key=key: self._on_writers(key, info),
+                incompatible_qos=lambda info, key=key: log.warning(
+                    "liveliness token %s: its writer's lease is longer than this node's "
+                    "lease_s (%s s): it is not watched",
+                    key,
+                    self.lease_s,
+                ),
+            )
+            reader = self.node.create_subscription(
+                _String, name, lambda msg: None, self._token_qos, event_callbacks=callbacks
+            )
+            with self._lock:
+                self._writers[key] = reader
+
+    def _on_writers(self, key: str, info: Any) -> None:
+        # the middleware's own count of this key's writers alive: a token is there while one
+        # of them is; no message of another process changes it
+        now = time.monotonic()
+        events: list[tuple[_Watch, str, bool]] = []
+        with self._lock:
+            self._writers_alive[key] = int(info.alive_count)
+            for w in self._watches:
+                if key_matches(w.pattern, key):
+                    events.extend(self._settle(w, key, now))
+        self._report(events)
+
+    def _settle(self, w: _Watch, key: str, now: float) -> list[tuple[_Watch, str, bool]]:
+        """Bring ``w``'s view of ``key`` in line with its two witnesses — the token's DDS
+        writers and its heartbeats — and return the event to report, if any. A token appears
+        when either witness has it and goes only when both agree it went (call with the
+        lock held)."""
+        live = key in w.beats or self._writers_alive.get(key, 0) > 0
+        if live and key not in w.alive:
+            w.alive.add(key)
+            if not w.history and now - w.started < self.lease_s:
+                w.silent.add(key)
+                return []
+            return [(w, key, True)]
+        if not live and key in w.alive:
+            w.alive.discard(key)
+            if key in w.silent:
+                w.silent.discard(key)
+                return []
+            return [(w, key, False)]
+        return []
+
+    def _report(self, events: list[tuple[_Watch, str, bool]]) -> None:
+        for w, key, state in events:
+            self._hand(w.sub, (key, state))
+
+    def _on_liveliness_info(self, msg: Any, info: Any) -> None:
+        # two parameters: rclpy then hands the message's info (its writer's id) too
+        self._on_liveliness(msg, info)
+
+    def _on_liveliness(self, msg: Any, info: Any = None) -> None:
         try:
             data = json_decode(msg.data)
             key = str(data["key"])
@@ -499,29 +606,76 @@ class Ros2Transport(QueuedDelivery, Transport):
                 self._heard_own = max(self._heard_own, sent)
         if data.get("probe"):
             return
+        if not own:
+            with self._lock:
+                if alive:
+                    self._beating[key] = time.monotonic()
+                else:
+                    self._beating.pop(key, None)
+        # who sent it: the DDS writer's id (each transport beats through one writer). A key's
+        # heartbeats count from the writer that began them, until they stop or it withdraws
+        # them; another writer's heartbeats or goodbyes for it are ignored (R2P2)
+        gid = info.get("publisher_gid") if isinstance(info, dict) else None
+        writer = bytes(gid["data"]) if isinstance(gid, dict) and "data" in gid else b""
         now = time.monotonic()
-        events: list[tuple[_Watch, bool]] = []
+        events: list[tuple[_Watch, str, bool]] = []
+        refused = False
         with self._lock:
             for w in self._watches:
                 if not key_matches(w.pattern, key):
                     continue
-                known = key in w.alive
+                holder = w.holder.get(key)
+                if holder is not None and holder != writer:
+                    refused = refused or not alive
+                    continue
                 if alive:
-                    w.alive[key] = now + lease
-                    if known:
-                        continue
-                    if not w.history and now - w.started < self.lease_s:
-                        w.silent.add(key)
-                        continue
-                    events.append((w, True))
-                elif known:
-                    del w.alive[key]
-                    if key in w.silent:
-                        w.silent.discard(key)
-                        continue
-                    events.append((w, False))
-        for w, state in events:
-            self._hand(w.sub, (key, state))
+                    # no longer than this watcher's lease, as a token writer's: a heartbeat
+                    # that claims an hour holds a key for a lease, not an hour (R2P4)
+                    w.beats[key] = now + min(lease, self.lease_s)
+                    w.holder[key] = writer
+                else:
+                    w.beats.pop(key, None)
+                    w.holder.pop(key, None)
+                events.extend(self._settle(w, key, now))
+        if refused:
+            log.warning(
+                "liveliness: a goodbye for %s from a node that does not hold it was ignored", key
+            )
+        self._report(events)
+
+    def liveliness_holders(self, key_expr: str, timeout: float | None = None) -> list[str]:
+        """The keys of the tokens of other transports matching ``key_expr`` alive now: a
+        token whose DDS writer the middleware reports alive, or whose heartbeats came within
+        the last lease. A process asks before it declares a token that must have one holder
+        (an agent's name, a cell's manager): the first holder keeps it. DDS discovery has no
+        end to wait for, so this looks for ``timeout`` seconds (``discovery_s``, 3 s, by
+        default; less when a holder shows itself): under load DDS took up to 1.8 s here to
+        show a node of the same host. A process killed less than a lease ago no longer
+        counts (its writer is not asserted, its heartbeats stopped), though DDS lists it in
+        the graph for a while."""
+        self._check_open()
+        pattern = key_expr.strip("/")
+        with self._lock:
+            self._queries.append(pattern)
+        try:
+            wait = self.discovery_s if timeout is None else timeout
+            deadline = time.monotonic() + wait
+            while True:
+                self._discover_tokens()
+                now = time.monotonic()
+                with self._lock:
+                    own = {t.key for t in self._tokens}
+                    held = {k for k, n in self._writers_alive.items() if n > 0 and k not in own} | {
+                        k for k, t in self._beating.items() if now - t < self.lease_s
+                    }
+                    keys = sorted(k for k in held if key_matches(pattern, k))
+                if keys or now >= deadline:
+                    return keys
+                # a bounded look at the graph, at start only: DDS has no "discovery done"
+                time.sleep(0.02)
+        finally:
+            with self._lock:
+                self._queries.remove(pattern)
 
     def alive(self, key_expr: str = "**") -> list[str]:
         """Keys of the tokens currently alive and matching ``key_expr``, as seen by the

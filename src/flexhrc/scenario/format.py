@@ -36,7 +36,7 @@ from flexhrc.scenario.model import (
     Scenario,
     WorldSpec,
 )
-from flexhrc.taskmanager.domain import ActionSchema, Domain
+from flexhrc.taskmanager.domain import ActionSchema, Domain, _line
 from flexhrc.taskmanager.kinds import find_action_kind, unknown_kind
 
 FORMAT_VERSION = 1
@@ -218,14 +218,6 @@ class ScenarioError(FormatError):
             f" (and {len(faults) - 1} more: flexhrc scenario validate)" if len(faults) > 1 else ""
         )
         super().__init__(first.message + more, first.source, first.line)
-
-
-def _line(d: Any, key: Any = None) -> int | None:
-    lines = getattr(d, "lines", None)
-    if key is not None and lines and key in lines:
-        return int(lines[key])
-    line = getattr(d, "line", None)
-    return int(line) if line else None
 
 
 class _Checker:

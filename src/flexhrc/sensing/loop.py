@@ -1,6 +1,6 @@
 """Perception in the loop as a configuration of the one cooperation loop, the cell.
 
-:func:`perceived_cell` wires a :class:`~flexhrc.cell.Cell` over an ordered
+:class:`PerceivedCell` wires a :class:`~flexhrc.cell.Cell` over an ordered
 :class:`~flexhrc.transport.InProcessBus` with in-process agents: the simulated arms
 (:class:`~flexhrc.cell.RobotAgent`), the simulated operators (:class:`~flexhrc.cell.HumanAgent`,
 with the wrist sensor when one is given) and the head camera's
@@ -507,11 +507,6 @@ class PerceivedCell:
         self.cell.close()
 
 
-def perceived_cell(*args: Any, **kw: Any) -> PerceivedCell:
-    """A :class:`PerceivedCell` (the arguments of its constructor)."""
-    return PerceivedCell(*args, **kw)
-
-
 __all__ = [
     "WORLD_CHANGING",
     "FalseReport",
@@ -520,6 +515,5 @@ __all__ = [
     "WorkspaceTruth",
     "forget_positions",
     "lying_layout",
-    "perceived_cell",
     "physical_effect",
 ]

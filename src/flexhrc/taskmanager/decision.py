@@ -22,8 +22,8 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from flexhrc.knowledge import KnowledgeBase
-from flexhrc.logic import Literal, Substitution, apply_substitution, is_variable, satisfy
-from flexhrc.taskmanager.domain import ActionSchema, Domain, GroundAction
+from flexhrc.logic import Literal, Substitution, is_variable, satisfy
+from flexhrc.taskmanager.domain import ActionSchema, Domain, GroundAction, GroundedSchema
 from flexhrc.taskmanager.simulator import SimulationResult, Simulator
 
 
@@ -197,14 +197,17 @@ class DecisionTree:
         branches: list[Branch] = []
         pruned: list[Branch] = []
         facts = kb.facts if check_pre else frozenset()
+        grounders = [(schema, args, _choice_index(schema)) for schema, args in parsed]
         for g in groundings:
             combos: list[dict[str, str]] = [dict(g)]
             for choices in agent_choices:
                 combos = [{**c, v: n} for c in combos for v, n in choices]
             for full in combos:
-                if any(all(full.get(k) == v for k, v in ex.items()) for ex in excluded):
+                if excluded and any(
+                    all(full.get(k) == v for k, v in ex.items()) for ex in excluded
+                ):
                     continue
-                steps = [_ground(schema, args, full) for schema, args in parsed]
+                steps = [_ground(schema, args, full, i) for schema, args, i in grounders]
                 if any(a not in available for s in steps for a in s.agents):
                     continue
                 why = unmet_precondition(steps, facts, from_index) if check_pre else None
@@ -258,32 +261,39 @@ def unmet_precondition(
     state: set[tuple[str, ...]] | None = None  # copied on the first effect only
     current: Facts = facts
     for i, step in enumerate(steps):
-        schema = step.schema
-        binding = step.binding
-        if i >= from_index and schema.pre:
-            pre = [apply_substitution(lit, binding) for lit in schema.pre]
-            if not holds(pre, current):
-                # name the literals that fail (all of them when they share free variables)
-                bad = [x for x in pre if x.is_ground and (x.key() in current) == x.negated]
-                bad = bad or [x for x in pre if not x.is_ground] or pre
-                return f"pre({step}) does not hold: {' & '.join(str(x) for x in bad)}"
-        if schema.add or schema.delete:
+        g = step.schema.grounded(step.args)
+        if i >= from_index and g.pre and not _pre_holds(g, current):
+            # name the literals that fail (all of them when they share free variables)
+            bad = [lit for lit, key, negated in g.pre_ground if (key in current) == negated]
+            bad = bad or list(g.pre_open) or list(g.pre)
+            return f"pre({step}) does not hold: {' & '.join(str(x) for x in bad)}"
+        if g.add or g.delete:
             if state is None:
                 state = set(current)
                 current = state
-            for lit in schema.delete:
-                state.discard(apply_substitution(lit, binding).key())
-            for lit in schema.add:
-                state.add(apply_substitution(lit, binding).key())
+            state.difference_update(g.delete)
+            state.update(g.add)
     return None
 
 
-def _ground(schema: ActionSchema, args: Sequence[str], subst: Mapping[str, str]) -> GroundAction:
-    values = tuple(subst.get(a, a) if is_variable(a) else a for a in args)
+def _pre_holds(g: GroundedSchema, facts: Facts) -> bool:
+    """:func:`holds` for a grounded pre(a): its ground literals are set lookups made once."""
+    for _, key, negated in g.pre_ground:
+        if (key in facts) == negated:
+            return False
+    return not g.pre_open or next(satisfy(g.pre_open, facts), None) is not None
+
+
+def _choice_index(schema: ActionSchema) -> int | None:
+    """The position of the argument that names the agent (``choice``), or None (fixed)."""
     spec = schema.agents
-    if spec.mode == "choice":
-        idx = schema.variables.index(str(spec.variable))
-        agents: tuple[str, ...] = (values[idx],)
-    else:
-        agents = spec.names
+    return schema.variables.index(str(spec.variable)) if spec.mode == "choice" else None
+
+
+def _ground(
+    schema: ActionSchema, args: Sequence[str], subst: Mapping[str, str], choice: int | None
+) -> GroundAction:
+    # a[:1] == "?" is is_variable(a), inline: this runs for every action of every branch
+    values = tuple([subst.get(a, a) if a[:1] == "?" else a for a in args])
+    agents = schema.agents.names if choice is None else (values[choice],)
     return GroundAction(schema, values, agents)

@@ -51,7 +51,13 @@ from pathlib import Path
 from typing import Any, Literal
 
 from flexhrc.errors import FormatError, UnknownNameError
-from flexhrc.logic import Conjunction, is_variable, parse_conjunction, parse_literal
+from flexhrc.logic import (
+    Conjunction,
+    apply_substitution,
+    is_variable,
+    parse_conjunction,
+    parse_literal,
+)
 from flexhrc.logic import Literal as Lit
 
 AgentMode = Literal["single", "choice", "joint"]
@@ -115,6 +121,47 @@ class ActionSchema:
     @functools.cached_property
     def variables(self) -> tuple[str, ...]:  # read in every grounding: made once
         return tuple(v for v, _ in self.parameters)
+
+    def grounded(self, args: tuple[str, ...]) -> GroundedSchema:
+        """pre(a), eff+(a) and eff-(a) under the arguments ``args`` (in parameter order).
+
+        Every decision grounds the same few actions again for each branch it checks
+        (eq. 20), so each argument tuple is grounded once and kept."""
+        cache = self._groundings
+        g = cache.get(args)
+        if g is None:
+            if len(cache) >= _GROUNDINGS_KEPT:  # objects perceived over a long run: stay bounded
+                cache.clear()
+            binding = dict(zip(self.variables, args, strict=True))
+            pre = tuple(apply_substitution(lit, binding) for lit in self.pre)
+            g = cache[args] = GroundedSchema(
+                pre=pre,
+                pre_ground=tuple((lit, lit.key(), lit.negated) for lit in pre if lit.is_ground),
+                pre_open=tuple(lit for lit in pre if not lit.is_ground),
+                add=tuple(apply_substitution(lit, binding).key() for lit in self.add),
+                delete=tuple(apply_substitution(lit, binding).key() for lit in self.delete),
+            )
+        return g
+
+    @functools.cached_property
+    def _groundings(self) -> dict[tuple[str, ...], GroundedSchema]:
+        return {}
+
+
+#: How many argument tuples an action schema keeps grounded (:meth:`ActionSchema.grounded`).
+_GROUNDINGS_KEPT = 4096
+
+
+@dataclass(frozen=True)
+class GroundedSchema:
+    """An action schema's formulas under one argument tuple (:meth:`ActionSchema.grounded`)."""
+
+    pre: Conjunction  # pre(a), literal by literal
+    # (literal, its fact, negated) of each ground literal of pre(a), in order
+    pre_ground: tuple[tuple[Lit, tuple[str, ...], bool], ...]
+    pre_open: Conjunction  # its literals with variables left (free in pre(a), not parameters)
+    add: tuple[tuple[str, ...], ...]  # eff+(a) as facts
+    delete: tuple[tuple[str, ...], ...]  # eff-(a) as facts
 
 
 @dataclass(frozen=True)

@@ -157,6 +157,9 @@ class Stop:
 
 
 Directive = Command | Suggest | Stop
+#: A graph answer with what the manager reads of it at every step: its feasible elements, its
+#: feasible hyper-arcs as (cost, element id, name) cheapest first, its feasible nodes.
+_AnswerViews = tuple[Any, dict[str, float], list[tuple[float, int, str]], list[str]]
 
 
 @dataclass
@@ -266,6 +269,12 @@ class TaskManager:
         self._process_of: dict[int, str] = {}  # command id -> node of that process
         self._extra: list[Directive] = []  # directives raised deep inside (process stops)
         self._answer = graph.query()
+        self._answer_views: _AnswerViews | None = None  # see _feasible
+        # what the graph's definitions say of an element (fixed): read at every step
+        self._described: dict[str, tuple[str, tuple[str, ...]]] = {}
+        self._children_of: dict[str, list[str]] = {}
+        self._parent_of: dict[str, str] = {}
+        self._constraints_of: dict[str, list[Literal]] = {}
         self._formulas = self._collect_formulas()
         self._node_processes = self._collect_processes()
 
@@ -408,7 +417,7 @@ class TaskManager:
 
     def constraints_of(self, hyperarc: str) -> list[Literal]:
         """The state formulas of h's children."""
-        return self._constraints(hyperarc)
+        return list(self._constraints(hyperarc))
 
     def binding_of(self, hyperarc: str) -> dict[str, str]:
         """The groundings h's children were reached with."""
@@ -437,6 +446,35 @@ class TaskManager:
             inner = (self.timing.task_representation_s - rep0) + (self.timing.simulator_s - sim0)
             self.timing.task_manager_s += max(0.0, spent - inner)
 
+    def _feasible(self) -> dict[str, float]:
+        """The graph's answer's feasible elements (eq. 10), made once per answer: a plan
+        reads them at every step it takes (read only)."""
+        return self._views()[1]
+
+    def _hyperarcs_by_cost(self) -> list[tuple[float, int, str]]:
+        """(cost, element id, name) of the answer's feasible hyper-arcs, cheapest first (ties:
+        element id), made once per answer (read only)."""
+        return self._views()[2]
+
+    def _feasible_nodes(self) -> list[str]:
+        """The answer's feasible nodes, in its order, made once per answer (read only)."""
+        return self._views()[3]
+
+    def _views(self) -> _AnswerViews:
+        views = self._answer_views
+        if views is None or views[0] is not self._answer:
+            feasible = self._answer.feasible
+            graph = self.graph
+            kinds = [(name, cost, graph.kind(name)) for name, cost in feasible.items()]
+            arcs = sorted(
+                (cost, graph.element_id(name), name)
+                for name, cost, kind in kinds
+                if kind == "hyperarc"
+            )
+            nodes = [name for name, _, kind in kinds if kind == "node"]
+            views = self._answer_views = (self._answer, feasible, arcs, nodes)
+        return views
+
     def _emit(self, kind: LogEventType, **data: Any) -> None:
         data.pop("type", None)  # a misspelt kind is a type error: the tags of flexhrc.events
         self._log({"t": round(self._now, 6), "type": kind, **data})
@@ -449,7 +487,7 @@ class TaskManager:
             "query",
             report={k: list(v) for k, v in kw.items() if v},
             outcome=self._answer.outcome,
-            feasible={k: _num(v) for k, v in self._answer.feasible.items()},
+            feasible={k: _num(v) for k, v in self._feasible().items()},
         )
         if self._answer.solved:
             self._finish("solved", None)
@@ -479,6 +517,12 @@ class TaskManager:
         return out
 
     def _describe(self, name: str) -> tuple[str, tuple[str, ...]]:
+        found = self._described.get(name)
+        if found is None:
+            found = self._described[name] = self._read_description(name)
+        return found
+
+    def _read_description(self, name: str) -> tuple[str, tuple[str, ...]]:
         g = self.graph.definition_of(name)
         local = self.graph.local_name(name)
         if self.graph.kind(name) == "node":
@@ -486,16 +530,24 @@ class TaskManager:
         return "hyperarc", tuple(g.hyperarcs[local].actions)
 
     def _children(self, element: str) -> list[str]:
-        g = self.graph.definition_of(element)
-        h = g.hyperarcs[self.graph.local_name(element)]
-        prefix = self.graph.graph_of(element)
-        return [f"{prefix}/{c}" if prefix else c for c in h.children]
+        """The hyper-arc's children (kept: read only)."""
+        found = self._children_of.get(element)
+        if found is None:
+            g = self.graph.definition_of(element)
+            h = g.hyperarcs[self.graph.local_name(element)]
+            prefix = self.graph.graph_of(element)
+            found = [f"{prefix}/{c}" if prefix else c for c in h.children]
+            self._children_of[element] = found
+        return found
 
     def _parent(self, element: str) -> str:
-        g = self.graph.definition_of(element)
-        h = g.hyperarcs[self.graph.local_name(element)]
-        prefix = self.graph.graph_of(element)
-        return f"{prefix}/{h.parent}" if prefix else h.parent
+        found = self._parent_of.get(element)
+        if found is None:
+            g = self.graph.definition_of(element)
+            h = g.hyperarcs[self.graph.local_name(element)]
+            prefix = self.graph.graph_of(element)
+            found = self._parent_of[element] = f"{prefix}/{h.parent}" if prefix else h.parent
+        return found
 
     # -- deciding -------------------------------------------------------------------------
     def _node_holds(self, name: str) -> bool:
@@ -512,8 +564,8 @@ class TaskManager:
         """Meet feasible nodes whose state holds and whose processes have ended (eq. 5)."""
         while self.outcome == "running":
             met = []
-            for name in self._answer.feasible:
-                if self.graph.kind(name) != "node" or not self._node_holds(name):
+            for name in self._feasible_nodes():
+                if not self._node_holds(name):
                     continue
                 if name in self._node_processes and not self._processes_ended(name):
                     continue
@@ -646,7 +698,7 @@ class TaskManager:
         for _ in range(10_000):
             if self.done:
                 return out
-            self.table.refresh(self._answer.feasible, self._describe)
+            self.table.refresh(self._feasible(), self._describe)
             started = self._start_next(out)
             if not started:
                 break
@@ -677,8 +729,13 @@ class TaskManager:
         return any(children & set(self._children(e)) for e in self.executions)
 
     def _constraints(self, element: str) -> list[Literal]:
-        """The children's state formulas (h starts from the state its children describe)."""
-        return [lit for c in self._children(element) for lit in self._formulas.get(c, ())]
+        """The children's state formulas (h starts from the state its children describe; kept:
+        read only)."""
+        found = self._constraints_of.get(element)
+        if found is None:
+            found = [lit for c in self._children(element) for lit in self._formulas.get(c, ())]
+            self._constraints_of[element] = found
+        return found
 
     def _child_binding(self, element: str) -> dict[str, str]:
         """The groundings h's children were reached with (carried from their hyper-arcs)."""
@@ -698,13 +755,7 @@ class TaskManager:
 
     def _start_next(self, out: list[Directive]) -> bool:
         """Start the cheapest startable element; True if something changed."""
-        candidates = sorted(
-            (
-                (cost, self.graph.element_id(name), name)
-                for name, cost in self._answer.feasible.items()
-                if self.graph.kind(name) == "hyperarc"
-            ),
-        )
+        candidates = self._hyperarcs_by_cost()
         robots_idle = self.idle_robots
         busy_humans = self._busy_humans()
         for cost, _, name in candidates:
@@ -1177,12 +1228,7 @@ class TaskManager:
         """Which feasible hyper-arc does this unsuggested action advance? The action may be any
         action of A(h) whose earlier actions are already done; the binding it gives must ground
         the whole list. Cheapest hyper-arc first, then the earliest position in its list."""
-        candidates = sorted(
-            (cost, self.graph.element_id(n), n)
-            for n, cost in self._answer.feasible.items()
-            if self.graph.kind(n) == "hyperarc"
-        )
-        for cost, _, name in candidates:
+        for cost, _, name in self._hyperarcs_by_cost():
             actions = self._describe(name)[1]
             if not actions:
                 continue

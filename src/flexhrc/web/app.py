@@ -35,7 +35,6 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import hmac
-import ipaddress
 import json
 import logging
 from collections.abc import AsyncIterator, Awaitable, Callable, MutableMapping
@@ -49,6 +48,7 @@ from flexhrc.web.backend import (
     MAX_BODY_BYTES,
     PanelBackend,
     PanelInputError,
+    is_loopback,
     parse_human_body,
     parse_robot_body,
 )
@@ -76,18 +76,6 @@ TRY_AGAIN_LATER = 1013
 MAX_REQUESTS = 128
 #: the operator's stop and resume never wait for a thread another request holds
 OPERATOR_PATHS = frozenset({"/api/stop", "/api/resume"})
-LOOPBACK_HOSTS = frozenset({"127.0.0.1", "localhost", "::1"})
-
-
-def _loopback(host: str) -> bool:
-    """A Host the panel without a token answers: a name or address of this machine only
-    (``--web 127.0.0.2:PORT`` is loopback too: all of 127.0.0.0/8 is, T15)."""
-    if host in LOOPBACK_HOSTS:
-        return True
-    try:
-        return ipaddress.ip_address(host).is_loopback
-    except ValueError:
-        return False
 
 
 def static_dir() -> str:
@@ -112,7 +100,6 @@ class _Hub:
         self._task: asyncio.Task[None] | None = None
         self._unsubscribe: Callable[[], None] | None = None
         self.text = ""
-        self.pushes = 0
         self.sockets = 0  # open or opening websockets (counted before the first await)
 
     async def start(self) -> None:
@@ -150,7 +137,6 @@ class _Hub:
             if text == self.text:
                 continue
             self.text = text
-            self.pushes += 1
             for client in list(self.clients):
                 client.offer(text)
 
@@ -187,7 +173,7 @@ class _Guard:
     def _refusal(self, conn: HTTPConnection) -> tuple[int, str] | None:
         if self.token is None:
             host = (conn.url.hostname or "").strip("[]").lower()
-            if not _loopback(host):
+            if not is_loopback(host):  # all of 127.0.0.0/8 is loopback (T15)
                 return (
                     400,
                     f"host {host!r} refused: the panel without --token answers loopback only",

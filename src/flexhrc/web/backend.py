@@ -23,6 +23,7 @@ Manager itself can offer.
 
 from __future__ import annotations
 
+import ipaddress
 import json
 import math
 import re
@@ -41,6 +42,17 @@ _NAME_RE = re.compile(rf"^{_NAME}$")
 # a qualified element name: graph-instance path segments joined by "/"
 _ELEMENT_RE = re.compile(rf"^{_NAME}(?:/{_NAME})*$")
 _ACTION_RE = re.compile(rf"^\s*({_NAME})\s*\(\s*((?:{_NAME}\s*(?:,\s*{_NAME}\s*)*)?)\)\s*$")
+
+
+def is_loopback(host: str) -> bool:
+    """A name or address of this machine only (all of 127.0.0.0/8 is loopback, T15): what the
+    panel without a token may listen on and answer."""
+    if host.lower() == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
 
 
 class PanelInputError(FlexhrcError):
@@ -168,6 +180,7 @@ __all__ = [
     "MAX_NAME_CHARS",
     "PanelBackend",
     "PanelInputError",
+    "is_loopback",
     "json_safe",
     "parse_action",
     "parse_human_body",

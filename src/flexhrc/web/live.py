@@ -27,7 +27,7 @@ from __future__ import annotations
 import contextlib
 import queue
 import threading
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from concurrent.futures import Future
 from concurrent.futures import TimeoutError as FutureTimeout
 from typing import Any
@@ -35,6 +35,7 @@ from typing import Any
 from flexhrc.cell import protocol as P
 from flexhrc.cell.components import ground, unknown_name
 from flexhrc.errors import FlexhrcError
+from flexhrc.taskmanager.domain import GroundAction
 from flexhrc.taskmanager.manager import HumanAction, TakeRefused
 from flexhrc.web import operator
 from flexhrc.web.backend import PanelInputError, json_safe, parse_action
@@ -124,13 +125,17 @@ class CellPanel:
             ) from None
 
     # -- on the cell's thread ---------------------------------------------------------------
-    def poll(self) -> None:
-        """Carry out queued inputs; refresh the snapshot if the cell moved on (cell thread)."""
+    def _queued(self) -> Iterator[tuple[str, Any, Future[dict[str, Any]]]]:
+        """The inputs queued so far, taken off the inbox one by one."""
         while True:
             try:
-                kind, arg, answer = self._inbox.get_nowait()
+                yield self._inbox.get_nowait()
             except queue.Empty:
-                break
+                return
+
+    def poll(self) -> None:
+        """Carry out queued inputs; refresh the snapshot if the cell moved on (cell thread)."""
+        for kind, arg, answer in self._queued():
             try:
                 answer.set_result(self._apply(kind, arg))
             except PanelInputError as exc:
@@ -162,11 +167,7 @@ class CellPanel:
     def close(self) -> None:
         """Answer what is still queued (the cell has ended), drop the operator's tokens."""
         self.refresh(force=True)
-        while True:
-            try:
-                _, _, answer = self._inbox.get_nowait()
-            except queue.Empty:
-                break
+        for _, _, answer in self._queued():
             answer.set_exception(
                 PanelInputError(f"the cooperation has ended ({self.cell.tm.outcome})", 409)
             )
@@ -260,12 +261,8 @@ class CellPanel:
         )
         if last != action:
             return False
-        asked = {
-            str(ex.branch.steps[ex.next_index])
-            for ex in c.tm.executions.values()
-            if ex.owner == "human" and ex.next_index < len(ex.branch.steps)
-        }
-        return action not in asked  # asked again (re-planned): doing it again is new work
+        # asked again (re-planned): doing it again is new work
+        return action not in {str(step) for step in self._asked()}
 
     def _take(self, element: str) -> dict[str, Any]:
         c = self.cell
@@ -299,6 +296,14 @@ class CellPanel:
         return {"ok": True, ("stopped" if stop else "resumed"): name}
 
     # -- the state ----------------------------------------------------------------------------
+    def _asked(self) -> list[GroundAction]:
+        """The steps the operators are asked to do now (the next one of each of their parts)."""
+        return [
+            ex.branch.steps[ex.next_index]
+            for ex in self.cell.tm.executions.values()
+            if ex.owner == "human" and ex.next_index < len(ex.branch.steps)
+        ]
+
     def _alive(self) -> tuple[tuple[str, bool, bool], ...]:
         return tuple((n, st.alive, st.available) for n, st in self.cell.agents.items())
 
@@ -308,7 +313,7 @@ class CellPanel:
             body = ev.body
             if ev.kind == "command":
                 self._commands[int(body["id"])] = {"start": ev.t, **body}
-            elif ev.kind == "ack":
+            elif ev.kind in ("ack", "stop"):  # a command's end: answered, or stopped
                 cmd = self._commands.pop(int(body["id"]), None)
                 if cmd is not None:
                     entry = {
@@ -316,24 +321,11 @@ class CellPanel:
                         "end": round(ev.t, 3),
                         "agents": list(cmd.get("agents", [])),
                         "action": str(cmd.get("action")),
-                        "status": str(body.get("status")),
+                        "status": str(body.get("status")) if ev.kind == "ack" else "stopped",
                     }
-                    if body.get("reason"):
-                        entry["reason"] = str(body["reason"])
+                    if ev.kind == "stop" or body.get("reason"):
+                        entry["reason"] = str(body.get("reason"))
                     self._timeline.append(entry)
-            elif ev.kind == "stop":
-                cmd = self._commands.pop(int(body["id"]), None)
-                if cmd is not None:
-                    self._timeline.append(
-                        {
-                            "start": round(float(cmd["start"]), 3),
-                            "end": round(ev.t, 3),
-                            "agents": list(cmd.get("agents", [])),
-                            "action": str(cmd.get("action")),
-                            "status": "stopped",
-                            "reason": str(body.get("reason")),
-                        }
-                    )
             elif ev.kind == "human_action":
                 t = round(ev.t, 3)
                 start = body.get("start")
@@ -351,12 +343,7 @@ class CellPanel:
 
     def _agents(self) -> list[dict[str, Any]]:
         c = self.cell
-        asked = {
-            a: str(ex.branch.steps[ex.next_index])
-            for ex in c.tm.executions.values()
-            if ex.owner == "human" and ex.next_index < len(ex.branch.steps)
-            for a in ex.branch.steps[ex.next_index].agents
-        }
+        asked = {a: str(step) for step in self._asked() for a in step.agents}
         out = []
         for name, st in c.agents.items():
             item: dict[str, Any] = {"name": name, "kind": st.kind, "alive": bool(st.alive)}
@@ -391,11 +378,7 @@ class CellPanel:
             reasons = "; ".join(i.reason for i in c.kb.inconsistencies)
             return f"knowledge base inconsistent: {reasons}"
         lost = [n for n, st in c.agents.items() if not st.available and n not in self.halted]
-        asked = [
-            str(ex.branch.steps[ex.next_index])
-            for ex in c.tm.executions.values()
-            if ex.owner == "human" and ex.next_index < len(ex.branch.steps)
-        ]
+        asked = [str(step) for step in self._asked()]
         if c.ordered:  # the loop holds the arms' answers while the operator is asked
             robots_working = bool(c.pending)
         else:  # on the wall clock the arms go on: wait for the operator once they are done

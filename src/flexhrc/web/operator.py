@@ -13,18 +13,11 @@ what the manager would not match without changing anything.
 
 from __future__ import annotations
 
-from flexhrc.taskmanager.decision import DecisionTree
 from flexhrc.taskmanager.manager import TakeRefused, TaskManager
 
 
 def humans(tm: TaskManager) -> list[str]:
     return [a.name for a in tm.domain.agents.values() if a.is_human]
-
-
-def human_branches(tm: TaskManager, element: str) -> DecisionTree:
-    """The operators' ways of doing a feasible hyper-arc now
-    (:meth:`TaskManager.operator_branches`)."""
-    return tm.operator_branches(element)
 
 
 def takeable(tm: TaskManager) -> list[str]:
@@ -36,7 +29,7 @@ def takeable(tm: TaskManager) -> list[str]:
         ex = tm.executions.get(name)
         if ex is not None and ex.owner == "human":
             continue
-        if tm.actions_of(name) and human_branches(tm, name).branches:
+        if tm.actions_of(name) and tm.operator_branches(name).branches:
             out.append(name)
     return out
 
@@ -49,4 +42,4 @@ def refusal_status(refused: TakeRefused) -> int:
     return _STATUS.get(refused.kind, 409)
 
 
-__all__ = ["human_branches", "humans", "refusal_status", "takeable"]
+__all__ = ["humans", "refusal_status", "takeable"]

@@ -10,7 +10,6 @@
 
 from __future__ import annotations
 
-import ipaddress
 import re
 import socket
 import sys
@@ -19,7 +18,7 @@ import time
 from typing import Any
 
 from flexhrc.errors import FlexhrcError, OptionalDependencyError
-from flexhrc.web.backend import PanelBackend
+from flexhrc.web.backend import PanelBackend, is_loopback
 
 DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 8080
@@ -60,15 +59,6 @@ def parse_web_address(text: str, option: str = "--web") -> tuple[str, int]:
     if not re.match(r"^[A-Za-z0-9.\-:]+$", host):
         raise FlexhrcError(f"{option} {text!r}: {host!r} is not a host name or address")
     return host, port
-
-
-def is_loopback(host: str) -> bool:
-    if host.lower() == "localhost":
-        return True
-    try:
-        return ipaddress.ip_address(host).is_loopback
-    except ValueError:
-        return False
 
 
 def check_bind(host: str, token: str | None) -> None:

@@ -16,15 +16,11 @@ from collections.abc import Callable, Mapping
 from typing import Any
 
 from flexhrc.representation import OnlineGraph
-from flexhrc.representation.hierarchy import SEP
+from flexhrc.representation.hierarchy import qualify
 from flexhrc.taskmanager.manager import TaskManager
 from flexhrc.web.backend import json_safe
 
 TIMELINE_LIMIT = 300  # entries of the timeline kept in a snapshot (the store keeps them all)
-
-
-def _qualify(path: str, local: str) -> str:
-    return f"{path}{SEP}{local}" if path else local
 
 
 def feasible_costs(graph: OnlineGraph) -> dict[str, float]:
@@ -53,39 +49,35 @@ def graph_snapshot(
     being carried out to its owner (``"robot"`` or ``"human"``).
     """
     running = running or {}
+
+    def element(path: str, local: str, done: str, is_done: Callable[[str], bool]) -> dict[str, Any]:
+        name = qualify(path, local)
+        status = _status(graph, name, done, is_done)
+        return {"id": name, "name": local, "status": status, "cost": costs.get(name)}
+
     out: list[dict[str, Any]] = []
     for info in graph.hierarchy.instances():
         definition = graph.hierarchy.graphs[info.key]
-        nodes = []
-        for local, node in definition.nodes.items():
-            name = _qualify(info.path, local)
-            nodes.append(
-                {
-                    "id": name,
-                    "name": local,
-                    "status": _status(graph, name, "met", graph.is_met),
-                    "cost": costs.get(name),
-                    "root": local == definition.root,
-                    "weight": node.weight,
-                }
-            )
-        arcs = []
-        for local, h in definition.hyperarcs.items():
-            name = _qualify(info.path, local)
-            arcs.append(
-                {
-                    "id": name,
-                    "name": local,
-                    "status": _status(graph, name, "solved", graph.is_solved),
-                    "cost": costs.get(name),
-                    "weight": h.weight,
-                    "children": [_qualify(info.path, c) for c in h.children],
-                    "parent": _qualify(info.path, h.parent),
-                    "actions": list(h.actions),
-                    "lower": _qualify(info.path, local) if h.lower is not None else None,
-                    "running": running.get(name),
-                }
-            )
+        nodes = [
+            {
+                **element(info.path, local, "met", graph.is_met),
+                "root": local == definition.root,
+                "weight": node.weight,
+            }
+            for local, node in definition.nodes.items()
+        ]
+        arcs = [
+            {
+                **element(info.path, local, "solved", graph.is_solved),
+                "weight": h.weight,
+                "children": [qualify(info.path, c) for c in h.children],
+                "parent": qualify(info.path, h.parent),
+                "actions": list(h.actions),
+                "lower": qualify(info.path, local) if h.lower is not None else None,
+                "running": running.get(qualify(info.path, local)),
+            }
+            for local, h in definition.hyperarcs.items()
+        ]
         out.append(
             {
                 "path": info.path,

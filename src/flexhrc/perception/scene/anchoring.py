@@ -39,6 +39,7 @@ from typing import Any
 import numpy as np
 
 from flexhrc.knowledge import KnowledgeBase, ObjectRecord
+from flexhrc.knowledge.base import format_position
 from flexhrc.perception._deps import require
 from flexhrc.perception.scene.types import DetectedObject
 
@@ -283,8 +284,8 @@ class Anchoring:
         reason = None
         if self._predicted(s) and self._h(pos, seen_at) < self._h(pos, s.position):
             reason = (
-                f"{s.id} should be at {_fmt(s.position)} after what was done, "
-                f"but is still seen at {_fmt(pos)}"
+                f"{s.id} should be at {format_position(s.position)} after what was done, "
+                f"but is still seen at {format_position(pos)}"
             )
         else:
             d = self._h(pos, seen_at)
@@ -319,10 +320,6 @@ def _xyz(p: Any) -> tuple[float, float, float]:
 def _extents(size: Any) -> dict[str, float]:
     names = ("length", "width", "height")
     return {n: round(float(v), 4) for n, v in zip(names, size, strict=False)}
-
-
-def _fmt(p: Sequence[float]) -> str:
-    return "(" + ", ".join(f"{float(v):.3f}" for v in p) + ")"
 
 
 __all__ = ["Anchoring", "AnchoringReport"]

@@ -246,13 +246,14 @@ def build_graph(legs: int = 4) -> HierarchicalGraph:
     return h
 
 
-def load_domain(human: bool = True) -> Domain:
-    """Agents (human, left, right) and action schemas, from the packaged YAML."""
-    text = resources.files("flexhrc.scenario.builtin").joinpath("data/table_assembly/domain.yaml")
+def load_domain(human: bool = True, file: str = "domain.yaml") -> Domain:
+    """Agents (human, left, right) and action schemas, from the packaged YAML ``file``
+    (``domain.yaml``: the legs fix; ``task_domain.yaml``: the whole task)."""
+    text = resources.files("flexhrc.scenario.builtin").joinpath(f"data/table_assembly/{file}")
     data = yaml.safe_load(text.read_text(encoding="utf-8"))
     if not human:  # the human's actions stay in the domain, with nobody to do them
         data["agents"].pop("human")
-    return Domain.from_dict(data, "table_assembly/domain.yaml")
+    return Domain.from_dict(data, f"table_assembly/{file}")
 
 
 @dataclass
@@ -500,23 +501,10 @@ def task_graph(legs: int = 4, segments: Sequence[str] = SEGMENTS) -> Hierarchica
     return hierarchy
 
 
-def task_domain_data() -> dict[str, Any]:
-    """The domain of the whole task (``task_domain.yaml``: the legs fix's actions, the
-    tabletop placement and the check), as data."""
-    import yaml
-
-    text = resources.files("flexhrc.scenario.builtin").joinpath(
-        "data/table_assembly/task_domain.yaml"
-    )
-    data: dict[str, Any] = yaml.safe_load(text.read_text(encoding="utf-8"))
-    return data
-
-
 def task_domain(human: bool = True) -> Domain:
-    data = task_domain_data()
-    if not human:  # the human's actions stay in the domain, with nobody to do them
-        data["agents"].pop("human")
-    return Domain.from_dict(data, "table_assembly/task_domain.yaml")
+    """The domain of the whole task: the legs fix's actions, the tabletop placement and the
+    check."""
+    return load_domain(human, "task_domain.yaml")
 
 
 def _task_world(layout: TableLayout, segments: tuple[str, ...]) -> KnowledgeBase:
