@@ -630,6 +630,9 @@ ID, INT_ID, TIME, OPT_TIME = Field(S, True), Field((int,), True), _time(True), _
 # run identity (flexhrc.cell.identity): optional, so a message of an older peer is legacy
 RUN = Field(S, check=bool, doc="the run it belongs to (from `start`; absent: legacy)")
 FINGERPRINT = Field(S, check=bool, doc="the sender's scenario fingerprint")
+# the one agent process the manager granted the agent's name (its Zenoh session id): any other
+# process of that name leaves the message alone (probe K09)
+SESSION = Field(S, check=bool, doc="the Zenoh session of the agent process it is for")
 # fmt: off
 _MESSAGE_SCHEMAS = [
     _msg("command", "manager → `cmd/<agent>`: do this action",
@@ -639,9 +642,9 @@ _MESSAGE_SCHEMAS = [
          process=Field((bool,)),
          joints=Field((dict,), doc="where the manager's robot model has the command's arms "
                       "(rad, {arm: [q]}); the agent starts from there"),
-         run=RUN, fingerprint=FINGERPRINT),
+         run=RUN, fingerprint=FINGERPRINT, session=SESSION),
     _msg("stop", "manager → `cmd/<agent>`: stop that command",
-         id=INT_ID, reason=OPT_NAME, t=OPT_TIME, run=RUN),
+         id=INT_ID, reason=OPT_NAME, t=OPT_TIME, run=RUN, session=SESSION),
     _msg("ack", "robot → `ack`: how a command ended",
          (_ack_status, _positions("ack"), _joints("ack")),
          id=INT_ID, agent=Field(S, True), status=Field(S, True), reason=OPT_NAME, t=TIME,
@@ -654,7 +657,7 @@ _MESSAGE_SCHEMAS = [
          id=ID, element=Field(S, True), actions=Field((list,), True), cost=Field(NUM), t=TIME,
          world=Field((dict,)), realtime=OPT_TIME, step=_nonneg((int,)),
          own=Field((bool,), doc="the operator's own plan (its intent), not the manager's ask"),
-         run=RUN, fingerprint=FINGERPRINT),
+         run=RUN, fingerprint=FINGERPRINT, session=SESSION),
     _msg("human_action", "human → `human`: a person did this",
          (_positions("human_action"), _starts_before_it_ends),
          id=ID, agent=Field(S, True), action=Field(S, True), suggestion=OPT_NAME,
@@ -679,7 +682,7 @@ _MESSAGE_SCHEMAS = [
     # an operator that acts on its own: what it may do (steps -> hyper-arcs -> ground branches)
     _msg("options", "manager → `options/<human>`: what the operator may do on its own",
          (_options_steps, _world("options")), id=ID, t=TIME, steps=Field((list,), True),
-         world=Field((dict,)), run=RUN, fingerprint=FINGERPRINT),
+         world=Field((dict,)), run=RUN, fingerprint=FINGERPRINT, session=SESSION),
     # ``scripted``: it takes exactly the steps it was told to (a test or demo script), whatever
     # its profile says, so it is offered ``options`` even when ``passive``
     _msg("operator", "human → `intent`: its profile",

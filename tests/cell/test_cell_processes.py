@@ -247,7 +247,11 @@ def test_malformed_messages_are_dropped_and_logged(tmp_path: Path) -> None:
     assert data["outcome"] == "solved", log[-2000:]
     assert data["cell"]["dropped"] == sent
     assert log.count("dropped a message:") == sent
-    assert "duplicate ack" in log and "unknown command 999" in log and "version" in log
+    assert "version" in log
+    # well-formed acks from this test's own session speak for left from a session that is not
+    # left's: dropped for that before anything else (test_spoof.py; the duplicate and the
+    # unknown command in one process: test_an_ack_for_an_unknown_or_answered_command_...)
+    assert log.count("not left's process") == 2, log[-3000:]
     ref = reference(scenario)
     assert data["knowledge"]["facts"] == ref["knowledge"]["facts"]
     assert json.dumps(data["legs_by_agent"]) == json.dumps(ref["legs_by_agent"])

@@ -229,6 +229,9 @@ class _Agent:
         self.domain: Domain = scenario.domain
         self.kb: KnowledgeBase = scenario.world()
         self.transport = transport
+        # this process's Zenoh session: the manager grants the agent's name to one session
+        # and addresses its messages to it (None over a transport without sessions)
+        self.session: str | None = getattr(transport, "session_id", None)
         self.execution = execution if execution is not None else execution_model("auto", scenario)
         self.trace = trace or (lambda line: None)
         self.ended: str | None = None  # the cell's outcome once it announced its end
@@ -300,6 +303,22 @@ class _Agent:
                 self._bad(data, exc)
         elif isinstance(data, dict) and data.get("type") == "state":
             self._of_this_scenario(data)
+            refused = data.get("refused_sessions")
+            why = refused.get(self.session) if isinstance(refused, dict) and self.session else None
+            if isinstance(why, str) and self.fatal is None:  # another process has the name (K09)
+                self.fatal = why
+                log.error("%s", why)
+
+    def _for_me(self, msg: dict[str, Any]) -> bool:
+        """A message the manager addressed to another process of this agent's name (its
+        ``session``: the one it granted the name) is left alone: one process per agent
+        executes (probe K09). A message that names no session, or a transport without
+        sessions, cannot tell: taken."""
+        theirs = msg.get("session")
+        if theirs is None or self.session is None or theirs == self.session:
+            return True
+        self.trace(f"{msg['type']} {msg.get('id')} is for another process (session {theirs})")
+        return False
 
     def _bad(self, data: Any, exc: Exception) -> None:
         self.dropped += 1
@@ -459,6 +478,8 @@ class RobotAgent(_Agent):
         self.received += 1
         try:
             msg = P.parse(data, expect=("command", "stop"))
+            if not self._for_me(msg):
+                return
             if msg["type"] == "stop":
                 self._stop(msg)
             else:
@@ -653,13 +674,13 @@ class HumanAgent(_Agent):
         self._announced_at = float("-inf")
         # the manager's ``state`` showed this operator's profile: only then its token goes out
         self.heard = self.operator is None
+        self._join()  # first: the manager takes a profile only from the process that joined
         if self.operator is not None:
             self._subs.append(transport.subscribe(P.options_topic(name), self._on_options))
             watch = getattr(transport, "watch_liveliness", None)
             if watch is not None:  # a manager that (re)appears has not heard it yet
                 self._subs.append(watch(P.alive_key(P.MANAGER), self._on_manager))
             self._announce_profile()
-        self._join()
         self._announce()
 
     def _announce(self) -> None:
@@ -714,7 +735,9 @@ class HumanAgent(_Agent):
     def _on_options(self, data: Any) -> None:
         self.received += 1
         try:
-            self._options(P.parse(data, expect="options"))
+            msg = P.parse(data, expect="options")
+            if self._for_me(msg):
+                self._options(msg)
         except FlexhrcError as exc:
             self._bad(data, exc)
 
@@ -775,7 +798,8 @@ class HumanAgent(_Agent):
         self.received += 1
         try:
             msg = P.parse(data, expect="suggestion")
-            self._suggestion(msg)
+            if self._for_me(msg):
+                self._suggestion(msg)
         except FlexhrcError as exc:
             self._bad(data, exc)
 

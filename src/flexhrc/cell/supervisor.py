@@ -90,6 +90,8 @@ STALL_GRACE_S = 5.0
 #: How long a resumed cell whose run had already ended waits for agent processes to come back
 #: and hear the end (seconds).
 END_WAIT_S = 5.0
+#: The ``source`` of an input that did not come over the bus (the panel's buttons, this process).
+HERE = "here"
 
 
 @dataclass
@@ -146,6 +148,11 @@ class Cell:
         # run identity (flexhrc.cell.identity): a new run's id; a resume takes the stored one
         self.run_id = identity.new_run_id()
         self.refused: dict[str, str] = {}  # agent -> why its process was refused (join)
+        # over a transport that names each message's sending session (Zenoh): agent -> the
+        # session granted its name at its join; a message for it from any other is dropped
+        self.sessions: dict[str, str] = {}
+        self.refused_sessions: dict[str, str] = {}  # session -> why its join was refused
+        self.sourced = callable(getattr(transport, "subscribe_from", None))
         self._token_alive: dict[str, bool] = {}  # agent -> its token, as Zenoh reports it
         self.store = store
         self.realtime = float(realtime)
@@ -228,11 +235,11 @@ class Cell:
         self.intent_ids: set[str] = set()
         self._options_sent_at: dict[str, float] = {}
         self._subs = [
-            transport.subscribe(P.ACK_TOPIC, self._on_ack_message),
-            transport.subscribe(P.HUMAN_TOPIC, self._on_human_message),
+            self._listen(P.ACK_TOPIC, self._on_ack_message),
+            self._listen(P.HUMAN_TOPIC, self._on_human_message),
             transport.subscribe(P.PERCEPT_TOPIC, self._on_percept_message),
-            transport.subscribe(P.INTENT_TOPIC, self._on_intent_message),
-            transport.subscribe(P.JOIN_TOPIC, self._on_join),
+            self._listen(P.INTENT_TOPIC, self._on_intent_message),
+            self._listen(P.JOIN_TOPIC, self._on_join),
         ]
         self.percept_ids: set[str] = set()
         # perception agents the ordered loop waits for (see the module docstring): the manager
@@ -303,6 +310,8 @@ class Cell:
             "timeline": timeline,
             "knowledge": self.kb.to_dict(),
             "dropped": len(self.dropped),
+            # the processes refused an agent's name (another holds it): each exits on seeing it
+            **({"refused_sessions": dict(self.refused_sessions)} if self.refused_sessions else {}),
         }
 
     def human_input(self, action: str, agent: str | None = None) -> None:
@@ -345,7 +354,12 @@ class Cell:
         cmd = self.tm.busy.get(name)
         if cmd is not None and st.alive:  # the arm itself stops at once
             stop = P.message(
-                "stop", id=cmd.id, reason=f"stopped by the {by}", t=self.now, run=self.run_id
+                "stop",
+                id=cmd.id,
+                reason=f"stopped by the {by}",
+                t=self.now,
+                run=self.run_id,
+                **self._to(name),
             )
             self.transport.publish(P.cmd_topic(name), stop)
         self._input("agent_down", {"agent": name, "wall": time.time(), "by": by})
@@ -375,7 +389,7 @@ class Cell:
         log.warning("dropped: %s", reason)
         self.trace({"t": round(self.now, 6), "type": "dropped", "reason": reason})
 
-    def _on_ack_message(self, data: Any) -> None:
+    def _on_ack_message(self, data: Any, source: str | None = HERE) -> None:
         try:
             msg = P.parse(data, expect="ack")
         except P.ProtocolError as exc:
@@ -383,7 +397,9 @@ class Cell:
             return
         cid = msg["id"]
         cmd = self.commands.get(cid)
-        if self._other_run(msg):
+        if (foreign := self._foreign(str(msg["agent"]), source)) is not None:
+            self._drop(f"ack for command {cid}: {foreign}")  # P10
+        elif self._other_run(msg):
             self._drop(f"ack for command {cid} of another run ({msg['run']})")
         elif cmd is None:
             self._drop(f"ack for unknown command {cid}")
@@ -413,12 +429,14 @@ class Cell:
             )
         return _moves_untouched(f"ack for command {cmd.id}", cmd.action, cmd.agents, msg)
 
-    def _on_human_message(self, data: Any) -> None:
+    def _on_human_message(self, data: Any, source: str | None = HERE) -> None:
         try:
             msg = P.parse(data, expect=("human_action", "answer"))
             st = self.agents.get(msg["agent"])
             if st is None or st.kind != "human":
                 raise P.ProtocolError(f"{msg['agent']!r} is not a human agent of this cell")
+            if (foreign := self._foreign(str(msg["agent"]), source)) is not None:
+                raise P.ProtocolError(f"{msg.get('id')}: {foreign}")  # P19
             if msg["type"] == "answer":
                 if msg["object"] not in self.kb.objects:
                     raise P.ProtocolError(f"answer about {msg['object']!r}, not an object here")
@@ -530,13 +548,15 @@ class Cell:
         if not self.begun and all(self._looked.get(w, 0) >= self._state_seq for w in self.watchers):
             self._input("begin", {"watchers": list(self.watchers)})
 
-    def _on_intent_message(self, data: Any) -> None:
+    def _on_intent_message(self, data: Any, source: str | None = HERE) -> None:
         """An operator's profile (``operator``) or its answer to ``options`` (``intent``)."""
         try:
             msg = P.parse(data, expect=("operator", "intent"))
             st = self.agents.get(msg["agent"])
             if st is None or st.kind != "human":
                 raise P.ProtocolError(f"{msg['agent']!r} is not a human agent of this cell")
+            if (foreign := self._foreign(str(msg["agent"]), source)) is not None:
+                raise P.ProtocolError(foreign)  # P17: a profile only from the operator's process
             if msg["type"] == "operator" and msg["profile"] not in PROFILES:
                 raise P.ProtocolError(
                     f"operator: unknown profile {msg['profile']!r} ({', '.join(PROFILES)})"
@@ -940,6 +960,7 @@ class Cell:
                 world=world_of(self.kb),
                 run=self.run_id,
                 fingerprint=self.fingerprint,
+                **self._to(human),
             ),
         )
 
@@ -1039,9 +1060,53 @@ class Cell:
                     self.transport.publish(
                         P.cmd_topic(d.agent),
                         P.message(
-                            "stop", id=d.command_id, reason=d.reason, t=self.now, run=self.run_id
+                            "stop",
+                            id=d.command_id,
+                            reason=d.reason,
+                            t=self.now,
+                            run=self.run_id,
+                            **self._to(d.agent),
                         ),
                     )
+
+    def _not_possible(self, t: float, body: dict[str, Any]) -> str | None:
+        """Why a person's report cannot be taken when its time comes, or None: it is a step of
+        a request the manager sent them (even if the world moved on meanwhile: the manager
+        then handles what they did), the next step of what they were asked or decided to do,
+        or it advances a feasible part of the task now (:meth:`TaskManager.advances`, the
+        panel's own check of a "done"). A report that does none of these (``check(human,
+        bolt_1)`` before any bolt is screwed: probe P19) would be stored and change the
+        belief for an action no one could do. A wearable
+        sensor's reading (``sensed``) is kept as it is: what it makes of a motion is the
+        sensor's word, and an unmatched reading is how the manager learns of it."""
+        if body.get("recognised") is False or "sensed" in body:
+            return None
+        action = ground(self.domain, body["action"])
+        text = str(action)
+        sid, k = body.get("suggestion"), body.get("step")
+        asked = self.suggestions.get(sid) if isinstance(sid, str) else None
+        if (
+            asked is not None
+            and asked.get("agent") == body["agent"]
+            and isinstance(k, int)
+            and 0 <= k < len(asked["actions"])
+            and asked["actions"][k] == text
+        ):
+            return None  # the step of a request it was sent: the manager handles what it did
+        for ex in self.tm.executions.values():
+            steps = ex.branch.steps
+            if (
+                ex.owner == "human"
+                and ex.next_index < len(steps)
+                and str(steps[ex.next_index]) == text
+            ):
+                return None  # the step asked of it (the common case: no copy made)
+        if self.tm.advances(max(self.now, float(t)), HumanAction(action.name, action.args)):
+            return None
+        return (
+            f"{text} is no step {body['agent']} was asked to do and advances no feasible part "
+            "of the task now"
+        )
 
     def _held_elsewhere(self, t: float, body: dict[str, Any]) -> bool:
         """A person's reported step works on a part another agent holds by the time it ends
@@ -1111,6 +1176,7 @@ class Cell:
                 **self._start_joints.get(cmd.id, {}),
                 run=self.run_id,
                 fingerprint=self.fingerprint,
+                **self._to(agent),
             ),
         )
 
@@ -1140,7 +1206,7 @@ class Cell:
             return
         msg.pop("agent", None)
         msg.update(t=start, step=step, world=world_of(self.kb), realtime=self.agent_speed)
-        msg.update(run=self.run_id, fingerprint=self.fingerprint)
+        msg.update(run=self.run_id, fingerprint=self.fingerprint, **self._to(human))
         if self._sent_step.get(sid) != step and self.observers:  # the person starts this step
             self._observe(
                 {
@@ -1230,7 +1296,7 @@ class Cell:
         run = msg.get(identity.RUN)
         return run is not None and run != self.run_id
 
-    def _on_join(self, data: Any) -> None:
+    def _on_join(self, data: Any, source: str | None = HERE) -> None:
         """An agent joins with its scenario's fingerprint: one of another scenario is refused
         (a log line here; its token is not counted as the agent's; the ``state`` this
         publishes shows it the cell's fingerprint, and it exits with a clear error)."""
@@ -1262,8 +1328,71 @@ class Cell:
             # the answer: a snapshot with this cell's fingerprint (a matching agent gets none,
             # so the first state of a cell still comes with its start)
             self._publish_state(force=True)
+        elif not self._grant(name, source):
+            self._publish_state(force=True)  # the answer: the refused process exits (K09)
         elif self.refused.pop(name, None) is not None and self._token_alive.get(name):
             self._on_alive(P.alive_key(name), True)  # this agent's own process: counted now
+
+    # -- one process per agent name (probe K09) and only its messages (P10, P17, P19) --------
+    def _listen(self, topic: str, handler: Callable[[Any, str | None], None]) -> Any:
+        """Subscribe ``handler(data, source)``: with the sending session's id over a transport
+        that names it (:meth:`flexhrc.transport.zenoh.ZenohTransport.subscribe_from`)."""
+        if self.sourced:
+            return self.transport.subscribe_from(topic, handler)  # type: ignore[attr-defined]
+        return self.transport.subscribe(topic, lambda data: handler(data, HERE))
+
+    def _grant(self, name: str, source: str | None) -> bool:
+        """The agent name goes to the first session that joins with it and stays with it until
+        its token, once seen, is gone (then a restarted process takes it); a join of another
+        session meanwhile is refused, whatever the order in which the two processes' liveliness
+        queries, tokens and joins arrived on a loaded machine. Returns whether ``source``
+        holds the name now."""
+        if not self.sourced or source == HERE:
+            return True
+        held = self.sessions.get(name)
+        gone = self._token_alive.get(name) is False  # seen, then lost: the holder died
+        if source is not None and (held is None or held == source or gone):
+            self.sessions[name] = source
+            self.refused_sessions.pop(source, None)
+            return True
+        why = (
+            f"agent {name}: another process already serves this agent in the cell (session "
+            f"{held}); a second one is refused"
+            if source is not None
+            else f"agent {name}: a join without the sender's Zenoh session (source info) is refused"
+        )
+        key = source or "unknown"
+        if self.refused_sessions.get(key) != why:
+            self.refused_sessions[key] = why
+            log.error("%s (session %s)", why, key)
+            self.trace({"t": round(self.now, 6), "type": "refused", "agent": name, "reason": why})
+        return False
+
+    def played_here(self, name: str) -> None:
+        """This process plays agent ``name`` itself (the panel's operator, whose token it
+        declares on the manager's own session): the name is this session's, no join needed."""
+        own = getattr(self.transport, "session_id", None)
+        if self.sourced and isinstance(own, str):
+            self.sessions[name] = own
+
+    def _foreign(self, agent: str, source: str | None) -> str | None:
+        """Why a message speaking for ``agent`` from session ``source`` is not its granted
+        process's (None: it is, or this transport cannot tell)."""
+        if not self.sourced or source == HERE:
+            return None
+        held = self.sessions.get(agent)
+        if held is not None and source == held:
+            return None
+        sender = f"session {source}" if source is not None else "a session that names none"
+        if held is None:
+            return f"from {sender}, but no process has joined as {agent}"
+        return f"from {sender}, not {agent}'s process (session {held}): spoofed or refused"
+
+    def _to(self, agent: str) -> dict[str, Any]:
+        """``{"session": ...}``: the one process of ``agent`` a message is for (nothing when
+        this transport names no sessions); any other process of that name leaves it alone."""
+        held = self.sessions.get(agent)
+        return {"session": held} if held is not None else {}
 
     def _own_run(self, events: list[StoredEvent]) -> list[StoredEvent]:
         """The stored events of the run to resume: the store must be of this scenario, seed
@@ -1447,7 +1576,13 @@ class Cell:
         self._record("outcome", {"outcome": outcome, "reason": reason})
 
     def _missing(self) -> list[str]:
-        return [n for n, st in self.agents.items() if not st.alive]
+        # over a transport that names sessions, an agent counts once its process has joined
+        # too: the manager then knows whose answers to take (and an operator's profile, which
+        # its process announces after its join, before its token)
+        joined = not self.sourced or self.token is None
+        return [
+            n for n, st in self.agents.items() if not st.alive or not (joined or n in self.sessions)
+        ]
 
     def wait_for_agents(
         self, timeout: float, progress: Callable[[str], None] | None = None
@@ -1457,10 +1592,22 @@ class Cell:
         said: set[str] = set()
         while self._missing():
             if time.monotonic() > deadline:
-                raise FlexhrcError(
-                    f"no agent process for {', '.join(self._missing())} after {timeout:g} s; "
-                    + self.agents_hint
-                )
+                silent = [n for n in self._missing() if self.agents[n].alive]
+                absent = [n for n in self._missing() if not self.agents[n].alive]
+                why: list[str] = []
+                if absent:
+                    why.append(
+                        f"no agent process for {', '.join(absent)} after {timeout:g} s; "
+                        + self.agents_hint
+                    )
+                if silent:  # its token arrived, its ``join`` never did
+                    why.append(
+                        f"the process of {', '.join(silent)} is alive but never joined the "
+                        f"cell after {timeout:g} s (its `join` did not arrive: a Zenoh access "
+                        "control that denies it? `flexhrc certs DIR` writes configs that allow "
+                        'it; docs/cell.md, "Securing a cell")'
+                    )
+                raise FlexhrcError("; ".join(why))
             for n in self._missing():
                 if progress and n not in said:
                     progress(f"waiting for agent {n} ...")
@@ -1505,6 +1652,9 @@ class Cell:
             str(body["agent"]), ground(self.domain, body["action"])
         ):  # its twin, handled just before it, did what it says (P25)
             self._drop(f"human_action {body['id']}: {_REPEATED.format(action=body['action'])}")
+            return True
+        if kind == "human_action" and (said := self._not_possible(t, body)) is not None:
+            self._drop(f"human_action {body['id']}: {said}")  # P19
             return True
         if kind == "human_action" and self._held_elsewhere(t, body):
             return True

@@ -289,7 +289,7 @@ _ALL_MESSAGES = [
 ]  # fmt: skip
 #: What an agent sends the manager (``docs/protocol.md``): the rest (``cmd/``, ``suggest/``,
 #: ``options/``, ``state``) only the manager publishes.
-_AGENT_INPUTS = ("ack", "human", "intent", "percept")
+_AGENT_INPUTS = ("ack", "human", "intent", "percept", "join")
 
 
 def access_control(agents: Sequence[str]) -> dict[str, Any]:

@@ -77,6 +77,10 @@ API (everything below is public and stable):
   - :meth:`ZenohTransport.liveliness_holders` lists the tokens matching a key expression that
     are alive now (a liveliness query): a cell's manager and each agent ask for their own key
     before declaring it, and are refused when another process holds it.
+  - :meth:`ZenohTransport.subscribe_from` hands ``callback(payload, source)`` the id of the
+    session that published each payload (every ``ZenohTransport`` stamps its puts with Zenoh's
+    source info; :attr:`ZenohTransport.session_id` is its own): the sender's word, not a proof
+    (only TLS with mutual authentication is).
   - :meth:`ZenohTransport.watch_liveliness` calls ``callback(key, alive)`` for tokens matching a
     key expression (wildcards allowed); with ``history=True`` (default) the tokens already alive
     are reported first. Returns a :class:`~flexhrc.transport.Subscription`.
@@ -467,10 +471,13 @@ class ZenohTransport(QueuedDelivery, Transport):
         # the endpoints it was configured to listen on (set by open_zenoh; port 0 unresolved)
         self.listen_endpoints: list[str] = []
         self._publishers: dict[str, Any] = {}
+        self._pub_ids: dict[str, Any] = {}
         self._zsubs: dict[int, Any] = {}
         self._tokens: list[_Token] = []
         self._lock = threading.Lock()
         self._closed = False
+        self._sn = 0  # the sequence number of this session's source info
+        self._zid: str | None = None
         #: the session dials endpoints (``connect``): a liveliness query first waits until it is
         #: connected, else it would ask no one (see :meth:`liveliness_holders`)
         self.dials = False
@@ -503,8 +510,13 @@ class ZenohTransport(QueuedDelivery, Transport):
                     congestion_control=_zenoh.CongestionControl.BLOCK,
                 )
                 self._publishers[key] = pub
+                self._pub_ids[key] = pub.id  # made once: reading it builds a new object
             self.published += 1
-        pub.put(bytes(data))
+            self._sn += 1
+            sn = self._sn
+        # the source info names this session (its zid) to every receiver: a cell binds an agent
+        # name to the session that joined with it (see :meth:`subscribe_from`; ~1 us a put)
+        pub.put(bytes(data), source_info=_zenoh.SourceInfo(self._pub_ids[key], sn))
 
     # -- subscribe --------------------------------------------------------------------------
     def subscribe(self, topic: str, callback: Callback, *, raw: bool = False) -> Subscription:
@@ -529,6 +541,49 @@ class ZenohTransport(QueuedDelivery, Transport):
         with self._lock:
             self._zsubs[id(sub)] = zsub
         return sub
+
+    def subscribe_from(
+        self, topic: str, callback: Callable[[Any, str | None], None]
+    ) -> Subscription:
+        """As :meth:`subscribe`, but ``callback(payload, source)`` also gets the id of the
+        Zenoh session that published it (:attr:`session_id` of a ``ZenohTransport``; None for a
+        sample without Zenoh's source info, e.g. from a peer that uses Zenoh directly).
+
+        What it is worth: every ``ZenohTransport`` stamps its puts with its own session id,
+        and Zenoh carries that stamp unchanged. The stamp is the sender's word, not a proof:
+        zenoh-python cannot make another session's id, but a peer written against Zenoh's Rust
+        or C API can claim any id it has seen. Only TLS with mutual authentication and access
+        control tells who really sent a sample (docs/cell.md, "Securing a cell")."""
+        self._check_open()
+        key = self._key(topic)
+
+        def relay(event: tuple[Any, str | None]) -> None:
+            callback(*event)
+
+        sub = Subscription(topic, relay, self)
+
+        def on_sample(sample: Any) -> None:
+            data = sample.payload.to_bytes()
+            try:
+                payload = self.decode(data)
+            except Exception as exc:  # a bad payload must never reach Zenoh
+                self._drop(topic, data, exc)
+                return
+            info = sample.source_info
+            source = None if info is None else str(info.source_id.zid)
+            self._hand(sub, (payload, source))
+
+        zsub = self.session.declare_subscriber(key, on_sample)
+        with self._lock:
+            self._zsubs[id(sub)] = zsub
+        return sub
+
+    @property
+    def session_id(self) -> str:
+        """This transport's Zenoh session id (zid), the ``source`` its receivers see."""
+        if self._zid is None:
+            self._zid = str(self.session.zid())
+        return self._zid
 
     def watch_liveliness(
         self, key_expr: str, callback: LivelinessCallback, *, history: bool = True

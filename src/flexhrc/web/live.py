@@ -79,6 +79,7 @@ class CellPanel:
         if operator and declare is not None:  # the person at the page is the operator
             for name, st in cell.agents.items():
                 if st.kind == "human":
+                    cell.played_here(name)
                     self._tokens.append(declare(P.alive_key(name)))
 
     # -- the backend contract (any thread) --------------------------------------------------
