@@ -362,7 +362,7 @@ def test_k09_a_second_process_for_an_arm_is_refused_and_the_first_keeps_it(
     assert error == (
         "error: agent left: another process already serves this agent in the cell (its "
         "liveliness token alive/left is alive); a second one is refused (a process that just "
-        "died keeps it until the Zenoh lease ends, about 10 s)"
+        "died keeps it until its liveliness lease ends: about 10 s over Zenoh, 1 s over ROS 2)"
     )
     assert data["outcome"] == "solved", (tmp_path / "c.err").read_text()[-2000:]
     assert data["cell"]["dropped"] == 0  # no duplicate acks
@@ -398,7 +398,8 @@ def test_k08_a_second_manager_for_a_cell_name_is_refused(tmp_path: Path, case: s
     assert error == (
         "error: --cell default: another manager already runs this cell (its liveliness token "
         "alive/manager is alive); a second one is refused: stop it first or choose another "
-        "--cell name (a manager that just died keeps it until the Zenoh lease ends, about 10 s)"
+        "--cell name (a manager that just died keeps it until its liveliness lease ends: about "
+        "10 s over Zenoh, 1 s over ROS 2)"
     )
     assert data["outcome"] == "solved"
     assert rows(tmp_path / "b.db") == []

@@ -971,5 +971,6 @@ def _check_single_holder(transport: Any, name: str) -> None:
         raise FlexhrcError(
             f"agent {name}: another process already serves this agent in the cell (its "
             f"liveliness token {P.alive_key(name)} is alive); a second one is refused (a "
-            "process that just died keeps it until the Zenoh lease ends, about 10 s)"
+            "process that just died keeps it until its liveliness lease ends: about 10 s over "
+            "Zenoh, 1 s over ROS 2)"
         )

@@ -1287,8 +1287,8 @@ class Cell:
             raise FlexhrcError(
                 f"--cell {name}: another manager already runs this cell (its liveliness token "
                 f"{P.alive_key(P.MANAGER)} is alive); a second one is refused: stop it first "
-                "or choose another --cell name (a manager that just died keeps it until the "
-                "Zenoh lease ends, about 10 s)"
+                "or choose another --cell name (a manager that just died keeps it until its "
+                "liveliness lease ends: about 10 s over Zenoh, 1 s over ROS 2)"
             )
 
     def _other_run(self, msg: dict[str, Any]) -> bool:
