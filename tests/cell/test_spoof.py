@@ -338,6 +338,32 @@ def test_k09_of_two_processes_that_both_found_the_name_free_only_the_granted_one
 
 
 @zenoh_only
+def test_a_restarted_process_whose_token_comes_before_its_join_takes_the_name() -> None:
+    """An arm killed and started again: on a loaded machine the new process's token may reach
+    the manager before its join. The name was still granted to the dead session (its token
+    had gone, then a token was back), so the restarted arm was refused and the cell never
+    used it again (test_cell_processes' robot-killed case, under load). A token that went away
+    frees the name for the next join; while the holder lives, another join is refused."""
+    with _zenoh() as net:
+        cell = Cell(
+            load_scenario("table_assembly"), net.manager, name="vacate",
+            simulator=execution_model("analytic"),
+        )  # fmt: skip
+        try:
+            left = P.alive_key("left")
+            assert cell._grant("left", "session-a")
+            cell._on_alive(left, True)
+            assert not cell._grant("left", "session-b")  # the holder lives: refused
+            cell._on_alive(left, False)  # the holder dies
+            cell._on_alive(left, True)  # the restarted process: its token first
+            assert cell._grant("left", "session-b")  # then its join
+            assert cell.sessions["left"] == "session-b"
+            assert not cell._grant("left", "session-c")  # and it holds the name
+        finally:
+            cell.close()
+
+
+@zenoh_only
 @pytest.mark.slow
 def test_k09_two_arm_processes_started_at_once_one_is_refused_none_executes_twice(
     tmp_path: Path,

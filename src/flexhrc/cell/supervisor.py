@@ -154,6 +154,10 @@ class Cell:
         self.refused_sessions: dict[str, str] = {}  # session -> why its join was refused
         self.sourced = callable(getattr(transport, "subscribe_from", None))
         self._token_alive: dict[str, bool] = {}  # agent -> its token, as Zenoh reports it
+        # agents whose token went away since their name was granted: the granted process died
+        # (or lost its link), so the next process to join takes the name — even when its token
+        # arrives before its join, as it may on a loaded machine
+        self._vacated: set[str] = set()
         self.store = store
         self.realtime = float(realtime)
         self.ordered = (self.realtime == 0) if ordered is None else ordered
@@ -608,6 +612,8 @@ class Cell:
                 log.info("liveliness of %s, not an agent of this cell: ignored", name)
             return
         self._token_alive[name] = alive
+        if not alive:
+            self._vacated.add(name)
         if name in self.refused and alive:  # the process of another scenario: not this agent
             return
         st.alive = alive
@@ -1350,9 +1356,10 @@ class Cell:
         if not self.sourced or source == HERE:
             return True
         held = self.sessions.get(name)
-        gone = self._token_alive.get(name) is False  # seen, then lost: the holder died
+        gone = name in self._vacated  # its token went away since: the holder died
         if source is not None and (held is None or held == source or gone):
             self.sessions[name] = source
+            self._vacated.discard(name)
             self.refused_sessions.pop(source, None)
             return True
         why = (
