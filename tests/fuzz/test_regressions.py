@@ -264,6 +264,25 @@ def test_store_a_sent_message_without_its_id_is_refused(kind: str, tmp_path: Pat
         replay(path)
 
 
+def test_scenario_a_huge_malformed_literal_is_quoted_in_part() -> None:
+    """A scenario of 2 367 bytes whose aliases build a literal of 342 291 characters: the
+    error quoted all of it (``fuzz.py --target scenario --seed 294809954``). Literal errors
+    quote at most 80 characters and say how long the text was."""
+    from flexhrc.logic.terms import parse_conjunction, parse_literal
+
+    for call, text in [
+        (parse_literal, "[" + "'Zx, x]', " * 30000),
+        (parse_literal, "p(" + "a, " * 30000 + "!)"),
+        (parse_conjunction, "a(" * 50000),
+        (parse_conjunction, "a)" * 50000),
+    ]:
+        with pytest.raises(FormatError) as err:
+            call(text, "task.yaml", 60)
+        message = str(err.value)
+        assert message.startswith("task.yaml:60: ") and len(message) < 200, message[:300]
+        assert f"({len(text)} characters)" in message
+
+
 @pytest.mark.parametrize("case", ["S01", "S02", "S03", "S07"])
 def test_scenario_a_value_of_the_wrong_type_is_a_fault(case: str, tmp_path: Path) -> None:
     """Probe S01 ``attrs: abc``, S02 ``attrs: [1, 2]``, S03 ``reachable_by: 5``, S07 agent

@@ -55,17 +55,25 @@ class Literal:
 Conjunction = tuple[Literal, ...]
 
 
+def _quoted(text: str, limit: int = 80) -> str:
+    """``text`` quoted for a message, cut to ``limit`` characters: a literal built from a YAML
+    structure (aliases, nested lists) may be hundreds of kilobytes long."""
+    if len(text) <= limit:
+        return repr(text)
+    return f"{text[:limit]!r}... ({len(text)} characters)"
+
+
 def parse_literal(text: str, source: str | None = None, line: int | None = None) -> Literal:
     """Parse ``pred(a, ?x)``, ``not pred(a)``, ``!pred`` or a bare ``name``."""
     m = _LITERAL_RE.match(text)
     if not m:
-        raise FormatError(f"malformed literal {text!r}", source, line)
+        raise FormatError(f"malformed literal {_quoted(text)}", source, line)
     args_text = m.group("args")
     args: tuple[str, ...] = ()
     if args_text is not None and args_text.strip():
         args = tuple(a.strip() for a in args_text.split(","))
         if any(not a or not re.fullmatch(_IDENT, a) for a in args):
-            raise FormatError(f"malformed argument list in literal {text!r}", source, line)
+            raise FormatError(f"malformed argument list in literal {_quoted(text)}", source, line)
     return Literal(m.group("pred"), args, bool(m.group("neg")))
 
 
@@ -84,12 +92,12 @@ def parse_conjunction(
         elif ch == ")":
             depth -= 1
             if depth < 0:
-                raise FormatError(f"unbalanced ')' in {text!r}", source, line)
+                raise FormatError(f"unbalanced ')' in {_quoted(text)}", source, line)
         elif ch in "&," and depth == 0:
             parts.append(text[start:i])
             start = i + 1
     if depth:
-        raise FormatError(f"unbalanced '(' in {text!r}", source, line)
+        raise FormatError(f"unbalanced '(' in {_quoted(text)}", source, line)
     parts.append(text[start:])
     out: list[Literal] = []
     for part in parts:
