@@ -356,6 +356,28 @@ def test_p14_a_command_resent_after_a_spoofed_stop_is_answered_failed() -> None:
     arm.close()
 
 
+def test_p14_the_failed_answer_after_a_stop_names_its_run(tmp_path: Path) -> None:
+    """Every ack names its run, in the message and in the agent's journal: the answer to a
+    command resent after a stop left it out (the copy of the interrupted-command answer had
+    it)."""
+    bus = InProcessBus(immediate=True)
+    acks: list[dict[str, Any]] = []
+    bus.subscribe(P.ACK_TOPIC, acks.append)
+    journal = tmp_path / "left.journal"
+    arm = RobotAgent(
+        "left", table_assembly(segments="legs"), bus, execution=execution_model("analytic"),
+        journal=journal,
+    )  # fmt: skip
+    bus.publish(P.cmd_topic("left"), {**_command(9), "run": "r1"})
+    bus.publish(P.cmd_topic("left"), {"v": 1, "type": "stop", "id": 9, "reason": "x", "run": "r1"})
+    bus.publish(P.cmd_topic("left"), {**_command(9), "run": "r1"})
+    assert [(a["id"], a["status"], a.get("run")) for a in acks] == [(9, "failed", "r1")]
+    arm.close()
+    lines = [json.loads(x) for x in journal.read_text().splitlines()]
+    answer = next(x for x in lines if x.get("event") == "ack")
+    assert answer["run"] == "r1" and answer["ack"]["run"] == "r1"
+
+
 def test_p14_a_stop_of_another_run_is_dropped() -> None:
     bus = InProcessBus(immediate=True)
     arm = _arm(bus)

@@ -510,6 +510,18 @@ class RobotAgent(_Agent):
         if joints and set_joint_state is not None:
             set_joint_state(joints)
 
+    def _fail_at_once(self, cid: int, msg: dict[str, Any], reason: str, said: str) -> None:
+        """Answer command ``cid`` with a failed ack without running it (it names its run, as
+        every ack does, in the message and in the journal)."""
+        ack = P.message(
+            "ack", id=cid, agent=self.name, status="failed", reason=reason, t=float(msg["t"]),
+            duration=0.0, positions={}, **self._run_field(),
+        )  # fmt: skip
+        self.acks[cid] = ack
+        self._journal({"id": cid, "event": "ack", "ack": ack, **self._run_field()})
+        self.transport.publish(P.ACK_TOPIC, ack)
+        self.trace(f"cmd {cid} {said}: failed")
+
     def _command(self, msg: dict[str, Any]) -> None:
         cid = int(msg["id"])
         if not self._of_this_scenario(msg) or not self._enter_run(msg):
@@ -532,39 +544,15 @@ class RobotAgent(_Agent):
             # the manager sends a command again that this arm was told to stop: it did not
             # send that stop (a spoofed one, P14) or no longer knows of it; a failed ack lets
             # it re-plan instead of waiting for an answer that never comes
-            ack = P.message(
-                "ack",
-                id=cid,
-                agent=self.name,
-                status="failed",
-                reason="stopped before its end",
-                t=float(msg["t"]),
-                duration=0.0,
-                positions={},
-            )
             self.stopped.discard(cid)
-            self.acks[cid] = ack
-            self._journal({"id": cid, "event": "ack", "ack": ack})
-            self.transport.publish(P.ACK_TOPIC, ack)
-            self.trace(f"cmd {cid} repeated after a stop: failed")
+            self._fail_at_once(cid, msg, "stopped before its end", "repeated after a stop")
             return
         if cid in self.interrupted:  # started by a process of this agent that died
-            ack = P.message(
-                "ack",
-                id=cid,
-                agent=self.name,
-                status="failed",
-                reason="interrupted: the agent's process was restarted during it",
-                t=float(msg["t"]),
-                duration=0.0,
-                positions={},
-                **self._run_field(),
-            )
             self.interrupted.discard(cid)
-            self.acks[cid] = ack
-            self._journal({"id": cid, "event": "ack", "ack": ack, **self._run_field()})
-            self.transport.publish(P.ACK_TOPIC, ack)
-            self.trace(f"cmd {cid} was interrupted by a restart: failed")
+            self._fail_at_once(
+                cid, msg, "interrupted: the agent's process was restarted during it",
+                "was interrupted by a restart",
+            )  # fmt: skip
             return
         if self.name not in msg["agents"]:
             raise P.ProtocolError(f"command {cid} is for {msg['agents']}, not {self.name}")
