@@ -283,6 +283,24 @@ def test_scenario_a_huge_malformed_literal_is_quoted_in_part() -> None:
         assert f"({len(text)} characters)" in message
 
 
+@pytest.mark.parametrize("last", ["rt{", b"rt{", 7.5])
+def test_store_a_seq_that_is_no_whole_number_is_refused_at_resume(
+    last: Any, tmp_path: Path
+) -> None:
+    """A table declared without types keeps a text or blob ``seq`` as it is: ``int()`` of it
+    was a ValueError traceback of ``--resume`` (``fuzz.py --target store --seed 3782358320``)."""
+    path = tmp_path / "cell.db"
+    db = sqlite3.connect(path)
+    db.execute("CREATE TABLE events(seq, t, kind, body)")
+    db.executemany("INSERT INTO events VALUES (?, ?, ?, ?)", store_rows()[:3])
+    db.execute("INSERT INTO events VALUES (?, 1.0, 'percept', '{}')", (last,))
+    db.commit()
+    db.close()
+    for _ in range(2):  # the refused store is let go: the same answer again, not "locked"
+        with pytest.raises(StoreError, match=r"not a flexhrc event store .*not a whole number"):
+            EventStore(path, resume=True)
+
+
 @pytest.mark.parametrize("case", ["S01", "S02", "S03", "S07"])
 def test_scenario_a_value_of_the_wrong_type_is_a_fault(case: str, tmp_path: Path) -> None:
     """Probe S01 ``attrs: abc``, S02 ``attrs: [1, 2]``, S03 ``reachable_by: 5``, S07 agent

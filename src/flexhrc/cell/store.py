@@ -140,7 +140,14 @@ class EventStore:
                 f"{option} {self.path}: nothing to resume (the store holds no events)"
                 + wal_hint(self.path, had_wal)
             )
-        self.last_seq = int(row[0])
+        if type(row[0]) is not int:  # a table without types keeps a text or blob seq as is
+            self._db.close()
+            os.close(self._lock_fd)
+            raise StoreError(
+                f"{option} {self.path}: not a flexhrc event store (its last seq is "
+                f"{row[0]!r:.40}, not a whole number)"
+            )
+        self.last_seq = row[0]
         if int(row[1]) != self.last_seq:
             self._db.close()  # a refused store is let go: a corrected file opens at once
             os.close(self._lock_fd)
