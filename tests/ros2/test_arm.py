@@ -155,6 +155,7 @@ def test_k09_a_second_node_for_the_arm_is_refused_and_the_first_keeps_it(arm_nod
     client, rec, proc = arm_node
     env = subprocess_env()
     env.update(ROS_DOMAIN_ID=str(client.domain_id), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
+    env["FLEXHRC_ROS2_DISCOVERY_S"] = "30"  # as long as a loaded machine's DDS may need
     cell = client.prefix.split("/")[-1]
     twin = subprocess.run(
         [sys.executable, "-m", "flexhrc", "ros2", "arm", "table_assembly", "--arm", "left",

@@ -337,3 +337,25 @@ def test_r2p4_a_heartbeat_that_claims_an_hour_holds_a_key_for_one_lease(
             node.destroy_node()  # type: ignore[attr-defined]
             ctx.try_shutdown()  # type: ignore[attr-defined]
         assert events == [("alive/right", True), ("alive/right", False)]
+
+
+@pytest.mark.parametrize("value", ["soon", "-1", "nan", "1e9"])
+def test_a_bad_discovery_time_from_the_environment_is_one_error_naming_it(
+    value: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("FLEXHRC_ROS2_DISCOVERY_S", value)
+    with pytest.raises(Ros2TransportError, match="FLEXHRC_ROS2_DISCOVERY_S="):
+        Ros2Transport(prefix="flexhrc/disc")
+
+
+def test_the_discovery_time_comes_from_the_environment_unless_given(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    monkeypatch.setenv("FLEXHRC_ROS2_DISCOVERY_S", "12.5")
+    with Ros2Transport(prefix="flexhrc/disc") as bus:
+        assert bus.discovery_s == 12.5
+    with Ros2Transport(prefix="flexhrc/disc", discovery_s=0.5) as bus:
+        assert bus.discovery_s == 0.5
+    monkeypatch.delenv("FLEXHRC_ROS2_DISCOVERY_S")
+    with Ros2Transport(prefix="flexhrc/disc") as bus:
+        assert bus.discovery_s == 3.0

@@ -54,6 +54,7 @@ from __future__ import annotations
 import contextlib
 import json
 import logging
+import math
 import os
 import re
 import threading
@@ -93,6 +94,30 @@ LIVELINESS_TOPIC = "liveliness"
 LivelinessCallback = Callable[[str, bool], None]
 
 _TOKEN = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+
+
+#: How long a node looks for another holder of its name at start-up, by default (s).
+DISCOVERY_S = 3.0
+DISCOVERY_ENV = "FLEXHRC_ROS2_DISCOVERY_S"
+
+
+def _discovery_from_env() -> float:
+    """``FLEXHRC_ROS2_DISCOVERY_S``, or :data:`DISCOVERY_S`: DDS has no "discovery finished",
+    so a name is taken as free after this long without a holder; a loaded host where DDS takes
+    longer to show a running node needs more (one error naming the variable otherwise)."""
+    text = os.environ.get(DISCOVERY_ENV, "").strip()
+    if not text:
+        return DISCOVERY_S
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and 0 <= value < 3600):
+        raise Ros2TransportError(
+            f"{DISCOVERY_ENV}={text!r:.40}: give the seconds to look for a name's holder, "
+            "a number in [0, 3600)"
+        )
+    return value
 
 
 class Ros2TransportError(FlexhrcError):
@@ -239,8 +264,10 @@ class Ros2Transport(QueuedDelivery, Transport):
         heartbeat_s: float = 0.1,
         match_timeout_s: float = 2.0,
         depth: int = 100,
-        discovery_s: float = 3.0,
+        discovery_s: float | None = None,
     ) -> None:
+        if discovery_s is None:  # a host busier than DDS's usual 2 s may give it longer
+            discovery_s = _discovery_from_env()
         if deliver not in ("flush", "thread"):
             raise ValueError(f"deliver must be 'flush' or 'thread', not {deliver!r}")
         for name, value in (("lease_s", lease_s), ("heartbeat_s", heartbeat_s)):
