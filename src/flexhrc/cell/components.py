@@ -308,6 +308,9 @@ class _Agent:
             if isinstance(why, str) and self.fatal is None:  # another process has the name (K09)
                 self.fatal = why
                 log.error("%s", why)
+            unjoined = data.get("unjoined")
+            if isinstance(unjoined, list) and self.name in unjoined and self.fatal is None:
+                self._join()  # the manager never got this process's join (lost): again
 
     def _for_me(self, msg: dict[str, Any]) -> bool:
         """A message the manager addressed to another process of this agent's name (its

@@ -158,6 +158,7 @@ class Cell:
         # (or lost its link), so the next process to join takes the name — even when its token
         # arrives before its join, as it may on a loaded machine
         self._vacated: set[str] = set()
+        self._asked_joins_at = -1e9  # when the manager last asked for missing joins
         self.store = store
         self.realtime = float(realtime)
         self.ordered = (self.realtime == 0) if ordered is None else ordered
@@ -316,6 +317,9 @@ class Cell:
             "dropped": len(self.dropped),
             # the processes refused an agent's name (another holds it): each exits on seeing it
             **({"refused_sessions": dict(self.refused_sessions)} if self.refused_sessions else {}),
+            # agents whose token is alive but whose process has not joined (or whose granted
+            # process died): each such process sends its ``join`` (again) on seeing its name
+            **({"unjoined": unjoined} if (unjoined := self._unjoined()) else {}),
         }
 
     def human_input(self, action: str, agent: str | None = None) -> None:
@@ -481,6 +485,16 @@ class Cell:
             return
         self._arrive(msg["t"], "human_action", _body(msg))
 
+    def _next_human_step(self, text: str) -> bool:
+        """``text`` is the next step of an open execution the person owns (asked of them, or
+        what they decided to do)."""
+        return any(
+            ex.owner == "human"
+            and ex.next_index < len(ex.branch.steps)
+            and str(ex.branch.steps[ex.next_index]) == text
+            for ex in self.tm.executions.values()
+        )
+
     def _repeated_report(self, human: str, action: GroundAction) -> bool:
         """A report of what ``human`` already reported, that no step of a request expects and
         whose effects all hold already: it would change nothing but add one more stored input
@@ -494,14 +508,8 @@ class Cell:
             for *_, k, b in self.pending
         ):
             return False
-        for ex in self.tm.executions.values():
-            steps = ex.branch.steps
-            if (
-                ex.owner == "human"
-                and ex.next_index < len(steps)
-                and str(steps[ex.next_index]) == text
-            ):
-                return False
+        if self._next_human_step(text):
+            return False
         facts, binding = self.kb.facts, action.binding
         added = (apply_substitution(lit, binding).key() for lit in action.schema.add)
         deleted = (apply_substitution(lit, binding).key() for lit in action.schema.delete)
@@ -1099,14 +1107,8 @@ class Cell:
             and asked["actions"][k] == text
         ):
             return None  # the step of a request it was sent: the manager handles what it did
-        for ex in self.tm.executions.values():
-            steps = ex.branch.steps
-            if (
-                ex.owner == "human"
-                and ex.next_index < len(steps)
-                and str(steps[ex.next_index]) == text
-            ):
-                return None  # the step asked of it (the common case: no copy made)
+        if self._next_human_step(text):
+            return None  # the step asked of it (the common case: no copy made)
         if self.tm.advances(max(self.now, float(t)), HumanAction(action.name, action.args)):
             return None
         return (
@@ -1235,6 +1237,11 @@ class Cell:
 
     def _resend(self, agent: str) -> None:
         """An agent is (again) reachable: send what it should be doing (after a resume)."""
+        if self.sourced and agent in self._vacated:
+            # its name is still granted to a process that died: what this sends would be
+            # addressed to that dead session; the new process's join (asked for, see
+            # :meth:`_ask_joins`) grants it the name and resends then
+            return
         for a, cmd in sorted(self.tm.busy.items()):
             if a == agent == cmd.agents[0] and cmd.id not in self.acked:
                 self._send_command(agent, cmd)
@@ -1334,10 +1341,43 @@ class Cell:
             # the answer: a snapshot with this cell's fingerprint (a matching agent gets none,
             # so the first state of a cell still comes with its start)
             self._publish_state(force=True)
-        elif not self._grant(name, source):
-            self._publish_state(force=True)  # the answer: the refused process exits (K09)
-        elif self.refused.pop(name, None) is not None and self._token_alive.get(name):
-            self._on_alive(P.alive_key(name), True)  # this agent's own process: counted now
+        else:
+            before = (self.sessions.get(name), name in self._vacated)
+            if not self._grant(name, source):
+                self._publish_state(force=True)  # the answer: the refused process exits (K09)
+            elif self.refused.pop(name, None) is not None and self._token_alive.get(name):
+                self._on_alive(P.alive_key(name), True)  # this agent's own process: counted now
+            elif (
+                before != (self.sessions.get(name), False)
+                and self._token_alive.get(name)
+                and self.started
+                and not self.tm.done
+            ):
+                # a new process (or the same one after its token came back) holds the name
+                # now: what the manager resent on its token went nowhere or was never sent
+                self._resend(name)
+
+    def _unjoined(self) -> list[str]:
+        """Agents whose token is alive but whose process holds no grant: its ``join`` was
+        lost (Zenoh drops a message to a session that is not yet fully connected, e.g. a
+        resumed manager's), or its granted process died and a new one took the token."""
+        if not self.sourced or self.token is None:
+            return []
+        return [
+            n
+            for n, alive in sorted(self._token_alive.items())
+            if alive and n not in self.refused and (n not in self.sessions or n in self._vacated)
+        ]
+
+    def _ask_joins(self) -> None:
+        """Ask, at most once a second, the processes of :meth:`_unjoined` agents to join
+        (again): a ``state`` naming them in ``unjoined``. Without it a single lost ``join``
+        leaves an agent alive but never counted, and the cell waits for ever."""
+        now = time.monotonic()
+        if now - self._asked_joins_at < 1.0 or not self._unjoined():
+            return
+        self._asked_joins_at = now
+        self._publish_state(force=True)
 
     # -- one process per agent name (probe K09) and only its messages (P10, P17, P19) --------
     def _listen(self, topic: str, handler: Callable[[Any, str | None], None]) -> Any:
@@ -1592,9 +1632,14 @@ class Cell:
         ]
 
     def wait_for_agents(
-        self, timeout: float, progress: Callable[[str], None] | None = None
+        self,
+        timeout: float,
+        progress: Callable[[str], None] | None = None,
+        pump: Callable[[float], None] | None = None,
     ) -> None:
-        """Block until every agent of the scenario is alive (external agents)."""
+        """Block until every agent of the scenario is alive and, over a transport that names
+        sessions, its process has joined (external agents); ``pump(timeout)`` lets the
+        transport deliver (and agents in this process act), else the transport is waited on."""
         deadline = time.monotonic() + timeout
         said: set[str] = set()
         while self._missing():
@@ -1619,8 +1664,12 @@ class Cell:
                 if progress and n not in said:
                     progress(f"waiting for agent {n} ...")
                     said.add(n)
-            self.transport.wait(0.1)  # type: ignore[attr-defined]
-            self.transport.flush()
+            self._ask_joins()
+            if pump is not None:
+                pump(0.1)
+            else:
+                self.transport.wait(0.1)  # type: ignore[attr-defined]
+                self.transport.flush()
 
     def step(self) -> bool:
         """Handle one pending answer if the loop may; returns whether it did."""
@@ -1681,7 +1730,7 @@ class Cell:
         """Run the cooperation to its end; ``pump(timeout)`` lets the transport deliver."""
         self._last_wall = time.perf_counter()
         if not self.resumed:
-            self.wait_for_agents(agents_timeout, progress)
+            self.wait_for_agents(agents_timeout, progress, pump)
         self._clock0 = time.perf_counter() - (self.now / self.realtime if self.realtime else 0)
         if not self.resumed:
             self._input(
@@ -1743,6 +1792,7 @@ class Cell:
                     self._end("failed", stall_reason(self.tm))
                     break
             self._resend_overdue()
+            self._ask_joins()
             if time.monotonic() > deadline:
                 self._end("failed", f"wall time {max_wall_s} s exceeded")
                 break

@@ -96,6 +96,10 @@ LivelinessCallback = Callable[[str, bool], None]
 _TOKEN = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 
 
+class Ros2TransportError(FlexhrcError):
+    """A ROS 2 transport that cannot be set up or used: a bad topic name, a closed transport."""
+
+
 #: How long a node looks for another holder of its name at start-up, by default (s).
 DISCOVERY_S = 3.0
 DISCOVERY_ENV = "FLEXHRC_ROS2_DISCOVERY_S"
@@ -118,10 +122,6 @@ def _discovery_from_env() -> float:
             "a number in [0, 3600)"
         )
     return value
-
-
-class Ros2TransportError(FlexhrcError):
-    """A ROS 2 transport that cannot be set up or used: a bad topic name, a closed transport."""
 
 
 def json_encode(payload: Any) -> str:
