@@ -497,8 +497,12 @@ register_action_kind(
     aims_at=_PLACE, colour="#2171b5",
 )  # fmt: skip
 register_action_kind(
-    "hold", phrase="hold {object}", moves=False, aims_at=_OBJ, colour="#807dba"
-)  # keeps a part still where the hands are: no motion (declare the round's duration)
+    "hold", phrase="hold {object}", aims_at=_OBJ, colour="#807dba",
+    motion=[_TO_OBJECT, MotionStep("grasp", _OBJ), MotionStep("hold"), _RELEASE],
+)  # fmt: skip
+# the node process P(n) of paper eq. 5: the hands take the part and keep it at its pose with the
+# controller (the ``hold`` behaviour of flexhrc.action.simulator: a push is undone) until it is
+# back and still, then let go; the analytic model times it by the schema's ``duration``
 register_action_kind(
     "release", phrase="release {object}", robot_time=_release, motion=[_RELEASE],
     colour="#c6dbef", aliases=("ungrasp",),
