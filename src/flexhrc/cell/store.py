@@ -128,7 +128,7 @@ class EventStore:
             self._db.execute("PRAGMA synchronous=NORMAL")
             self._db.execute(SCHEMA)
             row = self._db.execute("SELECT COALESCE(MAX(seq), 0), COUNT(*) FROM events").fetchone()
-        except sqlite3.DatabaseError as exc:
+        except (sqlite3.DatabaseError, UnicodeDecodeError) as exc:
             if hasattr(self, "_db"):
                 self._db.close()
             os.close(self._lock_fd)
@@ -197,7 +197,7 @@ class EventStore:
         """Every stored event, each row checked (:func:`iter_events`)."""
         try:
             return list(iter_events(self._db, self.path))
-        except sqlite3.DatabaseError as exc:
+        except (sqlite3.DatabaseError, UnicodeDecodeError) as exc:
             raise StoreError(
                 f"{self.option} {self.path}: not a flexhrc event store ({exc})"
             ) from None
@@ -368,7 +368,7 @@ def read_store(path: str | Path) -> list[StoredEvent]:
             events = list(iter_events(db, p))
         finally:
             db.close()
-    except sqlite3.DatabaseError as exc:
+    except (sqlite3.DatabaseError, UnicodeDecodeError) as exc:
         raise FormatError(f"not a flexhrc event store ({exc})", p) from None
     return events
 
