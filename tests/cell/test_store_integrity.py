@@ -133,6 +133,34 @@ def test_the_commands_exit_2_without_a_traceback(
         assert res.stderr.startswith("error: ") and message in res.stderr, res.stderr
 
 
+@pytest.mark.parametrize("where", [b"CREATE", b"KEY"])
+def test_a_store_whose_schema_has_a_damaged_byte_is_one_clear_error(
+    full_store: Path, tmp_path: Path, where: bytes
+) -> None:
+    """One byte of the table's schema text changed (fuzz, store target): SQLite's error
+    quotes the damaged text, which is no UTF-8 any more, so Python's sqlite3 raised
+    UnicodeDecodeError from the query itself — a traceback of ``replay`` and ``--resume``."""
+    data = bytearray(full_store.read_bytes())
+    at = data.find(b"CREATE TABLE events(")
+    at = data.find(where, at)
+    data[at + 2] = 0xC5  # a lead byte followed by no continuation byte
+    path = tmp_path / "damaged.db"
+    path.write_bytes(bytes(data))
+    for args in (["replay", str(path)], ["cell", "table_assembly", "--store", str(path),
+                                          "--resume", "--quiet"]):  # fmt: skip
+        res = subprocess.run(
+            [sys.executable, "-m", "flexhrc", *args],
+            capture_output=True, text=True, env=subprocess_env(), timeout=60,
+        )  # fmt: skip
+        assert res.returncode == 2, res.stderr
+        assert "Traceback" not in res.stderr, res.stderr
+        assert res.stderr.startswith("error: ") and str(path) in res.stderr, res.stderr
+        assert "not a flexhrc event store (its schema is damaged" in res.stderr, res.stderr
+        assert len(res.stderr.strip().splitlines()) == 1, res.stderr
+    with pytest.raises(FlexhrcError, match="its schema is damaged"):
+        read_store(path)
+
+
 class Spoof:
     """A perception process that reports, once the cell has started, that leg1 is not where
     the knowledge base has it: the knowledge base is inconsistent and the cooperation fails at
