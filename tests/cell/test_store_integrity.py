@@ -22,6 +22,7 @@ from flexhrc.errors import FlexhrcError
 from flexhrc.scenario import load_scenario
 
 from ..conftest import subprocess_env
+from .helpers import simulated_agents
 
 TABLE = load_scenario("table_assembly")
 
@@ -350,7 +351,7 @@ def test_k06_a_stalled_manager_counts_the_work_that_was_done(
     sent meanwhile was lost. The tokens that come back are agents that were there all along:
     nothing is recorded lost, the done command counts (its ack is asked for again). A token
     that does not come back within the grace is a lost agent, as before."""
-    from flexhrc.cell import Cell, HumanAgent, RobotAgent
+    from flexhrc.cell import Cell
     from flexhrc.cell import supervisor as S
     from flexhrc.cell.components import execution_model
 
@@ -360,12 +361,7 @@ def test_k06_a_stalled_manager_counts_the_work_that_was_done(
     monkeypatch.setattr(S, "time", clock)
     bus = LeaseBus()
     cell = Cell(scenario, bus, simulator=execution_model("analytic"))  # type: ignore[arg-type]
-    agents = [
-        (HumanAgent if a.is_human else RobotAgent)(
-            a.name, scenario, bus, execution=execution_model("analytic")
-        )
-        for a in scenario.domain.agents.values()
-    ]
+    agents = simulated_agents(scenario, bus)
     phase = ["run"]
 
     def pump(timeout: float) -> None:
