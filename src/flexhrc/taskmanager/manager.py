@@ -1048,8 +1048,8 @@ class TaskManager:
     def _give_up(self, element: str, reason: str) -> None:
         """Paper V-A: "sets the optimal hyper-arc to follow as infeasible, and finds a new
         optimal hyper-arc among the available ones" — for good, in the graph, so the next plan
-        takes the feasible state of least cost that is left (none left: the cooperation fails,
-        eq. 17)."""
+        takes the feasible state of least cost that is left (none left, Nf and Hf empty: the
+        cooperation fails, section IV)."""
         if not self.graph.is_feasible(element):
             return  # meanwhile an alternative was solved: nothing left to give up
         self.infeasible[element] = reason
