@@ -34,7 +34,7 @@ from flexhrc.events import PROFILES, TRACE_TYPES
 from flexhrc.scenario.model import Scenario
 from flexhrc.scenario.simulators import CHOICES as SIMULATOR_CHOICES
 from flexhrc.scenario.simulators import choose_simulator, resolve_simulator_name
-from flexhrc.taskmanager.manager import REACTIONS
+from flexhrc.taskmanager.manager import FAILURE_POLICIES, REACTIONS
 from flexhrc.taskmanager.replay import outcome_line, plural, table_i
 
 HUMAN_SENSING = ("injected", "har", "har-real")
@@ -94,7 +94,9 @@ class RunConfig:
     :class:`~flexhrc.scenario.Scenario` or a :class:`TableDemo`. ``human`` overrides every
     operator's profile; ``human_takes`` scripts the operator (the K-th cooperation step it
     could do); ``fail`` are ``ACTION[:N]`` failures, ``disturb`` ``KIND[:ACTION[:N]]``
-    disturbances of the kinematic simulator; ``simulator`` None is the scenario's choice.
+    disturbances of the kinematic simulator; ``on_failure`` what a failed robot action does to
+    its hyper-arc (``retry``, ``paper``; None: the scenario's ``on_failure``, else ``retry``);
+    ``simulator`` None is the scenario's choice.
     ``log`` streams the event log (JSON lines), ``plot`` draws the timeline; ``quiet`` drops
     the progress lines; ``realtime`` paces the simulated clock (SPEED times real time).
     """
@@ -106,6 +108,7 @@ class RunConfig:
     human_takes: tuple[int, ...] | None = None
     fail: tuple[str, ...] = ()
     reaction: str = "conflicts"
+    on_failure: str | None = None
     simulator: str | None = None
     disturb: tuple[str, ...] = ()
     human_sensing: str = "injected"
@@ -122,6 +125,7 @@ class RunConfig:
         for option, value, choices in (
             ("--human", self.human, (None, *PROFILES)),
             ("--reaction", self.reaction, REACTIONS),
+            ("--on-failure", self.on_failure, (None, *FAILURE_POLICIES)),
             ("--simulator", self.simulator, (None, *SIMULATOR_CHOICES)),
             ("--human-sensing", self.human_sensing, HUMAN_SENSING),
             ("--perception", self.perception, PERCEPTION),
@@ -259,6 +263,7 @@ def run_scenario(
             simulator=simulator,
             execution=simulator,
             reaction=config.reaction,
+            on_failure=config.on_failure,
             trace=trace,
             sink=writer.write if writer is not None else None,
             failures=failures,
@@ -527,6 +532,7 @@ def _perceived(config: RunConfig, run: Any, steps: Any, say: Callable[[str], Non
         human_sensing=run.human_sensing,
         humans=run.operator_profiles(),
         reaction=cell.tm.reaction,
+        on_failure=cell.tm.on_failure,
         name=str(run.scenario.name),
     )
 

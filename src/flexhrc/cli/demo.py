@@ -17,6 +17,7 @@ from dataclasses import fields
 from typing import Any
 
 from flexhrc.cli.common import (
+    ON_FAILURE_OPTION,
     add_json_flag,
     add_segments_option,
     emit,
@@ -93,6 +94,7 @@ RUN_OPTIONS: dict[str, dict[str, Any]] = {
         "that conflict with it (conflicts, default) or every robot action, arms to rest "
         "(paper, V-B)",
     ),
+    "--on-failure": ON_FAILURE_OPTION,
     "--simulator": dict(
         choices=["auto", "analytic", "kinematic"],
         help="how branches are simulated: kinematic (task-priority control on the robot model; "

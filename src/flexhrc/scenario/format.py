@@ -24,7 +24,7 @@ from pathlib import Path
 from typing import Any
 
 from flexhrc.errors import FlexhrcError, FormatError
-from flexhrc.events import WORKSPACE_M
+from flexhrc.events import FAILURE_POLICIES, WORKSPACE_M
 from flexhrc.logic import Literal, parse_literal
 from flexhrc.representation import HierarchicalGraph
 from flexhrc.representation.graph import AndOrGraph
@@ -189,6 +189,7 @@ TOP_KEYS = {
     "humans",
     "robot",
     "simulator",
+    "on_failure",
 }
 WORLD_KEYS = {"objects", "places", "facts", "supertypes"}
 
@@ -383,6 +384,13 @@ def _build(doc: Any, c: _Checker) -> Scenario | None:
             f"simulator {show(simulator)}: choose one of {', '.join(SIMULATORS)}",
             _line(doc, "simulator"),
         )
+    on_failure = doc.get("on_failure")
+    if on_failure is not None and on_failure not in FAILURE_POLICIES:
+        c.error(
+            f"on_failure {show(on_failure)}: choose one of {', '.join(FAILURE_POLICIES)}",
+            _line(doc, "on_failure"),
+        )
+        on_failure = None
     robot = doc.get("robot") or {}
     if not isinstance(robot, Mapping):
         c.error("robot must be a mapping", _line(doc, "robot"))
@@ -408,6 +416,7 @@ def _build(doc: Any, c: _Checker) -> Scenario | None:
         dict(robot),
         path,
         tuple(str(f) for f in c.faults if f.severity == "warning"),
+        on_failure=on_failure,
     )
 
 

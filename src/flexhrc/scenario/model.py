@@ -80,6 +80,9 @@ class Scenario:
     #: the simulators the task can run on; another choice gets :attr:`simulator` (a bench of
     #: many arms: the analytic one only, the kinematic model is the dual-arm robot)
     simulators: tuple[str, ...] = SIMULATORS
+    #: what a failed or timed-out robot action does to its hyper-arc (``on_failure:``):
+    #: ``retry`` or ``paper`` (paper V-A); None: not said (``retry``, unless a run says otherwise)
+    on_failure: str | None = None
 
     # -- factories ------------------------------------------------------------------------
     def world(self) -> KnowledgeBase:

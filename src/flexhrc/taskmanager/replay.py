@@ -162,6 +162,8 @@ def summarise_log(events: Iterable[dict[str, Any]]) -> dict[str, Any]:
         "complete": complete,
         "compute_recorded": bool(compute),
         "simulator": simulator or closing.get("simulator"),
+        # the failure policy the run used (logs written before it was a choice: retry, unsaid)
+        **({"on_failure": start["on_failure"]} if "on_failure" in start else {}),
         "events": len(events),
         "robot_actions": robot_actions,
         "human_actions": human_actions,
