@@ -389,3 +389,19 @@ def test_priority_is_a_whole_number_of_processes_only(tmp_path):
     doc = housing()
     doc["domain"]["processes"]["steady"]["priority"] = 3
     assert Domain.from_dict(doc["domain"]).processes["steady"].priority == 3
+
+
+def test_of_two_nodes_reached_at_once_the_higher_process_asks_first(tmp_path):
+    # both leaves hold from the start; the graph lists a_in (low) first, yet high(b) gets the
+    # arm first and nothing is stopped: the order of asking follows the priorities
+    doc = priorities(low=0, high=5)
+    graph = doc["graphs"]["priorities"]
+    graph["nodes"] = [n for n in graph["nodes"] if not n["name"].endswith("_loose")]
+    graph["hyperarcs"] = [h for h in graph["hyperarcs"] if h["name"] == "finish"]
+    doc["world"]["facts"] = ["placed(a)", "placed(b)"]
+    sc = scenario.load(_write(tmp_path, doc))
+    result = scenario.run(sc, simulator="analytic")
+    assert result.outcome == "solved"
+    order = [e["action"] for e in result.events if e["type"] == "command"]
+    assert order == ["high(b)", "low(a)"]
+    assert not [e for e in result.events if e["type"] == "stop"]
