@@ -80,6 +80,9 @@ class Scenario:
     #: the simulators the task can run on; another choice gets :attr:`simulator` (a bench of
     #: many arms: the analytic one only, the kinematic model is the dual-arm robot)
     simulators: tuple[str, ...] = SIMULATORS
+    #: how simulated actions are timed (:data:`flexhrc.taskmanager.kinds.TIMINGS`): ``default``,
+    #: or ``paper`` (the paper's Baxter and operator, to set beside its Table I)
+    timing: str = "default"
 
     # -- factories ------------------------------------------------------------------------
     def world(self) -> KnowledgeBase:
@@ -126,7 +129,7 @@ class Scenario:
         name = resolve_simulator_name(choice or self.simulator)
         if name not in self.simulators:
             name = self.simulator
-        return choose_simulator(name)[1]
+        return choose_simulator(name, timing=self.timing)[1]
 
     def summary_line(self) -> str:
         stats = self.graph.stats()
