@@ -33,7 +33,7 @@ from flexhrc.errors import FlexhrcError
 from flexhrc.events import PROFILES, TRACE_TYPES
 from flexhrc.scenario.model import Scenario
 from flexhrc.scenario.simulators import CHOICES as SIMULATOR_CHOICES
-from flexhrc.scenario.simulators import choose_simulator, resolve_simulator_name
+from flexhrc.scenario.simulators import TIMING_CHOICES, choose_simulator, resolve_simulator_name
 from flexhrc.taskmanager.manager import FAILURE_POLICIES, REACTIONS
 from flexhrc.taskmanager.replay import outcome_line, plural, table_i
 
@@ -96,7 +96,8 @@ class RunConfig:
     could do); ``fail`` are ``ACTION[:N]`` failures, ``disturb`` ``KIND[:ACTION[:N]]``
     disturbances of the kinematic simulator; ``on_failure`` what a failed robot action does to
     its hyper-arc (``retry``, ``paper``; None: the scenario's ``on_failure``, else ``retry``);
-    ``simulator`` None is the scenario's choice.
+    ``simulator`` None is the scenario's choice, as is ``timing`` None (``default`` or
+    ``paper``: how simulated actions are timed, :data:`~flexhrc.taskmanager.kinds.TIMINGS`).
     ``log`` streams the event log (JSON lines), ``plot`` draws the timeline; ``quiet`` drops
     the progress lines; ``realtime`` paces the simulated clock (SPEED times real time).
     """
@@ -110,6 +111,7 @@ class RunConfig:
     reaction: str = "conflicts"
     on_failure: str | None = None
     simulator: str | None = None
+    timing: str | None = None
     disturb: tuple[str, ...] = ()
     human_sensing: str = "injected"
     hmp: str | Path | None = None
@@ -127,6 +129,7 @@ class RunConfig:
             ("--reaction", self.reaction, REACTIONS),
             ("--on-failure", self.on_failure, (None, *FAILURE_POLICIES)),
             ("--simulator", self.simulator, (None, *SIMULATOR_CHOICES)),
+            ("--timing", self.timing, (None, *TIMING_CHOICES)),
             ("--human-sensing", self.human_sensing, HUMAN_SENSING),
             ("--perception", self.perception, PERCEPTION),
         ):
@@ -245,10 +248,14 @@ def run_scenario(
         if config.log is not None and Path(config.plot).resolve() == Path(config.log).resolve():
             raise FlexhrcError(f"--plot {config.plot}: also given to --log; use two files")
         need_matplotlib()
+    timing = config.timing or sc.timing
     simulator = _simulator(
-        config.simulator or ("auto" if job.table else sc.simulator), config.disturb, robot_actions,
+        config.simulator or ("auto" if job.table else sc.simulator),
+        config.disturb,
+        robot_actions,
+        timing,
         _holds(sc),
-    )  # fmt: skip
+    )
     sensing = _human_sensing(config, say)
     # the table's --human-takes K is bolt K: the K-th step of the legs fix alone, else its node
     steps: list[Any] | None = takes
@@ -287,6 +294,8 @@ def run_scenario(
         title = f"{sc.name}, {who}, seed {config.seed}"
         data, subject = {"scenario": sc.name, **result.summary}, f"{sc.name}: "
     data = _with_sensing(data, config)
+    if timing != "default":  # the default keeps the JSON as it was
+        data["timing_profile"] = timing
     if config.plot:
         from flexhrc.files import atomic_output
         from flexhrc.taskmanager.timeline import plot_timeline
@@ -418,12 +427,16 @@ def _holds(scenario: Scenario) -> dict[str, str]:
 
 
 def _simulator(
-    name: str, disturb: tuple[str, ...], actions: list[str], holds: Mapping[str, str] | None = None
+    name: str,
+    disturb: tuple[str, ...],
+    actions: list[str],
+    timing: str = "default",
+    holds: Mapping[str, str] | None = None,
 ) -> Any:
-    """The branch simulator, which also plays the real world, with ``disturb``'s
-    disturbances scheduled (kinematic only; checked before anything is built). ``push``
-    names a process or action of ``holds`` (default: the first): the held object is pushed
-    :data:`PUSH_OFFSET_M` :data:`PUSH_AT_S` s into its N-th hold."""
+    """The branch simulator, which also plays the real world, timed by the profile ``timing``,
+    with ``disturb``'s disturbances scheduled (kinematic only; checked before anything is
+    built). ``push`` names a process or action of ``holds`` (default: the first): the held
+    object is pushed :data:`PUSH_OFFSET_M` :data:`PUSH_AT_S` s into its N-th hold."""
     name = resolve_simulator_name(name)
     holds = holds or {}
     if name == "analytic" and disturb:
@@ -454,7 +467,7 @@ def _simulator(
         if kind == "slow_arm":
             params.update(factor=0.2, at_s=None)
         specs.append((action, nth, params))
-    _, sim = choose_simulator(name)
+    _, sim = choose_simulator(name, timing=timing)
     for action, nth, params in specs:
         sim.schedule(action, nth, **params)
     return sim

@@ -100,6 +100,13 @@ RUN_OPTIONS: dict[str, dict[str, Any]] = {
         help="how branches are simulated: kinematic (task-priority control on the robot model; "
         "what auto picks when the sim extra is installed) or analytic (distances and speeds)",
     ),
+    "--timing": dict(
+        choices=["default", "paper"],
+        help="how simulated actions are timed: default, or paper (the paper's Baxter: joints "
+        "at most 0.6 rad/s, and per-action times calibrated on its Table I, to set the "
+        "simulated robot and human times beside its 219 s / 26 s / 250 s); default: the "
+        "scenario's timing key",
+    ),
     "--disturb": dict(
         action="append", default=[], metavar="KIND[:ACTION[:N]]",
         help="kinematic simulator only: during the N-th ACTION (default transport:1) the real "

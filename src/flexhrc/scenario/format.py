@@ -37,7 +37,7 @@ from flexhrc.scenario.model import (
     WorldSpec,
 )
 from flexhrc.taskmanager.domain import ActionSchema, Domain, _line
-from flexhrc.taskmanager.kinds import find_action_kind, unknown_kind
+from flexhrc.taskmanager.kinds import TIMINGS, find_action_kind, unknown_kind
 
 FORMAT_VERSION = 1
 
@@ -190,6 +190,7 @@ TOP_KEYS = {
     "robot",
     "simulator",
     "on_failure",
+    "timing",
 }
 WORLD_KEYS = {"objects", "places", "facts", "supertypes"}
 
@@ -391,6 +392,10 @@ def _build(doc: Any, c: _Checker) -> Scenario | None:
             _line(doc, "on_failure"),
         )
         on_failure = None
+    timing = doc.get("timing", "default")
+    if not isinstance(timing, str) or timing not in TIMINGS:
+        c.error(f"timing {show(timing)}: choose one of {', '.join(TIMINGS)}", _line(doc, "timing"))
+        timing = "default"
     robot = doc.get("robot") or {}
     if not isinstance(robot, Mapping):
         c.error("robot must be a mapping", _line(doc, "robot"))
@@ -417,6 +422,7 @@ def _build(doc: Any, c: _Checker) -> Scenario | None:
         path,
         tuple(str(f) for f in c.faults if f.severity == "warning"),
         on_failure=on_failure,
+        timing=timing,
     )
 
 
