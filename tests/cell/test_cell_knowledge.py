@@ -6,22 +6,20 @@ from __future__ import annotations
 
 from typing import Any
 
-from flexhrc.cell import Cell, HumanAgent, RobotAgent
+from flexhrc.cell import Cell
 from flexhrc.cell import protocol as P
 from flexhrc.cell.components import execution_model
 from flexhrc.scenario import load_scenario
 from flexhrc.transport import InProcessBus
+
+from .helpers import simulated_agents
 
 
 def _cell() -> tuple[Cell, list[Any], InProcessBus]:
     scenario = load_scenario("table_assembly")
     bus = InProcessBus()
     cell = Cell(scenario, bus, liveliness=False, simulator=execution_model("analytic"))
-    agents: list[Any] = []
-    for a in scenario.domain.agents.values():
-        cls = HumanAgent if a.is_human else RobotAgent
-        agents.append(cls(a.name, scenario, bus, execution=execution_model("analytic")))
-    return cell, agents, bus
+    return cell, simulated_agents(scenario, bus), bus
 
 
 def test_a_leg_that_teleports_makes_the_live_cell_wait_until_a_compatible_percept() -> None:
