@@ -4,7 +4,10 @@ there, and a compatible percept ends the wait (paper 000, VI-E)."""
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
+
+import pytest
 
 from flexhrc.cell import Cell
 from flexhrc.cell import protocol as P
@@ -12,7 +15,16 @@ from flexhrc.cell.components import execution_model
 from flexhrc.scenario import load_scenario
 from flexhrc.transport import InProcessBus
 
-from .helpers import simulated_agents
+from .helpers import (
+    TABLE_NO_HUMAN,
+    finish,
+    kill_all,
+    robot,
+    rows,
+    simulated_agents,
+    start_cell,
+    wait_until,
+)
 
 
 def _cell() -> tuple[Cell, list[Any], InProcessBus]:
@@ -90,3 +102,38 @@ def test_a_percept_without_a_time_is_taken_at_the_cells_time() -> None:
     kinds = [e.kind for e in cell.events if e.body.get("object") == "leg2"]
     assert kinds[:5] == ["percept", "percept", "inconsistent", "percept", "consistent_again"]
     assert cell.kb.last_percept["leg2"][1] == 0.0  # the cell's time when they came
+
+
+@pytest.mark.slow
+def test_the_cell_process_over_zenoh_checks_continuity_and_waits(tmp_path: Path) -> None:
+    """The same with the manager and the arms as processes: a perception process (this test's
+    own Zenoh session) reports leg4 — the last leg the arms take — where it lies, 4 m away
+    0.1 s later, and where it lies again; the stored run has the inconsistency and its end."""
+    pytest.importorskip("zenoh")
+    from flexhrc.transport.zenoh import ZenohTransport, loopback_config
+
+    scenario = tmp_path / "table.yaml"
+    scenario.write_text(TABLE_NO_HUMAN)
+    where = list(load_scenario(str(scenario)).world().position("leg4"))
+    store = tmp_path / "cell.db"
+    manager, port = start_cell(str(scenario), store, "--realtime", "10", log=tmp_path / "c.err")
+    procs = [manager]
+    procs += [robot(str(scenario), arm, port, tmp_path / f"{arm}.err") for arm in ("left", "right")]
+    bus = ZenohTransport(loopback_config(connect=port), prefix="flexhrc/default")
+    try:
+        wait_until(store, lambda r: any(k == "start" for _, _, k, _ in r), 60)
+        far = [where[0] + 4.0, *where[1:]]
+        for n, (pose, t) in enumerate(((where, 0.5), (far, 0.6), (where, 0.7))):
+            msg = P.message("percept", id=f"cam:{n}", object="leg4", object_type="leg",
+                            pose=pose, t=t)  # fmt: skip
+            bus.publish(P.PERCEPT_TOPIC, msg)
+        data = finish(procs[0])
+    finally:
+        bus.close()
+        kill_all(procs)
+    log = (tmp_path / "c.err").read_text()
+    assert data["outcome"] == "solved", log[-2000:]
+    got = [(k, b) for _, _, k, b in rows(store) if b.get("object") == "leg4"]
+    assert [k for k, _ in got][:5] == ["percept", "percept", "inconsistent", "percept",
+                                   "consistent_again"], got  # fmt: skip
+    assert got[2][1]["reason"].startswith("leg4 perceived 4.00 m from where it was perceived 0.10")
