@@ -566,7 +566,12 @@ def trace_line(event: dict[str, Any]) -> str | None:
     ev, kind = event, event["type"]
     if kind not in TRACE_TYPES:
         return None
-    if kind in TRACE_LINES:
+    if kind == "human_sensed" and (ev.get("why") or ev.get("recognised") is None):
+        # not sensed at all (why), or sensed and not recognised (the miss line follows)
+        line = f"wrist sensor: {ev.get('why') or ev['performed'] + ' -> recognised nothing'}"
+        if not ev.get("why"):
+            line += f" ({ev['samples']} samples)"
+    elif kind in TRACE_LINES:
         line = TRACE_LINES[kind].format_map(ev)
     elif kind == "decision":
         line = f"decide {ev['element']} (cost {ev['cost']}): "
