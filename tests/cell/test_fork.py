@@ -187,3 +187,35 @@ def test_what_if_errors_are_one_line_and_exit_2(
     capsys.readouterr()
     assert main(["replay", str(log), "--fork-at", "2"]) == 2
     assert "not a cell's event store" in capsys.readouterr().err
+
+
+def test_a_run_of_a_scenario_file_forks_with_its_file(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = Path(__file__).parents[2] / "examples" / "scenarios" / "ball_in_box.yaml"
+    source = tmp_path / "ball.db"
+    serve_cell(load_scenario(path), CellConfig(store=source))
+    out = tmp_path / "fork.db"
+    assert main(["replay", str(source), "--fork-at", "5", "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "is not a shipped one: give its file with --scenario FILE" in err
+    assert not out.exists()
+    argv = ["replay", str(source), "--fork-at", "5", "-o", str(out), "--scenario", str(path)]
+    assert main(argv) == 0
+    assert "what-if (from event 5)" in capsys.readouterr().out
+    assert _comparable(read_store(out)) == _comparable(read_store(source))
+    # another scenario than the stored fingerprint: refused, nothing written
+    other = tmp_path / "other.db"
+    argv = [
+        "replay",
+        str(source),
+        "--fork-at",
+        "5",
+        "-o",
+        str(other),
+        "--scenario",
+        "kitchen_drawer",
+    ]
+    assert main(argv) == 2
+    assert "give it with --scenario FILE" in capsys.readouterr().err
+    assert not other.exists()

@@ -10,7 +10,9 @@ from __future__ import annotations
 from collections.abc import Callable
 from pathlib import Path
 
+from flexhrc.cell.components import ScenarioLike
 from flexhrc.cell.fork import ForkReport, fork_store
+from flexhrc.errors import FlexhrcError, UnknownNameError
 from flexhrc.files import check_output
 
 __all__ = ["ForkReport", "what_if"]
@@ -35,7 +37,6 @@ def what_if(
     from flexhrc.cell.fork import profiles_text
     from flexhrc.cell.replay import PLOT_SUFFIXES, need_matplotlib
     from flexhrc.files import atomic_output
-    from flexhrc.scenario import load_scenario
 
     if plot is not None:
         inputs = [source] + ([out] if out is not None else [])
@@ -47,7 +48,7 @@ def what_if(
         out,
         human=human,
         on_failure=on_failure,
-        scenario=lambda name, seed: load_scenario(scenario or name, seed=seed),
+        scenario=lambda name, seed: _load(source, scenario, name, seed),
         force=force,
         progress=progress,
     )
@@ -68,3 +69,19 @@ def what_if(
 
 def profiles_text(profiles: dict[str, str]) -> str:
     return ", ".join(f"{h}: {p}" for h, p in sorted(profiles.items())) or "no operator"
+
+
+def _load(source: str | Path, given: str | Path | None, name: str, seed: int) -> ScenarioLike:
+    """The stored run's scenario: ``given`` (``--scenario``), else the shipped one named
+    ``name`` in the store; a scenario from a file is not known by its name alone."""
+    from flexhrc.scenario import load_scenario
+
+    if given is not None:
+        return load_scenario(given, seed=seed)
+    try:
+        return load_scenario(name, seed=seed)
+    except UnknownNameError:
+        raise FlexhrcError(
+            f"{source}: the stored run's scenario {name!r} is not a shipped one: give its file "
+            "with --scenario FILE"
+        ) from None

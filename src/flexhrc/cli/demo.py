@@ -45,7 +45,8 @@ COMMANDS = {
     "replay": (
         "print the summary of a saved cooperation log (JSONL) or cell store (.db)",
         "Check every event of a cooperation log and print its summary (Table I); says so when "
-        "the run was cut short (no outcome event).",
+        "the run was cut short (no outcome event). With --fork-at K (a cell's store): what if "
+        "the cooperation had gone on otherwise from event K (docs/cell.md, What-if).",
     ),
 }
 #: The options of ``demo table`` that describe the table (:class:`flexhrc.app.TableDemo`).
