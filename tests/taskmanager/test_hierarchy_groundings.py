@@ -10,6 +10,7 @@ sorts first and lies nearer the arm). The upper layer decides which one each ins
 from __future__ import annotations
 
 import copy
+import re
 from pathlib import Path
 from typing import Any
 
@@ -263,14 +264,27 @@ def test_literals_that_are_not_the_same_up_to_renaming_are_refused_with_file_and
     assert why in text and "M1, eq. 15" in text
 
 
-def test_states_that_share_no_literal_are_refused(tmp_path):
+@pytest.mark.parametrize("which", ["M1", "M2"])
+def test_nodes_mapped_one_to_one_that_share_no_literal_are_refused(tmp_path, which):
+    """An explicit M1 entry (``leaves:``) or M2 says this node *is* that one: stating formulas
+    with nothing in common, they describe different things. (Implicit M1 relates all children
+    to all leaves: there a child may speak of what no leaf does.)"""
     d = doc(copy.deepcopy(SPARE))
-    d["graphs"]["top"]["nodes"][0]["state"] = "cabinet(box)"
-    d["graphs"]["top"]["nodes"][1]["state"] = "free(?s)"
+    top = d["graphs"]["top"]
+    top["hyperarcs"][0]["leaves"] = {"box_ready": ["drawer"], "spare_slide": ["slide"]}
+    if which == "M1":
+        top["nodes"][1]["state"] = "free(?s)"
+    else:
+        top["nodes"][2]["state"] = "fitted(?s)"
     path = graph_file(tmp_path, d)
-    with pytest.raises(FormatError, match="relates states that share nothing") as err:
+    with pytest.raises(FormatError) as err:
         load(path)
+    assert "relates states that share nothing" in str(err.value)
+    assert f"{which}, eq. 1" in str(err.value)
     assert err.value.line == line_of(path, "name: fit_roller")
+    del top["hyperarcs"][0]["leaves"]
+    if which == "M1":  # implicit: spare_slide may say what no leaf says
+        load(graph_file(tmp_path, d))
 
 
 def test_a_parent_the_lower_root_cannot_ground_is_refused(tmp_path):
@@ -294,3 +308,83 @@ def test_the_error_reaches_the_command_line_as_one_line_and_exit_code_2(tmp_path
     err = capsys.readouterr().err
     assert f"{path}:{line_of(path, 'name: fit_roller')}: hyper-arc 'fit_roller'" in err
     assert "Traceback" not in err
+
+
+# --- the shipped kitchen drawer: the authors' RollerAssembly, twice ---------------------------
+def kitchen_slides(sc: scenario.Scenario) -> dict[str, set[str]]:
+    """Instance of RollerAssembly (h8, h9) -> the slides its actions were given."""
+    result = scenario.run(sc, seed=0)
+    assert result.summary["outcome"] == "solved", result.summary["reason"]
+    out: dict[str, set[str]] = {"h8": set(), "h9": set()}
+    for e in result.events:
+        if e["type"] not in ("command", "suggestion"):
+            continue
+        instance = (e.get("element") or "").split("/")[1:2]
+        if instance and instance[0] in out:
+            for action in e.get("actions") or [e["action"]]:
+                out[instance[0]].update(re.findall(r"\bslide_\d\b", action))
+    return out
+
+
+def test_the_kitchen_drawers_roller_instances_are_bound_by_the_upper_layer(tmp_path):
+    """kitchen.yaml's node_states give DrawerAssembly's slide nodes and RollerAssembly's their
+    formulas: h8 (DrawerRollerSlide1) is slide_1's instance, h9 slide_2's. The decision of
+    h8's first step has slide_1 alone although both slides are loose then."""
+    sc = scenario.load("kitchen_drawer")
+    assert kitchen_slides(sc) == {"h8": {"slide_1"}, "h9": {"slide_2"}}
+    events: list[dict[str, Any]] = []
+    scenario.run(sc, seed=0, sink=events.append)
+    first = next(
+        e for e in events if e["type"] == "decision" and e["element"] == "build_drawer/h8/h1"
+    )
+    tried = [b["grounding"]["?slide"] for b in first["branches"] + first.get("pruned", [])]
+    assert tried and set(tried) == {"slide_1"}
+
+
+def test_without_the_formulas_the_kitchen_drawer_lands_on_the_slides_by_a_precondition(tmp_path):
+    """The variant without node_states (nothing passes through M1): h8 takes slide_2 — the
+    one nearer the operator — and h9 slide_1 only because slide_2 is no longer loose."""
+    import shutil
+
+    src = Path(scenario.shipped_path("kitchen_drawer")).parent
+    shutil.copytree(src, tmp_path / "k")
+    path = tmp_path / "k" / "kitchen_drawer.yaml"
+    text = path.read_text()
+    path.write_text(
+        text[: text.index("\n# ... nor state formulas")] + text[text.index("\ndomain:") :]
+    )
+    assert kitchen_slides(scenario.load(path)) == {"h8": {"slide_2"}, "h9": {"slide_1"}}
+
+
+@pytest.mark.parametrize(
+    ("states", "said"),
+    [
+        ({"roller/slide": "loose(slide_9)"}, "names the object slide_9 where loose(?s)"),
+        ({"roller/nothing*": "loose(?slide)"}, "matches no node of the graph"),
+        ({"roller/slide": "loose(?slide"}, "unbalanced '('"),
+        ({"roller/slide": ["loose(?slide)"]}, "a formula such as"),
+    ],
+)
+def test_node_states_faults_are_one_error_at_the_scenario_line(tmp_path, states, said):
+    from flexhrc.scenario.format import ScenarioError
+
+    d = doc(copy.deepcopy(SPARE), facts=["spare(slide_2)"])
+    d["node_states"] = states
+    path = write(tmp_path, d)
+    with pytest.raises(ScenarioError) as err:
+        scenario.load(path)
+    assert said in str(err.value)
+    assert f"{path}:{line_of(path, 'roller/')}: node_states" in str(err.value)  # the entry's
+
+
+def test_node_states_give_a_graph_its_formulas(tmp_path):
+    """The roller graph stated without formulas, given them by node_states: as if written in."""
+    roller = copy.deepcopy(ROLLER)
+    for node in roller["nodes"]:
+        del node["state"]
+    d = doc(copy.deepcopy(SPARE), facts=["spare(slide_2)"], roller=roller)
+    d["node_states"] = {n["name"]: n["state"] for n in ROLLER["nodes"]}
+    assert acted_on(tmp_path, d) == {
+        "mount(arm, slide_2)": "fit_roller/mount",
+        "fasten(arm, slide_2)": "fit_roller/fasten",
+    }

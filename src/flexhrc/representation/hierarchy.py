@@ -368,8 +368,9 @@ def _transfer(upper: AndOrGraph, h: Hyperarc, lower: AndOrGraph) -> Transfer:
     items: list[_Item] = []
     related: list[tuple[list[Node], list[Node]]] = []  # (children, their leaves) checked
     if h.leaf_map is None:
+        # all children stand for all leaves: a child may describe what no leaf does (and a
+        # leaf what no child does), so only corresponding literals are checked
         leaves = [low[n] for n in lower.leaves()]
-        related.append((children, leaves))
         for leaf in leaves:
             for lit in leaf.formula or ():
                 items.append((lit, leaf, _like(lit, children)))
@@ -493,8 +494,9 @@ def _related(
     theirs: str,
     eq: str,
 ) -> None:
-    """Upper nodes and the lower nodes a mapping relates them to, both stating formulas, must
-    share at least one corresponding literal: else the two describe different things."""
+    """Upper nodes and the lower nodes a mapping relates them to one by one (an explicit M1
+    entry, M2), both stating formulas, must share at least one corresponding literal: else
+    the two describe different things."""
     matched = {id(n) for _, _, cands in items for _, n in cands}
     for ups, lows in related:
         if not any(n.formula for n in lows):
