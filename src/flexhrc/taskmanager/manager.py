@@ -66,8 +66,7 @@ from flexhrc.errors import FlexhrcError
 from flexhrc.events import LogEventType
 from flexhrc.knowledge import KnowledgeBase
 from flexhrc.logic import Literal, Substitution, apply_substitution, is_variable
-from flexhrc.representation import OnlineGraph, qualify, split_qualified
-from flexhrc.representation.hierarchy import Transfer
+from flexhrc.representation import OnlineGraph, Transfer, qualify, split_qualified
 from flexhrc.taskmanager.decision import (
     ActionStateTable,
     Branch,
