@@ -383,7 +383,7 @@ def _transfer(upper: AndOrGraph, h: Hyperarc, lower: AndOrGraph) -> Transfer:
         for x, cs in by_leaf.items():
             for lit in low[x].formula or ():
                 items.append((lit, low[x], _like(lit, cs)))
-    down = _solve(items, {}, lambda lv, term: True, upper, h, lower, "M1, eq. 15")
+    down = _solve(items, {}, lambda lv, term: None, upper, h, lower, "M1, eq. 15")
     _related(related, items, upper, h, lower, "its children", "leaves", "M1, eq. 15")
     # M2: the lower root's literals against the parent's; a lower variable M1 binds to a term
     # the children fix stays that term (a variable only the parent has is grounded from below)
@@ -392,12 +392,14 @@ def _transfer(upper: AndOrGraph, h: Hyperarc, lower: AndOrGraph) -> Transfer:
         return Transfer(down, {})
     fixed = {a for c in children for lit in c.formula or () for a in lit.args}
 
-    def agrees(lv: str, term: str) -> bool:
+    def against_m1(lv: str, term: str) -> str | None:
         was = down.get(lv)
-        return was is None or was == term or (is_variable(term) and term not in fixed)
+        if was is None or was == term or (is_variable(term) and term not in fixed):
+            return None
+        return f"{lv} is {was} through M1, not {term}"
 
     items = [(lit, root, _like(lit, [parent])) for lit in root.formula]
-    up = _solve(items, {}, agrees, upper, h, lower, "M2, eq. 16")
+    up = _solve(items, {}, against_m1, upper, h, lower, "M2, eq. 16")
     _related([([parent], [root])], items, upper, h, lower, "its parent", "root", "M2, eq. 16")
     return Transfer(down, up)
 
@@ -414,17 +416,20 @@ def _like(lit: Literal, nodes: Sequence[Node]) -> list[tuple[Literal, Node]]:
     ]
 
 
-def _extend(
-    theta: dict[str, str], low: Literal, up: Literal, agrees: Callable[[str, str], bool]
-) -> dict[str, str] | str:
+#: why a lower variable cannot stand for an upper term (None: it can)
+_Veto = Callable[[str, str], str | None]
+
+
+def _extend(theta: dict[str, str], low: Literal, up: Literal, veto: _Veto) -> dict[str, str] | str:
     """``theta`` extended so that ``low`` under it is ``up``, or why it cannot be."""
     out = dict(theta)
     for lt, ut in zip(low.args, up.args, strict=True):
         if is_variable(lt):
             was = out.get(lt)
             if was is None:
-                if not agrees(lt, ut):
-                    return f"{lt} is already another term through M1, here {ut}"
+                why = veto(lt, ut)
+                if why is not None:
+                    return why
                 out[lt] = ut
             elif was != ut:
                 return f"{lt} would be both {was} and {ut}"
@@ -437,7 +442,7 @@ def _extend(
 def _solve(
     items: list[_Item],
     theta: dict[str, str],
-    agrees: Callable[[str, str], bool],
+    veto: _Veto,
     upper: AndOrGraph,
     h: Hyperarc,
     lower: AndOrGraph,
@@ -459,7 +464,7 @@ def _solve(
         start, before = stack[-1]
         low, _, cands = todo[depth]
         for k in range(start, len(cands)):
-            got = _extend(before, low, cands[k][0], agrees)
+            got = _extend(before, low, cands[k][0], veto)
             if isinstance(got, dict):
                 stack[-1] = (k + 1, before)
                 if depth + 1 == len(todo):
