@@ -388,3 +388,23 @@ def test_node_states_give_a_graph_its_formulas(tmp_path):
         "mount(arm, slide_2)": "fit_roller/mount",
         "fasten(arm, slide_2)": "fit_roller/fasten",
     }
+
+
+def test_transitions_without_formulas_on_both_sides_pass_nothing():
+    """The authors' ANDOR files state no formulas: their transitions carry no grounding (and
+    cost nothing to check); kitchen_drawer's node_states make two of them carry one."""
+    from flexhrc.scenario.format import graph_of
+
+    plain = load(
+        Path(scenario.shipped_path("kitchen_drawer")).with_name("kitchen_drawer.graph.yaml")
+    )
+    given = graph_of(scenario.shipped_path("kitchen_drawer"))
+    for graph, expect in ((plain, set()), (given, {"h8", "h9"})):
+        carried = {
+            h.name
+            for key in graph.used_keys()
+            for h in graph.graphs[key].hyperarcs.values()
+            if h.lower is not None and graph.transfer(key, h.name)
+        }
+        assert carried == expect
+    assert given.transfer("drawer", "h9").down == {"?slide": "slide_2"}
