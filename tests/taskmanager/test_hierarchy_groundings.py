@@ -326,7 +326,7 @@ def kitchen_slides(sc: scenario.Scenario) -> dict[str, set[str]]:
     return out
 
 
-def test_the_kitchen_drawers_roller_instances_are_bound_by_the_upper_layer(tmp_path):
+def test_the_kitchen_drawers_roller_instances_are_bound_by_the_upper_layer():
     """kitchen.yaml's node_states give DrawerAssembly's slide nodes and RollerAssembly's their
     formulas: h8 (DrawerRollerSlide1) is slide_1's instance, h9 slide_2's. The decision of
     h8's first step has slide_1 alone although both slides are loose then."""
