@@ -658,7 +658,8 @@ class TaskManager:
         formula = self._formulas.get(name, ())
         if not formula:
             return True
-        binding = self._node_binding(name)
+        # (inline for a single graph: this runs for every feasible node at every step)
+        binding = self._node_binding(name) if self._transfers else self.bindings.get(name)
         if binding:
             formula = tuple(apply_substitution(lit, binding) for lit in formula)
         return holds(formula, self.kb.facts)
