@@ -279,7 +279,7 @@ class KinematicTaskSimulator:
         _, motions = self.how(action, kb, positions, domain)
         if motions is None:
             return self.human.execute(action, positions, kb, domain)
-        from flexhrc.action.execution import Command, Disturbance
+        from flexhrc.action.execution import HOLD_ACTIONS, Command, Disturbance
 
         problem = self._check(action)
         if problem:
@@ -303,13 +303,16 @@ class KinematicTaskSimulator:
                     )
                 em.inject(Disturbance(**params))
         total = 0.0
+        held: str | None = None  # what a hold observed (a push undone): said in the report
         for kind, goal in motions:
             report = em.execute(Command(kind, arm, goal))
             total += report.duration_s
             if report.status != "done":
                 return StepReport(report.status, total, report.reason)
+            if kind in HOLD_ACTIONS and report.disturbances:
+                held = report.reason
         self._follow(action, motions, positions, kb)
-        return StepReport("done", total + self.timing.robot_action_overhead, None)
+        return StepReport("done", total + self.timing.robot_action_overhead, held)
 
     def inject(self, disturbance: Any) -> Any:
         """Inject a disturbance into the simulated real robot's world (see ExecutionManager)."""

@@ -22,7 +22,7 @@ import json
 import math
 import signal
 import threading
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -39,7 +39,10 @@ from flexhrc.taskmanager.replay import outcome_line, plural, table_i
 
 HUMAN_SENSING = ("injected", "har", "har-real")
 PERCEPTION = ("given", "scene")
-DISTURBANCES = ("blocked_path", "slow_arm")
+DISTURBANCES = ("blocked_path", "slow_arm", "push")
+#: ``--disturb push``: how far (m) and when (s into the hold) the held object is pushed
+PUSH_OFFSET_M = (0.03, 0.0, 0.0)
+PUSH_AT_S = 0.3
 MAX_SEED = 2**32 - 1
 #: The exit code of a run a signal stopped (the shell's 128 + signal number).
 EXIT_SIGNAL = {signal.SIGINT: 130, signal.SIGTERM: 143}
@@ -251,6 +254,7 @@ def run_scenario(
         config.disturb,
         robot_actions,
         timing,
+        _holds(sc),
     )
     sensing = _human_sensing(config, say)
     # the table's --human-takes K is bolt K: the K-th step of the legs fix alone, else its node
@@ -408,21 +412,54 @@ def _failures(specs: tuple[str, ...], actions: list[str]) -> list[InjectedFailur
     return out
 
 
+def _holds(scenario: Scenario) -> dict[str, str]:
+    """The robot processes and actions that hold an object with the controller (what
+    ``--disturb push`` may name), each with its action kind."""
+    from flexhrc.taskmanager.kinds import kind_of
+
+    domain = scenario.domain
+    return {
+        name: schema.kind
+        for name, schema in (*domain.processes.items(), *domain.actions.items())
+        if any(step.action == "hold" for step in kind_of(schema).motion)
+        and any(not a.is_human for a in domain.capable(schema))
+    }
+
+
 def _simulator(
-    name: str, disturb: tuple[str, ...], actions: list[str], timing: str = "default"
+    name: str,
+    disturb: tuple[str, ...],
+    actions: list[str],
+    timing: str = "default",
+    holds: Mapping[str, str] | None = None,
 ) -> Any:
     """The branch simulator, which also plays the real world, timed by the profile ``timing``,
     with ``disturb``'s disturbances scheduled (kinematic only; checked before anything is
-    built)."""
+    built). ``push`` names a process or action of ``holds`` (default: the first): the held
+    object is pushed :data:`PUSH_OFFSET_M` :data:`PUSH_AT_S` s into its N-th hold."""
     name = resolve_simulator_name(name)
+    holds = holds or {}
     if name == "analytic" and disturb:
         raise FlexhrcError("--disturb needs --simulator kinematic (use --fail with analytic)")
     specs = []
     for spec in disturb:
         kind, _, rest = spec.partition(":")
         if kind not in DISTURBANCES:
-            raise FlexhrcError(f"--disturb {spec!r}: KIND is blocked_path or slow_arm")
+            raise FlexhrcError(f"--disturb {spec!r}: KIND is blocked_path, slow_arm or push")
         action, _, n = rest.partition(":")
+        if kind == "push":
+            if not holds:
+                raise FlexhrcError(
+                    f"--disturb {spec!r}: nothing in this scenario holds an object (a process "
+                    "or action of kind hold)"
+                )
+            action, nth = _action_and_nth(
+                spec, "--disturb", action or next(iter(holds)), n, sorted(holds),
+                "N must be a whole number",
+            )  # fmt: skip
+            push = {"kind": kind, "once": True, "at_s": PUSH_AT_S, "offset": PUSH_OFFSET_M}
+            specs.append((holds[action], nth, push))
+            continue
         action, nth = _action_and_nth(
             spec, "--disturb", action or "transport", n, actions, "N must be a whole number"
         )
@@ -529,7 +566,12 @@ def trace_line(event: dict[str, Any]) -> str | None:
     ev, kind = event, event["type"]
     if kind not in TRACE_TYPES:
         return None
-    if kind in TRACE_LINES:
+    if kind == "human_sensed" and (ev.get("why") or ev.get("recognised") is None):
+        # not sensed at all (why), or sensed and not recognised (the miss line follows)
+        line = f"wrist sensor: {ev.get('why') or ev['performed'] + ' -> recognised nothing'}"
+        if not ev.get("why"):
+            line += f" ({ev['samples']} samples)"
+    elif kind in TRACE_LINES:
         line = TRACE_LINES[kind].format_map(ev)
     elif kind == "decision":
         line = f"decide {ev['element']} (cost {ev['cost']}): "

@@ -110,7 +110,9 @@ RUN_OPTIONS: dict[str, dict[str, Any]] = {
     "--disturb": dict(
         action="append", default=[], metavar="KIND[:ACTION[:N]]",
         help="kinematic simulator only: during the N-th ACTION (default transport:1) the real "
-        "robot meets KIND = blocked_path (an obstacle appears at the target) or slow_arm",
+        "robot meets KIND = blocked_path (an obstacle appears at the target) or slow_arm; "
+        "push[:PROCESS[:N]] pushes the held object 3 cm during the N-th hold (default the "
+        "first hold process), which the hold behaviour undoes",
     ),
     "--human-sensing": dict(
         choices=["injected", "har", "har-real"], default="injected",

@@ -37,9 +37,15 @@ Section V in full:
   lower root is met, its grounding binds the variables of the hyper-arc's parent that M2 maps
   (:class:`flexhrc.representation.hierarchy.Transfer`);
 * **node processes** ``P(n)`` (eq. 5): when n is reached (its formula holds) its processes are
-  activated in order — robot behaviours declared under ``processes:`` in the domain, each a
-  :class:`Command` that keeps its agents busy, round after round, until its ``until`` condition
-  holds; n is met when its last process has ended (the text after eq. 5);
+  activated in order — behaviours declared under ``processes:`` in the domain, each a
+  :class:`Command` that keeps its agents busy, round after round (a round ends when the
+  behaviour's own condition holds, e.g. the held object back at its pose and still), until its
+  ``until`` condition holds, whoever made it true; n is met when its last process has ended (the
+  text after eq. 5). Each process has a **priority**: when two want one arm, the larger wins —
+  it waits for nobody, a running process of lower priority is stopped for it (and resumes when
+  the arm is free again). A process the domain lets a **person** run (``agents: human``) is
+  asked of them as a :class:`Suggest` of the node; their report of it ends a round, and the
+  process ends when ``until`` holds (e.g. they hold the housing while the robot fastens it);
 * **joint actions** (``agents: {joint: [left, right]}``) are one command for several arms;
 * an **unsuggested human action** is matched against the *whole* action list of every feasible
   hyper-arc: it may be any action of A(h) whose earlier actions' effects already hold; the
@@ -204,6 +210,7 @@ class ProcessRun:
     command: Command | None = None
     rounds: int = 0
     failures: int = 0
+    asked: GroundAction | None = None  # a person's round asked for (a Suggest), not reported yet
 
     @property
     def ended(self) -> bool:
@@ -282,6 +289,8 @@ class TaskManager:
         self.bindings: dict[str, Substitution] = {}
         self.processes: dict[str, ProcessRun] = {}  # reached nodes whose P(n) is running
         self._process_of: dict[int, str] = {}  # command id -> node of that process
+        # (person, process) of persons' processes that ended before the person said so
+        self._let_go: set[tuple[str, str]] = set()
         self._extra: list[Directive] = []  # directives raised deep inside (process stops)
         self._answer = graph.query()
         self._answer_views: _AnswerViews | None = None  # see _feasible
@@ -687,7 +696,7 @@ class TaskManager:
         """Meet feasible nodes whose state holds and whose processes have ended (eq. 5)."""
         while self.outcome == "running":
             met = []
-            for name in self._feasible_nodes():
+            for name in self._by_process_priority(self._feasible_nodes()):
                 if not self._node_holds(name):
                     continue
                 if name in self._node_processes and not self._processes_ended(name):
@@ -720,11 +729,58 @@ class TaskManager:
             if schema_until and holds(schema_until, self.kb.facts):
                 self._end_process(run, ground, "its end condition holds")
                 continue
-            if run.command is None:
-                if any(a in self.busy for a in ground.agents):
+            if run.command is None and run.asked is None:
+                if not self._agents_free_for(ground):
                     return False  # its agents are busy: it starts when they are free
                 self._start_process(run, ground)
             return False
+        return True
+
+    def _by_process_priority(self, nodes: list[str]) -> list[str]:
+        """``nodes`` with those whose next process has the higher priority first (stable: the
+        graph's order among equals), so the process that should win an arm asks for it first."""
+        if not self._node_processes:
+            return nodes
+        return sorted(nodes, key=lambda n: -self._process_priority(n))
+
+    def _process_priority(self, node: str) -> int:
+        invocations = self._node_processes.get(node)
+        run = self.processes.get(node)
+        i = run.index if run is not None else 0
+        if not invocations or i >= len(invocations):
+            return 0
+        return self.domain.invocation(invocations[i], process=True)[0].priority
+
+    def _agents_free_for(self, ground: GroundAction) -> bool:
+        """Can ``ground`` (a process round) start now? Its arms are idle or run a process of lower
+        priority — stopped here for it (the run of that process waits and resumes when the arm
+        is free again); a person is free when no execution or process of theirs is running."""
+        people = self._busy_humans()
+        lower: list[Command] = []
+        for a in ground.agents:
+            if a in self.unavailable or a in people:
+                return False
+            cmd = self.busy.get(a)
+            if cmd is None:
+                continue
+            if not cmd.process or cmd.action.schema.priority >= ground.schema.priority:
+                return False
+            if all(c is not cmd for c in lower):  # a joint command counts once
+                lower.append(cmd)
+        for cmd in lower:
+            node = self._process_of.pop(cmd.id, None)
+            run = self.processes.get(node) if node is not None else None
+            if run is not None and run.command is cmd:
+                run.command = None
+            why = (
+                f"preempted by process {ground} (priority {ground.schema.priority} > "
+                f"{cmd.action.schema.priority})"
+            )
+            for a in cmd.agents:
+                if self.busy.get(a) is cmd:
+                    self.busy.pop(a)
+                    self._extra.append(Stop(a, cmd.id, why))
+                    self._emit("stop", agent=a, command=cmd.id, reason=why)
         return True
 
     def _ground_process(self, run: ProcessRun) -> GroundAction | None:
@@ -735,12 +791,7 @@ class TaskManager:
             value = binding.get(term, term) if is_variable(term) else term
             if is_variable(value):
                 if schema.agents.mode == "choice" and var == schema.agents.variable:
-                    free = [
-                        a.name
-                        for a in self.domain.agents_of_type(typ)
-                        if not a.is_human and a.name not in self.busy
-                    ]
-                    found = free[:1]
+                    found = self._process_agent(typ, schema.priority)
                 else:
                     found = [o.id for o in self.kb.objects_of_type(typ)][:1]
                 if not found:
@@ -755,7 +806,32 @@ class TaskManager:
             agents = spec.names
         return GroundAction(schema, tuple(values), agents)
 
+    def _process_agent(self, typ: str, priority: int) -> list[str]:
+        """Who runs a process whose agent is a choice of type ``typ``: an idle arm, else an arm
+        running a process of lower priority (it is preempted), else — where the type admits
+        people — a person with nothing running (paper eq. 5: processes are meant for robots, a
+        person may carry them out occasionally). Empty: nobody now."""
+        capable = [a for a in self.domain.agents_of_type(typ) if a.name not in self.unavailable]
+        arms = [a.name for a in capable if not a.is_human]
+        idle = [a for a in arms if a not in self.busy]
+        lower = [
+            a
+            for a in arms
+            if not idle and self.busy[a].process and self.busy[a].action.schema.priority < priority
+        ]
+        people = self._busy_humans()
+        persons = [a.name for a in capable if a.is_human and a.name not in people]
+        return (idle or lower or persons)[:1]
+
     def _start_process(self, run: ProcessRun, ground: GroundAction) -> None:
+        if any(self.domain.agent(a).is_human for a in ground.agents):
+            # a person's round: asked as a suggestion of the node; their report ends it
+            sug = Suggest(run.node, [ground], 0.0)
+            run.asked = ground
+            run.rounds += 1
+            self._emit("suggestion", **sug.to_dict())
+            self._extra.append(sug)
+            return
         t0 = self._timer()
         sim = self.simulator.simulate([ground], self.kb, self.domain)
         self.timing.simulator_s += self._timer() - t0
@@ -778,10 +854,42 @@ class TaskManager:
                     self._extra.append(Stop(a, cmd.id, f"process {ground} ended"))
                     self._emit("stop", agent=a, command=cmd.id, reason=f"process {ground} ended")
             self._process_of.pop(cmd.id, None)
+        if run.asked is not None:  # a person still at it: their coming report is no new round
+            self._let_go.add((self._human_of(run.asked), str(run.asked)))
         self._emit("process_ended", node=run.node, process=str(ground), reason=why)
         run.command = None
+        run.asked = None
         run.index += 1
         run.rounds = 0
+
+    def _person_process_report(self, action: HumanAction) -> list[Directive] | None:
+        """A person reports a round of a process they were asked to run: its effects apply, the
+        process ends if ``until`` now holds (else they are asked again). A report of one that
+        ended meanwhile (its condition came true first) is taken quietly. None: not a process."""
+        said = str(action)
+        for run in self.processes.values():
+            asked = run.asked
+            if asked is None or str(asked) != said:
+                continue
+            self._emit("human_action", action=said)
+            run.asked = None
+            self._apply_effects(asked)
+            until = [apply_substitution(lit, asked.binding) for lit in asked.schema.until]
+            if not until or holds(until, self.kb.facts):
+                self._end_process(run, asked, "its end condition holds" if until else "done")
+            elif run.rounds >= self.max_process_rounds:
+                self._finish(
+                    "failed",
+                    f"process {asked} of {run.node}: end condition {' & '.join(map(str, until))} "
+                    f"still false after {run.rounds} rounds",
+                )
+            return self._plan()
+        for who, process in list(self._let_go):
+            if process == said and who in action.args:
+                self._let_go.discard((who, process))
+                self._emit("human_action", action=said)
+                return self._plan()
+        return None
 
     def _process_ack(self, node: str, cmd: Command, ack: Ack) -> None:
         run = self.processes.get(node)
@@ -794,7 +902,9 @@ class TaskManager:
             self._apply_effects(ground)
             until = [apply_substitution(lit, ground.binding) for lit in ground.schema.until]
             if not until or holds(until, self.kb.facts):
-                self._end_process(run, ground, "its end condition holds" if until else "done")
+                why = "its end condition holds" if until else "done"
+                # what the behaviour observed (e.g. a push undone) is part of why it ended
+                self._end_process(run, ground, f"{why}; {ack.reason}" if ack.reason else why)
             elif run.rounds >= self.max_process_rounds:
                 self._finish(
                     "failed",
@@ -879,6 +989,12 @@ class TaskManager:
             for ex in self.executions.values()
             if ex.owner == "human"
             for a in ex.agents
+            if self.domain.agent(a).is_human
+        } | {
+            a
+            for run in self.processes.values()
+            if run.asked is not None
+            for a in run.asked.agents
             if self.domain.agent(a).is_human
         }
 
@@ -1296,6 +1412,9 @@ class TaskManager:
 
     # -- the human ------------------------------------------------------------------------
     def _handle_human(self, action: HumanAction) -> list[Directive]:
+        process = self._person_process_report(action)
+        if process is not None:
+            return process
         self._emit("human_action", action=str(action))
         out: list[Directive] = []
         ex = self._match_running_human(action)
