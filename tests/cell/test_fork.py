@@ -111,12 +111,27 @@ def test_a_fork_with_another_operator_differs_and_both_summaries_print(
     argv = ["replay", str(source), "--fork-at", "20", "--human", "passive", "-o", str(again)]
     assert main([*argv, "--json"]) == 0
     data = json.loads(capsys.readouterr().out)
-    assert data["fork_at"] == 20
+    assert data["fork_at"] == 20 and data["fork_t"] == events[19].t
     assert data["original"]["by_agent"] == original["by_agent"]
     assert data["fork"]["by_agent"] == forked["by_agent"]
     assert data["original"]["makespan_s"] == original["timing"]["total_s"]
     assert 0 <= data["fork"]["person_share"] < data["original"]["person_share"] <= 1
     assert data["profiles"]["fork"] == {"human": "passive"}
+
+
+def test_a_what_if_store_replays_its_new_choice(tmp_path: Path) -> None:
+    """The new profile is a stored input: the what-if's own store, forked again after it with
+    the choices it holds, goes on as the what-if did, event for event."""
+    source = _stored(tmp_path, "table_assembly", "takeover")
+    first = tmp_path / "passive.db"
+    fork_store(source, 20, first, scenario=_load, human="passive")
+    events = read_store(first)
+    choice = next(ev.seq for ev in events if ev.kind == "operator" and ev.seq > 20)
+    for at in (choice, choice + 3):
+        again = tmp_path / f"again{at}.db"
+        report = fork_store(first, at, again, scenario=_load)
+        assert report.profiles["fork"] == {"human": "passive"}
+        assert _comparable(read_store(again)) == _comparable(events), at
 
 
 def test_a_passive_operator_from_a_takeover_one_at_every_event_ends_solved(tmp_path: Path) -> None:

@@ -63,6 +63,7 @@ def what_if(
                     (report.fork_events, f"what-if from event {at} ({profiles_text(pb)})"),
                 ],
                 tmp,
+                marks=[(report.at_t, f"event {at}")],
             )
     return report
 

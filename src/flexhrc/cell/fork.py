@@ -57,11 +57,14 @@ class ForkReport:
     fork_events: list[dict[str, Any]] = field(default_factory=list)
     profiles: dict[str, dict[str, str]] = field(default_factory=dict)
     humans: list[str] = field(default_factory=list)
+    #: the time of event ``at`` on the cell's clock (where the runs part)
+    at_t: float = 0.0
 
     def to_json(self) -> dict[str, Any]:
         """``flexhrc replay STORE --fork-at K --json``."""
         return {
             "fork_at": self.at,
+            "fork_t": self.at_t,
             "original": {"store": str(self.source), **_figures(self.original, self.humans)},
             "fork": {"store": str(self.store), **_figures(self.fork, self.humans)},
             "profiles": self.profiles,
@@ -246,6 +249,7 @@ def fork_store(
         fork_events,
         {"original": stored_profiles(events), "fork": stored_profiles(read_store(target))},
         humans,
+        prefix[-1].t,
     )
 
 

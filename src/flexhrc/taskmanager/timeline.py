@@ -65,10 +65,13 @@ def plot_timelines(
     runs: Sequence[tuple[list[dict[str, Any]], str]],
     out: str | Path,
     domain: Domain | None = None,
+    *,
+    marks: Sequence[tuple[float, str]] = (),
 ) -> Path:
     """Draw the timelines of several cooperation logs (``(events, title)`` each) one above the
     other on one time axis, each kind in the same colour in all (``flexhrc replay --fork-at
-    --plot``: the stored run above its what-if)."""
+    --plot``: the stored run above its what-if); ``marks``: (time, label) lines drawn across
+    every timeline (where the what-if forked)."""
     try:
         import matplotlib
 
@@ -133,6 +136,9 @@ def plot_timelines(
         for ev in events:
             if ev.get("type") == "suggestion":
                 ax.axvline(ev["t"], color="#d94801", linestyle=":", linewidth=0.8)
+        for t, label in marks:
+            ax.axvline(t, color="black", linestyle="--", linewidth=1.0)
+            ax.text(t, len(lanes) - 0.5, f" {label}", fontsize=7, va="top")
         ax.set_yticks(range(len(lanes)))
         ax.set_yticklabels(lanes)
         ax.set_title(title or "who did what, when")
