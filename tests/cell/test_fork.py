@@ -134,6 +134,16 @@ def test_a_what_if_store_replays_its_new_choice(tmp_path: Path) -> None:
         assert _comparable(read_store(again)) == _comparable(events), at
 
 
+def test_a_what_if_under_another_failure_policy(tmp_path: Path) -> None:
+    source = _stored(tmp_path, "kitchen_drawer", "passive")
+    assert read_store(source)[0].body["on_failure"] == "retry"
+    out = tmp_path / "paper.db"
+    report = fork_store(source, 4, out, scenario=_load, on_failure="paper")
+    assert read_store(out)[0].body["on_failure"] == "paper"
+    assert report.fork["on_failure"] == "paper" and report.original["on_failure"] == "retry"
+    assert report.fork["outcome"] == "solved"
+
+
 def test_a_passive_operator_from_a_takeover_one_at_every_event_ends_solved(tmp_path: Path) -> None:
     """An operator that was deciding on ``options`` when the fork made it passive is not
     waited for (its open options are dropped with the stored ``operator`` input)."""
