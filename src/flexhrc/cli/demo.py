@@ -24,6 +24,7 @@ from flexhrc.cli.common import (
     float_range,
     int_range,
     progress,
+    quiet_library_logs,
     seed_type,
 )
 from flexhrc.errors import FlexhrcError
@@ -309,6 +310,8 @@ def _cmd_what_if(args: argparse.Namespace) -> int:
     from flexhrc.cell.fork import compare_text
     from flexhrc.cell.store import is_store
 
+    # a resumed operator may answer options sent to it twice; the cell drops the repeat
+    quiet_library_logs()
     if not is_store(args.log):
         raise FlexhrcError(
             f"--fork-at: {args.log} is not a cell's event store (.db): only a store can be "
