@@ -10,7 +10,7 @@ not the scenario's nominal person (their real durations carry a seeded ±10 % no
 
 For each case and each of 20 seeds: three runs with the scenario's defaults are stored
 (``EventStore``, as ``flexhrc cell --store`` writes them); ``flexhrc learn``'s
-:func:`~flexhrc.taskmanager.operator_model.learn_model` learns the model from those three stores;
+:func:`~flexhrc.app.learn.learn_model` learns the model from those three stores;
 then one more run (seed as given) with the defaults and one with the learned model
 (``--operators``: the Task Manager times the person's steps by it, updated online). Medians over
 the seeds; the estimate's error after the three runs is printed against the person's true
@@ -35,6 +35,7 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))
 
+from flexhrc.app.learn import learn_model
 from flexhrc.cell.local import LocalCell
 from flexhrc.cell.store import EventStore
 from flexhrc.knowledge import KnowledgeBase
@@ -43,7 +44,6 @@ from flexhrc.taskmanager.domain import Domain, GroundAction
 from flexhrc.taskmanager.operator_model import (
     OperatorModel,
     OperatorModelSimulator,
-    learn_model,
     write_model,
 )
 from flexhrc.taskmanager.simulator import AnalyticSimulator, StepReport

@@ -30,8 +30,9 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
 
 
 def cmd_learn(args: argparse.Namespace) -> int:
+    from flexhrc.app.learn import learn_model
     from flexhrc.files import check_output
-    from flexhrc.taskmanager.operator_model import learn_model, write_model
+    from flexhrc.taskmanager.operator_model import write_model
 
     # checked before any store is read: a run of minutes never ends on "cannot write"
     check_output(args.output, option="-o", suffixes=(".yaml", ".yml"), inputs=args.stores)

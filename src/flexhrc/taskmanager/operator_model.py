@@ -8,9 +8,10 @@ operator. An :class:`OperatorModel` holds what the store says about each *person
 person and action, the durations they really took — median and spread, the median being what
 the branch simulation uses — and the share of suggestions they declined or could not do.
 
-* :func:`learn_model` reads stores (``flexhrc learn STORE... -o operators.yaml``): a
-  ``human_action`` input whose body carries ``start`` and ``t`` is one duration sample of its
-  ``agent`` for its action's name; ``suggestion`` outputs count what each person was asked.
+* :func:`learn_events` reads the events of stores (``flexhrc learn STORE... -o FILE``,
+  :func:`flexhrc.app.learn.learn_model`): a ``human_action`` input whose body carries ``start``
+  and ``t`` is one duration sample of its ``agent`` for its action's name; ``suggestion``
+  outputs count what each person was asked.
 * :class:`OperatorModelSimulator` wraps any :class:`~flexhrc.taskmanager.simulator.Simulator`:
   a step done by a person whom the model knows for that action lasts the model's median; every
   other step, and the simulated *real* world (``execute``), are the wrapped simulator's own.
@@ -212,18 +213,6 @@ def learn_events(events: Iterable[Any], model: OperatorModel | None = None) -> O
     return model
 
 
-def learn_model(stores: Sequence[str | Path]) -> OperatorModel:
-    """The model of every person in ``stores`` (cell event stores, read-only): a store that is
-    not one is one :class:`FormatError` naming it."""
-    from flexhrc.cell.store import read_store
-
-    model = OperatorModel()
-    for path in stores:
-        learn_events(read_store(path), model)
-        model.stores.append(str(path))
-    return model
-
-
 # -- the file ------------------------------------------------------------------------------------
 
 
@@ -421,7 +410,6 @@ __all__ = [
     "OperatorModelSimulator",
     "PersonModel",
     "learn_events",
-    "learn_model",
     "read_model",
     "write_model",
 ]
