@@ -249,3 +249,27 @@ def test_the_online_update_replays_on_resume(tmp_path, workbench, bench):
     }
     assert solved["fasten_1"] == ["human"]
     assert solved["fasten_2"] == ["arm"]
+
+
+def test_declines_and_cannots_are_counted_per_person():
+    """The person's ``human_reply`` inputs (issue 22, item 1): "not now" and "I can't" against
+    the suggestions they got; a resent reply counts once, a ``start`` is no answer."""
+    from flexhrc.cell.store import StoredEvent
+    from flexhrc.taskmanager.operator_model import learn_events
+
+    def ev(seq: int, kind: str, **body) -> StoredEvent:
+        return StoredEvent(seq, float(seq), kind, {"run": "r", **body})
+
+    events = [
+        ev(1, "suggestion", id="s1", agent="human", actions=["fasten(human, screw_1)"]),
+        ev(2, "human_reply", id="h1", agent="human", reply="decline", suggestion="s1"),
+        ev(3, "human_reply", id="h1", agent="human", reply="decline", suggestion="s1"),
+        ev(4, "suggestion", id="s2", agent="human", actions=["fasten(human, screw_1)"]),
+        ev(5, "human_reply", id="h2", agent="human", reply="cannot", suggestion="s2"),
+        ev(6, "suggestion", id="s3", agent="human", actions=["insert_pin(human, pin_1)"]),
+        ev(7, "human_reply", id="h3", agent="human", reply="start", suggestion="s3"),
+        ev(8, "suggestion", id="s4", agent="human", actions=["insert_pin(human, pin_2)"]),
+    ]
+    person = learn_events(events).person("human")
+    assert (person.suggestions, person.declined, person.cannot) == (4, 1, 1)
+    assert person.decline_rate == person.cannot_rate == 0.25

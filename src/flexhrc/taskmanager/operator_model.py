@@ -42,9 +42,10 @@ FORMAT_VERSION = 1
 #: How many of the latest samples an estimate keeps (and the file lists): a person changes —
 #: they learn the task, they tire — so the median follows the recent ones.
 WINDOW = 50
-#: The answers that count as "not now" / "I can't" (issue 22, item 1), whether stored as an
-#: event of that kind or as the ``answer`` of an operator's answer event.
+#: The person's answers that count (issue 22, item 1): a stored ``human_reply`` input whose
+#: ``reply`` is "not now" (an unanswered suggestion's timeout is stored as one) or "I can't".
 DECLINE, CANNOT = "decline", "cannot"
+REPLY_KIND = "human_reply"
 
 
 @dataclass
@@ -180,11 +181,11 @@ def action_name(text: str) -> str:
 
 
 def _answer(kind: str, body: Mapping[str, Any]) -> str | None:
-    """``decline``/``cannot`` if this event is such an answer of a person (issue 22, item 1)."""
-    if kind in (DECLINE, CANNOT):
-        return kind
-    answer = body.get("answer")
-    return answer if answer in (DECLINE, CANNOT) else None
+    """``decline``/``cannot`` if this event is such an answer of a person (:data:`REPLY_KIND`)."""
+    if kind != REPLY_KIND:
+        return None
+    reply = body.get("reply")
+    return reply if reply in (DECLINE, CANNOT) else None
 
 
 def learn_events(events: Iterable[Any], model: OperatorModel | None = None) -> OperatorModel:
@@ -204,7 +205,9 @@ def learn_events(events: Iterable[Any], model: OperatorModel | None = None) -> O
             model.person(body["agent"]).suggestions += 1
         else:
             answer = _answer(ev.kind, body)
-            if answer is not None and isinstance(body.get("agent"), str):
+            key = (run, f"reply:{body.get('id')}")
+            if answer is not None and isinstance(body.get("agent"), str) and key not in seen:
+                seen.add(key)
                 p = model.person(body["agent"])
                 if answer == DECLINE:
                     p.declined += 1
