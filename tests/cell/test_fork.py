@@ -244,3 +244,20 @@ def test_a_run_of_a_scenario_file_forks_with_its_file(
     assert main(argv) == 2
     assert "give it with --scenario FILE" in capsys.readouterr().err
     assert not other.exists()
+
+
+def test_a_run_with_an_operator_model_forks_with_its_file(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The store does not name the operator model (flexhrc learn) the manager timed the person
+    by: ``--operators`` gives it, and the fork reproduces the run."""
+    first = _stored(tmp_path, "kitchen_drawer", "passive")
+    model = tmp_path / "operators.yaml"
+    assert main(["learn", str(first), "-o", str(model)]) == 0
+    source = tmp_path / "modelled.db"
+    serve_cell(load_scenario("kitchen_drawer"), CellConfig(store=source, operators=model))
+    out = tmp_path / "fork.db"
+    argv = ["replay", str(source), "--fork-at", "30", "-o", str(out), "--operators", str(model)]
+    assert main(argv) == 0
+    capsys.readouterr()
+    assert _comparable(read_store(out)) == _comparable(read_store(source))

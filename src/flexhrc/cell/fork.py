@@ -10,6 +10,9 @@ process — and from there the cooperation goes on with the new choices:
 * ``human`` — the operators' profile from event ``K`` on (stored as the input ``operator``,
   :meth:`~flexhrc.cell.supervisor.Cell.set_operator_profile`, so the fork itself resumes and
   replays); None keeps the stored one (the profile each operator's process had in the run);
+* ``operators`` — the operator model file (``flexhrc learn``) the manager times the people's
+  steps by; the store does not name it, so a run made with ``--operators`` forks faithfully
+  only with the same file;
 * ``on_failure`` — the failure policy; the prefix replays under the policy it was stored with,
   so a fork that changes it is refused when a robot action failed within the first ``K`` events.
 
@@ -130,6 +133,7 @@ def fork_store(
     scenario: ScenarioLike | Callable[[str, int], ScenarioLike],
     human: str | None = None,
     on_failure: str | None = None,
+    operators: str | Path | None = None,
     force: bool = False,
     progress: Callable[[str], None] | None = None,
 ) -> ForkReport:
@@ -233,6 +237,7 @@ def fork_store(
             simulator=simulator,
             on_failure=on_failure,
             human=profile,
+            operators=operators,
         ),
         progress=progress,
         attach=[new_choices],

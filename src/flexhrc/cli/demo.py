@@ -201,6 +201,12 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
         "when a robot action failed within the first K events)",
     )
     what_if.add_argument(
+        "--operators",
+        metavar="FILE",
+        help="the operator model (flexhrc learn; docs/operators.md) the manager times the "
+        "people's steps by; a run made with --operators forks faithfully with the same file",
+    )
+    what_if.add_argument(
         "-o",
         "--output",
         metavar="NEW.db",
@@ -303,6 +309,7 @@ def cmd_replay(args: argparse.Namespace) -> int:
 _WHAT_IF_OPTIONS = {
     "--human": "human",
     "--on-failure": "on_failure",
+    "--operators": "operators",
     "-o": "output",
     "--force": "force",
     "--scenario": "scenario",
@@ -328,6 +335,7 @@ def _cmd_what_if(args: argparse.Namespace) -> int:
         args.output,
         human=args.human,
         on_failure=args.on_failure,
+        operators=args.operators,
         scenario=args.scenario,
         force=args.force,
         plot=args.plot,
