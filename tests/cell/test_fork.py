@@ -261,3 +261,9 @@ def test_a_run_with_an_operator_model_forks_with_its_file(
     assert main(argv) == 0
     capsys.readouterr()
     assert _comparable(read_store(out)) == _comparable(read_store(source))
+    # without the model the first K events do not replay as stored: refused, nothing written
+    late = next(ev.seq for ev in read_store(source)[::-1] if ev.kind == "command")
+    bad = tmp_path / "bad.db"
+    assert main(["replay", str(source), "--fork-at", str(late), "-o", str(bad)]) == 2
+    assert "give it with --operators FILE" in capsys.readouterr().err
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith("bad.db")]

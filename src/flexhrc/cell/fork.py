@@ -211,11 +211,7 @@ def fork_store(
     if simulator not in ("analytic", "kinematic"):
         simulator = "auto"
     if force:
-        with contextlib.suppress(FileNotFoundError):
-            os.unlink(target)
-        for extra in ("-wal", "-shm"):
-            with contextlib.suppress(FileNotFoundError):
-                os.unlink(f"{target}{extra}")
+        _remove(target)
     with EventStore(target, option="-o") as store:
         store.append("start", start, prefix[0].t)
         for ev in prefix[1:]:
@@ -223,25 +219,30 @@ def fork_store(
     humans = [str(h) for h in start.get("humans") or []]
 
     def new_choices(cell: Any) -> Any:
+        _check_replayed(cell, prefix, source)
         if human is not None:  # before the loop moves on: the fork's first input from K
             for name in humans:
                 cell.set_operator_profile(name, profile)
         return _Nothing()
 
-    serve_cell(
-        scenario,
-        CellConfig(
-            seed=seed,
-            store=target,
-            resume=True,
-            simulator=simulator,
-            on_failure=on_failure,
-            human=profile,
-            operators=operators,
-        ),
-        progress=progress,
-        attach=[new_choices],
-    )
+    try:
+        serve_cell(
+            scenario,
+            CellConfig(
+                seed=seed,
+                store=target,
+                resume=True,
+                simulator=simulator,
+                on_failure=on_failure,
+                human=profile,
+                operators=operators,
+            ),
+            progress=progress,
+            attach=[new_choices],
+        )
+    except FlexhrcError:
+        _remove(target)  # a fork that could not be rebuilt leaves no store behind
+        raise
     original, original_events = summarise_store(source)
     forked, fork_events = summarise_store(target)
     return ForkReport(
@@ -256,6 +257,33 @@ def fork_store(
         humans,
         prefix[-1].t,
     )
+
+
+def _remove(path: Path) -> None:
+    """A store and its ``-wal`` and ``-shm`` files, if there."""
+    for name in (str(path), f"{path}-wal", f"{path}-shm"):
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(name)
+
+
+def _check_replayed(cell: Any, prefix: list[StoredEvent], source: Path) -> None:
+    """The replayed manager issued every stored command of the first ``K`` events as stored
+    (action, agents, hyper-arc): else the run was made under something the store does not
+    hold (an operator model, another scenario version) and the fork would not continue it."""
+    for ev in prefix:
+        if ev.kind != "command":
+            continue
+        cmd = cell.commands.get(int(ev.body["id"]))
+        made = cmd.to_dict() if cmd is not None else {}
+        keys = ("action", "agents", "element")
+        if cmd is None or any(made.get(k) != ev.body.get(k) for k in keys):
+            raise FlexhrcError(
+                f"{source}: event {ev.seq} (command {ev.body['id']}: {ev.body.get('action')}) "
+                f"does not replay as stored (the manager now issues "
+                f"{made.get('action', 'nothing')}): the run was made under something the store "
+                "does not hold — an operator model (give it with --operators FILE) or another "
+                "version of its scenario"
+            )
 
 
 def profiles_text(profiles: dict[str, str]) -> str:
