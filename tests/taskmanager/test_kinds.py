@@ -272,3 +272,30 @@ def test_a_robot_kind_without_a_target_it_needs_is_a_warning(tmp_path, capsys):
         "needs a place to go to but no parameter names one (add it and name it with target: "
         "[?object, ?place]); its robot motion is timed analytically until then"
     )
+
+
+def test_the_operator_carries_the_part_to_its_place_and_screws_it_there():
+    # issue 21, Fig. 12: the hand and the screwed leg were left where the leg was picked up,
+    # beside the last leg on the table, so the kinematic simulator kept both arms away from it
+    both = {"?who": "human", "?p": "part", "?to": "place"}
+    dom = domain(
+        {
+            "pick_up": {"parameters": {"?who": "human", "?p": "part"},
+                        "agents": {"choice": "?who"}, "carries": "?p"},
+            "screw": {"parameters": both, "agents": {"choice": "?who"}, "carries": "?p",
+                      "fixes": "?p"},
+        }
+    )  # fmt: skip
+    kb, t, sim = world(), Timing(), AnalyticSimulator()
+    positions: dict = {}
+    assert sim.step(ground(dom, "pick_up(human, gear)", ("human",)), positions, kb, dom)[0]
+    assert positions["human"] == kb.position("gear")
+    ok, dt, _ = sim.step(ground(dom, "screw(human, gear, shaft)", ("human",)), positions, kb, dom)
+    carry = ((0.5 - 0.4) ** 2 + 0.2**2 + 0.1**2) ** 0.5 / t.human_speed
+    assert ok and dt == pytest.approx(carry + t.human_screw)
+    assert positions["human"] == positions["gear"] == kb.position("shaft")
+    # the knowledge base follows the report: the hand and the fixed part are at the place
+    action = ground(dom, "screw(human, gear, shaft)", ("human",))
+    assert apply_physical(kb, dom, action, positions) == "gear"
+    assert kb.position("human") == kb.position("gear") == kb.position("shaft")
+    assert kb.object("gear").fixed

@@ -445,7 +445,18 @@ def _human_put_down(ctx: StepContext) -> StepTime:
 
 
 def _human_screw(ctx: StepContext) -> StepTime:
-    return True, ctx.timing.human_screw, None
+    """The operator carries the part to its place at their speed and screws it there: the hand
+    and the part end at the place. Left where the part was picked up, the hand would stand
+    beside the parts still on the table and keep the arms away from them (the kinematic
+    simulator keeps 15 cm from a human hand), and the fixed part would lie off its bolt."""
+    obj, place = ctx.targets
+    if place is None:
+        return True, ctx.timing.human_screw, None
+    hand, p = ctx.hand, ctx.pos(place)
+    ctx.positions[ctx.agent.name] = p
+    if obj:
+        ctx.positions[obj] = p
+    return True, math.dist(hand, p) / ctx.speed + ctx.timing.human_screw, None
 
 
 def _v(p: object) -> Vec3:
