@@ -65,6 +65,9 @@ Array = np.ndarray
 
 #: Where a hand-over happens: in the middle of the table, between robot and human (paper Fig. 12).
 MIDDLE_POSE: tuple[float, float, float] = (0.55, 0.0, 0.30)
+#: How far the tabletop leans on its stand before the robot places it (paper 000, Fig. 8 (a-d)):
+#: ``reorient`` turns it back by as much, flat for the assembly pose.
+TABLETOP_STAND_TILT_RAD = math.radians(30.0)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -156,7 +159,10 @@ class ActionSpec:
 
     ``goal`` says where the TCP goes: ``"above"`` (``approach_height`` above the target),
     ``"target"``, ``"retreat"`` (``approach_height`` above where the TCP is), ``"rest"`` (the arm's
-    rest posture), ``"screw"`` (at the target, turned by ``turn_rad`` about the vertical).
+    rest posture), ``"screw"`` (at the target, turned by ``turn_rad`` about the vertical),
+    ``"tilt"`` (the held object turned by ``tilt_rad`` about the horizontal axis through both
+    grippers — the world's y axis — without moving that axis: Fig. 8 (d), the tabletop turned
+    flat; it needs no target).
     ``gripper`` is ``"close"`` (after the motion) or ``"open"`` (before it) or None; it takes
     ``gripper_time_s``. ``hierarchy`` lists the objectives and their priorities; ``speed_scale``
     scales the joint velocity limits (e.g. carrying a heavy part). ``yaw_period`` is the symmetry
@@ -175,13 +181,14 @@ class ActionSpec:
     gripper_time_s: float = 0.5
     approach_height: float = 0.10
     turn_rad: float = math.pi / 2
+    tilt_rad: float = 0.0
     speed_scale: float = 1.0
     default_target: tuple[float, float, float] | None = None
     yaw_period: float = math.pi
     untargeted_offset: tuple[float, float, float] | None = None
 
     def __post_init__(self) -> None:
-        if self.goal not in ("above", "target", "retreat", "rest", "screw"):
+        if self.goal not in ("above", "target", "retreat", "rest", "screw", "tilt"):
             raise FlexhrcError(f"action {self.name!r}: unknown goal kind {self.goal!r}")
         if self.gripper not in (None, "open", "close"):
             raise FlexhrcError(f"action {self.name!r}: gripper must be 'open', 'close' or None")
@@ -269,6 +276,10 @@ ACTIONS: dict[str, ActionSpec] = {
     "screw": ActionSpec("screw", goal="screw", untargeted_offset=(0.0, 0.0, 0.0)),
     "ungrasp": ActionSpec("ungrasp", goal="retreat", gripper="open"),
     "rest": ActionSpec("rest", goal="rest"),
+    # Fig. 8 (d): the tabletop leans on its stand (TABLETOP_STAND_TILT_RAD); held in both hands
+    # it is turned flat about the axis through the grippers, at half speed
+    "reorient": ActionSpec("reorient", goal="tilt", tilt_rad=-TABLETOP_STAND_TILT_RAD,
+                           speed_scale=0.5),
     # The human's hand is expected at the hand-over pose: no minimum distance to it there.
     "hand_over": ActionSpec("hand_over", goal="target", hierarchy=_NO_HUMAN,
                             default_target=MIDDLE_POSE),
@@ -832,6 +843,18 @@ class KinematicSimulator:
         if spec.goal == "retreat":
             up = np.array([0.0, 0.0, spec.approach_height])
             return {a: ArmGoal(cur[a][0] + up, cur[a][1]) for a in arms}, None
+        if spec.goal == "tilt":
+            # a rigid turn about the y axis through the grippers' midpoint: every hand keeps its
+            # place on the object, so the two-arm grasp (relative pose) is unchanged
+            c, s_ = math.cos(spec.tilt_rad), math.sin(spec.tilt_rad)
+            turn = np.array([[c, 0.0, s_], [0.0, 1.0, 0.0], [-s_, 0.0, c]])
+            mid = np.mean([cur[a][0] for a in arms], axis=0)
+            for a in arms:
+                goals[a] = ArmGoal(mid + turn @ (cur[a][0] - mid), turn @ cur[a][1])
+            if len(arms) == 2:
+                (p1, R1), (p2, R2) = cur[arms[0]], cur[arms[1]]
+                relative = (R1.T @ (p2 - p1), R1.T @ R2)
+            return goals, relative
         if pose is None:
             if spec.untargeted_offset is None:  # pragma: no cover - simulate checks needs_target
                 raise FlexhrcError(f"action {spec.name!r} needs a target (argument 'target')")
@@ -959,6 +982,7 @@ __all__ = [
     "ACTIONS",
     "ARM_NAMES",
     "MIDDLE_POSE",
+    "TABLETOP_STAND_TILT_RAD",
     "ActionOutcome",
     "ActionSpec",
     "KinematicSimulator",

@@ -66,6 +66,7 @@ class Timing:
     human_screw: float = 6.0
     place_tabletop: float = 6.0
     insert: float = 2.0
+    reorient: float = 2.0
 
 
 @dataclass(slots=True)
@@ -431,6 +432,10 @@ def _place_tabletop(ctx: StepContext) -> StepTime:
     return True, ctx.timing.place_tabletop, None
 
 
+def _reorient(ctx: StepContext) -> StepTime:
+    return True, ctx.timing.reorient, None
+
+
 def _human_pick_up(ctx: StepContext) -> StepTime:
     name = ctx.agent.name
     obj = next((a for a in ctx.action.args if a in ctx.kb.objects and a != name), None)
@@ -529,6 +534,20 @@ register_action_kind(
     ],
     carries_object=True, aims_at=_PLACE, colour="#08519c",
 )  # fmt: skip
+# Fig. 8 in full (the tabletop picked, turned flat, set down, held, released, arms to rest)
+register_action_kind(
+    "reorient", phrase="turn {object} flat", robot_time=_reorient,
+    motion=[MotionStep("reorient")], aims_at=_OBJ, colour="#3182bd",
+)  # fmt: skip
+register_action_kind(
+    "set_down",
+    phrase="set {object} down at {place}",
+    robot_time=_transport,
+    motion=[MotionStep("transport", ("place", "object"))],
+    carries_object=True,
+    aims_at=_PLACE,
+    colour="#2b8cbe",
+)  # the part stays in the hand (a process may hold it there); release is its own action
 register_action_kind(
     "pick_up", phrase="pick up {object}", robot_time=_then(_approach, lambda t: t.grasp),
     human_time=_human_pick_up, motion=[_TO_OBJECT, _GRASP], aims_at=_OBJ, colour="#fd8d3c",
@@ -542,7 +561,7 @@ register_action_kind(
 #: alias of ``release``).
 BUILTIN_KINDS = (
     "approach", "grasp", "transport", "place", "insert", "screw", "hold", "release", "rest",
-    "check", "none", "place_tabletop", "pick_up", "put_down", "ungrasp",
+    "check", "none", "place_tabletop", "pick_up", "put_down", "ungrasp", "reorient", "set_down",
 )  # fmt: skip
 
 __all__ = [
