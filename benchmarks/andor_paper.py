@@ -19,10 +19,27 @@ feasible nodes and hyper-arcs). Printed as a table beside the public C++ impleme
 on this kind of machine, ``../shared/anchors/andor-cpp-reference.md``) and the paper's published
 figures, with the ratio and the target of issue #2; plotted to PNG on log scales.
 
+Fig. 6, the result (``--enumerate``, issue 21 item 7): the paper's offline phase enumerates every
+cooperation path, so its single-layer curves grow exponentially with the number of legs while
+the hierarchical one does not. ``--enumerate`` times, for the single-layer FOL, the standard
+(propositional) and the hierarchical table graphs of 1..``--legs`` legs, three methods side by
+side in one run, each run in a fresh process capped at ``--time-limit`` seconds (and
+``--memory-limit`` GiB): flexhrc's path enumeration (its reference mode, ``graph suggest
+--exact``: load, build, then every cooperation path of every instance enumerated and costed),
+flexhrc's dynamic programming (``graph play``, the default) and the C++ ANDOR (``-O2``, path
+enumeration, the paper's code). Offline time and online time per query (enumeration: the median
+of its first 3 queries, each one re-enumerating; the others: the median of a whole random
+traversal), medians of up to ``--seeds`` seeds (fewer once a point has used its time limit); a
+run past the cap is shown as such and the larger graphs of that line are not run. Prints both
+tables and the growth from 4 to 8 legs, and draws the paper's layout (time against legs, log
+scale, offline above, online below, one line per representation and method) to ``--out``.
+
     python benchmarks/andor_paper.py [--anchors DIR] [--runs 10] [--out out/andor_paper.png]
                                      [--json out/andor_paper.json] [--seeds 5]
                                      [--cpp PATH] [--no-parity] [--parity-only]
                                      [--pure-python]
+    python benchmarks/andor_paper.py --enumerate [--legs 9] [--time-limit 60] [--seeds 5]
+                                     [--memory-limit 3] [--no-cpp] [--out out/andor_fig6.png]
 
 Needs ``../shared/anchors/andor-graphs`` (or ``--anchors``); the plot needs matplotlib.
 """
@@ -349,13 +366,320 @@ def print_parity(rows: list[dict[str, object]], seeds: int, reader_: str = "") -
     print()
 
 
+# ----------------------------------------------------------------------------------------------
+# Fig. 6, the result: path enumeration against the DP and the C++ (issue 21, item 7)
+# ----------------------------------------------------------------------------------------------
+
+#: The paper's three representations of the table task (§VII-B, Fig. 6): the file of n legs
+#: and the largest n the authors published.
+REPRESENTATIONS: dict[str, tuple[str, int]] = {
+    "FOL": ("TRO-TableAssembly/{n}Leg/TableAssembly.txt", 10),
+    "standard": ("TRO-PL_FOL-TableAssembly/{n}Leg/TableAssemblyPL.txt", 5),
+    "hierarchical": ("TRO-TableAssembly/{n}Leg/TableAssembly_hierarchical.txt", 10),
+}
+#: Methods: flexhrc's path enumeration (``graph suggest --exact``), flexhrc's DP, the C++ ANDOR.
+METHODS = ("enumeration", "DP", "C++")
+#: Queries the enumeration's online time is the median of (each one re-enumerates every path).
+ENUM_QUERIES = 3
+#: The paper's Fig. 6 offline figures quoted in its text (i7-4790, ROS): (representation, legs).
+PAPER_FIG6: dict[tuple[str, int], float] = {
+    ("FOL", 1): 2.5e-4,
+    ("FOL", 9): 1.98e3,
+    ("hierarchical", 1): 2.8e-4,
+    ("hierarchical", 9): 7.6e-4,
+    ("standard", 5): 349.0,
+}
+# Line styles of the plot: the paper's colours per representation (standard dotted red, FOL
+# dashed blue, hierarchical solid black); a marker and a line style per method.
+_COLOUR = {"standard": "tab:red", "FOL": "tab:blue", "hierarchical": "black"}
+_STYLE = {"enumeration": ("-", "o"), "C++": ("--", "s"), "DP": (":", "^")}
+
+
+def enumerate_once(path: Path, seed: int, queries: int = ENUM_QUERIES) -> dict[str, object]:
+    """flexhrc's path enumeration on ``path``, timed from inside (the ``--enumerate`` worker).
+
+    Offline: load, build the online graph, then the suggestion cost of every feasible element by
+    enumerating every cooperation path of every instance (:func:`exact_costs`, what ``graph
+    suggest --exact`` prints) — the paper's offline phase, which generates the paths and their
+    costs. Online: the authors' random client for ``queries`` queries, each answered by a DP
+    update (statuses) and the enumerated costs."""
+    import random
+
+    from flexhrc.representation.formats import reader_for
+    from flexhrc.representation.paths import exact_costs
+
+    reader_for(path)  # the reader's code is loaded before the clock, as in ``graph play``
+    t0 = time.perf_counter()
+    online = OnlineGraph(load(path))
+    exact_costs(online, sys.maxsize)
+    offline = time.perf_counter() - t0
+    rng = random.Random(seed)
+    answer = online.update()
+    times: list[float] = []
+    while answer.outcome == "running" and len(times) < queries:
+        e = rng.choice(sorted(answer.element_ids))
+        name = online._names[e]
+        t = time.perf_counter()
+        if online._kind[e]:
+            answer = online.update(solved_hyperarcs=(name,))
+        else:
+            answer = online.update(met_nodes=(name,))
+        if answer.outcome == "running":
+            exact_costs(online, sys.maxsize)
+        times.append(time.perf_counter() - t)
+    return {
+        "offline_s": offline,
+        "online_s_per_query_median": statistics.median(times) if times else 0.0,
+        "queries": len(times),
+    }
+
+
+def _limit_memory(gib: float) -> None:
+    """Cap the address space of a benchmark child (a path enumeration holds every path)."""
+    import resource
+
+    limit = int(gib * 2**30)
+    resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
+
+
+def run_capped(
+    cmd: list[str], time_limit: float, memory_gib: float, env: dict[str, str] | None = None
+) -> dict[str, float] | str:
+    """One fresh process, timed from inside (JSON on stdout), or why it has no figure:
+    ``"time"`` (past ``time_limit``, killed) or ``"memory"`` (past ``memory_gib``)."""
+    try:
+        proc = subprocess.run(
+            cmd,
+            capture_output=True,
+            text=True,
+            env=env,
+            timeout=time_limit,
+            preexec_fn=lambda: _limit_memory(memory_gib),
+        )
+    except subprocess.TimeoutExpired:
+        return "time"
+    if proc.returncode == 3 or "MemoryError" in proc.stderr or "bad_alloc" in proc.stderr:
+        return "memory"
+    if proc.returncode not in (0, 1):
+        raise SystemExit(f"{' '.join(cmd)} failed: {proc.stderr.strip()[-400:]}")
+    data: dict[str, float] = json.loads(proc.stdout)
+    return data
+
+
+@dataclass
+class Point:
+    """One representation, method and number of legs: medians of its runs, or why none."""
+
+    representation: str
+    method: str
+    legs: int
+    runs: int = 0
+    offline_s: float | None = None
+    per_query_s: float | None = None
+    capped: str | None = None  # "time", "memory" or "skipped" (a smaller graph was capped)
+
+
+def enumerate_experiment(
+    anchors: Path,
+    legs: int,
+    seeds: int,
+    time_limit: float,
+    memory_gib: float,
+    cpp: Path | None,
+) -> list[Point]:
+    """Every (legs, representation, method) point, methods alternating per graph."""
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join(p for p in (str(ROOT / "src"), env.get("PYTHONPATH")) if p)
+    methods = [m for m in METHODS if m != "C++" or cpp is not None]
+    points: list[Point] = []
+    capped: dict[tuple[str, str], str] = {}
+    for n in range(1, legs + 1):
+        for rep, (pattern, _) in REPRESENTATIONS.items():
+            path = anchors / pattern.format(n=n)
+            if not path.is_file():
+                continue
+            for method in methods:
+                pt = Point(rep, method, n)
+                points.append(pt)
+                if (rep, method) in capped:
+                    pt.capped = "skipped"
+                    continue
+                if method == "enumeration":
+                    base = [sys.executable, str(Path(__file__).resolve()), "--enumerate-one"]
+                    base.append(str(path))
+                elif method == "DP":
+                    base = [sys.executable, "-m", "flexhrc", "graph", "play", str(path)]
+                    base += ["--policy", "random", "--json"]
+                else:
+                    base = [str(cpp), str(path)]
+                offline: list[float] = []
+                per_query: list[float] = []
+                spent = 0.0
+                for seed in range(1, seeds + 1):
+                    t = time.perf_counter()
+                    got = run_capped([*base, "--seed", str(seed)], time_limit, memory_gib, env)
+                    spent += time.perf_counter() - t
+                    label = f"{rep} {n} leg{'s' if n > 1 else ''}, {method}, seed {seed}"
+                    if isinstance(got, str):
+                        pt.capped = got
+                        capped[rep, method] = got
+                        limit = f"{time_limit:g} s" if got == "time" else f"{memory_gib:g} GiB"
+                        print(f"  {label}: past the {got} limit ({limit})", file=sys.stderr)
+                        break
+                    offline.append(float(got["offline_s"]))
+                    per_query.append(float(got["online_s_per_query_median"]))
+                    print(
+                        f"  {label}: offline {fmt(offline[-1])}, per query {fmt(per_query[-1])}",
+                        file=sys.stderr,
+                        flush=True,
+                    )
+                    if spent > time_limit:  # an expensive point: fewer seeds
+                        break
+                if offline and pt.capped is None:
+                    pt.runs = len(offline)
+                    pt.offline_s = statistics.median(offline)
+                    pt.per_query_s = statistics.median(per_query)
+    return points
+
+
+def _cell(pt: Point | None, metric: str, time_limit: float) -> str:
+    if pt is None:
+        return "–"
+    if pt.capped == "time":
+        return f"> {time_limit:g} s"
+    if pt.capped == "memory":
+        return "out of mem"
+    if pt.capped == "skipped":
+        return "(capped)"
+    value: float | None = getattr(pt, metric)
+    return fmt(value)
+
+
+def growth(points: list[Point], rep: str, method: str, a: int = 4, b: int = 8) -> float | None:
+    """Offline time at ``b`` legs over that at ``a`` legs (None: not measured)."""
+    lo = next((p for p in points if (p.representation, p.method, p.legs) == (rep, method, a)), None)
+    hi = next((p for p in points if (p.representation, p.method, p.legs) == (rep, method, b)), None)
+    if lo is None or hi is None or lo.offline_s is None or hi.offline_s is None:
+        return None
+    return hi.offline_s / lo.offline_s
+
+
+def print_enumeration(points: list[Point], legs: int, time_limit: float, seeds: int) -> int:
+    """The two tables (offline, online per query) and the growth lines; returns failures of
+    the acceptance of issue 21 (only when 4 and 8 legs were run)."""
+    ns = list(range(1, legs + 1))
+    lines = [(rep, m) for rep in REPRESENTATIONS for m in METHODS]
+    index = {(p.representation, p.method, p.legs): p for p in points}
+    for metric, title in (("offline_s", "offline"), ("per_query_s", "online, per query")):
+        print(
+            f"Fig. 6, {title}: time against legs (medians of up to {seeds} seeds, "
+            f"each run capped at {time_limit:g} s)"
+        )
+        head = f"{'representation':<16}{'method':<13}" + "".join(f"{n:>11}" for n in ns)
+        print(head)
+        print("-" * len(head))
+        for rep, m in lines:
+            if not any(k[:2] == (rep, m) for k in index):
+                continue
+            cells = "".join(f"{_cell(index.get((rep, m, n)), metric, time_limit):>11}" for n in ns)
+            print(f"{rep:<16}{m:<13}{cells}")
+        print()
+    failures = 0
+    print(
+        "offline growth from 4 to 8 legs (the paper: exponential single-layer, flat hierarchical):"
+    )
+    if legs < 8:
+        print("  (needs 4 and 8 legs: --legs 8 or more)")
+    for rep, m in lines:
+        g = growth(points, rep, m)
+        if g is None:
+            continue
+        verdict = ""
+        if (rep, m) == ("FOL", "enumeration"):
+            ok = g >= 10.0
+            verdict = f"  {'PASS' if ok else 'FAIL'} (>= 10x)"
+            failures += not ok
+        elif (m == "enumeration" and rep == "hierarchical") or m == "DP":
+            ok = g < 3.0
+            verdict = f"  {'PASS' if ok else 'FAIL'} (< 3x)"
+            failures += not ok
+        shown = f"{g:,.0f}" if g >= 100 else f"{g:.2f}"
+        print(f"  {rep:<16}{m:<13}{shown:>10}x{verdict}")
+    return failures
+
+
+def plot_enumeration(points: list[Point], legs: int, time_limit: float, out: Path) -> None:
+    """The paper's Fig. 6 layout: offline above, online below, time against legs, log scale."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from flexhrc.files import atomic_output
+
+    fig, axes = plt.subplots(2, 1, figsize=(8, 10), sharex=True)
+    for ax, metric, title in (
+        (axes[0], "offline_s", "offline phase"),
+        (axes[1], "per_query_s", "online phase, per query"),
+    ):
+        for rep in REPRESENTATIONS:
+            for m in METHODS:
+                pts = [p for p in points if (p.representation, p.method) == (rep, m)]
+                xy = [(p.legs, getattr(p, metric)) for p in pts if getattr(p, metric) is not None]
+                if not pts:
+                    continue
+                ls, marker = _STYLE[m]
+                if xy:
+                    ax.plot(
+                        *zip(*xy, strict=True),
+                        linestyle=ls,
+                        marker=marker,
+                        color=_COLOUR[rep],
+                        label=f"{rep}, {m}",
+                    )
+                cut = [p.legs for p in pts if p.capped in ("time", "memory")]
+                if cut:  # where the line stops: past the time (or memory) limit
+                    ax.scatter(cut, [time_limit], marker="x", s=60, color=_COLOUR[rep], zorder=3)
+        if metric == "offline_s":
+            pp = [(n, v, rep) for (rep, n), v in PAPER_FIG6.items() if n <= legs]
+            for n, v, rep in pp:
+                ax.scatter(n, v, marker="*", s=90, color=_COLOUR[rep], zorder=4, alpha=0.6)
+            if pp:
+                ax.scatter([], [], marker="*", s=90, color="grey", label="the paper's text")
+            ax.scatter([], [], marker="x", s=60, color="grey", label="stopped at the time limit")
+        ax.axhline(time_limit, color="grey", linewidth=0.8, linestyle="-.")
+        ax.set_yscale("log")
+        ax.set_ylabel("seconds (log scale)")
+        ax.set_title(title)
+        ax.grid(True, which="both", alpha=0.3)
+    axes[1].set_xlabel("legs")
+    axes[1].set_xticks(range(1, legs + 1))
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=4, fontsize=7, frameon=False)
+    fig.suptitle(
+        "Fig. 6 on the authors' table graphs: path enumeration (flexhrc --exact, C++ ANDOR)\n"
+        f"against flexhrc's dynamic programming (each run capped at {time_limit:g} s)",
+        fontsize=10,
+    )
+    fig.tight_layout(rect=(0, 0.07, 1, 1))
+    out.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_output(out) as tmp:
+        fig.savefig(tmp, dpi=100)
+    plt.close(fig)
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
     ap.add_argument("--anchors", type=Path, default=DEFAULT_ANCHORS)
     ap.add_argument("--runs", type=int, default=10)
-    ap.add_argument("--out", type=Path, default=ROOT / "out" / "andor_paper.png")
+    ap.add_argument(
+        "--out",
+        type=Path,
+        default=None,
+        help="the plot (default out/andor_paper.png; with --enumerate out/andor_fig6.png)",
+    )
     ap.add_argument("--json", type=Path, default=None)
     ap.add_argument("--seeds", type=int, default=5, help="seeds of the parity runs (default 5)")
     ap.add_argument("--cpp", type=Path, default=None, help="the C++ andor_bench binary")
@@ -366,9 +690,63 @@ def main() -> int:
         action="store_true",
         help="flexhrc without its compiled reader (FLEXHRC_PURE_PYTHON=1) in the parity runs",
     )
+    fig6 = ap.add_argument_group("Fig. 6, the result (--enumerate)")
+    fig6.add_argument(
+        "--enumerate",
+        action="store_true",
+        help="time path enumeration beside the DP and the C++ against legs (no parity table)",
+    )
+    fig6.add_argument("--legs", type=int, default=9, help="1..N legs (default 9, the paper's)")
+    fig6.add_argument(
+        "--time-limit", type=float, default=60.0, help="seconds each run may take (default 60)"
+    )
+    fig6.add_argument(
+        "--memory-limit", type=float, default=3.0, help="GiB each run may use (default 3)"
+    )
+    fig6.add_argument("--no-cpp", action="store_true", help="leave the C++ ANDOR out")
+    # the worker of one enumeration run (a fresh process, so that the time limit can kill it)
+    ap.add_argument("--enumerate-one", type=Path, default=None, help=argparse.SUPPRESS)
+    ap.add_argument("--seed", type=int, default=1, help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.seeds < 1:
         ap.error("--seeds must be at least 1")
+    if args.enumerate_one is not None:
+        try:
+            print(json.dumps(enumerate_once(args.enumerate_one, args.seed)))
+        except MemoryError:
+            return 3
+        return 0
+    if args.enumerate:
+        if args.legs < 1:
+            ap.error("--legs must be at least 1")
+        if not args.time_limit > 0 or not args.memory_limit > 0:
+            ap.error("--time-limit and --memory-limit must be positive")
+        if not args.anchors.is_dir():
+            print(f"--enumerate: {args.anchors} is not present (give --anchors)", file=sys.stderr)
+            return 2
+        cpp = None if args.no_cpp else find_cpp(args.cpp, args.anchors.parent / "andor-cpp")
+        if cpp is None and not args.no_cpp:
+            print("--enumerate: no C++ reference binary; its lines are left out", file=sys.stderr)
+        print(
+            f"--enumerate: 1..{args.legs} legs, up to {args.seeds} seeds, "
+            f"{args.time_limit:g} s / {args.memory_limit:g} GiB per run",
+            file=sys.stderr,
+            flush=True,
+        )
+        points = enumerate_experiment(
+            args.anchors, args.legs, args.seeds, args.time_limit, args.memory_limit, cpp
+        )
+        failures = print_enumeration(points, args.legs, args.time_limit, args.seeds)
+        if args.json:
+            args.json.parent.mkdir(parents=True, exist_ok=True)
+            args.json.write_text(json.dumps({"enumerate": [p.__dict__ for p in points]}, indent=2))
+        out = args.out or ROOT / "out" / "andor_fig6.png"
+        try:
+            plot_enumeration(points, args.legs, args.time_limit, out)
+            print(f"\nplot: {out}")
+        except ImportError:
+            print("\n(matplotlib not installed: no plot)", file=sys.stderr)
+        return 1 if failures else 0
     parity_failures = 0
     parity_rows: list[dict[str, object]] = []
     if not args.no_parity:
@@ -450,8 +828,9 @@ def main() -> int:
             json.dumps({"parity": parity_rows, "corpus": [r.__dict__ for r in rows]}, indent=2)
         )
     try:
-        plot(rows, args.out)
-        print(f"\nplot: {args.out}")
+        out = args.out or ROOT / "out" / "andor_paper.png"
+        plot(rows, out)
+        print(f"\nplot: {out}")
     except ImportError:
         print("\n(matplotlib not installed: no plot)", file=sys.stderr)
     return 1 if failures or parity_failures else 0

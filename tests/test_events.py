@@ -55,6 +55,7 @@ SPECIAL: dict[str, Any] = {
     "start": 1.5,
     "act": False,
     "answer": "no",
+    "on_failure": "paper",
 }
 BY_TYPE: dict[type, Any] = {str: "x", int: 2, float: 0.5, bool: False, list: ["a"], dict: {}}
 

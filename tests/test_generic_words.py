@@ -1,7 +1,8 @@
 """No table word in what flexhrc prints about a task that is not the table (issue 19, item 5).
 
 Summaries, JSON and logs speak of hyper-arcs, actions and agents. The table assembly keeps its
-own words (``legs_by_agent``, "legs connected by ..."); every other scenario — shipped, example,
+own words (``legs_by_agent``, "legs connected by ..."), and its variant ``table_two_arms`` names
+its objects legs and bolts; every other scenario — shipped, example,
 the starter of ``flexhrc scenario new`` — must not show ``leg``, ``bolt`` or ``tabletop`` in the
 text or the JSON of ``flexhrc run``, ``flexhrc replay`` or ``flexhrc cell``.
 """
@@ -23,7 +24,9 @@ TABLE_WORDS = re.compile(r"leg|bolt|tabletop", re.IGNORECASE)
 
 
 def _non_table_scenarios() -> list[str]:
-    shipped = [name for name in scenario.SHIPPED if name != "table_assembly"]
+    # the table and its variants (table_two_arms: two legs, two bolts) name their own objects
+    table = ("table_assembly", "table_two_arms")
+    shipped = [name for name in scenario.SHIPPED if name not in table]
     examples = [str(p) for p in sorted((REPO / "examples" / "scenarios").glob("*.yaml"))]
     return shipped + examples
 

@@ -83,6 +83,15 @@ class SimulatorName(StrEnum):
     KINEMATIC = "kinematic"
 
 
+class FailurePolicy(StrEnum):
+    """What a failed or timed-out robot action does to its hyper-arc (``--on-failure``, the
+    scenario key ``on_failure``; the first is the default): ``retry`` excludes that grounding
+    only, ``paper`` marks the hyper-arc infeasible (paper 000, V-A)."""
+
+    RETRY = "retry"
+    PAPER = "paper"
+
+
 class GraphEvent(StrEnum):
     """What the online AND/OR graph is told about an element (``representation.online``)."""
 
@@ -98,6 +107,7 @@ ACK_STATUSES: tuple[str, ...] = tuple(s.value for s in AckStatus if s is not Ack
 #: How an action may end in an ``action_end`` event.
 ACTION_STATUSES: tuple[str, ...] = tuple(s.value for s in AckStatus)
 SIMULATORS: tuple[str, ...] = tuple(s.value for s in SimulatorName)
+FAILURE_POLICIES: tuple[str, ...] = tuple(p.value for p in FailurePolicy)
 GRAPH_EVENTS: tuple[str, ...] = tuple(e.value for e in GraphEvent)
 
 # -- type tags -----------------------------------------------------------------------------------
@@ -373,9 +383,9 @@ def _action(kind: str) -> Field:
     return Field(S, True, check=bool, message=f"{kind}: 'action' must be a string")
 
 
-def _one_of(kind: str, key: str, values: tuple[str, ...]) -> Field:
+def _one_of(kind: str, key: str, values: tuple[str, ...], *, required: bool = True) -> Field:
     said = f"{kind}: {key!r} must be one of {', '.join(values)}, got {{value!r}}"
-    return Field(S, True, check=lambda v: v in values, message=said)
+    return Field(S, required, check=lambda v: v in values, message=said)
 
 
 # fmt: off
@@ -384,6 +394,7 @@ _LOG_SCHEMAS = [
          humans=Field((list,), check=lambda v: all(isinstance(a, str) and a for a in v),
                       message="start: 'humans' must be a list of agent names"),
          simulator=OPT_NAME,
+         on_failure=_one_of("start", "on_failure", FAILURE_POLICIES, required=False),
          profile=Field(S, True, message="start: 'profile' must be a string")),
     _log("query", "the Task Manager asked the representation", report=Field((dict,))),
     _log("decision", "a hyper-arc's branches simulated, one chosen", "replay trace store",

@@ -39,6 +39,19 @@ def pump_of(cell: Any, bus: Any, agents: list[Any], limit: int | None = None) ->
     return pump
 
 
+def simulated_agents(scenario: Any, bus: Any) -> list[Any]:
+    """Every agent of ``scenario`` simulated on ``bus`` (analytic execution), in domain order."""
+    from flexhrc.cell import HumanAgent, RobotAgent
+    from flexhrc.cell.components import execution_model
+
+    return [
+        (HumanAgent if a.is_human else RobotAgent)(
+            a.name, scenario, bus, execution=execution_model("analytic")
+        )
+        for a in scenario.domain.agents.values()
+    ]
+
+
 def flexhrc(*args: str, log: Path | None = None) -> subprocess.Popen[str]:
     """Start ``python -m flexhrc ARGS``: stdout piped, stderr to ``log`` (or piped)."""
     err: Any = open(log, "w") if log is not None else subprocess.PIPE  # noqa: SIM115

@@ -16,7 +16,7 @@ from flexhrc.scenario import load_scenario
 from flexhrc.transport import InProcessBus
 
 from ..conftest import subprocess_env
-from .helpers import Crash, pump_of
+from .helpers import Crash, pump_of, simulated_agents
 
 
 def run_cli(*args: str, timeout: float = 120) -> subprocess.CompletedProcess[str]:
@@ -137,12 +137,7 @@ def test_resume_in_one_process_ends_like_the_uninterrupted_run(
     store = EventStore(path)
     bus = InProcessBus()
     cell = Cell(scenario, bus, store=store, liveliness=False, simulator=execution_model("analytic"))
-    agents = [
-        (HumanAgent if a.is_human else RobotAgent)(
-            a.name, scenario, bus, execution=execution_model("analytic")
-        )
-        for a in scenario.domain.agents.values()
-    ]
+    agents = simulated_agents(scenario, bus)
     with pytest.raises(Crash):
         cell.run(pump=pump_of(cell, bus, agents, crash_after))
     store.close()
@@ -158,12 +153,7 @@ def test_resume_in_one_process_ends_like_the_uninterrupted_run(
         simulator=execution_model("analytic"),
     )
     # the agents are new processes too here: they execute what was outstanding
-    agents2 = [
-        (HumanAgent if a.is_human else RobotAgent)(
-            a.name, scenario, bus2, execution=execution_model("analytic")
-        )
-        for a in scenario.domain.agents.values()
-    ]
+    agents2 = simulated_agents(scenario, bus2)
     data = again.run(pump=pump_of(again, bus2, agents2))
     store.close()
     assert data["outcome"] == "solved" and data["cell"]["resumed"]
@@ -189,12 +179,7 @@ def test_a_lost_command_is_sent_again_and_executed_once() -> None:
     scenario = load_scenario("table_assembly")
     bus = LossyBus()
     cell = Cell(scenario, bus, liveliness=False, simulator=execution_model("analytic"))
-    agents = [
-        (HumanAgent if a.is_human else RobotAgent)(
-            a.name, scenario, bus, execution=execution_model("analytic")
-        )
-        for a in scenario.domain.agents.values()
-    ]
+    agents = simulated_agents(scenario, bus)
     data = cell.run(pump=pump_of(cell, bus, agents))
     assert data["outcome"] == "solved" and bus.lost == 1
     assert data["cell"]["resent"] == 1

@@ -43,6 +43,7 @@ from .helpers import (
     pump_of,
     robot,
     rows,
+    simulated_agents,
     start_cell,
     wait_until,
 )
@@ -180,12 +181,7 @@ def test_p34_the_manager_drops_answers_of_another_run_and_reports_before_its_sta
     scenario = table_assembly(segments="legs")
     bus = InProcessBus()
     cell = Cell(scenario, bus, liveliness=False, simulator=execution_model("analytic"))
-    agents: list[Any] = [
-        (HumanAgent if a.is_human else RobotAgent)(
-            a.name, scenario, bus, execution=execution_model("analytic")
-        )
-        for a in scenario.domain.agents.values()
-    ]
+    agents: list[Any] = simulated_agents(scenario, bus)
     # a stale report before the cooperation started (the probe's P34 operator resends one)
     stale = P.message(
         "human_action", id="human:s1:0", agent="human", action="pick_up(human, leg3)", t=1.0
@@ -214,12 +210,7 @@ def test_p34_the_manager_drops_answers_of_another_run_and_reports_before_its_sta
 def _solved_in_process(scenario: Any) -> tuple[dict[str, Any], Cell, list[Any]]:
     bus = InProcessBus()
     cell = Cell(scenario, bus, liveliness=False, simulator=execution_model("analytic"))
-    agents: list[Any] = [
-        (HumanAgent if a.is_human else RobotAgent)(
-            a.name, scenario, bus, execution=execution_model("analytic")
-        )
-        for a in scenario.domain.agents.values()
-    ]
+    agents: list[Any] = simulated_agents(scenario, bus)
     return cell.run(pump=pump_of(cell, bus, agents)), cell, agents
 
 
@@ -527,12 +518,7 @@ def test_a_store_that_mixes_two_runs_is_refused(tmp_path: Path) -> None:
     store = EventStore(path)
     bus = InProcessBus()
     cell = Cell(scenario, bus, store=store, liveliness=False, simulator=execution_model("analytic"))
-    agents: list[Any] = [
-        (HumanAgent if a.is_human else RobotAgent)(
-            a.name, scenario, bus, execution=execution_model("analytic")
-        )
-        for a in scenario.domain.agents.values()
-    ]
+    agents: list[Any] = simulated_agents(scenario, bus)
     with pytest.raises(Crash):
         cell.run(pump=pump_of(cell, bus, agents, limit=10))
     store.append("ack", {"id": 1, "agent": "left", "status": "done", "run": RUN_B}, 5.0)
@@ -551,12 +537,7 @@ def test_a_legacy_store_without_run_ids_still_resumes(tmp_path: Path) -> None:
     store = EventStore(path)
     bus = InProcessBus()
     cell = Cell(scenario, bus, store=store, liveliness=False, simulator=execution_model("analytic"))
-    agents: list[Any] = [
-        (HumanAgent if a.is_human else RobotAgent)(
-            a.name, scenario, bus, execution=execution_model("analytic")
-        )
-        for a in scenario.domain.agents.values()
-    ]
+    agents: list[Any] = simulated_agents(scenario, bus)
     with pytest.raises(Crash):
         cell.run(pump=pump_of(cell, bus, agents, limit=10))
     store.close()
@@ -575,12 +556,7 @@ def test_a_legacy_store_without_run_ids_still_resumes(tmp_path: Path) -> None:
             simulator=execution_model("analytic"),
         )  # fmt: skip
         assert resumed.run_id == identity.run_of(start)
-        agents2: list[Any] = [
-            (HumanAgent if a.is_human else RobotAgent)(
-                a.name, scenario, bus2, execution=execution_model("analytic")
-            )
-            for a in scenario.domain.agents.values()
-        ]
+        agents2: list[Any] = simulated_agents(scenario, bus2)
         data = resumed.run(pump=pump_of(resumed, bus2, agents2))
     assert data["outcome"] == "solved"
     after = rows(path)

@@ -31,7 +31,16 @@ from flexhrc.cell.components import execution_model
 from flexhrc.scenario import load_scenario
 from flexhrc.transport import InProcessBus
 
-from .helpers import TABLE_NO_HUMAN, executed, finish, kill_all, robot, rows, start_cell
+from .helpers import (
+    TABLE_NO_HUMAN,
+    executed,
+    finish,
+    kill_all,
+    robot,
+    rows,
+    simulated_agents,
+    start_cell,
+)
 
 zenoh_only = pytest.mark.skipif(importlib.util.find_spec("zenoh") is None, reason="no zenoh")
 PREFIX = "flexhrc/spoof"
@@ -120,12 +129,7 @@ def reference() -> dict[str, Any]:
     scenario = load_scenario("table_assembly")
     bus = InProcessBus()
     cell = Cell(scenario, bus, liveliness=False, simulator=execution_model("analytic"))
-    agents = [
-        (HumanAgent if a.is_human else RobotAgent)(
-            a.name, scenario, bus, execution=execution_model("analytic")
-        )
-        for a in scenario.domain.agents.values()
-    ]
+    agents = simulated_agents(scenario, bus)
 
     def pump(timeout: float) -> None:
         bus.flush()
@@ -179,12 +183,7 @@ def test_an_ack_for_an_unknown_or_answered_command_is_dropped_by_its_reason() ->
     scenario = load_scenario("table_assembly")
     bus = InProcessBus()
     cell = Cell(scenario, bus, liveliness=False, simulator=execution_model("analytic"))
-    agents = [
-        (HumanAgent if a.is_human else RobotAgent)(
-            a.name, scenario, bus, execution=execution_model("analytic")
-        )
-        for a in scenario.domain.agents.values()
-    ]
+    agents = simulated_agents(scenario, bus)
     first: list[Msg] = []
 
     def spy(msg: Msg) -> None:
@@ -271,12 +270,7 @@ def test_p19_a_report_that_was_not_asked_and_advances_nothing_is_dropped(
     scenario = load_scenario("table_assembly")
     bus = InProcessBus()
     cell = Cell(scenario, bus, liveliness=False, simulator=execution_model("analytic"))
-    agents = [
-        (HumanAgent if a.is_human else RobotAgent)(
-            a.name, scenario, bus, execution=execution_model("analytic")
-        )
-        for a in scenario.domain.agents.values()
-    ]
+    agents = simulated_agents(scenario, bus)
     heard: list[Msg] = []
 
     def spy(msg: Msg) -> None:

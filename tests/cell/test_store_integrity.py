@@ -22,6 +22,7 @@ from flexhrc.errors import FlexhrcError
 from flexhrc.scenario import load_scenario
 
 from ..conftest import subprocess_env
+from .helpers import simulated_agents
 
 TABLE = load_scenario("table_assembly")
 
@@ -131,6 +132,34 @@ def test_the_commands_exit_2_without_a_traceback(
         assert res.returncode == 2, res.stderr
         assert "Traceback" not in res.stderr
         assert res.stderr.startswith("error: ") and message in res.stderr, res.stderr
+
+
+@pytest.mark.parametrize("where", [b"CREATE", b"KEY"])
+def test_a_store_whose_schema_has_a_damaged_byte_is_one_clear_error(
+    full_store: Path, tmp_path: Path, where: bytes
+) -> None:
+    """One byte of the table's schema text changed (fuzz, store target): SQLite's error
+    quotes the damaged text, which is no UTF-8 any more, so Python's sqlite3 raised
+    UnicodeDecodeError from the query itself — a traceback of ``replay`` and ``--resume``."""
+    data = bytearray(full_store.read_bytes())
+    at = data.find(b"CREATE TABLE events(")
+    at = data.find(where, at)
+    data[at + 2] = 0xC5  # a lead byte followed by no continuation byte
+    path = tmp_path / "damaged.db"
+    path.write_bytes(bytes(data))
+    for args in (["replay", str(path)], ["cell", "table_assembly", "--store", str(path),
+                                          "--resume", "--quiet"]):  # fmt: skip
+        res = subprocess.run(
+            [sys.executable, "-m", "flexhrc", *args],
+            capture_output=True, text=True, env=subprocess_env(), timeout=60,
+        )  # fmt: skip
+        assert res.returncode == 2, res.stderr
+        assert "Traceback" not in res.stderr, res.stderr
+        assert res.stderr.startswith("error: ") and str(path) in res.stderr, res.stderr
+        assert "not a flexhrc event store (its schema is damaged" in res.stderr, res.stderr
+        assert len(res.stderr.strip().splitlines()) == 1, res.stderr
+    with pytest.raises(FlexhrcError, match="its schema is damaged"):
+        read_store(path)
 
 
 class Spoof:
@@ -322,7 +351,7 @@ def test_k06_a_stalled_manager_counts_the_work_that_was_done(
     sent meanwhile was lost. The tokens that come back are agents that were there all along:
     nothing is recorded lost, the done command counts (its ack is asked for again). A token
     that does not come back within the grace is a lost agent, as before."""
-    from flexhrc.cell import Cell, HumanAgent, RobotAgent
+    from flexhrc.cell import Cell
     from flexhrc.cell import supervisor as S
     from flexhrc.cell.components import execution_model
 
@@ -332,12 +361,7 @@ def test_k06_a_stalled_manager_counts_the_work_that_was_done(
     monkeypatch.setattr(S, "time", clock)
     bus = LeaseBus()
     cell = Cell(scenario, bus, simulator=execution_model("analytic"))  # type: ignore[arg-type]
-    agents = [
-        (HumanAgent if a.is_human else RobotAgent)(
-            a.name, scenario, bus, execution=execution_model("analytic")
-        )
-        for a in scenario.domain.agents.values()
-    ]
+    agents = simulated_agents(scenario, bus)
     phase = ["run"]
 
     def pump(timeout: float) -> None:

@@ -66,7 +66,7 @@ def test_run_unknown_name_and_bad_reaction_are_one_line_errors(capsys):
     err = capsys.readouterr().err.strip()
     assert err == (
         "error: unknown scenario 'no_such_task'; shipped: table_assembly, ball_in_box, "
-        "kitchen_drawer (or give a .yaml file)"
+        "kitchen_drawer, table_two_arms (or give a .yaml file)"
     )
 
 

@@ -41,7 +41,7 @@ import numpy as np
 
 from flexhrc.knowledge import KnowledgeBase
 from flexhrc.taskmanager.domain import Domain, GroundAction
-from flexhrc.taskmanager.kinds import action_targets, kind_of
+from flexhrc.taskmanager.kinds import Timing, action_targets, kind_of
 from flexhrc.taskmanager.simulator import (
     AnalyticSimulator,
     SimulationResult,
@@ -65,16 +65,27 @@ class KinematicTaskSimulator:
         grasp_height_m: float = 0.02,
         hold_height_m: float = 0.10,
         dt: float = 0.04,
+        timing: Timing | None = None,
     ):
         from flexhrc.action.execution import ExecutionManager
         from flexhrc.action.simulator import KinematicSimulator
 
+        # the timing profile: the robot model's joint speeds, the per-action overheads and the
+        # operator's times (all of the default profile's are the model's own)
+        self.timing = timing or (human.timing if human is not None else Timing())
+        limit = self.timing.joint_speed_limit
         # a 40 ms step ranks branches as well as 20 ms (durations within ~3 %) at half the cost
-        self.sim = simulator if simulator is not None else KinematicSimulator(dt=dt)
-        self.execution = (
-            execution if execution is not None else ExecutionManager(KinematicSimulator())
+        self.sim = (
+            simulator
+            if simulator is not None
+            else KinematicSimulator(dt=dt, joint_speed_limit=limit)
         )
-        self.human = human or AnalyticSimulator()
+        self.execution = (
+            execution
+            if execution is not None
+            else ExecutionManager(KinematicSimulator(joint_speed_limit=limit))
+        )
+        self.human = human or AnalyticSimulator(self.timing)
         self.grasp_height_m = grasp_height_m
         self.hold_height_m = hold_height_m
         self.wall_s = 0.0
@@ -227,6 +238,7 @@ class KinematicTaskSimulator:
                     durations.append(total)
                     return SimulationResult(False, durations, f"{action}: {out.reason}", details)
                 state = out.final_state
+            total += self.timing.robot_action_overhead
             durations.append(total)
             details.append(
                 {
@@ -298,7 +310,7 @@ class KinematicTaskSimulator:
             if report.status != "done":
                 return StepReport(report.status, total, report.reason)
         self._follow(action, motions, positions, kb)
-        return StepReport("done", total, None)
+        return StepReport("done", total + self.timing.robot_action_overhead, None)
 
     def inject(self, disturbance: Any) -> Any:
         """Inject a disturbance into the simulated real robot's world (see ExecutionManager)."""

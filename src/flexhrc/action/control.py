@@ -766,6 +766,7 @@ class TaskPriorityController:
         damping: float = 0.01,
         eta: float = 1.0,
         velocity_scale: float = 1.0,
+        joint_speed_limit: float | None = None,
     ):
         load_lapack()
         self.robot = robot
@@ -779,7 +780,10 @@ class TaskPriorityController:
             levels.setdefault(obj.priority, []).append(obj)
         self.levels = [levels[p] for p in sorted(levels)]
         self.goals = [o for o in objectives if o.is_goal]
-        self.v_max = np.concatenate([a.v_max for a in self.arms]) * velocity_scale
+        v_max = np.concatenate([a.v_max for a in self.arms])
+        if joint_speed_limit is not None:  # a slower robot than the model's datasheet
+            v_max = np.minimum(v_max, joint_speed_limit)
+        self.v_max = v_max * velocity_scale
         self._inv_v_max = 1.0 / self.v_max
         self.q_min = np.concatenate([a.q_min for a in self.arms])
         self.q_max = np.concatenate([a.q_max for a in self.arms])

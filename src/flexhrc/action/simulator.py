@@ -512,6 +512,9 @@ class KinematicSimulator:
     has stopped improving for ``stall_s`` counts as reached if it is within ``settle`` times the
     tolerances — 0.9 mm and 0.009 rad by default — and fails otherwise), and the action
     definitions (default :data:`ACTIONS`; pass your own mapping to change hierarchies).
+    ``joint_speed_limit`` (rad/s) caps the model's joint velocity limits (a slower robot: the
+    paper's Baxter moves its joints at most 0.6 rad/s,
+    :data:`flexhrc.taskmanager.kinds.PAPER_TIMING`).
 
     Simulations are deterministic, so the last ``cache_size`` outcomes are kept: asking again
     for the same action from the same state in the same world (as a Task Manager re-scoring its
@@ -532,9 +535,13 @@ class KinematicSimulator:
         span_m: float = 0.2,
         actions: Mapping[str, ActionSpec] | None = None,
         cache_size: int = 256,
+        joint_speed_limit: float | None = None,
     ):
         if dt <= 0 or time_budget_s <= 0:
             raise FlexhrcError("dt and time_budget_s must be positive")
+        if joint_speed_limit is not None and not joint_speed_limit > 0:
+            raise FlexhrcError(f"joint_speed_limit must be positive, got {joint_speed_limit}")
+        self.joint_speed_limit = joint_speed_limit
         self.robot = robot if robot is not None else load_robot()
         load_lapack()
         self.dt = float(dt)
@@ -658,7 +665,11 @@ class KinematicSimulator:
                 obstacles=obs, human_hand=human_hand, relative=relative,
             )  # fmt: skip
             return TaskPriorityController(
-                self.robot, arms, objectives, velocity_scale=spec.speed_scale
+                self.robot,
+                arms,
+                objectives,
+                velocity_scale=spec.speed_scale,
+                joint_speed_limit=self.joint_speed_limit,
             )
 
         ctrl = controller()

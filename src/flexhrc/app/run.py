@@ -33,8 +33,8 @@ from flexhrc.errors import FlexhrcError
 from flexhrc.events import PROFILES, TRACE_TYPES
 from flexhrc.scenario.model import Scenario
 from flexhrc.scenario.simulators import CHOICES as SIMULATOR_CHOICES
-from flexhrc.scenario.simulators import choose_simulator, resolve_simulator_name
-from flexhrc.taskmanager.manager import REACTIONS
+from flexhrc.scenario.simulators import TIMING_CHOICES, choose_simulator, resolve_simulator_name
+from flexhrc.taskmanager.manager import FAILURE_POLICIES, REACTIONS
 from flexhrc.taskmanager.replay import outcome_line, plural, table_i
 
 HUMAN_SENSING = ("injected", "har", "har-real")
@@ -91,7 +91,10 @@ class RunConfig:
     :class:`~flexhrc.scenario.Scenario` or a :class:`TableDemo`. ``human`` overrides every
     operator's profile; ``human_takes`` scripts the operator (the K-th cooperation step it
     could do); ``fail`` are ``ACTION[:N]`` failures, ``disturb`` ``KIND[:ACTION[:N]]``
-    disturbances of the kinematic simulator; ``simulator`` None is the scenario's choice.
+    disturbances of the kinematic simulator; ``on_failure`` what a failed robot action does to
+    its hyper-arc (``retry``, ``paper``; None: the scenario's ``on_failure``, else ``retry``);
+    ``simulator`` None is the scenario's choice, as is ``timing`` None (``default`` or
+    ``paper``: how simulated actions are timed, :data:`~flexhrc.taskmanager.kinds.TIMINGS`).
     ``log`` streams the event log (JSON lines), ``plot`` draws the timeline; ``quiet`` drops
     the progress lines; ``realtime`` paces the simulated clock (SPEED times real time).
     """
@@ -103,7 +106,9 @@ class RunConfig:
     human_takes: tuple[int, ...] | None = None
     fail: tuple[str, ...] = ()
     reaction: str = "conflicts"
+    on_failure: str | None = None
     simulator: str | None = None
+    timing: str | None = None
     disturb: tuple[str, ...] = ()
     human_sensing: str = "injected"
     hmp: str | Path | None = None
@@ -119,7 +124,9 @@ class RunConfig:
         for option, value, choices in (
             ("--human", self.human, (None, *PROFILES)),
             ("--reaction", self.reaction, REACTIONS),
+            ("--on-failure", self.on_failure, (None, *FAILURE_POLICIES)),
             ("--simulator", self.simulator, (None, *SIMULATOR_CHOICES)),
+            ("--timing", self.timing, (None, *TIMING_CHOICES)),
             ("--human-sensing", self.human_sensing, HUMAN_SENSING),
             ("--perception", self.perception, PERCEPTION),
         ):
@@ -238,8 +245,12 @@ def run_scenario(
         if config.log is not None and Path(config.plot).resolve() == Path(config.log).resolve():
             raise FlexhrcError(f"--plot {config.plot}: also given to --log; use two files")
         need_matplotlib()
+    timing = config.timing or sc.timing
     simulator = _simulator(
-        config.simulator or ("auto" if job.table else sc.simulator), config.disturb, robot_actions
+        config.simulator or ("auto" if job.table else sc.simulator),
+        config.disturb,
+        robot_actions,
+        timing,
     )
     sensing = _human_sensing(config, say)
     # the table's --human-takes K is bolt K: the K-th step of the legs fix alone, else its node
@@ -255,6 +266,7 @@ def run_scenario(
             simulator=simulator,
             execution=simulator,
             reaction=config.reaction,
+            on_failure=config.on_failure,
             trace=trace,
             sink=writer.write if writer is not None else None,
             failures=failures,
@@ -278,6 +290,8 @@ def run_scenario(
         title = f"{sc.name}, {who}, seed {config.seed}"
         data, subject = {"scenario": sc.name, **result.summary}, f"{sc.name}: "
     data = _with_sensing(data, config)
+    if timing != "default":  # the default keeps the JSON as it was
+        data["timing_profile"] = timing
     if config.plot:
         from flexhrc.files import atomic_output
         from flexhrc.taskmanager.timeline import plot_timeline
@@ -394,9 +408,12 @@ def _failures(specs: tuple[str, ...], actions: list[str]) -> list[InjectedFailur
     return out
 
 
-def _simulator(name: str, disturb: tuple[str, ...], actions: list[str]) -> Any:
-    """The branch simulator, which also plays the real world, with ``disturb``'s
-    disturbances scheduled (kinematic only; checked before anything is built)."""
+def _simulator(
+    name: str, disturb: tuple[str, ...], actions: list[str], timing: str = "default"
+) -> Any:
+    """The branch simulator, which also plays the real world, timed by the profile ``timing``,
+    with ``disturb``'s disturbances scheduled (kinematic only; checked before anything is
+    built)."""
     name = resolve_simulator_name(name)
     if name == "analytic" and disturb:
         raise FlexhrcError("--disturb needs --simulator kinematic (use --fail with analytic)")
@@ -413,7 +430,7 @@ def _simulator(name: str, disturb: tuple[str, ...], actions: list[str]) -> Any:
         if kind == "slow_arm":
             params.update(factor=0.2, at_s=None)
         specs.append((action, nth, params))
-    _, sim = choose_simulator(name)
+    _, sim = choose_simulator(name, timing=timing)
     for action, nth, params in specs:
         sim.schedule(action, nth, **params)
     return sim
@@ -491,6 +508,7 @@ def _perceived(config: RunConfig, run: Any, steps: Any, say: Callable[[str], Non
         human_sensing=run.human_sensing,
         humans=run.operator_profiles(),
         reaction=cell.tm.reaction,
+        on_failure=cell.tm.on_failure,
         name=str(run.scenario.name),
     )
 

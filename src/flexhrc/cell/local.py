@@ -141,6 +141,7 @@ class LocalCell:
         max_time_s: float = 3600.0,
         timeout_factor: float = 3.0,
         human_sensing: Any = None,
+        on_failure: str | None = None,
     ) -> None:
         domain = scenario.domain
         if simulator is None:
@@ -173,6 +174,7 @@ class LocalCell:
             simulator=simulator,
             seed=seed,
             reaction=reaction,
+            on_failure=on_failure,
             realtime=realtime,
             ordered=True,
             observers=[self.events.append, *observers],

@@ -35,7 +35,7 @@ from flexhrc.cell.components import (
     run_agent,
 )
 from flexhrc.cell.store import EventStore
-from flexhrc.cell.supervisor import Cell
+from flexhrc.cell.supervisor import Cell, failure_policy
 from flexhrc.errors import FlexhrcError
 from flexhrc.files import OutputPathError, atomic_write_text, check_output
 from flexhrc.taskmanager.operator import PROFILES, operator_seed
@@ -79,8 +79,10 @@ class CellConfig:
     ``listen``/``connect`` its endpoints are used. ``store`` an SQLite
     event store; ``resume`` continues the cooperation kept there. ``realtime`` 0: as fast as the
     agents answer, else simulated seconds per wall second. ``simulator`` the branch simulator and
-    the internal arms' world. ``ready_file``: once the cell listens, JSON with the endpoints as
-    bound, the pid and the cell's name, written atomically.
+    the internal arms' world. ``on_failure`` ``retry`` or ``paper``: what a failed robot action
+    does to its hyper-arc (None: the scenario's ``on_failure``, else ``retry``). ``ready_file``:
+    once the cell listens, JSON with the endpoints as bound, the pid and the cell's name, written
+    atomically.
     """
 
     seed: int = 0
@@ -93,6 +95,7 @@ class CellConfig:
     resume: bool = False
     realtime: float = 0.0
     simulator: str = "auto"
+    on_failure: str | None = None
     wait: float = 30.0
     human: str = "passive"
     ready_file: str | Path | None = None
@@ -102,6 +105,8 @@ class CellConfig:
         _choice("--transport", self.transport, ("inprocess", "zenoh"))
         _choice("--agents", self.agents, ("internal", "external"))
         _choice("--simulator", self.simulator, SIMULATORS)
+        if self.on_failure is not None:
+            failure_policy(None, self.on_failure)
         _choice("--human", self.human, PROFILES)
         if not (math.isfinite(self.realtime) and self.realtime >= 0):
             raise FlexhrcError(f"--realtime must be a finite number >= 0, got {self.realtime}")
@@ -183,6 +188,7 @@ def serve_cell(
             trace=trace,
             seed=config.seed,
             shared_model=internal,  # the internal arms execute on the manager's model
+            on_failure=config.on_failure,
         )
         agents: list[Component] = []
         if internal:

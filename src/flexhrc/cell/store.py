@@ -128,11 +128,13 @@ class EventStore:
             self._db.execute("PRAGMA synchronous=NORMAL")
             self._db.execute(SCHEMA)
             row = self._db.execute("SELECT COALESCE(MAX(seq), 0), COUNT(*) FROM events").fetchone()
-        except sqlite3.DatabaseError as exc:
+        except (sqlite3.DatabaseError, UnicodeDecodeError) as exc:
             if hasattr(self, "_db"):
                 self._db.close()
             os.close(self._lock_fd)
-            raise StoreError(f"{option} {self.path}: not a flexhrc event store ({exc})") from None
+            raise StoreError(
+                f"{option} {self.path}: not a flexhrc event store ({_sqlite_why(exc)})"
+            ) from None
         if resume and not row[1]:
             self._db.close()
             os.close(self._lock_fd)
@@ -197,9 +199,9 @@ class EventStore:
         """Every stored event, each row checked (:func:`iter_events`)."""
         try:
             return list(iter_events(self._db, self.path))
-        except sqlite3.DatabaseError as exc:
+        except (sqlite3.DatabaseError, UnicodeDecodeError) as exc:
             raise StoreError(
-                f"{self.option} {self.path}: not a flexhrc event store ({exc})"
+                f"{self.option} {self.path}: not a flexhrc event store ({_sqlite_why(exc)})"
             ) from None
 
     def close(self) -> None:
@@ -368,8 +370,8 @@ def read_store(path: str | Path) -> list[StoredEvent]:
             events = list(iter_events(db, p))
         finally:
             db.close()
-    except sqlite3.DatabaseError as exc:
-        raise FormatError(f"not a flexhrc event store ({exc})", p) from None
+    except (sqlite3.DatabaseError, UnicodeDecodeError) as exc:
+        raise FormatError(f"not a flexhrc event store ({_sqlite_why(exc)})", p) from None
     return events
 
 
@@ -507,6 +509,15 @@ def _has_wal(path: str | Path) -> bool:
         return os.path.getsize(f"{path}-wal") > 0
     except OSError:
         return False
+
+
+def _sqlite_why(exc: Exception) -> str:
+    """SQLite's words for a damaged file. Its message quotes the damaged schema text, which
+    Python's sqlite3 decodes as UTF-8: a damaged byte there raises UnicodeDecodeError from the
+    query itself (fuzz, store target: ``CREATE`` with one byte changed)."""
+    if isinstance(exc, UnicodeDecodeError):
+        return "its schema is damaged: SQLite's error message about it is not even UTF-8 text"
+    return str(exc)
 
 
 def _has_events_table(db: sqlite3.Connection) -> bool:

@@ -65,6 +65,7 @@ from flexhrc.logic import apply_substitution
 from flexhrc.taskmanager.diagnose import stall_reason
 from flexhrc.taskmanager.domain import GroundAction
 from flexhrc.taskmanager.manager import (
+    FAILURE_POLICIES,
     Ack,
     Command,
     Directive,
@@ -72,6 +73,7 @@ from flexhrc.taskmanager.manager import (
     Stop,
     Suggest,
     TaskManager,
+    check_failure_policy,
 )
 from flexhrc.taskmanager.operator import PROFILES, SimulatedOperator
 from flexhrc.taskmanager.physical import apply_physical
@@ -136,6 +138,7 @@ class Cell:
         publish_state: bool = True,
         quiescent: Callable[[], bool] | None = None,
         shared_model: bool = False,
+        on_failure: str | None = None,
     ) -> None:
         if not realtime >= 0 or realtime != realtime or realtime == float("inf"):
             raise FlexhrcError(f"--realtime must be a finite number >= 0, got {realtime}")
@@ -187,7 +190,13 @@ class Cell:
         if simulator is None:
             simulator = scenario.make_simulator(None)  # the scenario's own choice
         self.tm = TaskManager(
-            self.graph, self.domain, self.kb, simulator, log=self._tm_log, reaction=reaction
+            self.graph,
+            self.domain,
+            self.kb,
+            simulator,
+            log=self._tm_log,
+            reaction=reaction,
+            on_failure=failure_policy(scenario, on_failure),
         )
         self.agents = {
             a.name: AgentState(a.name, "human" if a.is_human else "robot")
@@ -792,6 +801,8 @@ class Cell:
         tm, now = self.tm, self.now
         if kind == "start":
             self.started = True
+            if "on_failure" in body:  # a resumed run goes on under the policy it began with
+                tm.on_failure = check_failure_policy(body["on_failure"], "stored start: on_failure")
             self.operators.update(body.get("operators") or {})
             self.scripted.update(body.get("scripted") or [])
             if body.get("watchers"):  # the first decision waits for their first look
@@ -1743,6 +1754,7 @@ class Cell:
                     "seed": self.seed,
                     "realtime": self.realtime,
                     "simulator": _simulator_name(self.tm.simulator),
+                    "on_failure": self.tm.on_failure,
                     "operators": dict(self.operators),
                     **({"watchers": list(self.watchers)} if self.watchers else {}),
                     **({"scripted": sorted(self.scripted)} if self.scripted else {}),
@@ -1859,6 +1871,7 @@ class Cell:
         tm = self.tm.summary()
         data["outcome"], data["reason"] = tm["outcome"], tm["reason"]
         data["simulator"] = _simulator_name(self.tm.simulator)
+        data["on_failure"] = self.tm.on_failure
         data["decisions"] = tm["decisions"]
         data["branches_simulated"] = tm["branches_simulated"]
         data["timing"].update(tm["timing"])
@@ -1890,6 +1903,14 @@ def _answer_order(item: tuple[float, int, str, dict[str, Any]]) -> tuple[Any, ..
     if kind == "ack":
         return (t, 0, int(body["id"]), "")
     return (t, 1, 0, f"{body.get('agent')}:{body.get('id')}")
+
+
+def failure_policy(scenario: Any, given: str | None) -> str:
+    """The failure policy of a run: ``given`` (``--on-failure``), else the scenario's
+    ``on_failure`` key, else ``retry`` (:data:`~flexhrc.taskmanager.manager.FAILURE_POLICIES`)."""
+    if given is not None:
+        return check_failure_policy(given, "--on-failure")
+    return check_failure_policy(getattr(scenario, "on_failure", None) or FAILURE_POLICIES[0])
 
 
 def _simulator_name(simulator: Any) -> str:

@@ -85,6 +85,7 @@ def cmd_cell(args: argparse.Namespace) -> int:
         resume=args.resume,
         realtime=args.realtime,
         simulator=args.simulator,
+        on_failure=args.on_failure,
         wait=args.wait,
         human=args.human,
         ready_file=args.ready_file,

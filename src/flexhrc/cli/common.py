@@ -16,6 +16,18 @@ from flexhrc.errors import FlexhrcError
 MAX_SEED = 2**32 - 1
 
 
+#: ``--on-failure`` of every command that runs a cooperation (``run``, ``demo table``, ``cell``,
+#: ``ros2 cell``): the field ``on_failure`` of its config.
+ON_FAILURE_OPTION: dict[str, Any] = dict(
+    choices=["retry", "paper"],
+    default=None,
+    help="when a robot action fails or times out: retry its hyper-arc with the other "
+    "groundings (retry, default: a passing fault) or mark the hyper-arc infeasible and move to "
+    "the next feasible state of least cost (paper, V-A: a lasting fault); default: the "
+    "scenario's on_failure, else retry",
+)
+
+
 def add_cell_options(
     p: argparse.ArgumentParser,
     *,
@@ -25,8 +37,8 @@ def add_cell_options(
     realtime_type: Callable[[str], float] | None = None,
 ) -> None:
     """The options every command that runs the cell's loop shares (``flexhrc cell``,
-    ``flexhrc ros2 cell``): the store and resume, the pace, the branch simulator, how long to
-    wait for the agents."""
+    ``flexhrc ros2 cell``): the store and resume, the pace, the branch simulator, the failure
+    policy, how long to wait for the agents."""
     p.add_argument("--store", metavar="FILE.db", help="event store (SQLite) to write")
     p.add_argument("--resume", action="store_true", help="continue the cooperation kept in --store")
     p.add_argument(
@@ -38,6 +50,7 @@ def add_cell_options(
         "simulated time divided by SPEED",
     )
     add_simulator_option(p, simulator_help)
+    p.add_argument("--on-failure", **ON_FAILURE_OPTION)
     p.add_argument(
         "--wait",
         type=float,

@@ -17,6 +17,7 @@ from dataclasses import fields
 from typing import Any
 
 from flexhrc.cli.common import (
+    ON_FAILURE_OPTION,
     add_json_flag,
     add_segments_option,
     emit,
@@ -93,10 +94,18 @@ RUN_OPTIONS: dict[str, dict[str, Any]] = {
         "that conflict with it (conflicts, default) or every robot action, arms to rest "
         "(paper, V-B)",
     ),
+    "--on-failure": ON_FAILURE_OPTION,
     "--simulator": dict(
         choices=["auto", "analytic", "kinematic"],
         help="how branches are simulated: kinematic (task-priority control on the robot model; "
         "what auto picks when the sim extra is installed) or analytic (distances and speeds)",
+    ),
+    "--timing": dict(
+        choices=["default", "paper"],
+        help="how simulated actions are timed: default, or paper (the paper's Baxter: joints "
+        "at most 0.6 rad/s, and per-action times calibrated on its Table I, to set the "
+        "simulated robot and human times beside its 219 s / 26 s / 250 s); default: the "
+        "scenario's timing key",
     ),
     "--disturb": dict(
         action="append", default=[], metavar="KIND[:ACTION[:N]]",

@@ -68,7 +68,8 @@ class Ros2CellConfig(Ros2NodeConfig):
     ``store`` keeps every event in a SQLite file, ``resume`` continues the cooperation kept
     there. ``realtime`` 0 runs as fast as the agents answer; ``SPEED > 0`` makes actions take
     their simulated time divided by SPEED. ``simulator`` is the Task Manager's branch simulator
-    (``auto``: the scenario's); ``wait`` how long (s) to wait for the agent nodes to appear;
+    (``auto``: the scenario's); ``on_failure`` ``retry`` or ``paper`` (None: the scenario's
+    ``on_failure``, else ``retry``); ``wait`` how long (s) to wait for the agent nodes to appear;
     ``markers_rate`` the rate of the ``MarkerArray`` (Hz).
     """
 
@@ -76,6 +77,7 @@ class Ros2CellConfig(Ros2NodeConfig):
     resume: bool = False
     realtime: float = 0.0
     simulator: str = "auto"
+    on_failure: str | None = None
     wait: float = 60.0
     markers_rate: float = 2.0
 
@@ -88,6 +90,10 @@ class Ros2CellConfig(Ros2NodeConfig):
             raise FlexhrcError(
                 f"--simulator {self.simulator!r}: choose one of {', '.join(CHOICES)}"
             )
+        if self.on_failure is not None:
+            from flexhrc.cell.supervisor import failure_policy
+
+            failure_policy(None, self.on_failure)
         if not (math.isfinite(self.wait) and self.wait > 0):
             raise FlexhrcError(f"--wait must be a positive number of seconds, got {self.wait}")
         if not (math.isfinite(self.markers_rate) and 0 < self.markers_rate <= 100):
@@ -186,6 +192,7 @@ def serve_ros2_cell(
             name=config.cell,
             trace=observe,
             seed=config.seed,
+            on_failure=config.on_failure,
         )
         cell.agents_hint = (
             "start them with `flexhrc ros2 arm SCENARIO --arm NAME` and `flexhrc ros2 human "

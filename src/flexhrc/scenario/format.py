@@ -24,7 +24,7 @@ from pathlib import Path
 from typing import Any
 
 from flexhrc.errors import FlexhrcError, FormatError
-from flexhrc.events import WORKSPACE_M
+from flexhrc.events import FAILURE_POLICIES, WORKSPACE_M
 from flexhrc.logic import Literal, parse_literal
 from flexhrc.representation import HierarchicalGraph
 from flexhrc.representation.graph import AndOrGraph
@@ -37,7 +37,7 @@ from flexhrc.scenario.model import (
     WorldSpec,
 )
 from flexhrc.taskmanager.domain import ActionSchema, Domain, _line
-from flexhrc.taskmanager.kinds import find_action_kind, unknown_kind
+from flexhrc.taskmanager.kinds import TIMINGS, find_action_kind, unknown_kind
 
 FORMAT_VERSION = 1
 
@@ -189,6 +189,8 @@ TOP_KEYS = {
     "humans",
     "robot",
     "simulator",
+    "on_failure",
+    "timing",
 }
 WORLD_KEYS = {"objects", "places", "facts", "supertypes"}
 
@@ -383,6 +385,17 @@ def _build(doc: Any, c: _Checker) -> Scenario | None:
             f"simulator {show(simulator)}: choose one of {', '.join(SIMULATORS)}",
             _line(doc, "simulator"),
         )
+    on_failure = doc.get("on_failure")
+    if on_failure is not None and on_failure not in FAILURE_POLICIES:
+        c.error(
+            f"on_failure {show(on_failure)}: choose one of {', '.join(FAILURE_POLICIES)}",
+            _line(doc, "on_failure"),
+        )
+        on_failure = None
+    timing = doc.get("timing", "default")
+    if not isinstance(timing, str) or timing not in TIMINGS:
+        c.error(f"timing {show(timing)}: choose one of {', '.join(TIMINGS)}", _line(doc, "timing"))
+        timing = "default"
     robot = doc.get("robot") or {}
     if not isinstance(robot, Mapping):
         c.error("robot must be a mapping", _line(doc, "robot"))
@@ -408,6 +421,8 @@ def _build(doc: Any, c: _Checker) -> Scenario | None:
         dict(robot),
         path,
         tuple(str(f) for f in c.faults if f.severity == "warning"),
+        on_failure=on_failure,
+        timing=timing,
     )
 
 

@@ -11,7 +11,7 @@ from flexhrc.scenario.format import Fault, check, parse
 from flexhrc.scenario.model import Scenario
 
 #: The scenarios shipped with flexhrc (package data ``scenario/builtin/data/NAME/NAME.yaml``).
-SHIPPED = ("table_assembly", "ball_in_box", "kitchen_drawer")
+SHIPPED = ("table_assembly", "ball_in_box", "kitchen_drawer", "table_two_arms")
 
 
 def shipped_path(name: str) -> Path:

@@ -80,6 +80,12 @@ class Scenario:
     #: the simulators the task can run on; another choice gets :attr:`simulator` (a bench of
     #: many arms: the analytic one only, the kinematic model is the dual-arm robot)
     simulators: tuple[str, ...] = SIMULATORS
+    #: what a failed or timed-out robot action does to its hyper-arc (``on_failure:``):
+    #: ``retry`` or ``paper`` (paper V-A); None: not said (``retry``, unless a run says otherwise)
+    on_failure: str | None = None
+    #: how simulated actions are timed (:data:`flexhrc.taskmanager.kinds.TIMINGS`): ``default``,
+    #: or ``paper`` (the paper's Baxter and operator, to set beside its Table I)
+    timing: str = "default"
 
     # -- factories ------------------------------------------------------------------------
     def world(self) -> KnowledgeBase:
@@ -126,7 +132,7 @@ class Scenario:
         name = resolve_simulator_name(choice or self.simulator)
         if name not in self.simulators:
             name = self.simulator
-        return choose_simulator(name)[1]
+        return choose_simulator(name, timing=self.timing)[1]
 
     def summary_line(self) -> str:
         stats = self.graph.stats()

@@ -314,6 +314,7 @@ class PerceivedCell:
         sink: Callable[[dict[str, Any]], None] | None = None,
         observers: Iterable[Callable[[dict[str, Any]], None]] = (),
         reaction: str = "conflicts",
+        on_failure: str | None = None,
         timeout_factor: float = 3.0,
         max_wall_s: float = 3600.0,
         name: str = "perceived",
@@ -370,7 +371,7 @@ class PerceivedCell:
         self.cell = Cell(
             scenario, self.bus, liveliness=False, simulator=self.simulator, seed=seed,
             watchers=["perception"], name=name, realtime=realtime, ordered=True,
-            reaction=reaction, observers=[self._log.append], idle_s=0.0,
+            reaction=reaction, on_failure=on_failure, observers=[self._log.append], idle_s=0.0,
             quiescent=self._quiescent, shared_model=self.execution is self.simulator,
         )  # fmt: skip
         pairs = (

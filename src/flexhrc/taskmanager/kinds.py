@@ -52,7 +52,13 @@ StepTime = tuple[bool, float, str | None]
 @dataclass
 class Timing:
     """Nominal speeds (m/s) and fixed durations (s). Robot figures follow the paper's robot
-    (max linear end-effector speed 0.4 m/s); human ones are typical assembly motions."""
+    (max linear end-effector speed 0.4 m/s); human ones are typical assembly motions.
+
+    ``robot_action_overhead`` / ``human_action_overhead`` are seconds added to every robot
+    action that moves and to every operator action, by the analytic and the kinematic
+    simulator alike; ``joint_speed_limit`` (rad/s) caps the robot model's joint velocity limits
+    in the kinematic simulator (None: the model's own). All three are zero / None by default;
+    :data:`TIMINGS` names the profiles (``default``, ``paper``)."""
 
     robot_speed: float = 0.4
     approach_overhead: float = 0.5
@@ -67,6 +73,33 @@ class Timing:
     place_tabletop: float = 6.0
     insert: float = 2.0
     reorient: float = 2.0
+    robot_action_overhead: float = 0.0
+    human_action_overhead: float = 0.0
+    joint_speed_limit: float | None = None
+
+
+#: The paper's Baxter and operator (000, §VII-C and Table I). The speeds are the paper's: end
+#: effector at most 0.4 m/s and 0.8 rad/s (already the controller's and :class:`Timing`'s),
+#: joints at most 0.6 rad/s. The paper gives no time per action, only Table I's averages over
+#: eight 4-leg assemblies (robot actions 219.45 s, human actions 25.82 s, total 250.09 s), so
+#: the rest is calibrated on them: every robot action that moves spends 6.2 s besides its
+#: motion (the "update workspace" perception step the paper lists among the robot actions,
+#: gripper and settling time of a real Baxter), every operator action 4.1 s more than the
+#: default operator (reaching, handling, a look). With these the default ``demo table`` (4 legs,
+#: passive operator, seed 0, kinematic simulator) simulates 220 s of robot and 26 s of human
+#: actions; the figures to set beside the paper's are those totals, the compute share and the
+#: makespan, not the time of any single action.
+PAPER_TIMING = Timing(robot_action_overhead=6.2, human_action_overhead=4.1, joint_speed_limit=0.6)
+
+#: Timing profiles by name: what ``--timing`` and a scenario's ``timing:`` key choose.
+TIMINGS: dict[str, Timing] = {"default": Timing(), "paper": PAPER_TIMING}
+
+
+def timing_profile(name: str) -> Timing:
+    """A copy of the timing profile ``name`` (one of :data:`TIMINGS`)."""
+    if name not in TIMINGS:
+        raise FlexhrcError(f"unknown timing {name!r}; choose one of {', '.join(TIMINGS)}")
+    return replace(TIMINGS[name])
 
 
 @dataclass(slots=True)

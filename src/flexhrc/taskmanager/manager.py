@@ -41,6 +41,13 @@ Section V in full:
 * the **reaction** to it: ``reaction="conflicts"`` stops only robot executions that share a
   child node or an object with what the human does; ``reaction="paper"`` (paper V-B) stops every
   robot action and sends every arm to rest, then re-plans.
+* the **failure policy** (``on_failure``) after a robot action fails or times out:
+  ``"retry"`` (the default) excludes only that grounding and decides the same hyper-arc again
+  with the groundings left (another leg, another arm); ``"paper"`` (paper V-A, the example of
+  Fig. 2) marks the hyper-arc infeasible and moves to the next feasible state of least cost — if
+  no feasible element is left, the cooperation fails. Either way the arms stop and rest first. A
+  command of an agent that left the cell (:meth:`TaskManager.set_available`) is no failure of
+  the hyper-arc: its grounding is excluded as under ``retry``.
 
 The cooperation ends ``solved`` (the root is met) or ``failed`` with a reason (no feasible
 element left). The manager is deterministic given its inputs (``start``, acks, human actions,
@@ -57,7 +64,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from flexhrc.errors import FlexhrcError
-from flexhrc.events import LogEventType
+from flexhrc.events import FAILURE_POLICIES, LogEventType
 from flexhrc.knowledge import KnowledgeBase
 from flexhrc.logic import Literal, Substitution, apply_substitution, is_variable
 from flexhrc.representation import OnlineGraph
@@ -236,12 +243,14 @@ class TaskManager:
         timer: Callable[[], float] = time.perf_counter,
         reaction: str = "conflicts",
         max_process_rounds: int = 1000,
+        on_failure: str = "retry",
     ):
         if reaction not in REACTIONS:
             raise FlexhrcError(
                 f"unknown reaction {reaction!r}; choose one of {', '.join(REACTIONS)}"
             )
         self.reaction = reaction
+        self.on_failure = check_failure_policy(on_failure)
         self.max_process_rounds = max_process_rounds
         self.graph = graph
         self.domain = domain
@@ -1002,7 +1011,8 @@ class TaskManager:
         else:
             if ex is not None and (self._only_motions_left(ex) or self._held_fast(ex)):
                 # what failed changes no fact, nor does anything after it (an arm that could not
-                # go to rest): the hyper-arc's result holds; redoing it would undo nothing
+                # go to rest), or its part is fixed in place (a gripper that did not open on a
+                # screwed leg): the hyper-arc's result holds; redoing it would undo nothing
                 self._emit(
                     "action_failed",
                     element=ex.element,
@@ -1015,16 +1025,39 @@ class TaskManager:
                 self._progress(ex, cmd.agents[0])
             elif ex is not None:
                 self.failed.setdefault(ex.element, []).append(dict(ex.branch.grounding))
+                policy = self._failure_policy(cmd)
                 self._emit(
                     "action_failed",
                     element=ex.element,
                     grounding=ex.branch.grounding,
                     status=ack.status,
                     reason=ack.reason,
+                    policy=policy,
                 )
                 self._abort(ex, out, reason=f"{cmd.action} {ack.status}")
+                if policy == "paper":
+                    self._give_up(ex.element, f"{cmd.action} {ack.status} (failure policy paper)")
         out += self._plan()
         return out
+
+    def _failure_policy(self, cmd: Command) -> str:
+        """The policy a failed command falls under: :attr:`on_failure`, except for a command
+        of an agent that left the cell (the hyper-arc did not fail: its agent went)."""
+        if any(a in self.unavailable for a in cmd.agents):
+            return "retry"
+        return self.on_failure
+
+    def _give_up(self, element: str, reason: str) -> None:
+        """Paper V-A: "sets the optimal hyper-arc to follow as infeasible, and finds a new
+        optimal hyper-arc among the available ones" — for good, in the graph, so the next plan
+        takes the feasible state of least cost that is left (none left, Nf and Hf empty: the
+        cooperation fails, section IV)."""
+        if not self.graph.is_feasible(element):
+            return  # meanwhile an alternative was solved: nothing left to give up
+        self.infeasible[element] = reason
+        self._emit("infeasible", element=element, reason=reason)
+        self._update_graph(infeasible=[element])
+        self._meet_nodes()
 
     def _progress(self, ex: Execution, who: str) -> None:
         row = self.table.rows.get(ex.element)
@@ -1351,11 +1384,20 @@ class TaskManager:
         }
 
 
+def check_failure_policy(value: str, option: str = "on_failure") -> str:
+    """``value`` if it names a failure policy (:data:`FAILURE_POLICIES`), else one
+    :class:`FlexhrcError` in the words of ``option`` (``--on-failure`` at the command line)."""
+    if value not in FAILURE_POLICIES:
+        raise FlexhrcError(f"{option} {value!r}: choose one of {', '.join(FAILURE_POLICIES)}")
+    return value
+
+
 def _num(x: float) -> float | int:
     return int(x) if float(x).is_integer() else x
 
 
 __all__ = [
+    "FAILURE_POLICIES",
     "REACTIONS",
     "Ack",
     "Command",
@@ -1367,4 +1409,5 @@ __all__ = [
     "Suggest",
     "TakeRefused",
     "TaskManager",
+    "check_failure_policy",
 ]

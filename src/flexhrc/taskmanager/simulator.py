@@ -127,6 +127,25 @@ class AnalyticSimulator:
         arm's (default 1 s; a joint action lasts as long as its slowest arm)."""
         kind = kind_of(action.schema)
         self._simulated[action.name, action.args] = "analytic" if kind.moves else "none"
+        ok, dt, why = self._step(action, positions, kb, domain)
+        t = self.timing
+        if ok and (t.human_action_overhead or t.robot_action_overhead):
+            # the profile's time besides the motion (e.g. the paper's Baxter, Timing)
+            if any(domain.agent(a).is_human for a in action.agents):
+                dt += t.human_action_overhead
+            elif kind.moves:
+                dt += t.robot_action_overhead
+        return ok, dt, why
+
+    def _step(
+        self,
+        action: GroundAction,
+        positions: dict[str, Vec3],
+        kb: KnowledgeBase,
+        domain: Domain,
+    ) -> tuple[bool, float, str | None]:
+        """:meth:`step` without the profile's per-action overheads."""
+        kind = kind_of(action.schema)
         if action.schema.duration is not None or action.schema.moves_to is not None:
             return self._declared_step(action, positions, kb, domain)
         agents = [domain.agent(a) for a in action.agents]
