@@ -196,7 +196,7 @@ def test_the_table_keeps_its_kinematic_timings():
     # down, held, released, both arms to rest) and the operator carries each leg to its bolt
     result = scenario.run(scenario.load("table_assembly"), simulator="kinematic")
     summary = result.summary
-    assert summary["timing"]["total_s"] == pytest.approx(79.112014, abs=1e-6)
+    assert summary["timing"]["total_s"] == pytest.approx(73.292014, abs=1e-6)
     assert [(h["hyperarc"], h["agent"]) for h in summary["solved_hyperarcs"]] == [
         ("place_tabletop", "left+right"), ("release_tabletop", "left+right"),
         ("robot_1", "left"), ("robot_2", "right"),
