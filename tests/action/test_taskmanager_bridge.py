@@ -142,6 +142,6 @@ def test_cli_disturbance_and_simulator_errors(capsys):
     data = json.loads(capsys.readouterr().out)
     assert code == 0 and data["outcome"] == "solved"
     assert main(["demo", "table", "--disturb", "earthquake"]) == 2
-    assert "KIND is blocked_path or slow_arm" in capsys.readouterr().err
+    assert "KIND is blocked_path, slow_arm or push" in capsys.readouterr().err
     assert main(["demo", "table", "--simulator", "analytic", "--disturb", "slow_arm"]) == 2
     assert "--disturb needs --simulator kinematic" in capsys.readouterr().err

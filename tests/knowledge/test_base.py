@@ -1,3 +1,5 @@
+import math
+
 import pytest
 
 from flexhrc.errors import FlexhrcError, UnknownNameError
@@ -167,3 +169,106 @@ def test_a_position_of_three_floats_is_checked_on_the_quick_path_too(p):
     k.move("leg2", (1, 2, 3))  # ints are numbers too
     assert k.position("leg1") == (0.1, 0.2, 0.3) and k.position("leg2") == (1.0, 2.0, 3.0)
     assert all(type(v) is float for v in k.position("leg2"))
+
+
+# -- issue 21, item 10: every way a percept arrives clears an inconsistency; continuity -------
+def test_a_compatible_percept_through_update_object_ends_the_inconsistent_state():
+    """``update_object`` (the perception modules' sink, the live cell's percepts) clears the
+    object's pending inconsistency when compatible information arrives, as ``observe`` does
+    (paper 000, VI-E: the base "waits for new, compatible, information")."""
+    k = kb()
+    assert not k.update_object("leg1", "leg", (0.4, 0.3, 0.0), {"length": 0.3})  # size off
+    k.contradict("leg1", "a caller's own check", {"position": (0.9, 0.9, 0.0)})
+    k.contradict("leg2", "another object's", {"position": (0.9, 0.9, 0.0)})
+    assert len(k.inconsistencies) == 3
+    assert k.update_object("leg1", "leg", (0.41, 0.3, 0.0), {"length": 0.4})  # compatible
+    assert [i.object_id for i in k.inconsistencies] == ["leg2"]  # only leg1's are over
+    assert k.position("leg1") == (0.41, 0.3, 0.0)
+    # an incompatible percept clears nothing
+    assert not k.update_object("leg2", "tabletop", (0.5, -0.3, 0.0))
+    assert [i.object_id for i in k.inconsistencies] == ["leg2", "leg2"]
+    assert k.observe("leg2", (0.5, -0.3, 0.0), "leg") and k.consistent
+
+
+@pytest.mark.parametrize("way", ["update_object", "observe"])
+def test_continuity_a_loose_object_cannot_jump_farther_than_its_speed_allows(way):
+    """A non-fixed leg seen 5 m away 0.5 s after its last percept: no agent moves it that fast,
+    the base is inconsistent (nothing overwritten) until a compatible percept comes; the same
+    distance after long enough is a motion. Times are the percepts' own."""
+    k = kb()
+
+    def see(pos, t):
+        if way == "observe":
+            return k.observe("leg1", pos, "leg", t=t)
+        return k.update_object("leg1", "leg", pos, t=t)
+
+    assert see((0.4, 0.3, 0.0), 10.0)
+    assert not see((5.4, 0.3, 0.0), 10.5)
+    (inc,) = k.inconsistencies
+    assert inc.object_id == "leg1" and inc.percept["t"] == 10.5
+    assert "leg1 perceived 5.00 m from where it was perceived 0.50 s before" in inc.reason
+    assert "faster than 1.5 m/s" in inc.reason
+    assert k.position("leg1") == (0.4, 0.3, 0.0)  # the jump is not applied
+    assert see((0.45, 0.3, 0.0), 10.6) and k.consistent  # compatible: the wait is over
+    assert see((5.4, 0.3, 0.0), 15.0)  # 4.95 m in 4.4 s: a motion, not a jump
+    assert k.position("leg1") == (5.4, 0.3, 0.0)
+    assert see((5.45, 0.3, 0.0), 15.0)  # within the margin at the same time: noise
+    assert k.last_percept["leg1"] == ((5.45, 0.3, 0.0), 15.0)
+
+
+def test_continuity_is_configurable_explained_by_actions_and_not_for_fixed_objects():
+    k = KnowledgeBase(max_speed_m_s=0.1, continuity_margin_m=0.05)
+    k.add_object("leg1", "leg", (0.4, 0.3, 0.0))
+    assert k.update_object("leg1", "leg", (0.4, 0.3, 0.0), t=0.0)
+    assert not k.update_object("leg1", "leg", (0.7, 0.3, 0.0), t=1.0)  # 0.3 m > 0.1*1 + 0.05
+    assert "faster than 0.1 m/s" in k.inconsistencies[0].reason
+    k.resolve(accept=False)
+    # an action's effect (the person carried it to the bolt) explains a change of any size
+    k.move("leg1", (0.9, 0.0, 0.1))
+    assert k.update_object("leg1", "leg", (0.91, 0.0, 0.1), t=1.0) and k.consistent
+    # a percept without a time is not checked for continuity (everything else is)
+    assert k.update_object("leg1", "leg", (0.2, 0.2, 0.0))
+    # a fixed object is checked against where it is fixed, not its speed
+    k.set_fixed("leg1")
+    assert not k.update_object("leg1", "leg", (0.3, 0.2, 0.0), t=1.0)
+    assert "is fixed at" in k.inconsistencies[0].reason
+    # accepting the percept makes it continuity's reference
+    k.resolve(accept=True)
+    assert k.last_percept["leg1"] == ((0.3, 0.2, 0.0), 1.0)
+    assert not k.update_object("leg1", "leg", (0.9, 0.2, 0.0), t=2.0)
+    # the default bound, documented; math.inf turns the check off
+    from flexhrc.knowledge.base import CONTINUITY_MARGIN_M, MAX_SPEED_M_S
+
+    assert (
+        (KnowledgeBase().max_speed_m_s, KnowledgeBase().continuity_margin_m)
+        == (
+            MAX_SPEED_M_S,
+            CONTINUITY_MARGIN_M,
+        )
+        == (1.5, 0.10)
+    )
+    free = KnowledgeBase(max_speed_m_s=math.inf)
+    free.add_object("leg1", "leg", (0.0, 0.0, 0.0))
+    assert free.update_object("leg1", "leg", (0, 0, 0), t=0) and free.update_object(
+        "leg1", "leg", (9, 9, 0), t=0
+    )
+
+
+@pytest.mark.parametrize(
+    ("kw", "words"),
+    [
+        ({"max_speed_m_s": 0}, "max_speed_m_s must be a number > 0, got 0"),
+        ({"max_speed_m_s": float("nan")}, "max_speed_m_s must be a number > 0"),
+        ({"continuity_margin_m": -1}, "continuity_margin_m must be a number > 0, got -1"),
+        ({"max_speed_m_s": "fast"}, "max_speed_m_s must be a number > 0, got 'fast'"),
+    ],
+)
+def test_continuity_bounds_are_checked(kw, words):
+    with pytest.raises(FlexhrcError, match=words):
+        KnowledgeBase(**kw)
+
+
+def test_a_percept_time_must_be_finite():
+    k = kb()
+    with pytest.raises(FlexhrcError, match="time of a percept must be a finite number"):
+        k.update_object("leg1", "leg", (0.4, 0.3, 0.0), t=float("nan"))

@@ -105,7 +105,7 @@ def test_node_processes_keep_both_arms_busy_until_their_end_condition():
     result = scenario.run(sc, seed=0)
     ev = result.events
     activated = next(e for e in ev if e["type"] == "process_activated")
-    assert activated["node"] == "tabletop_held" and activated["processes"] == ["hold(?top)"]
+    assert activated["node"] == "tabletop_placed" and activated["processes"] == ["hold(?top)"]
     hold = next(e for e in ev if e["type"] == "command" and e.get("process"))
     assert hold["action"] == "hold(tabletop)" and hold["agents"] == ["left", "right"]
     ended = next(e for e in ev if e["type"] == "process_ended")
@@ -113,12 +113,12 @@ def test_node_processes_keep_both_arms_busy_until_their_end_condition():
     met = next(
         e
         for e in ev
-        if e["type"] == "query" and "tabletop_held" in e["report"].get("met_nodes", [])
+        if e["type"] == "query" and "tabletop_placed" in e["report"].get("met_nodes", [])
     )
     assert met["t"] == ended["t"]  # n is met when its processes have ended (eq. 5)
-    # the arms let go only then (Fig. 8 (f)), and the legs come after
-    release = next(e for e in ev if e["type"] == "command" and e["element"] == "release_tabletop")
-    assert release["t"] >= ended["t"]
+    # the arms go to rest only then (Fig. 8 (f)), and the legs come after
+    rest = next(e for e in ev if e["type"] == "command" and e["element"] == "arms_to_rest")
+    assert rest["t"] >= ended["t"]
     first_leg = next(e for e in ev if e["type"] == "command" and e["element"] == "robot_1")
     assert first_leg["t"] >= ended["t"]
 
@@ -127,14 +127,13 @@ FIG_8 = [
     ("place_tabletop", "pick_tabletop(tabletop)"),  # (a-c) approach and grasp on its stand
     ("place_tabletop", "reorient_tabletop(tabletop)"),  # (d) turned flat
     ("place_tabletop", "place_tabletop(tabletop, assembly_pose)"),  # (e) placed ...
-    ("tabletop_held", "hold(tabletop)"),  # ... and held still by the process of the node
-    ("release_tabletop", "release_tabletop(tabletop)"),
-    ("release_tabletop", "return_to_rest()"),  # (f) both arms back to rest
+    ("tabletop_placed", "hold(tabletop)"),  # ... and held still by the process of the node
+    ("arms_to_rest", "return_to_rest()"),  # (f) both arms back to rest
 ]
 
 
 def test_the_tabletop_placement_is_fig_8_in_joint_commands_of_both_arms():
-    # issue 21 item 5: picked from its stand, turned flat, placed, held, released, arms to rest
+    # issue 21 item 5: picked from its stand, turned flat, placed, held, arms back to rest
     sc = scenario.load("table_assembly")
     result = scenario.run(sc, seed=0)
     cmds = [e for e in result.events if e["type"] == "command"]
@@ -168,7 +167,7 @@ def test_the_operator_places_the_tabletop_only_when_the_scenario_asks_for_it():
     plain = scenario.run(asked, simulator="analytic")
     assert [e["element"] for e in plain.events if e["type"] == "solved"][:2] == [
         "place_tabletop",
-        "release_tabletop",
+        "arms_to_rest",
     ]
     with pytest.raises(FlexhrcError, match="operator_places_tabletop needs an operator"):
         table_assembly(human=False, operator_places_tabletop=True)
@@ -189,7 +188,6 @@ def test_the_joint_placement_runs_on_both_arms_with_the_relative_pose_objective(
         GroundAction(sc.domain.actions["pick_tabletop"], ("tabletop",), both),
         GroundAction(sc.domain.actions["reorient_tabletop"], ("tabletop",), both),
         GroundAction(sc.domain.actions["place_tabletop"], ("tabletop", "assembly_pose"), both),
-        GroundAction(sc.domain.actions["release_tabletop"], ("tabletop",), both),
         GroundAction(sc.domain.actions["return_to_rest"], (), both),
     ]
     seen: list[str] = []

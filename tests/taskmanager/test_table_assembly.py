@@ -203,7 +203,7 @@ def test_an_arm_still_holding_a_screwed_leg_is_pruned_by_its_precondition(simula
     assert not [e for e in result.events if e["type"] == "abort"]
     order = [e["element"] for e in result.events if e["type"] == "solved"]
     assert order == [
-        "place_tabletop", "release_tabletop", "robot_1", "robot_2", "robot_3", "robot_4",
+        "place_tabletop", "arms_to_rest", "robot_1", "robot_2", "robot_3", "robot_4",
         "check_connections",
     ]  # fmt: skip
     later = [e for e in result.events if e["type"] == "decision" and e["t"] >= failed["t"]]

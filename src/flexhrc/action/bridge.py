@@ -24,11 +24,12 @@ the same steps on both arms at once (``arm="both"``): each hand grasps the objec
 to its own side and, while the object is carried, the controller's two-arm relative-pose
 objective keeps the grasp rigid (paper eq. 1-3 and Fig. 8). The table's tabletop placement is
 a sequence of such joint commands (Fig. 8): ``pick_tabletop`` (approach, grasp),
-``reorient_tabletop`` (the two-arm turn flat), ``place_tabletop`` (carry to the assembly pose),
-``release_tabletop`` and ``return_to_rest()``. Actions of a kind without motion (``check``,
-``none``), of a kind the registry has no motion for, of an agent the robot model has no arm
-for, or whose target does not resolve are timed by the analytic model, as the operator's actions
-are. :attr:`KinematicTaskSimulator.simulated` records how each action was simulated.
+``reorient_tabletop`` (the two-arm turn flat), ``place_tabletop`` (carry to the assembly pose,
+let go), the node process ``hold(tabletop)`` and ``return_to_rest()``. Actions of a kind
+without motion (``check``, ``none``), of a kind the registry has no motion for, of an agent the
+robot model has no arm for, or whose target does not resolve are timed by the analytic model,
+as the operator's actions are. :attr:`KinematicTaskSimulator.simulated` records how each
+action was simulated.
 """
 
 from __future__ import annotations
@@ -280,7 +281,7 @@ class KinematicTaskSimulator:
         _, motions = self.how(action, kb, positions, domain)
         if motions is None:
             return self.human.execute(action, positions, kb, domain)
-        from flexhrc.action.execution import Command, Disturbance
+        from flexhrc.action.execution import HOLD_ACTIONS, Command, Disturbance
 
         problem = self._check(action)
         if problem:
@@ -304,13 +305,16 @@ class KinematicTaskSimulator:
                     )
                 em.inject(Disturbance(**params))
         total = 0.0
+        held: str | None = None  # what a hold observed (a push undone): said in the report
         for kind, goal in motions:
             report = em.execute(Command(kind, arm, goal))
             total += report.duration_s
             if report.status != "done":
                 return StepReport(report.status, total, report.reason)
+            if kind in HOLD_ACTIONS and report.disturbances:
+                held = report.reason
         self._follow(action, motions, positions, kb)
-        return StepReport("done", total + self.timing.robot_action_overhead, None)
+        return StepReport("done", total + self.timing.robot_action_overhead, held)
 
     def inject(self, disturbance: Any) -> Any:
         """Inject a disturbance into the simulated real robot's world (see ExecutionManager)."""

@@ -10,7 +10,10 @@ world can differ from what the Task Manager believes, through injected :class:`D
   acting on it (``approach``/``grasp``) fails once the hand gets there and finds nothing;
 * ``slow_arm`` — an arm runs at a fraction of its nominal speed: its actions exceed their timeout;
 * ``blocked_path`` — an obstacle the Task Manager does not know about: the controller keeps its
-  minimum distance, goes around it if it can, fails (stalled) if it cannot.
+  minimum distance, goes around it if it can, fails (stalled) if it cannot;
+* ``push`` — an external force pushes what the hands hold by ``offset`` during a ``hold``
+  (the node process of paper eq. 5): the hands give way, the hold behaviour brings the object
+  back to its pose; the command lasts until it is back and still (or fails if it cannot be).
 
 Each command gets a timeout: the duration the nominal model predicts (the prior simulation)
 times ``timeout_factor`` plus ``timeout_margin_s``, unless the command sets one. The report says
@@ -33,7 +36,9 @@ from flexhrc.errors import FlexhrcError, UnknownNameError
 from flexhrc.events import ACK_STATUSES as STATUSES  # what an agent may answer
 from flexhrc.knowledge.base import format_position
 
-DISTURBANCE_KINDS: tuple[str, ...] = ("object_moved", "slow_arm", "blocked_path")
+DISTURBANCE_KINDS: tuple[str, ...] = ("object_moved", "slow_arm", "blocked_path", "push")
+#: The controller actions a ``push`` waits for: behaviours that keep a held object's pose.
+HOLD_ACTIONS = ("hold",)
 #: Actions that need the object to be where the command says.
 _OBJECT_ACTIONS = ("approach", "grasp")
 #: How far (m) an object may be from where the command expects it and still be grasped.
@@ -85,8 +90,10 @@ class Disturbance:
 
     ``object_moved``: ``object`` is displaced by ``offset`` (m). ``slow_arm``: ``arm`` runs at
     ``factor`` (0 < factor <= 1) of its speed. ``blocked_path``: ``obstacle`` (sphere or box,
-    see :func:`~flexhrc.action.control.parse_obstacle`) appears. ``once=True`` removes a
-    ``slow_arm``/``blocked_path`` disturbance after the next command it affects.
+    see :func:`~flexhrc.action.control.parse_obstacle`) appears. ``push``: what the hands hold is
+    pushed by ``offset`` (m, at most 0.2), ``at_s`` seconds into the next ``hold`` command (it
+    waits for one; default at its start). ``once=True`` removes a ``slow_arm``/``blocked_path``
+    disturbance after the next command it affects.
     """
 
     kind: str
@@ -109,18 +116,24 @@ class Disturbance:
             raise FlexhrcError(f"disturbance 'slow_arm' needs 0 < factor <= 1, got {self.factor}")
         if self.kind == "blocked_path":
             parse_obstacle(self.obstacle, "disturbance obstacle")
+        if self.kind == "push":
+            SimEvent(0.0, push=self.offset)  # the offset's checks, in one place
+            if not any(self.offset):
+                raise FlexhrcError("disturbance 'push' needs a non-zero 'offset' (m)")
         if self.at_s is not None and not (math.isfinite(self.at_s) and self.at_s >= 0):
             raise FlexhrcError(f"disturbance at_s must be >= 0 s, got {self.at_s}")
 
     def affects(self, arms: Sequence[str]) -> bool:
         """Does this speed or obstacle disturbance act on a command of ``arms``?"""
-        return self.kind != "object_moved" and (self.arm is None or self.arm in arms)
+        return self.kind not in ("object_moved", "push") and (self.arm is None or self.arm in arms)
 
     def describe(self) -> str:
         if self.kind == "object_moved":
             return f"object {self.object!r} moved by {list(self.offset)} m"
         if self.kind == "slow_arm":
             return f"arm {self.arm or 'all'} slowed to {self.factor:.0%} of its speed"
+        if self.kind == "push":
+            return f"held object pushed by {[round(v, 4) for v in self.offset]} m"
         return f"unexpected obstacle {parse_obstacle(self.obstacle).to_dict()}"
 
 
@@ -201,7 +214,7 @@ class ExecutionManager:
             )
         if d.kind == "slow_arm" and d.arm is not None:
             self.sim.robot.arm(d.arm)
-        if d.at_s is not None:
+        if d.at_s is not None or d.kind == "push":  # a push happens during a hold
             self.scheduled.append(d)
             return d
         return self._apply(d)
@@ -253,9 +266,13 @@ class ExecutionManager:
             timeout = (
                 expected or self.sim.time_budget_s
             ) * self.timeout_factor + self.timeout_margin_s
+            if cmd.action in HOLD_ACTIONS:  # how long a hold lasts is the world's doing
+                timeout = max(timeout, self.sim.time_budget_s)
         active = [d.describe() for d in self.disturbances if d.affects(arms)]
         speed = self._speed(arms)
-        scheduled = list(self.scheduled)
+        holds = cmd.action in HOLD_ACTIONS
+        # a push waits for the next hold; everything else scheduled happens in this command
+        scheduled = [d for d in self.scheduled if d.kind != "push" or holds]
         events = [
             SimEvent(
                 float(d.at_s or 0.0),
@@ -263,6 +280,7 @@ class ExecutionManager:
                 velocity_scale=min(speed, d.factor)
                 if d.kind == "slow_arm" and d.affects(arms)
                 else None,
+                push=d.offset if d.kind == "push" else None,
             )
             for d in scheduled
             if d.kind != "object_moved"
@@ -273,22 +291,24 @@ class ExecutionManager:
             time_budget_s=timeout, velocity_scale=speed, events=events,
         )  # fmt: skip
         self.state = out.final_state
-        self.scheduled = []
+        self.scheduled = [d for d in self.scheduled if not any(d is x for x in scheduled)]
         # What happened during the command is now part of the world.
         moved_during = []
         for d in scheduled:
             if d.kind == "object_moved" and d.object in self.held.values():
                 continue  # it was grasped before it could be moved
             if (d.at_s or 0.0) <= out.duration_s:
-                active.append(f"{d.describe()} at {d.at_s:g} s")
+                active.append(f"{d.describe()} at {d.at_s or 0.0:g} s")
             if d.kind == "object_moved" and (d.at_s or 0.0) <= out.duration_s:
                 moved_during.append(d)
-            else:
+            elif d.kind != "push":  # a push is over once it happened
                 self._apply(d)
         for d in moved_during:
             self._apply(d)
         observed: dict[str, Any] = {}
         status, reason = ("done", "goal reached") if out.success else ("failed", out.reason)
+        if out.success and holds:  # how the hold went: whether a push took the object away
+            reason = out.reason
         if not out.success and out.reason.startswith("timed out"):
             status = "timed_out"
             reason = f"no acknowledgement within {timeout:.2f} s ({out.reason})"
@@ -400,6 +420,7 @@ class ExecutionManager:
 __all__ = [
     "DISTURBANCE_KINDS",
     "GRASP_TOLERANCE_M",
+    "HOLD_ACTIONS",
     "STATUSES",
     "Command",
     "Disturbance",

@@ -26,9 +26,19 @@ target, close the gripper), ``transport`` (carry the held object so the TCP ends
 ``insert`` (as transport, at 30 % of the joint speed limits), ``screw`` (turn the TCP about the
 vertical at the target), ``ungrasp`` (open, retreat 10 cm up),
 ``rest`` (joint posture of the arm's rest configuration), ``hand_over`` (bring the held object to
-the middle pose where the human takes it). ``arm="both"`` runs the two arms together: the target is
-the object's centre, each hand grasps it ``span_m / 2`` to its own side, and while transporting
-the :class:`~flexhrc.action.control.RelativePose` objective keeps the grasp rigid.
+the middle pose where the human takes it), ``hold`` (keep what the hands hold where it is: the
+behaviour of the node process ``hold``, below). ``arm="both"`` runs the two arms together: the
+target is the object's centre, each hand grasps it ``span_m / 2`` to its own side, and while
+transporting the :class:`~flexhrc.action.control.RelativePose` objective keeps the grasp rigid.
+
+``hold`` is a behaviour rather than a motion (paper 000, section IV, eq. 5: "a robot behaviour
+aimed at keeping a certain object in a given pose ... using two grippers, the effects of external
+forces notwithstanding"). Its goal is the pose the hands have when it starts; its hierarchy
+(:data:`HOLD_HIERARCHY`) puts the two-arm relative pose above every other equality objective, so a
+push that moves the object (a :class:`SimEvent` with ``push``) moves both hands together and the
+controller brings the object back without ever letting the grasp deform. It ends when its own
+condition holds — the object is back at its pose and has stayed there, still, for ``still_s`` —
+and never while a scheduled push is still to come; a push it cannot undo fails it (stalled).
 
 Nothing here sleeps or reads a clock except ``wall_s`` (compute time, reported for benchmarks).
 """
@@ -117,11 +127,14 @@ class Pose:
 @dataclass(frozen=True)
 class SimEvent:
     """A change of the world during one simulated action, ``t_s`` seconds after it starts: an
-    ``obstacle`` appears and/or the arm's ``velocity_scale`` changes (a disturbance)."""
+    ``obstacle`` appears, the arm's ``velocity_scale`` changes and/or an external
+    ``push`` moves what the hands hold by that offset (m, world frame): the hands give way with
+    it (a disturbance)."""
 
     t_s: float
     obstacle: Any = None
     velocity_scale: float | None = None
+    push: tuple[float, float, float] | None = None
 
     def __post_init__(self) -> None:
         if not math.isfinite(self.t_s) or self.t_s < 0:
@@ -130,6 +143,8 @@ class SimEvent:
             raise FlexhrcError(f"velocity_scale must be in (0, 1], got {self.velocity_scale}")
         if self.obstacle is not None:
             parse_obstacle(self.obstacle, "event obstacle")
+        if self.push is not None:
+            object.__setattr__(self, "push", _push_offset(self.push, "event push"))
 
 
 @dataclass
@@ -172,6 +187,8 @@ class ActionSpec:
     ``untargeted_offset``: called without a target, the action aims at the current TCP (the
     middle of both TCPs for ``both``) moved by this offset, at the current yaw — ``grasp`` goes
     straight down from where ``approach`` left the hand, ``screw`` turns the hand where it is.
+    ``goal="hold"`` keeps the hands where they are (the ``hold`` behaviour of the module
+    docstring): it ends once they have stayed at that pose, still, for ``still_s``.
     """
 
     name: str
@@ -186,9 +203,10 @@ class ActionSpec:
     default_target: tuple[float, float, float] | None = None
     yaw_period: float = math.pi
     untargeted_offset: tuple[float, float, float] | None = None
+    still_s: float = 0.5
 
     def __post_init__(self) -> None:
-        if self.goal not in ("above", "target", "retreat", "rest", "screw", "tilt"):
+        if self.goal not in ("above", "target", "retreat", "rest", "screw", "hold", "tilt"):
             raise FlexhrcError(f"action {self.name!r}: unknown goal kind {self.goal!r}")
         if self.gripper not in (None, "open", "close"):
             raise FlexhrcError(f"action {self.name!r}: gripper must be 'open', 'close' or None")
@@ -266,6 +284,20 @@ class ActionSpec:
 
 _NO_HUMAN = tuple(s for s in DEFAULT_HIERARCHY if s.kind != "human")
 
+#: The hierarchy of the ``hold`` behaviour: the safety inequalities (inactive far from their
+#: bounds) first, then the two-arm relative pose above every other objective — the grasp of a
+#: rigid object never deforms, even while a push is undone — then the hands' poses (the object's
+#: pose), then the posture. No human minimum distance: the person works at the held part (paper
+#: 000, IV: "hold the housing while the robot fastens" is the mirror case).
+HOLD_HIERARCHY: tuple[ObjectiveSpec, ...] = (
+    ObjectiveSpec("joint_limits", 0),
+    ObjectiveSpec("obstacles", 0, {"d_min": 0.05}),
+    ObjectiveSpec("relative_pose", 1),
+    ObjectiveSpec("ee_position", 2),
+    ObjectiveSpec("ee_orientation", 2),
+    ObjectiveSpec("posture", 3, {"gain": 0.3}),
+)
+
 #: The actions of the table assembly (paper 000, Fig. 8 and section VI), as data.
 ACTIONS: dict[str, ActionSpec] = {
     "approach": ActionSpec("approach", goal="above"),
@@ -283,6 +315,8 @@ ACTIONS: dict[str, ActionSpec] = {
     # The human's hand is expected at the hand-over pose: no minimum distance to it there.
     "hand_over": ActionSpec("hand_over", goal="target", hierarchy=_NO_HUMAN,
                             default_target=MIDDLE_POSE),
+    # a node process: keep what the hands hold at its pose, whatever pushes it (see above)
+    "hold": ActionSpec("hold", goal="hold", hierarchy=HOLD_HIERARCHY),
 }  # fmt: skip
 
 
@@ -355,6 +389,7 @@ class ActionOutcome:
     trajectory: Trajectory
     wall_s: float
     steps: int
+    peak_error_m: float = 0.0  # hold: the farthest a push took the hands from their pose
 
     @property
     def final_q(self) -> dict[str, Array]:
@@ -376,6 +411,8 @@ class ActionOutcome:
             "final_q": self.final_state.to_dict()["q"],
             "holding": dict(self.final_state.holding),
         }
+        if self.peak_error_m:
+            d["peak_error_m"] = round(self.peak_error_m, 6)
         if trajectory:
             d["trajectory"] = self.trajectory.to_dict()
         return d
@@ -473,7 +510,12 @@ def _cache_key(
         obs = tuple(parse_obstacle(o, f"obstacle {i + 1}") for i, o in enumerate(obstacles))
         hand = None if human_hand is None else tuple(float(v) for v in human_hand)
         evs = tuple(
-            (e.t_s, None if e.obstacle is None else parse_obstacle(e.obstacle), e.velocity_scale)
+            (
+                e.t_s,
+                None if e.obstacle is None else parse_obstacle(e.obstacle),
+                e.velocity_scale,
+                e.push,
+            )
             for e in events
         )
         key = (arm, act, tgt, state, obs, hand, budget, velocity_scale, record, evs)
@@ -678,6 +720,9 @@ class KinematicSimulator:
             raise FlexhrcError(f"velocity_scale must be in (0, 1], got {velocity_scale}")
         posture_goal = spec.goal == "rest"
         tol_rot = self.posture_tol if posture_goal else self.rot_tol
+        holding = spec.goal == "hold"
+        still_from: float | None = None  # hold: since when the hands are back at their pose
+        peak = 0.0
 
         dt = self.dt
         max_steps = math.ceil(budget / dt - 1e-9)
@@ -703,6 +748,8 @@ class KinematicSimulator:
                 if ev.obstacle is not None:  # the world changed: rebuild the hierarchy
                     obs.append(parse_obstacle(ev.obstacle, "event obstacle"))
                     ctrl = controller()
+                if ev.push is not None:
+                    q = self._pushed(arms, q, ev.push)
                 best, best_t = math.inf, t  # judge progress afresh from here
             ctx = ctrl.context(q)
             qdot = ctrl.solve(ctx)
@@ -713,13 +760,28 @@ class KinematicSimulator:
                 traj_q[step] = q
                 for a in arms:
                     traj_p[a][step] = ctx.arms[a].p
-            if err[0] <= self.pos_tol and err[1] <= tol_rot:
+            if holding:
+                peak = max(peak, err[0])
+                if err[0] > self.pos_tol or err[1] > tol_rot:
+                    still_from = None
+                elif still_from is None:
+                    still_from = t
+                # settled: back at its pose for still_s, and no push is still to come
+                if still_from is not None and not pending and t - still_from >= spec.still_s - 1e-9:
+                    success = True
+                    reason = "held: the object is at its pose"
+                    if peak > self.pos_tol:
+                        reason += f" (a push took it {peak * 1e3:.1f} mm away; restored)"
+                    break
+            elif err[0] <= self.pos_tol and err[1] <= tol_rot:
                 success = True
                 reason = "goal reached"
                 break
             progress = err[0] + 0.1 * err[1]  # 1 rad of orientation weighs like 10 cm
             if progress < best * 0.995 - 1e-6:
                 best, best_t = progress, t
+            elif holding and (pending or still_from is not None):
+                pass  # holding still, or waiting for a push to come: not a stall
             elif t - best_t >= self.stall_s:
                 if err[0] <= self.settle * self.pos_tol and err[1] <= self.settle * tol_rot:
                     # Converging too slowly to matter (at the edge of the workspace, or
@@ -762,10 +824,12 @@ class KinematicSimulator:
                 traj_q[: step + 1].copy(),
                 {a: traj_p[a][: step + 1].copy() for a in arms},
             )
-        return self._outcome(
+        out = self._outcome(
             spec, arm, arms, state, success, reason, duration, q, min_dist, energy, err, traj,
             t_wall, step,
         )  # fmt: skip
+        out.peak_error_m = peak
+        return out
 
     def simulate_sequence(
         self,
@@ -854,14 +918,17 @@ class KinematicSimulator:
         if spec.goal == "retreat":
             up = np.array([0.0, 0.0, spec.approach_height])
             return {a: ArmGoal(cur[a][0] + up, cur[a][1]) for a in arms}, None
-        if spec.goal == "tilt":
-            # a rigid turn about the y axis through the grippers' midpoint: every hand keeps its
-            # place on the object, so the two-arm grasp (relative pose) is unchanged
-            c, s_ = math.cos(spec.tilt_rad), math.sin(spec.tilt_rad)
-            turn = np.array([[c, 0.0, s_], [0.0, 1.0, 0.0], [-s_, 0.0, c]])
-            mid = np.mean([cur[a][0] for a in arms], axis=0)
-            for a in arms:
-                goals[a] = ArmGoal(mid + turn @ (cur[a][0] - mid), turn @ cur[a][1])
+        if spec.goal in ("tilt", "hold"):
+            if spec.goal == "tilt":
+                # a rigid turn about the y axis through the grippers' midpoint: every hand keeps
+                # its place on the object, so the two-arm grasp (relative pose) is unchanged
+                c, s_ = math.cos(spec.tilt_rad), math.sin(spec.tilt_rad)
+                turn = np.array([[c, 0.0, s_], [0.0, 1.0, 0.0], [-s_, 0.0, c]])
+                mid = np.mean([cur[a][0] for a in arms], axis=0)
+                for a in arms:
+                    goals[a] = ArmGoal(mid + turn @ (cur[a][0] - mid), turn @ cur[a][1])
+            else:  # keep the hands, and what they hold, where they are
+                goals = {a: ArmGoal(cur[a][0].copy(), cur[a][1].copy()) for a in arms}
             if len(arms) == 2:
                 (p1, R1), (p2, R2) = cur[arms[0]], cur[arms[1]]
                 relative = (R1.T @ (p2 - p1), R1.T @ R2)
@@ -899,6 +966,21 @@ class KinematicSimulator:
                     centre + np.array([0.0, side * half, 0.0]), top_down_rotation(yaw)
                 )
         return goals, relative
+
+    def _pushed(self, arms: list[str], q: Array, offset: tuple[float, float, float]) -> Array:
+        """The joints after an external push moved every hand by ``offset`` (the hands give way
+        compliantly: the least joint motion that moves each TCP so, by damped least squares),
+        kept inside the joint ranges."""
+        dx = np.asarray(offset, dtype=float)
+        out = q.copy()
+        for i, a in enumerate(arms):
+            model = self.robot.arm(a)
+            cols = slice(7 * i, 7 * i + 7)
+            _, _, J = model.kinematics(out[cols])
+            Jp = J[:3]
+            dq = Jp.T @ np.linalg.solve(Jp @ Jp.T + 1e-4 * np.eye(3), dx)
+            out[cols] = np.clip(out[cols] + dq, model.q_min, model.q_max)
+        return out
 
     def _grasp_yaw(self, arm: str, q: Array, yaw: float, period: float) -> float:
         """Among the yaws equivalent to ``yaw`` (modulo ``period``), the one reached by turning
@@ -984,6 +1066,19 @@ class KinematicSimulator:
         )  # fmt: skip
 
 
+def _push_offset(value: Any, what: str) -> tuple[float, float, float]:
+    """A push offset: 3 finite numbers (m), at most 0.2 m (a push, not a throw)."""
+    try:
+        nums = [float(v) for v in value]
+    except (TypeError, ValueError):
+        raise FlexhrcError(f"{what} must be 3 numbers (x y z in metres), got {value!r}") from None
+    if len(nums) != 3 or not all(math.isfinite(v) for v in nums):
+        raise FlexhrcError(f"{what} must be 3 finite numbers (x y z in metres), got {value!r}")
+    if math.dist(nums, (0.0, 0.0, 0.0)) > 0.2:
+        raise FlexhrcError(f"{what} must be at most 0.2 m long, got {value!r}")
+    return nums[0], nums[1], nums[2]
+
+
 def _num(x: float, digits: int) -> float | None:
     """JSON has no infinity: an unknown/unbounded figure is ``null``."""
     return None if not math.isfinite(x) else round(float(x), digits)
@@ -992,6 +1087,7 @@ def _num(x: float, digits: int) -> float | None:
 __all__ = [
     "ACTIONS",
     "ARM_NAMES",
+    "HOLD_HIERARCHY",
     "MIDDLE_POSE",
     "TABLETOP_STAND_TILT_RAD",
     "ActionOutcome",

@@ -22,7 +22,7 @@ import json
 import math
 import signal
 import threading
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -39,7 +39,10 @@ from flexhrc.taskmanager.replay import outcome_line, plural, table_i
 
 HUMAN_SENSING = ("injected", "har", "har-real")
 PERCEPTION = ("given", "scene")
-DISTURBANCES = ("blocked_path", "slow_arm")
+DISTURBANCES = ("blocked_path", "slow_arm", "push")
+#: ``--disturb push``: how far (m) and when (s into the hold) the held object is pushed
+PUSH_OFFSET_M = (0.03, 0.0, 0.0)
+PUSH_AT_S = 0.3
 MAX_SEED = 2**32 - 1
 #: The exit code of a run a signal stopped (the shell's 128 + signal number).
 EXIT_SIGNAL = {signal.SIGINT: 130, signal.SIGTERM: 143}
@@ -97,6 +100,8 @@ class RunConfig:
     ``paper``: how simulated actions are timed, :data:`~flexhrc.taskmanager.kinds.TIMINGS`).
     ``log`` streams the event log (JSON lines), ``plot`` draws the timeline; ``quiet`` drops
     the progress lines; ``realtime`` paces the simulated clock (SPEED times real time).
+    ``operators`` is an operator model file (``flexhrc learn``, ``docs/operators.md``): the Task
+    Manager times each person's steps by what that person took before.
     """
 
     scenario: str | Path | Scenario | TableDemo = "table_assembly"
@@ -119,6 +124,7 @@ class RunConfig:
     plot: str | Path | None = None
     quiet: bool = False
     realtime: float | None = None
+    operators: str | Path | None = None
 
     def __post_init__(self) -> None:
         for option, value, choices in (
@@ -237,7 +243,7 @@ def run_scenario(
                 raise FlexhrcError(f"--human-takes {k}: not one of the bolts 1..{legs}")
         if not sc.humans:
             raise FlexhrcError(f"--human-takes needs a human, but {job.where}human: false")
-    inputs = [p for p in (job.path, config.har_model) if p is not None]
+    inputs = [p for p in (job.path, config.har_model, config.operators) if p is not None]
     if config.log is not None:
         check_output(config.log, option="--log", inputs=inputs)
     if config.plot is not None:
@@ -251,7 +257,12 @@ def run_scenario(
         config.disturb,
         robot_actions,
         timing,
+        _holds(sc),
     )
+    if config.operators is not None:  # the person as measured, not the scenario's figures
+        from flexhrc.taskmanager.operator_model import OperatorModelSimulator, read_model
+
+        simulator = OperatorModelSimulator(simulator, read_model(config.operators))
     sensing = _human_sensing(config, say)
     # the table's --human-takes K is bolt K: the K-th step of the legs fix alone, else its node
     steps: list[Any] | None = takes
@@ -292,6 +303,11 @@ def run_scenario(
     data = _with_sensing(data, config)
     if timing != "default":  # the default keeps the JSON as it was
         data["timing_profile"] = timing
+    if config.operators is not None:
+        data["operator_model"] = {
+            "file": str(config.operators),
+            "learned_steps": simulator.replaced,
+        }
     if config.plot:
         from flexhrc.files import atomic_output
         from flexhrc.taskmanager.timeline import plot_timeline
@@ -408,21 +424,54 @@ def _failures(specs: tuple[str, ...], actions: list[str]) -> list[InjectedFailur
     return out
 
 
+def _holds(scenario: Scenario) -> dict[str, str]:
+    """The robot processes and actions that hold an object with the controller (what
+    ``--disturb push`` may name), each with its action kind."""
+    from flexhrc.taskmanager.kinds import kind_of
+
+    domain = scenario.domain
+    return {
+        name: schema.kind
+        for name, schema in (*domain.processes.items(), *domain.actions.items())
+        if any(step.action == "hold" for step in kind_of(schema).motion)
+        and any(not a.is_human for a in domain.capable(schema))
+    }
+
+
 def _simulator(
-    name: str, disturb: tuple[str, ...], actions: list[str], timing: str = "default"
+    name: str,
+    disturb: tuple[str, ...],
+    actions: list[str],
+    timing: str = "default",
+    holds: Mapping[str, str] | None = None,
 ) -> Any:
     """The branch simulator, which also plays the real world, timed by the profile ``timing``,
     with ``disturb``'s disturbances scheduled (kinematic only; checked before anything is
-    built)."""
+    built). ``push`` names a process or action of ``holds`` (default: the first): the held
+    object is pushed :data:`PUSH_OFFSET_M` :data:`PUSH_AT_S` s into its N-th hold."""
     name = resolve_simulator_name(name)
+    holds = holds or {}
     if name == "analytic" and disturb:
         raise FlexhrcError("--disturb needs --simulator kinematic (use --fail with analytic)")
     specs = []
     for spec in disturb:
         kind, _, rest = spec.partition(":")
         if kind not in DISTURBANCES:
-            raise FlexhrcError(f"--disturb {spec!r}: KIND is blocked_path or slow_arm")
+            raise FlexhrcError(f"--disturb {spec!r}: KIND is blocked_path, slow_arm or push")
         action, _, n = rest.partition(":")
+        if kind == "push":
+            if not holds:
+                raise FlexhrcError(
+                    f"--disturb {spec!r}: nothing in this scenario holds an object (a process "
+                    "or action of kind hold)"
+                )
+            action, nth = _action_and_nth(
+                spec, "--disturb", action or next(iter(holds)), n, sorted(holds),
+                "N must be a whole number",
+            )  # fmt: skip
+            push = {"kind": kind, "once": True, "at_s": PUSH_AT_S, "offset": PUSH_OFFSET_M}
+            specs.append((holds[action], nth, push))
+            continue
         action, nth = _action_and_nth(
             spec, "--disturb", action or "transport", n, actions, "N must be a whole number"
         )
@@ -529,7 +578,12 @@ def trace_line(event: dict[str, Any]) -> str | None:
     ev, kind = event, event["type"]
     if kind not in TRACE_TYPES:
         return None
-    if kind in TRACE_LINES:
+    if kind == "human_sensed" and (ev.get("why") or ev.get("recognised") is None):
+        # not sensed at all (why), or sensed and not recognised (the miss line follows)
+        line = f"wrist sensor: {ev.get('why') or ev['performed'] + ' -> recognised nothing'}"
+        if not ev.get("why"):
+            line += f" ({ev['samples']} samples)"
+    elif kind in TRACE_LINES:
         line = TRACE_LINES[kind].format_map(ev)
         if kind == "action_failed" and ev.get("kept"):
             line += f"; its result holds: {ev['element']} counts as solved"

@@ -127,7 +127,10 @@ def ground(
     domain: Domain, text: str, agents: tuple[str, ...] | None = None, *, process: bool = False
 ) -> GroundAction:
     """``approach(left, leg1)`` as the domain's ground action (agents: the schema's agent);
-    ``process=True`` for a round of a node process such as ``hold(tabletop)``."""
+    ``process=True`` for a round of a node process such as ``hold(tabletop)`` (a name only
+    processes have is one too: a person asked to run a process reports it so)."""
+    name = text.partition("(")[0].strip()
+    process = process or (name in domain.processes and name not in domain.actions)
     schema, terms = domain.invocation(text, process=process)
     if any(str(t).startswith("?") for t in terms):
         raise P.ProtocolError(f"action {text!r} is not ground")
@@ -571,7 +574,8 @@ class RobotAgent(_Agent):
         self._journal({"id": cid, "event": "start", "action": msg["action"], **self._run_field()})
         report = self.execution.execute(action, positions, self.kb, self.domain)
         status, duration = report.status, float(report.duration_s)
-        reason = None if status == "done" else report.reason
+        # a process round's report says what its behaviour observed (a push undone)
+        reason = None if status == "done" and not msg.get("process") else report.reason
         limit = max(float(msg.get("expected_s", 0.0)) * self.timeout_factor, 1.0)
         if status == "done" and duration > limit:
             status, reason, duration = "timed_out", f"no result after {limit:.1f} s", limit

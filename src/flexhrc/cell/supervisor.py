@@ -840,6 +840,9 @@ class Cell:
         if kind == "human_action":
             self.human_ids.add(str(body["id"]))
             action = ground(self.domain, body["action"])
+            learn = getattr(tm.simulator, "observe_human_action", None)
+            if learn is not None:  # a learned operator model follows the person (online update)
+                learn(body)
             self._reported.add((str(body["agent"]), str(action)))
             missed = body.get("recognised") is False  # the wrist sensor missed it
             if not missed:
@@ -873,10 +876,7 @@ class Cell:
                 self.kb.version += 1
                 self._record("inconsistent", {"object": obj, "reason": str(contradicts)})
             else:
-                if known and any(i.object_id == obj for i in self.kb.inconsistencies):
-                    self.kb.resolve(obj, accept=False)  # a compatible percept clears it
-                    self._record("consistent_again", {"object": obj, "why": "a compatible percept"})
-                self.kb.update_object(obj, str(body["object_type"]), body["pose"], body.get("size"))
+                self._apply_percept(obj, body, known)
             if not self.begun:
                 return []
             if body.get("moved") and self.kb.consistent:
@@ -890,6 +890,22 @@ class Cell:
             st.available = kind == "agent_up"
             return tm.set_available(now, st.name, st.available)
         raise FlexhrcError(f"unknown input kind {kind!r} in the store")
+
+    def _apply_percept(self, obj: str, body: dict[str, Any], known: bool) -> None:
+        """A percept to the knowledge base, at its own time (``t``; else the cell's time it is
+        stored at: a replay decides the same): it checks the percept, continuity included, and
+        a compatible one clears what the object's earlier percepts contradicted (VI-E)."""
+        was = known and any(i.object_id == obj for i in self.kb.inconsistencies)
+        t = body.get("t")
+        when = float(t) if isinstance(t, int | float) and not isinstance(t, bool) else self.now
+        size = body.get("size")
+        if self.kb.update_object(obj, str(body["object_type"]), body["pose"], size, t=when):
+            if was:
+                self._record("consistent_again", {"object": obj, "why": "a compatible percept"})
+        else:
+            self._record(
+                "inconsistent", {"object": obj, "reason": self.kb.inconsistencies[-1].reason}
+            )
 
     # -- operators that act on their own -------------------------------------------------------
     def _answered(self, body: dict[str, Any]) -> list[Directive]:

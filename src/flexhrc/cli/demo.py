@@ -110,7 +110,9 @@ RUN_OPTIONS: dict[str, dict[str, Any]] = {
     "--disturb": dict(
         action="append", default=[], metavar="KIND[:ACTION[:N]]",
         help="kinematic simulator only: during the N-th ACTION (default transport:1) the real "
-        "robot meets KIND = blocked_path (an obstacle appears at the target) or slow_arm",
+        "robot meets KIND = blocked_path (an obstacle appears at the target) or slow_arm; "
+        "push[:PROCESS[:N]] pushes the held object 3 cm during the N-th hold (default the "
+        "first hold process), which the hold behaviour undoes",
     ),
     "--human-sensing": dict(
         choices=["injected", "har", "har-real"], default="injected",
@@ -142,6 +144,11 @@ RUN_OPTIONS: dict[str, dict[str, Any]] = {
     "--realtime": dict(
         type=float_range(0.0, 1e6, lo_open=True), nargs="?", const=1.0, metavar="SPEED",
         help="pace the simulated clock for watching: real time, or SPEED times faster",
+    ),
+    "--operators": dict(
+        metavar="FILE",
+        help="an operator model (flexhrc learn STORE... -o FILE; docs/operators.md): each "
+        "person's steps are timed by what they took before, and updated as they act",
     ),
 }  # fmt: skip
 

@@ -20,7 +20,23 @@ be known by name and type before anything is known of where it is (:meth:`~Knowl
 add_symbol`); :meth:`~KnowledgeBase.observe` applies a percept matched to a symbol, and a percept
 that agrees with the base clears that symbol's pending inconsistencies — a later compatible
 percept ends the inconsistent state. :meth:`~KnowledgeBase.contradict` records an inconsistency
-found by a caller's own check (e.g. an object seen farther than any agent could have moved it).
+found by a caller's own check (e.g. a reported belief a look does not confirm).
+
+Both ways a percept reaches the base — :meth:`~KnowledgeBase.update_object` (the perception
+modules' ``ObjectSink``, and the live cell's ``percept`` messages) and
+:meth:`~KnowledgeBase.observe` (anchoring) — follow the two assumptions of paper 000, VI-E
+(Discussion): *closed world* and *continuity*, "any change in the robot workspace is the
+consequence of actions performed by the human operator or the robot". So:
+
+* a percept compatible with what is stored clears the object's pending inconsistencies ("the
+  knowledge base enters an inconsistent state, and waits for new, compatible, information");
+* continuity: a percept that carries its time ``t`` (seconds, the percept's own clock — never the
+  wall clock, so a replay decides the same) is checked against the object's last percept: a
+  non-fixed object seen farther from where it was last perceived than any agent could carry it
+  in the meantime — :attr:`~KnowledgeBase.max_speed_m_s` times the time elapsed, plus
+  :attr:`~KnowledgeBase.continuity_margin_m` for what perception itself is off by — and not
+  where the belief has it (an action's effect, :meth:`~KnowledgeBase.move`, explains a change)
+  is an inconsistency. A percept without a time is checked for everything else.
 """
 
 from __future__ import annotations
@@ -43,6 +59,14 @@ from flexhrc.logic import (
 
 Vec3 = tuple[float, float, float]
 _INF = math.inf
+
+#: The default continuity bound (m/s): no agent of the cell carries an object faster. A person's
+#: hand moving a part across a workbench stays well under it (reaching movements peak around
+#: 1 m/s); a leg seen metres away a moment later is a perception error, not a motion.
+MAX_SPEED_M_S = 1.5
+#: What a percept's position may be off by without any motion (m): a part partly hidden by an
+#: arm is seen with its centre shifted (the anchoring gate has the same size).
+CONTINUITY_MARGIN_M = 0.10
 
 
 @dataclass
@@ -87,7 +111,17 @@ class KnowledgeBase:
         size_tolerance: float = 0.05,
         position_tolerance: float = 0.02,
         supertypes: Mapping[str, str] | None = None,
+        max_speed_m_s: float = MAX_SPEED_M_S,
+        continuity_margin_m: float = CONTINUITY_MARGIN_M,
     ):
+        """``max_speed_m_s`` and ``continuity_margin_m`` bound how far an object may move
+        between two timed percepts (see the module; ``math.inf`` turns the check off)."""
+        for name, v in (
+            ("max_speed_m_s", max_speed_m_s),
+            ("continuity_margin_m", continuity_margin_m),
+        ):
+            if not (isinstance(v, int | float) and not math.isnan(v) and v > 0):
+                raise FlexhrcError(f"{name} must be a number > 0, got {v!r}")
         self.objects: dict[str, ObjectRecord] = {}
         self.supertypes: dict[str, str] = dict(supertypes or {})
         self._facts: set[tuple[str, ...]] = set()
@@ -100,6 +134,11 @@ class KnowledgeBase:
         self.size_tolerance = size_tolerance
         self.position_tolerance = position_tolerance
         self.inconsistencies: list[Inconsistency] = []
+        self.max_speed_m_s = float(max_speed_m_s)
+        self.continuity_margin_m = float(continuity_margin_m)
+        # object -> where and when (percept time) it was last perceived: continuity's reference
+        # (an action effect moves the belief, not this reference: see _jump)
+        self.last_percept: dict[str, tuple[Vec3, float]] = {}
         self.version = 0  # bumped on every change; lets callers cache query results
 
     # -- objects ------------------------------------------------------------------------
@@ -163,24 +202,41 @@ class KnowledgeBase:
         type: str,
         pose: Iterable[float],
         size: Mapping[str, float] | Iterable[float] | None = None,
+        *,
+        t: float | None = None,
         **attrs: Any,
     ) -> bool:
         """A percept of one object (the perception modules' ``ObjectSink`` protocol).
 
         ``pose`` starts with the position (a quaternion may follow); ``size`` is a mapping of
         named dimensions, or extents largest first (stored as ``length``, ``width``,
-        ``height``). A new id is added; a known one is updated when the percept agrees with the
-        base. Returns False when the percept contradicts the base: it is then kept as an
-        :class:`Inconsistency` and nothing changes until :meth:`resolve`.
+        ``height``); ``t`` is when it was perceived (s; needed for the continuity check). A new
+        id is added; a known one is updated when the percept agrees with the base, and its
+        pending inconsistencies are cleared (a compatible percept ends the inconsistent state,
+        paper 000 VI-E). Returns False when the percept contradicts the base — another type,
+        a size off, a fixed object elsewhere, a jump no agent could have made since the last
+        percept: it is then kept as an :class:`Inconsistency` and nothing changes until
+        :meth:`resolve` or a later compatible percept.
         """
         position = _vec(list(pose)[:3])
         size = _size(size)
-        percept = {"type": type, "position": position, "size": dict(size or {}), "attrs": attrs}
+        when = _time(t)
+        percept: dict[str, Any] = {
+            "type": type,
+            "position": position,
+            "size": dict(size or {}),
+            "attrs": attrs,
+        }
+        if when is not None:
+            percept["t"] = when
         rec = self.objects.get(obj_id)
         if rec is None:
             self.add_object(obj_id, type, position, size, **attrs)
+            self._perceived(obj_id, position, when)
             return True
-        reason = self._contradiction(rec, type, position, size or {})
+        reason = self._contradiction(rec, type, position, size or {}) or self._jump(
+            rec, position, when
+        )
         if reason:
             self.contradict(obj_id, reason, percept)
             return False
@@ -188,6 +244,7 @@ class KnowledgeBase:
         if size:
             rec.size.update(size)
         rec.attrs.update(attrs)
+        self._perceived(obj_id, position, when)
         self.version += 1
         return True
 
@@ -203,6 +260,36 @@ class KnowledgeBase:
         if rec.fixed and math.dist(rec.position, position) > self.position_tolerance:
             return _fixed_elsewhere(rec, position)
         return None
+
+    def _jump(self, rec: ObjectRecord, position: Vec3, t: float | None) -> str | None:
+        """Continuity (paper 000, VI-E): is ``position`` at time ``t`` farther from the
+        object's last percept than any agent could have carried it since, and not where an
+        action left it? (A fixed object is checked against where it is fixed instead; an
+        untimed percept is not checked.) A percept that confirms the belief is compatible
+        however far the belief moved: an action's effect explains the change — in simulation
+        it takes effect when the action ends, not along the way."""
+        last = self.last_percept.get(rec.id)
+        if t is None or last is None or rec.fixed or self.max_speed_m_s == _INF:
+            return None
+        (seen, seen_t), dt = last, abs(t - last[1])
+        d = math.dist(seen, position)
+        if d <= self.max_speed_m_s * dt + self.continuity_margin_m:
+            return None
+        if math.dist(rec.position, position) <= self.continuity_margin_m:
+            return None
+        return (
+            f"{rec.id} perceived {d:.2f} m from where it was perceived {dt:.2f} s before "
+            f"(at {format_position(seen)}, t={seen_t:g} s): no agent moves it faster than "
+            f"{self.max_speed_m_s:g} m/s"
+        )
+
+    def _perceived(self, obj_id: str, position: Vec3, t: float | None) -> None:
+        """A percept was applied: continuity's new reference, and what it contradicted is
+        over (the base waited for this compatible information)."""
+        if t is not None:
+            self.last_percept[obj_id] = (position, t)
+        if any(i.object_id == obj_id for i in self.inconsistencies):
+            self.inconsistencies = [i for i in self.inconsistencies if i.object_id != obj_id]
 
     # -- anchoring --------------------------------------------------------------------------
     def add_symbol(
@@ -222,31 +309,44 @@ class KnowledgeBase:
         the other or a supertype of it (a ``leg`` seen as a ``leg_long``, and back)."""
         return known in self.type_chain(perceived) or perceived in self.type_chain(known)
 
-    def observe(self, obj_id: str, position: Iterable[float], type: str | None = None) -> bool:
-        """A percept anchored to the known symbol ``obj_id``.
+    def observe(
+        self,
+        obj_id: str,
+        position: Iterable[float],
+        type: str | None = None,
+        *,
+        t: float | None = None,
+    ) -> bool:
+        """A percept anchored to the known symbol ``obj_id`` (perceived at time ``t``, s).
 
         Applied when it agrees with the base: the position is taken, the symbol is anchored and
         its pending inconsistencies are cleared (a later compatible percept ends the
         inconsistent state). The type stays: a partly hidden long leg may look like a short
         one, so a percept's subtype does not refine the symbol's.
-        A percept of an incompatible type, or of a fixed object elsewhere (horizontal distance
+        A percept of an incompatible type, of a fixed object elsewhere (horizontal distance
         above the position tolerance: a fixed object's height depends on what is fixed where),
-        is kept as an :class:`Inconsistency` instead; returns False then.
+        or of a loose object farther from its last percept than continuity allows, is kept as
+        an :class:`Inconsistency` instead; returns False then.
         """
         rec = self.object(obj_id)
         pos = _vec(position)
+        when = _time(t)
         percept: dict[str, Any] = {"type": type or rec.type, "position": pos, "size": {}}
+        if when is not None:
+            percept["t"] = when
         reason = None
         if type is not None and not self.compatible(rec.type, type):
             reason = f"{rec.id} is a {rec.type}, perceived as a {type}"
         elif rec.fixed and rec.anchored and _hdist(rec.position, pos) > self.position_tolerance:
             reason = _fixed_elsewhere(rec, pos)
+        else:
+            reason = self._jump(rec, pos, when)
         if reason:
             self.contradict(obj_id, reason, percept)
             return False
         rec.position = pos
         rec.anchored = True
-        self.inconsistencies = [i for i in self.inconsistencies if i.object_id != obj_id]
+        self._perceived(obj_id, pos, when)
         self.version += 1
         return True
 
@@ -275,6 +375,12 @@ class KnowledgeBase:
                 rec.fixed = False
                 self._facts.update((t, rec.id) for t in self.type_chain(rec.type))
                 self._facts_changed()
+                # the accepted percept is continuity's reference now (none, if it had no time)
+                when = inc.percept.get("t")
+                if isinstance(when, int | float):
+                    self.last_percept[rec.id] = (rec.position, float(when))
+                else:
+                    self.last_percept.pop(rec.id, None)
         self.inconsistencies = keep
         self.version += 1
 
@@ -363,6 +469,14 @@ def _size(size: Mapping[str, float] | Iterable[float] | None) -> dict[str, float
         return {str(k): float(v) for k, v in size.items()}
     values = [float(v) for v in size]
     return dict(zip(("length", "width", "height"), values, strict=False))
+
+
+def _time(t: float | None) -> float | None:
+    if t is None:
+        return None
+    if isinstance(t, bool) or not isinstance(t, int | float) or not math.isfinite(t):
+        raise FlexhrcError(f"the time of a percept must be a finite number of seconds, got {t!r}")
+    return float(t)
 
 
 def _vec(p: Iterable[float]) -> Vec3:

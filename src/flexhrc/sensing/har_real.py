@@ -5,7 +5,8 @@ the recogniser's own model, which flatters it. :class:`HmpReplaySensor` plays re
 instead: when the simulated operator completes an action, one recorded trial of the HMP action
 that stands for it (:data:`HMP_PROXIES`: HMP has no assembly motions, so each domain action is
 played by the HMP motion closest in kind — reaching for and lifting a glass for ``pick_up``,
-the wrist turn of pouring for ``screw``) is streamed through the online recogniser. The model
+the wrist turn of pouring for ``screw``; none stands for ``put_down`` or ``check``: those are
+taken as reported, and the trace says so) is streamed through the online recogniser. The model
 that runs is trained on other volunteers than those whose trials are replayed, so every
 recognition is an out-of-sample one; a miss is a miss, a confusion is a false report.
 
@@ -25,7 +26,7 @@ from flexhrc.perception.human.dataset import Trial, load_dataset
 from flexhrc.perception.human.mapping import ActionMapping
 from flexhrc.perception.human.models import GMMGMRRecognizer
 from flexhrc.perception.human.online import OnlineRecognizer
-from flexhrc.perception.human.sensing import Sensed
+from flexhrc.perception.human.sensing import Sensed, not_sensed
 
 #: Domain action -> the HMP action whose recordings play it.
 HMP_PROXIES: dict[str, str] = {"pick_up": "drink_glass", "screw": "pour_water"}
@@ -92,7 +93,7 @@ class HmpReplaySensor:
         """The operator just did ``action``: what does its replayed wrist signal tell?"""
         motion = self.proxies.get(action)
         if motion is None:
-            return Sensed(action, None, None, 0.0, 0, 0.0)
+            return not_sensed(action, "no HMP motion stands for it")
         trial = self._trial(motion)
         rate = trial.rate_hz
         n_still = round(self.still_s * rate)

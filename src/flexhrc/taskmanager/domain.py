@@ -30,16 +30,26 @@ arguments bind the schema's parameters in order. A domain is loaded from YAML::
       hold:
         parameters: {?top: tabletop}
         agents: {joint: [left, right]}
-        duration: 2.0            # one round of the behaviour
-        add: [settled(?top)]     # effects when a round ends
+        kind: hold               # its behaviour: the controller keeps the held pose
+        priority: 1              # which process wins an arm (the larger; default 0)
+        duration: 2.0            # the analytic model's time of one round
+        add: [settled(?top)]     # what a round establishes (the behaviour's own condition)
         until: [settled(?top)]   # end condition: the process ends when it holds
 
 ``kind`` names what the action is physically (:mod:`flexhrc.taskmanager.kinds`: its motion on
 the robot model, its timing, its effect on the world); an unregistered explicit kind is an
 error. ``duration`` and ``moves_to`` let a simulator time an action without knowing the scenario;
-``human_only``/``robot_only`` are not needed: who may act is ``agents``. A process is a robot
-behaviour kept up while its node is reached; it runs in rounds of ``duration`` until ``until``
-holds (checked after each round and whenever the state changes), then the node is met.
+``human_only``/``robot_only`` are not needed: who may act is ``agents``. A process is a
+behaviour with a priority kept up while its node is reached (paper eq. 5): its ``kind`` says what
+it does (``hold``: both hands keep the held object at its pose with the task-priority controller,
+undoing a push, :mod:`flexhrc.action.simulator`), ``priority`` (a whole number, default 0) which
+of two processes wants an arm more, ``until`` its end condition. It runs in rounds — each ends
+when its behaviour's own condition holds (the object back at its pose and still), and its
+``add`` effects are then applied — until ``until`` holds in the knowledge base, whoever made it
+true (checked after each round and whenever the state changes), then the node is met. Its
+``agents`` may name a person where the domain allows it (``agents: human``, or a choice whose
+type admits people): robots are preferred, as the paper has it ("processes are meant at being
+executed by robots, whereas a human operator may carry them out occasionally").
 """
 
 from __future__ import annotations
@@ -117,6 +127,7 @@ class ActionSchema:
     undo: str | None = None  # the action that puts things back (an operator changing its mind)
     line: int | None = field(default=None, compare=False)
     target: tuple[str, ...] = ()  # parameters the kind's motion aims at (object, place)
+    priority: int = 0  # processes only: the larger wins an arm wanted by two processes
 
     @functools.cached_property
     def variables(self) -> tuple[str, ...]:  # read in every grounding: made once
@@ -374,6 +385,20 @@ def _schema(
                 source,
                 _line(sd, "duration"),
             )
+    priority = sd.get("priority", 0)
+    if "priority" in sd and what != "process":
+        raise FormatError(
+            f"{what} {name!r}: priority is a key of processes (which process wins an arm)",
+            source,
+            _line(sd, "priority"),
+        )
+    if isinstance(priority, bool) or not isinstance(priority, int) or abs(priority) > 1_000_000:
+        raise FormatError(
+            f"{what} {name!r}: priority must be a whole number (the larger wins an arm), "
+            f"got {priority!r}",
+            source,
+            _line(sd, "priority"),
+        )
     roles: dict[str, str | None] = {}
     for key in ("moves_to", "carries", "fixes"):
         value = sd.get(key)
@@ -425,6 +450,7 @@ def _schema(
         None if sd.get("undo") is None else str(sd["undo"]),
         line,
         target,
+        priority,
     )
 
 

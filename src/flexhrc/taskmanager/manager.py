@@ -30,10 +30,22 @@ Section V in full:
 * **the substitution chosen for a hyper-arc carries to its parent's state formula**: the parent
   is met only when ``S(parent)`` holds under that grounding, and the grounding is kept as the
   node's binding, so a hyper-arc leaving that node starts from the same objects;
+* **groundings pass through the hierarchy** (section IV-B, eqs. 15-16): when a hyper-arc's
+  lower instance becomes active, the hyper-arc's grounding (its children's bindings, the
+  variables they leave open bound in the knowledge base as it is then) binds the lower
+  variables its transition maps (M1) in every formula and action of that instance; when the
+  lower root is met, its grounding binds the variables of the hyper-arc's parent that M2 maps
+  (:class:`flexhrc.representation.hierarchy.Transfer`);
 * **node processes** ``P(n)`` (eq. 5): when n is reached (its formula holds) its processes are
-  activated in order — robot behaviours declared under ``processes:`` in the domain, each a
-  :class:`Command` that keeps its agents busy, round after round, until its ``until`` condition
-  holds; n is met when its last process has ended (the text after eq. 5);
+  activated in order — behaviours declared under ``processes:`` in the domain, each a
+  :class:`Command` that keeps its agents busy, round after round (a round ends when the
+  behaviour's own condition holds, e.g. the held object back at its pose and still), until its
+  ``until`` condition holds, whoever made it true; n is met when its last process has ended (the
+  text after eq. 5). Each process has a **priority**: when two want one arm, the larger wins —
+  it waits for nobody, a running process of lower priority is stopped for it (and resumes when
+  the arm is free again). A process the domain lets a **person** run (``agents: human``) is
+  asked of them as a :class:`Suggest` of the node; their report of it ends a round, and the
+  process ends when ``until`` holds (e.g. they hold the housing while the robot fastens it);
 * **joint actions** (``agents: {joint: [left, right]}``) are one command for several arms;
 * an **unsuggested human action** is matched against the *whole* action list of every feasible
   hyper-arc: it may be any action of A(h) whose earlier actions' effects already hold; the
@@ -67,7 +79,7 @@ from flexhrc.errors import FlexhrcError
 from flexhrc.events import FAILURE_POLICIES, LogEventType
 from flexhrc.knowledge import KnowledgeBase
 from flexhrc.logic import Literal, Substitution, apply_substitution, is_variable
-from flexhrc.representation import OnlineGraph
+from flexhrc.representation import OnlineGraph, Transfer, qualify, split_qualified
 from flexhrc.taskmanager.decision import (
     ActionStateTable,
     Branch,
@@ -199,6 +211,7 @@ class ProcessRun:
     command: Command | None = None
     rounds: int = 0
     failures: int = 0
+    asked: GroundAction | None = None  # a person's round asked for (a Suggest), not reported yet
 
     @property
     def ended(self) -> bool:
@@ -277,6 +290,8 @@ class TaskManager:
         self.bindings: dict[str, Substitution] = {}
         self.processes: dict[str, ProcessRun] = {}  # reached nodes whose P(n) is running
         self._process_of: dict[int, str] = {}  # command id -> node of that process
+        # (person, process) of persons' processes that ended before the person said so
+        self._let_go: set[tuple[str, str]] = set()
         self._extra: list[Directive] = []  # directives raised deep inside (process stops)
         self._answer = graph.query()
         self._answer_views: _AnswerViews | None = None  # see _feasible
@@ -287,6 +302,14 @@ class TaskManager:
         self._constraints_of: dict[str, list[Literal]] = {}
         self._formulas = self._collect_formulas()
         self._node_processes = self._collect_processes()
+        # groundings through the hierarchy (M1/M2): instance path -> (its transfer, the upper
+        # hyper-arc that created it), only where something passes (empty: a single graph)
+        self._transfers: dict[str, tuple[Transfer, str]] = {}
+        self._lower_roots: dict[str, str] = {}  # root of such an instance -> its path
+        self._scopes: dict[str, Substitution] = {}  # instance path -> its binding (made once)
+        self._sigmas: dict[str, Substitution] = {}  # upper hyper-arc -> its grounding
+        self._instance_of: dict[str, str] = {}  # element -> its instance path (kept)
+        self._collect_transfers()
 
     # -- public API -----------------------------------------------------------------------
     def start(self, now: float = 0.0) -> list[Directive]:
@@ -526,6 +549,95 @@ class TaskManager:
                     out[name] = tuple(node.processes)
         return out
 
+    def _collect_transfers(self) -> None:
+        hierarchy = self.graph.hierarchy
+        if len(hierarchy.graphs) == 1:
+            return
+        keys: dict[str, str] = {}  # instance path -> definition key (depth-first: upper first)
+        for info in hierarchy.instances():
+            keys[info.path] = info.key
+            if info.upper is None:
+                continue
+            upper_path, local = split_qualified(info.upper)
+            transfer = hierarchy.transfer(keys[upper_path], local)
+            if transfer:
+                self._transfers[info.path] = (transfer, info.upper)
+                root = hierarchy.graphs[info.key].root
+                self._lower_roots[qualify(info.path, str(root))] = info.path
+
+    # -- groundings through the hierarchy (paper 000, IV-B, eqs. 15-16) -------------------
+    def _scope(self, element: str) -> Substitution:
+        """The binding of the graph instance ``element`` belongs to: the lower variables its
+        transition maps (M1, and M2 where the upper layer already knows the result), valued
+        by the grounding of the upper hyper-arc that created it. Empty for the top graph and
+        where nothing passes; read only."""
+        path = self._instance_of.get(element)
+        if path is None:
+            path = self._instance_of[element] = self.graph.graph_of(element)
+        found = self._scopes.get(path)
+        if found is None:
+            if path not in self._transfers:
+                return _NO_BINDING
+            found = self._bind_instance(path)
+            if found is None:
+                return _NO_BINDING  # not active yet: nothing is bound
+            self._scopes[path] = found
+        return found
+
+    def _bind_instance(self, path: str) -> Substitution | None:
+        """M1: the grounding of the upper hyper-arc u when its instance starts — what its
+        children were reached with, the variables they leave open bound in the knowledge
+        base as it is now (the first grounding, in the knowledge base's order) — carried to
+        the lower variables the transition maps. None while u's children are not all met."""
+        transfer, u = self._transfers[path]
+        graph = self.graph
+        if not all(graph.is_met(c) for c in self._children(u)):
+            return None
+        sigma = self._child_binding(u)
+        terms = (*transfer.down.values(), *transfer.up.values())
+        if any(is_variable(t) and t not in sigma for t in terms):
+            first = next(self.kb.iter_query(self._constraints(u), sigma), None)
+            if first is not None:
+                sigma = first
+        self._sigmas[u] = sigma
+        scope: Substitution = {}
+        for mapping in (transfer.down, transfer.up):
+            for lower_var, term in mapping.items():
+                value = sigma.get(term) if is_variable(term) else term
+                if value is not None:
+                    scope.setdefault(lower_var, value)
+        return scope
+
+    def _carry_up(self, path: str, root: str) -> None:
+        """M2: the lower root ``root`` of instance ``path`` is met, so its hyper-arc u is
+        solved (eq. 18): u's parent is reached with u's grounding, and the variables of the
+        parent's formula that the transition maps to the lower root are grounded by what the
+        lower instance did (the root's binding; a variable the root's formula leaves open, by
+        the knowledge base now)."""
+        transfer, u = self._transfers[path]
+        parent = self._parent(u)
+        formula = self._formulas.get(parent, ())
+        if not formula:
+            return
+        wanted = {a for lit in formula for a in lit.args if is_variable(a)}
+        sigma = self._sigmas.get(u) or self._child_binding(u)
+        carried = {k: v for k, v in sigma.items() if k in wanted}
+        open_ = {
+            t: lv
+            for lv, t in transfer.up.items()
+            if is_variable(t) and t in wanted and t not in carried
+        }
+        if open_:
+            below = {**self._scope(root), **self.bindings.get(root, {})}
+            if any(lv not in below for lv in open_.values()):
+                first = next(self.kb.iter_query(self._formulas.get(root, ()), below), None)
+                below = first if first is not None else below
+            for t, lv in open_.items():
+                if lv in below:
+                    carried[t] = below[lv]
+        if carried:
+            self.bindings[parent] = carried
+
     def _describe(self, name: str) -> tuple[str, tuple[str, ...]]:
         found = self._described.get(name)
         if found is None:
@@ -565,16 +677,27 @@ class TaskManager:
         formula = self._formulas.get(name, ())
         if not formula:
             return True
-        binding = self.bindings.get(name)
+        # (inline for a single graph: this runs for every feasible node at every step)
+        binding = self._node_binding(name) if self._transfers else self.bindings.get(name)
         if binding:
             formula = tuple(apply_substitution(lit, binding) for lit in formula)
         return holds(formula, self.kb.facts)
+
+    def _node_binding(self, name: str) -> Substitution:
+        """What node ``name`` was reached with: its instance's binding (M1) and the grounding
+        carried from its producing hyper-arc (read only)."""
+        binding = self.bindings.get(name, _NO_BINDING)
+        if self._transfers:
+            scope = self._scope(name)
+            if scope:
+                return {**scope, **binding}
+        return binding
 
     def _meet_nodes(self) -> None:
         """Meet feasible nodes whose state holds and whose processes have ended (eq. 5)."""
         while self.outcome == "running":
             met = []
-            for name in self._feasible_nodes():
+            for name in self._by_process_priority(self._feasible_nodes()):
                 if not self._node_holds(name):
                     continue
                 if name in self._node_processes and not self._processes_ended(name):
@@ -585,13 +708,18 @@ class TaskManager:
             for name in met:
                 self.processes.pop(name, None)
             self._update_graph(met_nodes=met)
+            if self._lower_roots:
+                for name in met:
+                    path = self._lower_roots.get(name)
+                    if path is not None:
+                        self._carry_up(path, name)  # M2: before the parent is looked at
 
     # -- node processes P(n) --------------------------------------------------------------
     def _processes_ended(self, node: str) -> bool:
         """Activate n's processes when it is reached; True once the last one has ended."""
         run = self.processes.get(node)
         if run is None:
-            run = ProcessRun(node, self._node_processes[node], dict(self.bindings.get(node, {})))
+            run = ProcessRun(node, self._node_processes[node], dict(self._node_binding(node)))
             self.processes[node] = run
             self._emit("process_activated", node=node, processes=list(run.invocations))
         while not run.ended:
@@ -602,11 +730,58 @@ class TaskManager:
             if schema_until and holds(schema_until, self.kb.facts):
                 self._end_process(run, ground, "its end condition holds")
                 continue
-            if run.command is None:
-                if any(a in self.busy for a in ground.agents):
+            if run.command is None and run.asked is None:
+                if not self._agents_free_for(ground):
                     return False  # its agents are busy: it starts when they are free
                 self._start_process(run, ground)
             return False
+        return True
+
+    def _by_process_priority(self, nodes: list[str]) -> list[str]:
+        """``nodes`` with those whose next process has the higher priority first (stable: the
+        graph's order among equals), so the process that should win an arm asks for it first."""
+        if not self._node_processes:
+            return nodes
+        return sorted(nodes, key=lambda n: -self._process_priority(n))
+
+    def _process_priority(self, node: str) -> int:
+        invocations = self._node_processes.get(node)
+        run = self.processes.get(node)
+        i = run.index if run is not None else 0
+        if not invocations or i >= len(invocations):
+            return 0
+        return self.domain.invocation(invocations[i], process=True)[0].priority
+
+    def _agents_free_for(self, ground: GroundAction) -> bool:
+        """Can ``ground`` (a process round) start now? Its arms are idle or run a process of lower
+        priority — stopped here for it (the run of that process waits and resumes when the arm
+        is free again); a person is free when no execution or process of theirs is running."""
+        people = self._busy_humans()
+        lower: list[Command] = []
+        for a in ground.agents:
+            if a in self.unavailable or a in people:
+                return False
+            cmd = self.busy.get(a)
+            if cmd is None:
+                continue
+            if not cmd.process or cmd.action.schema.priority >= ground.schema.priority:
+                return False
+            if all(c is not cmd for c in lower):  # a joint command counts once
+                lower.append(cmd)
+        for cmd in lower:
+            node = self._process_of.pop(cmd.id, None)
+            run = self.processes.get(node) if node is not None else None
+            if run is not None and run.command is cmd:
+                run.command = None
+            why = (
+                f"preempted by process {ground} (priority {ground.schema.priority} > "
+                f"{cmd.action.schema.priority})"
+            )
+            for a in cmd.agents:
+                if self.busy.get(a) is cmd:
+                    self.busy.pop(a)
+                    self._extra.append(Stop(a, cmd.id, why))
+                    self._emit("stop", agent=a, command=cmd.id, reason=why)
         return True
 
     def _ground_process(self, run: ProcessRun) -> GroundAction | None:
@@ -617,12 +792,7 @@ class TaskManager:
             value = binding.get(term, term) if is_variable(term) else term
             if is_variable(value):
                 if schema.agents.mode == "choice" and var == schema.agents.variable:
-                    free = [
-                        a.name
-                        for a in self.domain.agents_of_type(typ)
-                        if not a.is_human and a.name not in self.busy
-                    ]
-                    found = free[:1]
+                    found = self._process_agent(typ, schema.priority)
                 else:
                     found = [o.id for o in self.kb.objects_of_type(typ)][:1]
                 if not found:
@@ -637,7 +807,32 @@ class TaskManager:
             agents = spec.names
         return GroundAction(schema, tuple(values), agents)
 
+    def _process_agent(self, typ: str, priority: int) -> list[str]:
+        """Who runs a process whose agent is a choice of type ``typ``: an idle arm, else an arm
+        running a process of lower priority (it is preempted), else — where the type admits
+        people — a person with nothing running (paper eq. 5: processes are meant for robots, a
+        person may carry them out occasionally). Empty: nobody now."""
+        capable = [a for a in self.domain.agents_of_type(typ) if a.name not in self.unavailable]
+        arms = [a.name for a in capable if not a.is_human]
+        idle = [a for a in arms if a not in self.busy]
+        lower = [
+            a
+            for a in arms
+            if not idle and self.busy[a].process and self.busy[a].action.schema.priority < priority
+        ]
+        people = self._busy_humans()
+        persons = [a.name for a in capable if a.is_human and a.name not in people]
+        return (idle or lower or persons)[:1]
+
     def _start_process(self, run: ProcessRun, ground: GroundAction) -> None:
+        if any(self.domain.agent(a).is_human for a in ground.agents):
+            # a person's round: asked as a suggestion of the node; their report ends it
+            sug = Suggest(run.node, [ground], 0.0)
+            run.asked = ground
+            run.rounds += 1
+            self._emit("suggestion", **sug.to_dict())
+            self._extra.append(sug)
+            return
         t0 = self._timer()
         sim = self.simulator.simulate([ground], self.kb, self.domain)
         self.timing.simulator_s += self._timer() - t0
@@ -660,10 +855,42 @@ class TaskManager:
                     self._extra.append(Stop(a, cmd.id, f"process {ground} ended"))
                     self._emit("stop", agent=a, command=cmd.id, reason=f"process {ground} ended")
             self._process_of.pop(cmd.id, None)
+        if run.asked is not None:  # a person still at it: their coming report is no new round
+            self._let_go.add((self._human_of(run.asked), str(run.asked)))
         self._emit("process_ended", node=run.node, process=str(ground), reason=why)
         run.command = None
+        run.asked = None
         run.index += 1
         run.rounds = 0
+
+    def _person_process_report(self, action: HumanAction) -> list[Directive] | None:
+        """A person reports a round of a process they were asked to run: its effects apply, the
+        process ends if ``until`` now holds (else they are asked again). A report of one that
+        ended meanwhile (its condition came true first) is taken quietly. None: not a process."""
+        said = str(action)
+        for run in self.processes.values():
+            asked = run.asked
+            if asked is None or str(asked) != said:
+                continue
+            self._emit("human_action", action=said)
+            run.asked = None
+            self._apply_effects(asked)
+            until = [apply_substitution(lit, asked.binding) for lit in asked.schema.until]
+            if not until or holds(until, self.kb.facts):
+                self._end_process(run, asked, "its end condition holds" if until else "done")
+            elif run.rounds >= self.max_process_rounds:
+                self._finish(
+                    "failed",
+                    f"process {asked} of {run.node}: end condition {' & '.join(map(str, until))} "
+                    f"still false after {run.rounds} rounds",
+                )
+            return self._plan()
+        for who, process in list(self._let_go):
+            if process == said and who in action.args:
+                self._let_go.discard((who, process))
+                self._emit("human_action", action=said)
+                return self._plan()
+        return None
 
     def _process_ack(self, node: str, cmd: Command, ack: Ack) -> None:
         run = self.processes.get(node)
@@ -676,7 +903,9 @@ class TaskManager:
             self._apply_effects(ground)
             until = [apply_substitution(lit, ground.binding) for lit in ground.schema.until]
             if not until or holds(until, self.kb.facts):
-                self._end_process(run, ground, "its end condition holds" if until else "done")
+                why = "its end condition holds" if until else "done"
+                # what the behaviour observed (e.g. a push undone) is part of why it ended
+                self._end_process(run, ground, f"{why}; {ack.reason}" if ack.reason else why)
             elif run.rounds >= self.max_process_rounds:
                 self._finish(
                     "failed",
@@ -748,8 +977,9 @@ class TaskManager:
         return found
 
     def _child_binding(self, element: str) -> dict[str, str]:
-        """The groundings h's children were reached with (carried from their hyper-arcs)."""
-        out: dict[str, str] = {}
+        """The groundings h's children were reached with (carried from their hyper-arcs),
+        within the binding of h's graph instance (M1)."""
+        out: dict[str, str] = dict(self._scope(element)) if self._transfers else {}
         for c in self._children(element):
             out.update(self.bindings.get(c, {}))
         return out
@@ -760,6 +990,12 @@ class TaskManager:
             for ex in self.executions.values()
             if ex.owner == "human"
             for a in ex.agents
+            if self.domain.agent(a).is_human
+        } | {
+            a
+            for run in self.processes.values()
+            if run.asked is not None
+            for a in run.asked.agents
             if self.domain.agent(a).is_human
         }
 
@@ -1189,6 +1425,9 @@ class TaskManager:
 
     # -- the human ------------------------------------------------------------------------
     def _handle_human(self, action: HumanAction) -> list[Directive]:
+        process = self._person_process_report(action)
+        if process is not None:
+            return process
         self._emit("human_action", action=str(action))
         out: list[Directive] = []
         ex = self._match_running_human(action)
@@ -1235,7 +1474,10 @@ class TaskManager:
         formula = self._formulas.get(self._parent(ex.element), ())
         if not formula:
             return False
-        grounded = tuple(apply_substitution(lit, ex.branch.grounding) for lit in formula)
+        binding = ex.branch.grounding
+        if self._transfers:
+            binding = {**self._scope(ex.element), **binding}
+        grounded = tuple(apply_substitution(lit, binding) for lit in formula)
         return holds(grounded, self.kb.facts)
 
     def _match_running_human(self, action: HumanAction) -> Execution | None:
@@ -1278,7 +1520,7 @@ class TaskManager:
             if not actions:
                 continue
             goal = self._formulas.get(self._parent(name), ())
-            if goal and self.kb.query(goal):
+            if goal and self.kb.query(goal, self._scope(name) if self._transfers else None):
                 continue  # its outcome already holds (e.g. a robot just did it): not this one
             for index, invocation in enumerate(actions):
                 binding = self._unify(invocation, action)
@@ -1382,6 +1624,10 @@ class TaskManager:
                 "simulator_s": self.timing.simulator_s,
             },
         }
+
+
+#: the binding of an element nothing binds (shared: never changed)
+_NO_BINDING: Substitution = {}
 
 
 def check_failure_policy(value: str, option: str = "on_failure") -> str:

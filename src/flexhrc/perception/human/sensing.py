@@ -13,6 +13,10 @@ closes that loop in simulation: when the simulated operator completes an action 
 The object the action was about (which leg) is not in a wrist signal: it comes from scene
 perception — here, from the simulated world. Without a model, one is trained on the packaged
 synthetic motions (``pick_up``, ``put_down``, ``screw``, ``wave``; no dataset needed).
+
+An action no motion of the model plays (the operator's visual ``check`` of a connection) is not
+sensed: :class:`Sensed` says why (:func:`not_sensed`, e.g. ``check: no wrist model, taken as
+reported``) and the report goes to the Task Manager as the operator made it.
 """
 
 from __future__ import annotations
@@ -39,10 +43,21 @@ class Sensed:
     confidence: float
     samples: int
     latency_s: float  # from the end of the motion to the recognition
+    why: str | None = None  # why the action was not sensed at all (no motion plays it)
 
     def to_dict(self) -> dict[str, Any]:
         rounded = {"confidence": round(self.confidence, 4), "latency_s": round(self.latency_s, 4)}
-        return {**asdict(self), **rounded}
+        out = {**asdict(self), **rounded}
+        if out["why"] is None:  # (the figures of a sensed action keep their shape)
+            del out["why"]
+        return out
+
+
+def not_sensed(action: str, detail: str = "") -> Sensed:
+    """What a sensor says of an action no motion of its model plays: nothing recognised, no
+    sample, and why — the report is taken as the operator made it (an ``uncovered`` action)."""
+    why = f"{action}: no wrist model, taken as reported{f' ({detail})' if detail else ''}"
+    return Sensed(action, None, None, 0.0, 0, 0.0, why)
 
 
 def train_toy_model(seed: int = 0) -> GMMGMRRecognizer:
@@ -79,7 +94,7 @@ class WearableHumanSensor:
         """The operator just did ``action``: what does the wrist sensor tell?"""
         motion = self._motion_of.get(action)
         if motion is None:
-            return Sensed(action, None, None, 0.0, 0, 0.0)
+            return not_sensed(action)
         samples = self.wearable.stream(motion, lead_s=self.still_s, tail_s=self.still_s)
         online = OnlineRecognizer(self.model)
         found = [r for r in online.replay(samples) if r.name in self.mapping.mapping]

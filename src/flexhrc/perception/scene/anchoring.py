@@ -16,7 +16,10 @@ frame, with a gated optimal assignment (Hungarian, ``scipy.optimize.linear_sum_a
    (:meth:`Anchoring.expect`: e.g. where a reported human action left it) but that is still
    seen where it was is an inconsistency: the belief is wrong (e.g. a false report). A non-fixed
    object seen farther from where it was last seen than any agent could have carried it in the
-   meantime (``max_speed_m_s`` times the time elapsed, plus the gate) is an inconsistency too.
+   meantime (``max_speed_m_s`` — by default the base's own bound,
+   :attr:`~flexhrc.knowledge.KnowledgeBase.max_speed_m_s` — times the time elapsed, plus the
+   gate) is an inconsistency too; every percept goes to the base with the frame's time, and the
+   base checks continuity itself as well (paper 000, VI-E).
    Otherwise the object has moved and is re-anchored at its new place (``moved`` in the report:
    a Task Manager stops the actions that use it, paper 002's validity check).
 3. **New objects** — percepts still left become new symbols with stable names (``leg_1``, the
@@ -78,14 +81,14 @@ class Anchoring:
         types: Iterable[str],
         *,
         gate_m: float = 0.10,
-        max_speed_m_s: float = 1.5,
+        max_speed_m_s: float | None = None,
         missing_after: int = 3,
         move_threshold_m: float = 0.03,
         on_new: Callable[[ObjectRecord], None] | None = None,
     ):
         for name, v in (
             ("gate_m", gate_m),
-            ("max_speed_m_s", max_speed_m_s),
+            ("max_speed_m_s", max_speed_m_s if max_speed_m_s is not None else 1.0),
             ("move_threshold_m", move_threshold_m),
         ):
             if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
@@ -95,7 +98,8 @@ class Anchoring:
         self.kb = kb
         self.types = list(dict.fromkeys(types))
         self.gate_m = float(gate_m)
-        self.max_speed_m_s = float(max_speed_m_s)
+        # the base's bound unless told otherwise (math.inf there: continuity is not checked)
+        self.max_speed_m_s = float(kb.max_speed_m_s if max_speed_m_s is None else max_speed_m_s)
         self.missing_after = missing_after
         self.move_threshold_m = float(move_threshold_m)
         self.on_new = on_new
@@ -263,7 +267,7 @@ class Anchoring:
         """A gated match: the percept agrees with the belief (or anchors a new symbol). A
         partial percept (``keep_position``) confirms the symbol without moving it."""
         position = s.position if keep_position else _xyz(p.position)
-        ok = self.kb.observe(s.id, position, p.type)
+        ok = self.kb.observe(s.id, position, p.type, t=now)
         if ok:
             self._seen(s, p, now, report)
             if keep_position:

@@ -2,9 +2,9 @@
 
 :func:`table_assembly` builds it as a :class:`~flexhrc.scenario.Scenario`, in three segments
 (:data:`SEGMENTS`): the tabletop placement (Fig. 8: ``place_tabletop`` picks the tabletop from
-its stand, turns it flat and sets it down, each step one joint command of both arms; the node
-``tabletop_held`` keeps it in both hands with the process ``hold(?top)`` until it has settled;
-``release_tabletop`` lets go and sends both arms to rest; the operator's alternative
+its stand, turns it flat and places it, each step one joint command of both arms; at the node
+``tabletop_placed`` the process ``hold(?top)`` keeps it still with both hands until it has
+settled; ``arms_to_rest`` sends both arms to rest; the operator's alternative
 ``human_places_tabletop`` only when asked for), the legs fix (Figs. 9-12, below) and
 the check (Fig. 13: ``check_connections``, weight 0, so the suggestion costs of the legs fix are
 those of Figs. 9-12; left out without an operator). ``segments="legs"`` is the legs fix alone.
@@ -441,14 +441,14 @@ def parse_segments(segments: str | Sequence[str] | None, *, human: bool = True) 
 
 
 #: The tabletop placement of Fig. 8 as the hyper-arc ``place_tabletop`` (a-e: pick it from its
-#: stand, turn it flat, set it down at the assembly pose) and, once the process ``hold(?top)``
-#: of ``tabletop_held`` has ended, ``release_tabletop`` (f: let go, both arms back to rest).
+#: stand, turn it flat, place it at the assembly pose) and, once the process ``hold(?top)`` of
+#: ``tabletop_placed`` has ended, ``arms_to_rest`` (f: both arms back to rest).
 PLACE_TABLETOP = (
     "pick_tabletop(?top)",
     "reorient_tabletop(?top)",
     "place_tabletop(?top, assembly_pose)",
 )
-RELEASE_TABLETOP = ("release_tabletop(?top)", "return_to_rest()")
+ARMS_TO_REST = ("return_to_rest()",)
 
 
 def task_graph(
@@ -459,8 +459,8 @@ def task_graph(
 ) -> HierarchicalGraph:
     """The graph of the chosen segments as one first-order graph: the legs fix alone is
     :func:`build_graph`'s; with ``tabletop`` the robot first places the tabletop (Fig. 8:
-    :data:`PLACE_TABLETOP`, the node ``tabletop_held`` with the process ``hold(?top)``, then
-    :data:`RELEASE_TABLETOP`); with ``check`` the operator's check closes the task. In the
+    :data:`PLACE_TABLETOP`, the node ``tabletop_placed`` with the process ``hold(?top)``, then
+    :data:`ARMS_TO_REST`); with ``check`` the operator's check closes the task. In the
     paper the robot always places the tabletop: ``operator_places_tabletop`` adds the
     operator's alternative ``human_places_tabletop`` (cost 3; needs the check segment's
     operator)."""
@@ -476,18 +476,16 @@ def task_graph(
         g.add_node(
             Node("tabletop_on_stand", 0, parse_conjunction("tabletop(?top) & on_table(?top)"))
         )
-        held = "tabletop(?top) & placed(?top) & holding(left, ?top) & holding(right, ?top)"
-        g.add_node(Node("tabletop_held", 0, parse_conjunction(held), ("hold(?top)",)))
+        placed = parse_conjunction("tabletop(?top) & placed(?top)")
+        g.add_node(Node("tabletop_placed", 0, placed, ("hold(?top)",)))
     for n in fix.nodes.values():
         if n.name == "tabletop" or "legs" in segments:
             g.add_node(Node(n.name, n.weight, n.formula, n.processes))
     if tabletop:
         g.add_hyperarc(
-            Hyperarc("place_tabletop", ("tabletop_on_stand",), "tabletop_held", 1, PLACE_TABLETOP)
+            Hyperarc("place_tabletop", ("tabletop_on_stand",), "tabletop_placed", 1, PLACE_TABLETOP)
         )
-        g.add_hyperarc(
-            Hyperarc("release_tabletop", ("tabletop_held",), "tabletop", 0, RELEASE_TABLETOP)
-        )
+        g.add_hyperarc(Hyperarc("arms_to_rest", ("tabletop_placed",), "tabletop", 0, ARMS_TO_REST))
         if operator_places_tabletop:  # the robot's way is cheaper; the operator's when it fails
             g.add_hyperarc(
                 Hyperarc(
