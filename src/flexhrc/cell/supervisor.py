@@ -350,7 +350,8 @@ class Cell:
         show how long the person worked)."""
         human = self._human(agent)
         self._panel_inputs += 1
-        t = round(self.now, 6)
+        # on the wall clock the cell's time went on since the last input: the person acts now
+        t = round(max(self.now, self._clock()), 6)
         began = self._start_of(human, action) if start is None else float(start)
         self._on_human_message(
             P.message(
@@ -396,7 +397,7 @@ class Cell:
                 id=f"panel:{self._panel_inputs}:{len(self.events)}",
                 agent=human,
                 reply=reply,
-                t=round(self.now, 6),
+                t=round(max(self.now, self._clock()), 6),
                 **fields,
                 run=self.run_id,
             )
