@@ -123,7 +123,9 @@ class LocalCell:
     (the K-th cooperation steps, 1-based) and ``replies`` answers its requests beyond "done"
     (:data:`~flexhrc.cell.components.Replies`); ``answer_timeout``: see :class:`Cell`.
     ``simulator`` is the manager's branch simulator;
-    ``execution`` the simulated real world (by default the simulator, when it can execute).
+    ``execution`` the simulated real world (by default the simulator, when it can execute);
+    ``store`` an :class:`~flexhrc.cell.store.EventStore` to keep every event in (new, not
+    resumed), as ``flexhrc cell --store`` does.
     """
 
     def __init__(
@@ -146,6 +148,7 @@ class LocalCell:
         on_failure: str | None = None,
         answer_timeout: float | None = None,
         replies: Replies | None = None,
+        store: Any = None,
     ) -> None:
         domain = scenario.domain
         if simulator is None:
@@ -188,6 +191,7 @@ class LocalCell:
             publish_state=False,
             quiescent=self._quiescent,
             shared_model=execution is simulator,  # the arms execute on the manager's model
+            store=store,
         )
         arm_model: ExecutionModel = self.injection
         self.agents: list[RobotAgent | HumanAgent] = [
