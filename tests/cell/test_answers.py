@@ -259,3 +259,26 @@ def test_a_reply_message_is_checked(lids: Any) -> None:
     assert "'closed' is no hyper-arc" in cell.dropped[1]
     assert "human has no open request" in cell.dropped[2]
     assert not cell.pending
+
+
+def test_an_operator_profile_that_answers_is_asked_once_per_request(lids: Any) -> None:
+    """A profile with an ``answer`` (``reluctant``, :class:`SimulatedOperator`) says it when a
+    request is put to it; "follow" does the step."""
+
+    class Reluctant:
+        def __init__(self) -> None:
+            self.said: list[list[str]] = []
+
+        def answer(self, actions: Any, domain: Any) -> tuple[str, str | None]:
+            self.said.append([str(a) for a in actions])
+            return ("cannot", "human cannot carry") if len(self.said) == 1 else ("follow", None)
+
+    cell = LocalCell(lids)
+    human = next(a for a in cell.agents if isinstance(a, HumanAgent))
+    operator = Reluctant()
+    human.operator = operator  # type: ignore[assignment]
+    result = cell.run()
+    assert result.outcome == "solved", result.reason
+    [said] = _events(result, "human_declined")
+    assert said["reply"] == "cannot" and said["reason"] == "human cannot carry"
+    assert operator.said == [["carry(human, lid_a, box)"]]  # place_b went to the arm (a tie)

@@ -885,14 +885,21 @@ class HumanAgent(_Agent):
 
     def _answer(self, msg: dict[str, Any], k: int) -> tuple[str, str | None] | None:
         """What this operator answers to step ``k`` of a request other than doing it (its
-        ``replies``, else its profile's ``reply`` if it has one): (reply, reason) or None."""
+        ``replies``, else its profile's ``answer`` if it has one): (reply, reason) or None."""
         if msg.get("own"):
             return None  # its own plan: it decided to do it
-        decide = self.replies or getattr(self.operator, "reply", None)
-        said = decide(str(msg["element"]), list(msg["actions"]), k) if decide else None
-        if said is None:
+        if self.replies is not None:
+            said = self.replies(str(msg["element"]), list(msg["actions"]), k)
+            if said is None:
+                return None
+            return (said, None) if isinstance(said, str) else (str(said[0]), str(said[1]))
+        # a profile that answers (``reluctant``: SimulatedOperator.answer) says so once per
+        # request, when it is put to it (step 0); a request asked again gets the same answer
+        answer = getattr(self.operator, "answer", None)
+        if answer is None or k != 0:
             return None
-        return (said, None) if isinstance(said, str) else (str(said[0]), str(said[1]))
+        kind, reason = answer([ground(self.domain, a) for a in msg["actions"]], self.domain)
+        return None if kind == "follow" else (str(kind), reason)
 
     def _reply(self, msg: dict[str, Any], k: int, answer: tuple[str, str | None]) -> bool:
         """Send the ``reply`` (after :data:`REPLY_S`; ``start`` at once); returns whether
