@@ -197,6 +197,7 @@ class Cell:
             log=self._tm_log,
             reaction=reaction,
             on_failure=failure_policy(scenario, on_failure),
+            utility=getattr(scenario, "utility", None),
         )
         self.agents = {
             a.name: AgentState(a.name, "human" if a.is_human else "robot")
