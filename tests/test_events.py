@@ -133,7 +133,7 @@ def test_the_vocabularies_are_the_strings_on_disk() -> None:
     from flexhrc.scenario import model, simulators
     from flexhrc.taskmanager import operator
 
-    assert events.PROFILES == ("passive", "takeover", "cooperative", "random")
+    assert events.PROFILES == ("passive", "takeover", "cooperative", "random", "reluctant")
     for profiles in (operator.PROFILES, model.PROFILES):
         assert tuple(profiles) == tuple(Profile)
     assert tuple(Outcome) == ("solved", "failed", "interrupted")

@@ -55,6 +55,8 @@ class Profile(StrEnum):
     TAKEOVER = "takeover"
     COOPERATIVE = "cooperative"
     RANDOM = "random"
+    #: declines a share of suggestions and cannot do some actions (issue 22)
+    RELUCTANT = "reluctant"
 
 
 class Outcome(StrEnum):

@@ -338,13 +338,14 @@ class TaskManager:
         self._emit("agent_available" if available else "agent_unavailable", agent=agent)
         return self._entry(now, self._plan)
 
-    def operator_takes(self, now: float, element: str) -> list[Directive]:
+    def operator_takes(self, now: float, element: str, *, record: bool = True) -> list[Directive]:
         """A person says they *will* do the feasible hyper-arc ``element`` (a panel's "I'll do
         this"): the robots leave that part as when an unsuggested human action is recognised
         (paper 000, V-C: every robot execution sharing a child or an object with it is aborted),
         and its actions, grounded for the operators by a decision tree (eq. 21), are suggested
         to them. Raises :class:`TakeRefused` — before anything changes — when it is not a
-        feasible hyper-arc an operator can do now (:meth:`check_take`)."""
+        feasible hyper-arc an operator can do now (:meth:`check_take`). ``record`` False: no
+        ``taken`` event (the caller records the operator's own decision its way)."""
         tree, cost = self.check_take(element)
 
         def body() -> list[Directive]:
@@ -352,7 +353,8 @@ class TaskManager:
             out: list[Directive] = []
             objects = {k: v for k, v in best.grounding.items() if v not in self.domain.agents}
             self._take_over(element, best, objects, out)  # the robot leaves that part
-            self._emit("taken", element=element, grounding=dict(best.grounding))
+            if record:
+                self._emit("taken", element=element, grounding=dict(best.grounding))
             self._launch(element, best, cost, out)
             out += self._plan()
             return out
