@@ -177,3 +177,15 @@ def test_json_shows_each_branchs_terms(tmp_path, capsys):
     assert main(["run", str(_scenario(tmp_path)), "--json"]) == 0
     out = capsys.readouterr().out
     assert "decision_terms" not in json.loads(out[out.index("{") :])
+
+
+def test_the_utility_is_part_of_the_scenarios_fingerprint(tmp_path):
+    from flexhrc.cell import identity
+
+    plain = load_scenario(_scenario(tmp_path))
+    (tmp_path / "b").mkdir()
+    (tmp_path / "c").mkdir()
+    shaped = load_scenario(_scenario(tmp_path / "b", "{workload: 1}"))
+    other = load_scenario(_scenario(tmp_path / "c", "{workload: 2}"))
+    prints = {identity.fingerprint(s) for s in (plain, shaped, other)}
+    assert len(prints) == 3
