@@ -95,8 +95,7 @@ def test_an_operator_process_that_acts_on_its_own_takes_over_the_legs(tmp_path: 
     assert data["outcome"] == "solved", (tmp_path / "cell.err").read_text()[-2000:]
     got = rows(store)
     assert got[0][3]["operators"] == {"human": "takeover"}  # announced before the start
-    # the tabletop before the arm given it moved, then the legs (issue 22)
-    assert sum(k == "human_decides" for _, _, k, _ in got) == 5
+    assert sum(k == "human_decides" for _, _, k, _ in got) == 4
     ref = finish(flexhrc("run", scenario, "--human", "takeover", "--json", "--quiet"))
     for key in ("robot_actions", "human_actions", "decisions", "legs_by_agent", "by_agent"):
         assert data[key] == ref[key], key

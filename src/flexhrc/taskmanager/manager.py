@@ -452,6 +452,10 @@ class TaskManager:
     def parent_of(self, hyperarc: str) -> str:
         return self._parent(hyperarc)
 
+    def has_processes(self, node: str) -> bool:
+        """Whether reaching ``node`` starts processes P(n) (arms keep working on its parts)."""
+        return bool(self._node_processes.get(node))
+
     def reserved_objects(self) -> set[str]:
         """Objects that running executions' groundings use."""
         return set().union(*(ex.objects for ex in self.executions.values()))

@@ -20,7 +20,8 @@ own on the hyper-arcs it may do (every action of A(h) doable by a human, as the 
 ``takeover`` takes a step *before being asked*: a robot command the manager issued at this
 very instant (``fresh``: the arm has not moved yet) does not hold its objects for it, so a
 step the manager just gave an arm is still the operator's to take (the manager then stops the
-arm, paper 000 V-C); the other profiles leave such a step to the arm.
+arm, paper 000 V-C) — unless the node it reaches starts processes P(n) (arms keep working on
+its parts there); the other profiles leave such a step to the arm.
 
 A *step* is the parent node its hyper-arcs lead to: the operator decides once per step, in the
 order the steps become reachable (for the table: bolt 1, bolt 2, ...). ``takes`` scripts it
@@ -46,7 +47,7 @@ import math
 import random
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from flexhrc.events import PROFILES
 from flexhrc.knowledge import KnowledgeBase
@@ -254,7 +255,7 @@ class SimulatedOperator:
         agents = tm.domain.agents
         out: set[str] = set()
         for cmd in tm.busy.values():
-            if self.profile == "takeover" and cmd.id in self.fresh:
+            if self.profile == "takeover" and cmd.id in self.fresh and self._first_on(tm, cmd):
                 continue  # issued this instant: the arm has not moved, the operator is first
             schema, binding = cmd.action.schema, cmd.action.binding
             for lit in (*schema.add, *schema.delete):
@@ -267,6 +268,19 @@ class SimulatedOperator:
                 for step in ex.branch.steps[ex.next_index :]:
                     out.update(a for a in step.args if a in kb.objects and a not in agents)
         return out
+
+    @staticmethod
+    def _first_on(tm: TaskManager, cmd: Any) -> bool:
+        """A step a fresh command is on may go to a takeover operator unless the node it
+        reaches starts processes P(n): there the arms keep working on the parts (the table's
+        hold of the tabletop), and a person's hand in the way would stall them."""
+        element = cmd.element
+        if element is None or cmd.process:
+            return False
+        try:
+            return not tm.has_processes(tm.parent_of(element))
+        except KeyError:
+            return False
 
     def holder_of(self, kb: KnowledgeBase, domain: Domain, step: GroundAction) -> str | None:
         """Another agent holding an object this step works on (then the step cannot be done)."""
