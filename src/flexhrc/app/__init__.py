@@ -5,7 +5,8 @@ prints that report — so a program can do everything a command does:
 
 * :func:`run_scenario` — ``flexhrc run FILE|NAME`` and ``flexhrc demo table``
   (:class:`RunConfig`, :class:`TableDemo` in; :class:`RunReport` out);
-* :func:`replay` — ``flexhrc replay LOG`` (:class:`ReplayReport` out).
+* :func:`replay` — ``flexhrc replay LOG`` (:class:`ReplayReport` out);
+* :func:`learn_model` — ``flexhrc learn STORE... -o FILE`` (an operator model out).
 
 This package stands above the front ends (the perception in the loop of
 :mod:`flexhrc.sensing` is one of the run's configurations) and below the command line.
@@ -13,7 +14,16 @@ This package stands above the front ends (the perception in the loop of
 
 from __future__ import annotations
 
+from flexhrc.app.learn import learn_model
 from flexhrc.app.run import RunConfig, RunReport, TableDemo, run_scenario
 from flexhrc.cell.replay import ReplayReport, replay
 
-__all__ = ["ReplayReport", "RunConfig", "RunReport", "TableDemo", "replay", "run_scenario"]
+__all__ = [
+    "ReplayReport",
+    "RunConfig",
+    "RunReport",
+    "TableDemo",
+    "learn_model",
+    "replay",
+    "run_scenario",
+]

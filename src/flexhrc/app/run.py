@@ -100,6 +100,8 @@ class RunConfig:
     ``paper``: how simulated actions are timed, :data:`~flexhrc.taskmanager.kinds.TIMINGS`).
     ``log`` streams the event log (JSON lines), ``plot`` draws the timeline; ``quiet`` drops
     the progress lines; ``realtime`` paces the simulated clock (SPEED times real time).
+    ``operators`` is an operator model file (``flexhrc learn``, ``docs/operators.md``): the Task
+    Manager times each person's steps by what that person took before.
     """
 
     scenario: str | Path | Scenario | TableDemo = "table_assembly"
@@ -122,6 +124,7 @@ class RunConfig:
     plot: str | Path | None = None
     quiet: bool = False
     realtime: float | None = None
+    operators: str | Path | None = None
 
     def __post_init__(self) -> None:
         for option, value, choices in (
@@ -240,7 +243,7 @@ def run_scenario(
                 raise FlexhrcError(f"--human-takes {k}: not one of the bolts 1..{legs}")
         if not sc.humans:
             raise FlexhrcError(f"--human-takes needs a human, but {job.where}human: false")
-    inputs = [p for p in (job.path, config.har_model) if p is not None]
+    inputs = [p for p in (job.path, config.har_model, config.operators) if p is not None]
     if config.log is not None:
         check_output(config.log, option="--log", inputs=inputs)
     if config.plot is not None:
@@ -256,6 +259,10 @@ def run_scenario(
         timing,
         _holds(sc),
     )
+    if config.operators is not None:  # the person as measured, not the scenario's figures
+        from flexhrc.taskmanager.operator_model import OperatorModelSimulator, read_model
+
+        simulator = OperatorModelSimulator(simulator, read_model(config.operators))
     sensing = _human_sensing(config, say)
     # the table's --human-takes K is bolt K: the K-th step of the legs fix alone, else its node
     steps: list[Any] | None = takes
@@ -296,6 +303,11 @@ def run_scenario(
     data = _with_sensing(data, config)
     if timing != "default":  # the default keeps the JSON as it was
         data["timing_profile"] = timing
+    if config.operators is not None:
+        data["operator_model"] = {
+            "file": str(config.operators),
+            "learned_steps": simulator.replaced,
+        }
     if config.plot:
         from flexhrc.files import atomic_output
         from flexhrc.taskmanager.timeline import plot_timeline

@@ -121,7 +121,9 @@ class LocalCell:
     :class:`~flexhrc.cell.components.ScenarioLike`). ``humans`` are (operator, profile) pairs — by
     default every human agent with ``profile``; ``human_takes`` scripts the first operator
     (the K-th cooperation steps, 1-based). ``simulator`` is the manager's branch simulator;
-    ``execution`` the simulated real world (by default the simulator, when it can execute).
+    ``execution`` the simulated real world (by default the simulator, when it can execute);
+    ``store`` an :class:`~flexhrc.cell.store.EventStore` to keep every event in (new, not
+    resumed), as ``flexhrc cell --store`` does.
     """
 
     def __init__(
@@ -142,6 +144,7 @@ class LocalCell:
         timeout_factor: float = 3.0,
         human_sensing: Any = None,
         on_failure: str | None = None,
+        store: Any = None,
     ) -> None:
         domain = scenario.domain
         if simulator is None:
@@ -183,6 +186,7 @@ class LocalCell:
             publish_state=False,
             quiescent=self._quiescent,
             shared_model=execution is simulator,  # the arms execute on the manager's model
+            store=store,
         )
         arm_model: ExecutionModel = self.injection
         self.agents: list[RobotAgent | HumanAgent] = [

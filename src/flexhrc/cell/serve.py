@@ -82,7 +82,8 @@ class CellConfig:
     the internal arms' world. ``on_failure`` ``retry`` or ``paper``: what a failed robot action
     does to its hyper-arc (None: the scenario's ``on_failure``, else ``retry``). ``ready_file``:
     once the cell listens, JSON with the endpoints as bound, the pid and the cell's name, written
-    atomically.
+    atomically. ``operators``: an operator model file (``flexhrc learn``, ``docs/operators.md``)
+    the manager times each person's steps by, updated online as they act.
     """
 
     seed: int = 0
@@ -100,6 +101,7 @@ class CellConfig:
     human: str = "passive"
     ready_file: str | Path | None = None
     zenoh_config: str | Path | None = None
+    operators: str | Path | None = None
 
     def __post_init__(self) -> None:
         _choice("--transport", self.transport, ("inprocess", "zenoh"))
@@ -154,6 +156,11 @@ def serve_cell(
     way out."""
     config = config or CellConfig()
     say = progress or (lambda line: None)
+    model = None
+    if config.operators is not None:  # read first: a bad file leaves no store behind
+        from flexhrc.taskmanager.operator_model import read_model
+
+        model = read_model(config.operators)
     store = EventStore(config.store, resume=config.resume) if config.store else None
     if store is not None:
         store.on_lost = lambda reason: say(f"warning: {reason}")
@@ -174,6 +181,10 @@ def serve_cell(
         # in one process the manager's model of the robot and the arms' simulated world are one
         # object, as in `flexhrc run`: the manager plans from where the arms really are
         simulator: Any = execution_model(config.simulator, scenario)
+        if model is not None:  # the manager's belief about the people; the world stays as is
+            from flexhrc.taskmanager.operator_model import OperatorModelSimulator
+
+            simulator = OperatorModelSimulator(simulator, model)
         cell = Cell(
             scenario,
             transport,

@@ -840,6 +840,9 @@ class Cell:
         if kind == "human_action":
             self.human_ids.add(str(body["id"]))
             action = ground(self.domain, body["action"])
+            learn = getattr(tm.simulator, "observe_human_action", None)
+            if learn is not None:  # a learned operator model follows the person (online update)
+                learn(body)
             self._reported.add((str(body["agent"]), str(action)))
             missed = body.get("recognised") is False  # the wrist sensor missed it
             if not missed:

@@ -38,6 +38,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "har",
     "scene",
     "cell",
+    "learn",
     "agent",
     "certs",
     "panel",

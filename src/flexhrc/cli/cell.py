@@ -53,6 +53,12 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
         help="how the internal simulated operators behave: passive (default), takeover, "
         "cooperative or random (external ones: `flexhrc agent human --profile`)",
     )
+    p.add_argument(
+        "--operators",
+        metavar="FILE",
+        help="an operator model (flexhrc learn STORE... -o FILE; docs/operators.md): each "
+        "person's steps are timed by what they took before, and updated as they act",
+    )
     p.add_argument("--quiet", action="store_true", help="no live trace")
     p.add_argument(
         "--ready-file",
@@ -90,6 +96,7 @@ def cmd_cell(args: argparse.Namespace) -> int:
         human=args.human,
         ready_file=args.ready_file,
         zenoh_config=args.zenoh_config,
+        operators=args.operators,
     )
 
     def start(trace: Any, attach: list[Any], servers: list[Any]) -> dict[str, Any]:

@@ -145,6 +145,11 @@ RUN_OPTIONS: dict[str, dict[str, Any]] = {
         type=float_range(0.0, 1e6, lo_open=True), nargs="?", const=1.0, metavar="SPEED",
         help="pace the simulated clock for watching: real time, or SPEED times faster",
     ),
+    "--operators": dict(
+        metavar="FILE",
+        help="an operator model (flexhrc learn STORE... -o FILE; docs/operators.md): each "
+        "person's steps are timed by what they took before, and updated as they act",
+    ),
 }  # fmt: skip
 
 

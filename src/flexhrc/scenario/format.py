@@ -25,7 +25,7 @@ from typing import Any
 
 from flexhrc.errors import FlexhrcError, FormatError
 from flexhrc.events import FAILURE_POLICIES, WORKSPACE_M
-from flexhrc.logic import Literal, parse_literal
+from flexhrc.logic import Literal, parse_conjunction, parse_literal
 from flexhrc.representation import HierarchicalGraph
 from flexhrc.representation.graph import AndOrGraph
 from flexhrc.scenario.model import (
@@ -185,6 +185,7 @@ TOP_KEYS = {
     "graphs",
     "top",
     "hyperarc_actions",
+    "node_states",
     "domain",
     "world",
     "humans",
@@ -363,6 +364,8 @@ def graph_of(path: str | Path) -> HierarchicalGraph:
     graph = _graph(doc, c)
     if graph is not None and "hyperarc_actions" in doc:
         _attach_actions(graph, doc["hyperarc_actions"], c, _line(doc, "hyperarc_actions"))
+    if graph is not None and "node_states" in doc:
+        _attach_states(graph, doc["node_states"], c, _line(doc, "node_states"))
     errors = [f for f in c.faults if f.severity == "error"]
     if errors or graph is None:
         raise ScenarioError(errors or [Fault(str(p), None, "no task graph")])
@@ -411,6 +414,8 @@ def _build(doc: Any, c: _Checker) -> Scenario | None:
         return None
     if "hyperarc_actions" in doc:
         _attach_actions(graph, doc["hyperarc_actions"], c, _line(doc, "hyperarc_actions"))
+    if "node_states" in doc:
+        _attach_states(graph, doc["node_states"], c, _line(doc, "node_states"))
     _check_semantics(graph, domain, domain_doc, domain_src, world, humans, c)
     _check_kind_targets(domain, domain_doc, domain_src, c)
     for h in humans:  # an operator's speed is the analytic simulator's human speed
@@ -808,6 +813,46 @@ def _attach_actions(graph: HierarchicalGraph, spec: Any, c: _Checker, line: int 
                     hits += 1
         if not hits:
             c.error(f"hyperarc_actions {pattern!r} matches no hyper-arc of the graph", ln)
+
+
+def _attach_states(graph: HierarchicalGraph, spec: Any, c: _Checker, line: int | None) -> None:
+    """``node_states: {GRAPH/NODE: formula}``: state formulas S(n) for nodes of graph files
+    that state none (ANDOR text), e.g. so that a grounding passes through a transition
+    (M1/M2, paper 000 eqs. 15-16; ``docs/andor.md``). GRAPH is the graph's key or name; both
+    parts may be glob patterns. The transitions are checked again with the new formulas."""
+    if not isinstance(spec, Mapping):
+        c.error("node_states must be a mapping {GRAPH/NODE: formula}", line)
+        return
+    changed = False
+    for pattern, text in spec.items():
+        ln = _line(spec, pattern)
+        gpat, _, npat = str(pattern).rpartition("/")
+        if not gpat:
+            gpat = "*"
+        if not isinstance(text, str):
+            c.error(f"node_states {pattern!r}: a formula such as 'loose(?s) & spare(?s)'", ln)
+            continue
+        try:
+            formula = parse_conjunction(text, str(c.path), ln)
+        except FormatError as e:
+            c.error(f"node_states {pattern!r}: {e.message}", ln)
+            continue
+        hits = 0
+        for key, g in graph.graphs.items():
+            if not (fnmatch.fnmatchcase(key, gpat) or fnmatch.fnmatchcase(g.name, gpat)):
+                continue
+            for nname, node in list(g.nodes.items()):
+                if fnmatch.fnmatchcase(nname, npat):
+                    g.nodes[nname] = replace(node, formula=formula, line=node.line)
+                    hits += 1
+        if not hits:
+            c.error(f"node_states {pattern!r} matches no node of the graph", ln)
+        changed = changed or bool(hits)
+    if changed:
+        try:
+            graph.validate()  # the literals of every transition, with the new formulas
+        except FormatError as e:
+            c.error(f"node_states: {e}", line)
 
 
 # ------------------------------------------------------------------------------ semantics --

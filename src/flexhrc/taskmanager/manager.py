@@ -30,6 +30,12 @@ Section V in full:
 * **the substitution chosen for a hyper-arc carries to its parent's state formula**: the parent
   is met only when ``S(parent)`` holds under that grounding, and the grounding is kept as the
   node's binding, so a hyper-arc leaving that node starts from the same objects;
+* **groundings pass through the hierarchy** (section IV-B, eqs. 15-16): when a hyper-arc's
+  lower instance becomes active, the hyper-arc's grounding (its children's bindings, the
+  variables they leave open bound in the knowledge base as it is then) binds the lower
+  variables its transition maps (M1) in every formula and action of that instance; when the
+  lower root is met, its grounding binds the variables of the hyper-arc's parent that M2 maps
+  (:class:`flexhrc.representation.hierarchy.Transfer`);
 * **node processes** ``P(n)`` (eq. 5): when n is reached (its formula holds) its processes are
   activated in order — behaviours declared under ``processes:`` in the domain, each a
   :class:`Command` that keeps its agents busy, round after round (a round ends when the
@@ -73,7 +79,7 @@ from flexhrc.errors import FlexhrcError
 from flexhrc.events import FAILURE_POLICIES, LogEventType
 from flexhrc.knowledge import KnowledgeBase
 from flexhrc.logic import Literal, Substitution, apply_substitution, is_variable
-from flexhrc.representation import OnlineGraph
+from flexhrc.representation import OnlineGraph, Transfer, qualify, split_qualified
 from flexhrc.taskmanager.decision import (
     ActionStateTable,
     Branch,
@@ -301,6 +307,14 @@ class TaskManager:
         self._constraints_of: dict[str, list[Literal]] = {}
         self._formulas = self._collect_formulas()
         self._node_processes = self._collect_processes()
+        # groundings through the hierarchy (M1/M2): instance path -> (its transfer, the upper
+        # hyper-arc that created it), only where something passes (empty: a single graph)
+        self._transfers: dict[str, tuple[Transfer, str]] = {}
+        self._lower_roots: dict[str, str] = {}  # root of such an instance -> its path
+        self._scopes: dict[str, Substitution] = {}  # instance path -> its binding (made once)
+        self._sigmas: dict[str, Substitution] = {}  # upper hyper-arc -> its grounding
+        self._instance_of: dict[str, str] = {}  # element -> its instance path (kept)
+        self._collect_transfers()
 
     # -- public API -----------------------------------------------------------------------
     def start(self, now: float = 0.0) -> list[Directive]:
@@ -546,6 +560,95 @@ class TaskManager:
                     out[name] = tuple(node.processes)
         return out
 
+    def _collect_transfers(self) -> None:
+        hierarchy = self.graph.hierarchy
+        if len(hierarchy.graphs) == 1:
+            return
+        keys: dict[str, str] = {}  # instance path -> definition key (depth-first: upper first)
+        for info in hierarchy.instances():
+            keys[info.path] = info.key
+            if info.upper is None:
+                continue
+            upper_path, local = split_qualified(info.upper)
+            transfer = hierarchy.transfer(keys[upper_path], local)
+            if transfer:
+                self._transfers[info.path] = (transfer, info.upper)
+                root = hierarchy.graphs[info.key].root
+                self._lower_roots[qualify(info.path, str(root))] = info.path
+
+    # -- groundings through the hierarchy (paper 000, IV-B, eqs. 15-16) -------------------
+    def _scope(self, element: str) -> Substitution:
+        """The binding of the graph instance ``element`` belongs to: the lower variables its
+        transition maps (M1, and M2 where the upper layer already knows the result), valued
+        by the grounding of the upper hyper-arc that created it. Empty for the top graph and
+        where nothing passes; read only."""
+        path = self._instance_of.get(element)
+        if path is None:
+            path = self._instance_of[element] = self.graph.graph_of(element)
+        found = self._scopes.get(path)
+        if found is None:
+            if path not in self._transfers:
+                return _NO_BINDING
+            found = self._bind_instance(path)
+            if found is None:
+                return _NO_BINDING  # not active yet: nothing is bound
+            self._scopes[path] = found
+        return found
+
+    def _bind_instance(self, path: str) -> Substitution | None:
+        """M1: the grounding of the upper hyper-arc u when its instance starts — what its
+        children were reached with, the variables they leave open bound in the knowledge
+        base as it is now (the first grounding, in the knowledge base's order) — carried to
+        the lower variables the transition maps. None while u's children are not all met."""
+        transfer, u = self._transfers[path]
+        graph = self.graph
+        if not all(graph.is_met(c) for c in self._children(u)):
+            return None
+        sigma = self._child_binding(u)
+        terms = (*transfer.down.values(), *transfer.up.values())
+        if any(is_variable(t) and t not in sigma for t in terms):
+            first = next(self.kb.iter_query(self._constraints(u), sigma), None)
+            if first is not None:
+                sigma = first
+        self._sigmas[u] = sigma
+        scope: Substitution = {}
+        for mapping in (transfer.down, transfer.up):
+            for lower_var, term in mapping.items():
+                value = sigma.get(term) if is_variable(term) else term
+                if value is not None:
+                    scope.setdefault(lower_var, value)
+        return scope
+
+    def _carry_up(self, path: str, root: str) -> None:
+        """M2: the lower root ``root`` of instance ``path`` is met, so its hyper-arc u is
+        solved (eq. 18): u's parent is reached with u's grounding, and the variables of the
+        parent's formula that the transition maps to the lower root are grounded by what the
+        lower instance did (the root's binding; a variable the root's formula leaves open, by
+        the knowledge base now)."""
+        transfer, u = self._transfers[path]
+        parent = self._parent(u)
+        formula = self._formulas.get(parent, ())
+        if not formula:
+            return
+        wanted = {a for lit in formula for a in lit.args if is_variable(a)}
+        sigma = self._sigmas.get(u) or self._child_binding(u)
+        carried = {k: v for k, v in sigma.items() if k in wanted}
+        open_ = {
+            t: lv
+            for lv, t in transfer.up.items()
+            if is_variable(t) and t in wanted and t not in carried
+        }
+        if open_:
+            below = {**self._scope(root), **self.bindings.get(root, {})}
+            if any(lv not in below for lv in open_.values()):
+                first = next(self.kb.iter_query(self._formulas.get(root, ()), below), None)
+                below = first if first is not None else below
+            for t, lv in open_.items():
+                if lv in below:
+                    carried[t] = below[lv]
+        if carried:
+            self.bindings[parent] = carried
+
     def _describe(self, name: str) -> tuple[str, tuple[str, ...]]:
         found = self._described.get(name)
         if found is None:
@@ -585,10 +688,21 @@ class TaskManager:
         formula = self._formulas.get(name, ())
         if not formula:
             return True
-        binding = self.bindings.get(name)
+        # (inline for a single graph: this runs for every feasible node at every step)
+        binding = self._node_binding(name) if self._transfers else self.bindings.get(name)
         if binding:
             formula = tuple(apply_substitution(lit, binding) for lit in formula)
         return holds(formula, self.kb.facts)
+
+    def _node_binding(self, name: str) -> Substitution:
+        """What node ``name`` was reached with: its instance's binding (M1) and the grounding
+        carried from its producing hyper-arc (read only)."""
+        binding = self.bindings.get(name, _NO_BINDING)
+        if self._transfers:
+            scope = self._scope(name)
+            if scope:
+                return {**scope, **binding}
+        return binding
 
     def _meet_nodes(self) -> None:
         """Meet feasible nodes whose state holds and whose processes have ended (eq. 5)."""
@@ -605,13 +719,18 @@ class TaskManager:
             for name in met:
                 self.processes.pop(name, None)
             self._update_graph(met_nodes=met)
+            if self._lower_roots:
+                for name in met:
+                    path = self._lower_roots.get(name)
+                    if path is not None:
+                        self._carry_up(path, name)  # M2: before the parent is looked at
 
     # -- node processes P(n) --------------------------------------------------------------
     def _processes_ended(self, node: str) -> bool:
         """Activate n's processes when it is reached; True once the last one has ended."""
         run = self.processes.get(node)
         if run is None:
-            run = ProcessRun(node, self._node_processes[node], dict(self.bindings.get(node, {})))
+            run = ProcessRun(node, self._node_processes[node], dict(self._node_binding(node)))
             self.processes[node] = run
             self._emit("process_activated", node=node, processes=list(run.invocations))
         while not run.ended:
@@ -869,8 +988,9 @@ class TaskManager:
         return found
 
     def _child_binding(self, element: str) -> dict[str, str]:
-        """The groundings h's children were reached with (carried from their hyper-arcs)."""
-        out: dict[str, str] = {}
+        """The groundings h's children were reached with (carried from their hyper-arcs),
+        within the binding of h's graph instance (M1)."""
+        out: dict[str, str] = dict(self._scope(element)) if self._transfers else {}
         for c in self._children(element):
             out.update(self.bindings.get(c, {}))
         return out
@@ -1390,7 +1510,10 @@ class TaskManager:
         formula = self._formulas.get(self._parent(ex.element), ())
         if not formula:
             return False
-        grounded = tuple(apply_substitution(lit, ex.branch.grounding) for lit in formula)
+        binding = ex.branch.grounding
+        if self._transfers:
+            binding = {**self._scope(ex.element), **binding}
+        grounded = tuple(apply_substitution(lit, binding) for lit in formula)
         return holds(grounded, self.kb.facts)
 
     def _match_running_human(self, action: HumanAction) -> Execution | None:
@@ -1433,7 +1556,7 @@ class TaskManager:
             if not actions:
                 continue
             goal = self._formulas.get(self._parent(name), ())
-            if goal and self.kb.query(goal):
+            if goal and self.kb.query(goal, self._scope(name) if self._transfers else None):
                 continue  # its outcome already holds (e.g. a robot just did it): not this one
             for index, invocation in enumerate(actions):
                 binding = self._unify(invocation, action)
@@ -1537,6 +1660,10 @@ class TaskManager:
                 "simulator_s": self.timing.simulator_s,
             },
         }
+
+
+#: the binding of an element nothing binds (shared: never changed)
+_NO_BINDING: Substitution = {}
 
 
 def check_failure_policy(value: str, option: str = "on_failure") -> str:
