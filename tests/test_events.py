@@ -56,6 +56,7 @@ SPECIAL: dict[str, Any] = {
     "act": False,
     "answer": "no",
     "on_failure": "paper",
+    "reply": "decline",
 }
 BY_TYPE: dict[type, Any] = {str: "x", int: 2, float: 0.5, bool: False, list: ["a"], dict: {}}
 
@@ -155,7 +156,8 @@ def test_the_consumers_read_the_catalogue() -> None:
     assert set(run.TRACE_LINES) < events.TRACE_TYPES
     assert set(STORE_KINDS) == events.INPUT_KINDS | events.OUTPUT_KINDS | events.RECORD_KINDS
     assert set(LOG_EVENTS) >= events.RECORD_KINDS and set(LOG_EVENTS) >= events.REPLAY_TYPES
-    assert len(events.REPLAY_TYPES) == 43  # the set replay has accepted since section V
+    # the set replay has accepted since section V, and human_declined (issue 22)
+    assert len(events.REPLAY_TYPES) == 44
 
 
 def test_the_type_tags_are_the_schemas_and_the_module_sits_at_the_bottom() -> None:

@@ -112,6 +112,7 @@ class RunConfig:
     fail: tuple[str, ...] = ()
     reaction: str = "conflicts"
     on_failure: str | None = None
+    answer_timeout: float | None = None
     simulator: str | None = None
     timing: str | None = None
     disturb: tuple[str, ...] = ()
@@ -278,6 +279,7 @@ def run_scenario(
             execution=simulator,
             reaction=config.reaction,
             on_failure=config.on_failure,
+            answer_timeout=config.answer_timeout,
             trace=trace,
             sink=writer.write if writer is not None else None,
             failures=failures,

@@ -192,6 +192,7 @@ TOP_KEYS = {
     "robot",
     "simulator",
     "on_failure",
+    "answer_timeout",
     "timing",
     "utility",
 }
@@ -397,6 +398,17 @@ def _build(doc: Any, c: _Checker) -> Scenario | None:
             _line(doc, "on_failure"),
         )
         on_failure = None
+    answer_timeout = doc.get("answer_timeout")
+    if answer_timeout is not None and (
+        isinstance(answer_timeout, bool)
+        or not isinstance(answer_timeout, int | float)
+        or not 0 < answer_timeout < 1e6
+    ):
+        c.error(
+            f"answer_timeout {show(answer_timeout)}: a number of seconds > 0",
+            _line(doc, "answer_timeout"),
+        )
+        answer_timeout = None
     timing = doc.get("timing", "default")
     if not isinstance(timing, str) or timing not in TIMINGS:
         c.error(f"timing {show(timing)}: choose one of {', '.join(TIMINGS)}", _line(doc, "timing"))
@@ -434,6 +446,7 @@ def _build(doc: Any, c: _Checker) -> Scenario | None:
         path,
         tuple(str(f) for f in c.faults if f.severity == "warning"),
         on_failure=on_failure,
+        answer_timeout=None if answer_timeout is None else float(answer_timeout),
         timing=timing,
         utility=utility,
     )

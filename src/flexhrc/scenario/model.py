@@ -84,6 +84,9 @@ class Scenario:
     #: what a failed or timed-out robot action does to its hyper-arc (``on_failure:``):
     #: ``retry`` or ``paper`` (paper V-A); None: not said (``retry``, unless a run says otherwise)
     on_failure: str | None = None
+    #: how long a person may leave a request unanswered before it counts as declined
+    #: (``answer_timeout:``, seconds; ``--answer-timeout``); None: the manager waits
+    answer_timeout: float | None = None
     #: how simulated actions are timed (:data:`flexhrc.taskmanager.kinds.TIMINGS`): ``default``,
     #: or ``paper`` (the paper's Baxter and operator, to set beside its Table I)
     timing: str = "default"

@@ -315,16 +315,56 @@ class TaskManager:
         self._sigmas: dict[str, Substitution] = {}  # upper hyper-arc -> its grounding
         self._instance_of: dict[str, str] = {}  # element -> its instance path (kept)
         self._collect_transfers()
+        # operator answers (docs/protocol.md, "Operator answers"): hyper-arc -> persons who
+        # said "not now" (until the cooperation moves on) or "I can't do this" (for the run)
+        self.declined: dict[str, set[str]] = {}
+        self.cannot: dict[str, set[str]] = {}
 
     # -- public API -----------------------------------------------------------------------
     def start(self, now: float = 0.0) -> list[Directive]:
         return self._entry(now, self._plan)
 
     def on_ack(self, now: float, ack: Ack) -> list[Directive]:
+        if ack.status == "done":
+            self.declined.clear()  # the cooperation moved on: a "not now" may be asked again
         return self._entry(now, lambda: self._handle_ack(ack))
 
     def on_human_action(self, now: float, action: HumanAction) -> list[Directive]:
+        self.declined.clear()
         return self._entry(now, lambda: self._handle_human(action))
+
+    def operator_replies(
+        self, now: float, human: str, element: str, reply: str, reason: str | None = None
+    ) -> list[Directive]:
+        """A person answers what they were asked to do, or had taken (``docs/protocol.md``,
+        "Operator answers"). ``decline`` ("not now") and ``give_back``: the person's execution
+        of ``element`` ends and the step goes back to the pool; the manager may give it to an
+        arm that can do it, or ask the person again once the cooperation has moved on (an
+        ack or a report; at once when nothing else is left to wait for). ``cannot`` ("I can't
+        do this"): the same, and the hyper-arc is never offered to that person again in this
+        run (its reason goes into the log). The decision of eq. (21) then ranges over the
+        agents left (paper 000, V-A)."""
+        if reply not in ("decline", "give_back", "cannot"):
+            raise FlexhrcError(f"unknown operator reply {reply!r}")
+
+        def body() -> list[Directive]:
+            ex = self.executions.get(element)
+            if ex is not None and ex.owner == "human" and human in ex.agents:
+                del self.executions[element]
+                row = self.table.rows.get(element)
+                if row is not None and row.status == "running":
+                    row.status = "feasible"
+            (self.cannot if reply == "cannot" else self.declined).setdefault(element, set()).add(
+                human
+            )
+            self._emit("human_declined", agent=human, element=element, reply=reply, reason=reason)
+            return self._plan()
+
+        return self._entry(now, body)
+
+    def _excluded(self, element: str) -> set[str]:
+        """The persons who may not be asked to do ``element`` now (declined or cannot)."""
+        return self.declined.get(element, set()) | self.cannot.get(element, set())
 
     def on_percept(
         self, now: float, moved: Iterable[str] = (), retracted: Iterable[HumanAction] = ()
@@ -951,6 +991,10 @@ class TaskManager:
             self.table.refresh(self._feasible(), self._describe)
             started = self._start_next(out)
             if not started:
+                if self.declined and not (self.executions or self.busy or self.processes):
+                    # nothing else is left to wait for: a "not now" is asked again now
+                    self.declined.clear()
+                    continue
                 break
         return out
 
@@ -1023,7 +1067,10 @@ class TaskManager:
                 self._update_graph(solved_hyperarcs=[name])
                 self._meet_nodes()
                 return True
-            available = list(robots_idle) + [h for h in self._humans() if h not in busy_humans]
+            excluded = self._excluded(name) if (self.declined or self.cannot) else set()
+            available = list(robots_idle) + [
+                h for h in self._humans() if h not in busy_humans and h not in excluded
+            ]
             reserved = set().union(*(ex.objects for ex in self.executions.values()))
             constraints = self._constraints(name)
             tree = self._tree(
@@ -1201,11 +1248,20 @@ class TaskManager:
         self, name: str, actions: tuple[str, ...], constraints: list[Literal], reserved: set[str]
     ) -> bool:
         """Would some branch exist if every agent were free and nothing reserved?"""
-        # an agent that left the cell may come back (cell: its process is restarted)
-        if not (self.busy or reserved or self.executions or self.unavailable):
+        # an agent that left the cell may come back (cell: its process is restarted); a person
+        # who said "not now" may be asked again
+        if not (
+            self.busy or reserved or self.executions or self.unavailable or self.declined.get(name)
+        ):
             return False
+        cannot = self.cannot.get(name)
+        kw = (
+            {"available_agents": [a for a in self.domain.agents if a not in cannot]}
+            if cannot
+            else {}
+        )
         tree = self._tree(
-            name, actions, constraints, check_pre=False
+            name, actions, constraints, check_pre=False, **kw
         )  # a precondition may come true when the others are done
         return bool(tree.branches)
 
