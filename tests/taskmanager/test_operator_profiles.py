@@ -39,11 +39,18 @@ def test_takeover_gives_the_person_more_hyperarcs_than_passive(name):
 
 
 @pytest.mark.parametrize("name", TASKS, ids=lambda n: Path(n).stem)
-def test_reluctant_runs_are_solved(name):
-    # until the decline/cannot answers are in the protocol, a reluctant operator declines by
-    # never taking a step on its own; the manager still asks it and the cooperation is solved
-    _, outcomes = _persons_hyperarcs(name, "reluctant")
-    assert outcomes == {"solved"}
+def test_reluctant_declines_are_handled_with_the_cooperation_solved(name):
+    sc = scenario.load(name)
+    replies: set[str] = set()
+    asked = 0
+    for seed in SEEDS:
+        result = run(sc, profile="reluctant", seed=seed)
+        assert result.summary["outcome"] == "solved", (seed, result.summary["reason"])
+        replies |= {e["reply"] for e in result.events if e["type"] == "human_declined"}
+        asked += sum(e["type"] == "suggestion" for e in result.events)
+    # a task that asks the person anything over 10 seeds gets some of it declined
+    # (table_two_arms and the example ball_in_box never need the person)
+    assert bool(replies & {"decline", "cannot"}) == (asked > 0), (asked, replies)
 
 
 def _lid() -> scenario.Scenario:

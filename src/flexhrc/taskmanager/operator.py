@@ -3,9 +3,9 @@
 A :class:`SimulatedOperator` plays one human agent of the domain (inside the cell's simulated
 operator agent, :class:`flexhrc.cell.HumanAgent`). It sees what the Task Manager sees — the feasible
 hyper-arcs with their costs (eq. 10) and the suggestions addressed to it — and the knowledge
-base (what lies where). It always follows a suggestion. Besides, per profile, it acts on its
-own on the hyper-arcs it may do (every action of A(h) doable by a human, as the domain's
-``agents`` declare):
+base (what lies where). It follows a suggestion (``reluctant``: not always,
+:meth:`SimulatedOperator.answer`). Besides, per profile, it acts on its own on the hyper-arcs
+it may do (every action of A(h) doable by a human, as the domain's ``agents`` declare):
 
 * ``passive`` — only when asked;
 * ``takeover`` — takes every cooperation step it can, at once (paper Fig. 10);
@@ -186,7 +186,8 @@ class SimulatedOperator:
     def answer(self, actions: Sequence[GroundAction], domain: Domain) -> tuple[str, str | None]:
         """How it answers a suggestion of ``actions``: ``("follow", None)``, ``("decline",
         reason)`` (not now: the step goes back to the pool) or ``("cannot", reason)`` (this
-        person never does that branch). Only ``reluctant`` says anything but ``follow``; a
+        person never does that branch), sent by the operator's agent as the protocol's
+        ``decline``/``cannot`` replies. Only ``reluctant`` says anything but ``follow``; a
         ``cannot`` does not use up a draw, so one seed gives the same declines."""
         if self.profile != "reluctant":
             return "follow", None
