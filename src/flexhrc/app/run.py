@@ -587,9 +587,16 @@ def trace_line(event: dict[str, Any]) -> str | None:
             line += f" ({ev['samples']} samples)"
     elif kind in TRACE_LINES:
         line = TRACE_LINES[kind].format_map(ev)
+        if kind == "action_failed" and ev.get("kept"):
+            line += f"; its result holds: {ev['element']} counts as solved"
     elif kind == "decision":
         line = f"decide {ev['element']} (cost {ev['cost']}): "
         line += f"{plural(len(ev['branches']), 'branch')} simulated"
+        if ev.get("pruned"):  # eq. 20: failing pre(a) keeps a branch from the simulator
+            first = ev["pruned"][0]["reason"]
+            line += (
+                f", {len(ev['pruned'])} pruned ({first}{', ...' if len(ev['pruned']) > 1 else ''})"
+            )
         if ev["chosen"] is not None:
             b = ev["branches"][ev["chosen"]]
             grounding = ", ".join(f"{k}={v}" for k, v in sorted(b["grounding"].items()))

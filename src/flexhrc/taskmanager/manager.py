@@ -88,6 +88,7 @@ from flexhrc.taskmanager.decision import (
     unmet_precondition,
 )
 from flexhrc.taskmanager.domain import Domain, GroundAction
+from flexhrc.taskmanager.kinds import action_targets
 from flexhrc.taskmanager.simulator import Simulator, default_simulator
 from flexhrc.taskmanager.utility import Utility
 
@@ -1349,9 +1350,10 @@ class TaskManager:
                     if nxt is not None:
                         out.append(nxt)
         else:
-            if ex is not None and self._only_motions_left(ex):
+            if ex is not None and (self._only_motions_left(ex) or self._held_fast(ex)):
                 # what failed changes no fact, nor does anything after it (an arm that could not
-                # go to rest): the hyper-arc's result holds; redoing it would undo nothing
+                # go to rest), or its part is fixed in place (a gripper that did not open on a
+                # screwed leg): the hyper-arc's result holds; redoing it would undo nothing
                 self._emit(
                     "action_failed",
                     element=ex.element,
@@ -1426,6 +1428,17 @@ class TaskManager:
                 self.bindings[parent] = carried
             self._update_graph(solved_hyperarcs=[ex.element])
             self._meet_nodes()
+
+    def _held_fast(self, ex: Execution) -> bool:
+        """The hyper-arc's result holds and the part the failed step handles is fixed in place
+        — a gripper that did not open after screwing its leg: the connection cannot be undone,
+        so the transition counts as done, and the arm, never ``free`` again, is left as it is:
+        later decisions prune its branches by their preconditions (eq. 20)."""
+        if not self._outcome_holds(ex):
+            return False
+        step = ex.branch.steps[min(ex.next_index, len(ex.branch.steps) - 1)]
+        obj, _ = action_targets(step, self.kb)
+        return obj is not None and obj in self.kb.objects and self.kb.objects[obj].fixed
 
     @staticmethod
     def _only_motions_left(ex: Execution) -> bool:
