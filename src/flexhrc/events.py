@@ -55,6 +55,8 @@ class Profile(StrEnum):
     TAKEOVER = "takeover"
     COOPERATIVE = "cooperative"
     RANDOM = "random"
+    #: declines a share of suggestions and cannot do some actions (issue 22)
+    RELUCTANT = "reluctant"
 
 
 class Outcome(StrEnum):
@@ -480,7 +482,8 @@ _LOG_SCHEMAS = [
     _log("human_declined", "a person said not now, can't, gave a step back or did not answer",
          "replay trace store", agent=NAME, element=NAME,
          reply=_one_of("human_declined", "reply", ("decline", "cannot", "give_back"))),
-    _log("human_reply", "a person's answer to a request (cell input)", ""),
+    # in the cooperation log too (the person's answers, read by `flexhrc learn`): replayable
+    _log("human_reply", "a person's answer to a request (cell input)", "replay"),
 ]
 # fmt: on
 #: Every log event type, by its tag.

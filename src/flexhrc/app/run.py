@@ -601,6 +601,12 @@ def trace_line(event: dict[str, Any]) -> str | None:
             b = ev["branches"][ev["chosen"]]
             grounding = ", ".join(f"{k}={v}" for k, v in sorted(b["grounding"].items()))
             line += f", best {grounding} J={b['utility']:.4f}"
+            if "terms" in b:  # a shaped utility (issue 22): the terms behind J
+                t = b["terms"]
+                line += (
+                    f" (time {t['time']:.2f} s, preference {t['preference']:g},"
+                    f" workload {t['workload']:.0%})"
+                )
         else:
             line += ", none succeeds"
     elif kind == "command":

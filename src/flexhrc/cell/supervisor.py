@@ -199,6 +199,7 @@ class Cell:
             log=self._tm_log,
             reaction=reaction,
             on_failure=failure_policy(scenario, on_failure),
+            utility=getattr(scenario, "utility", None),
         )
         self.agents = {
             a.name: AgentState(a.name, "human" if a.is_human else "robot")
@@ -1026,8 +1027,7 @@ class Cell:
                 self.scripted.add(str(body["agent"]))
             return []
         if kind == "intent":
-            self._intent(body)
-            return []
+            return self._intent(body)
         if kind == "human_take":
             return tm.operator_takes(now, str(body["element"]))
         if kind == "ack":
@@ -1146,8 +1146,13 @@ class Cell:
 
     def _helper(self, human: str) -> SimulatedOperator:
         """What an operator may do, as the in-process operators see it (no decision is taken
-        here: the profile and its randomness live in the operator's agent)."""
-        return SimulatedOperator(human)
+        here: the profile and its randomness live in the operator's agent). The robot commands
+        issued at this very instant go with it: a ``takeover`` operator gets there first."""
+        profile = self.operators.get(human, "passive")
+        fresh = frozenset(
+            cid for cid, t in self._issued_at.items() if t == self.now and cid not in self.acked
+        )
+        return SimulatedOperator(human, profile if profile in PROFILES else "passive", fresh=fresh)
 
     def _operator_busy(self, human: str) -> bool:
         # an intent that has arrived but waits for its time still holds its ``awaiting`` entry
@@ -1219,7 +1224,7 @@ class Cell:
             ),
         )
 
-    def _intent(self, body: dict[str, Any]) -> None:
+    def _intent(self, body: dict[str, Any]) -> list[Directive]:
         """An operator's answer to its ``options``, at the time it starts: it takes the branch
         it chose if that is still free, else gives up (someone got there first)."""
         human = str(body["agent"])
@@ -1228,7 +1233,7 @@ class Cell:
             del self.awaiting[human]
         self.decided.setdefault(human, set()).update(str(x) for x in body["decided"])
         if not body["act"]:
-            return
+            return []
         step, hyperarc, actions = str(body["step"]), str(body["hyperarc"]), list(body["actions"])
         helper = self._helper(human)
         arcs = [h for _, h in helper.options(self.tm).get(step, [])]
@@ -1238,7 +1243,15 @@ class Cell:
         )
         if not free or human in self.active_suggestion:
             self._record("human_gives_up", {"agent": human, "step": step, "element": hyperarc})
-            return
+            return []
+        if helper.fresh and self._arm_just_given(human, hyperarc, actions):
+            # takeover: an arm was given this very step at this instant and has not moved;
+            # the operator is there first, as with the panel's "I'll do this" (V-C)
+            self._record(
+                "human_decides",
+                {"agent": human, "element": hyperarc, "step": step, "actions": actions},
+            )
+            return self.tm.operator_takes(self.now, hyperarc, record=False)
         sid = f"s{len(self.suggestions) + 1}"
         self.suggestions[sid] = {
             "v": P.VERSION,
@@ -1256,6 +1269,16 @@ class Cell:
             {"agent": human, "element": hyperarc, "step": step, "actions": actions, "own": sid},
         )
         self._send_suggestion(human, sid)
+        return []
+
+    def _arm_just_given(self, human: str, hyperarc: str, actions: list[str]) -> bool:
+        """The operator's branch is free only because the arm holding its objects got its
+        command this very instant (``takeover``, :class:`SimulatedOperator` ``fresh``)."""
+        plain = SimulatedOperator(human)
+        return not any(
+            [str(a) for a in b] == actions
+            for b in plain.candidate_branches(self.tm, self.kb, hyperarc)
+        )
 
     def _settle(self) -> None:
         """After every input (live and while resuming, so both decide alike)."""

@@ -38,6 +38,7 @@ from flexhrc.scenario.model import (
 )
 from flexhrc.taskmanager.domain import ActionSchema, Domain, _line
 from flexhrc.taskmanager.kinds import TIMINGS, find_action_kind, unknown_kind
+from flexhrc.taskmanager.utility import parse_utility
 
 FORMAT_VERSION = 1
 
@@ -193,6 +194,7 @@ TOP_KEYS = {
     "on_failure",
     "answer_timeout",
     "timing",
+    "utility",
 }
 WORLD_KEYS = {"objects", "places", "facts", "supertypes"}
 
@@ -411,6 +413,11 @@ def _build(doc: Any, c: _Checker) -> Scenario | None:
     if not isinstance(timing, str) or timing not in TIMINGS:
         c.error(f"timing {show(timing)}: choose one of {', '.join(TIMINGS)}", _line(doc, "timing"))
         timing = "default"
+    utility, problems = parse_utility(doc.get("utility"), domain)
+    block = doc.get("utility")
+    for message, spot in problems:
+        where = _line(block, spot) if spot is not None and isinstance(block, Mapping) else None
+        c.error(message, where or _line(doc, "utility"))
     robot = doc.get("robot") or {}
     if not isinstance(robot, Mapping):
         c.error("robot must be a mapping", _line(doc, "robot"))
@@ -441,6 +448,7 @@ def _build(doc: Any, c: _Checker) -> Scenario | None:
         on_failure=on_failure,
         answer_timeout=None if answer_timeout is None else float(answer_timeout),
         timing=timing,
+        utility=utility,
     )
 
 

@@ -20,6 +20,7 @@ from flexhrc.knowledge import KnowledgeBase
 from flexhrc.logic import Literal
 from flexhrc.representation import HierarchicalGraph, OnlineGraph
 from flexhrc.taskmanager.domain import Domain
+from flexhrc.taskmanager.utility import Utility
 
 Vec3 = tuple[float, float, float]
 
@@ -89,6 +90,8 @@ class Scenario:
     #: how simulated actions are timed (:data:`flexhrc.taskmanager.kinds.TIMINGS`): ``default``,
     #: or ``paper`` (the paper's Baxter and operator, to set beside its Table I)
     timing: str = "default"
+    #: the branch utility (``utility:``, :mod:`flexhrc.taskmanager.utility`); None: eq. (21)
+    utility: Utility | None = None
 
     # -- factories ------------------------------------------------------------------------
     def world(self) -> KnowledgeBase:

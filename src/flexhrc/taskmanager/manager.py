@@ -90,6 +90,7 @@ from flexhrc.taskmanager.decision import (
 from flexhrc.taskmanager.domain import Domain, GroundAction
 from flexhrc.taskmanager.kinds import action_targets
 from flexhrc.taskmanager.simulator import Simulator, default_simulator
+from flexhrc.taskmanager.utility import Utility
 
 REACTIONS = ("conflicts", "paper")
 
@@ -257,6 +258,7 @@ class TaskManager:
         reaction: str = "conflicts",
         max_process_rounds: int = 1000,
         on_failure: str = "retry",
+        utility: Utility | None = None,
     ):
         if reaction not in REACTIONS:
             raise FlexhrcError(
@@ -265,6 +267,10 @@ class TaskManager:
         self.reaction = reaction
         self.on_failure = check_failure_policy(on_failure)
         self.max_process_rounds = max_process_rounds
+        # the scenario's ``utility:``; None: eq. (21) as the paper has it, no terms logged
+        self.utility = utility
+        # each person's effort-weighted busy time the manager gave them (workload term)
+        self.person_time: dict[str, float] = {}
         self.graph = graph
         self.domain = domain
         self.kb = kb
@@ -387,13 +393,14 @@ class TaskManager:
         self._emit("agent_available" if available else "agent_unavailable", agent=agent)
         return self._entry(now, self._plan)
 
-    def operator_takes(self, now: float, element: str) -> list[Directive]:
+    def operator_takes(self, now: float, element: str, *, record: bool = True) -> list[Directive]:
         """A person says they *will* do the feasible hyper-arc ``element`` (a panel's "I'll do
         this"): the robots leave that part as when an unsuggested human action is recognised
         (paper 000, V-C: every robot execution sharing a child or an object with it is aborted),
         and its actions, grounded for the operators by a decision tree (eq. 21), are suggested
         to them. Raises :class:`TakeRefused` — before anything changes — when it is not a
-        feasible hyper-arc an operator can do now (:meth:`check_take`)."""
+        feasible hyper-arc an operator can do now (:meth:`check_take`). ``record`` False: no
+        ``taken`` event (the caller records the operator's own decision its way)."""
         tree, cost = self.check_take(element)
 
         def body() -> list[Directive]:
@@ -401,7 +408,8 @@ class TaskManager:
             out: list[Directive] = []
             objects = {k: v for k, v in best.grounding.items() if v not in self.domain.agents}
             self._take_over(element, best, objects, out)  # the robot leaves that part
-            self._emit("taken", element=element, grounding=dict(best.grounding))
+            if record:
+                self._emit("taken", element=element, grounding=dict(best.grounding))
             self._launch(element, best, cost, out)
             out += self._plan()
             return out
@@ -498,6 +506,10 @@ class TaskManager:
 
     def parent_of(self, hyperarc: str) -> str:
         return self._parent(hyperarc)
+
+    def has_processes(self, node: str) -> bool:
+        """Whether reaching ``node`` starts processes P(n) (arms keep working on its parts)."""
+        return bool(self._node_processes.get(node))
 
     def reserved_objects(self) -> set[str]:
         """Objects that running executions' groundings use."""
@@ -1086,7 +1098,7 @@ class TaskManager:
                 self._meet_nodes()
                 return True
             t0 = self._timer()
-            best = tree.evaluate(self.simulator, self.kb, self.domain)
+            best = tree.evaluate(self.simulator, self.kb, self.domain, self._score_fn())
             self.branches_simulated += len(tree.branches)
             if best is not None and self._is_persons(best):
                 best = self._robot_if_as_good(tree, best)
@@ -1188,9 +1200,40 @@ class TaskManager:
                 continue
             result = self.simulator.simulate(steps, self.kb, self.domain)
             total = sum(result.durations[len(before) :])
+            if self.utility is not None:
+                # the arm's branch scored like the person's, from where the arm will be
+                terms = self._terms(b.steps, result.success, result.durations[len(before) :])
+                if terms["utility"] > 0 and terms["utility"] >= persons.utility:
+                    return True
+                continue
             if result.success and total > 0 and 1.0 / total >= persons.utility:
                 return True
         return False
+
+    def _terms(
+        self, steps: Sequence[GroundAction], success: bool, durations: Sequence[float]
+    ) -> dict[str, float]:
+        """A branch's terms under the scenario's shaped utility (:mod:`.utility`)."""
+        assert self.utility is not None
+        return self.utility.terms(
+            steps,
+            success,
+            durations,
+            self.domain,
+            now=self._now,
+            person_time=self.person_time,
+        )
+
+    def _score_fn(self) -> Callable[[Branch], dict[str, float]] | None:
+        """How a simulated branch is scored: None for eq. (21), else its shaped terms."""
+        if self.utility is None:
+            return None
+
+        def score(b: Branch) -> dict[str, float]:
+            r = b.result
+            return self._terms(b.steps, bool(r and r.success), r.durations if r else [])
+
+        return score
 
     def _objects(self, branch: Branch) -> set[str]:
         return {v for v in branch.grounding.values() if v not in self.domain.agents}
@@ -1247,6 +1290,12 @@ class TaskManager:
         row = self.table.rows.get(name)
         if row:
             row.status = "running"
+        if human and self.utility is not None and branch.result is not None:
+            for step, d in zip(branch.steps, branch.result.durations, strict=False):
+                for a in step.agents:
+                    if self.domain.agent(a).is_human:
+                        t = self.utility.effort_time(step, d)
+                        self.person_time[a] = self.person_time.get(a, 0.0) + t
         if human:
             sug = Suggest(name, list(branch.steps), cost)
             self._emit("suggestion", **sug.to_dict())
