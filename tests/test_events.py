@@ -56,6 +56,7 @@ SPECIAL: dict[str, Any] = {
     "act": False,
     "answer": "no",
     "on_failure": "paper",
+    "reply": "decline",
 }
 BY_TYPE: dict[type, Any] = {str: "x", int: 2, float: 0.5, bool: False, list: ["a"], dict: {}}
 
@@ -133,7 +134,7 @@ def test_the_vocabularies_are_the_strings_on_disk() -> None:
     from flexhrc.scenario import model, simulators
     from flexhrc.taskmanager import operator
 
-    assert events.PROFILES == ("passive", "takeover", "cooperative", "random")
+    assert events.PROFILES == ("passive", "takeover", "cooperative", "random", "reluctant")
     for profiles in (operator.PROFILES, model.PROFILES):
         assert tuple(profiles) == tuple(Profile)
     assert tuple(Outcome) == ("solved", "failed", "interrupted")
@@ -155,7 +156,10 @@ def test_the_consumers_read_the_catalogue() -> None:
     assert set(run.TRACE_LINES) < events.TRACE_TYPES
     assert set(STORE_KINDS) == events.INPUT_KINDS | events.OUTPUT_KINDS | events.RECORD_KINDS
     assert set(LOG_EVENTS) >= events.RECORD_KINDS and set(LOG_EVENTS) >= events.REPLAY_TYPES
-    assert len(events.REPLAY_TYPES) == 43  # the set replay has accepted since section V
+    # the set replay has accepted since section V, and human_declined (issue 22)
+    assert (
+        len(events.REPLAY_TYPES) == 45
+    )  # human_reply: the person's answers are in the log (issue 22)
 
 
 def test_the_type_tags_are_the_schemas_and_the_module_sits_at_the_bottom() -> None:

@@ -55,6 +55,8 @@ class Profile(StrEnum):
     TAKEOVER = "takeover"
     COOPERATIVE = "cooperative"
     RANDOM = "random"
+    #: declines a share of suggestions and cannot do some actions (issue 22)
+    RELUCTANT = "reluctant"
 
 
 class Outcome(StrEnum):
@@ -124,11 +126,11 @@ LogEventType = Literal[
     # the manager's, the cell's and the panel's own records (not in a cooperation log)
     "agent_available", "agent_unavailable", "taken", "agent_up", "agent_down", "human_take",
     "operator", "intent", "options", "dropped", "refused", "operator_stop", "operator_resume",
-    "operator_takes",
+    "operator_takes", "human_declined", "human_reply",
 ]
 MessageType = Literal[
     "command", "stop", "ack", "suggestion", "human_action", "percept", "answer", "looked",
-    "options", "operator", "intent", "state", "end", "join", "follow", "follow_stop",
+    "options", "operator", "intent", "state", "end", "join", "follow", "follow_stop", "reply",
 ]
 StoreKind = Literal[
     "start", "ack", "human_action", "percept", "agent_up", "agent_down", "operator", "intent",
@@ -136,7 +138,7 @@ StoreKind = Literal[
     "action_failed", "infeasible", "recognised", "solved", "human_action_unmatched",
     "ack_ignored", "agent_available", "agent_unavailable", "human_decides", "human_gives_up",
     "fixed", "summary", "begin", "operator_answers", "waiting", "inconsistent",
-    "consistent_again", "repaired",
+    "consistent_again", "repaired", "human_reply", "human_declined",
 ]
 # fmt: on
 StoreRole = Literal["input", "output", "record"]
@@ -477,6 +479,11 @@ _LOG_SCHEMAS = [
     _log("operator_stop", "the panel's operator stopped an arm", ""),
     _log("operator_resume", "the panel's operator resumed an arm", ""),
     _log("operator_takes", "the panel's operator takes a hyper-arc", ""),
+    _log("human_declined", "a person said not now, can't, gave a step back or did not answer",
+         "replay trace store", agent=NAME, element=NAME,
+         reply=_one_of("human_declined", "reply", ("decline", "cannot", "give_back"))),
+    # in the cooperation log too (the person's answers, read by `flexhrc learn`): replayable
+    _log("human_reply", "a person's answer to a request (cell input)", "replay"),
 ]
 # fmt: on
 #: Every log event type, by its tag.
@@ -628,6 +635,16 @@ def _yes_no(m: Mapping[str, Any]) -> str | None:
     return None if m["answer"] in ("yes", "no") else "answer: 'answer' must be 'yes' or 'no'"
 
 
+#: What a person may answer beyond "done" (the ``reply`` message).
+REPLIES: tuple[str, ...] = ("decline", "cannot", "start", "give_back")
+
+
+def _reply_names(m: Mapping[str, Any]) -> str | None:
+    if m["reply"] not in REPLIES:
+        return f"reply: 'reply' must be one of {', '.join(REPLIES)}, got {m['reply']!r}"
+    return None
+
+
 def _msg(kind: MessageType, doc: str, rules: tuple[Rule, ...] = (), **fields: Field) -> EventSchema:
     return EventSchema(kind, doc, MappingProxyType(fields), rules)
 
@@ -719,6 +736,12 @@ _MESSAGE_SCHEMAS = [
          realtime=OPT_TIME),
     _msg("follow_stop", "an arm → `arm/<arm>/follow`: stop your part of that joint command, "
          "or the joint command you lead", id=INT_ID, by=OPT_NAME),
+    # an operator's answer to a request beyond "done" (docs/protocol.md, "Operator answers")
+    _msg("reply", "human → `human`: not now, I can't, I'm starting, I give it back",
+         (_reply_names,), id=ID, agent=Field(S, True),
+         reply=Field(S, True, doc="decline, cannot, start or give_back"),
+         suggestion=OPT_NAME, step=_nonneg((int,)), element=OPT_NAME, action=OPT_NAME,
+         reason=OPT_NAME, t=TIME, run=RUN),
 ]
 # fmt: on
 #: Every protocol message type, by its tag.
@@ -750,6 +773,12 @@ _STORE_SPECS = [
     StoreKindSpec("human_take", "input", "the operator takes a hyper-arc"),
     StoreKindSpec("begin", "input", "the watchers have looked: the first decision"),
     StoreKindSpec("operator_answers", "input", "an answer message (a repair question)"),
+    StoreKindSpec(
+        "human_reply",
+        "input",
+        "a reply message (decline, cannot, start, give_back) "
+        "or an unanswered suggestion's timeout (`why: timeout`)",
+    ),
     StoreKindSpec("command", "output", "a command message sent"),
     StoreKindSpec("suggestion", "output", "a suggestion message sent"),
     StoreKindSpec("stop", "output", "a stop message sent"),

@@ -473,3 +473,63 @@ def test_k08_a_second_manager_node_for_a_cell_is_refused(
     assert f"error: --cell {cell_name}: another manager already runs this cell" in twin.stderr
     assert "Traceback" not in twin.stderr
     assert not (tmp_path / "b.db").exists() or read_store(tmp_path / "b.db") == []
+
+
+def test_the_operators_replies_on_the_human_topic_decline_then_start_and_done(
+    tmp_path: Path, ros_env: dict[str, str], domain_id: int, cell_name: str
+):
+    """Issue 22: a plain rclpy operator says "not now" to its first request (only it can fix
+    leg 2: it is asked again later), then "I'm starting" before each step it reports without a
+    start; the store keeps the replies and the reports get the start the operator said."""
+    scenario = tmp_path / "table.yaml"
+    scenario.write_text("scenario: table_assembly\nunreachable_bolts: [2]\n")
+    common = [str(scenario), "--cell", cell_name]
+    client = PlainClient(cell_name, domain_id)
+    suggestions = client.watch("suggest/human")
+    client.tokens.append("alive/human")
+    procs: list[subprocess.Popen[str]] = []
+    store = tmp_path / "c.db"
+    try:
+        procs.append(_node(ros_env, "cell", *common, "--json", "--store", str(store),
+                           log=tmp_path / "manager.log"))  # fmt: skip
+        for arm in ("left", "right"):
+            procs.append(_node(ros_env, "arm", *common, "--arm", arm, log=tmp_path / f"{arm}.log"))
+        answered: set[tuple[str, int]] = set()
+        deadline = time.monotonic() + 120.0
+        while procs[0].poll() is None and time.monotonic() < deadline:
+            with client.lock:
+                todo = [s for s in suggestions if (s["id"], s.get("step", 0)) not in answered]
+            for s in todo:
+                k = int(s.get("step", 0))
+                answered.add((s["id"], k))
+                t = float(s["t"])
+                if s["id"] == "s1":  # the first request: not now
+                    client.publish("human", {"v": 1, "type": "reply", "id": "plain:no",
+                                             "agent": "human", "reply": "decline",
+                                             "suggestion": "s1", "t": t + 0.5})  # fmt: skip
+                    continue
+                client.publish("human", {"v": 1, "type": "reply", "id": f"plain:go:{s['id']}:{k}",
+                                         "agent": "human", "reply": "start", "suggestion": s["id"],
+                                         "step": k, "t": t + 0.25})  # fmt: skip
+                client.publish("human", {
+                    "v": 1, "type": "human_action", "id": f"plain:{s['id']}:{k}", "agent": "human",
+                    "action": s["actions"][k], "suggestion": s["id"], "step": k, "t": t + 2.0,
+                })  # fmt: skip
+            time.sleep(0.02)
+        data = _finish(procs[0], 30, tmp_path)
+    finally:
+        client.close()
+        _stop_all(procs)
+    assert data["outcome"] == "solved", data.get("reason")
+    events = read_store(store)
+    replies = [e.body for e in events if e.kind == "human_reply"]
+    assert replies[0]["reply"] == "decline" and replies[0]["suggestion"] == "s1"
+    [declined] = [e.body for e in events if e.kind == "human_declined"]
+    asked = [e.body["element"] for e in events if e.kind == "suggestion"]
+    assert declined["element"] == asked[0] and asked.count(asked[0]) == 2  # asked again later
+    starts = {(r["suggestion"], r["step"]): r for r in replies if r["reply"] == "start"}
+    reports = [e for e in events if e.kind == "human_action"]
+    assert reports and all(
+        r.body["start"] == pytest.approx(r.t - 1.75) for r in reports
+    )  # the start said 0.25 s after the step was put, the report 2 s after
+    assert len(starts) == len(reports)

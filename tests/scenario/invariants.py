@@ -3,7 +3,8 @@ graph to read the log with) — nothing here looks inside the run.
 
 * no agent runs two actions at once;
 * no object is held by two agents at once (``holding(agent, obj)``, the domain's
-  ``on_stop.holding``, replayed from the effects of the actions the log says were done);
+  ``on_stop.holding``, replayed from the effects of the actions the log says were done) —
+  unless they took it together, in one joint action (both arms on the tabletop, Fig. 8);
 * every solved hyper-arc's actions ran in order, by the agents it names, before it was solved;
 * the solved hyper-arcs form one cooperation path: replaying the log's graph reports into a
   fresh online graph solves it, each solved hyper-arc was feasible when solved, and no two of
@@ -53,7 +54,7 @@ def _no_agent_twice(ends: list[dict[str, Any]]) -> None:
 def _no_object_held_twice(scenario: Scenario, events: list[dict[str, Any]]) -> None:
     domain = scenario.domain
     rule = domain.on_stop
-    holder: dict[str, str] = {}
+    holder: dict[str, dict[str, tuple[Any, ...]]] = defaultdict(dict)  # obj -> agent -> taken by
     schemas = {**domain.actions, **domain.processes}
     for ev in events:
         if ev["type"] in ("stop", "abort"):
@@ -61,8 +62,8 @@ def _no_object_held_twice(scenario: Scenario, events: list[dict[str, Any]]) -> N
             for a in agents:
                 if domain.agent(a).is_human:
                     continue
-                for obj in [o for o, h in holder.items() if h == a]:
-                    del holder[obj]  # a stopped arm lets go where it is
+                for held_by in holder.values():
+                    held_by.pop(a, None)  # a stopped arm lets go where it is
             continue
         if ev["type"] != "action_end" or ev["status"] != "done":
             continue
@@ -72,17 +73,19 @@ def _no_object_held_twice(scenario: Scenario, events: list[dict[str, Any]]) -> N
         for lit in schema.delete:
             g = apply_substitution(lit, binding)
             held = g.predicate == rule.holding.predicate and len(g.args) == 2
-            if held and holder.get(g.args[1]) == g.args[0]:
-                del holder[g.args[1]]
+            if held:
+                holder[g.args[1]].pop(g.args[0], None)
         for lit in schema.add:
             g = apply_substitution(lit, binding)
             if g.predicate == rule.holding.predicate and len(g.args) == 2:
                 agent, obj = g.args
-                other = holder.get(obj)
-                assert other in (None, agent), (
-                    f"{obj} held by {other} and {agent} at once (t={ev['t']}, {ev['action']})"
+                taken = (ev["start"], ev["action"])  # the arms of one joint action share it
+                others = sorted(a for a, by in holder[obj].items() if a != agent and by != taken)
+                assert not others, (
+                    f"{obj} held by {', '.join(others)} and {agent} at once "
+                    f"(t={ev['t']}, {ev['action']})"
                 )
-                holder[obj] = agent
+                holder[obj][agent] = taken
 
 
 def _actions_in_order(scenario: Scenario, events: list[dict[str, Any]]) -> None:

@@ -139,7 +139,9 @@ LEGACY = {
             ],
             {"human": 4, "left": 0, "right": 0},
         ),
-        29.798116,
+        # was 29.798116: since issue 21 the operator carries each leg to its bolt before
+        # screwing it (taskmanager.kinds._human_screw), 2.05 s of travel over the four legs
+        31.846209,
     ),
     "six_legs": (
         "scenario: table_assembly\nlegs: 6\ntabletop: [0.6, 0.6]\nseed: 3\nhuman: false\n",

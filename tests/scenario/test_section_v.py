@@ -8,6 +8,7 @@ import importlib.util
 import pytest
 
 from flexhrc import scenario
+from flexhrc.errors import FlexhrcError
 from flexhrc.taskmanager import AnalyticSimulator, Command, HumanAction, Stop, TaskManager
 from flexhrc.taskmanager.manager import Ack
 
@@ -104,26 +105,72 @@ def test_node_processes_keep_both_arms_busy_until_their_end_condition():
     result = scenario.run(sc, seed=0)
     ev = result.events
     activated = next(e for e in ev if e["type"] == "process_activated")
-    assert activated["node"] == "tabletop" and activated["processes"] == ["hold(?top)"]
+    assert activated["node"] == "tabletop_placed" and activated["processes"] == ["hold(?top)"]
     hold = next(e for e in ev if e["type"] == "command" and e.get("process"))
     assert hold["action"] == "hold(tabletop)" and hold["agents"] == ["left", "right"]
     ended = next(e for e in ev if e["type"] == "process_ended")
     assert ended["reason"] == "its end condition holds" and ended["t"] > hold["t"]
     met = next(
-        e for e in ev if e["type"] == "query" and "tabletop" in e["report"].get("met_nodes", [])
+        e
+        for e in ev
+        if e["type"] == "query" and "tabletop_placed" in e["report"].get("met_nodes", [])
     )
     assert met["t"] == ended["t"]  # n is met when its processes have ended (eq. 5)
+    # the arms go to rest only then (Fig. 8 (f)), and the legs come after
+    rest = next(e for e in ev if e["type"] == "command" and e["element"] == "arms_to_rest")
+    assert rest["t"] >= ended["t"]
     first_leg = next(e for e in ev if e["type"] == "command" and e["element"] == "robot_1")
     assert first_leg["t"] >= ended["t"]
 
 
-def test_the_tabletop_placement_is_one_joint_command_on_both_arms():
+FIG_8 = [
+    ("place_tabletop", "pick_tabletop(tabletop)"),  # (a-c) approach and grasp on its stand
+    ("place_tabletop", "reorient_tabletop(tabletop)"),  # (d) turned flat
+    ("place_tabletop", "place_tabletop(tabletop, assembly_pose)"),  # (e) placed ...
+    ("tabletop_placed", "hold(tabletop)"),  # ... and held still by the process of the node
+    ("arms_to_rest", "return_to_rest()"),  # (f) both arms back to rest
+]
+
+
+def test_the_tabletop_placement_is_fig_8_in_joint_commands_of_both_arms():
+    # issue 21 item 5: picked from its stand, turned flat, placed, held, arms back to rest
     sc = scenario.load("table_assembly")
     result = scenario.run(sc, seed=0)
     cmds = [e for e in result.events if e["type"] == "command"]
-    assert cmds[0]["action"] == "place_tabletop(tabletop, assembly_pose)"
-    assert cmds[0]["agents"] == ["left", "right"]
-    assert [e for e in cmds if e["element"] == "place_tabletop"] == [cmds[0]]
+    assert [(c.get("element"), c["action"]) for c in cmds[: len(FIG_8)]] == FIG_8
+    assert all(c["agents"] == ["left", "right"] for c in cmds[: len(FIG_8)])
+    # in the paper's task only the robot places the tabletop: no operator alternative
+    assert "human_places_tabletop" not in sc.graph.top_graph.hyperarcs
+    assert not any(e["type"] == "suggestion" and "tabletop" in e["element"] for e in result.events)
+    # the arms were at rest when the legs fix began
+    first_leg = next(c for c in cmds if c.get("element") == "robot_1")
+    assert first_leg["t"] >= next(e for e in result.events if e["type"] == "action_end"
+                                  and e["action"] == "return_to_rest()")["t"]  # fmt: skip
+
+
+def test_the_operator_places_the_tabletop_only_when_the_scenario_asks_for_it():
+    # the robot cannot grasp the tabletop (its pick fails): without the alternative the task
+    # fails; with operator_places_tabletop the operator places it and the task goes on
+    from flexhrc.cell.local import InjectedFailure
+    from flexhrc.scenario.builtin.table import table_assembly
+
+    fail = [InjectedFailure("pick_tabletop", 1)]
+    paper = scenario.run(table_assembly(), simulator="analytic", failures=fail)
+    assert paper.outcome == "failed"
+    asked = table_assembly(operator_places_tabletop=True)
+    assert asked.graph.top_graph.hyperarcs["human_places_tabletop"].weight == 3
+    result = scenario.run(asked, simulator="analytic", failures=fail)
+    assert result.outcome == "solved"
+    solved = [(e["element"], e["agents"]) for e in result.events if e["type"] == "solved"]
+    assert solved[0] == ("human_places_tabletop", ["human"])
+    # and with nothing failing the robot's cheaper way is taken
+    plain = scenario.run(asked, simulator="analytic")
+    assert [e["element"] for e in plain.events if e["type"] == "solved"][:2] == [
+        "place_tabletop",
+        "arms_to_rest",
+    ]
+    with pytest.raises(FlexhrcError, match="operator_places_tabletop needs an operator"):
+        table_assembly(human=False, operator_places_tabletop=True)
 
 
 @pytest.mark.skipif(importlib.util.find_spec("pinocchio") is None, reason="sim extra")
@@ -134,10 +181,15 @@ def test_the_joint_placement_runs_on_both_arms_with_the_relative_pose_objective(
     sc = scenario.load("table_assembly")
     kin = KinematicTaskSimulator()
     kb = sc.world()
-    schema = sc.domain.actions["place_tabletop"]
     from flexhrc.taskmanager.domain import GroundAction
 
-    step = GroundAction(schema, ("tabletop", "assembly_pose"), ("left", "right"))
+    both = ("left", "right")
+    steps = [
+        GroundAction(sc.domain.actions["pick_tabletop"], ("tabletop",), both),
+        GroundAction(sc.domain.actions["reorient_tabletop"], ("tabletop",), both),
+        GroundAction(sc.domain.actions["place_tabletop"], ("tabletop", "assembly_pose"), both),
+        GroundAction(sc.domain.actions["return_to_rest"], (), both),
+    ]
     seen: list[str] = []
     original = control.RelativePose.evaluate
 
@@ -147,16 +199,19 @@ def test_the_joint_placement_runs_on_both_arms_with_the_relative_pose_objective(
 
     control.RelativePose.evaluate = spy  # type: ignore[method-assign]
     try:
-        sim = kin.simulate([step], kb, sc.domain)
-        report = kin.execute(step, {}, kb, sc.domain)
+        sim = kin.simulate(steps, kb, sc.domain)
+        positions: dict = {}
+        reports = [kin.execute(step, positions, kb, sc.domain) for step in steps]
     finally:
         control.RelativePose.evaluate = original  # type: ignore[method-assign]
     assert sim.success, sim.reason
-    assert report.status == "done", report.reason
-    assert seen  # the carry kept the two hands' relative pose
+    assert all(r.status == "done" for r in reports), [r.reason for r in reports]
+    assert seen  # the turn and the carry kept the two hands' relative pose
+    assert set(kin.simulated.values()) == {"kinematic"}
     arms = [r.command.arm for r in kin.execution.log]
     actions = [r.command.action for r in kin.execution.log]
-    assert arms == ["both"] * 4 and actions == ["approach", "grasp", "transport", "ungrasp"]
+    assert arms == ["both"] * 6
+    assert actions == ["approach", "grasp", "reorient", "transport", "ungrasp", "rest"]
 
 
 def test_an_unsuggested_action_matches_anywhere_in_the_action_list(tmp_path):

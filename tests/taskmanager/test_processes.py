@@ -226,7 +226,9 @@ def test_the_hold_ends_when_its_condition_holds_not_after_its_declared_duration(
     start = _events(result, "command", action="hold(tabletop)")[0]
     ended = _events(result, "process_ended")[0]
     assert sc.domain.processes["hold"].duration == 2.0  # the analytic model's round ...
-    assert ended["t"] - start["t"] == pytest.approx(3.56, abs=1e-6)  # ... not what ends it
+    # ... not what ends it (4.68 s: since Fig. 8 in full the hands come to the hold from the
+    # tabletop's turned grasp, 3.56 s before)
+    assert ended["t"] - start["t"] == pytest.approx(4.68, abs=1e-6)
 
 
 def test_a_robot_process_is_stopped_the_moment_its_end_condition_comes_true(tmp_path):

@@ -272,3 +272,32 @@ def test_lower_graph_instances_fold(open_page: Any) -> None:
         lower.locator("summary").click()
         page.wait_for_selector("svg[data-graph='by_robot'] [data-id='by_robot/s_leg']")
         assert page.locator("details.instance[data-path='by_human'] svg").count() == 0
+
+
+def test_start_done_and_not_now_at_the_page(serve: Any, open_page: Any, tmp_path: Path) -> None:
+    """Issue 22: the person clicks "start" and "done" on the first lid: its report carries the
+    start, the human lane its time; then "not now" on the second: the arm carries it."""
+    from tests.cell.test_answers import LIDS
+
+    path = tmp_path / "lids.yaml"
+    path.write_text(LIDS)
+    coop = serve(str(path), speed=5)
+    page = open_page(coop.url)
+    start = page.locator("#suggestions tr.mine button.reply.start")
+    start.wait_for()
+    assert _mine(page).get_attribute("data-action") == "carry(human, lid_a, box)"
+    start.click()
+    page.wait_for_selector('#message:has-text("you said I\'m starting")')
+    _mine(page).click()
+    page.wait_for_selector(
+        "#suggestions tr.mine button.done[data-action='carry(human, lid_b, box)']", timeout=20_000
+    )
+    page.locator("#suggestions tr.mine button.reply.decline").click()
+    page.wait_for_selector("#outcome[data-outcome='solved']", timeout=20_000)
+    page.wait_for_selector("#timeline-list li:has-text('carry(arm, lid_b, box)')")
+    events = coop.cell.events
+    assert [e.body["element"] for e in events if e.kind == "human_declined"] == ["place_b"]
+    [said] = [e for e in events if e.kind == "human_reply" and e.body["reply"] == "start"]
+    [report] = [e.body for e in events if e.kind == "human_action"]
+    assert report["start"] == round(said.t, 6) and report["t"] > report["start"]
+    assert coop.report().summary["timing"]["human_actions_s"] > 0

@@ -22,12 +22,14 @@ name: each kind lists the controller actions to integrate and the target each ai
 object it handles, the place it goes to). Joint actions (``agents: {joint: [left, right]}``) run
 the same steps on both arms at once (``arm="both"``): each hand grasps the object ``span_m / 2``
 to its own side and, while the object is carried, the controller's two-arm relative-pose
-objective keeps the grasp rigid (paper eq. 1-3 and Fig. 8). The table's ``place_tabletop`` is
-one such joint command: approach, grasp, transport to the target place and release, simulated
-(and executed) as one command of both arms. Actions of a kind without motion (``check``,
-``none``), of a kind the registry has no motion for, of an agent the robot model has no arm
-for, or whose target does not resolve are timed by the analytic model, as the operator's actions
-are. :attr:`KinematicTaskSimulator.simulated` records how each action was simulated.
+objective keeps the grasp rigid (paper eq. 1-3 and Fig. 8). The table's tabletop placement is
+a sequence of such joint commands (Fig. 8): ``pick_tabletop`` (approach, grasp),
+``reorient_tabletop`` (the two-arm turn flat), ``place_tabletop`` (carry to the assembly pose,
+let go), the node process ``hold(tabletop)`` and ``return_to_rest()``. Actions of a kind
+without motion (``check``, ``none``), of a kind the registry has no motion for, of an agent the
+robot model has no arm for, or whose target does not resolve are timed by the analytic model,
+as the operator's actions are. :attr:`KinematicTaskSimulator.simulated` records how each
+action was simulated.
 """
 
 from __future__ import annotations

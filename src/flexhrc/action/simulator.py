@@ -75,6 +75,9 @@ Array = np.ndarray
 
 #: Where a hand-over happens: in the middle of the table, between robot and human (paper Fig. 12).
 MIDDLE_POSE: tuple[float, float, float] = (0.55, 0.0, 0.30)
+#: How far the tabletop leans on its stand before the robot places it (paper 000, Fig. 8 (a-d)):
+#: ``reorient`` turns it back by as much, flat for the assembly pose.
+TABLETOP_STAND_TILT_RAD = math.radians(30.0)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -171,7 +174,10 @@ class ActionSpec:
 
     ``goal`` says where the TCP goes: ``"above"`` (``approach_height`` above the target),
     ``"target"``, ``"retreat"`` (``approach_height`` above where the TCP is), ``"rest"`` (the arm's
-    rest posture), ``"screw"`` (at the target, turned by ``turn_rad`` about the vertical).
+    rest posture), ``"screw"`` (at the target, turned by ``turn_rad`` about the vertical),
+    ``"tilt"`` (the held object turned by ``tilt_rad`` about the horizontal axis through both
+    grippers — the world's y axis — without moving that axis: Fig. 8 (d), the tabletop turned
+    flat; it needs no target).
     ``gripper`` is ``"close"`` (after the motion) or ``"open"`` (before it) or None; it takes
     ``gripper_time_s``. ``hierarchy`` lists the objectives and their priorities; ``speed_scale``
     scales the joint velocity limits (e.g. carrying a heavy part). ``yaw_period`` is the symmetry
@@ -192,6 +198,7 @@ class ActionSpec:
     gripper_time_s: float = 0.5
     approach_height: float = 0.10
     turn_rad: float = math.pi / 2
+    tilt_rad: float = 0.0
     speed_scale: float = 1.0
     default_target: tuple[float, float, float] | None = None
     yaw_period: float = math.pi
@@ -199,7 +206,7 @@ class ActionSpec:
     still_s: float = 0.5
 
     def __post_init__(self) -> None:
-        if self.goal not in ("above", "target", "retreat", "rest", "screw", "hold"):
+        if self.goal not in ("above", "target", "retreat", "rest", "screw", "hold", "tilt"):
             raise FlexhrcError(f"action {self.name!r}: unknown goal kind {self.goal!r}")
         if self.gripper not in (None, "open", "close"):
             raise FlexhrcError(f"action {self.name!r}: gripper must be 'open', 'close' or None")
@@ -301,6 +308,10 @@ ACTIONS: dict[str, ActionSpec] = {
     "screw": ActionSpec("screw", goal="screw", untargeted_offset=(0.0, 0.0, 0.0)),
     "ungrasp": ActionSpec("ungrasp", goal="retreat", gripper="open"),
     "rest": ActionSpec("rest", goal="rest"),
+    # Fig. 8 (d): the tabletop leans on its stand (TABLETOP_STAND_TILT_RAD); held in both hands
+    # it is turned flat about the axis through the grippers (this way round the arms stay well
+    # inside their joint ranges: the turn takes ~1 s, ~1.5 s with the paper's joint speeds)
+    "reorient": ActionSpec("reorient", goal="tilt", tilt_rad=TABLETOP_STAND_TILT_RAD),
     # The human's hand is expected at the hand-over pose: no minimum distance to it there.
     "hand_over": ActionSpec("hand_over", goal="target", hierarchy=_NO_HUMAN,
                             default_target=MIDDLE_POSE),
@@ -907,8 +918,17 @@ class KinematicSimulator:
         if spec.goal == "retreat":
             up = np.array([0.0, 0.0, spec.approach_height])
             return {a: ArmGoal(cur[a][0] + up, cur[a][1]) for a in arms}, None
-        if spec.goal == "hold":  # keep the hands, and what they hold, where they are
-            goals = {a: ArmGoal(cur[a][0].copy(), cur[a][1].copy()) for a in arms}
+        if spec.goal in ("tilt", "hold"):
+            if spec.goal == "tilt":
+                # a rigid turn about the y axis through the grippers' midpoint: every hand keeps
+                # its place on the object, so the two-arm grasp (relative pose) is unchanged
+                c, s_ = math.cos(spec.tilt_rad), math.sin(spec.tilt_rad)
+                turn = np.array([[c, 0.0, s_], [0.0, 1.0, 0.0], [-s_, 0.0, c]])
+                mid = np.mean([cur[a][0] for a in arms], axis=0)
+                for a in arms:
+                    goals[a] = ArmGoal(mid + turn @ (cur[a][0] - mid), turn @ cur[a][1])
+            else:  # keep the hands, and what they hold, where they are
+                goals = {a: ArmGoal(cur[a][0].copy(), cur[a][1].copy()) for a in arms}
             if len(arms) == 2:
                 (p1, R1), (p2, R2) = cur[arms[0]], cur[arms[1]]
                 relative = (R1.T @ (p2 - p1), R1.T @ R2)
@@ -1069,6 +1089,7 @@ __all__ = [
     "ARM_NAMES",
     "HOLD_HIERARCHY",
     "MIDDLE_POSE",
+    "TABLETOP_STAND_TILT_RAD",
     "ActionOutcome",
     "ActionSpec",
     "KinematicSimulator",

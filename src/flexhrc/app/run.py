@@ -112,6 +112,7 @@ class RunConfig:
     fail: tuple[str, ...] = ()
     reaction: str = "conflicts"
     on_failure: str | None = None
+    answer_timeout: float | None = None
     simulator: str | None = None
     timing: str | None = None
     disturb: tuple[str, ...] = ()
@@ -278,6 +279,7 @@ def run_scenario(
             execution=simulator,
             reaction=config.reaction,
             on_failure=config.on_failure,
+            answer_timeout=config.answer_timeout,
             trace=trace,
             sink=writer.write if writer is not None else None,
             failures=failures,
@@ -585,13 +587,26 @@ def trace_line(event: dict[str, Any]) -> str | None:
             line += f" ({ev['samples']} samples)"
     elif kind in TRACE_LINES:
         line = TRACE_LINES[kind].format_map(ev)
+        if kind == "action_failed" and ev.get("kept"):
+            line += f"; its result holds: {ev['element']} counts as solved"
     elif kind == "decision":
         line = f"decide {ev['element']} (cost {ev['cost']}): "
         line += f"{plural(len(ev['branches']), 'branch')} simulated"
+        if ev.get("pruned"):  # eq. 20: failing pre(a) keeps a branch from the simulator
+            first = ev["pruned"][0]["reason"]
+            line += (
+                f", {len(ev['pruned'])} pruned ({first}{', ...' if len(ev['pruned']) > 1 else ''})"
+            )
         if ev["chosen"] is not None:
             b = ev["branches"][ev["chosen"]]
             grounding = ", ".join(f"{k}={v}" for k, v in sorted(b["grounding"].items()))
             line += f", best {grounding} J={b['utility']:.4f}"
+            if "terms" in b:  # a shaped utility (issue 22): the terms behind J
+                t = b["terms"]
+                line += (
+                    f" (time {t['time']:.2f} s, preference {t['preference']:g},"
+                    f" workload {t['workload']:.0%})"
+                )
         else:
             line += ", none succeeds"
     elif kind == "command":

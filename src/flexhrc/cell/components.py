@@ -56,6 +56,16 @@ HUMAN_PROFILES = PROFILES
 ANNOUNCE_RETRY_S = 0.5
 # how long a process that dials asks whether its agent name is held before taking it
 HOLDER_SETTLE_S = 0.5
+#: How long a simulated operator takes to say "not now", "I can't" or "take it back"
+#: (seconds of the cell's clock): an answer takes a moment, and a person who always says
+#: "not now" makes the clock go on rather than the manager ask again at the same instant.
+REPLY_S = 1.0
+
+#: A simulated operator's answer to step ``step`` of a request for hyper-arc ``element`` with
+#: ``actions`` (``docs/protocol.md``, "Operator answers"): None does it; ``"decline"``,
+#: ``("cannot", reason)``, ``"give_back"`` answer so; ``"start"`` says "I'm starting" first and
+#: then reports the step without its start (as a panel's "done" did); ``"ignore"`` never answers.
+Replies = Callable[[str, list[str], int], "str | tuple[str, str] | None"]
 
 
 class ScenarioLike(Protocol):
@@ -635,6 +645,7 @@ class HumanAgent(_Agent):
         takes: Iterable[int | str] | None = None,
         on_executed: OnExecuted | None = None,
         sensing: HumanSensing | None = None,
+        replies: Replies | None = None,
     ) -> None:
         check_profile(profile)
         super().__init__(
@@ -654,6 +665,9 @@ class HumanAgent(_Agent):
         # when the action in hand ends (simulated clock): a person finishes it before the next,
         # even when the manager has dropped the request it belonged to
         self.free_at = 0.0
+        # its answers beyond "done" (see :data:`Replies`), and those it sent, by request step
+        self.replies = replies
+        self.replied: dict[tuple[str | None, str, int], dict[str, Any]] = {}
         self._subs.append(transport.subscribe(P.suggest_topic(name), self._on_message))
         # the profile's own decisions (the same code as the in-process operators)
         # ``takes``: a script (the K-th steps, 1-based, or node names) instead of the profile
@@ -825,6 +839,13 @@ class HumanAgent(_Agent):
         step = steps[k]
         if self.name not in step.agents:
             raise P.ProtocolError(f"suggestion {sid}: {step} is not for {self.name}")
+        if (run, sid, k) in self.replied:  # asked again (the manager restarted): same answer
+            self.transport.publish(P.HUMAN_TOPIC, self.replied[(run, sid, k)])
+            return
+        answer = self._answer(msg, k)
+        if answer is not None and self._reply(msg, k, answer):
+            return
+        said_start = answer is not None
         sync_world(self.kb, msg.get("world") or {})
         positions = {key: o.position for key, o in self.kb.objects.items()}
         before = dict(positions)
@@ -836,13 +857,14 @@ class HumanAgent(_Agent):
         if self.on_executed is not None:
             self.on_executed(Executed(self.name, rid, step, before, t, t + dt, "done"))
         fields: dict[str, Any] = {"action": str(step), **self._sense(step, steps, t + dt)}
+        if not said_start:  # else the manager knows the start from the "I'm starting"
+            fields["start"] = t
         rep = P.message(
             "human_action",
             id=rid,
             agent=self.name,
             suggestion=sid,
             step=k,
-            start=t,
             t=t + dt,
             positions=moved,
             **fields,
@@ -860,6 +882,50 @@ class HumanAgent(_Agent):
 
         speed = float(msg.get("realtime", 0.0))
         self._later(dt / speed if speed > 0 else 0.0, send)
+
+    def _answer(self, msg: dict[str, Any], k: int) -> tuple[str, str | None] | None:
+        """What this operator answers to step ``k`` of a request other than doing it (its
+        ``replies``, else its profile's ``answer`` if it has one): (reply, reason) or None."""
+        if msg.get("own"):
+            return None  # its own plan: it decided to do it
+        if self.replies is not None:
+            said = self.replies(str(msg["element"]), list(msg["actions"]), k)
+            if said is None:
+                return None
+            return (said, None) if isinstance(said, str) else (str(said[0]), str(said[1]))
+        # a profile that answers (``reluctant``: SimulatedOperator.answer) says so once per
+        # request, when it is put to it (step 0); a request asked again gets the same answer
+        answer = getattr(self.operator, "answer", None)
+        if answer is None or k != 0:
+            return None
+        kind, reason = answer([ground(self.domain, a) for a in msg["actions"]], self.domain)
+        return None if kind == "follow" else (str(kind), reason)
+
+    def _reply(self, msg: dict[str, Any], k: int, answer: tuple[str, str | None]) -> bool:
+        """Send the ``reply`` (after :data:`REPLY_S`; ``start`` at once); returns whether
+        that answers the step (False: ``start``, the step is done next)."""
+        kind, reason = answer
+        run, sid = msg.get(identity.RUN), str(msg["id"])
+        if kind == "ignore":
+            self.trace(f"suggestion {sid}: no answer")
+            return True
+        t = max(float(msg["t"]), self.free_at) + (0.0 if kind == "start" else REPLY_S)
+        reply = P.message(
+            "reply", id=f"{self.name}:{sid}:{k}:{kind}", agent=self.name, reply=kind,
+            suggestion=sid, step=k, t=t, **({"reason": reason} if reason else {}),
+            **({identity.RUN: run} if run is not None else {}),
+        )  # fmt: skip
+        self.trace(f"suggestion {sid}: {kind}" + (f" ({reason})" if reason else ""))
+        if kind == "start":
+            self.transport.publish(P.HUMAN_TOPIC, reply)
+            return False
+        self.replied[(run, sid, k)] = reply
+        speed = float(msg.get("realtime", 0.0))
+        self._later(
+            REPLY_S / speed if speed > 0 else 0.0,
+            lambda: self.transport.publish(P.HUMAN_TOPIC, reply),
+        )
+        return True
 
     def sensing_figures(self) -> dict[str, int]:
         """What the wrist sensor made of this operator's actions (the ``human_sensing`` key of

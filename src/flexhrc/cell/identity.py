@@ -96,6 +96,9 @@ def fingerprint(scenario: Any, *, graph: Any = None, world: Any = None) -> str:
         "domain": _plain(scenario.domain),
         "world": _plain(world.to_dict()),
     }
+    utility = getattr(scenario, "utility", None)
+    if utility is not None:  # it decides too: a resumed run must score branches alike
+        shape["utility"] = utility.to_dict()
     text = json.dumps(shape, sort_keys=True, separators=(",", ":"))
     out = hashlib.sha256(text.encode()).hexdigest()[:16]
     # a scenario with slots keeps no cache: computed again next time

@@ -28,7 +28,7 @@ from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from flexhrc.cell.components import HumanAgent, RobotAgent, ScenarioLike
+from flexhrc.cell.components import HumanAgent, Replies, RobotAgent, ScenarioLike
 from flexhrc.cell.supervisor import Cell
 from flexhrc.errors import FlexhrcError
 from flexhrc.knowledge import KnowledgeBase
@@ -120,7 +120,9 @@ class LocalCell:
     ``scenario`` is a :class:`flexhrc.scenario.Scenario` (what the cell reads of it:
     :class:`~flexhrc.cell.components.ScenarioLike`). ``humans`` are (operator, profile) pairs — by
     default every human agent with ``profile``; ``human_takes`` scripts the first operator
-    (the K-th cooperation steps, 1-based). ``simulator`` is the manager's branch simulator;
+    (the K-th cooperation steps, 1-based) and ``replies`` answers its requests beyond "done"
+    (:data:`~flexhrc.cell.components.Replies`); ``answer_timeout``: see :class:`Cell`.
+    ``simulator`` is the manager's branch simulator;
     ``execution`` the simulated real world (by default the simulator, when it can execute);
     ``store`` an :class:`~flexhrc.cell.store.EventStore` to keep every event in (new, not
     resumed), as ``flexhrc cell --store`` does.
@@ -144,6 +146,8 @@ class LocalCell:
         timeout_factor: float = 3.0,
         human_sensing: Any = None,
         on_failure: str | None = None,
+        answer_timeout: float | None = None,
+        replies: Replies | None = None,
         store: Any = None,
     ) -> None:
         domain = scenario.domain
@@ -178,6 +182,7 @@ class LocalCell:
             seed=seed,
             reaction=reaction,
             on_failure=on_failure,
+            answer_timeout=answer_timeout,
             realtime=realtime,
             ordered=True,
             observers=[self.events.append, *observers],
@@ -208,6 +213,7 @@ class LocalCell:
                     execution=execution,
                     takes=takes if i == 0 else None,
                     sensing=human_sensing,
+                    replies=replies if i == 0 else None,
                 )
             )
         self.bus.flush()  # the operators' profiles reach the cell before it starts

@@ -8,7 +8,8 @@ topic               from -> to          message ``type``
 ``cmd/<agent>``     manager -> robot    ``command``, ``stop``
 ``ack``             robot -> manager    ``ack``
 ``suggest/<name>``  manager -> human    ``suggestion``
-``human``           human -> manager    ``human_action``, ``answer`` (to a repair question)
+``human``           human -> manager    ``human_action``, ``answer`` (to a repair question),
+                                        ``reply`` (decline, cannot, start, give_back)
 ``options/<name>``  manager -> human    ``options`` (what an operator may do on its own)
 ``intent``          human -> manager    ``operator`` (its profile), ``intent`` (its answer)
 ``percept``         perception -> mgr   ``percept``, ``looked`` (a watcher has looked)

@@ -35,7 +35,7 @@ from flexhrc.cell.components import (
     run_agent,
 )
 from flexhrc.cell.store import EventStore
-from flexhrc.cell.supervisor import Cell, failure_policy
+from flexhrc.cell.supervisor import Cell, answer_timeout_of, failure_policy
 from flexhrc.errors import FlexhrcError
 from flexhrc.files import OutputPathError, atomic_write_text, check_output
 from flexhrc.taskmanager.operator import PROFILES, operator_seed
@@ -97,6 +97,7 @@ class CellConfig:
     realtime: float = 0.0
     simulator: str = "auto"
     on_failure: str | None = None
+    answer_timeout: float | None = None
     wait: float = 30.0
     human: str = "passive"
     ready_file: str | Path | None = None
@@ -109,6 +110,7 @@ class CellConfig:
         _choice("--simulator", self.simulator, SIMULATORS)
         if self.on_failure is not None:
             failure_policy(None, self.on_failure)
+        answer_timeout_of(None, self.answer_timeout)
         _choice("--human", self.human, PROFILES)
         if not (math.isfinite(self.realtime) and self.realtime >= 0):
             raise FlexhrcError(f"--realtime must be a finite number >= 0, got {self.realtime}")
@@ -200,6 +202,7 @@ def serve_cell(
             seed=config.seed,
             shared_model=internal,  # the internal arms execute on the manager's model
             on_failure=config.on_failure,
+            answer_timeout=config.answer_timeout,
         )
         agents: list[Component] = []
         if internal:

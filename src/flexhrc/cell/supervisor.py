@@ -139,12 +139,14 @@ class Cell:
         quiescent: Callable[[], bool] | None = None,
         shared_model: bool = False,
         on_failure: str | None = None,
+        answer_timeout: float | None = None,
     ) -> None:
         if not realtime >= 0 or realtime != realtime or realtime == float("inf"):
             raise FlexhrcError(f"--realtime must be a finite number >= 0, got {realtime}")
         self.scenario = scenario
         self.name = name
         self.seed = seed
+        self.answer_timeout = answer_timeout_of(scenario, answer_timeout)
         self.transport = transport
         if liveliness:
             self._check_single_manager(transport, name)
@@ -197,6 +199,7 @@ class Cell:
             log=self._tm_log,
             reaction=reaction,
             on_failure=failure_policy(scenario, on_failure),
+            utility=getattr(scenario, "utility", None),
         )
         self.agents = {
             a.name: AgentState(a.name, "human" if a.is_human else "robot")
@@ -248,6 +251,14 @@ class Cell:
         self.options: dict[str, dict[str, Any]] = {}
         self.intent_ids: set[str] = set()
         self._options_sent_at: dict[str, float] = {}
+        # operator answers (docs/protocol.md, "Operator answers"): reply ids handled; request
+        # id -> by when (cell time) it must be answered, and when it was sent (wall clock);
+        # requests whose timeout is on its way; person -> (the action, when) they said they start
+        self.reply_ids: set[str] = set()
+        self._answer_due: dict[str, float] = {}
+        self._asked_wall: dict[str, float] = {}
+        self._timed_out: set[str] = set()
+        self._starts: dict[str, tuple[str | None, float]] = {}
         self._subs = [
             self._listen(P.ACK_TOPIC, self._on_ack_message),
             self._listen(P.HUMAN_TOPIC, self._on_human_message),
@@ -331,22 +342,88 @@ class Cell:
             **({"unjoined": unjoined} if (unjoined := self._unjoined()) else {}),
         }
 
-    def human_input(self, action: str, agent: str | None = None) -> None:
-        """A person says what they did (a panel's "done" button): ``pick_up(human, leg2)``."""
-        human = agent or next((a for a, s in self.agents.items() if s.kind == "human"), None)
-        if human is None:
-            raise FlexhrcError("this scenario has no human agent")
+    def human_input(
+        self, action: str, agent: str | None = None, start: float | None = None
+    ) -> None:
+        """A person says what they did (a panel's "done" button): ``pick_up(human, leg2)``;
+        ``start``: when they began (else when they said "I'm starting", else when the step
+        was put to them: the report always carries a start, so ``replay`` and the timeline
+        show how long the person worked)."""
+        human = self._human(agent)
         self._panel_inputs += 1
+        # on the wall clock the cell's time went on since the last input: the person acts now
+        t = round(max(self.now, self._clock()), 6)
+        began = self._start_of(human, action) if start is None else float(start)
         self._on_human_message(
             P.message(
                 "human_action",
                 id=f"panel:{self._panel_inputs}:{len(self.events)}",
                 agent=human,
                 action=action,
-                t=round(self.now, 6),
+                t=t,
+                **({"start": round(min(began, t), 6)} if began is not None else {}),
                 run=self.run_id,
             )
         )
+
+    def human_reply(
+        self,
+        reply: str,
+        agent: str | None = None,
+        *,
+        suggestion: str | None = None,
+        element: str | None = None,
+        reason: str | None = None,
+    ) -> None:
+        """A person answers beyond "done" (a panel's buttons): ``decline`` ("not now"),
+        ``cannot`` ("I can't do this", with ``reason``), ``start`` ("I'm starting") or
+        ``give_back`` (a step they had taken). Without ``suggestion`` it answers the person's
+        open request. A stored input ``human_reply`` once its time comes."""
+        human = self._human(agent)
+        sid = suggestion or self.active_suggestion.get(human)
+        if sid is None and element is None and reply != "start":
+            raise FlexhrcError(f"{human} has no open request to {reply}")
+        self._panel_inputs += 1
+        fields: dict[str, Any] = {"suggestion": sid} if sid is not None else {}
+        if element is not None:
+            fields["element"] = element
+        if reason is not None:
+            fields["reason"] = reason
+        if reply == "start" and sid is not None:
+            step = self.suggestion_step.get(sid, (0, 0.0))[0]
+            fields["step"] = step
+        self._on_human_message(
+            P.message(
+                "reply",
+                id=f"panel:{self._panel_inputs}:{len(self.events)}",
+                agent=human,
+                reply=reply,
+                t=round(max(self.now, self._clock()), 6),
+                **fields,
+                run=self.run_id,
+            )
+        )
+
+    def _human(self, agent: str | None) -> str:
+        human = agent or next((a for a, s in self.agents.items() if s.kind == "human"), None)
+        if human is None:
+            raise FlexhrcError("this scenario has no human agent")
+        return human
+
+    def _start_of(self, human: str, action: str | None) -> float | None:
+        """When ``human`` began ``action``: when they said "I'm starting" it, else when the
+        step of their open request was put to them (None: no request names it)."""
+        said = self._starts.get(human)
+        if said is not None and (said[0] is None or action is None or said[0] == action):
+            return said[1]
+        sid = self.active_suggestion.get(human)
+        if sid is None:
+            return None
+        msg = self.suggestions[sid]
+        step, began = self.suggestion_step.get(sid, (0, float(msg["t"])))
+        if step < len(msg["actions"]) and (action is None or msg["actions"][step] == action):
+            return began
+        return None
 
     def human_take(self, element: str) -> list[str]:
         """A person says they will do the hyper-arc ``element`` (a panel's "I'll do this"):
@@ -461,12 +538,15 @@ class Cell:
 
     def _on_human_message(self, data: Any, source: str | None = HERE) -> None:
         try:
-            msg = P.parse(data, expect=("human_action", "answer"))
+            msg = P.parse(data, expect=("human_action", "answer", "reply"))
             st = self.agents.get(msg["agent"])
             if st is None or st.kind != "human":
                 raise P.ProtocolError(f"{msg['agent']!r} is not a human agent of this cell")
             if (foreign := self._foreign(str(msg["agent"]), source)) is not None:
                 raise P.ProtocolError(f"{msg.get('id')}: {foreign}")  # P19
+            if msg["type"] == "reply":
+                self._on_reply(msg)
+                return
             if msg["type"] == "answer":
                 if msg["object"] not in self.kb.objects:
                     raise P.ProtocolError(f"answer about {msg['object']!r}, not an object here")
@@ -506,6 +586,127 @@ class Cell:
             log.info("human_action %s of a replaced request: ignored", msg["id"])
             return
         self._arrive(msg["t"], "human_action", _body(msg))
+
+    def _on_reply(self, msg: dict[str, Any]) -> None:
+        """A person's ``reply`` (checked: its agent is a person of this cell, its process the
+        one granted the name): queued at its ``t`` like a report. What it answers is checked
+        when its time comes (:meth:`_reply_problem`)."""
+        if self._other_run(msg):
+            raise P.ProtocolError(f"reply {msg['id']} of another run ({msg['run']})")
+        if not self.started:
+            raise P.ProtocolError(f"reply {msg['id']} before the cooperation started")
+        if msg["id"] in self.reply_ids or any(
+            k == "human_reply" and b["id"] == msg["id"] for *_, k, b in self.pending
+        ):
+            raise P.ProtocolError(f"duplicate reply {msg['id']}")
+        if msg.get("suggestion") is None and msg.get("element") is None:
+            # it answers the person's open request (a panel's or a pendant's button)
+            sid = self.active_suggestion.get(str(msg["agent"]))
+            if sid is None and msg["reply"] != "start":
+                raise P.ProtocolError(f"reply {msg['id']}: {msg['agent']} has no open request")
+            if sid is not None:
+                msg = {**msg, "suggestion": sid}
+        sid = msg.get("suggestion")
+        asked = self.suggestions.get(sid) if isinstance(sid, str) else None
+        if sid is not None and (asked is None or asked.get("agent") != msg["agent"]):
+            raise P.ProtocolError(f"reply {msg['id']}: {msg['agent']} was sent no request {sid}")
+        element = msg.get("element")
+        if element is not None and _kind(self.graph, element) != "hyperarc":
+            raise P.ProtocolError(f"reply {msg['id']}: {element!r} is no hyper-arc of this task")
+        action = msg.get("action")
+        if action is not None:
+            said = unknown_name(self.domain, self.kb, ground(self.domain, action))
+            if said is not None:
+                raise P.ProtocolError(said)
+        self._arrive(msg["t"], "human_reply", _body(msg))
+
+    def _reply_problem(self, body: dict[str, Any]) -> str | None:
+        """Why a reply cannot be taken when its time comes: it answers a request that has
+        ended meanwhile (done, replaced, or given to another), or gives back what the person
+        does not hold."""
+        human, reply, sid = str(body["agent"]), str(body["reply"]), body.get("suggestion")
+        if reply == "start":
+            return None
+        if sid is not None and self.active_suggestion.get(human) != sid:
+            return f"{reply} of request {sid}, which {human} no longer has"
+        if sid is None:
+            ex = self.tm.executions.get(str(body["element"]))
+            if reply != "cannot" and (ex is None or human not in ex.agents):
+                return f"{reply} of {body['element']}, which {human} is not doing"
+        return None
+
+    def _reply(self, body: dict[str, Any]) -> list[Directive]:
+        """A person's answer to a request, at its time (see :meth:`human_reply`)."""
+        human, reply = str(body["agent"]), str(body["reply"])
+        self.reply_ids.add(str(body["id"]))
+        sid = body.get("suggestion")
+        msg = self.suggestions.get(sid) if isinstance(sid, str) else None
+        if isinstance(sid, str):
+            self._answer_due.pop(sid, None)
+            self._timed_out.discard(sid)
+        if reply == "start":
+            self._starts[human] = (self._reply_action(body), self.now)
+            return []
+        element = str(body.get("element") or (msg or {}).get("element"))
+        if isinstance(sid, str) and self.active_suggestion.get(human) == sid:
+            # the request ends: a report of it still under way never happens (as a stop)
+            del self.active_suggestion[human]
+            self._last_suggestion[human] = sid
+            self._supersede(human)
+        self._starts.pop(human, None)
+        why = body.get("reason") or ("no answer in time" if body.get("why") == "timeout" else None)
+        return self.tm.operator_replies(self.now, human, element, reply, why)
+
+    def _reply_action(self, body: dict[str, Any]) -> str | None:
+        """The action a ``start`` reply begins: its ``action``, else its request's step."""
+        if body.get("action") is not None:
+            return str(body["action"])
+        sid = body.get("suggestion")
+        msg = self.suggestions.get(sid) if isinstance(sid, str) else None
+        if msg is None:
+            return None
+        step = body.get("step")
+        if not isinstance(step, int):
+            step = self.suggestion_step.get(str(sid), (0, 0.0))[0]
+        return str(msg["actions"][step]) if step < len(msg["actions"]) else None
+
+    def _fire_timeouts(self) -> bool:
+        """A request unanswered for ``answer_timeout`` seconds is declined (``why: timeout``,
+        a stored input at its deadline). In the discrete-event loop the person is only known
+        silent when nothing more can come from them: agents in this process are quiescent,
+        or the timeout has passed on the wall clock too (at the cell's pace). Returns whether
+        a timeout was queued."""
+        if self.answer_timeout is None or self.tm.done:
+            return False
+        pending = {(b.get("agent"), b.get("suggestion")) for *_, k, b in self.pending}
+        pending_agents = {b.get("agent") for *_, k, b in self.pending if k != "ack"}
+        fired = False
+        for human, sid in sorted(self.active_suggestion.items()):
+            due = self._answer_due.get(sid)
+            if due is None or sid in self._timed_out or (human, sid) in pending:
+                continue
+            if self.ordered:
+                if human in pending_agents:
+                    continue
+                quiet = self.quiescent() if self.quiescent is not None else False
+                pace = self.realtime if self.realtime > 0 else 1.0
+                waited = time.monotonic() - self._asked_wall.get(sid, time.monotonic())
+                if not (quiet or waited >= self.answer_timeout / pace):
+                    continue
+            elif self._clock() < due:
+                continue
+            self._timed_out.add(sid)
+            body = {
+                "id": f"timeout:{sid}",
+                "agent": human,
+                "reply": "decline",
+                "suggestion": sid,
+                "why": "timeout",
+                "reason": f"no answer after {self.answer_timeout:g} s",
+            }
+            self._arrive(due, "human_reply", body)
+            fired = True
+        return fired
 
     def _next_human_step(self, text: str) -> bool:
         """``text`` is the next step of an open execution the person owns (asked of them, or
@@ -782,6 +983,14 @@ class Cell:
             return [{**b, "t": t, "type": ev.kind}]  # perception in the loop
         if ev.kind == "operator_answers":
             return [{**b, "t": t, "type": ev.kind}]
+        if ev.kind == "human_reply":
+            said = {**b, "t": t, "type": "human_reply"}
+            if b.get("reply") == "start":
+                action = self._reply_action(b)
+                if action is not None:  # the person's lane begins here
+                    return [said, {"t": t, "type": "action_start", "agents": [b["agent"]],
+                                   "action": action}]  # fmt: skip
+            return [said]
         return []
 
     def _tm_log(self, ev: dict[str, Any]) -> None:
@@ -833,8 +1042,7 @@ class Cell:
                 self.awaiting.pop(str(body["agent"]), None)
             return []
         if kind == "intent":
-            self._intent(body)
-            return []
+            return self._intent(body)
         if kind == "human_take":
             return tm.operator_takes(now, str(body["element"]))
         if kind == "ack":
@@ -863,6 +1071,10 @@ class Cell:
             if not missed:
                 self._physical(action, body.get("positions") or {})
             sid, k = body.get("suggestion"), body.get("step")
+            self._starts.pop(str(body["agent"]), None)
+            answered = sid if isinstance(sid, str) else self.active_suggestion.get(body["agent"])
+            if answered is not None:  # a report answers the request: no timeout any more
+                self._answer_due.pop(answered, None)
             if isinstance(sid, str) and isinstance(k, int) and sid in self.suggestions:
                 done = self.suggestion_step.get(sid, (0, now))[0]
                 self.suggestion_step[sid] = (max(done, k + 1), now)
@@ -878,6 +1090,8 @@ class Cell:
             return out
         if kind == "operator_answers":
             return self._answered(body)
+        if kind == "human_reply":
+            return self._reply(body)
         if kind == "percept":
             self.percept_ids.add(str(body["id"]))
             obj = str(body["object"])
@@ -947,8 +1161,13 @@ class Cell:
 
     def _helper(self, human: str) -> SimulatedOperator:
         """What an operator may do, as the in-process operators see it (no decision is taken
-        here: the profile and its randomness live in the operator's agent)."""
-        return SimulatedOperator(human)
+        here: the profile and its randomness live in the operator's agent). The robot commands
+        issued at this very instant go with it: a ``takeover`` operator gets there first."""
+        profile = self.operators.get(human, "passive")
+        fresh = frozenset(
+            cid for cid, t in self._issued_at.items() if t == self.now and cid not in self.acked
+        )
+        return SimulatedOperator(human, profile if profile in PROFILES else "passive", fresh=fresh)
 
     def _operator_busy(self, human: str) -> bool:
         # an intent that has arrived but waits for its time still holds its ``awaiting`` entry
@@ -1020,7 +1239,7 @@ class Cell:
             ),
         )
 
-    def _intent(self, body: dict[str, Any]) -> None:
+    def _intent(self, body: dict[str, Any]) -> list[Directive]:
         """An operator's answer to its ``options``, at the time it starts: it takes the branch
         it chose if that is still free, else gives up (someone got there first)."""
         human = str(body["agent"])
@@ -1029,7 +1248,7 @@ class Cell:
             del self.awaiting[human]
         self.decided.setdefault(human, set()).update(str(x) for x in body["decided"])
         if not body["act"]:
-            return
+            return []
         step, hyperarc, actions = str(body["step"]), str(body["hyperarc"]), list(body["actions"])
         helper = self._helper(human)
         arcs = [h for _, h in helper.options(self.tm).get(step, [])]
@@ -1039,7 +1258,15 @@ class Cell:
         )
         if not free or human in self.active_suggestion:
             self._record("human_gives_up", {"agent": human, "step": step, "element": hyperarc})
-            return
+            return []
+        if helper.fresh and self._arm_just_given(human, hyperarc, actions):
+            # takeover: an arm was given this very step at this instant and has not moved;
+            # the operator is there first, as with the panel's "I'll do this" (V-C)
+            self._record(
+                "human_decides",
+                {"agent": human, "element": hyperarc, "step": step, "actions": actions},
+            )
+            return self.tm.operator_takes(self.now, hyperarc, record=False)
         sid = f"s{len(self.suggestions) + 1}"
         self.suggestions[sid] = {
             "v": P.VERSION,
@@ -1057,6 +1284,16 @@ class Cell:
             {"agent": human, "element": hyperarc, "step": step, "actions": actions, "own": sid},
         )
         self._send_suggestion(human, sid)
+        return []
+
+    def _arm_just_given(self, human: str, hyperarc: str, actions: list[str]) -> bool:
+        """The operator's branch is free only because the arm holding its objects got its
+        command this very instant (``takeover``, :class:`SimulatedOperator` ``fresh``)."""
+        plain = SimulatedOperator(human)
+        return not any(
+            [str(a) for a in b] == actions
+            for b in plain.candidate_branches(self.tm, self.kb, hyperarc)
+        )
 
     def _settle(self) -> None:
         """After every input (live and while resuming, so both decide alike)."""
@@ -1103,6 +1340,9 @@ class Cell:
                 }
                 self.suggestions[sid] = msg
                 self.active_suggestion[human] = sid
+                if self.answer_timeout is not None:
+                    self._answer_due[sid] = self.now + self.answer_timeout
+                    self._asked_wall[sid] = time.monotonic()
                 self._record("suggestion", {k: v for k, v in msg.items() if k not in ("v", "type")})
                 self._send_suggestion(human, sid)
             elif isinstance(d, Stop):
@@ -1618,6 +1858,10 @@ class Cell:
         """Agents whose answer the discrete-event loop waits for before it moves on."""
         pending_cmd = {b["id"] for *_, k, b in self.pending if k == "ack"}
         pending_human = {b["agent"] for *_, k, b in self.pending if k == "human_action"}
+        pending_human |= {
+            b["agent"] for *_, k, b in self.pending if k == "human_reply" and b["reply"] != "start"
+        }
+        pending_human |= {h for h, sid in self.active_suggestion.items() if sid in self._timed_out}
         out = [
             a
             for a, c in sorted(self.tm.busy.items())
@@ -1758,6 +2002,14 @@ class Cell:
             return True
         if kind == "human_action" and self._held_elsewhere(t, body):
             return True
+        if kind == "human_reply" and (said := self._reply_problem(body)) is not None:
+            self._drop(f"reply {body['id']}: {said}")
+            return True
+        if kind == "human_action" and "start" not in body:
+            # a report without its start (a panel's "done"): when the person said they started
+            began = self._starts.get(str(body["agent"]))
+            if began is not None and began[0] in (None, body["action"]) and began[1] <= t:
+                body = {**body, "start": round(began[1], 6)}
         self._input(kind, body, t)
         self._refresh_suggestions()
         self._continue_suggestions()
@@ -1823,6 +2075,8 @@ class Cell:
                         self._agent_down(name)
             if self.step():
                 idle_since = None
+                continue
+            if self._fire_timeouts():
                 continue
             if not self.pending and self.quiescent is not None and self.quiescent():
                 self._end("failed", stall_reason(self.tm))
@@ -1936,6 +2190,24 @@ def _answer_order(item: tuple[float, int, str, dict[str, Any]]) -> tuple[Any, ..
     if kind == "ack":
         return (t, 0, int(body["id"]), "")
     return (t, 1, 0, f"{body.get('agent')}:{body.get('id')}")
+
+
+def _kind(graph: Any, name: str) -> str | None:
+    try:
+        return str(graph.kind(name))
+    except KeyError:
+        return None
+
+
+def answer_timeout_of(scenario: Any, given: float | None) -> float | None:
+    """How long a person may leave a request unanswered before it counts as declined:
+    ``given`` (``--answer-timeout``), else the scenario's ``answer_timeout`` key, else never."""
+    value = given if given is not None else getattr(scenario, "answer_timeout", None)
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, int | float) or not 0 < value < 1e6:
+        raise FlexhrcError(f"--answer-timeout must be a number of seconds > 0, got {value!r}")
+    return float(value)
 
 
 def failure_policy(scenario: Any, given: str | None) -> str:

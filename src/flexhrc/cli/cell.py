@@ -92,6 +92,7 @@ def cmd_cell(args: argparse.Namespace) -> int:
         realtime=args.realtime,
         simulator=args.simulator,
         on_failure=args.on_failure,
+        answer_timeout=args.answer_timeout,
         wait=args.wait,
         human=args.human,
         ready_file=args.ready_file,

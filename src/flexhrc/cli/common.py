@@ -51,6 +51,7 @@ def add_cell_options(
     )
     add_simulator_option(p, simulator_help)
     p.add_argument("--on-failure", **ON_FAILURE_OPTION)
+    p.add_argument("--answer-timeout", **ANSWER_TIMEOUT_OPTION)
     p.add_argument(
         "--wait",
         type=float,
@@ -284,3 +285,15 @@ def quiet_library_logs() -> None:
 
     for name in ("flexhrc.cell", "flexhrc.transport"):
         logging.getLogger(name).addHandler(logging.NullHandler())
+
+
+#: ``--answer-timeout`` of every command that runs a cooperation: the field ``answer_timeout``
+#: of its config (issue 22: a request unanswered for S seconds counts as declined).
+ANSWER_TIMEOUT_OPTION: dict[str, Any] = dict(
+    type=float_range(0.0, 1e6, lo_open=True),
+    default=None,
+    metavar="S",
+    help="a request the person leaves unanswered for S seconds (no report, no start, no "
+    "reply) counts as declined: the step goes back to the pool; default: the scenario's "
+    "answer_timeout, else the manager waits",
+)

@@ -17,6 +17,7 @@ from dataclasses import fields
 from typing import Any
 
 from flexhrc.cli.common import (
+    ANSWER_TIMEOUT_OPTION,
     ON_FAILURE_OPTION,
     add_json_flag,
     add_segments_option,
@@ -98,6 +99,7 @@ RUN_OPTIONS: dict[str, dict[str, Any]] = {
         "(paper, V-B)",
     ),
     "--on-failure": ON_FAILURE_OPTION,
+    "--answer-timeout": ANSWER_TIMEOUT_OPTION,
     "--simulator": dict(
         choices=["auto", "analytic", "kinematic"],
         help="how branches are simulated: kinematic (task-priority control on the robot model; "

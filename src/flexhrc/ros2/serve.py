@@ -78,6 +78,7 @@ class Ros2CellConfig(Ros2NodeConfig):
     realtime: float = 0.0
     simulator: str = "auto"
     on_failure: str | None = None
+    answer_timeout: float | None = None
     wait: float = 60.0
     markers_rate: float = 2.0
 
@@ -193,6 +194,7 @@ def serve_ros2_cell(
             trace=observe,
             seed=config.seed,
             on_failure=config.on_failure,
+            answer_timeout=config.answer_timeout,
         )
         cell.agents_hint = (
             "start them with `flexhrc ros2 arm SCENARIO --arm NAME` and `flexhrc ros2 human "

@@ -38,6 +38,7 @@ from flexhrc.scenario.model import (
 )
 from flexhrc.taskmanager.domain import ActionSchema, Domain, _line
 from flexhrc.taskmanager.kinds import TIMINGS, find_action_kind, unknown_kind
+from flexhrc.taskmanager.utility import parse_utility
 
 FORMAT_VERSION = 1
 
@@ -191,7 +192,9 @@ TOP_KEYS = {
     "robot",
     "simulator",
     "on_failure",
+    "answer_timeout",
     "timing",
+    "utility",
 }
 WORLD_KEYS = {"objects", "places", "facts", "supertypes"}
 
@@ -395,10 +398,26 @@ def _build(doc: Any, c: _Checker) -> Scenario | None:
             _line(doc, "on_failure"),
         )
         on_failure = None
+    answer_timeout = doc.get("answer_timeout")
+    if answer_timeout is not None and (
+        isinstance(answer_timeout, bool)
+        or not isinstance(answer_timeout, int | float)
+        or not 0 < answer_timeout < 1e6
+    ):
+        c.error(
+            f"answer_timeout {show(answer_timeout)}: a number of seconds > 0",
+            _line(doc, "answer_timeout"),
+        )
+        answer_timeout = None
     timing = doc.get("timing", "default")
     if not isinstance(timing, str) or timing not in TIMINGS:
         c.error(f"timing {show(timing)}: choose one of {', '.join(TIMINGS)}", _line(doc, "timing"))
         timing = "default"
+    utility, problems = parse_utility(doc.get("utility"), domain)
+    block = doc.get("utility")
+    for message, spot in problems:
+        where = _line(block, spot) if spot is not None and isinstance(block, Mapping) else None
+        c.error(message, where or _line(doc, "utility"))
     robot = doc.get("robot") or {}
     if not isinstance(robot, Mapping):
         c.error("robot must be a mapping", _line(doc, "robot"))
@@ -427,7 +446,9 @@ def _build(doc: Any, c: _Checker) -> Scenario | None:
         path,
         tuple(str(f) for f in c.faults if f.severity == "warning"),
         on_failure=on_failure,
+        answer_timeout=None if answer_timeout is None else float(answer_timeout),
         timing=timing,
+        utility=utility,
     )
 
 

@@ -20,6 +20,7 @@ from flexhrc.knowledge import KnowledgeBase
 from flexhrc.logic import Literal
 from flexhrc.representation import HierarchicalGraph, OnlineGraph
 from flexhrc.taskmanager.domain import Domain
+from flexhrc.taskmanager.utility import Utility
 
 Vec3 = tuple[float, float, float]
 
@@ -83,9 +84,14 @@ class Scenario:
     #: what a failed or timed-out robot action does to its hyper-arc (``on_failure:``):
     #: ``retry`` or ``paper`` (paper V-A); None: not said (``retry``, unless a run says otherwise)
     on_failure: str | None = None
+    #: how long a person may leave a request unanswered before it counts as declined
+    #: (``answer_timeout:``, seconds; ``--answer-timeout``); None: the manager waits
+    answer_timeout: float | None = None
     #: how simulated actions are timed (:data:`flexhrc.taskmanager.kinds.TIMINGS`): ``default``,
     #: or ``paper`` (the paper's Baxter and operator, to set beside its Table I)
     timing: str = "default"
+    #: the branch utility (``utility:``, :mod:`flexhrc.taskmanager.utility`); None: eq. (21)
+    utility: Utility | None = None
 
     # -- factories ------------------------------------------------------------------------
     def world(self) -> KnowledgeBase:

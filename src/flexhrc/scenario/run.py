@@ -35,13 +35,15 @@ def prepare(
     realtime: float = 0.0,
     max_time_s: float = 3600.0,
     on_failure: str | None = None,
+    answer_timeout: float | None = None,
 ) -> LocalCell:
     """One run of ``scenario``, ready to go (call ``.run()`` on it).
 
     ``profile`` overrides every operator's profile; ``simulator`` is ``analytic``,
     ``kinematic`` (a name) or a simulator object; it also plays the real world unless
     ``execution`` is given. ``sink`` and ``trace`` see every event of the log as it happens.
-    ``on_failure`` (``retry`` or ``paper``) overrides the scenario's failure policy.
+    ``on_failure`` (``retry`` or ``paper``) overrides the scenario's failure policy,
+    ``answer_timeout`` (seconds) the scenario's ``answer_timeout``.
     """
     if profile is not None and profile not in PROFILES:
         raise FlexhrcError(
@@ -61,6 +63,7 @@ def prepare(
         human_takes=human_takes,
         reaction=reaction,
         on_failure=on_failure,
+        answer_timeout=answer_timeout,
         observers=observers,
         realtime=realtime,
         max_time_s=max_time_s,

@@ -17,7 +17,7 @@ the reason, so the log says why it was never simulated.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -99,9 +99,13 @@ class Branch:
     steps: list[GroundAction]
     result: SimulationResult | None = None
     pruned: str | None = None  # why it was never simulated (a precondition fails)
+    #: the terms of a shaped utility (:mod:`flexhrc.taskmanager.utility`), None for eq. (21)
+    terms: dict[str, float] | None = None
 
     @property
     def utility(self) -> float:
+        if self.terms is not None:
+            return self.terms["utility"]
         return self.result.utility if self.result else 0.0
 
     @property
@@ -121,6 +125,7 @@ class Branch:
             "durations": [round(d, 6) for d in (r.durations if r else [])],
             "utility": self.utility,
             "reason": r.reason if r else self.pruned,
+            **({"terms": dict(self.terms)} if self.terms is not None else {}),
         }
 
 
@@ -217,10 +222,19 @@ class DecisionTree:
                 branches.append(Branch(full, steps))
         return cls(element, branches, pruned)
 
-    def evaluate(self, simulator: Simulator, kb: KnowledgeBase, domain: Domain) -> Branch | None:
-        """Simulate every branch; the best one (utility > 0), or None."""
+    def evaluate(
+        self,
+        simulator: Simulator,
+        kb: KnowledgeBase,
+        domain: Domain,
+        score: Callable[[Branch], dict[str, float]] | None = None,
+    ) -> Branch | None:
+        """Simulate every branch; the best one (utility > 0), or None. ``score`` gives a
+        simulated branch its terms under a shaped utility (default: eq. 21)."""
         for b in self.branches:
             b.result = simulator.simulate(b.steps, kb, domain)
+            if score is not None:
+                b.terms = score(b)
         best = None
         for b in self.branches:
             if b.utility > 0 and (best is None or b.utility > best.utility):

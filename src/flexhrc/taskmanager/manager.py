@@ -88,7 +88,9 @@ from flexhrc.taskmanager.decision import (
     unmet_precondition,
 )
 from flexhrc.taskmanager.domain import Domain, GroundAction
+from flexhrc.taskmanager.kinds import action_targets
 from flexhrc.taskmanager.simulator import Simulator, default_simulator
+from flexhrc.taskmanager.utility import Utility
 
 REACTIONS = ("conflicts", "paper")
 
@@ -256,6 +258,7 @@ class TaskManager:
         reaction: str = "conflicts",
         max_process_rounds: int = 1000,
         on_failure: str = "retry",
+        utility: Utility | None = None,
     ):
         if reaction not in REACTIONS:
             raise FlexhrcError(
@@ -264,6 +267,10 @@ class TaskManager:
         self.reaction = reaction
         self.on_failure = check_failure_policy(on_failure)
         self.max_process_rounds = max_process_rounds
+        # the scenario's ``utility:``; None: eq. (21) as the paper has it, no terms logged
+        self.utility = utility
+        # each person's effort-weighted busy time the manager gave them (workload term)
+        self.person_time: dict[str, float] = {}
         self.graph = graph
         self.domain = domain
         self.kb = kb
@@ -309,16 +316,56 @@ class TaskManager:
         self._sigmas: dict[str, Substitution] = {}  # upper hyper-arc -> its grounding
         self._instance_of: dict[str, str] = {}  # element -> its instance path (kept)
         self._collect_transfers()
+        # operator answers (docs/protocol.md, "Operator answers"): hyper-arc -> persons who
+        # said "not now" (until the cooperation moves on) or "I can't do this" (for the run)
+        self.declined: dict[str, set[str]] = {}
+        self.cannot: dict[str, set[str]] = {}
 
     # -- public API -----------------------------------------------------------------------
     def start(self, now: float = 0.0) -> list[Directive]:
         return self._entry(now, self._plan)
 
     def on_ack(self, now: float, ack: Ack) -> list[Directive]:
+        if ack.status == "done":
+            self.declined.clear()  # the cooperation moved on: a "not now" may be asked again
         return self._entry(now, lambda: self._handle_ack(ack))
 
     def on_human_action(self, now: float, action: HumanAction) -> list[Directive]:
+        self.declined.clear()
         return self._entry(now, lambda: self._handle_human(action))
+
+    def operator_replies(
+        self, now: float, human: str, element: str, reply: str, reason: str | None = None
+    ) -> list[Directive]:
+        """A person answers what they were asked to do, or had taken (``docs/protocol.md``,
+        "Operator answers"). ``decline`` ("not now") and ``give_back``: the person's execution
+        of ``element`` ends and the step goes back to the pool; the manager may give it to an
+        arm that can do it, or ask the person again once the cooperation has moved on (an
+        ack or a report; at once when nothing else is left to wait for). ``cannot`` ("I can't
+        do this"): the same, and the hyper-arc is never offered to that person again in this
+        run (its reason goes into the log). The decision of eq. (21) then ranges over the
+        agents left (paper 000, V-A)."""
+        if reply not in ("decline", "give_back", "cannot"):
+            raise FlexhrcError(f"unknown operator reply {reply!r}")
+
+        def body() -> list[Directive]:
+            ex = self.executions.get(element)
+            if ex is not None and ex.owner == "human" and human in ex.agents:
+                del self.executions[element]
+                row = self.table.rows.get(element)
+                if row is not None and row.status == "running":
+                    row.status = "feasible"
+            (self.cannot if reply == "cannot" else self.declined).setdefault(element, set()).add(
+                human
+            )
+            self._emit("human_declined", agent=human, element=element, reply=reply, reason=reason)
+            return self._plan()
+
+        return self._entry(now, body)
+
+    def _excluded(self, element: str) -> set[str]:
+        """The persons who may not be asked to do ``element`` now (declined or cannot)."""
+        return self.declined.get(element, set()) | self.cannot.get(element, set())
 
     def on_percept(
         self, now: float, moved: Iterable[str] = (), retracted: Iterable[HumanAction] = ()
@@ -346,13 +393,14 @@ class TaskManager:
         self._emit("agent_available" if available else "agent_unavailable", agent=agent)
         return self._entry(now, self._plan)
 
-    def operator_takes(self, now: float, element: str) -> list[Directive]:
+    def operator_takes(self, now: float, element: str, *, record: bool = True) -> list[Directive]:
         """A person says they *will* do the feasible hyper-arc ``element`` (a panel's "I'll do
         this"): the robots leave that part as when an unsuggested human action is recognised
         (paper 000, V-C: every robot execution sharing a child or an object with it is aborted),
         and its actions, grounded for the operators by a decision tree (eq. 21), are suggested
         to them. Raises :class:`TakeRefused` — before anything changes — when it is not a
-        feasible hyper-arc an operator can do now (:meth:`check_take`)."""
+        feasible hyper-arc an operator can do now (:meth:`check_take`). ``record`` False: no
+        ``taken`` event (the caller records the operator's own decision its way)."""
         tree, cost = self.check_take(element)
 
         def body() -> list[Directive]:
@@ -360,7 +408,8 @@ class TaskManager:
             out: list[Directive] = []
             objects = {k: v for k, v in best.grounding.items() if v not in self.domain.agents}
             self._take_over(element, best, objects, out)  # the robot leaves that part
-            self._emit("taken", element=element, grounding=dict(best.grounding))
+            if record:
+                self._emit("taken", element=element, grounding=dict(best.grounding))
             self._launch(element, best, cost, out)
             out += self._plan()
             return out
@@ -457,6 +506,10 @@ class TaskManager:
 
     def parent_of(self, hyperarc: str) -> str:
         return self._parent(hyperarc)
+
+    def has_processes(self, node: str) -> bool:
+        """Whether reaching ``node`` starts processes P(n) (arms keep working on its parts)."""
+        return bool(self._node_processes.get(node))
 
     def reserved_objects(self) -> set[str]:
         """Objects that running executions' groundings use."""
@@ -939,6 +992,10 @@ class TaskManager:
             self.table.refresh(self._feasible(), self._describe)
             started = self._start_next(out)
             if not started:
+                if self.declined and not (self.executions or self.busy or self.processes):
+                    # nothing else is left to wait for: a "not now" is asked again now
+                    self.declined.clear()
+                    continue
                 break
         return out
 
@@ -1011,7 +1068,10 @@ class TaskManager:
                 self._update_graph(solved_hyperarcs=[name])
                 self._meet_nodes()
                 return True
-            available = list(robots_idle) + [h for h in self._humans() if h not in busy_humans]
+            excluded = self._excluded(name) if (self.declined or self.cannot) else set()
+            available = list(robots_idle) + [
+                h for h in self._humans() if h not in busy_humans and h not in excluded
+            ]
             reserved = set().union(*(ex.objects for ex in self.executions.values()))
             constraints = self._constraints(name)
             tree = self._tree(
@@ -1038,7 +1098,7 @@ class TaskManager:
                 self._meet_nodes()
                 return True
             t0 = self._timer()
-            best = tree.evaluate(self.simulator, self.kb, self.domain)
+            best = tree.evaluate(self.simulator, self.kb, self.domain, self._score_fn())
             self.branches_simulated += len(tree.branches)
             if best is not None and self._is_persons(best):
                 best = self._robot_if_as_good(tree, best)
@@ -1140,9 +1200,40 @@ class TaskManager:
                 continue
             result = self.simulator.simulate(steps, self.kb, self.domain)
             total = sum(result.durations[len(before) :])
+            if self.utility is not None:
+                # the arm's branch scored like the person's, from where the arm will be
+                terms = self._terms(b.steps, result.success, result.durations[len(before) :])
+                if terms["utility"] > 0 and terms["utility"] >= persons.utility:
+                    return True
+                continue
             if result.success and total > 0 and 1.0 / total >= persons.utility:
                 return True
         return False
+
+    def _terms(
+        self, steps: Sequence[GroundAction], success: bool, durations: Sequence[float]
+    ) -> dict[str, float]:
+        """A branch's terms under the scenario's shaped utility (:mod:`.utility`)."""
+        assert self.utility is not None
+        return self.utility.terms(
+            steps,
+            success,
+            durations,
+            self.domain,
+            now=self._now,
+            person_time=self.person_time,
+        )
+
+    def _score_fn(self) -> Callable[[Branch], dict[str, float]] | None:
+        """How a simulated branch is scored: None for eq. (21), else its shaped terms."""
+        if self.utility is None:
+            return None
+
+        def score(b: Branch) -> dict[str, float]:
+            r = b.result
+            return self._terms(b.steps, bool(r and r.success), r.durations if r else [])
+
+        return score
 
     def _objects(self, branch: Branch) -> set[str]:
         return {v for v in branch.grounding.values() if v not in self.domain.agents}
@@ -1158,11 +1249,20 @@ class TaskManager:
         self, name: str, actions: tuple[str, ...], constraints: list[Literal], reserved: set[str]
     ) -> bool:
         """Would some branch exist if every agent were free and nothing reserved?"""
-        # an agent that left the cell may come back (cell: its process is restarted)
-        if not (self.busy or reserved or self.executions or self.unavailable):
+        # an agent that left the cell may come back (cell: its process is restarted); a person
+        # who said "not now" may be asked again
+        if not (
+            self.busy or reserved or self.executions or self.unavailable or self.declined.get(name)
+        ):
             return False
+        cannot = self.cannot.get(name)
+        kw = (
+            {"available_agents": [a for a in self.domain.agents if a not in cannot]}
+            if cannot
+            else {}
+        )
         tree = self._tree(
-            name, actions, constraints, check_pre=False
+            name, actions, constraints, check_pre=False, **kw
         )  # a precondition may come true when the others are done
         return bool(tree.branches)
 
@@ -1190,6 +1290,12 @@ class TaskManager:
         row = self.table.rows.get(name)
         if row:
             row.status = "running"
+        if human and self.utility is not None and branch.result is not None:
+            for step, d in zip(branch.steps, branch.result.durations, strict=False):
+                for a in step.agents:
+                    if self.domain.agent(a).is_human:
+                        t = self.utility.effort_time(step, d)
+                        self.person_time[a] = self.person_time.get(a, 0.0) + t
         if human:
             sug = Suggest(name, list(branch.steps), cost)
             self._emit("suggestion", **sug.to_dict())
@@ -1244,9 +1350,10 @@ class TaskManager:
                     if nxt is not None:
                         out.append(nxt)
         else:
-            if ex is not None and self._only_motions_left(ex):
+            if ex is not None and (self._only_motions_left(ex) or self._held_fast(ex)):
                 # what failed changes no fact, nor does anything after it (an arm that could not
-                # go to rest): the hyper-arc's result holds; redoing it would undo nothing
+                # go to rest), or its part is fixed in place (a gripper that did not open on a
+                # screwed leg): the hyper-arc's result holds; redoing it would undo nothing
                 self._emit(
                     "action_failed",
                     element=ex.element,
@@ -1321,6 +1428,17 @@ class TaskManager:
                 self.bindings[parent] = carried
             self._update_graph(solved_hyperarcs=[ex.element])
             self._meet_nodes()
+
+    def _held_fast(self, ex: Execution) -> bool:
+        """The hyper-arc's result holds and the part the failed step handles is fixed in place
+        — a gripper that did not open after screwing its leg: the connection cannot be undone,
+        so the transition counts as done, and the arm, never ``free`` again, is left as it is:
+        later decisions prune its branches by their preconditions (eq. 20)."""
+        if not self._outcome_holds(ex):
+            return False
+        step = ex.branch.steps[min(ex.next_index, len(ex.branch.steps) - 1)]
+        obj, _ = action_targets(step, self.kb)
+        return obj is not None and obj in self.kb.objects and self.kb.objects[obj].fixed
 
     @staticmethod
     def _only_motions_left(ex: Execution) -> bool:

@@ -3,14 +3,25 @@
 A :class:`SimulatedOperator` plays one human agent of the domain (inside the cell's simulated
 operator agent, :class:`flexhrc.cell.HumanAgent`). It sees what the Task Manager sees — the feasible
 hyper-arcs with their costs (eq. 10) and the suggestions addressed to it — and the knowledge
-base (what lies where). It always follows a suggestion. Besides, per profile, it acts on its
-own on the hyper-arcs it may do (every action of A(h) doable by a human, as the domain's
-``agents`` declare):
+base (what lies where). It follows a suggestion (``reluctant``: not always,
+:meth:`SimulatedOperator.answer`). Besides, per profile, it acts on its own on the hyper-arcs
+it may do (every action of A(h) doable by a human, as the domain's ``agents`` declare):
 
 * ``passive`` — only when asked;
 * ``takeover`` — takes every cooperation step it can, at once (paper Fig. 10);
 * ``cooperative`` — takes one now and then (half of the time, after 0.5-2 s; Fig. 11);
-* ``random`` — acts at random moments (0-6 s, 40 % of the steps) with random objects.
+* ``random`` — acts at random moments (0-6 s, 40 % of the steps) with random objects;
+* ``reluctant`` — never acts on its own; of the suggestions it gets it declines a share
+  (``decline_share``, 30 %, seeded) and answers ``cannot`` to every one with an action it
+  cannot do: ``cannot_share`` (a quarter, seeded, at least one) of the domain's actions a person
+  and an arm may both do — never an action only a person may do, so the cooperation stays
+  solvable (:meth:`SimulatedOperator.answer`).
+
+``takeover`` takes a step *before being asked*: a robot command the manager issued at this
+very instant (``fresh``: the arm has not moved yet) does not hold its objects for it, so a
+step the manager just gave an arm is still the operator's to take (the manager then stops the
+arm, paper 000 V-C) — unless the node it reaches starts processes P(n) (arms keep working on
+its parts there); the other profiles leave such a step to the arm.
 
 A *step* is the parent node its hyper-arcs lead to: the operator decides once per step, in the
 order the steps become reachable (for the table: bolt 1, bolt 2, ...). ``takes`` scripts it
@@ -36,13 +47,13 @@ import math
 import random
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from flexhrc.events import PROFILES
 from flexhrc.knowledge import KnowledgeBase
 from flexhrc.logic import apply_substitution
 from flexhrc.taskmanager.decision import DecisionTree
-from flexhrc.taskmanager.domain import Domain, GroundAction
+from flexhrc.taskmanager.domain import ActionSchema, Domain, GroundAction
 
 if TYPE_CHECKING:
     from flexhrc.taskmanager.manager import TaskManager
@@ -72,6 +83,14 @@ class SimulatedOperator:
     profile: str = "passive"
     seed: int = 0
     takes: set[int | str] | None = None
+    #: robot commands issued at this very instant (``takeover`` gets there first)
+    fresh: frozenset[int] = frozenset()
+    #: ``reluctant``: the share of suggestions it declines
+    decline_share: float = 0.3
+    #: ``reluctant``: the share of the actions a person and an arm may both do that it cannot do
+    cannot_share: float = 0.25
+    #: ``reluctant``: the action names it cannot do (None: drawn from the domain, seeded)
+    cannot: frozenset[str] | None = None
     rng: random.Random = field(init=False)
     steps_seen: list[str] = field(default_factory=list)  # target nodes, in order of appearance
 
@@ -138,12 +157,47 @@ class SimulatedOperator:
             act, delay = self.rng.random() < 0.5, self.rng.uniform(0.5, 2.0)
         elif self.profile == "random":
             act, delay = self.rng.random() < 0.4, self.rng.uniform(0.0, 6.0)
-        else:  # passive: only when asked
+        else:  # passive and reluctant: only when asked
             return None
         if not act:
             return None
         hyperarc = self.rng.choice(list(arcs))[1] if self.profile == "random" else arcs[0][1]
         return Intention(hyperarc, step, delay)
+
+    # -- answering a suggestion ----------------------------------------------------------------
+
+    def cannot_do(self, domain: Domain) -> frozenset[str]:
+        """The action names this operator cannot do (``reluctant``; the others can do all):
+        ``cannot`` as given, else a seeded ``cannot_share`` (at least one) of the domain's
+        actions that both a person and an arm may do, so an arm can always do them instead."""
+        if self.profile != "reluctant":
+            return frozenset()
+        if self.cannot is None:
+            shared = sorted(
+                name
+                for name, schema in domain.actions.items()
+                if domain.human_may_do(schema) and _robot_may_do(domain, schema)
+            )
+            k = max(1, round(self.cannot_share * len(shared))) if shared else 0
+            # its own generator: what it cannot do does not shift its other draws
+            self.cannot = frozenset(random.Random(self.seed).sample(shared, k))
+        return self.cannot
+
+    def answer(self, actions: Sequence[GroundAction], domain: Domain) -> tuple[str, str | None]:
+        """How it answers a suggestion of ``actions``: ``("follow", None)``, ``("decline",
+        reason)`` (not now: the step goes back to the pool) or ``("cannot", reason)`` (this
+        person never does that branch), sent by the operator's agent as the protocol's
+        ``decline``/``cannot`` replies. Only ``reluctant`` says anything but ``follow``; a
+        ``cannot`` does not use up a draw, so one seed gives the same declines."""
+        if self.profile != "reluctant":
+            return "follow", None
+        unable = self.cannot_do(domain)
+        for a in actions:
+            if a.schema.name in unable and self.name in a.agents:
+                return "cannot", f"{self.name} cannot {a.schema.name}"
+        if self.rng.random() < self.decline_share:
+            return "decline", f"{self.name}: not now"
+        return "follow", None
 
     def candidate_branches(
         self, tm: TaskManager, kb: KnowledgeBase, hyperarc: str
@@ -202,6 +256,8 @@ class SimulatedOperator:
         agents = tm.domain.agents
         out: set[str] = set()
         for cmd in tm.busy.values():
+            if self.profile == "takeover" and cmd.id in self.fresh and self._first_on(tm, cmd):
+                continue  # issued this instant: the arm has not moved, the operator is first
             schema, binding = cmd.action.schema, cmd.action.binding
             for lit in (*schema.add, *schema.delete):
                 for term in lit.args:
@@ -213,6 +269,19 @@ class SimulatedOperator:
                 for step in ex.branch.steps[ex.next_index :]:
                     out.update(a for a in step.args if a in kb.objects and a not in agents)
         return out
+
+    @staticmethod
+    def _first_on(tm: TaskManager, cmd: Any) -> bool:
+        """A step a fresh command is on may go to a takeover operator unless the node it
+        reaches starts processes P(n): there the arms keep working on the parts (the table's
+        hold of the tabletop), and a person's hand in the way would stall them."""
+        element = cmd.element
+        if element is None or cmd.process:
+            return False
+        try:
+            return not tm.has_processes(tm.parent_of(element))
+        except KeyError:
+            return False
 
     def holder_of(self, kb: KnowledgeBase, domain: Domain, step: GroundAction) -> str | None:
         """Another agent holding an object this step works on (then the step cannot be done)."""
@@ -233,6 +302,15 @@ class SimulatedOperator:
 
 
 __all__ = ["PROFILES", "Intention", "SimulatedOperator", "operator_seed"]
+
+
+def _robot_may_do(domain: Domain, schema: ActionSchema) -> bool:
+    """Some arm of the domain may do ``schema``."""
+    spec = schema.agents
+    if spec.mode == "choice":
+        typ = dict(schema.parameters)[str(spec.variable)]
+        return any(not a.is_human for a in domain.agents_of_type(typ))
+    return all(not domain.agent(n).is_human for n in spec.names)
 
 
 def _local(qualified: str) -> str:

@@ -89,6 +89,24 @@ def check_log(lines: Sequence[tuple[int, dict[str, Any]]], source: str | Path) -
                 ended[cid] = line
 
 
+def _decision_terms(ev: dict[str, Any]) -> dict[str, Any]:
+    """One decision of a shaped utility as ``--json`` shows it: each branch's agents, grounding
+    and terms (success, time, preference, workload, utility), and which one was chosen."""
+    return {
+        "t": ev.get("t", 0.0),
+        "element": ev.get("element"),
+        "chosen": ev.get("chosen"),
+        "branches": [
+            {
+                "agents": b.get("agents", []),
+                "grounding": b.get("grounding", {}),
+                "terms": b.get("terms", {}),
+            }
+            for b in ev.get("branches", [])
+        ],
+    }
+
+
 def summarise_log(events: Iterable[dict[str, Any]]) -> dict[str, Any]:
     """Table I and the counts of a log (validated with :func:`check_log` first)."""
     events = list(events)
@@ -100,6 +118,8 @@ def summarise_log(events: Iterable[dict[str, Any]]) -> dict[str, Any]:
     humans = {"human"}
     fixed_events = any(ev.get("type") == "fixed" for ev in events)
     decisions = branches = 0
+    # each decision's branches with their terms, when the run had a ``utility:`` (issue 22)
+    terms: list[dict[str, Any]] = []
     outcome: str | None = None
     reason = None
     simulator = None
@@ -116,6 +136,8 @@ def summarise_log(events: Iterable[dict[str, Any]]) -> dict[str, Any]:
         elif kind == "decision":
             decisions += 1
             branches += len(ev.get("branches", []))
+            if any("terms" in b for b in ev.get("branches", [])):
+                terms.append(_decision_terms(ev))
         elif kind == "outcome":
             outcome, reason = ev["outcome"], ev.get("reason")
         elif kind == "action_end":
@@ -169,6 +191,7 @@ def summarise_log(events: Iterable[dict[str, Any]]) -> dict[str, Any]:
         "human_actions": human_actions,
         "decisions": decisions,
         "branches_simulated": branches,
+        **({"decision_terms": terms} if terms else {}),
         "timing": {
             "task_manager_s": compute.get("task_manager_s", 0.0),
             "task_representation_s": compute.get("task_representation_s", 0.0),

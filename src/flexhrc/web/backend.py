@@ -11,7 +11,9 @@ as :mod:`flexhrc.transport.base`: small). Its implementation is
 * :meth:`PanelBackend.subscribe` — ``callback()`` is called, from any thread, after each change;
   it must return at once (the app only sets a flag and takes a snapshot on its own loop);
 * :meth:`PanelBackend.submit` — one validated human input, ``{"action": "<ground action>"}`` (the
-  person did it) or ``{"take": "<hyper-arc>"}`` (the person will do it); raises
+  person did it), ``{"take": "<hyper-arc>"}`` (the person will do it) or ``{"reply":
+  "decline"|"cannot"|"start"|"give_back"}`` (with ``"reason"`` for ``cannot``: the person's
+  answer to their open request, ``docs/protocol.md`` "Operator answers"); raises
   :class:`PanelInputError` and changes nothing when the input is unknown or not possible now;
 * :meth:`PanelBackend.stop_robot` / :meth:`PanelBackend.resume_robot` — the operator's stop.
 
@@ -31,6 +33,7 @@ from collections.abc import Callable, Mapping
 from typing import Any, Protocol, runtime_checkable
 
 from flexhrc.errors import FlexhrcError
+from flexhrc.events import REPLIES
 
 #: largest request body accepted, in bytes (a ground action is a few dozen)
 MAX_BODY_BYTES = 4096
@@ -127,18 +130,30 @@ def _string(data: Mapping[str, Any], key: str) -> str:
 
 
 def parse_human_body(raw: bytes) -> dict[str, str]:
-    """Validate a ``POST /api/human`` body: exactly one of ``action`` (a ground action) or
-    ``take`` (a hyper-arc name), a string in the grammar of names. Returns it normalised."""
+    """Validate a ``POST /api/human`` body: exactly one of ``action`` (a ground action),
+    ``take`` (a hyper-arc name) or ``reply`` (one of :data:`~flexhrc.events.REPLIES`, with an
+    optional ``reason``), strings in the grammar of names. Returns it normalised."""
     data = _json_body(raw)
     keys = set(data)
-    allowed = {"action", "take"}
+    allowed = {"action", "take", "reply", "reason"}
     if keys - allowed:
         raise PanelInputError(
             f"unknown key(s) {', '.join(sorted(map(repr, keys - allowed)))}; send "
-            '{"action": "<ground action>"} or {"take": "<hyper-arc>"}'
+            '{"action": "<ground action>"}, {"take": "<hyper-arc>"} or {"reply": "decline"}'
         )
-    if len(keys) != 1:
-        raise PanelInputError('send exactly one of {"action": ...} or {"take": ...}')
+    if "reply" in data and keys <= {"reply", "reason"}:
+        reply = _string(data, "reply")
+        if reply not in REPLIES:
+            raise PanelInputError(
+                f"'reply' must be one of {', '.join(REPLIES)}, got {_clip(reply)!r}"
+            )
+        if "reason" in data:
+            return {"reply": reply, "reason": _clip(_string(data, "reason"), MAX_NAME_CHARS)}
+        return {"reply": reply}
+    if len(keys) != 1 or "reason" in keys:
+        raise PanelInputError(
+            'send exactly one of {"action": ...}, {"take": ...} or {"reply": ...}'
+        )
     if "action" in data:
         text = _string(data, "action")
         name, args = parse_action(text)

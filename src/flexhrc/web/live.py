@@ -103,7 +103,9 @@ class CellPanel:
             return self._ask("action", body["action"])
         if "take" in body:
             return self._ask("take", body["take"])
-        raise PanelInputError('send {"action": ...} or {"take": ...}')
+        if "reply" in body:
+            return self._ask("reply", (body["reply"], body.get("reason")))
+        raise PanelInputError('send {"action": ...}, {"take": ...} or {"reply": ...}')
 
     def stop_robot(self, name: str) -> dict[str, Any]:
         return self._ask("stop", name)
@@ -190,7 +192,28 @@ class CellPanel:
             return self._take(str(arg))
         if kind in ("stop", "resume"):
             return self._robot(str(arg), stop=kind == "stop")
+        if kind == "reply":
+            return self._reply(*arg)
         raise PanelInputError(f"unknown input {kind!r}")
+
+    def _reply(self, reply: str, reason: str | None) -> dict[str, Any]:
+        """The person answers their open request (``docs/protocol.md``, "Operator answers"):
+        "not now", "I can't do this", "I'm starting", "I give it back"."""
+        c = self.cell
+        human = next((n for n, s in c.agents.items() if s.kind == "human"), None)
+        if human is None:
+            raise PanelInputError("this scenario has no operator", 409)
+        if reply != "start" and human not in c.active_suggestion:
+            raise PanelInputError(f"nothing is asked of {human} now: nothing to {reply}", 409)
+        before = len(c.dropped)
+        c.human_reply(reply, human, reason=reason)  # stored and fed by the cell's own loop
+        if len(c.dropped) > before:
+            raise PanelInputError(c.dropped[-1], 409)
+        if not c.ordered:  # on the wall clock: handled now, as a report is
+            while c.pending and c.step():
+                pass
+        self.refresh(force=True)
+        return {"ok": True, "reply": reply, "outcome": c.tm.outcome}
 
     def _human_action(self, text: str) -> dict[str, Any]:
         c = self.cell

@@ -1,9 +1,11 @@
 """The cooperative table assembly of FlexHRC+ (paper 000, VI-D, Figs. 5 and 8-13).
 
 :func:`table_assembly` builds it as a :class:`~flexhrc.scenario.Scenario`, in three segments
-(:data:`SEGMENTS`): the tabletop placement (Fig. 8: ``place_tabletop``, one joint command of
-both arms, the node ``tabletop`` then held by the process ``hold(?top)`` until it has settled;
-``human_places_tabletop``, cost 3, when the arms cannot), the legs fix (Figs. 9-12, below) and
+(:data:`SEGMENTS`): the tabletop placement (Fig. 8: ``place_tabletop`` picks the tabletop from
+its stand, turns it flat and places it, each step one joint command of both arms; at the node
+``tabletop_placed`` the process ``hold(?top)`` keeps it still with both hands until it has
+settled; ``arms_to_rest`` sends both arms to rest; the operator's alternative
+``human_places_tabletop`` only when asked for), the legs fix (Figs. 9-12, below) and
 the check (Fig. 13: ``check_connections``, weight 0, so the suggestion costs of the legs fix are
 those of Figs. 9-12; left out without an operator). ``segments="legs"`` is the legs fix alone.
 With its defaults it is the task of the shipped ``table_assembly`` file (:func:`write_shipped`).
@@ -438,10 +440,30 @@ def parse_segments(segments: str | Sequence[str] | None, *, human: bool = True) 
     return tuple(s for s in SEGMENTS if s in chosen)
 
 
-def task_graph(legs: int = 4, segments: Sequence[str] = SEGMENTS) -> HierarchicalGraph:
+#: The tabletop placement of Fig. 8 as the hyper-arc ``place_tabletop`` (a-e: pick it from its
+#: stand, turn it flat, place it at the assembly pose) and, once the process ``hold(?top)`` of
+#: ``tabletop_placed`` has ended, ``arms_to_rest`` (f: both arms back to rest).
+PLACE_TABLETOP = (
+    "pick_tabletop(?top)",
+    "reorient_tabletop(?top)",
+    "place_tabletop(?top, assembly_pose)",
+)
+ARMS_TO_REST = ("return_to_rest()",)
+
+
+def task_graph(
+    legs: int = 4,
+    segments: Sequence[str] = SEGMENTS,
+    *,
+    operator_places_tabletop: bool = False,
+) -> HierarchicalGraph:
     """The graph of the chosen segments as one first-order graph: the legs fix alone is
-    :func:`build_graph`'s; with ``tabletop`` the tabletop first waits on its stand and its node
-    has the process ``hold(?top)``; with ``check`` the operator's check closes the task."""
+    :func:`build_graph`'s; with ``tabletop`` the robot first places the tabletop (Fig. 8:
+    :data:`PLACE_TABLETOP`, the node ``tabletop_placed`` with the process ``hold(?top)``, then
+    :data:`ARMS_TO_REST`); with ``check`` the operator's check closes the task. In the
+    paper the robot always places the tabletop: ``operator_places_tabletop`` adds the
+    operator's alternative ``human_places_tabletop`` (cost 3; needs the check segment's
+    operator)."""
     if tuple(segments) == ("legs",):
         return build_graph(legs)
     tabletop = "tabletop" in segments
@@ -454,22 +476,17 @@ def task_graph(legs: int = 4, segments: Sequence[str] = SEGMENTS) -> Hierarchica
         g.add_node(
             Node("tabletop_on_stand", 0, parse_conjunction("tabletop(?top) & on_table(?top)"))
         )
+        placed = parse_conjunction("tabletop(?top) & placed(?top)")
+        g.add_node(Node("tabletop_placed", 0, placed, ("hold(?top)",)))
     for n in fix.nodes.values():
-        if n.name == "tabletop" and tabletop:
-            g.add_node(Node(n.name, n.weight, n.formula, ("hold(?top)",)))
-        elif n.name == "tabletop" or "legs" in segments:
+        if n.name == "tabletop" or "legs" in segments:
             g.add_node(Node(n.name, n.weight, n.formula, n.processes))
     if tabletop:
         g.add_hyperarc(
-            Hyperarc(
-                "place_tabletop",
-                ("tabletop_on_stand",),
-                "tabletop",
-                1,
-                ("place_tabletop(?top, assembly_pose)",),
-            )
+            Hyperarc("place_tabletop", ("tabletop_on_stand",), "tabletop_placed", 1, PLACE_TABLETOP)
         )
-        if check:  # the operator places it when the arms cannot (the robot's way is cheaper)
+        g.add_hyperarc(Hyperarc("arms_to_rest", ("tabletop_placed",), "tabletop", 0, ARMS_TO_REST))
+        if operator_places_tabletop:  # the robot's way is cheaper; the operator's when it fails
             g.add_hyperarc(
                 Hyperarc(
                     "human_places_tabletop",
@@ -520,8 +537,9 @@ def _task_world(layout: TableLayout, segments: tuple[str, ...]) -> KnowledgeBase
 
 
 DESCRIPTION = (
-    "The FlexHRC+ table assembly in three segments (paper 000, VI-D): the robot places the "
-    "tabletop with both arms and holds it (Fig. 8), robot and operator fix four legs "
+    "The FlexHRC+ table assembly in three segments (paper 000, VI-D): the robot picks the "
+    "tabletop from its stand with both arms, turns it flat, places and holds it, then rests "
+    "(Fig. 8), robot and operator fix four legs "
     "(Figs. 9-12), the operator checks every connection (Fig. 13)."
 )
 
@@ -539,14 +557,17 @@ def table_assembly(
     segments: str | Sequence[str] | None = "all",
     profile: str = "passive",
     name: str = "table_assembly",
+    operator_places_tabletop: bool = False,
 ) -> Scenario:
     """The paper's table assembly (000, VI-D) as a :class:`~flexhrc.scenario.Scenario`.
 
     ``segments`` picks parts of it (:func:`parse_segments`): ``all`` (default) is the task of
     the shipped ``table_assembly`` file — tabletop placement, legs fix, check; ``legs`` is the
     legs fix alone (Figs. 9-12, the older ``scenario: table_assembly`` files). The other
-    arguments describe the table (:class:`TableLayout`); ``profile`` is the operator's. Bad
-    settings raise :class:`ScenarioError` naming the setting.
+    arguments describe the table (:class:`TableLayout`); ``profile`` is the operator's;
+    ``operator_places_tabletop`` gives the operator a way to place the tabletop beside the
+    robot's (in the paper only the robot does, Fig. 8). Bad settings raise
+    :class:`ScenarioError` naming the setting.
     """
     from flexhrc.scenario.model import HumanSpec, Scenario, WorldSpec
 
@@ -561,6 +582,14 @@ def table_assembly(
         leg_positions=[tuple(p) for p in leg_positions] if leg_positions is not None else None,  # type: ignore[misc]
     )
     chosen = parse_segments(segments, human=human)
+    if not isinstance(operator_places_tabletop, bool):
+        raise ScenarioError(
+            "operator_places_tabletop", f"must be true or false, got {operator_places_tabletop!r}"
+        )
+    if operator_places_tabletop and not (human and "tabletop" in chosen):
+        raise ScenarioError(
+            "operator_places_tabletop", "needs an operator and the tabletop segment"
+        )
     if chosen == ("legs",):
         domain = load_domain(human)
         description = "The legs fix of the FlexHRC+ table assembly (paper 000, Figs. 9-12)."
@@ -570,7 +599,7 @@ def table_assembly(
     return Scenario(
         name,
         description,
-        task_graph(legs, chosen),
+        task_graph(legs, chosen, operator_places_tabletop=operator_places_tabletop),
         domain,
         WorldSpec(),
         (HumanSpec("human", profile),) if human else (),

@@ -38,6 +38,7 @@ async function post(path, body) {
     if (!r.ok) { say(data.error || ("HTTP " + r.status), true); return null; }
     text = data.already_done ? "already done: " + data.action
          : data.action ? "done: " + data.action : data.take ? "you take " + data.take
+         : data.reply ? "you said " + REPLY_TEXT[data.reply]
          : data.stopped ? "stopped " + data.stopped : data.resumed ? "resumed " + data.resumed : "ok";
     say(text, false);
     return data;
@@ -105,6 +106,17 @@ function changed(part, data, draw) {
   draw();
 }
 
+// the person's answers beyond "done" (docs/protocol.md, "Operator answers")
+const REPLY_TEXT = { start: "I'm starting", decline: "not now", cannot: "I can't do this",
+                     give_back: "I give it back" };
+function replyButtons() {
+  return ["start", "decline", "cannot", "give_back"].map((r) =>
+    el("button", { class: "reply " + r, "data-reply": r,
+      onclick: () => post("/api/human", r === "cannot" ? { reply: r, reason: "said at the panel" }
+                                                        : { reply: r }) },
+      { start: "start", decline: "not now", cannot: "can't", give_back: "give back" }[r]));
+}
+
 function renderSuggestions(s) {
   const body = document.querySelector("#suggestions tbody");
   const takeable = new Set(s.takeable || []);
@@ -112,8 +124,10 @@ function renderSuggestions(s) {
     const mine = g.owner === "human";
     let button = null;
     if (mine && g.next) {
-      button = el("button", { class: "done", "data-action": g.next,
-        onclick: () => post("/api/human", { action: g.next }) }, "done");
+      button = el("span", { class: "answers" },
+        el("button", { class: "done", "data-action": g.next,
+          onclick: () => post("/api/human", { action: g.next }) }, "done"),
+        ...replyButtons());
     } else if (takeable.has(g.element)) {
       button = el("button", { class: "take", "data-take": g.element,
         onclick: () => post("/api/human", { take: g.element }) }, "I'll do this");
