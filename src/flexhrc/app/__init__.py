@@ -6,6 +6,7 @@ prints that report — so a program can do everything a command does:
 * :func:`run_scenario` — ``flexhrc run FILE|NAME`` and ``flexhrc demo table``
   (:class:`RunConfig`, :class:`TableDemo` in; :class:`RunReport` out);
 * :func:`replay` — ``flexhrc replay LOG`` (:class:`ReplayReport` out);
+* :func:`what_if` — ``flexhrc replay STORE --fork-at K`` (:class:`ForkReport` out);
 * :func:`learn_model` — ``flexhrc learn STORE... -o FILE`` (an operator model out).
 
 This package stands above the front ends (the perception in the loop of
@@ -16,9 +17,11 @@ from __future__ import annotations
 
 from flexhrc.app.learn import learn_model
 from flexhrc.app.run import RunConfig, RunReport, TableDemo, run_scenario
+from flexhrc.app.whatif import ForkReport, what_if
 from flexhrc.cell.replay import ReplayReport, replay
 
 __all__ = [
+    "ForkReport",
     "ReplayReport",
     "RunConfig",
     "RunReport",
@@ -26,4 +29,5 @@ __all__ = [
     "learn_model",
     "replay",
     "run_scenario",
+    "what_if",
 ]

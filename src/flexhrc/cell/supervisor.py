@@ -464,6 +464,19 @@ class Cell:
             raise FlexhrcError(f"unknown agent {name!r}")
         self._input("agent_up", {"agent": name, "wall": time.time(), "by": by})
 
+    def set_operator_profile(self, name: str, profile: str) -> None:
+        """From now on operator ``name`` behaves as ``profile`` (the stored input
+        ``operator``, as a process announcing its profile makes it): a what-if run forked from
+        a store with another person (``flexhrc replay --fork-at K --human PROFILE``). A
+        ``passive`` operator no longer gets ``options``; one it had not answered is dropped."""
+        st = self.agents.get(name)
+        if st is None or st.kind != "human":
+            raise FlexhrcError(f"{name!r} is not a human agent of this cell")
+        if profile not in PROFILES:
+            raise FlexhrcError(f"unknown operator profile {profile!r} ({', '.join(PROFILES)})")
+        if self.operators.get(name, "passive") != profile:
+            self._input("operator", {"agent": name, "profile": profile})
+
     def set_realtime(self, realtime: float, *, agent_speed: float | None = None) -> None:
         """Change the pace of the wall clock from now on (a panel's speed control): the cell's
         time goes on from where it is; ``agent_speed`` (if given) is the pace the agents get
@@ -1025,6 +1038,8 @@ class Cell:
             self.operators[str(body["agent"])] = str(body["profile"])
             if body.get("scripted"):
                 self.scripted.add(str(body["agent"]))
+            elif body["profile"] == "passive":  # a what-if's new operator answers no options
+                self.awaiting.pop(str(body["agent"]), None)
             return []
         if kind == "intent":
             return self._intent(body)
@@ -1302,6 +1317,8 @@ class Cell:
                 if not self.replaying:
                     self._record("command", body)
                     self.stored_commands.add(d.id)
+                elif self._captured is not None:  # in its place among the last input's outputs
+                    self._captured.append(("command", body))  # (_record_kept_outputs)
                 self._start_joints[d.id] = self._joints_of(d.agents)
                 self._predict(d)
                 # a joint command goes to its first agent, which drives all of them (as one

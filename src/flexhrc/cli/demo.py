@@ -25,8 +25,10 @@ from flexhrc.cli.common import (
     float_range,
     int_range,
     progress,
+    quiet_library_logs,
     seed_type,
 )
+from flexhrc.errors import FlexhrcError
 from flexhrc.events import PROFILES
 
 #: name -> (help, description) of the commands of this module.
@@ -45,7 +47,8 @@ COMMANDS = {
     "replay": (
         "print the summary of a saved cooperation log (JSONL) or cell store (.db)",
         "Check every event of a cooperation log and print its summary (Table I); says so when "
-        "the run was cut short (no outcome event).",
+        "the run was cut short (no outcome event). With --fork-at K (a cell's store): what if "
+        "the cooperation had gone on otherwise from event K (docs/cell.md, What-if).",
     ),
 }
 #: The options of ``demo table`` that describe the table (:class:`flexhrc.app.TableDemo`).
@@ -165,9 +168,61 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
     )
     _run_options(r, {})
     rp = _command(sub, "replay", cmd_replay)
-    rp.add_argument("log", metavar="LOG", help="the event log a run wrote with --log")
     rp.add_argument(
-        "--plot", metavar="FILE", help="draw the timeline from the log (.png, .svg or .pdf)"
+        "log", metavar="LOG", help="the event log a run wrote with --log, or a cell's store (.db)"
+    )
+    rp.add_argument(
+        "--plot",
+        metavar="FILE",
+        help="draw the timeline from the log (.png, .svg or .pdf); with --fork-at both "
+        "timelines, the stored run above the what-if",
+    )
+    what_if = rp.add_argument_group(
+        "what-if (a cell's store only, docs/cell.md)",
+        "rebuild the stored cooperation up to event K, go on with new choices and simulated "
+        "agents, keep the new run in a new store and print both runs side by side",
+    )
+    what_if.add_argument(
+        "--fork-at",
+        type=int_range(1, None),
+        metavar="K",
+        help="fork the stored run after its event K (its seq: 1 is the start)",
+    )
+    what_if.add_argument(
+        "--human",
+        choices=PROFILES,
+        metavar="PROFILE",
+        help="the operators' profile from event K on: passive, takeover, cooperative, random "
+        "(default: as stored)",
+    )
+    what_if.add_argument(
+        "--on-failure",
+        choices=ON_FAILURE_OPTION["choices"],
+        default=None,
+        help="the failure policy of the what-if: retry or paper (default: as stored; refused "
+        "when a robot action failed within the first K events)",
+    )
+    what_if.add_argument(
+        "--operators",
+        metavar="FILE",
+        help="the operator model (flexhrc learn; docs/operators.md) the manager times the "
+        "people's steps by; a run made with --operators forks faithfully with the same file",
+    )
+    what_if.add_argument(
+        "-o",
+        "--output",
+        metavar="NEW.db",
+        help="the what-if's store (default: STORE-forkK.db beside the stored one); an existing "
+        "file is refused unless --force",
+    )
+    what_if.add_argument(
+        "--force", action="store_true", help="replace an existing -o file with the what-if"
+    )
+    what_if.add_argument(
+        "--scenario",
+        metavar="FILE|NAME",
+        help="the stored run's scenario, when it is a file (default: the shipped scenario the "
+        "store names)",
     )
     add_json_flag(rp)
 
@@ -240,8 +295,52 @@ def cmd_run(args: argparse.Namespace, scenario: Any = None) -> int:
 def cmd_replay(args: argparse.Namespace) -> int:
     from flexhrc.app import replay
 
+    if args.fork_at is not None:
+        return _cmd_what_if(args)
+    given = [o for o, v in _WHAT_IF_OPTIONS.items() if getattr(args, v) not in (None, False)]
+    if given:
+        raise FlexhrcError(f"{', '.join(given)}: only with --fork-at K (a what-if run)")
     report = replay(args.log, plot=args.plot)
     for warning in report.warnings:
         progress(warning)
     emit(args, report.json, report.text)
+    return 0
+
+
+#: The options of ``replay`` that only a what-if takes (option -> its attribute).
+_WHAT_IF_OPTIONS = {
+    "--human": "human",
+    "--on-failure": "on_failure",
+    "--operators": "operators",
+    "-o": "output",
+    "--force": "force",
+    "--scenario": "scenario",
+}
+
+
+def _cmd_what_if(args: argparse.Namespace) -> int:
+    """``replay STORE --fork-at K``: the stored run and its what-if side by side."""
+    from flexhrc.app import what_if
+    from flexhrc.cell.fork import compare_text
+    from flexhrc.cell.store import is_store
+
+    # a resumed operator may answer options sent to it twice; the cell drops the repeat
+    quiet_library_logs()
+    if not is_store(args.log):
+        raise FlexhrcError(
+            f"--fork-at: {args.log} is not a cell's event store (.db): only a store can be "
+            "forked (flexhrc cell --store FILE.db)"
+        )
+    report = what_if(
+        args.log,
+        args.fork_at,
+        args.output,
+        human=args.human,
+        on_failure=args.on_failure,
+        operators=args.operators,
+        scenario=args.scenario,
+        force=args.force,
+        plot=args.plot,
+    )
+    emit(args, report.to_json(), compare_text(report))
     return 0

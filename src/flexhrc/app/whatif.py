@@ -1,0 +1,90 @@
+"""What-if from the store as one call: ``flexhrc replay STORE --fork-at K`` (issue 22, item 5).
+
+:func:`what_if` loads the stored run's scenario (the shipped one its ``start`` names, or the
+file or name given), forks the store (:func:`flexhrc.cell.fork.fork_store`) and draws both
+timelines one above the other when asked.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+
+from flexhrc.cell.components import ScenarioLike
+from flexhrc.cell.fork import ForkReport, fork_store
+from flexhrc.errors import FlexhrcError, UnknownNameError
+from flexhrc.files import check_output
+
+__all__ = ["ForkReport", "what_if"]
+
+
+def what_if(
+    source: str | Path,
+    at: int,
+    out: str | Path | None = None,
+    *,
+    human: str | None = None,
+    on_failure: str | None = None,
+    operators: str | Path | None = None,
+    scenario: str | Path | None = None,
+    force: bool = False,
+    plot: str | Path | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> ForkReport:
+    """``flexhrc replay STORE --fork-at K``: :func:`~flexhrc.cell.fork.fork_store`, and with
+    ``plot`` both timelines one above the other (.png, .svg or .pdf; checked before any work,
+    written atomically). ``scenario``: the stored run's scenario file or name (None: the one
+    its ``start`` names), loaded with the stored seed."""
+    from flexhrc.cell.fork import profiles_text
+    from flexhrc.cell.replay import PLOT_SUFFIXES, need_matplotlib
+    from flexhrc.files import atomic_output
+
+    if plot is not None:
+        inputs = [source] + ([out] if out is not None else [])
+        check_output(plot, option="--plot", suffixes=PLOT_SUFFIXES, inputs=inputs)
+        need_matplotlib()
+    report = fork_store(
+        source,
+        at,
+        out,
+        human=human,
+        on_failure=on_failure,
+        operators=operators,
+        scenario=lambda name, seed: _load(source, scenario, name, seed),
+        force=force,
+        progress=progress,
+    )
+    if plot is not None:
+        from flexhrc.taskmanager.timeline import plot_timelines
+
+        pa, pb = report.profiles.get("original", {}), report.profiles.get("fork", {})
+        with atomic_output(plot) as tmp:
+            plot_timelines(
+                [
+                    (report.original_events, f"stored run {source} ({profiles_text(pa)})"),
+                    (report.fork_events, f"what-if from event {at} ({profiles_text(pb)})"),
+                ],
+                tmp,
+                marks=[(report.at_t, f"event {at}")],
+            )
+    return report
+
+
+def profiles_text(profiles: dict[str, str]) -> str:
+    return ", ".join(f"{h}: {p}" for h, p in sorted(profiles.items())) or "no operator"
+
+
+def _load(source: str | Path, given: str | Path | None, name: str, seed: int) -> ScenarioLike:
+    """The stored run's scenario: ``given`` (``--scenario``), else the shipped one named
+    ``name`` in the store; a scenario from a file is not known by its name alone."""
+    from flexhrc.scenario import load_scenario
+
+    if given is not None:
+        return load_scenario(given, seed=seed)
+    try:
+        return load_scenario(name, seed=seed)
+    except UnknownNameError:
+        raise FlexhrcError(
+            f"{source}: the stored run's scenario {name!r} is not a shipped one: give its file "
+            "with --scenario FILE"
+        ) from None
