@@ -16,7 +16,7 @@ from flexhrc.cell.components import execution_model
 from flexhrc.cell.serve import serve_until_end, zenoh_for_cell
 from flexhrc.scenario import load_scenario
 
-from .helpers import finish, kill_all, robot, rows, start_cell
+from .helpers import finish, human, kill_all, robot, rows, start_cell
 from .test_answers import LIDS
 
 pytestmark = pytest.mark.slow
@@ -64,3 +64,32 @@ def test_an_operator_over_zenoh_cannot_or_does_not_answer(tmp_path: Path, answer
     arm = [b["action"] for _, _, k, b in events if k == "command"]
     assert arm[0] == "carry(arm, lid_a, box)"
     assert any("suggestion s1" in line for line in lines)
+
+
+def test_a_reluctant_operator_process_answers_cannot_and_the_arm_does_it(tmp_path: Path) -> None:
+    """The operator as its own `flexhrc agent human --profile reluctant` process: the only
+    action of the lids task, `carry`, is one an arm may also do, so the profile answers
+    `cannot` when asked (its seeded share is at least one such action); the manager stores the
+    reply, never asks the person again, and the arm carries both lids."""
+    path = tmp_path / "lids.yaml"
+    path.write_text(LIDS)
+    store = tmp_path / "cell.db"
+    manager, port = start_cell(str(path), store, log=tmp_path / "cell.err")
+    procs = [manager, robot(str(path), "arm", port, tmp_path / "arm.err")]
+    try:
+        procs.append(
+            human(str(path), "human", port, tmp_path / "human.err", "--profile", "reluctant")
+        )
+        data = finish(manager, timeout=120)
+        assert procs[2].wait(30) == 0, (tmp_path / "human.err").read_text()[-2000:]
+    finally:
+        kill_all(procs)
+    assert data["outcome"] == "solved", (tmp_path / "cell.err").read_text()[-2000:]
+    events = rows(store)
+    replies = [b for _, _, k, b in events if k == "human_reply"]
+    assert replies and {b["reply"] for b in replies} == {"cannot"}, replies
+    assert [b["element"] for _, _, k, b in events if k == "human_declined"] == ["place_a"]
+    asked = [b for _, _, k, b in events if k == "suggestion"]
+    assert len(asked) == 1, asked  # never asked again after its cannot
+    carried = [b["agents"] for _, _, k, b in events if k == "command"]
+    assert carried == [["arm"], ["arm"]], carried
