@@ -138,7 +138,7 @@ StoreKind = Literal[
     "action_failed", "infeasible", "recognised", "solved", "human_action_unmatched",
     "ack_ignored", "agent_available", "agent_unavailable", "human_decides", "human_gives_up",
     "fixed", "summary", "begin", "operator_answers", "waiting", "inconsistent",
-    "consistent_again", "repaired", "human_reply", "human_declined",
+    "consistent_again", "repaired", "human_reply", "human_declined", "utility",
 ]
 # fmt: on
 StoreRole = Literal["input", "output", "record"]
@@ -778,6 +778,12 @@ _STORE_SPECS = [
         "input",
         "a reply message (decline, cannot, start, give_back) "
         "or an unanswered suggestion's timeout (`why: timeout`)",
+    ),
+    StoreKindSpec(
+        "utility",
+        "input",
+        "a what-if's new branch utility from this event on (`flexhrc replay --fork-at K "
+        "--utility FILE`): `utility`, the block as the scenario key `utility:` takes it",
     ),
     StoreKindSpec("command", "output", "a command message sent"),
     StoreKindSpec("suggestion", "output", "a suggestion message sent"),

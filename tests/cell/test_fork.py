@@ -267,3 +267,59 @@ def test_a_run_with_an_operator_model_forks_with_its_file(
     assert main(["replay", str(source), "--fork-at", str(late), "-o", str(bad)]) == 2
     assert "give it with --operators FILE" in capsys.readouterr().err
     assert not [p for p in tmp_path.iterdir() if p.name.startswith("bad.db")]
+
+
+def test_a_fork_with_another_utility_differs_and_its_store_replays_it(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``--utility FILE`` (issue 22, item 5): from event K the Task Manager scores branches by
+    the file's utility — here the person is preferred for every step they may do — stored as
+    the input ``utility``, so the fork's own store resumes and replays it. The gearbox
+    example: the person may mount, fasten and cover as the arms may (the table's person only
+    checks, so no utility changes who does what there)."""
+    gearbox = str(Path(__file__).parents[2] / "examples" / "scenarios" / "gearbox.yaml")
+    source = tmp_path / "gearbox.db"
+    serve_cell(load_scenario(gearbox), CellConfig(human="passive", store=source))
+    events = read_store(source)
+    at = next(ev.seq for ev in events if ev.kind == "command")
+    prefer = tmp_path / "prefer_person.yaml"
+    prefer.write_text("utility:\n  preference: 3.0\n  prefer: {human: 1.0}\n")
+    out = tmp_path / "fork.db"
+    code = main(["replay", str(source), "--fork-at", str(at), "--utility", str(prefer),
+                 "--scenario", gearbox, "-o", str(out), "--json"])  # fmt: skip
+    assert code == 0
+    data = json.loads(capsys.readouterr().out)
+    stored, forked = read_store(source), read_store(out)
+    [changed] = [ev for ev in forked if ev.kind == "utility"]
+    assert changed.seq == at + 1 and changed.body["utility"]["prefer"] == {"human": 1.0}
+    assert _comparable(forked[:at]) == _comparable(stored[:at])
+    humans = data["summaries"]["fork"]["by_agent"].get("human", 0)
+    assert humans > data["summaries"]["original"]["by_agent"].get("human", 0), data["summaries"]
+    # the fork's own store replays its new utility: a fork of it with no new choice is itself
+    again = tmp_path / "again.db"
+    report = fork_store(out, len(forked) - 2, again, scenario=load_scenario(gearbox))
+    assert _comparable(read_store(again)) == _comparable(forked)
+    assert report.fork["by_agent"] == report.original["by_agent"]
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("utility:\n  preference: -1\n", ":2: "),
+        ("utility:\n  prefer: {nobody: 1.0}\n", "--utility: "),
+        ("- 1\n", "give a utility block"),
+    ],
+)
+def test_a_bad_utility_file_is_one_error_and_no_store(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], text: str, message: str
+) -> None:
+    source = _stored(tmp_path, "table_assembly", "passive")
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(text)
+    out = tmp_path / "fork.db"
+    assert (
+        main(["replay", str(source), "--fork-at", "5", "--utility", str(bad), "-o", str(out)]) == 2
+    )
+    err = capsys.readouterr().err
+    assert err.startswith("error: ") and message in err and len(err.strip().splitlines()) == 1, err
+    assert not out.exists()

@@ -7,8 +7,9 @@ timelines one above the other when asked.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
+from typing import Any
 
 from flexhrc.cell.components import ScenarioLike
 from flexhrc.cell.fork import ForkReport, fork_store
@@ -26,6 +27,7 @@ def what_if(
     human: str | None = None,
     on_failure: str | None = None,
     operators: str | Path | None = None,
+    utility: str | Path | None = None,
     scenario: str | Path | None = None,
     force: bool = False,
     plot: str | Path | None = None,
@@ -39,6 +41,7 @@ def what_if(
     from flexhrc.cell.replay import PLOT_SUFFIXES, need_matplotlib
     from flexhrc.files import atomic_output
 
+    block = read_utility(utility) if utility is not None else None
     if plot is not None:
         inputs = [source] + ([out] if out is not None else [])
         check_output(plot, option="--plot", suffixes=PLOT_SUFFIXES, inputs=inputs)
@@ -50,6 +53,7 @@ def what_if(
         human=human,
         on_failure=on_failure,
         operators=operators,
+        utility=block,
         scenario=lambda name, seed: _load(source, scenario, name, seed),
         force=force,
         progress=progress,
@@ -68,6 +72,27 @@ def what_if(
                 marks=[(report.at_t, f"event {at}")],
             )
     return report
+
+
+def read_utility(path: str | Path) -> dict[str, Any]:
+    """A what-if's utility file (``--utility FILE``): a YAML file with the block the scenario
+    key ``utility:`` takes, at its top or under ``utility:``. A bad file is one error naming
+    the file and line (names in it are checked against the scenario when the fork starts)."""
+    from flexhrc.representation.formats.yaml_format import _line, read_yaml
+    from flexhrc.taskmanager.utility import parse_utility
+
+    doc = read_yaml(path)
+    block = doc.get("utility") if isinstance(doc, Mapping) and "utility" in doc else doc
+    if not isinstance(block, Mapping):
+        raise FlexhrcError(
+            f"--utility {path}: give a utility block (success, time, preference, workload, ...)"
+        )
+    _, problems = parse_utility(block, None)
+    if problems:
+        message, key = problems[0]
+        line = _line(block, key) if key is not None else _line(block)
+        raise FlexhrcError(f"--utility {path}{f':{line}' if line else ''}: {message}")
+    return dict(block)
 
 
 def profiles_text(profiles: dict[str, str]) -> str:

@@ -13,6 +13,9 @@ process — and from there the cooperation goes on with the new choices:
 * ``operators`` — the operator model file (``flexhrc learn``) the manager times the people's
   steps by; the store does not name it, so a run made with ``--operators`` forks faithfully
   only with the same file;
+* ``utility`` — the branch utility from event ``K`` on (a ``utility:`` block, stored as the
+  input ``utility``, :meth:`~flexhrc.cell.supervisor.Cell.set_utility`); the prefix replays
+  under the scenario's own;
 * ``on_failure`` — the failure policy; the prefix replays under the policy it was stored with,
   so a fork that changes it is refused when a robot action failed within the first ``K`` events.
 
@@ -29,7 +32,7 @@ from __future__ import annotations
 
 import contextlib
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -134,6 +137,7 @@ def fork_store(
     human: str | None = None,
     on_failure: str | None = None,
     operators: str | Path | None = None,
+    utility: Mapping[str, Any] | None = None,
     force: bool = False,
     progress: Callable[[str], None] | None = None,
 ) -> ForkReport:
@@ -196,6 +200,12 @@ def fork_store(
             f"{source}: the stored run is of another scenario {start.get('scenario')!r} than "
             f"the one loaded (another graph, domain or world): give it with --scenario FILE"
         )
+    if utility is not None:  # its names against the scenario, before any file is written
+        from flexhrc.taskmanager.utility import parse_utility
+
+        problems = parse_utility(utility, scenario.domain)[1]
+        if problems:
+            raise FlexhrcError(f"--utility: {problems[0][0]}")
     old_run = identity.run_of(prefix[0].body)
     run = identity.new_run_id()
     start.update(
@@ -223,6 +233,8 @@ def fork_store(
         if human is not None:  # before the loop moves on: the fork's first input from K
             for name in humans:
                 cell.set_operator_profile(name, profile)
+        if utility is not None:
+            cell.set_utility(utility, where="--utility")
         return _Nothing()
 
     try:

@@ -314,6 +314,13 @@ def check_events(events: list[StoredEvent], source: str | Path) -> None:
             if problem is not None:
                 raise fail(problem)
             commands[cid] = ev
+        elif kind == "utility":  # a what-if's new utility: the block the scenario key takes
+            from flexhrc.taskmanager.utility import parse_utility
+
+            block = b.get("utility")
+            problems = parse_utility(block, None)[1] if isinstance(block, dict) else [("", None)]
+            if problems:
+                raise fail(f"'utility' must be a utility block ({problems[0][0] or 'a mapping'})")
         elif kind in ("stop", "suggestion", "options"):  # what the manager sent, read back alike
             problem = MESSAGES[kind].problem({"t": ev.t, **b, "v": 1, "type": kind})
             if problem is not None:

@@ -477,6 +477,19 @@ class Cell:
         if self.operators.get(name, "passive") != profile:
             self._input("operator", {"agent": name, "profile": profile})
 
+    def set_utility(self, block: Any, *, where: str = "utility") -> None:
+        """From now on the Task Manager scores branches by the utility ``block`` (the
+        scenario key ``utility:``'s form; the stored input ``utility``, so the run resumes
+        and replays): a what-if run forked with another utility (``flexhrc replay --fork-at K
+        --utility FILE``). A bad block is one :class:`FlexhrcError` naming ``where``."""
+        from flexhrc.taskmanager.utility import parse_utility
+
+        utility, problems = parse_utility(block, self.domain)
+        if problems:
+            message, key = problems[0]
+            raise FlexhrcError(f"{where}: {message}" + (f" (key {key})" if key else ""))
+        self._input("utility", {"utility": utility.to_dict() if utility is not None else {}})
+
     def set_realtime(self, realtime: float, *, agent_speed: float | None = None) -> None:
         """Change the pace of the wall clock from now on (a panel's speed control): the cell's
         time goes on from where it is; ``agent_speed`` (if given) is the pace the agents get
@@ -1034,6 +1047,12 @@ class Cell:
         if kind == "begin":
             self.begun = True
             return tm.start(now)
+        if kind == "utility":
+            from flexhrc.taskmanager.utility import parse_utility
+
+            utility, _ = parse_utility(body["utility"], self.domain)  # checked when stored
+            self.tm.utility = None if utility is None or utility.is_default else utility
+            return []
         if kind == "operator":
             self.operators[str(body["agent"])] = str(body["profile"])
             if body.get("scripted"):

@@ -209,6 +209,12 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
         "people's steps by; a run made with --operators forks faithfully with the same file",
     )
     what_if.add_argument(
+        "--utility",
+        metavar="FILE",
+        help="the branch utility from event K on: a YAML file with the block the scenario key "
+        "utility: takes (docs/scenarios.md; default: the stored run's)",
+    )
+    what_if.add_argument(
         "-o",
         "--output",
         metavar="NEW.db",
@@ -312,6 +318,7 @@ _WHAT_IF_OPTIONS = {
     "--human": "human",
     "--on-failure": "on_failure",
     "--operators": "operators",
+    "--utility": "utility",
     "-o": "output",
     "--force": "force",
     "--scenario": "scenario",
@@ -338,6 +345,7 @@ def _cmd_what_if(args: argparse.Namespace) -> int:
         human=args.human,
         on_failure=args.on_failure,
         operators=args.operators,
+        utility=args.utility,
         scenario=args.scenario,
         force=args.force,
         plot=args.plot,
