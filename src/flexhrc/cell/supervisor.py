@@ -1051,7 +1051,7 @@ class Cell:
             from flexhrc.taskmanager.utility import parse_utility
 
             utility, _ = parse_utility(body["utility"], self.domain)  # checked when stored
-            self.tm.utility = None if utility is None or utility.is_default else utility
+            self.tm.utility = utility  # as the scenario key: an explicit block logs its terms
             return []
         if kind == "operator":
             self.operators[str(body["agent"])] = str(body["profile"])
