@@ -37,9 +37,16 @@ from flexhrc.cell.components import ground, unknown_name
 from flexhrc.errors import FlexhrcError
 from flexhrc.taskmanager.domain import GroundAction
 from flexhrc.taskmanager.manager import HumanAction, TakeRefused
+from flexhrc.taskmanager.words import plain_words
 from flexhrc.web import operator
 from flexhrc.web.backend import PanelInputError, json_safe, parse_action
-from flexhrc.web.snapshot import TIMELINE_LIMIT, feasible_costs, graph_snapshot, suggestions
+from flexhrc.web.snapshot import (
+    TIMELINE_LIMIT,
+    feasible_costs,
+    graph_snapshot,
+    progress,
+    suggestions,
+)
 
 ANSWER_TIMEOUT_S = 10.0  # an HTTP request waits this long for the cell's loop to take its input
 
@@ -366,18 +373,25 @@ class CellPanel:
 
     def _agents(self) -> list[dict[str, Any]]:
         c = self.cell
-        asked = {a: str(step) for step in self._asked() for a in step.agents}
+        names = tuple(c.agents)
+        asked = {a: step for step in self._asked() for a in step.agents}
         out = []
         for name, st in c.agents.items():
             item: dict[str, Any] = {"name": name, "kind": st.kind, "alive": bool(st.alive)}
             if st.kind == "human":
-                item["action"] = asked.get(name)
+                step = asked.get(name)
+                item["action"] = str(step) if step else None
+                item["text"] = plain_words(step, names) if step else None
                 item["status"] = (
                     "lost" if not st.available else "asked" if name in asked else "free"
                 )
             else:
                 cmd = c.tm.busy.get(name)
                 item["action"] = str(cmd.action) if cmd else None
+                item["text"] = plain_words(cmd.action, names) if cmd else None
+                following = self._following(name)
+                item["next"] = str(following) if following else None
+                item["next_text"] = plain_words(following, names) if following else None
                 item["command"] = cmd.id if cmd else None
                 if name in self.halted:
                     item["status"] = "stopped"
@@ -387,6 +401,18 @@ class CellPanel:
                     item["status"] = "busy" if cmd else "idle"
             out.append(item)
         return out
+
+    def _following(self, robot: str) -> GroundAction | None:
+        """The step an arm will do after its current one (the rest of the part it carries
+        out), or the first of a part given to it and not started."""
+        for ex in self.cell.tm.executions.values():
+            if robot not in ex.branch.agents:
+                continue
+            at = ex.next_index + (1 if ex.command is not None else 0)
+            for step in ex.branch.steps[at:]:
+                if robot in step.agents:
+                    return step
+        return None
 
     def _waiting(self) -> str | None:
         c = self.cell
@@ -423,6 +449,8 @@ class CellPanel:
         self._update_timeline()
         tm = c.tm
         running = {e: ex.owner for e, ex in tm.executions.items()}
+        graph = graph_snapshot(tm.graph, feasible_costs(tm.graph), running)
+        offers = operator.offers(tm)
         kb = c.kb.to_dict()
         return json_safe(
             {
@@ -435,9 +463,12 @@ class CellPanel:
                 "time": round(c.now, 3),
                 "version": self._version,
                 "suggestions": suggestions(tm),
-                "takeable": operator.takeable(tm),
+                "takeable": [offer["element"] for offer in offers],
+                "offers": offers,
+                "clock_rate": c.realtime,
                 "agents": self._agents(),
-                "graph": graph_snapshot(tm.graph, feasible_costs(tm.graph), running),
+                "graph": graph,
+                "progress": progress(graph),
                 "timeline": list(self._timeline),
                 "objects": kb["objects"],
                 "facts": kb["facts"],
