@@ -76,6 +76,7 @@ class CellPanel:
         self._timeline: list[dict[str, Any]] = []
         self._timeline_from = 0
         self._commands: dict[int, dict[str, Any]] = {}
+        self._joints: dict[str, list[float]] = {}  # each arm's latest joint state (acks)
         self._tokens: list[Any] = []
         for ev in cell.events:  # a resumed cell: the operator's stops are in its store
             if ev.body.get("by") == "operator" and ev.kind in ("agent_down", "agent_up"):
@@ -341,6 +342,8 @@ class CellPanel:
         events = self.cell.events
         for ev in events[self._timeline_from :]:
             body = ev.body
+            if ev.kind == "ack" and isinstance(body.get("joints"), Mapping):
+                self._joints.update(body["joints"])  # where the arms are (the 3D view)
             if ev.kind == "command":
                 self._commands[int(body["id"])] = {"start": ev.t, **body}
             elif ev.kind in ("ack", "stop"):  # a command's end: answered, or stopped
@@ -401,6 +404,55 @@ class CellPanel:
                     item["status"] = "busy" if cmd else "idle"
             out.append(item)
         return out
+
+    def _scene(self) -> dict[str, Any]:
+        """What the 3D view draws (issue 24, item 2): each arm's base, hand and — when its
+        joint state is known (the kinematic model's acknowledgements) — its joint chain by
+        forward kinematics of the project's robot model; each person's hand; the objects with
+        their sizes (the knowledge base, agents left out)."""
+        c = self.cell
+        robots, people = [], []
+        for name, agent in c.tm.domain.agents.items():
+            hand = c.kb.objects[name].position if name in c.kb.objects else None
+            if agent.is_human:
+                people.append({"name": name, "hand": _xyz(hand)})
+                continue
+            robots.append(
+                {
+                    "name": name,
+                    "base": _xyz(agent.params.get("base")),
+                    "hand": _xyz(hand),
+                    "reach": agent.params.get("reach"),
+                    "chain": self._chain(name),
+                }
+            )
+        agents = set(c.tm.domain.agents)
+        objects = [
+            {
+                "id": o.id,
+                "type": o.type,
+                "position": _xyz(o.position),
+                "size": dict(o.size),
+                "fixed": bool(o.fixed),
+            }
+            for o in c.kb.objects.values()
+            if o.id not in agents
+        ]
+        return {"robots": robots, "people": people, "objects": objects}
+
+    def _chain(self, arm: str) -> list[list[float]] | None:
+        q = self._joints.get(arm)
+        if q is None:
+            return None
+        try:  # the kinematic model sent joint states: pinocchio is installed
+            from flexhrc.action.robots import load_robot
+
+            model = load_robot().arms.get(arm)
+            if model is None or len(q) != model.dof:
+                return None
+            return [_xyz(p) or [] for p in model.joint_positions(q)]
+        except (ImportError, FlexhrcError):
+            return None
 
     def _following(self, robot: str) -> GroundAction | None:
         """The step an arm will do after its current one (the rest of the part it carries
@@ -469,6 +521,7 @@ class CellPanel:
                 "agents": self._agents(),
                 "graph": graph,
                 "progress": progress(graph),
+                "scene": self._scene(),
                 "timeline": list(self._timeline),
                 "objects": kb["objects"],
                 "facts": kb["facts"],
@@ -477,6 +530,16 @@ class CellPanel:
                 "dropped": len(c.dropped),
             }
         )
+
+
+def _xyz(p: Any) -> list[float] | None:
+    """A position as three rounded floats (millimetres are enough for a picture), or None."""
+    if p is None:
+        return None
+    try:
+        return [round(float(v), 4) for v in list(p)[:3]]
+    except (TypeError, ValueError):
+        return None
 
 
 __all__ = ["CellPanel"]

@@ -68,6 +68,7 @@ function connect(delay) {
     window.__panel.events = state.events;
     window.__panel.renderedAt = Date.now();
     window.__panel.state = state;
+    window.dispatchEvent(new CustomEvent("panel-state", { detail: state }));  // the 3D view
     window.__panel.log.push([state.events, window.__panel.renderedAt, received, cost]);
     if (window.__panel.log.length > 2000) window.__panel.log.shift();
   };
