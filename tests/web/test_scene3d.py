@@ -102,3 +102,29 @@ def test_three_js_is_served_by_flexhrc_with_its_licence(serve: Any) -> None:
             body = r.read()
         assert r.status == 200 and body
     assert b"MIT License" in body
+
+
+def test_the_next_motion_is_drawn_before_the_arm_moves_and_goes_when_it_ends(
+    serve: Any, open_page: Any, tmp_path: Path
+) -> None:
+    path = tmp_path / "lids.yaml"
+    path.write_text(LIDS)
+    coop = serve(str(path), speed=1)  # the arm's 2 s carry takes 2 s on the page
+    page = open_page(coop.url, view=None)
+    page.wait_for_selector("#turn[data-turn='yours']")
+    assert page.evaluate("window.__scene3d.planned()") == {}  # nothing dispatched yet
+    coop.submit({"reply": "decline"})  # the arm carries lid a
+    drawn = _wait(page, "window.__scene3d.planned().arm", "the planned path")
+    assert drawn == 2  # from the hand to the box: the branch simulation's path
+    [robot] = [r for r in page.evaluate("window.__panel.state.scene.robots") if r["planned"]]
+    assert robot["planned"]["action"] == "carry(arm, lid_a, box)"
+    assert robot["planned"]["path"][-1] == [1.1, 0.0, 0.0]  # the box: the carry's moves_to
+    assert robot["planned"]["path"][0] == robot["hand"]  # from where the hand is
+    assert page.evaluate(
+        "window.__scene3d.scene.children.flatMap((c) => c.children || [])"
+        ".some((m) => m.userData.ghost === 'arm')"
+    )
+    # the command ends: the path and the ghost go
+    _wait(page, "!window.__scene3d.planned().arm", "the path to go", timeout=30)
+    ended = [e for e in coop.cell.events if e.kind == "ack"]
+    assert ended and ended[0].body["status"] == "done"

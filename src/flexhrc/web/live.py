@@ -424,6 +424,7 @@ class CellPanel:
                     "hand": _xyz(hand),
                     "reach": agent.params.get("reach"),
                     "chain": self._chain(name),
+                    "planned": self._planned(name),
                 }
             )
         agents = set(c.tm.domain.agents)
@@ -439,6 +440,29 @@ class CellPanel:
             if o.id not in agents
         ]
         return {"robots": robots, "people": people, "objects": objects}
+
+    def _planned(self, robot: str) -> dict[str, Any] | None:
+        """The running command's planned hand path for ``robot`` (issue 24, item 3): from the
+        branch simulation the Task Manager ran when it chose the branch — ``{"command",
+        "action", "text", "path"}`` — or None when the arm runs nothing (the path goes when the
+        command ends or is stopped)."""
+        cmd = self.cell.tm.busy.get(robot)
+        if cmd is None or cmd.element is None:
+            return None
+        ex = self.cell.tm.executions.get(cmd.element)
+        result = ex.branch.result if ex is not None else None
+        if result is None or not 0 <= cmd.index < len(result.details):
+            return None
+        paths = result.details[cmd.index].get("paths")
+        path = paths.get(robot) if isinstance(paths, Mapping) else None
+        if not path:
+            return None
+        return {
+            "command": cmd.id,
+            "action": str(cmd.action),
+            "text": plain_words(cmd.action, tuple(self.cell.agents)),
+            "path": [_xyz(p) for p in path],
+        }
 
     def _chain(self, arm: str) -> list[list[float]] | None:
         q = self._joints.get(arm)

@@ -61,6 +61,9 @@ const MAT = {
   fixed: new THREE.MeshLambertMaterial({ color: 0x2e9d5b }),
   part: new THREE.MeshLambertMaterial({ color: 0x8b5e3c }),
   place: new THREE.MeshLambertMaterial({ color: 0x9aa3af, transparent: true, opacity: 0.6 }),
+  ghost: new THREE.MeshLambertMaterial({ color: 0x2f6fd6, transparent: true, opacity: 0.3,
+                                         depthWrite: false }),
+  path: new THREE.LineDashedMaterial({ color: 0x1d4fa8, dashSize: 0.03, gapSize: 0.02 }),
 };
 const dynamic = new THREE.Group();
 scene.add(dynamic);
@@ -136,6 +139,24 @@ export function update(s) {
     for (let i = 0; i + 1 < pts.length; i++) dynamic.add(rod(pts[i], pts[i + 1], 0.035, MAT.link));
     pts.slice(0, -1).forEach((p) => dynamic.add(ball(p, 0.045, MAT.joint)));
     dynamic.add(ball(pts[pts.length - 1], 0.04, MAT.hand));
+    if (r.planned && r.planned.path && r.planned.path.length > 1) {
+      // the next motion before it happens: the planned hand path, dashed, and a ghost of the
+      // arm at its end
+      const path = r.planned.path.map(v3);
+      const line = new THREE.Line(new THREE.BufferGeometry().setFromPoints(path), MAT.path);
+      line.computeLineDistances();
+      line.userData.planned = r.name;
+      dynamic.add(line);
+      const ghost = twoLink(base, path[path.length - 1], r.reach);
+      for (let i = 0; i + 1 < ghost.length; i++) {
+        const g = rod(ghost[i], ghost[i + 1], 0.03, MAT.ghost);
+        g.userData.ghost = r.name;
+        dynamic.add(g);
+      }
+      const end = ball(path[path.length - 1], 0.045, MAT.ghost);
+      end.userData.ghost = r.name;
+      dynamic.add(end);
+    }
   }
   for (const p of sc.people || []) if (p.hand) dynamic.add(ball(v3(p.hand), 0.05, MAT.person));
   for (const o of sc.objects || []) {
@@ -161,6 +182,14 @@ function draw() { renderer.render(scene, camera); frames += 1; window.__panel.fr
 new ResizeObserver(resize).observe(box);
 placeCamera();
 resize();
-window.__scene3d = { update, draw, scene };
+// what the tests read: the planned paths and ghosts now drawn, by arm
+function planned() {
+  const out = {};
+  for (const c of dynamic.children) {
+    if (c.userData.planned) out[c.userData.planned] = c.geometry.attributes.position.count;
+  }
+  return out;
+}
+window.__scene3d = { update, draw, scene, planned };
 window.addEventListener("panel-state", (e) => update(e.detail));
 if (window.__panel.state) update(window.__panel.state);
