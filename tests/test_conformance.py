@@ -267,7 +267,8 @@ def _panel(what: str, seed: int, simulator: str | None, tmp: Path) -> dict[str, 
             try:
                 page = browser.new_page()
                 page.set_default_timeout(TIMEOUT * 1000 / 4)
-                page.goto(panel.url)
+                # the engineer's view: the person clicks 'done' in the suggestions table
+                page.goto(panel.url + ("&" if "?" in panel.url else "?") + "view=engineer")
                 while True:
                     page.wait_for_function(ended)
                     if page.locator("#outcome").get_attribute("data-outcome") != "running":

@@ -430,6 +430,33 @@ class TaskManager:
         copy.deepcopy(self, memo).on_human_action(now, action)
         return not any(ev.get("type") == "human_action_unmatched" for ev in events)
 
+    def what_if(
+        self, now: float, *, action: HumanAction | None = None, take: str | None = None
+    ) -> tuple[list[Command], TaskManager]:
+        """What the robots would be told if a person did ``action`` now — or took the hyper-arc
+        ``take`` and did its steps — tried on a copy of this manager, as :meth:`advances`
+        does: nothing here changes and nothing is logged (the operator station's "what if I
+        do this?"). Returns the robot commands the copy issued, in order, and the copy (its
+        ``busy`` arms and their executions' simulated branches say what each arm does then).
+        A take that is not possible raises :class:`TakeRefused`, as :meth:`operator_takes`."""
+        if (action is None) == (take is None):
+            raise FlexhrcError("what_if: give exactly one of action= or take=")
+        memo: dict[int, Any] = {
+            id(self.simulator): self.simulator,
+            id(self.domain): self.domain,
+            id(self._log): lambda event: None,
+        }
+        twin: TaskManager = copy.deepcopy(self, memo)
+        out: list[Directive] = []
+        if take is not None:
+            out += twin.operator_takes(now, take, record=False)
+            ex = twin.executions.get(take)
+            for step in list(ex.branch.steps) if ex is not None else []:
+                out += twin.on_human_action(now, HumanAction(step.name, step.args))
+        elif action is not None:
+            out += twin.on_human_action(now, action)
+        return [d for d in out if isinstance(d, Command)], twin
+
     def check_take(self, element: str) -> tuple[DecisionTree, float]:
         """Whether an operator can take ``element`` now: its operators' decision tree and its
         cost, or :class:`TakeRefused` saying why not. Changes nothing."""

@@ -7,6 +7,8 @@ Routes (the JSON keys are documented in ``docs/panel.md``):
 * ``GET /api/state`` — the backend's snapshot (``outcome``, ``suggestions``, ``agents``,
   ``events``, the graph, the timeline, the knowledge base, what the cooperation waits for);
 * ``POST /api/human`` — ``{"action": "<ground action>"}`` or ``{"take": "<hyper-arc>"}``;
+* ``POST /api/whatif`` — ``{"action": ...}`` or ``{"take": ...}``: what the robots would do if
+  the person did that step or took that part (nothing changes);
 * ``POST /api/stop`` / ``POST /api/resume`` — ``{"robot": "<arm>"}``;
 * ``WS /ws`` — the snapshot on connect and again after every change (server push only; what a
   client sends on it is ignored).
@@ -51,6 +53,7 @@ from flexhrc.web.backend import (
     is_loopback,
     parse_human_body,
     parse_robot_body,
+    parse_what_if_body,
 )
 
 try:
@@ -342,6 +345,13 @@ def create_app(
 
         return endpoint
 
+    def what_if(body: dict[str, str]) -> dict[str, Any]:
+        ask = getattr(backend, "what_if", None)  # optional in the backend contract
+        if ask is None:
+            raise PanelInputError("this panel's backend answers no what-if", 404)
+        result: dict[str, Any] = ask(body)
+        return result
+
     async def websocket(ws: WebSocket) -> None:
         if hub.sockets >= max_websockets:
             # refused with the websocket close code "try again later" and the reason (an HTTP
@@ -394,6 +404,7 @@ def create_app(
             Route("/", index),
             Route("/api/state", state),
             Route("/api/human", handler(parse_human_body, backend.submit), methods=["POST"]),
+            Route("/api/whatif", handler(parse_what_if_body, what_if), methods=["POST"]),
             Route(
                 "/api/stop",
                 handler(parse_robot_body, backend.stop_robot, reserved=True),

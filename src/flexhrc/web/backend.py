@@ -164,6 +164,15 @@ def parse_human_body(raw: bytes) -> dict[str, str]:
     return {"take": text}
 
 
+def parse_what_if_body(raw: bytes) -> dict[str, str]:
+    """Validate a ``POST /api/whatif`` body: exactly one of ``action`` (the step the person
+    would do) or ``take`` (a part they would take), as in ``POST /api/human``."""
+    body = parse_human_body(raw)
+    if "reply" in body:
+        raise PanelInputError('a what-if asks about a step: send {"action": ...} or {"take": ...}')
+    return body
+
+
 def parse_robot_body(raw: bytes) -> str:
     """Validate a ``POST /api/stop`` or ``/api/resume`` body ``{"robot": "<agent>"}``."""
     data = _json_body(raw)

@@ -36,7 +36,7 @@ from flexhrc.cell import protocol as P
 from flexhrc.cell.components import ground, unknown_name
 from flexhrc.errors import FlexhrcError
 from flexhrc.taskmanager.domain import GroundAction
-from flexhrc.taskmanager.manager import HumanAction, TakeRefused
+from flexhrc.taskmanager.manager import Command, HumanAction, TakeRefused, TaskManager
 from flexhrc.taskmanager.words import plain_words
 from flexhrc.web import operator
 from flexhrc.web.backend import PanelInputError, json_safe, parse_action
@@ -114,6 +114,11 @@ class CellPanel:
         if "reply" in body:
             return self._ask("reply", (body["reply"], body.get("reason")))
         raise PanelInputError('send {"action": ...}, {"take": ...} or {"reply": ...}')
+
+    def what_if(self, body: Mapping[str, str]) -> dict[str, Any]:
+        """What the robots would do if the person did ``{"action": ...}`` or took
+        ``{"take": ...}`` now; changes nothing (see :meth:`_what_if`)."""
+        return self._ask("whatif", dict(body))
 
     def stop_robot(self, name: str) -> dict[str, Any]:
         return self._ask("stop", name)
@@ -198,6 +203,8 @@ class CellPanel:
             return self._human_action(str(arg))
         if kind == "take":
             return self._take(str(arg))
+        if kind == "whatif":
+            return self._what_if(arg)
         if kind in ("stop", "resume"):
             return self._robot(str(arg), stop=kind == "stop")
         if kind == "reply":
@@ -225,26 +232,7 @@ class CellPanel:
 
     def _human_action(self, text: str) -> dict[str, Any]:
         c = self.cell
-        name, args = parse_action(text)
-        schema = c.domain.actions.get(name)
-        if schema is None:
-            raise PanelInputError(
-                f"unknown action {name!r}; actions: {', '.join(sorted(c.domain.actions))}", 404
-            )
-        if len(args) != len(schema.parameters):
-            raise PanelInputError(
-                f"{name} takes {len(schema.parameters)} argument(s), got {len(args)}", 400
-            )
-        for a in args:
-            if a not in c.domain.agents and a not in c.kb.objects:
-                raise PanelInputError(f"unknown agent or object {a!r} in {text!r}", 404)
-        step = ground(c.domain, f"{name}({', '.join(args)})")
-        wrong = unknown_name(c.domain, c.kb, step)  # the manager's own check of a report
-        if wrong is not None:
-            raise PanelInputError(wrong, 400)
-        people = [a for a in step.agents if c.agents.get(a) and c.agents[a].kind == "human"]
-        if not people or len(people) != len(step.agents):
-            raise PanelInputError(f"{step} is not an operator's action", 409)
+        step, people = self._human_step(text)
         action = HumanAction(step.name, step.args)
         if self._already_done(str(action), people[0]):
             # a double click, a second tab, a retried request: the same report once (W27-W29)
@@ -294,6 +282,78 @@ class CellPanel:
             return False
         # asked again (re-planned): doing it again is new work
         return action not in {str(step) for step in self._asked()}
+
+    def _human_step(self, text: str) -> tuple[GroundAction, list[str]]:
+        """A person's report ``text`` checked as the manager would check it: the ground
+        action and the people doing it, or one :class:`PanelInputError` saying why not."""
+        c = self.cell
+        name, args = parse_action(text)
+        schema = c.domain.actions.get(name)
+        if schema is None:
+            raise PanelInputError(
+                f"unknown action {name!r}; actions: {', '.join(sorted(c.domain.actions))}", 404
+            )
+        if len(args) != len(schema.parameters):
+            raise PanelInputError(
+                f"{name} takes {len(schema.parameters)} argument(s), got {len(args)}", 400
+            )
+        for a in args:
+            if a not in c.domain.agents and a not in c.kb.objects:
+                raise PanelInputError(f"unknown agent or object {a!r} in {text!r}", 404)
+        step = ground(c.domain, f"{name}({', '.join(args)})")
+        wrong = unknown_name(c.domain, c.kb, step)  # the manager's own check of a report
+        if wrong is not None:
+            raise PanelInputError(wrong, 400)
+        people = [a for a in step.agents if c.agents.get(a) and c.agents[a].kind == "human"]
+        if not people or len(people) != len(step.agents):
+            raise PanelInputError(f"{step} is not an operator's action", 409)
+        return step, people
+
+    def _what_if(self, body: Mapping[str, Any]) -> dict[str, Any]:
+        """What the robots would do if the person did the step ``body`` names (``action``) or
+        took a part (``take``): the Task Manager tried on a copy (:meth:`TaskManager.what_if`),
+        so nothing changes. Each arm: the command it would get, or the one it goes on with,
+        in plain words, with its planned hand path."""
+        c = self.cell
+        if "take" in body:
+            try:
+                commands, twin = c.tm.what_if(c.now, take=str(body["take"]))
+            except TakeRefused as exc:
+                raise PanelInputError(str(exc), operator.refusal_status(exc)) from None
+        elif "action" in body:
+            step, _ = self._human_step(str(body["action"]))
+            action = HumanAction(step.name, step.args)
+            if not c.tm.advances(c.now, action):
+                raise PanelInputError(f"{action} would not advance the task now", 409)
+            commands, twin = c.tm.what_if(c.now, action=action)
+        else:
+            raise PanelInputError('send {"action": ...} or {"take": ...}')
+        names = tuple(c.agents)
+        robots, words = [], []
+        for name, st in c.agents.items():
+            if st.kind != "robot":
+                continue
+            issued = [cmd for cmd in commands if name in cmd.agents]
+            cmd = issued[0] if issued else twin.busy.get(name)
+            text = plain_words(cmd.action, names) if cmd else None
+            robots.append(
+                {
+                    "agent": name,
+                    "action": str(cmd.action) if cmd else None,
+                    "text": text,
+                    "new": bool(issued),
+                    "path": _step_path(twin, cmd, name) if cmd else None,
+                }
+            )
+            said = text[:1].lower() + text[1:] if text else ""
+            words.append(
+                f"{name} would {said}"
+                if issued
+                else f"{name} goes on: {said}"
+                if cmd
+                else f"{name} would wait"
+            )
+        return {"ok": True, **dict(body), "robots": robots, "text": "; ".join(words) + "."}
 
     def _take(self, element: str) -> dict[str, Any]:
         c = self.cell
@@ -447,21 +507,14 @@ class CellPanel:
         "action", "text", "path"}`` — or None when the arm runs nothing (the path goes when the
         command ends or is stopped)."""
         cmd = self.cell.tm.busy.get(robot)
-        if cmd is None or cmd.element is None:
-            return None
-        ex = self.cell.tm.executions.get(cmd.element)
-        result = ex.branch.result if ex is not None else None
-        if result is None or not 0 <= cmd.index < len(result.details):
-            return None
-        paths = result.details[cmd.index].get("paths")
-        path = paths.get(robot) if isinstance(paths, Mapping) else None
-        if not path:
+        path = _step_path(self.cell.tm, cmd, robot) if cmd is not None else None
+        if cmd is None or not path:
             return None
         return {
             "command": cmd.id,
             "action": str(cmd.action),
             "text": plain_words(cmd.action, tuple(self.cell.agents)),
-            "path": [_xyz(p) for p in path],
+            "path": path,
         }
 
     def _chain(self, arm: str) -> list[list[float]] | None:
@@ -554,6 +607,18 @@ class CellPanel:
                 "dropped": len(c.dropped),
             }
         )
+
+
+def _step_path(tm: TaskManager, cmd: Command, robot: str) -> list[list[float] | None] | None:
+    """The hand path of ``robot`` for command ``cmd`` from the branch simulation the
+    manager ran when it chose the branch (the step's ``paths``), or None."""
+    ex = tm.executions.get(cmd.element) if cmd.element is not None else None
+    result = ex.branch.result if ex is not None else None
+    if result is None or not 0 <= cmd.index < len(result.details):
+        return None
+    paths = result.details[cmd.index].get("paths")
+    path = paths.get(robot) if isinstance(paths, Mapping) else None
+    return [_xyz(p) for p in path] if path else None
 
 
 def _xyz(p: Any) -> list[float] | None:

@@ -176,6 +176,9 @@ class LocalPanel:
     def submit(self, body: Mapping[str, str]) -> dict[str, Any]:
         return self.backend.submit(body)
 
+    def what_if(self, body: Mapping[str, str]) -> dict[str, Any]:
+        return self.backend.what_if(body)
+
     def stop_robot(self, name: str) -> dict[str, Any]:
         return self.backend.stop_robot(name)
 

@@ -150,13 +150,20 @@ function renderOperator(s) {
     b.disabled = !body;
     b.onclick = body ? () => post("/api/human", body) : null;
   }
+  const ask = document.getElementById("op-whatif");
+  ask.disabled = !step;
+  ask.onclick = step ? () => whatIf({ action: step.next }) : null;
+  if (key !== turnWas) showWhatIf(null);  // an answer about another step is stale
   if (key && key !== turnWas) cue();
   turnWas = key;
   changed("offers", [running, s.offers], () => {
     const offers = running ? (s.offers || []) : [];
     document.getElementById("op-take").replaceChildren(...offers.map((o) =>
-      el("button", { class: "take-big", "data-take": o.element,
-        onclick: () => post("/api/human", { take: o.element }) }, "I'll do this: " + o.text)));
+      el("span", { class: "offer" },
+        el("button", { class: "take-big", "data-take": o.element,
+          onclick: () => post("/api/human", { take: o.element }) }, "I'll do this: " + o.text),
+        el("button", { class: "whatif", "data-whatif": o.element,
+          onclick: () => whatIf({ take: o.element }) }, "what if?"))));
   });
   const p = s.progress || { done: 0, todo: 0 };
   const total = p.done + p.todo;
@@ -165,6 +172,26 @@ function renderOperator(s) {
   document.getElementById("op-progress-text").textContent = running
     ? `${p.done} of ${total} steps done` : `${p.done} steps done`;
   changed("robots", [s.agents, running], () => renderRobots(s, running));
+}
+
+// "What if I do this?": the Task Manager tried on a copy (POST /api/whatif, nothing changes);
+// the answer in words, and each arm's would-be path drawn in the 3D view
+async function whatIf(body) {
+  const headers = { "Content-Type": "application/json" };
+  if (TOKEN) headers["Authorization"] = "Bearer " + TOKEN;
+  try {
+    const r = await fetch("/api/whatif", { method: "POST", headers, body: JSON.stringify(body) });
+    const data = await r.json().catch(() => ({}));
+    if (!r.ok) { say(data.error || ("HTTP " + r.status), true); return; }
+    showWhatIf(data);
+  } catch (err) { say("cannot reach the panel: " + err, true); }
+}
+function showWhatIf(answer) {
+  const p = document.getElementById("whatif-text");
+  p.hidden = !answer;
+  p.textContent = answer ? "If you do this: " + answer.text : "";
+  window.__panel.whatIf = answer;
+  window.dispatchEvent(new CustomEvent("panel-whatif", { detail: answer }));
 }
 
 function renderRobots(s, running) {

@@ -64,6 +64,9 @@ const MAT = {
   ghost: new THREE.MeshLambertMaterial({ color: 0x2f6fd6, transparent: true, opacity: 0.3,
                                          depthWrite: false }),
   path: new THREE.LineDashedMaterial({ color: 0x1d4fa8, dashSize: 0.03, gapSize: 0.02 }),
+  whatIf: new THREE.MeshLambertMaterial({ color: 0xf97316, transparent: true, opacity: 0.3,
+                                          depthWrite: false }),
+  whatIfPath: new THREE.LineDashedMaterial({ color: 0xc2410c, dashSize: 0.03, gapSize: 0.02 }),
 };
 const dynamic = new THREE.Group();
 scene.add(dynamic);
@@ -124,10 +127,11 @@ function objectMesh(o) {
 }
 
 let lastKey = null;
+let whatIf = null;  // the robots of the last "what if I do this?" answer, drawn as orange ghosts
 export function update(s) {
   const sc = s.scene;
   if (!sc) return;
-  const key = JSON.stringify(sc);
+  const key = JSON.stringify([sc, whatIf]);
   if (key === lastKey) return;
   lastKey = key;
   for (const c of [...dynamic.children]) { dynamic.remove(c); c.geometry?.dispose(); }
@@ -158,6 +162,17 @@ export function update(s) {
       dynamic.add(end);
     }
   }
+  for (const w of (whatIf || [])) {
+    const r = (sc.robots || []).find((x) => x.name === w.agent);
+    if (!r || !r.base || !w.path || w.path.length < 2) continue;
+    const path = w.path.map(v3);
+    const line = new THREE.Line(new THREE.BufferGeometry().setFromPoints(path), MAT.whatIfPath);
+    line.computeLineDistances();
+    line.userData.whatIf = w.agent;
+    dynamic.add(line);
+    const ghost = twoLink(v3(r.base), path[path.length - 1], r.reach);
+    for (let i = 0; i + 1 < ghost.length; i++) dynamic.add(rod(ghost[i], ghost[i + 1], 0.03, MAT.whatIf));
+  }
   for (const p of sc.people || []) if (p.hand) dynamic.add(ball(v3(p.hand), 0.05, MAT.person));
   for (const o of sc.objects || []) {
     if (!o.position) continue;
@@ -187,9 +202,14 @@ function planned() {
   const out = {};
   for (const c of dynamic.children) {
     if (c.userData.planned) out[c.userData.planned] = c.geometry.attributes.position.count;
+    if (c.userData.whatIf) out["what if " + c.userData.whatIf] = c.geometry.attributes.position.count;
   }
   return out;
 }
 window.__scene3d = { update, draw, scene, planned };
 window.addEventListener("panel-state", (e) => update(e.detail));
+window.addEventListener("panel-whatif", (e) => {
+  whatIf = e.detail ? e.detail.robots : null;
+  if (window.__panel.state) update(window.__panel.state);
+});
 if (window.__panel.state) update(window.__panel.state);
