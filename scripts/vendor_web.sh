@@ -1,11 +1,12 @@
 #!/usr/bin/env bash
-# Vendor the panel's front-end libraries from the npm registry at pinned versions, with their
+# Vendor the panel's front-end libraries (and the browser tests' axe-core) from the npm registry at pinned versions, with their
 # licences, into src/flexhrc/web/static/vendor/ (served by flexhrc; nothing comes from a CDN).
 # Run by a maintainer when a version changes; the result is committed (the set-up never
 # downloads).   usage: bash scripts/vendor_web.sh
 set -euo pipefail
 cd "$(dirname "$0")/.."
 THREE=0.160.1   # the last release with a single-file minified ES module build
+AXE=4.10.3      # axe-core: the accessibility checks of the browser tests (tests/web/vendor)
 dest=src/flexhrc/web/static/vendor
 tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
 (cd "$tmp" && npm pack --silent "three@$THREE" >/dev/null && tar xzf "three-$THREE.tgz")
@@ -14,3 +15,9 @@ cp "$tmp/package/build/three.module.min.js" "$dest/three/"
 cp "$tmp/package/LICENSE" "$dest/three/LICENSE"
 echo "three $THREE (npm), build/three.module.min.js; MIT, see LICENSE" > "$dest/three/VERSION"
 echo "vendored three $THREE into $dest/three"
+(cd "$tmp" && npm pack --silent "axe-core@$AXE" >/dev/null && mkdir axe && tar xzf "axe-core-$AXE.tgz" -C axe)
+mkdir -p tests/web/vendor/axe-core
+cp "$tmp/axe/package/axe.min.js" "$tmp/axe/package/LICENSE" "$tmp/axe/package/LICENSE-3RD-PARTY.txt" \
+    tests/web/vendor/axe-core/
+echo "axe-core $AXE (npm), axe.min.js; MPL-2.0, see LICENSE" > tests/web/vendor/axe-core/VERSION
+echo "vendored axe-core $AXE into tests/web/vendor/axe-core (tests only; not in the package)"

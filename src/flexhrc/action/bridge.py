@@ -48,6 +48,8 @@ from flexhrc.taskmanager.simulator import (
     SimulationResult,
     StepReport,
     Vec3,
+    hand_paths,
+    hands,
     simulated_record,
 )
 
@@ -214,11 +216,19 @@ class KinematicTaskSimulator:
         obstacles = self.obstacles(kb)
         hand = self.human_hand(kb)
         for action in steps:
+            before = hands(action, positions, kb)
             _, motions = self.how(action, kb, positions, domain)
             if motions is None:
                 ok, dt, why = self.human.step(action, positions, kb, domain)
                 durations.append(dt)
-                details.append({"action": str(action), "agents": list(action.agents), "t": dt})
+                details.append(
+                    {
+                        "action": str(action),
+                        "agents": list(action.agents),
+                        "t": dt,
+                        **hand_paths(before, positions),
+                    }
+                )
                 if not ok:
                     return SimulationResult(False, durations, why, details)
                 continue
@@ -251,6 +261,7 @@ class KinematicTaskSimulator:
                 }
             )
             self._follow(action, motions, positions, kb)
+            details[-1].update(hand_paths(before, positions))  # the planned path (the station)
         return SimulationResult(True, durations, None, details)
 
     def _follow(

@@ -510,11 +510,14 @@ class CellPanel:
         path = _step_path(self.cell.tm, cmd, robot) if cmd is not None else None
         if cmd is None or not path:
             return None
+        started = self._commands.get(cmd.id, {}).get("start")
         return {
             "command": cmd.id,
             "action": str(cmd.action),
             "text": plain_words(cmd.action, tuple(self.cell.agents)),
             "path": path,
+            "start": round(float(started), 3) if started is not None else None,
+            "expected_s": round(cmd.expected_s, 3),
         }
 
     def _chain(self, arm: str) -> list[list[float]] | None:
@@ -556,7 +559,8 @@ class CellPanel:
             reasons = "; ".join(i.reason for i in c.kb.inconsistencies)
             return f"knowledge base inconsistent: {reasons}"
         lost = [n for n, st in c.agents.items() if not st.available and n not in self.halted]
-        asked = [str(step) for step in self._asked()]
+        # in the person's words: the banner is read at the workbench too
+        asked = [plain_words(step, tuple(c.agents)) for step in self._asked()]
         if c.ordered:  # the loop holds the arms' answers while the operator is asked
             robots_working = bool(c.pending)
         else:  # on the wall clock the arms go on: wait for the operator once they are done

@@ -108,10 +108,15 @@ function fmtClock(t) {
   return `${m}:${String(sec).padStart(2, "0")}`;
 }
 function tickClock() {
-  const t = clock.t + (clock.running ? (performance.now() - clock.at) / 1000 * clock.rate : 0);
+  const t = clockNow();
   document.getElementById("op-clock").textContent = fmtClock(t);
   document.getElementById("clock").textContent = "t = " + t.toFixed(1) + " s";
+}
+window.__panel.clockNow = () => clockNow();
+function clockNow() {
+  const t = clock.t + (clock.running ? (performance.now() - clock.at) / 1000 * clock.rate : 0);
   window.__panel.clock = t;
+  return t;
 }
 setInterval(tickClock, 200);
 

@@ -61,9 +61,11 @@ const MAT = {
   fixed: new THREE.MeshLambertMaterial({ color: 0x2e9d5b }),
   part: new THREE.MeshLambertMaterial({ color: 0x8b5e3c }),
   place: new THREE.MeshLambertMaterial({ color: 0x9aa3af, transparent: true, opacity: 0.6 }),
-  ghost: new THREE.MeshLambertMaterial({ color: 0x2f6fd6, transparent: true, opacity: 0.3,
+  ghost: new THREE.MeshLambertMaterial({ color: 0x2f6fd6, transparent: true, opacity: 0.4,
                                          depthWrite: false }),
   path: new THREE.LineDashedMaterial({ color: 0x1d4fa8, dashSize: 0.03, gapSize: 0.02 }),
+  pathTube: new THREE.MeshLambertMaterial({ color: 0x1d4fa8 }),
+  whatIfTube: new THREE.MeshLambertMaterial({ color: 0xc2410c }),
   whatIf: new THREE.MeshLambertMaterial({ color: 0xf97316, transparent: true, opacity: 0.3,
                                           depthWrite: false }),
   whatIfPath: new THREE.LineDashedMaterial({ color: 0xc2410c, dashSize: 0.03, gapSize: 0.02 }),
@@ -127,6 +129,7 @@ function objectMesh(o) {
 }
 
 let lastKey = null;
+let movers = [];  // hand markers travelling a planned path, animated frame by frame
 let whatIf = null;  // the robots of the last "what if I do this?" answer, drawn as orange ghosts
 export function update(s) {
   const sc = s.scene;
@@ -135,6 +138,7 @@ export function update(s) {
   if (key === lastKey) return;
   lastKey = key;
   for (const c of [...dynamic.children]) { dynamic.remove(c); c.geometry?.dispose(); }
+  movers = [];
   for (const r of sc.robots || []) {
     if (!r.base) continue;
     const base = v3(r.base);
@@ -151,6 +155,7 @@ export function update(s) {
       line.computeLineDistances();
       line.userData.planned = r.name;
       dynamic.add(line);
+      for (let i = 0; i + 1 < path.length; i++) dynamic.add(rod(path[i], path[i + 1], 0.007, MAT.pathTube));
       const ghost = twoLink(base, path[path.length - 1], r.reach);
       for (let i = 0; i + 1 < ghost.length; i++) {
         const g = rod(ghost[i], ghost[i + 1], 0.03, MAT.ghost);
@@ -160,6 +165,14 @@ export function update(s) {
       const end = ball(path[path.length - 1], 0.045, MAT.ghost);
       end.userData.ghost = r.name;
       dynamic.add(end);
+      if (r.planned.start !== null && r.planned.expected_s > 0) {
+        // the hand travels the planned path over the command's expected time: the view moves
+        // between the events (the cell reports only each command's start and end)
+        const marker = ball(path[0], 0.04, MAT.hand);
+        marker.userData.moving = { path, start: r.planned.start, duration: r.planned.expected_s };
+        dynamic.add(marker);
+        movers.push(marker);
+      }
     }
   }
   for (const w of (whatIf || [])) {
@@ -170,6 +183,7 @@ export function update(s) {
     line.computeLineDistances();
     line.userData.whatIf = w.agent;
     dynamic.add(line);
+    for (let i = 0; i + 1 < path.length; i++) dynamic.add(rod(path[i], path[i + 1], 0.007, MAT.whatIfTube));
     const ghost = twoLink(v3(r.base), path[path.length - 1], r.reach);
     for (let i = 0; i + 1 < ghost.length; i++) dynamic.add(rod(ghost[i], ghost[i + 1], 0.03, MAT.whatIf));
   }
@@ -181,6 +195,23 @@ export function update(s) {
     dynamic.add(m);
   }
   draw();
+  if (movers.length && !animating) { animating = true; requestAnimationFrame(animate); }
+}
+
+// the cell's time now, as the page's clock keeps it between events (panel.js)
+const cellTime = () => window.__panel.clockNow();
+let animating = false;
+function animate() {
+  if (!movers.length) { animating = false; return; }
+  const t = cellTime();
+  for (const m of movers) {
+    const { path, start, duration } = m.userData.moving;
+    const f = Math.min(1, Math.max(0, (t - start) / duration));
+    const seg = f * (path.length - 1), i = Math.min(Math.floor(seg), path.length - 2);
+    m.position.lerpVectors(path[i], path[i + 1], seg - i);
+  }
+  draw();
+  requestAnimationFrame(animate);
 }
 
 function resize() {
@@ -206,7 +237,7 @@ function planned() {
   }
   return out;
 }
-window.__scene3d = { update, draw, scene, planned };
+window.__scene3d = { update, draw, scene, planned, moving: () => movers.length };
 window.addEventListener("panel-state", (e) => update(e.detail));
 window.addEventListener("panel-whatif", (e) => {
   whatIf = e.detail ? e.detail.robots : null;
