@@ -273,3 +273,77 @@ def test_declines_and_cannots_are_counted_per_person():
     person = learn_events(events).person("human")
     assert (person.suggestions, person.declined, person.cannot) == (4, 1, 1)
     assert person.decline_rate == person.cannot_rate == 0.25
+
+
+def _decliner(suggestions: int, declined: int, cannot: int = 0) -> OperatorModel:
+    model = OperatorModel()
+    person = model.person("human")
+    person.suggestions, person.declined, person.cannot = suggestions, declined, cannot
+    return model
+
+
+def _lids(tmp_path: Path):
+    from tests.cell.test_answers import LIDS
+
+    path = tmp_path / "lids.yaml"
+    path.write_text(LIDS)
+    return path
+
+
+def _first_decision(result) -> dict:
+    return next(e for e in result.events if e["type"] == "decision")
+
+
+def test_a_learned_high_decline_rate_gives_the_step_to_the_arm(tmp_path):
+    """The lids: the person is faster (eq. 21: J = 1/2.14 against the arm's 1/4.57), so they
+    are asked first. A model in which they declined 6 of 10 requests scores their branch by
+    its expected utility J * (1 - 0.6) = 0.187 < 0.219: the arm carries the lids, nobody is
+    asked; at 2 of 10 the person is still asked. The decision log shows the terms."""
+    scenario = load_scenario(_lids(tmp_path), seed=0)
+    plain = LocalCell(scenario, simulator=AnalyticSimulator()).run()
+    assert plain.summary["by_agent"] == {"human": 2, "arm": 0}
+    assert all("terms" not in b for b in _first_decision(plain)["branches"])  # eq. (21)
+
+    model = OperatorModelSimulator(AnalyticSimulator(), _decliner(10, 6))
+    result = LocalCell(scenario, simulator=model).run()
+    assert result.outcome == "solved" and result.summary["by_agent"] == {"human": 0, "arm": 2}
+    assert not [e for e in result.events if e["type"] == "suggestion"]
+    first = _first_decision(result)
+    person = next(b for b in first["branches"] if b["agents"] == ["human"])
+    arm = next(b for b in first["branches"] if b["agents"] == ["arm"])
+    assert person["terms"]["p_decline"] == 0.6 and person["terms"]["p_cannot"] == 0.0
+    assert person["utility"] == pytest.approx(0.4 / person["terms"]["time"])
+    assert "terms" not in arm and first["branches"][first["chosen"]] is not person
+    assert arm["utility"] > person["utility"]
+
+    willing = OperatorModelSimulator(AnalyticSimulator(), _decliner(10, 1, 1))
+    asked = LocalCell(scenario, simulator=willing).run()
+    assert asked.summary["by_agent"] == {"human": 2, "arm": 0}
+    person = next(b for b in _first_decision(asked)["branches"] if b["agents"] == ["human"])
+    assert person["terms"]["p_decline"] == person["terms"]["p_cannot"] == 0.1
+    assert person["utility"] == pytest.approx(0.8 / person["terms"]["time"])
+
+
+def test_a_model_without_answers_keeps_eq_21_and_the_cli_shows_the_terms(tmp_path, capsys):
+    """A model whose person never declined leaves the decisions and their log as eq. (21)
+    has them (the durations it learns as the person acts aside); `flexhrc run --operators` with a decliner prints the terms in its trace."""
+    path = _lids(tmp_path)
+    scenario = load_scenario(path, seed=0)
+    plain = LocalCell(scenario, simulator=AnalyticSimulator()).run()
+    quiet = LocalCell(
+        scenario, simulator=OperatorModelSimulator(AnalyticSimulator(), _decliner(10, 0))
+    ).run()
+    decisions = [e for e in quiet.events if e["type"] == "decision"]
+    assert decisions and all("terms" not in b for d in decisions for b in d["branches"])
+    first, plain_first = decisions[0], _first_decision(plain)
+    assert [b["utility"] for b in first["branches"]] == [
+        b["utility"] for b in plain_first["branches"]
+    ]
+    assert quiet.summary["by_agent"] == plain.summary["by_agent"]
+
+    model = tmp_path / "operators.yaml"
+    write_model(_decliner(10, 6), model)
+    assert main(["run", str(path), "--operators", str(model)]) == 0
+    out = capsys.readouterr()
+    text = out.out + out.err
+    assert "declines 60%, cannot 0%" in text, text

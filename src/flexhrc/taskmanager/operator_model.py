@@ -15,6 +15,15 @@ the branch simulation uses — and the share of suggestions they declined or cou
 * :class:`OperatorModelSimulator` wraps any :class:`~flexhrc.taskmanager.simulator.Simulator`:
   a step done by a person whom the model knows for that action lasts the model's median; every
   other step, and the simulated *real* world (``execute``), are the wrapped simulator's own.
+* :meth:`OperatorModelSimulator.answer_odds`: how likely the people of a branch are to say
+  "not now" or "I can't" when asked (their learned rates). The Task Manager scores a branch
+  that needs a person by its *expected* utility: eq. (21) times the chance that the person does
+  it when asked, ``E[J(b)] = J(b) * prod_p (1 - p_decline(p) - p_cannot(p))`` — a branch the
+  person would likely refuse is worth less than its time alone says (a refusal costs the
+  answer's delay and a second decision). Its terms ``p_decline``, ``p_cannot`` go to the
+  decision log beside ``success``, ``time`` and ``utility``. Without a model, or for a branch
+  whose people have no such answers in the model, the score is eq. (21) unchanged and no
+  terms are logged.
 * Online update: the cell hands every ``human_action`` input it feeds the manager to
   :meth:`OperatorModelSimulator.observe_human_action`, live and when a store is replayed
   (``--resume``), so the estimate moves as the cooperation goes on, reproducibly.
@@ -400,6 +409,31 @@ class OperatorModelSimulator:
             return None
         self.replaced += 1
         return max(times)
+
+    def answer_odds(self, steps: Sequence[GroundAction], domain: Domain) -> dict[str, float] | None:
+        """How likely the people of a branch of ``steps`` are to refuse it when asked: the
+        sums of their learned ``p_decline`` and ``p_cannot`` (:attr:`PersonModel.decline_rate`,
+        :attr:`PersonModel.cannot_rate`) and ``p_does``, the chance that every one of them does
+        it, ``prod_p (1 - p_decline(p) - p_cannot(p))`` (the factor of the expected utility,
+        see the module docstring). None when no person of the branch has declined or said
+        "I can't" in the model (eq. 21 stands)."""
+        persons = dict.fromkeys(
+            a for s in steps for a in s.agents if a in domain.agents and domain.agent(a).is_human
+        )
+        declined = cannot = 0.0
+        does = 1.0
+        known = False
+        for name in persons:
+            p = self.model.persons.get(name)
+            if p is None or not (p.declined or p.cannot):
+                continue
+            known = True
+            declined += p.decline_rate
+            cannot += p.cannot_rate
+            does *= max(0.0, 1.0 - p.decline_rate - p.cannot_rate)
+        if not known:
+            return None
+        return {"p_decline": round(declined, 6), "p_cannot": round(cannot, 6), "p_does": does}
 
     def observe_human_action(self, body: Mapping[str, Any]) -> None:
         """The online update: the cell feeds every ``human_action`` input here."""
