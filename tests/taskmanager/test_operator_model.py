@@ -347,3 +347,70 @@ def test_a_model_without_answers_keeps_eq_21_and_the_cli_shows_the_terms(tmp_pat
     out = capsys.readouterr()
     text = out.out + out.err
     assert "declines 60%, cannot 0%" in text, text
+
+
+def test_the_model_is_kept_in_the_stored_start_resume_and_fork_need_no_file(tmp_path, capsys):
+    """`cell --operators FILE` keeps the model's content in its stored ``start``
+    (``operator_model``): a store cut right after its start resumes without the file — and
+    still decides by the model (the decliner's lids go to the arm; without the model the
+    person would be asked) — and a what-if forks it faithfully without the file."""
+    from flexhrc.cell.fork import fork_store
+    from flexhrc.cell.serve import CellConfig, serve_cell
+
+    path = _lids(tmp_path)
+    model = tmp_path / "operators.yaml"
+    write_model(_decliner(10, 6), model)
+    db = tmp_path / "cell.db"
+    assert main(["cell", str(path), "--operators", str(model), "--store", str(db), "--quiet"]) == 0
+    capsys.readouterr()
+    events = read_store(db)
+    assert events[0].body["operator_model"] == read_model(model).to_dict()
+
+    def solved(store: Path) -> dict:
+        return {
+            e.body["element"]: e.body["agents"] for e in read_store(store) if e.kind == "solved"
+        }
+
+    assert solved(db) == {"place_a": ["arm"], "place_b": ["arm"]}
+    model.unlink()  # from here on, only the store knows the model
+    cut = tmp_path / "cut.db"
+    with EventStore(cut) as store:
+        store.append(events[0].kind, events[0].body, events[0].t)
+    scenario = load_scenario(path, seed=0)
+    assert serve_cell(scenario, CellConfig(store=cut, resume=True))["outcome"] == "solved"
+    assert solved(cut) == solved(db)
+    person = next(e for e in read_store(cut) if e.kind == "decision").body["branches"][0]
+    assert person["agents"] == ["human"] and person["terms"]["p_decline"] == 0.6
+
+    fork = tmp_path / "fork.db"
+    fork_store(db, 1, fork, scenario=scenario)
+    assert solved(fork) == solved(db)
+    assert read_store(fork)[0].body["operator_model"] == events[0].body["operator_model"]
+
+
+def test_a_stored_model_given_again_and_a_bad_stored_model(tmp_path):
+    """``--operators`` on a resume decides (the option's file, not the stored copy); a stored
+    model that is not one is one error naming the stored start."""
+    from flexhrc.cell.serve import CellConfig, serve_cell
+
+    path = _lids(tmp_path)
+    scenario = load_scenario(path, seed=0)
+    decliner = tmp_path / "decliner.yaml"
+    write_model(_decliner(10, 6), decliner)
+    willing = tmp_path / "willing.yaml"
+    write_model(_decliner(10, 0), willing)
+    first = tmp_path / "first.db"
+    serve_cell(scenario, CellConfig(store=first, operators=decliner))
+    start = read_store(first)[0]
+    again = tmp_path / "again.db"
+    with EventStore(again) as store:
+        store.append(start.kind, start.body, start.t)
+    serve_cell(scenario, CellConfig(store=again, resume=True, operators=willing))
+    firsts = [e.body for e in read_store(again) if e.kind == "solved"]
+    assert firsts[0]["agents"] == ["human"]  # the given model: the person is asked
+
+    bad = tmp_path / "bad.db"
+    with EventStore(bad) as store:
+        store.append(start.kind, {**start.body, "operator_model": {"persons": 3}}, start.t)
+    with pytest.raises(FormatError, match="stored start: operator_model"):
+        serve_cell(scenario, CellConfig(store=bad, resume=True))

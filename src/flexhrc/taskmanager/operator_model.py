@@ -234,7 +234,14 @@ def read_model(path: str | Path) -> OperatorModel:
     from flexhrc.representation.formats.yaml_format import read_yaml
 
     p = Path(path)
-    doc = read_yaml(p)
+    return model_from_dict(read_yaml(p), p)
+
+
+def model_from_dict(doc: Any, source: str | Path) -> OperatorModel:
+    """The model a document of the file's form holds (:meth:`OperatorModel.to_dict`: a file
+    read, or the copy a cell keeps in its stored ``start``); a bad one is one
+    :class:`FormatError` naming ``source`` (and the line, for a file read)."""
+    p = source
 
     def line(d: Any, key: Any = None) -> int | None:
         lines = getattr(d, "lines", None)
@@ -447,6 +454,7 @@ __all__ = [
     "OperatorModelSimulator",
     "PersonModel",
     "learn_events",
+    "model_from_dict",
     "read_model",
     "write_model",
 ]
