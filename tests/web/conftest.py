@@ -37,13 +37,17 @@ def browser() -> Iterator[Any]:
 
 @pytest.fixture
 def open_page(browser: Any) -> Iterator[Any]:
-    """``open_page(url)`` -> a new page in its own context, with JS errors collected."""
+    """``open_page(url, view=..., width=...)`` -> a new page in its own context, with JS errors
+    collected. ``view="engineer"`` (the default here: most tests drive the graph and tables)
+    opens the engineer's view; ``view=None`` the page as a person gets it (the operator's)."""
     contexts: list[Any] = []
     errors: list[str] = []
     requests: list[str] = []
 
-    def make(url: str) -> Any:
-        ctx = browser.new_context(viewport={"width": 1280, "height": 900})
+    def make(url: str, view: str | None = "engineer", width: int = 1280) -> Any:
+        if view is not None:
+            url += ("&" if "?" in url else "?") + f"view={view}"
+        ctx = browser.new_context(viewport={"width": width, "height": 900})
         ctx.on("request", lambda r: requests.append(r.url))
         contexts.append(ctx)
         page = ctx.new_page()

@@ -233,6 +233,15 @@ class ArmModel:
         oMf = pin.updateFramePlacement(self.model, self.data, self.tcp_frame)
         return oMf.translation.copy(), oMf.rotation.copy()
 
+    def joint_positions(self, q: Array | list[float]) -> list[Array]:
+        """Where each joint of the chain is at ``q`` (world frame), then the TCP: the polyline
+        a viewer draws the arm as (the panel's 3D view)."""
+        pin = _import_pinocchio()
+        pin.forwardKinematics(self.model, self.data, np.asarray(q, dtype=float))
+        points = [self.data.oMi[i].translation.copy() for i in range(1, self.model.njoints)]
+        oMf = pin.updateFramePlacement(self.model, self.data, self.tcp_frame)
+        return [*points, oMf.translation.copy()]
+
     def kinematics(self, q: Array) -> tuple[Array, Array, Array]:
         """TCP position, rotation and the 6x7 Jacobian (rows: linear, angular; world-aligned).
 

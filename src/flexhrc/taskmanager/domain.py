@@ -54,7 +54,9 @@ executed by robots, whereas a human operator may carry them out occasionally").
 
 from __future__ import annotations
 
+import difflib
 import functools
+import re
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -128,6 +130,7 @@ class ActionSchema:
     line: int | None = field(default=None, compare=False)
     target: tuple[str, ...] = ()  # parameters the kind's motion aims at (object, place)
     priority: int = 0  # processes only: the larger wins an arm wanted by two processes
+    text: str | None = None  # plain words for the person, "Screw {?leg} to {?bolt}" (words.py)
 
     @functools.cached_property
     def variables(self) -> tuple[str, ...]:  # read in every grounding: made once
@@ -350,12 +353,43 @@ def _line(d: Any, key: Any = None) -> int | None:
     return int(line) if line else None
 
 
+#: The keys of an action or process entry (a typo such as ``txt:`` is one error, not ignored).
+SCHEMA_KEYS = (
+    "parameters",
+    "agents",
+    "pre",
+    "add",
+    "delete",
+    "kind",
+    "duration",
+    "moves_to",
+    "until",
+    "carries",
+    "fixes",
+    "undo",
+    "target",
+    "priority",
+    "text",
+)
+
+
 def _schema(
     name: str, sd: Any, agents: Mapping[str, Agent], source: str | Path | None, what: str
 ) -> ActionSchema:
     if not isinstance(sd, Mapping):
         raise FormatError(f"{what} {name!r} must be a mapping", source)
     line = _line(sd)
+    for key in sd:
+        if str(key) not in SCHEMA_KEYS:
+            near = difflib.get_close_matches(str(key), SCHEMA_KEYS, n=1)
+            raise FormatError(
+                f"{what} {name!r}: unknown key {key!r}"
+                + (f" (did you mean {near[0]!r}?)" if near else "")
+                + f"; the keys of {'an' if what == 'action' else 'a'} {what} are "
+                + ", ".join(sorted(SCHEMA_KEYS)),
+                source,
+                _line(sd, key) or line,
+            )
     raw_params = sd.get("parameters") or {}
     if not isinstance(raw_params, Mapping):
         raise FormatError(
@@ -451,7 +485,46 @@ def _schema(
         line,
         target,
         priority,
+        _text(name, sd, params, source, what),
     )
+
+
+#: ``{?var}`` in an action's ``text:`` (filled in by :mod:`flexhrc.taskmanager.words`)
+TEXT_PLACEHOLDER = re.compile(r"\{(\?[A-Za-z_][A-Za-z0-9_]*)\}")
+
+
+def placeholders(text: str) -> list[str]:
+    """The ``{?var}`` parameters an action's ``text:`` names, in order."""
+    return TEXT_PLACEHOLDER.findall(text)
+
+
+def _text(
+    name: str,
+    sd: Mapping[str, Any],
+    params: tuple[tuple[str, str], ...],
+    source: str | Path | None,
+    what: str,
+) -> str | None:
+    """The ``text:`` of an action: plain words whose ``{?var}`` name its parameters."""
+    raw = sd.get("text")
+    if raw is None:
+        return None
+    if not isinstance(raw, str) or not raw.strip():
+        raise FormatError(
+            f'{what} {name!r}: text must be plain words such as "Pick up {{?leg}}", got {raw!r}',
+            source,
+            _line(sd, "text"),
+        )
+    known = dict(params)
+    bad = [v for v in placeholders(raw) if v not in known]
+    if bad:
+        raise FormatError(
+            f"{what} {name!r}: text names {', '.join('{' + v + '}' for v in bad)}, not one of "
+            f"its parameters ({', '.join(known) or 'none'})",
+            source,
+            _line(sd, "text"),
+        )
+    return raw.strip()
 
 
 def _formula(v: Any, source: str | Path | None, line: int | None = None) -> Conjunction:

@@ -251,9 +251,17 @@ class AnalyticSimulator:
         durations: list[float] = []
         details: list[dict[str, object]] = []
         for action in steps:
+            before = hands(action, positions, kb)
             ok, dt, why = self.step(action, positions, kb, domain)
             durations.append(dt)
-            details.append({"action": str(action), "agents": list(action.agents), "t": dt})
+            details.append(
+                {
+                    "action": str(action),
+                    "agents": list(action.agents),
+                    "t": dt,
+                    **hand_paths(before, positions),
+                }
+            )
             if not ok:
                 return SimulationResult(False, durations, why, details)
         return SimulationResult(True, durations, None, details)
@@ -285,3 +293,28 @@ def simulator_name(simulator: object) -> str:
         if cls.endswith(suffix) and cls != suffix:
             return cls[: -len(suffix)].lower()
     return cls.lower()
+
+
+def hands(
+    action: GroundAction, positions: Mapping[str, Vec3], kb: KnowledgeBase
+) -> dict[str, Vec3]:
+    """Where the hands of ``action``'s agents are before it (the simulation's own positions,
+    else the knowledge base's)."""
+    out: dict[str, Vec3] = {}
+    for a in action.agents:
+        p = positions.get(a) or (kb.position(a) if a in kb.objects else None)
+        if p is not None:
+            out[a] = p
+    return out
+
+
+def hand_paths(before: Mapping[str, Vec3], positions: Mapping[str, Vec3]) -> dict[str, object]:
+    """``{"paths": {agent: [from, to]}}`` for each hand a simulated step moved — the planned
+    end-effector path the operator's view draws before the arm moves (the paper's "upcoming
+    end-effector trajectories"); ``{}`` when no hand moved."""
+    paths = {
+        a: [[round(v, 4) for v in p], [round(v, 4) for v in positions[a]]]
+        for a, p in before.items()
+        if a in positions and tuple(positions[a]) != tuple(p)
+    }
+    return {"paths": paths} if paths else {}

@@ -37,9 +37,16 @@ from flexhrc.cell.components import ground, unknown_name
 from flexhrc.errors import FlexhrcError
 from flexhrc.taskmanager.domain import GroundAction
 from flexhrc.taskmanager.manager import HumanAction, TakeRefused
+from flexhrc.taskmanager.words import plain_words
 from flexhrc.web import operator
 from flexhrc.web.backend import PanelInputError, json_safe, parse_action
-from flexhrc.web.snapshot import TIMELINE_LIMIT, feasible_costs, graph_snapshot, suggestions
+from flexhrc.web.snapshot import (
+    TIMELINE_LIMIT,
+    feasible_costs,
+    graph_snapshot,
+    progress,
+    suggestions,
+)
 
 ANSWER_TIMEOUT_S = 10.0  # an HTTP request waits this long for the cell's loop to take its input
 
@@ -69,6 +76,7 @@ class CellPanel:
         self._timeline: list[dict[str, Any]] = []
         self._timeline_from = 0
         self._commands: dict[int, dict[str, Any]] = {}
+        self._joints: dict[str, list[float]] = {}  # each arm's latest joint state (acks)
         self._tokens: list[Any] = []
         for ev in cell.events:  # a resumed cell: the operator's stops are in its store
             if ev.body.get("by") == "operator" and ev.kind in ("agent_down", "agent_up"):
@@ -334,6 +342,8 @@ class CellPanel:
         events = self.cell.events
         for ev in events[self._timeline_from :]:
             body = ev.body
+            if ev.kind == "ack" and isinstance(body.get("joints"), Mapping):
+                self._joints.update(body["joints"])  # where the arms are (the 3D view)
             if ev.kind == "command":
                 self._commands[int(body["id"])] = {"start": ev.t, **body}
             elif ev.kind in ("ack", "stop"):  # a command's end: answered, or stopped
@@ -366,18 +376,25 @@ class CellPanel:
 
     def _agents(self) -> list[dict[str, Any]]:
         c = self.cell
-        asked = {a: str(step) for step in self._asked() for a in step.agents}
+        names = tuple(c.agents)
+        asked = {a: step for step in self._asked() for a in step.agents}
         out = []
         for name, st in c.agents.items():
             item: dict[str, Any] = {"name": name, "kind": st.kind, "alive": bool(st.alive)}
             if st.kind == "human":
-                item["action"] = asked.get(name)
+                step = asked.get(name)
+                item["action"] = str(step) if step else None
+                item["text"] = plain_words(step, names) if step else None
                 item["status"] = (
                     "lost" if not st.available else "asked" if name in asked else "free"
                 )
             else:
                 cmd = c.tm.busy.get(name)
                 item["action"] = str(cmd.action) if cmd else None
+                item["text"] = plain_words(cmd.action, names) if cmd else None
+                following = self._following(name)
+                item["next"] = str(following) if following else None
+                item["next_text"] = plain_words(following, names) if following else None
                 item["command"] = cmd.id if cmd else None
                 if name in self.halted:
                     item["status"] = "stopped"
@@ -387,6 +404,91 @@ class CellPanel:
                     item["status"] = "busy" if cmd else "idle"
             out.append(item)
         return out
+
+    def _scene(self) -> dict[str, Any]:
+        """What the 3D view draws (issue 24, item 2): each arm's base, hand and — when its
+        joint state is known (the kinematic model's acknowledgements) — its joint chain by
+        forward kinematics of the project's robot model; each person's hand; the objects with
+        their sizes (the knowledge base, agents left out)."""
+        c = self.cell
+        robots, people = [], []
+        for name, agent in c.tm.domain.agents.items():
+            hand = c.kb.objects[name].position if name in c.kb.objects else None
+            if agent.is_human:
+                people.append({"name": name, "hand": _xyz(hand)})
+                continue
+            robots.append(
+                {
+                    "name": name,
+                    "base": _xyz(agent.params.get("base")),
+                    "hand": _xyz(hand),
+                    "reach": agent.params.get("reach"),
+                    "chain": self._chain(name),
+                    "planned": self._planned(name),
+                }
+            )
+        agents = set(c.tm.domain.agents)
+        objects = [
+            {
+                "id": o.id,
+                "type": o.type,
+                "position": _xyz(o.position),
+                "size": dict(o.size),
+                "fixed": bool(o.fixed),
+            }
+            for o in c.kb.objects.values()
+            if o.id not in agents
+        ]
+        return {"robots": robots, "people": people, "objects": objects}
+
+    def _planned(self, robot: str) -> dict[str, Any] | None:
+        """The running command's planned hand path for ``robot`` (issue 24, item 3): from the
+        branch simulation the Task Manager ran when it chose the branch — ``{"command",
+        "action", "text", "path"}`` — or None when the arm runs nothing (the path goes when the
+        command ends or is stopped)."""
+        cmd = self.cell.tm.busy.get(robot)
+        if cmd is None or cmd.element is None:
+            return None
+        ex = self.cell.tm.executions.get(cmd.element)
+        result = ex.branch.result if ex is not None else None
+        if result is None or not 0 <= cmd.index < len(result.details):
+            return None
+        paths = result.details[cmd.index].get("paths")
+        path = paths.get(robot) if isinstance(paths, Mapping) else None
+        if not path:
+            return None
+        return {
+            "command": cmd.id,
+            "action": str(cmd.action),
+            "text": plain_words(cmd.action, tuple(self.cell.agents)),
+            "path": [_xyz(p) for p in path],
+        }
+
+    def _chain(self, arm: str) -> list[list[float]] | None:
+        q = self._joints.get(arm)
+        if q is None:
+            return None
+        try:  # the kinematic model sent joint states: pinocchio is installed
+            from flexhrc.action.robots import load_robot
+
+            model = load_robot().arms.get(arm)
+            if model is None or len(q) != model.dof:
+                return None
+            return [_xyz(p) or [] for p in model.joint_positions(q)]
+        except (ImportError, FlexhrcError):
+            return None
+
+    def _following(self, robot: str) -> GroundAction | None:
+        """The step an arm will do after its current one (the rest of the part it carries
+        out), or the first of a part given to it and not started."""
+        for ex in self.cell.tm.executions.values():
+            if robot not in ex.branch.agents:
+                continue
+            at = ex.next_index + (1 if ex.command is not None else 0)
+            for step in ex.branch.steps[at:]:
+                if robot in step.agents:
+                    return step
+        return None
 
     def _waiting(self) -> str | None:
         c = self.cell
@@ -423,6 +525,8 @@ class CellPanel:
         self._update_timeline()
         tm = c.tm
         running = {e: ex.owner for e, ex in tm.executions.items()}
+        graph = graph_snapshot(tm.graph, feasible_costs(tm.graph), running)
+        offers = operator.offers(tm)
         kb = c.kb.to_dict()
         return json_safe(
             {
@@ -435,9 +539,13 @@ class CellPanel:
                 "time": round(c.now, 3),
                 "version": self._version,
                 "suggestions": suggestions(tm),
-                "takeable": operator.takeable(tm),
+                "takeable": [offer["element"] for offer in offers],
+                "offers": offers,
+                "clock_rate": c.realtime,
                 "agents": self._agents(),
-                "graph": graph_snapshot(tm.graph, feasible_costs(tm.graph), running),
+                "graph": graph,
+                "progress": progress(graph),
+                "scene": self._scene(),
                 "timeline": list(self._timeline),
                 "objects": kb["objects"],
                 "facts": kb["facts"],
@@ -446,6 +554,16 @@ class CellPanel:
                 "dropped": len(c.dropped),
             }
         )
+
+
+def _xyz(p: Any) -> list[float] | None:
+    """A position as three rounded floats (millimetres are enough for a picture), or None."""
+    if p is None:
+        return None
+    try:
+        return [round(float(v), 4) for v in list(p)[:3]]
+    except (TypeError, ValueError):
+        return None
 
 
 __all__ = ["CellPanel"]

@@ -14,6 +14,7 @@ what the manager would not match without changing anything.
 from __future__ import annotations
 
 from flexhrc.taskmanager.manager import TakeRefused, TaskManager
+from flexhrc.taskmanager.words import plain_words
 
 
 def humans(tm: TaskManager) -> list[str]:
@@ -22,15 +23,27 @@ def humans(tm: TaskManager) -> list[str]:
 
 def takeable(tm: TaskManager) -> list[str]:
     """Feasible hyper-arcs an operator may take now (those not already an operator's)."""
+    return [offer["element"] for offer in offers(tm)]
+
+
+def offers(tm: TaskManager) -> list[dict[str, str]]:
+    """The hyper-arcs an operator may take now, each with its steps in plain words (the first
+    grounding of the operator's decision tree; taking it grounds it anew, eq. 21):
+    ``{"element", "text"}``, cheapest first."""
     if tm.done:
         return []
+    names = tuple(tm.domain.agents)
     out = []
     for name, _cost in sorted(tm.feasible_hyperarcs().items(), key=lambda kv: (kv[1], kv[0])):
         ex = tm.executions.get(name)
         if ex is not None and ex.owner == "human":
             continue
-        if tm.actions_of(name) and tm.operator_branches(name).branches:
-            out.append(name)
+        if not tm.actions_of(name):
+            continue
+        branches = tm.operator_branches(name).branches
+        if branches:
+            words = [plain_words(step, names) for step in branches[0].steps]
+            out.append({"element": name, "text": " · ".join(words)})
     return out
 
 
@@ -42,4 +55,4 @@ def refusal_status(refused: TakeRefused) -> int:
     return _STATUS.get(refused.kind, 409)
 
 
-__all__ = ["humans", "refusal_status", "takeable"]
+__all__ = ["humans", "offers", "refusal_status", "takeable"]

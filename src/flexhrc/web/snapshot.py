@@ -18,6 +18,7 @@ from typing import Any
 from flexhrc.representation import OnlineGraph
 from flexhrc.representation.hierarchy import qualify
 from flexhrc.taskmanager.manager import TaskManager
+from flexhrc.taskmanager.words import plain_words
 from flexhrc.web.backend import json_safe
 
 TIMELINE_LIMIT = 300  # entries of the timeline kept in a snapshot (the store keeps them all)
@@ -93,8 +94,10 @@ def graph_snapshot(
 
 def suggestions(tm: TaskManager) -> list[dict[str, Any]]:
     """Feasible elements, cheapest first: ``{element, kind, cost, graph, graph_name, to, owner,
-    actions, next}``. ``to`` lists the agents the element was given to (empty: nobody yet);
-    ``next`` is the ground action to do next when it was given to someone."""
+    actions, next, next_text}``. ``to`` lists the agents the element was given to (empty:
+    nobody yet); ``next`` is the ground action to do next when it was given to someone and
+    ``next_text`` the same in plain words (:func:`~flexhrc.taskmanager.words.plain_words`)."""
+    names = tuple(tm.domain.agents)
     out = []
     for s in tm.graph.suggestions():
         ex = tm.executions.get(s.element)
@@ -106,8 +109,60 @@ def suggestions(tm: TaskManager) -> list[dict[str, Any]]:
             item["done"] = ex.next_index
             if ex.next_index < len(ex.branch.steps):
                 item["next"] = str(ex.branch.steps[ex.next_index])
+                item["next_text"] = plain_words(ex.branch.steps[ex.next_index], names)
         out.append(item)
     return json_safe(out)
 
 
-__all__ = ["TIMELINE_LIMIT", "feasible_costs", "graph_snapshot", "suggestions"]
+def progress(instances: list[dict[str, Any]]) -> dict[str, int]:
+    """Steps done and steps to do, for the person's progress bar: ``done`` counts the solved
+    hyper-arcs; ``todo`` the unsolved hyper-arcs of the cheapest way from the current state to
+    the goal (the AND/OR solution graph of least cost, eq. 10, read off the snapshot of
+    :func:`graph_snapshot`; a hyper-arc that opens a lower graph counts that graph's steps)."""
+    by_path = {inst["path"]: inst for inst in instances}
+    lower_of = {inst["upper"]: inst["path"] for inst in instances if inst.get("upper")}
+    done = sum(1 for inst in instances for h in inst["hyperarcs"] if h["status"] == "solved")
+
+    def todo(inst: dict[str, Any]) -> int:
+        met = {n["id"] for n in inst["nodes"] if n["status"] == "met"}
+        ways: dict[str, list[dict[str, Any]]] = {}
+        for h in inst["hyperarcs"]:
+            if h["status"] != "infeasible":
+                ways.setdefault(h["parent"], []).append(h)
+        best: dict[str, tuple[float, dict[str, Any] | None]] = {}
+
+        def cost(node: str, seen: frozenset[str]) -> float:
+            if node in met:
+                return 0.0
+            if node in best:
+                return best[node][0]
+            if node in seen:  # a cycle is no way to the goal
+                return float("inf")
+            choice: tuple[float, dict[str, Any] | None] = (float("inf"), None)
+            for h in ways.get(node, []):
+                c = float(h["weight"]) + sum(cost(ch, seen | {node}) for ch in h["children"])
+                if c < choice[0]:
+                    choice = (c, h)
+            best[node] = choice
+            return choice[0]
+
+        roots = [n["id"] for n in inst["nodes"] if n.get("root")]
+        if not roots or cost(roots[0], frozenset()) == float("inf"):
+            return 0
+        count, stack, counted = 0, [roots[0]], set()
+        while stack:
+            node = stack.pop()
+            h = best.get(node, (0.0, None))[1] if node not in met else None
+            if h is None or h["id"] in counted:
+                continue
+            counted.add(h["id"])
+            lower = lower_of.get(h["id"])
+            count += todo(by_path[lower]) if lower is not None and lower in by_path else 1
+            stack.extend(h["children"])
+        return count
+
+    top = by_path.get("")
+    return {"done": done, "todo": todo(top) if top is not None else 0}
+
+
+__all__ = ["TIMELINE_LIMIT", "feasible_costs", "graph_snapshot", "progress", "suggestions"]

@@ -68,6 +68,7 @@ function connect(delay) {
     window.__panel.events = state.events;
     window.__panel.renderedAt = Date.now();
     window.__panel.state = state;
+    window.dispatchEvent(new CustomEvent("panel-state", { detail: state }));  // the 3D view
     window.__panel.log.push([state.events, window.__panel.renderedAt, received, cost]);
     if (window.__panel.log.length > 2000) window.__panel.log.shift();
   };
@@ -77,18 +78,131 @@ function connect(delay) {
   };
 }
 
+// -- the two views -----------------------------------------------------------------------
+// The operator's view (default) speaks plain words with big buttons; the engineer's view is the
+// graph, the knowledge base and the events. `?view=engineer` opens the latter first.
+function setView(view) {
+  for (const tab of document.querySelectorAll(".tab")) {
+    const on = tab.dataset.view === view;
+    tab.setAttribute("aria-selected", on ? "true" : "false");
+    tab.tabIndex = on ? 0 : -1;
+    document.getElementById(tab.getAttribute("aria-controls")).hidden = !on;
+  }
+  window.__panel.view = view;
+}
+for (const tab of document.querySelectorAll(".tab")) {
+  tab.addEventListener("click", () => setView(tab.dataset.view));
+  tab.addEventListener("keydown", (ev) => {  // arrow keys move between tabs (WAI-ARIA tabs)
+    if (ev.key !== "ArrowRight" && ev.key !== "ArrowLeft") return;
+    const other = document.querySelector(`.tab:not([data-view="${tab.dataset.view}"])`);
+    setView(other.dataset.view); other.focus();
+  });
+}
+setView(new URLSearchParams(location.search).get("view") === "engineer" ? "engineer" : "operator");
+
+// The clock runs between events: the cell's time at the last state, advanced by the wall clock
+// at the cell's pace (`clock_rate`: simulated seconds per second; 0 when time only jumps).
+const clock = { t: 0, at: 0, rate: 0, running: false };
+function fmtClock(t) {
+  const m = Math.floor(t / 60), sec = Math.floor(t % 60);
+  return `${m}:${String(sec).padStart(2, "0")}`;
+}
+function tickClock() {
+  const t = clock.t + (clock.running ? (performance.now() - clock.at) / 1000 * clock.rate : 0);
+  document.getElementById("op-clock").textContent = fmtClock(t);
+  document.getElementById("clock").textContent = "t = " + t.toFixed(1) + " s";
+  window.__panel.clock = t;
+}
+setInterval(tickClock, 200);
+
+// "your turn": a cue when a step is put to the person (a short tone if they asked for sound)
+let turnWas = null;
+function cue() {
+  if (new URLSearchParams(location.search).get("sound") !== "1") return;
+  try {
+    const ctx = new AudioContext(), osc = ctx.createOscillator(), gain = ctx.createGain();
+    osc.frequency.value = 880; gain.gain.value = 0.1;
+    osc.connect(gain).connect(ctx.destination); osc.start(); osc.stop(ctx.currentTime + 0.2);
+  } catch (err) { /* no audio here: the visual cue stays */ }
+}
+
+function myStep(s) {
+  return (s.suggestions || []).find((g) => g.owner === "human" && g.next) || null;
+}
+
+function renderOperator(s) {
+  const running = s.outcome === "running";
+  const step = running ? myStep(s) : null;
+  const turn = document.getElementById("turn");
+  const key = step ? step.element + "|" + step.next : null;
+  turn.dataset.turn = step ? "yours" : "none";
+  document.getElementById("turn-title").textContent = step ? "Your turn"
+    : running ? "Nothing for you right now" : s.outcome === "solved" ? "All done" : "Stopped";
+  document.getElementById("step-text").textContent = step ? (step.next_text || step.next) : "";
+  document.getElementById("step-action").textContent = step ? step.next : "";
+  const buttons = { "op-done": step ? { action: step.next } : null,
+                    "op-start": step ? { reply: "start" } : null,
+                    "op-decline": step ? { reply: "decline" } : null,
+                    "op-cannot": step ? { reply: "cannot", reason: "said at the panel" } : null,
+                    "op-give-back": step ? { reply: "give_back" } : null };
+  for (const [id, body] of Object.entries(buttons)) {
+    const b = document.getElementById(id);
+    b.disabled = !body;
+    b.onclick = body ? () => post("/api/human", body) : null;
+  }
+  if (key && key !== turnWas) cue();
+  turnWas = key;
+  changed("offers", [running, s.offers], () => {
+    const offers = running ? (s.offers || []) : [];
+    document.getElementById("op-take").replaceChildren(...offers.map((o) =>
+      el("button", { class: "take-big", "data-take": o.element,
+        onclick: () => post("/api/human", { take: o.element }) }, "I'll do this: " + o.text)));
+  });
+  const p = s.progress || { done: 0, todo: 0 };
+  const total = p.done + p.todo;
+  const bar = document.getElementById("op-progress");
+  bar.max = Math.max(total, 1); bar.value = running ? p.done : bar.max;
+  document.getElementById("op-progress-text").textContent = running
+    ? `${p.done} of ${total} steps done` : `${p.done} steps done`;
+  changed("robots", [s.agents, running], () => renderRobots(s, running));
+}
+
+function renderRobots(s, running) {
+  const robots = (s.agents || []).filter((a) => a.kind === "robot");
+  document.getElementById("op-robots").replaceChildren(...robots.map((a) => {
+    const now = !a.alive ? "lost" : a.status === "stopped" ? "stopped by you"
+      : a.text ? a.text : "waiting";
+    let button = null;
+    if (a.status === "stopped") {
+      button = el("button", { class: "resume", "data-robot": a.name, disabled: !running,
+        onclick: () => post("/api/resume", { robot: a.name }) }, "resume");
+    } else {
+      button = el("button", { class: "stop", "data-robot": a.name, disabled: !running,
+        onclick: () => post("/api/stop", { robot: a.name }) }, "stop robot");
+    }
+    return el("li", { "data-robot": a.name, "data-status": a.status },
+      el("span", { class: "robot-name", text: a.name }),
+      el("span", { class: "now", text: "now: " + now }),
+      a.next_text ? el("span", { class: "next", text: "next: " + a.next_text }) : null,
+      button);
+  }));
+}
+
 // -- rendering ----------------------------------------------------------------------------
 function render(s) {
   document.getElementById("cell-name").textContent = s.cell || "";
   const out = document.getElementById("outcome");
   out.textContent = s.outcome; out.dataset.outcome = s.outcome;
-  document.getElementById("clock").textContent = "t = " + (s.time ?? 0).toFixed(1) + " s";
+  Object.assign(clock, { t: s.time ?? 0, at: performance.now(), rate: +s.clock_rate || 0,
+                         running: s.outcome === "running" });
+  tickClock();
   document.getElementById("events").textContent = s.events + " events";
   const banner = document.getElementById("banner");
   const why = s.outcome === "failed" ? "failed: " + (s.reason || "no reason given")
             : s.outcome === "solved" ? "solved: the task is complete" : s.waiting;
   banner.hidden = !why; banner.textContent = why || "";
-  banner.className = "banner" + (s.outcome === "failed" ? " failed" : "");
+  banner.className = "banner" + (s.outcome === "failed" ? " failed"
+                                 : s.outcome === "solved" ? " solved" : "");
   // only the parts whose data changed are drawn again: with many pages open on one machine
   // the browser's work per event stays small
   changed("suggestions", [s.suggestions, s.takeable], () => renderSuggestions(s));
@@ -96,6 +210,11 @@ function render(s) {
   changed("graph", s.graph, () => renderGraph(s));
   changed("timeline", [s.timeline, (s.agents || []).map((a) => a.name)], () => renderTimeline(s));
   changed("kb", [s.objects, s.facts], () => renderKB(s));
+  renderOperator(s);
+  // the run has ended: nothing the person can press would do anything any more
+  if (s.outcome !== "running") {
+    for (const b of document.querySelectorAll("main button, .operator button")) b.disabled = true;
+  }
 }
 
 const drawn = {};
