@@ -140,6 +140,17 @@ def test_the_file_round_trip(tmp_path):
             "more answers",
         ),
         ("flexhrc_operators: 1\npersons: {a: [1}\n", 2, "YAML syntax error"),
+        (
+            "flexhrc_operators: 1\npersons:\n  human:\n    answers:\n      carry:\n"
+            "        suggestions: 1\n        cannot: 2\n",
+            7,
+            "person human, answers carry: more answers",
+        ),
+        (
+            "flexhrc_operators: 1\npersons:\n  human:\n    answers:\n      carry: {asked: 1}\n",
+            5,
+            "unknown key 'asked'",
+        ),
     ],
 )
 def test_a_bad_file_is_one_error_with_its_line(tmp_path, capsys, text, line, words):
@@ -414,3 +425,65 @@ def test_a_stored_model_given_again_and_a_bad_stored_model(tmp_path):
         store.append(start.kind, {**start.body, "operator_model": {"persons": 3}}, start.t)
     with pytest.raises(FormatError, match="stored start: operator_model"):
         serve_cell(scenario, CellConfig(store=bad, resume=True))
+
+
+def test_declines_and_cannots_are_counted_per_action_too():
+    """Each request's action names count it (``answers``), and its reply counts for them."""
+    from flexhrc.cell.store import StoredEvent
+    from flexhrc.taskmanager.operator_model import learn_events
+
+    def ev(seq: int, kind: str, **body) -> StoredEvent:
+        return StoredEvent(seq, float(seq), kind, {"run": "r", **body})
+
+    events = [
+        ev(1, "suggestion", id="s1", agent="human", actions=["fasten(human, screw_1)"]),
+        ev(2, "human_reply", id="h1", agent="human", reply="decline", suggestion="s1"),
+        ev(
+            3,
+            "suggestion",
+            id="s2",
+            agent="human",
+            actions=["pick(human, screw_2)", "fasten(human, screw_2)"],
+        ),
+        ev(4, "human_reply", id="h2", agent="human", reply="cannot", suggestion="s2"),
+        ev(5, "suggestion", id="s3", agent="human", actions=["insert_pin(human, pin_1)"]),
+    ]
+    person = learn_events(events).person("human")
+    counts = {a: (c.suggestions, c.declined, c.cannot) for a, c in person.answers.items()}
+    assert counts == {"fasten": (2, 1, 1), "pick": (1, 0, 1), "insert_pin": (1, 0, 0)}
+    assert person.rates("fasten") == (0.5, 0.5) and person.rates("insert_pin") == (0.0, 0.0)
+    assert person.rates("screw") == (pytest.approx(1 / 3), pytest.approx(1 / 3))  # never asked
+    doc = OperatorModel(persons={"human": person}).to_dict()["persons"]["human"]["answers"]
+    assert doc["fasten"] == {"suggestions": 2, "declined": 1, "cannot": 1,
+                             "decline_rate": 0.5, "cannot_rate": 0.5}  # fmt: skip
+
+
+def test_an_i_cannot_learned_from_a_store_keeps_the_person_from_that_action(tmp_path):
+    """A run in which the person said "I can't" to carrying a lid, learned: in the next run
+    the carries' expected utility is 0 for the person (their cannot rate for ``carry`` is 1,
+    though over all their requests it is lower), so nobody asks them. The model's file keeps
+    the per-action counts and reads back the same."""
+    from flexhrc.taskmanager.operator_model import learn_events
+
+    scenario = load_scenario(_lids(tmp_path), seed=0)
+    db = tmp_path / "first.db"
+    with EventStore(db) as store:
+        first = LocalCell(
+            scenario,
+            simulator=AnalyticSimulator(),
+            replies=lambda el, actions, k: ("cannot", "no gloves") if el == "place_a" else None,
+            store=store,
+        ).run()
+    assert first.outcome == "solved"
+    model = learn_events(read_store(db))
+    person = model.person("human")
+    assert person.rates("carry") == (0.0, 1.0)
+    path = tmp_path / "operators.yaml"
+    write_model(model, path)
+    assert read_model(path).to_dict() == model.to_dict()
+
+    again = LocalCell(scenario, simulator=OperatorModelSimulator(AnalyticSimulator(), model)).run()
+    assert again.outcome == "solved" and again.summary["by_agent"] == {"human": 0, "arm": 2}
+    assert not [e for e in again.events if e["type"] == "suggestion"]
+    branch = next(b for b in _first_decision(again)["branches"] if b["agents"] == ["human"])
+    assert branch["terms"]["p_cannot"] == 1.0 and branch["utility"] == 0.0
