@@ -761,7 +761,8 @@ _STORE_SPECS = [
         "start",
         "input",
         "the run begins (run id, agents, humans, scenario, its "
-        "fingerprint, seed, realtime, ...); every row carries the run id as `run`",
+        "fingerprint, seed, realtime, the --operators model as `operator_model`, ...); every "
+        "row carries the run id as `run`",
     ),
     StoreKindSpec("ack", "input", "an ack message"),
     StoreKindSpec("human_action", "input", "a human_action message"),

@@ -16,7 +16,7 @@ import pytest
 
 from flexhrc.cell.fork import fork_store
 from flexhrc.cell.serve import CellConfig, serve_cell
-from flexhrc.cell.store import StoredEvent, read_store, summarise_store
+from flexhrc.cell.store import EventStore, StoredEvent, read_store, summarise_store
 from flexhrc.cli import main
 from flexhrc.scenario import load_scenario
 
@@ -249,8 +249,10 @@ def test_a_run_of_a_scenario_file_forks_with_its_file(
 def test_a_run_with_an_operator_model_forks_with_its_file(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    """The store does not name the operator model (flexhrc learn) the manager timed the person
-    by: ``--operators`` gives it, and the fork reproduces the run."""
+    """The store keeps the operator model (flexhrc learn) the manager timed the person by in
+    its ``start`` (``operator_model``): the fork reproduces the run with ``--operators`` and
+    without it. A store from before that key does not hold the model: without the file its
+    first K events do not replay as stored, refused with nothing written."""
     first = _stored(tmp_path, "kitchen_drawer", "passive")
     model = tmp_path / "operators.yaml"
     assert main(["learn", str(first), "-o", str(model)]) == 0
@@ -261,10 +263,18 @@ def test_a_run_with_an_operator_model_forks_with_its_file(
     assert main(argv) == 0
     capsys.readouterr()
     assert _comparable(read_store(out)) == _comparable(read_store(source))
-    # without the model the first K events do not replay as stored: refused, nothing written
     late = next(ev.seq for ev in read_store(source)[::-1] if ev.kind == "command")
+    stored = tmp_path / "stored.db"  # the model from the store's start, no file
+    assert main(["replay", str(source), "--fork-at", str(late), "-o", str(stored)]) == 0
+    capsys.readouterr()
+    assert _comparable(read_store(stored)) == _comparable(read_store(source))
+    older = tmp_path / "older.db"  # as written before the start kept the model
+    with EventStore(older) as store:
+        for ev in read_store(source):
+            body = {k: v for k, v in ev.body.items() if k != "operator_model"}
+            store.append(ev.kind, body, ev.t)
     bad = tmp_path / "bad.db"
-    assert main(["replay", str(source), "--fork-at", str(late), "-o", str(bad)]) == 2
+    assert main(["replay", str(older), "--fork-at", str(late), "-o", str(bad)]) == 2
     assert "give it with --operators FILE" in capsys.readouterr().err
     assert not [p for p in tmp_path.iterdir() if p.name.startswith("bad.db")]
 

@@ -140,6 +140,17 @@ def test_the_file_round_trip(tmp_path):
             "more answers",
         ),
         ("flexhrc_operators: 1\npersons: {a: [1}\n", 2, "YAML syntax error"),
+        (
+            "flexhrc_operators: 1\npersons:\n  human:\n    answers:\n      carry:\n"
+            "        suggestions: 1\n        cannot: 2\n",
+            7,
+            "person human, answers carry: more answers",
+        ),
+        (
+            "flexhrc_operators: 1\npersons:\n  human:\n    answers:\n      carry: {asked: 1}\n",
+            5,
+            "unknown key 'asked'",
+        ),
     ],
 )
 def test_a_bad_file_is_one_error_with_its_line(tmp_path, capsys, text, line, words):
@@ -273,3 +284,206 @@ def test_declines_and_cannots_are_counted_per_person():
     person = learn_events(events).person("human")
     assert (person.suggestions, person.declined, person.cannot) == (4, 1, 1)
     assert person.decline_rate == person.cannot_rate == 0.25
+
+
+def _decliner(suggestions: int, declined: int, cannot: int = 0) -> OperatorModel:
+    model = OperatorModel()
+    person = model.person("human")
+    person.suggestions, person.declined, person.cannot = suggestions, declined, cannot
+    return model
+
+
+def _lids(tmp_path: Path):
+    from tests.cell.test_answers import LIDS
+
+    path = tmp_path / "lids.yaml"
+    path.write_text(LIDS)
+    return path
+
+
+def _first_decision(result) -> dict:
+    return next(e for e in result.events if e["type"] == "decision")
+
+
+def test_a_learned_high_decline_rate_gives_the_step_to_the_arm(tmp_path):
+    """The lids: the person is faster (eq. 21: J = 1/2.14 against the arm's 1/4.57), so they
+    are asked first. A model in which they declined 6 of 10 requests scores their branch by
+    its expected utility J * (1 - 0.6) = 0.187 < 0.219: the arm carries the lids, nobody is
+    asked; at 2 of 10 the person is still asked. The decision log shows the terms."""
+    scenario = load_scenario(_lids(tmp_path), seed=0)
+    plain = LocalCell(scenario, simulator=AnalyticSimulator()).run()
+    assert plain.summary["by_agent"] == {"human": 2, "arm": 0}
+    assert all("terms" not in b for b in _first_decision(plain)["branches"])  # eq. (21)
+
+    model = OperatorModelSimulator(AnalyticSimulator(), _decliner(10, 6))
+    result = LocalCell(scenario, simulator=model).run()
+    assert result.outcome == "solved" and result.summary["by_agent"] == {"human": 0, "arm": 2}
+    assert not [e for e in result.events if e["type"] == "suggestion"]
+    first = _first_decision(result)
+    person = next(b for b in first["branches"] if b["agents"] == ["human"])
+    arm = next(b for b in first["branches"] if b["agents"] == ["arm"])
+    assert person["terms"]["p_decline"] == 0.6 and person["terms"]["p_cannot"] == 0.0
+    assert person["utility"] == pytest.approx(0.4 / person["terms"]["time"])
+    assert "terms" not in arm and first["branches"][first["chosen"]] is not person
+    assert arm["utility"] > person["utility"]
+
+    willing = OperatorModelSimulator(AnalyticSimulator(), _decliner(10, 1, 1))
+    asked = LocalCell(scenario, simulator=willing).run()
+    assert asked.summary["by_agent"] == {"human": 2, "arm": 0}
+    person = next(b for b in _first_decision(asked)["branches"] if b["agents"] == ["human"])
+    assert person["terms"]["p_decline"] == person["terms"]["p_cannot"] == 0.1
+    assert person["utility"] == pytest.approx(0.8 / person["terms"]["time"])
+
+
+def test_a_model_without_answers_keeps_eq_21_and_the_cli_shows_the_terms(tmp_path, capsys):
+    """A model whose person never declined leaves the decisions and their log as eq. (21)
+    has them (the durations it learns as the person acts aside); `flexhrc run --operators` with a decliner prints the terms in its trace."""
+    path = _lids(tmp_path)
+    scenario = load_scenario(path, seed=0)
+    plain = LocalCell(scenario, simulator=AnalyticSimulator()).run()
+    quiet = LocalCell(
+        scenario, simulator=OperatorModelSimulator(AnalyticSimulator(), _decliner(10, 0))
+    ).run()
+    decisions = [e for e in quiet.events if e["type"] == "decision"]
+    assert decisions and all("terms" not in b for d in decisions for b in d["branches"])
+    first, plain_first = decisions[0], _first_decision(plain)
+    assert [b["utility"] for b in first["branches"]] == [
+        b["utility"] for b in plain_first["branches"]
+    ]
+    assert quiet.summary["by_agent"] == plain.summary["by_agent"]
+
+    model = tmp_path / "operators.yaml"
+    write_model(_decliner(10, 6), model)
+    assert main(["run", str(path), "--operators", str(model)]) == 0
+    out = capsys.readouterr()
+    text = out.out + out.err
+    assert "declines 60%, cannot 0%" in text, text
+
+
+def test_the_model_is_kept_in_the_stored_start_resume_and_fork_need_no_file(tmp_path, capsys):
+    """`cell --operators FILE` keeps the model's content in its stored ``start``
+    (``operator_model``): a store cut right after its start resumes without the file — and
+    still decides by the model (the decliner's lids go to the arm; without the model the
+    person would be asked) — and a what-if forks it faithfully without the file."""
+    from flexhrc.cell.fork import fork_store
+    from flexhrc.cell.serve import CellConfig, serve_cell
+
+    path = _lids(tmp_path)
+    model = tmp_path / "operators.yaml"
+    write_model(_decliner(10, 6), model)
+    db = tmp_path / "cell.db"
+    assert main(["cell", str(path), "--operators", str(model), "--store", str(db), "--quiet"]) == 0
+    capsys.readouterr()
+    events = read_store(db)
+    assert events[0].body["operator_model"] == read_model(model).to_dict()
+
+    def solved(store: Path) -> dict:
+        return {
+            e.body["element"]: e.body["agents"] for e in read_store(store) if e.kind == "solved"
+        }
+
+    assert solved(db) == {"place_a": ["arm"], "place_b": ["arm"]}
+    model.unlink()  # from here on, only the store knows the model
+    cut = tmp_path / "cut.db"
+    with EventStore(cut) as store:
+        store.append(events[0].kind, events[0].body, events[0].t)
+    scenario = load_scenario(path, seed=0)
+    assert serve_cell(scenario, CellConfig(store=cut, resume=True))["outcome"] == "solved"
+    assert solved(cut) == solved(db)
+    person = next(e for e in read_store(cut) if e.kind == "decision").body["branches"][0]
+    assert person["agents"] == ["human"] and person["terms"]["p_decline"] == 0.6
+
+    fork = tmp_path / "fork.db"
+    fork_store(db, 1, fork, scenario=scenario)
+    assert solved(fork) == solved(db)
+    assert read_store(fork)[0].body["operator_model"] == events[0].body["operator_model"]
+
+
+def test_a_stored_model_given_again_and_a_bad_stored_model(tmp_path):
+    """``--operators`` on a resume decides (the option's file, not the stored copy); a stored
+    model that is not one is one error naming the stored start."""
+    from flexhrc.cell.serve import CellConfig, serve_cell
+
+    path = _lids(tmp_path)
+    scenario = load_scenario(path, seed=0)
+    decliner = tmp_path / "decliner.yaml"
+    write_model(_decliner(10, 6), decliner)
+    willing = tmp_path / "willing.yaml"
+    write_model(_decliner(10, 0), willing)
+    first = tmp_path / "first.db"
+    serve_cell(scenario, CellConfig(store=first, operators=decliner))
+    start = read_store(first)[0]
+    again = tmp_path / "again.db"
+    with EventStore(again) as store:
+        store.append(start.kind, start.body, start.t)
+    serve_cell(scenario, CellConfig(store=again, resume=True, operators=willing))
+    firsts = [e.body for e in read_store(again) if e.kind == "solved"]
+    assert firsts[0]["agents"] == ["human"]  # the given model: the person is asked
+
+    bad = tmp_path / "bad.db"
+    with EventStore(bad) as store:
+        store.append(start.kind, {**start.body, "operator_model": {"persons": 3}}, start.t)
+    with pytest.raises(FormatError, match="stored start: operator_model"):
+        serve_cell(scenario, CellConfig(store=bad, resume=True))
+
+
+def test_declines_and_cannots_are_counted_per_action_too():
+    """Each request's action names count it (``answers``), and its reply counts for them."""
+    from flexhrc.cell.store import StoredEvent
+    from flexhrc.taskmanager.operator_model import learn_events
+
+    def ev(seq: int, kind: str, **body) -> StoredEvent:
+        return StoredEvent(seq, float(seq), kind, {"run": "r", **body})
+
+    events = [
+        ev(1, "suggestion", id="s1", agent="human", actions=["fasten(human, screw_1)"]),
+        ev(2, "human_reply", id="h1", agent="human", reply="decline", suggestion="s1"),
+        ev(
+            3,
+            "suggestion",
+            id="s2",
+            agent="human",
+            actions=["pick(human, screw_2)", "fasten(human, screw_2)"],
+        ),
+        ev(4, "human_reply", id="h2", agent="human", reply="cannot", suggestion="s2"),
+        ev(5, "suggestion", id="s3", agent="human", actions=["insert_pin(human, pin_1)"]),
+    ]
+    person = learn_events(events).person("human")
+    counts = {a: (c.suggestions, c.declined, c.cannot) for a, c in person.answers.items()}
+    assert counts == {"fasten": (2, 1, 1), "pick": (1, 0, 1), "insert_pin": (1, 0, 0)}
+    assert person.rates("fasten") == (0.5, 0.5) and person.rates("insert_pin") == (0.0, 0.0)
+    assert person.rates("screw") == (pytest.approx(1 / 3), pytest.approx(1 / 3))  # never asked
+    doc = OperatorModel(persons={"human": person}).to_dict()["persons"]["human"]["answers"]
+    assert doc["fasten"] == {"suggestions": 2, "declined": 1, "cannot": 1,
+                             "decline_rate": 0.5, "cannot_rate": 0.5}  # fmt: skip
+
+
+def test_an_i_cannot_learned_from_a_store_keeps_the_person_from_that_action(tmp_path):
+    """A run in which the person said "I can't" to carrying a lid, learned: in the next run
+    the carries' expected utility is 0 for the person (their cannot rate for ``carry`` is 1,
+    though over all their requests it is lower), so nobody asks them. The model's file keeps
+    the per-action counts and reads back the same."""
+    from flexhrc.taskmanager.operator_model import learn_events
+
+    scenario = load_scenario(_lids(tmp_path), seed=0)
+    db = tmp_path / "first.db"
+    with EventStore(db) as store:
+        first = LocalCell(
+            scenario,
+            simulator=AnalyticSimulator(),
+            replies=lambda el, actions, k: ("cannot", "no gloves") if el == "place_a" else None,
+            store=store,
+        ).run()
+    assert first.outcome == "solved"
+    model = learn_events(read_store(db))
+    person = model.person("human")
+    assert person.rates("carry") == (0.0, 1.0)
+    path = tmp_path / "operators.yaml"
+    write_model(model, path)
+    assert read_model(path).to_dict() == model.to_dict()
+
+    again = LocalCell(scenario, simulator=OperatorModelSimulator(AnalyticSimulator(), model)).run()
+    assert again.outcome == "solved" and again.summary["by_agent"] == {"human": 0, "arm": 2}
+    assert not [e for e in again.events if e["type"] == "suggestion"]
+    branch = next(b for b in _first_decision(again)["branches"] if b["agents"] == ["human"])
+    assert branch["terms"]["p_cannot"] == 1.0 and branch["utility"] == 0.0

@@ -301,3 +301,46 @@ def test_start_done_and_not_now_at_the_page(serve: Any, open_page: Any, tmp_path
     [report] = [e.body for e in events if e.kind == "human_action"]
     assert report["start"] == round(said.t, 6) and report["t"] > report["start"]
     assert coop.report().summary["timing"]["human_actions_s"] > 0
+
+
+def test_a_request_left_unanswered_goes_to_the_arm_at_the_page(
+    open_page: Any, tmp_path: Path
+) -> None:
+    """Issue 22: the scenario's ``answer_timeout: 5``; the page is open (and marked) before the
+    cooperation starts, the person's request appears and nobody clicks: 5 s later the step is
+    declined (``why: timeout``), the request leaves the page and the arm's carry shows in the
+    timeline, all through the websocket (the marker survives: nothing was reloaded)."""
+    from tests.cell.test_answers import LIDS
+
+    path = tmp_path / "lids.yaml"
+    path.write_text(LIDS.replace("simulator: analytic", "simulator: analytic\nanswer_timeout: 5"))
+    coop = LocalPanel(str(path), speed=1.0, simulator="analytic")
+    try:
+        coop.server = PanelServer(coop, "127.0.0.1", 0).start()
+        page = open_page(coop.url)
+        page.wait_for_selector("#link.link-up")  # the websocket is up before anything happens
+        page.evaluate("window.__marker = 'not reloaded'")
+        coop.start()
+        asked = page.locator(
+            "#suggestions tr.mine button.done[data-action='carry(human, lid_a, box)']"
+        )
+        asked.wait_for(
+            timeout=20_000
+        )  # the request, shown for 5 s of the cell's clock (1 s a second)
+        page.wait_for_selector(
+            "#timeline-list li:has-text('carry(arm, lid_a, box)')", timeout=20_000
+        )
+        asked.wait_for(state="detached")  # the request left the page
+        page.wait_for_selector("#outcome[data-outcome='solved']", timeout=30_000)
+        assert page.evaluate("window.__marker") == "not reloaded"
+        events = coop.cell.events
+        [reply] = [e for e in events if e.kind == "human_reply"]
+        assert reply.body["why"] == "timeout" and reply.body["reply"] == "decline"
+        [asked_at] = [e.t for e in events if e.kind == "suggestion"][:1]
+        assert reply.t >= asked_at + 5.0
+        [declined] = [e.body for e in events if e.kind == "human_declined"]
+        assert declined["element"] == "place_a" and "no answer after 5 s" in declined["reason"]
+        [cmd] = [e.body for e in events if e.kind == "command" and e.body["element"] == "place_a"]
+        assert cmd["agents"] == ["arm"]
+    finally:
+        coop.close()

@@ -574,6 +574,16 @@ def _with_sensing(data: dict[str, Any], config: RunConfig) -> dict[str, Any]:
     return data
 
 
+def _terms_text(t: dict[str, Any]) -> str:
+    """A branch's terms in the trace: time, the shaped utility's, an operator model's."""
+    shown = [f"time {t['time']:.2f} s"]
+    if "preference" in t:
+        shown += [f"preference {t['preference']:g}", f"workload {t['workload']:.0%}"]
+    if "p_decline" in t:
+        shown += [f"declines {t['p_decline']:.0%}", f"cannot {t['p_cannot']:.0%}"]
+    return ", ".join(shown)
+
+
 def trace_line(event: dict[str, Any]) -> str | None:
     """The line of the live trace (``flexhrc run`` without ``--quiet``) for a log event, None
     for an event the trace leaves out (not in :data:`~flexhrc.events.TRACE_TYPES`)."""
@@ -601,12 +611,14 @@ def trace_line(event: dict[str, Any]) -> str | None:
             b = ev["branches"][ev["chosen"]]
             grounding = ", ".join(f"{k}={v}" for k, v in sorted(b["grounding"].items()))
             line += f", best {grounding} J={b['utility']:.4f}"
-            if "terms" in b:  # a shaped utility (issue 22): the terms behind J
-                t = b["terms"]
-                line += (
-                    f" (time {t['time']:.2f} s, preference {t['preference']:g},"
-                    f" workload {t['workload']:.0%})"
-                )
+            if "terms" in b:  # a shaped utility, an operator model (issue 22): J's terms
+                line += f" ({_terms_text(b['terms'])})"
+            # a person's branch an operator model marked down (expected utility): why it lost
+            odds = [o for o in ev["branches"] if "p_decline" in o.get("terms", {}) and o is not b]
+            if odds and "p_decline" not in b.get("terms", {}):
+                o = max(odds, key=lambda o: o["utility"])
+                who = "+".join(o["agents"])
+                line += f"; {who}'s J={o['utility']:.4f} ({_terms_text(o['terms'])})"
         else:
             line += ", none succeeds"
     elif kind == "command":

@@ -11,8 +11,9 @@ process — and from there the cooperation goes on with the new choices:
   :meth:`~flexhrc.cell.supervisor.Cell.set_operator_profile`, so the fork itself resumes and
   replays); None keeps the stored one (the profile each operator's process had in the run);
 * ``operators`` — the operator model file (``flexhrc learn``) the manager times the people's
-  steps by; the store does not name it, so a run made with ``--operators`` forks faithfully
-  only with the same file;
+  steps by, for the whole fork (the replayed prefix too); None: the model the stored ``start``
+  holds (``operator_model``, a run made with ``--operators``), so such a run forks faithfully
+  without its file;
 * ``utility`` — the branch utility from event ``K`` on (a ``utility:`` block, stored as the
   input ``utility``, :meth:`~flexhrc.cell.supervisor.Cell.set_utility`); the prefix replays
   under the scenario's own;
@@ -217,6 +218,10 @@ def fork_store(
     )
     if on_failure is not None:
         start["on_failure"] = on_failure
+    if operators is not None:  # the fork's own start holds the model it runs by (its resume)
+        from flexhrc.taskmanager.operator_model import read_model
+
+        start["operator_model"] = read_model(operators).to_dict()
     simulator = str(start.get("simulator") or "auto")
     if simulator not in ("analytic", "kinematic"):
         simulator = "auto"

@@ -477,6 +477,30 @@ class Cell:
         if self.operators.get(name, "passive") != profile:
             self._input("operator", {"agent": name, "profile": profile})
 
+    def _operator_model_input(self) -> dict[str, Any]:
+        """The ``start`` input's ``operator_model``: the content of the model the manager
+        times the people's steps by (``--operators``, docs/operators.md) as it is at the start,
+        so ``--resume`` and a what-if rebuild the same decisions without the file."""
+        from flexhrc.taskmanager.operator_model import OperatorModelSimulator
+
+        sim = self.tm.simulator
+        return (
+            {"operator_model": sim.model.to_dict()}
+            if isinstance(sim, OperatorModelSimulator)
+            else {}
+        )
+
+    def _take_stored_model(self, doc: Any) -> None:
+        """A resumed run started with an operator model: the manager takes the stored one,
+        unless a model was given again (``--operators FILE``: the given one decides, as the
+        option says)."""
+        from flexhrc.taskmanager.operator_model import OperatorModelSimulator, model_from_dict
+
+        if isinstance(self.tm.simulator, OperatorModelSimulator):
+            return
+        model = model_from_dict(doc, "stored start: operator_model")
+        self.tm.simulator = OperatorModelSimulator(self.tm.simulator, model)
+
     def set_utility(self, block: Any, *, where: str = "utility") -> None:
         """From now on the Task Manager scores branches by the utility ``block`` (the
         scenario key ``utility:``'s form; the stored input ``utility``, so the run resumes
@@ -1040,6 +1064,8 @@ class Cell:
                 tm.on_failure = check_failure_policy(body["on_failure"], "stored start: on_failure")
             self.operators.update(body.get("operators") or {})
             self.scripted.update(body.get("scripted") or [])
+            if "operator_model" in body:
+                self._take_stored_model(body["operator_model"])
             if body.get("watchers"):  # the first decision waits for their first look
                 self.begun = False
                 return []
@@ -2060,6 +2086,7 @@ class Cell:
                     "simulator": _simulator_name(self.tm.simulator),
                     "on_failure": self.tm.on_failure,
                     "operators": dict(self.operators),
+                    **self._operator_model_input(),
                     **({"watchers": list(self.watchers)} if self.watchers else {}),
                     **({"scripted": sorted(self.scripted)} if self.scripted else {}),
                 },

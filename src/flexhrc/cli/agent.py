@@ -49,7 +49,8 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
         default="passive",
         metavar="PROFILE",
         help="passive (default: only when asked), takeover (takes every step it can), "
-        "cooperative (takes one now and then), random (at random moments, random objects); "
+        "cooperative (takes one now and then), random (at random moments, random objects), "
+        "reluctant (declines some requests, answers cannot to some actions); "
         "its choices are seeded by --seed",
     )
     _common(h)

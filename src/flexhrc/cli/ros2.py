@@ -76,7 +76,8 @@ def _human_options(human: argparse.ArgumentParser) -> None:
         "--profile",
         default="passive",
         metavar="PROFILE",
-        help="passive (default), takeover, cooperative or random (seeded by --seed)",
+        help="passive (default), takeover, cooperative, random or reluctant (declines some "
+        "requests, answers cannot to some actions); seeded by --seed",
     )
 
 
@@ -167,7 +168,8 @@ _NODES: tuple[tuple[str, Callable[[Any], None], Callable[[Any], int], str, str],
         "The cell's simulated operator (`flexhrc agent human`) as a ROS 2 node: it "
         "carries out each suggestion on suggest/<name> and reports the human actions on human; "
         "with a profile other than passive it answers the options on options/<name> with "
-        "intents on intent. It exits when the cell ends.",
+        "intents on intent (reluctant: some requests with decline or cannot on human). It "
+        "exits when the cell ends.",
     ),
     (
         "arm",

@@ -227,10 +227,11 @@ class DecisionTree:
         simulator: Simulator,
         kb: KnowledgeBase,
         domain: Domain,
-        score: Callable[[Branch], dict[str, float]] | None = None,
+        score: Callable[[Branch], dict[str, float] | None] | None = None,
     ) -> Branch | None:
         """Simulate every branch; the best one (utility > 0), or None. ``score`` gives a
-        simulated branch its terms under a shaped utility (default: eq. 21)."""
+        simulated branch its terms under a shaped utility or an operator model (None, or no
+        ``score``: eq. 21)."""
         for b in self.branches:
             b.result = simulator.simulate(b.steps, kb, domain)
             if score is not None:

@@ -1251,14 +1251,34 @@ class TaskManager:
             person_time=self.person_time,
         )
 
-    def _score_fn(self) -> Callable[[Branch], dict[str, float]] | None:
-        """How a simulated branch is scored: None for eq. (21), else its shaped terms."""
-        if self.utility is None:
+    def _score_fn(self) -> Callable[[Branch], dict[str, float] | None] | None:
+        """How a simulated branch is scored: None for eq. (21), else its terms — the shaped
+        utility's (:mod:`.utility`) and, with an operator model that knows how often the
+        branch's people decline or cannot (``answer_odds`` of the simulator,
+        :class:`~flexhrc.taskmanager.operator_model.OperatorModelSimulator`), the expected
+        utility ``J(b) * p_does`` with its terms ``p_decline`` and ``p_cannot``. A branch the
+        model says nothing about keeps eq. (21) (no terms) when there is no ``utility:``."""
+        odds = getattr(self.simulator, "answer_odds", None)  # an operator model's only
+        if self.utility is None and odds is None:
             return None
 
-        def score(b: Branch) -> dict[str, float]:
+        def score(b: Branch) -> dict[str, float] | None:
             r = b.result
-            return self._terms(b.steps, bool(r and r.success), r.durations if r else [])
+            success, durations = bool(r and r.success), (r.durations if r else [])
+            said = odds(b.steps, self.domain) if odds is not None else None
+            if self.utility is not None:
+                terms = self._terms(b.steps, success, durations)
+            elif said is None:
+                return None  # eq. (21) as the paper has it
+            else:
+                total = float(sum(durations))
+                j = 1.0 / total if success and total > 0 else 0.0  # eq. (21)
+                terms = {"success": 1.0 if success else 0.0, "time": round(total, 6), "utility": j}
+            if said is not None:
+                terms["p_decline"] = said["p_decline"]
+                terms["p_cannot"] = said["p_cannot"]
+                terms["utility"] = terms["utility"] * said["p_does"]  # the expected utility
+            return terms
 
         return score
 

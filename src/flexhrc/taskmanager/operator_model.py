@@ -6,15 +6,27 @@ sum(t_i)`` (eq. 21). For a robot arm the simulator's times are a model of the ar
 they are the scenario's nominal figures (``Timing``, a domain's ``duration``), the same for every
 operator. An :class:`OperatorModel` holds what the store says about each *person* instead: per
 person and action, the durations they really took — median and spread, the median being what
-the branch simulation uses — and the share of suggestions they declined or could not do.
+the branch simulation uses — and the share of suggestions they declined or could not do, in
+all and per action name (a person who cannot carry may still screw).
 
 * :func:`learn_events` reads the events of stores (``flexhrc learn STORE... -o FILE``,
   :func:`flexhrc.app.learn.learn_model`): a ``human_action`` input whose body carries ``start``
   and ``t`` is one duration sample of its ``agent`` for its action's name; ``suggestion``
-  outputs count what each person was asked.
+  outputs count what each person was asked (in all and per action name it holds), and their
+  ``human_reply`` inputs how often they declined or could not (the request's names too).
 * :class:`OperatorModelSimulator` wraps any :class:`~flexhrc.taskmanager.simulator.Simulator`:
   a step done by a person whom the model knows for that action lasts the model's median; every
   other step, and the simulated *real* world (``execute``), are the wrapped simulator's own.
+* :meth:`OperatorModelSimulator.answer_odds`: how likely the people of a branch are to say
+  "not now" or "I can't" when asked (their learned rates). The Task Manager scores a branch
+  that needs a person by its *expected* utility: eq. (21) times the chance that the person does
+  it when asked, ``E[J(b)] = J(b) * prod_p (1 - p_decline(p) - p_cannot(p))``, each person's
+  rates those of the branch's action they refused most (:meth:`PersonModel.rates`) — a branch the
+  person would likely refuse is worth less than its time alone says (a refusal costs the
+  answer's delay and a second decision). Its terms ``p_decline``, ``p_cannot`` go to the
+  decision log beside ``success``, ``time`` and ``utility``. Without a model, or for a branch
+  whose people have no such answers in the model, the score is eq. (21) unchanged and no
+  terms are logged.
 * Online update: the cell hands every ``human_action`` input it feeds the manager to
   :meth:`OperatorModelSimulator.observe_human_action`, live and when a store is replayed
   (``--resume``), so the estimate moves as the cooperation goes on, reproducibly.
@@ -85,14 +97,59 @@ class ActionEstimate:
 
 
 @dataclass
+class AnswerCounts:
+    """How many requests with one action a person got, declined and could not do."""
+
+    suggestions: int = 0
+    declined: int = 0
+    cannot: int = 0
+
+    @property
+    def decline_rate(self) -> float:
+        return self.declined / self.suggestions if self.suggestions else 0.0
+
+    @property
+    def cannot_rate(self) -> float:
+        return self.cannot / self.suggestions if self.suggestions else 0.0
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "suggestions": self.suggestions,
+            "declined": self.declined,
+            "cannot": self.cannot,
+            "decline_rate": round(self.decline_rate, 4),
+            "cannot_rate": round(self.cannot_rate, 4),
+        }
+
+
+@dataclass
 class PersonModel:
     """One person: an estimate per action name; how many suggestions they got, declined and
-    answered with "I can't" (the rates are 0 until such answers are stored)."""
+    answered with "I can't" (the rates are 0 until such answers are stored), in all and per
+    action name (``answers``: the requests that held an action of that name)."""
 
     actions: dict[str, ActionEstimate] = field(default_factory=dict)
     suggestions: int = 0
     declined: int = 0
     cannot: int = 0
+    answers: dict[str, AnswerCounts] = field(default_factory=dict)
+
+    @property
+    def has_answered(self) -> bool:
+        """Whether the person ever declined or said "I can't" (in all, or for an action)."""
+        return bool(
+            self.declined
+            or self.cannot
+            or any(c.declined or c.cannot for c in self.answers.values())
+        )
+
+    def rates(self, action: str) -> tuple[float, float]:
+        """(decline rate, cannot rate) of a request with ``action`` (an action's name): its
+        own when the person was asked one, else the person's over all their requests."""
+        counts = self.answers.get(action)
+        if counts is not None and counts.suggestions:
+            return counts.decline_rate, counts.cannot_rate
+        return self.decline_rate, self.cannot_rate
 
     @property
     def decline_rate(self) -> float:
@@ -110,6 +167,11 @@ class PersonModel:
             "cannot": self.cannot,
             "decline_rate": round(self.decline_rate, 4),
             "cannot_rate": round(self.cannot_rate, 4),
+            **(
+                {"answers": {a: c.to_dict() for a, c in sorted(self.answers.items())}}
+                if self.answers
+                else {}
+            ),
         }
 
 
@@ -170,7 +232,7 @@ class OperatorModel:
         header = (
             "# flexhrc operator model (docs/operators.md): per person and action, the durations\n"
             "# they took (median, spread = median absolute deviation, the latest samples) and\n"
-            "# the share of suggestions they declined or could not do.\n"
+            "# the share of suggestions they declined or could not do (in all, and per action).\n"
         )
         return header + yaml.safe_dump(self.to_dict(), sort_keys=False, default_flow_style=None)
 
@@ -193,6 +255,7 @@ def learn_events(events: Iterable[Any], model: OperatorModel | None = None) -> O
     say about each person to ``model`` (a new one by default) and return it."""
     model = model if model is not None else OperatorModel()
     seen: set[tuple[str, str]] = set()  # (run, human_action id): a resent report counts once
+    asked: dict[tuple[str, str], list[str]] = {}  # (run, suggestion id) -> its action names
     for ev in events:
         body = ev.body
         run = str(body.get("run", ""))
@@ -202,18 +265,33 @@ def learn_events(events: Iterable[Any], model: OperatorModel | None = None) -> O
                 seen.add(key)
                 model.observe_human_action(body)
         elif ev.kind == "suggestion" and isinstance(body.get("agent"), str):
-            model.person(body["agent"]).suggestions += 1
+            p = model.person(body["agent"])
+            p.suggestions += 1
+            names = _action_names(body.get("actions"))
+            asked[(run, str(body.get("id")))] = names
+            for name in names:
+                p.answers.setdefault(name, AnswerCounts()).suggestions += 1
         else:
             answer = _answer(ev.kind, body)
             key = (run, f"reply:{body.get('id')}")
             if answer is not None and isinstance(body.get("agent"), str) and key not in seen:
                 seen.add(key)
                 p = model.person(body["agent"])
-                if answer == DECLINE:
-                    p.declined += 1
-                else:
-                    p.cannot += 1
+                field_ = "declined" if answer == DECLINE else "cannot"
+                setattr(p, field_, getattr(p, field_) + 1)
+                # the request it answered, by its actions (a reply naming none: the person's)
+                for name in asked.get((run, str(body.get("suggestion"))), []):
+                    counts = p.answers.get(name)
+                    if counts is not None:
+                        setattr(counts, field_, getattr(counts, field_) + 1)
     return model
+
+
+def _action_names(actions: Any) -> list[str]:
+    """The distinct action names of a request's ``actions`` (in order)."""
+    if not isinstance(actions, list):
+        return []
+    return list(dict.fromkeys(action_name(a) for a in actions if isinstance(a, str)))
 
 
 # -- the file ------------------------------------------------------------------------------------
@@ -225,7 +303,14 @@ def read_model(path: str | Path) -> OperatorModel:
     from flexhrc.representation.formats.yaml_format import read_yaml
 
     p = Path(path)
-    doc = read_yaml(p)
+    return model_from_dict(read_yaml(p), p)
+
+
+def model_from_dict(doc: Any, source: str | Path) -> OperatorModel:
+    """The model a document of the file's form holds (:meth:`OperatorModel.to_dict`: a file
+    read, or the copy a cell keeps in its stored ``start``); a bad one is one
+    :class:`FormatError` naming ``source`` (and the line, for a file read)."""
+    p = source
 
     def line(d: Any, key: Any = None) -> int | None:
         lines = getattr(d, "lines", None)
@@ -270,7 +355,10 @@ def read_model(path: str | Path) -> OperatorModel:
     return model
 
 
-_PERSON_KEYS = {"actions", "suggestions", "declined", "cannot", "decline_rate", "cannot_rate"}
+_PERSON_KEYS = {
+    "actions", "suggestions", "declined", "cannot", "decline_rate", "cannot_rate", "answers",
+}  # fmt: skip
+_COUNT_KEYS = {"suggestions", "declined", "cannot", "decline_rate", "cannot_rate"}
 _ACTION_KEYS = {"n", "median_s", "spread_s", "samples_s"}
 
 
@@ -283,19 +371,20 @@ def _person(pd: Any, name: str, fail: Any) -> PersonModel:
         if k not in _PERSON_KEYS:
             raise fail(f"person {name}: unknown key {k!r}", pd, k)
     person = PersonModel()
-    for k in ("suggestions", "declined", "cannot"):
-        v = pd.get(k, 0)
-        if not (isinstance(v, int) and not isinstance(v, bool) and v >= 0):
-            raise fail(f"person {name}: {k} must be a whole number >= 0, got {v!r}", pd, k)
-        setattr(person, k, v)
-    for k in ("decline_rate", "cannot_rate"):  # derived; checked so a typo does not pass
-        v = pd.get(k, 0.0)
-        if not (_number(v) and 0 <= v <= 1):
-            raise fail(f"person {name}: {k} must be a number in [0, 1], got {v!r}", pd, k)
-    if person.declined + person.cannot > person.suggestions:
-        raise fail(
-            f"person {name}: more answers (declined + cannot) than suggestions", pd, "declined"
-        )
+    _counts(person, pd, f"person {name}", fail)
+    answers = pd.get("answers", {}) or {}
+    if not isinstance(answers, dict):
+        raise fail(f"person {name}: answers must be a mapping: action -> counts", pd, "answers")
+    for action, ad in answers.items():
+        where = f"person {name}, answers {action}"
+        if not isinstance(action, str) or not action:
+            raise fail(f"person {name}: answers: an action must be named", answers, action)
+        if not isinstance(ad, dict):
+            raise fail(f"{where}: must be a mapping (suggestions, declined ...)", answers, action)
+        for k in ad:
+            if k not in _COUNT_KEYS:
+                raise fail(f"{where}: unknown key {k!r}", ad, k)
+        person.answers[action] = _counts(AnswerCounts(), ad, where, fail)
     actions = pd.get("actions", {}) or {}
     if not isinstance(actions, dict):
         raise fail(f"person {name}: actions must be a mapping: action -> estimate", pd, "actions")
@@ -330,6 +419,24 @@ def _person(pd: Any, name: str, fail: Any) -> PersonModel:
                 raise fail(f"{where}: {k} must be seconds >= 0, got {v!r}", ad, k)
         person.actions[action] = ActionEstimate(values[-WINDOW:])
     return person
+
+
+def _counts(into: Any, d: Any, where: str, fail: Any) -> Any:
+    """``suggestions``, ``declined``, ``cannot`` (and the derived rates, checked) of ``d``
+    into ``into`` (a :class:`PersonModel` or :class:`AnswerCounts`)."""
+    for k in ("suggestions", "declined", "cannot"):
+        v = d.get(k, 0)
+        if not (isinstance(v, int) and not isinstance(v, bool) and v >= 0):
+            raise fail(f"{where}: {k} must be a whole number >= 0, got {v!r}", d, k)
+        setattr(into, k, v)
+    for k in ("decline_rate", "cannot_rate"):  # derived; checked so a typo does not pass
+        v = d.get(k, 0.0)
+        if not (_number(v) and 0 <= v <= 1):
+            raise fail(f"{where}: {k} must be a number in [0, 1], got {v!r}", d, k)
+    if into.declined + into.cannot > into.suggestions:
+        key = "declined" if "declined" in d else "cannot"  # a line the reader can find
+        raise fail(f"{where}: more answers (declined + cannot) than suggestions", d, key)
+    return into
 
 
 def write_model(model: OperatorModel, path: str | Path) -> None:
@@ -401,6 +508,37 @@ class OperatorModelSimulator:
         self.replaced += 1
         return max(times)
 
+    def answer_odds(self, steps: Sequence[GroundAction], domain: Domain) -> dict[str, float] | None:
+        """How likely the people of a branch of ``steps`` are to refuse it when asked: the
+        sums of their learned ``p_decline`` and ``p_cannot`` — per person the rates of the
+        action of the branch they refused most (:meth:`PersonModel.rates`: the action's own,
+        else the person's) — and ``p_does``, the chance that every one of them does
+        it, ``prod_p (1 - p_decline(p) - p_cannot(p))`` (the factor of the expected utility,
+        see the module docstring). None when no person of the branch has declined or said
+        "I can't" in the model (eq. 21 stands)."""
+        persons: dict[str, list[str]] = {}  # person -> the action names they do in it
+        for s in steps:
+            for a in s.agents:
+                if a in domain.agents and domain.agent(a).is_human:
+                    persons.setdefault(a, []).append(s.name)
+        declined = cannot = 0.0
+        does = 1.0
+        known = False
+        for name, actions in persons.items():
+            p = self.model.persons.get(name)
+            if p is None or not p.has_answered:
+                continue
+            known = True
+            # a request is as likely refused as its most refused action (PersonModel.rates)
+            rates = [p.rates(a) for a in dict.fromkeys(actions)]
+            pd, pc = max(r[0] for r in rates), max(r[1] for r in rates)
+            declined += pd
+            cannot += pc
+            does *= max(0.0, 1.0 - pd - pc)
+        if not known:
+            return None
+        return {"p_decline": round(declined, 6), "p_cannot": round(cannot, 6), "p_does": does}
+
     def observe_human_action(self, body: Mapping[str, Any]) -> None:
         """The online update: the cell feeds every ``human_action`` input here."""
         self.model.observe_human_action(body)
@@ -409,10 +547,12 @@ class OperatorModelSimulator:
 __all__ = [
     "FORMAT_VERSION",
     "ActionEstimate",
+    "AnswerCounts",
     "OperatorModel",
     "OperatorModelSimulator",
     "PersonModel",
     "learn_events",
+    "model_from_dict",
     "read_model",
     "write_model",
 ]
