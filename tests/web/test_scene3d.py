@@ -17,7 +17,9 @@ pytest.importorskip("playwright")
 from flexhrc.web.local import LocalPanel, PanelConfig, serve_panel, table_legs
 from tests.cell.test_answers import LIDS
 
-PIXELS = "document.querySelector('#scene3d canvas').toDataURL('image/png')"
+# drawn and read in one task: the canvas keeps no drawing buffer between frames (it costs)
+PIXELS = """(() => { window.__scene3d.draw();
+  return document.querySelector('#scene3d canvas').toDataURL('image/png'); })()"""
 MESHES = """(() => window.__scene3d.scene.children.flatMap((c) => c.children || [])
   .filter((m) => m.userData && m.userData.id).map((m) => m.userData.id))()"""
 
@@ -83,7 +85,7 @@ def test_any_scenario_is_drawn_without_a_robot_model(
     assert sorted(page.evaluate(MESHES)) == ["box", "lid_a", "lid_b"]
     # the canvas shows something: more than the background colour
     colours = page.evaluate(
-        """(() => { const c = document.querySelector('#scene3d canvas');
+        """(() => { window.__scene3d.draw(); const c = document.querySelector('#scene3d canvas');
         const g = document.createElement('canvas'); g.width = c.width; g.height = c.height;
         const x = g.getContext('2d'); x.drawImage(c, 0, 0);
         const d = x.getImageData(0, 0, g.width, g.height).data; const seen = new Set();

@@ -7,7 +7,7 @@
 import * as THREE from "./vendor/three/three.module.min.js";
 
 const box = document.getElementById("scene3d");
-const renderer = new THREE.WebGLRenderer({ antialias: true, preserveDrawingBuffer: true });
+const renderer = new THREE.WebGLRenderer({ antialias: false });
 renderer.setPixelRatio(Math.min(window.devicePixelRatio || 1, 2));
 box.append(renderer.domElement);
 renderer.domElement.setAttribute("aria-label", "the cell in 3D");
@@ -200,18 +200,23 @@ export function update(s) {
 
 // the cell's time now, as the page's clock keeps it between events (panel.js)
 const cellTime = () => window.__panel.clockNow();
-let animating = false;
+// A hand is animated only until it reaches the end of its path (an idle page draws nothing):
+// twenty open pages on one small machine share its CPU, software WebGL included, with their
+// websockets (benchmarks/panel_latency.py, live cell). For the same reason no antialiasing.
+let animating = false, travelling = 0;
 function animate() {
-  if (!movers.length) { animating = false; return; }
   const t = cellTime();
+  travelling = 0;
   for (const m of movers) {
     const { path, start, duration } = m.userData.moving;
     const f = Math.min(1, Math.max(0, (t - start) / duration));
+    if (f < 1) travelling += 1;
     const seg = f * (path.length - 1), i = Math.min(Math.floor(seg), path.length - 2);
     m.position.lerpVectors(path[i], path[i + 1], seg - i);
   }
   draw();
-  requestAnimationFrame(animate);
+  if (travelling) requestAnimationFrame(animate);
+  else animating = false;  // every hand is at its path's end: the next state starts it again
 }
 
 function resize() {
@@ -237,7 +242,7 @@ function planned() {
   }
   return out;
 }
-window.__scene3d = { update, draw, scene, planned, moving: () => movers.length };
+window.__scene3d = { update, draw, scene, planned, moving: () => (animating ? travelling : 0) };
 window.addEventListener("panel-state", (e) => update(e.detail));
 window.addEventListener("panel-whatif", (e) => {
   whatIf = e.detail ? e.detail.robots : null;
