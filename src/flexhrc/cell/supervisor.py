@@ -1311,7 +1311,9 @@ class Cell:
                 "human_decides",
                 {"agent": human, "element": hyperarc, "step": step, "actions": actions},
             )
-            return self.tm.operator_takes(self.now, hyperarc, record=False)
+            # the step is this operator's: with several people, eq. 21 over all of them could
+            # hand it to another one, busy with a request of their own (a deadlock)
+            return self.tm.operator_takes(self.now, hyperarc, record=False, agent=human)
         sid = f"s{len(self.suggestions) + 1}"
         self.suggestions[sid] = {
             "v": P.VERSION,

@@ -393,15 +393,18 @@ class TaskManager:
         self._emit("agent_available" if available else "agent_unavailable", agent=agent)
         return self._entry(now, self._plan)
 
-    def operator_takes(self, now: float, element: str, *, record: bool = True) -> list[Directive]:
+    def operator_takes(
+        self, now: float, element: str, *, record: bool = True, agent: str | None = None
+    ) -> list[Directive]:
         """A person says they *will* do the feasible hyper-arc ``element`` (a panel's "I'll do
         this"): the robots leave that part as when an unsuggested human action is recognised
         (paper 000, V-C: every robot execution sharing a child or an object with it is aborted),
         and its actions, grounded for the operators by a decision tree (eq. 21), are suggested
         to them. Raises :class:`TakeRefused` — before anything changes — when it is not a
         feasible hyper-arc an operator can do now (:meth:`check_take`). ``record`` False: no
-        ``taken`` event (the caller records the operator's own decision its way)."""
-        tree, cost = self.check_take(element)
+        ``taken`` event (the caller records the operator's own decision its way). ``agent``: the
+        person who takes it (None: the best operator by eq. 21, as a panel with one person)."""
+        tree, cost = self.check_take(element, agent)
 
         def body() -> list[Directive]:
             best = tree.evaluate(self.simulator, self.kb, self.domain) or tree.branches[0]
@@ -457,9 +460,9 @@ class TaskManager:
             out += twin.on_human_action(now, action)
         return [d for d in out if isinstance(d, Command)], twin
 
-    def check_take(self, element: str) -> tuple[DecisionTree, float]:
-        """Whether an operator can take ``element`` now: its operators' decision tree and its
-        cost, or :class:`TakeRefused` saying why not. Changes nothing."""
+    def check_take(self, element: str, agent: str | None = None) -> tuple[DecisionTree, float]:
+        """Whether an operator (``agent``, when given) can take ``element`` now: its operators'
+        decision tree and its cost, or :class:`TakeRefused` saying why not. Changes nothing."""
         try:
             kind = self.graph.kind(element)
         except KeyError:
@@ -476,16 +479,18 @@ class TaskManager:
             raise TakeRefused(f"{element!r} is already the operator's")
         if not self.actions_of(element):
             raise TakeRefused(f"{element!r} has no action to do")
-        tree = self.operator_branches(element)
+        tree = self.operator_branches(element, agent)
         if not tree.branches:
+            who = "no operator" if agent is None else repr(agent)
             raise TakeRefused(
-                f"no operator can do {element!r} now (no grounding, or its actions are a robot's)"
+                f"{who} can do {element!r} now (no grounding, or its actions are a robot's)"
             )
         return tree, feasible[element]
 
-    def operator_branches(self, element: str) -> DecisionTree:
+    def operator_branches(self, element: str, agent: str | None = None) -> DecisionTree:
         """The operators' ways of doing a feasible hyper-arc now (groundings x available
-        operators), with the objects of the operators' other executions left out."""
+        operators, or ``agent`` alone), with the objects of the operators' other executions
+        left out."""
         reserved = set().union(
             *(ex.objects for ex in self.executions.values() if ex.owner == "human")
         )
@@ -497,7 +502,9 @@ class TaskManager:
             self.domain,
             self.kb,
             exclude=self.failed.get(element, ()),
-            available_agents=[h for h in humans if h not in self.unavailable],
+            available_agents=[
+                h for h in humans if h not in self.unavailable and agent in (None, h)
+            ],
             reserved=reserved,
             binding=self.binding_of(element),
         )
