@@ -35,8 +35,9 @@ action was simulated.
 from __future__ import annotations
 
 import time
-from collections.abc import Iterable, Mapping, Sequence
-from typing import Any
+from collections import OrderedDict
+from collections.abc import Generator, Iterable, Mapping, Sequence
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -52,6 +53,9 @@ from flexhrc.taskmanager.simulator import (
     hands,
     simulated_record,
 )
+
+if TYPE_CHECKING:  # pragma: no cover
+    from flexhrc.action.batch import MotionRequest
 
 Motion = list[tuple[str, "tuple[float, float, float] | None"]]
 
@@ -69,6 +73,8 @@ class KinematicTaskSimulator:
         hold_height_m: float = 0.10,
         dt: float = 0.04,
         timing: Timing | None = None,
+        share: bool = True,
+        cache_size: int = 4096,
     ):
         from flexhrc.action.execution import ExecutionManager
         from flexhrc.action.simulator import KinematicSimulator
@@ -94,6 +100,18 @@ class KinematicTaskSimulator:
         self.wall_s = 0.0
         self._simulated: dict[tuple[str, tuple[str, ...]], str] = {}
         self._scheduled: list[list[Any]] = []  # [action kind, nth, disturbance kwargs, seen]
+        #: branch simulations share their motions (False: each integrated as it comes, the
+        #: path before issue 23, kept to compare against)
+        self.share = share
+        self.cache_size = int(cache_size)
+        self._motion_cache: OrderedDict[Any, Any] = OrderedDict()
+        #: controller actions branch simulations asked for, and how many were integrated
+        #: (the rest came from the motion cache or a twin in the same round)
+        self.motions_requested = 0
+        self.motions_integrated = 0
+        #: controller steps integrated for branch simulations (load-independent cost; an
+        #: outcome the simulator's own cache returned counts its steps again)
+        self.steps_integrated = 0
 
     @property
     def simulated(self) -> dict[str, str]:
@@ -206,9 +224,115 @@ class KinematicTaskSimulator:
         finally:
             self.wall_s += time.perf_counter() - t0
 
+    def simulate_many(
+        self, branches: Sequence[Sequence[GroundAction]], kb: KnowledgeBase, domain: Domain
+    ) -> list[SimulationResult]:
+        """:meth:`simulate` for every branch of one decision, their motions shared.
+
+        The branches advance together, one controller action each per round: the round's
+        motions are looked up in the motion cache (the same arm, from the same joints, towards
+        the same target in the same world is integrated once — whatever the other arm does,
+        which a one-arm controller never reads) and the rest are integrated side by side by
+        :func:`flexhrc.action.batch.simulate_many` (lockstep, vectorised over the branches).
+        Results are those of :meth:`simulate` branch by branch (``share=False`` runs exactly
+        that: the old path, for comparison). An analytic model with seeded failures draws its
+        random numbers in branch order, so then the branches run one after another."""
+        t0 = time.perf_counter()
+        try:
+            if not self.share or self.human.failure_rate:
+                return [self._simulate(s, kb, domain) for s in branches]
+            return self._simulate_many(branches, kb, domain)
+        finally:
+            self.wall_s += time.perf_counter() - t0
+
     def _simulate(
         self, steps: Sequence[GroundAction], kb: KnowledgeBase, domain: Domain
     ) -> SimulationResult:
+        branch = self._branch(steps, kb, domain)
+        try:
+            request = next(branch)
+            while True:
+                request = branch.send(self._motion(request))
+        except StopIteration as stop:
+            result: SimulationResult = stop.value
+            return result
+
+    def _simulate_many(
+        self, branches: Sequence[Sequence[GroundAction]], kb: KnowledgeBase, domain: Domain
+    ) -> list[SimulationResult]:
+        results: list[SimulationResult | None] = [None] * len(branches)
+        live: dict[int, tuple[Generator[MotionRequest, Any, SimulationResult], MotionRequest]]
+        live = {}
+        for i, steps in enumerate(branches):
+            gen = self._branch(steps, kb, domain)
+            try:
+                live[i] = (gen, next(gen))
+            except StopIteration as stop:
+                results[i] = stop.value
+        while live:
+            order = list(live)
+            outcomes = self._motions([live[i][1] for i in order])
+            for i, out in zip(order, outcomes, strict=True):
+                gen = live[i][0]
+                try:
+                    live[i] = (gen, gen.send(out))
+                except StopIteration as stop:
+                    results[i] = stop.value
+                    del live[i]
+        return [r for r in results if r is not None]
+
+    # -- motions: integrated once ---------------------------------------------------------
+    def _motion(self, request: MotionRequest) -> Any:
+        """One controller action: the old path (``share=False``) or through the cache."""
+        if not self.share:
+            out = self.sim.simulate(
+                request.arm, request.action, request.target, start=request.start,
+                obstacles=request.obstacles, human_hand=request.human_hand, record=False,
+            )  # fmt: skip
+            self.motions_requested += 1
+            self.motions_integrated += 1
+            self.steps_integrated += out.steps
+            return out
+        return self._motions([request])[0]
+
+    def _motions(self, requests: Sequence[MotionRequest]) -> list[Any]:
+        """Outcomes of ``requests``: cached ones at once, each distinct rest integrated once
+        (side by side, :func:`flexhrc.action.batch.simulate_many`), then cached."""
+        from flexhrc.action.batch import motion_key, rebase, simulate_many
+
+        keys = [motion_key(self.sim, r) for r in requests]
+        todo: dict[Any, MotionRequest] = {}
+        for key, request in zip(keys, requests, strict=True):
+            if key is None or key in self._motion_cache:
+                continue
+            todo.setdefault(key, request)
+        self.motions_requested += len(requests)
+        if todo:
+            fresh = simulate_many(self.sim, list(todo.values()))
+            self.motions_integrated += len(fresh)
+            self.steps_integrated += sum(o.steps for o in fresh)
+            for key, out in zip(todo, fresh, strict=True):
+                self._motion_cache[key] = out
+                if len(self._motion_cache) > self.cache_size:
+                    self._motion_cache.popitem(last=False)
+        outs = []
+        for key, request in zip(keys, requests, strict=True):
+            if key is None:  # not representable: integrated on its own
+                outs.append(simulate_many(self.sim, [request])[0])
+                self.motions_integrated += 1
+                self.steps_integrated += outs[-1].steps
+                continue
+            self._motion_cache.move_to_end(key)
+            outs.append(rebase(self._motion_cache[key], request))
+        return outs
+
+    def _branch(
+        self, steps: Sequence[GroundAction], kb: KnowledgeBase, domain: Domain
+    ) -> Generator[MotionRequest, Any, SimulationResult]:
+        """One branch, simulated: yields each controller action it needs integrated (a
+        :class:`~flexhrc.action.batch.MotionRequest`) and is sent its outcome back."""
+        from flexhrc.action.batch import MotionRequest
+
         positions: dict[str, Vec3] = {}
         state = self.execution.state.copy()  # the robot as it is now
         durations: list[float] = []
@@ -238,10 +362,7 @@ class KinematicTaskSimulator:
             arm = self._arm(action)
             total, energy, min_d = 0.0, 0.0, float("inf")
             for kind, target in motions:
-                out = self.sim.simulate(
-                    arm, kind, target, start=state, obstacles=obstacles,
-                    human_hand=hand, record=False,
-                )  # fmt: skip
+                out = yield MotionRequest(arm, kind, target, state, obstacles, hand)
                 total += out.duration_s
                 energy += out.energy
                 min_d = min(min_d, out.min_distance_m)
