@@ -82,10 +82,26 @@ def rebase(outcome: ActionOutcome, request: MotionRequest) -> ActionOutcome:
 def simulate_many(sim: KinematicSimulator, requests: Sequence[MotionRequest]) -> list[ActionOutcome]:
     """The outcomes of ``requests`` (no trajectories recorded), integrated side by side where
     the lockstep integrator supports them (:mod:`flexhrc.action.lockstep`), else one by one."""
-    return [
-        sim.simulate(
-            r.arm, r.action, r.target, start=r.start, obstacles=r.obstacles,
-            human_hand=r.human_hand, record=False,
-        )  # fmt: skip
-        for r in requests
-    ]
+    from flexhrc.action import lockstep
+    from flexhrc.action.simulator import _single_threaded
+
+    out: list[ActionOutcome | None] = [None] * len(requests)
+    groups: dict[Any, list[lockstep.Lane]] = {}
+    for i, r in enumerate(requests):
+        lane = lockstep.prepare(sim, i, r) if lockstep_enabled else None
+        if lane is None:
+            out[i] = sim.simulate(
+                r.arm, r.action, r.target, start=r.start, obstacles=r.obstacles,
+                human_hand=r.human_hand, record=False,
+            )  # fmt: skip
+        else:
+            groups.setdefault(lane.signature, []).append(lane)
+    with _single_threaded():
+        for lanes in groups.values():
+            for lane, outcome in zip(lanes, lockstep.run(sim, lanes), strict=True):
+                out[lane.index] = outcome
+    return [o for o in out if o is not None]
+
+
+#: False: every motion is integrated by the scalar code (to compare; the tests use it)
+lockstep_enabled = True
