@@ -175,6 +175,7 @@ class _Batch:
         self.n = n = first.n
         self.lam2, self.eta = first.lam2, first.eta
         self.eye = np.eye(n)
+        self.lam2_eye = self.lam2 * self.eye
         B = len(lanes)
         self.q = np.stack([lane.q for lane in lanes])
         self.models = [lane.ctrl.arms[0] for lane in lanes]
@@ -200,9 +201,15 @@ class _Batch:
                     item["c"] = np.array(
                         [[s.center for s in x.obstacles] for x in objs], dtype=float
                     ).reshape(B, len(o.obstacles), 3)
-                    item["r"] = np.array(
+                    item["r"] = r = np.array(
                         [float(getattr(s, "radius", 0.0)) for s in o.obstacles], dtype=float
                     )
+                    # the least squared distance of each lane's TCP to each obstacle's centre
+                    # so far (min_distance_m at the end: sqrt is monotone), and the squared
+                    # distance beyond which a row is inactive (with a margin: a row of
+                    # activation 0 kept in changes nothing)
+                    item["minsq"] = np.full((B, len(o.obstacles)), math.inf)
+                    item["far2"] = ((o.d_min + o.width + r) ** 2) * (1.0 + 1e-9)
                 elif isinstance(o, EndEffectorPose):
                     item["kind"] = "ee"
                     item["p"] = np.stack([x.position for x in objs])
@@ -214,7 +221,6 @@ class _Batch:
                 items.append(item)
             self.levels.append(items)
         self.energy = np.zeros(B)
-        self.min_dist = np.full(B, math.inf)
         self.best = [math.inf] * B
         self.best_t = [0.0] * B
         self.tol_rot = lanes[0].tol_rot
@@ -223,7 +229,7 @@ class _Batch:
 
     # -- per-lane arrays leave together -------------------------------------------------
     def _keep(self, keep: Array) -> None:
-        for name in ("q", "inv_v_max", "q_min", "q_max", "energy", "min_dist"):
+        for name in ("q", "inv_v_max", "q_min", "q_max", "energy"):
             setattr(self, name, getattr(self, name)[keep])
         idx = np.nonzero(keep)[0]
         self.best = [self.best[i] for i in idx]
@@ -232,7 +238,7 @@ class _Batch:
         self.alive = [self.alive[i] for i in idx]
         for items in self.levels:
             for item in items:
-                for key in ("lo", "hi", "lo_w", "hi_w", "c", "p", "R", "g"):
+                for key in ("lo", "hi", "lo_w", "hi_w", "c", "p", "R", "g", "minsq"):
                     if key in item:
                         item[key] = item[key][keep]
 
@@ -247,11 +253,10 @@ class _Batch:
         lwa = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
         pos_tol, tol_rot, stall_s = sim.pos_tol, self.tol_rot, sim.stall_s
         inv_dt = 1.0 / dt
+        P = np.empty((len(self.alive), 3))
+        Rm = np.empty((len(self.alive), 3, 3))
+        Jm = np.empty((len(self.alive), 6, 7))
         while self.alive:
-            B = len(self.alive)
-            P = np.empty((B, 3))
-            Rm = np.empty((B, 3, 3))
-            Jm = np.empty((B, 6, 7))
             q = self.q
             for i, model in enumerate(self.models):
                 # ArmModel.kinematics without its copies: straight into the stacked arrays
@@ -260,10 +265,8 @@ class _Batch:
                 P[i] = oMf.translation
                 Rm[i] = oMf.rotation
                 Jm[i] = pin.getFrameJacobian(model.model, model.data, model.tcp_frame, lwa)
-            levels, errors, ctx_min, avoid = self._evaluate(P, Rm, Jm)
-            rho = self._solve(levels)
-            e0, e1 = errors
-            self.min_dist = np.minimum(self.min_dist, ctx_min)
+            levels, (e0, e1) = self._evaluate(P, Rm, Jm)
+            rho = self._solve(levels)[:, :, 0]
             # stop rules, in the scalar order (floats: a handful of lanes)
             done: list[int] = []
             best, best_t = self.best, self.best_t
@@ -289,6 +292,7 @@ class _Batch:
                 rho = rho[keep]
                 if not self.alive:
                     break
+                P, Rm, Jm = P[keep], Rm[keep], Jm[keep]
             qdot = rho
             ratio = (np.abs(qdot) * self.inv_v_max).max(axis=1)
             if ratio.max() > 1.0:
@@ -298,7 +302,7 @@ class _Batch:
                 np.maximum(qdot, (self.q_min - self.q) * inv_dt), (self.q_max - self.q) * inv_dt
             )
             self.q = self.q + qdot * dt
-            self.energy = self.energy + 0.5 * np.einsum("ij,ij->i", qdot, qdot) * dt
+            self.energy = self.energy + 0.5 * _dot(qdot, qdot) * dt
             step += 1
             t = step * dt
         return [o for o in self.out if o is not None]
@@ -329,6 +333,14 @@ class _Batch:
                 f"{err[0]:.4f} m / {err[1]:.4f} rad from the goal"
                 + (f" ({cause})" if cause else "")
             )
+        min_dist = math.inf
+        for items in self.levels:
+            for item in items:
+                if item["kind"] == "md":
+                    for sq, r in zip(item["minsq"][i].tolist(), item["r"].tolist(), strict=True):
+                        # Sphere.distance: -r at the centre itself
+                        d = -r if math.sqrt(sq) < 1e-12 else math.sqrt(sq) - r
+                        min_dist = min(min_dist, d)
         duration = lane.duration + t
         state = lane.state
         if success and lane.spec.gripper == "close":
@@ -336,19 +348,18 @@ class _Batch:
             state.holding[lane.arm] = True
         self.out[self.alive[i]] = sim._outcome(
             lane.spec, lane.arm, [lane.arm], state, success, reason, duration, q,
-            float(self.min_dist[i]), float(self.energy[i]), err, None, lane.t_wall, step,
+            min_dist, float(self.energy[i]), err, None, lane.t_wall, step,
         )  # fmt: skip
 
     # -- objectives -------------------------------------------------------------------
     def _evaluate(
         self, P: Array, Rm: Array, Jm: Array
-    ) -> tuple[list[list[tuple[Any, ...]]], tuple[Array, Array], Array, list[list[Any]]]:
-        """Every objective's task for every lane: ``(J | None, ref, act | None, inequality)``
-        per present objective, per level; the goal errors; the least obstacle distance; the
-        obstacle normals active per lane (for the end-effector slide)."""
+    ) -> tuple[list[list[tuple[Any, ...]]], tuple[Array, Array]]:
+        """Every objective's task for every lane: ``(J | None, ref (B, m, 1), act | None,
+        inequality)`` per present objective, per level, and the goal errors; the obstacle normals
+        active in a lane turn its end-effector reference (the slide of EndEffectorPose)."""
         q = self.q
         B = q.shape[0]
-        ctx_min = np.full(B, math.inf)
         avoid: list[list[Any]] = [[] for _ in range(B)]
         e0 = np.zeros(B)
         e1 = np.zeros(B)
@@ -371,23 +382,22 @@ class _Batch:
                     ref = o.gain * np.where(lower, lo - q, q - hi)
                     J = np.zeros((B, self.n, self.n))
                     J[:, np.arange(self.n), np.arange(self.n)] = np.where(lower, 1.0, -1.0)
-                    tasks.append((J, ref, act, True))
+                    tasks.append((J, ref[:, :, None], act, True))
                 elif kind == "md":
                     D = P[:, None, :] - item["c"]  # (B, K, 3)
-                    nn = np.sqrt(np.einsum("bki,bki->bk", D, D))
+                    sq = _dot(D, D)
+                    np.minimum(item["minsq"], sq, out=item["minsq"])
+                    if not (sq < item["far2"]).any():
+                        continue  # every lane beyond the transition zone: inactive
+                    nn = np.sqrt(sq)
                     d = nn - item["r"]
-                    tiny = None
                     if nn.min() < 1e-12:  # at a centre: Sphere.distance's convention
                         tiny = nn < 1e-12
                         d = np.where(tiny, -item["r"], d)
-                    ctx_min = np.minimum(ctx_min, d.min(axis=1))
-                    if d.min() >= o.d_min + o.width:
-                        continue  # every lane beyond the transition zone: inactive
-                    if tiny is None:
-                        nrm = D / nn[:, :, None]
-                    else:
                         nrm = D / np.where(tiny, 1.0, nn)[:, :, None]
                         nrm[tiny] = (0.0, 0.0, 1.0)
+                    else:
+                        nrm = D / nn[:, :, None]
                     s = np.clip((d - o.d_min) / o.width, 0.0, 1.0)
                     act = 0.5 * (1.0 + np.cos(np.pi * s))
                     if not (act > 0.0).any():
@@ -396,10 +406,10 @@ class _Batch:
                         avoid[b].append((nrm[b, k], float(act[b, k])))
                     J = nrm @ Jm[:, :3, :]  # (B, K, 7)
                     ref = o.gain * (o.d_min - d)
-                    tasks.append((J, ref, act, True))
+                    tasks.append((J, ref[:, :, None], act, True))
                 elif kind == "ee":
                     e = item["p"] - P
-                    ep = np.sqrt(np.einsum("bi,bi->b", e, e))
+                    ep = np.sqrt(_dot(e, e))
                     v = o.gain * e
                     gep = o.gain * ep
                     if gep.max() > o.max_speed:
@@ -409,15 +419,15 @@ class _Batch:
                         for b, entries in enumerate(avoid):
                             for nrm_b, a in entries:
                                 v[b] = _slide(v[b], nrm_b, a)
-                    r = _rotation_logs(item["R"] @ Rm.transpose(0, 2, 1))
-                    eo = np.sqrt(np.einsum("bi,bi->b", r, r))
+                    r = _rotation_logs(item["R"] @ Rm.transpose(0, 2, 1), B)
+                    eo = np.sqrt(_dot(r, r))
                     w = o.angular_gain * r
                     geo = o.angular_gain * eo
                     if geo.max() > o.max_angular_speed:
                         fast = geo > o.max_angular_speed
                         w[fast] *= (o.max_angular_speed / geo[fast])[:, None]
                     e0, e1 = np.maximum(e0, ep), np.maximum(e1, eo)
-                    tasks.append((Jm, np.concatenate([v, w], axis=1), None, False))
+                    tasks.append((Jm, np.concatenate([v, w], axis=1)[:, :, None], None, False))
                 else:  # posture
                     diff = item["g"] - q
                     ref = o.gain * diff
@@ -428,9 +438,9 @@ class _Batch:
                             ref[fast] *= (o.max_speed / m[fast])[:, None]
                     if o.is_goal:
                         e1 = np.maximum(e1, np.abs(diff).max(axis=1))
-                    tasks.append((None, ref, None, False))
+                    tasks.append((None, ref[:, :, None], None, False))
             out.append(tasks)
-        return out, (e0, e1), ctx_min, avoid
+        return out, (e0, e1)
 
     # -- the task-priority recursion (TaskPriorityController.solve, batched) -----------
     def _solve(self, levels: list[list[tuple[Any, ...]]]) -> Array:
@@ -440,8 +450,8 @@ class _Batch:
                 for j, t in enumerate(lv):
                     if t[3] and t[2] is not None:
                         J, ref, act = t[0], t[1], t[2]
-                        rate = pre if J is None else np.einsum("bmn,bn->bm", J, pre)
-                        lv[j] = (J, ref, np.where(rate >= ref, 0.0, act), True)
+                        rate = pre if J is None else J @ pre
+                        lv[j] = (J, ref, np.where((rate >= ref)[:, :, 0], 0.0, act), True)
         return self._recursion(levels)
 
     def _recursion(self, levels: list[list[tuple[Any, ...]]]) -> Array:
@@ -472,24 +482,24 @@ class _Batch:
                 if J is None:
                     J = np.broadcast_to(eye, (B, n, n))
                 Xp = self._pinv(J, act)
-                rho = _mv(Xp, _mv(J @ Xp, ref))
+                rho = Xp @ ((J @ Xp) @ ref)
                 if i < last:
                     Q = eye - Xp @ J
                 continue
             assert rho is not None
             if J is None and act is None and i == last:
-                rho = rho + _mv(Q, ref - rho) / (1.0 + lam2) ** 2
+                rho = rho + (Q @ (ref - rho)) / (1.0 + lam2) ** 2
                 continue
             if J is None:
                 X, err = Q, ref - rho
             else:
-                X, err = J @ Q, ref - _mv(J, rho)
+                X, err = J @ Q, ref - J @ rho
             Xp_I = self._pinv(X, act)
             Xp_Q = self._pinv(X, act, Q)
-            rho = rho + _mv(Q, _mv(Xp_I, _mv(X @ Xp_Q, err)))
+            rho = rho + Q @ (Xp_I @ ((X @ Xp_Q) @ err))
             if i < last:
                 Q = Q - Q @ (Xp_I @ X)
-        return np.zeros((B, n)) if rho is None else rho
+        return np.zeros((B, n, 1)) if rho is None else rho
 
     def _pinv(self, X: Array, act: Array | None, Q: Array | None = None) -> Array:
         """``regularised_pinv`` for every lane."""
@@ -502,27 +512,53 @@ class _Batch:
             XtA = Xt * act[:, None, :]
             M = XtA @ X
             rhs = XtA * act[:, None, :]
-        M = M + self.lam2 * self.eye
+        M = M + self.lam2_eye
         if Q is not None:
             IQ = self.eye - Q
             M = M + self.eta * (IQ.transpose(0, 2, 1) @ IQ)
-        return np.linalg.solve(M, rhs)
+        return _batched_solve(M, rhs)
 
 
-def _mv(A: Array, x: Array) -> Array:
-    """Batched matrix-vector product ``A[b] @ x[b]``."""
-    return (A @ x[:, :, None])[:, :, 0]
+def _einsum_dot(a: Array, b: Array) -> Array:
+    return np.einsum("...i,...i->...", a, b)
 
 
-def _rotation_logs(R: Array) -> Array:
+#: row-wise dot products over the last axis (numpy >= 2: vecdot, as ``@`` sums them)
+_dot: Any = getattr(np, "vecdot", _einsum_dot)
+
+
+def _batched_solve(M: Array, rhs: Array) -> Array:
+    """``M[b] X[b] = rhs[b]`` for every lane (LAPACK through numpy's gufunc, without the checks
+    of ``numpy.linalg.solve``: M is symmetric positive definite by construction)."""
+    if _GUFUNC_SOLVE is not None:
+        return _GUFUNC_SOLVE(M, rhs, signature="dd->d")  # type: ignore[no-any-return]
+    return np.linalg.solve(M, rhs)
+
+
+try:  # numpy's own batched solver, behind numpy.linalg.solve
+    from numpy.linalg import _umath_linalg
+
+    _GUFUNC_SOLVE: Any = _umath_linalg.solve
+except (ImportError, AttributeError):  # pragma: no cover - another numpy layout
+    _GUFUNC_SOLVE = None
+
+
+#: R[2,1], R[0,2], R[1,0] and R[1,2], R[2,0], R[0,1] of a flattened 3x3 matrix
+_W_PLUS = np.array([7, 2, 3])
+_W_MINUS = np.array([5, 6, 1])
+
+
+def _rotation_logs(R: Array, B: int) -> Array:
     """:func:`~flexhrc.action.control.rotation_log` of every ``R[b]``."""
-    cos = np.clip((R[:, 0, 0] + R[:, 1, 1] + R[:, 2, 2] - 1.0) * 0.5, -1.0, 1.0)
+    cos = (np.einsum("bii->b", R) - 1.0) * 0.5
+    cos = np.minimum(1.0, np.maximum(-1.0, cos))
     angle = np.arccos(cos)
-    w = np.stack([R[:, 2, 1] - R[:, 1, 2], R[:, 0, 2] - R[:, 2, 0], R[:, 1, 0] - R[:, 0, 1]], 1)
-    lo, hi = angle.min(), angle.max()
-    if lo >= 1e-9 and math.pi - hi >= 1e-6:  # the usual case: no lane at 0 or pi
+    f = R.reshape(B, 9)
+    w = f[:, _W_PLUS] - f[:, _W_MINUS]
+    if math.pi - angle.max() < 1e-6:  # a lane near a half turn: the scalar code's branch
+        return np.array([rotation_log(R[b]) for b in range(B)])
+    if angle.min() >= 1e-9:  # the usual case
         return (angle / (2.0 * np.sin(angle)))[:, None] * w
-    out = np.empty_like(w)
-    for b in range(R.shape[0]):  # the scalar code's special cases
-        out[b] = rotation_log(R[b])
-    return out
+    small = angle < 1e-9  # no rotation left: rotation_log's first-order branch
+    k = np.where(small, 0.5, angle / (2.0 * np.where(small, 1.0, np.sin(angle))))
+    return k[:, None] * w
