@@ -263,8 +263,10 @@ class KinematicTaskSimulator:
         results: list[SimulationResult | None] = [None] * len(branches)
         live: dict[int, tuple[Generator[MotionRequest, Any, SimulationResult], MotionRequest]]
         live = {}
+        before = dict(self._simulated)
+        touched: list[list[tuple[str, tuple[str, ...]]]] = [[] for _ in branches]
         for i, steps in enumerate(branches):
-            gen = self._branch(steps, kb, domain)
+            gen = self._branch(steps, kb, domain, touched[i])
             try:
                 live[i] = (gen, next(gen))
             except StopIteration as stop:
@@ -279,6 +281,11 @@ class KinematicTaskSimulator:
                 except StopIteration as stop:
                     results[i] = stop.value
                     del live[i]
+        # the record of how actions were simulated, in the order branch by branch would give
+        for keys in touched:
+            for key in keys:
+                before[key] = self._simulated[key]
+        self._simulated = before
         return [r for r in results if r is not None]
 
     # -- motions: integrated once ---------------------------------------------------------
@@ -327,10 +334,15 @@ class KinematicTaskSimulator:
         return outs
 
     def _branch(
-        self, steps: Sequence[GroundAction], kb: KnowledgeBase, domain: Domain
+        self,
+        steps: Sequence[GroundAction],
+        kb: KnowledgeBase,
+        domain: Domain,
+        touched: list[tuple[str, tuple[str, ...]]] | None = None,
     ) -> Generator[MotionRequest, Any, SimulationResult]:
         """One branch, simulated: yields each controller action it needs integrated (a
-        :class:`~flexhrc.action.batch.MotionRequest`) and is sent its outcome back."""
+        :class:`~flexhrc.action.batch.MotionRequest`) and is sent its outcome back; the actions
+        it simulates are added to ``touched``."""
         from flexhrc.action.batch import MotionRequest
 
         positions: dict[str, Vec3] = {}
@@ -342,6 +354,8 @@ class KinematicTaskSimulator:
         for action in steps:
             before = hands(action, positions, kb)
             _, motions = self.how(action, kb, positions, domain)
+            if touched is not None:
+                touched.append((action.name, action.args))
             if motions is None:
                 ok, dt, why = self.human.step(action, positions, kb, domain)
                 durations.append(dt)
