@@ -124,6 +124,21 @@ def _requests(sim: KinematicSimulator) -> list[MotionRequest]:
         # straight into an obstacle on the target: stalls (the reason is diagnosed)
         reqs.append(MotionRequest(arm, "transport", (0.5, 0.0, 0.1), moved,
                                   ((0.5, 0.0, 0.1, 0.05),), None))  # fmt: skip
+    # joints starting inside their limits' transition zones: the joint-limit rows are active
+    near = rest.copy()
+    for arm in ("left", "right"):
+        model = sim.robot.arm(arm)
+        near.q[arm] = near.q[arm].copy()
+        near.q[arm][0] = model.q_min[0] + 0.06
+        near.q[arm][3] = model.q_max[3] - 0.05
+        near.q[arm][5] = model.q_max[5] - 0.07
+        for target in [(0.45, 0.3, 0.02), (0.5, -0.3, 0.02)]:
+            reqs.append(MotionRequest(arm, "approach", target, near, (ball, (0.45, 0.3, 0.1, 0.03)),
+                                      hand))  # fmt: skip
+        reqs.append(MotionRequest(arm, "rest", None, near, (), hand))
+        # two obstacles, one just above the goal: both of their rows and the hand's
+        two = (ball, (0.47, 0.3, 0.17, 0.03))
+        reqs.append(MotionRequest(arm, "approach", (0.45, 0.3, 0.02), rest, two, hand))
     reqs.append(MotionRequest("both", "rest", None, moved, (), None))  # two arms: scalar
     return reqs
 
