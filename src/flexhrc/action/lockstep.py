@@ -293,15 +293,20 @@ class _Batch:
                 if not self.alive:
                     break
                 P, Rm, Jm = P[keep], Rm[keep], Jm[keep]
+            # TaskPriorityController.saturate: a lane too fast is scaled down (x 1.0 is exact
+            # for the others); the joint-range guard only when a step would leave a range
             qdot = rho
             ratio = (np.abs(qdot) * self.inv_v_max).max(axis=1)
             if ratio.max() > 1.0:
-                over = ratio > 1.0
-                qdot = np.where(over[:, None], qdot * (1.0 / np.maximum(ratio, 1.0))[:, None], qdot)
-            qdot = np.minimum(
-                np.maximum(qdot, (self.q_min - self.q) * inv_dt), (self.q_max - self.q) * inv_dt
-            )
-            self.q = self.q + qdot * dt
+                qdot = qdot * (1.0 / np.maximum(ratio, 1.0))[:, None]
+            q = self.q
+            q_next = q + qdot * dt
+            if (q_next < self.q_min).any() or (q_next > self.q_max).any():
+                qdot = np.minimum(
+                    np.maximum(qdot, (self.q_min - q) * inv_dt), (self.q_max - q) * inv_dt
+                )
+                q_next = q + qdot * dt
+            self.q = q_next
             self.energy = self.energy + 0.5 * _dot(qdot, qdot) * dt
             step += 1
             t = step * dt
@@ -361,8 +366,10 @@ class _Batch:
         q = self.q
         B = q.shape[0]
         avoid: list[list[Any]] = [[] for _ in range(B)]
-        e0 = np.zeros(B)
-        e1 = np.zeros(B)
+        # the goal errors (TaskPriorityController.goal_error: the largest over the goal
+        # objectives, from 0; errors are norms, so the first one is its own maximum with 0)
+        e0: Array | None = None
+        e1: Array | None = None
         out: list[list[tuple[Any, ...]]] = []
         for items in self.levels:
             tasks: list[tuple[Any, ...]] = []
@@ -426,7 +433,8 @@ class _Batch:
                     if geo.max() > o.max_angular_speed:
                         fast = geo > o.max_angular_speed
                         w[fast] *= (o.max_angular_speed / geo[fast])[:, None]
-                    e0, e1 = np.maximum(e0, ep), np.maximum(e1, eo)
+                    e0 = ep if e0 is None else np.maximum(e0, ep)
+                    e1 = eo if e1 is None else np.maximum(e1, eo)
                     tasks.append((Jm, np.concatenate([v, w], axis=1)[:, :, None], None, False))
                 else:  # posture
                     diff = item["g"] - q
@@ -437,10 +445,12 @@ class _Batch:
                         if fast.any():
                             ref[fast] *= (o.max_speed / m[fast])[:, None]
                     if o.is_goal:
-                        e1 = np.maximum(e1, np.abs(diff).max(axis=1))
+                        err = np.abs(diff).max(axis=1)
+                        e1 = err if e1 is None else np.maximum(e1, err)
                     tasks.append((None, ref[:, :, None], None, False))
             out.append(tasks)
-        return out, (e0, e1)
+        zero = np.zeros(B)
+        return out, (zero if e0 is None else e0, zero if e1 is None else e1)
 
     # -- the task-priority recursion (TaskPriorityController.solve, batched) -----------
     def _solve(self, levels: list[list[tuple[Any, ...]]]) -> Array:
