@@ -143,7 +143,9 @@ def main() -> int:
                 runs[share] = decisions
             for (e1, c1, u1), (e2, c2, u2) in zip(runs[False], runs[True], strict=True):
                 same_runs = same_runs and e1 == e2 and c1 == c2
-                same_runs = same_runs and all(abs(x - y) <= 1e-6 for x, y in zip(u1, u2))
+                same_runs = same_runs and all(
+                    abs(x - y) <= 1e-6 for x, y in zip(u1, u2, strict=True)
+                )
             same_runs = same_runs and len(runs[False]) == len(runs[True])
         print(
             f"\nwhole 4-leg assemblies (cooperative operator, seeds 0..{args.assemblies - 1}), "

@@ -79,7 +79,9 @@ def rebase(outcome: ActionOutcome, request: MotionRequest) -> ActionOutcome:
     return replace(outcome, final_state=final)
 
 
-def simulate_many(sim: KinematicSimulator, requests: Sequence[MotionRequest]) -> list[ActionOutcome]:
+def simulate_many(
+    sim: KinematicSimulator, requests: Sequence[MotionRequest]
+) -> list[ActionOutcome]:
     """The outcomes of ``requests`` (no trajectories recorded), integrated side by side where
     the lockstep integrator supports them (:mod:`flexhrc.action.lockstep`), else one by one."""
     from flexhrc.action import lockstep

@@ -149,9 +149,7 @@ def _signature(ctrl: TaskPriorityController) -> tuple[Any, ...] | None:
             elif isinstance(o, EndEffectorPose):
                 if o.position is None or o.rotation is None:
                     return None
-                items.append(
-                    ("ee", o.gain, o.max_speed, o.angular_gain, o.max_angular_speed)
-                )
+                items.append(("ee", o.gain, o.max_speed, o.angular_gain, o.max_angular_speed))
             elif isinstance(o, Posture):
                 items.append(("po", o.gain, o.is_goal, o.max_speed))
             else:
@@ -188,7 +186,7 @@ class _Batch:
         for li, level in enumerate(first.levels):
             items = []
             for oi, o in enumerate(level):
-                objs = [lane.ctrl.levels[li][oi] for lane in lanes]
+                objs: list[Any] = [lane.ctrl.levels[li][oi] for lane in lanes]
                 item: dict[str, Any] = {"obj": o}
                 if isinstance(o, JointLimits):
                     item["kind"] = "jl"
@@ -541,7 +539,7 @@ def _batched_solve(M: Array, rhs: Array) -> Array:
     """``M[b] X[b] = rhs[b]`` for every lane (LAPACK through numpy's gufunc, without the checks
     of ``numpy.linalg.solve``: M is symmetric positive definite by construction)."""
     if _GUFUNC_SOLVE is not None:
-        return _GUFUNC_SOLVE(M, rhs, signature="dd->d")  # type: ignore[no-any-return]
+        return _GUFUNC_SOLVE(M, rhs, signature="dd->d")
     return np.linalg.solve(M, rhs)
 
 
