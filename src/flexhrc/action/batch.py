@@ -20,13 +20,15 @@ next decision while the other arm works elsewhere. Here:
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 
-from flexhrc.action.simulator import ActionOutcome, KinematicSimulator, RobotState
+from flexhrc.action.simulator import ActionOutcome, KinematicSimulator, RobotState, _action_spec
+from flexhrc.errors import FlexhrcError
 
 Vec3 = tuple[float, float, float]
 
@@ -58,15 +60,68 @@ def motion_key(sim: KinematicSimulator, request: MotionRequest) -> tuple[Any, ..
              bool(request.start.holding.get(a, False)))
             for a in arms
         )  # fmt: skip
-        spec = sim.actions.get(request.action)
+        spec = _spec(sim, request)
         target = None if request.target is None else tuple(float(v) for v in request.target)
         hand = None if request.human_hand is None else tuple(float(v) for v in request.human_hand)
+        if spec is not None and not any(s.kind == "human" for s in spec.hierarchy):
+            hand = None  # no human-hand objective: the hand changes nothing
         obstacles = tuple(tuple(float(v) for v in o) for o in request.obstacles)
-        key = (id(sim), request.arm, request.action, repr(spec), target, joints, obstacles, hand)
+        key = (id(sim), request.arm, request.action, _text(spec), target, joints, obstacles, hand)
         hash(key)
         return key
     except (KeyError, TypeError, ValueError):  # pragma: no cover - odd input: not shared
         return None
+
+
+_TEXTS: dict[int, tuple[Any, str]] = {}
+
+
+def _text(spec: Any) -> str:
+    """``repr(spec)`` (every field of the action's definition), made once per definition."""
+    hit = _TEXTS.get(id(spec))
+    if hit is None or hit[0] is not spec:
+        hit = _TEXTS[id(spec)] = (spec, repr(spec))  # the spec kept alive: its id stays its own
+    return hit[1]
+
+
+def _spec(sim: KinematicSimulator, request: MotionRequest) -> Any:
+    try:
+        return _action_spec(request.action, sim.actions)
+    except FlexhrcError:
+        return None
+
+
+def hand_reach(sim: KinematicSimulator, request: MotionRequest) -> float | None:
+    """How near the human hand must come to the TCP for the action's human-hand objective to act
+    (its ``d_min`` + transition ``width``, with a margin); None when the action's hierarchy has no
+    such objective (then the hand changes nothing but the reported distance)."""
+    spec = _spec(sim, request)
+    if spec is None:
+        return None
+    for s in spec.hierarchy:
+        if s.kind == "human":
+            d_min = float(s.params.get("d_min", 0.05))
+            width = float(s.params.get("width", 0.04))
+            return (d_min + width) * (1.0 + 1e-9) + 1e-12
+    return None
+
+
+def far_key(sim: KinematicSimulator, request: MotionRequest) -> tuple[Any, ...] | None:
+    """:func:`motion_key` without the hand: the motion where the hand stays beyond
+    :func:`hand_reach` of the TCP all along (the hand's objective never acts)."""
+    return motion_key(sim, replace(request, human_hand=None))
+
+
+def least_distance(path: np.ndarray, obstacles: Sequence[Sequence[float]]) -> float:
+    """The least distance of the TCP ``path`` to the spheres ``x y z r`` (inf: none), as the
+    scalar integrator measures it step by step (``Sphere.distance``: -r at a centre)."""
+    best = math.inf
+    for o in obstacles:
+        c, r = np.asarray(o[:3], dtype=float), float(o[3]) if len(o) > 3 else 0.0
+        d = path - c
+        n = math.sqrt(float(np.min(np.einsum("ij,ij->i", d, d))))
+        best = min(best, -r if n < 1e-12 else n - r)
+    return best
 
 
 def rebase(outcome: ActionOutcome, request: MotionRequest) -> ActionOutcome:
@@ -80,14 +135,19 @@ def rebase(outcome: ActionOutcome, request: MotionRequest) -> ActionOutcome:
 
 
 def simulate_many(
-    sim: KinematicSimulator, requests: Sequence[MotionRequest]
+    sim: KinematicSimulator,
+    requests: Sequence[MotionRequest],
+    paths: list[np.ndarray | None] | None = None,
 ) -> list[ActionOutcome]:
     """The outcomes of ``requests`` (no trajectories recorded), integrated side by side where
-    the lockstep integrator supports them (:mod:`flexhrc.action.lockstep`), else one by one."""
+    the lockstep integrator supports them (:mod:`flexhrc.action.lockstep`), else one by one.
+    ``paths``, when given, receives each one's TCP path (a point per control step; None for
+    those integrated one by one)."""
     from flexhrc.action import lockstep
     from flexhrc.action.simulator import _single_threaded
 
     out: list[ActionOutcome | None] = [None] * len(requests)
+    tcp: list[np.ndarray | None] = [None] * len(requests)
     groups: dict[Any, list[lockstep.Lane]] = {}
     for i, r in enumerate(requests):
         lane = lockstep.prepare(sim, i, r) if lockstep_enabled else None
@@ -100,8 +160,11 @@ def simulate_many(
             groups.setdefault(lane.signature, []).append(lane)
     with _single_threaded():
         for lanes in groups.values():
-            for lane, outcome in zip(lanes, lockstep.run(sim, lanes), strict=True):
+            for lane, (outcome, path) in zip(lanes, lockstep.run(sim, lanes), strict=True):
                 out[lane.index] = outcome
+                tcp[lane.index] = path
+    if paths is not None:
+        paths[:] = tcp
     return [o for o in out if o is not None]
 
 

@@ -105,6 +105,9 @@ class KinematicTaskSimulator:
         self.share = share
         self.cache_size = int(cache_size)
         self._motion_cache: OrderedDict[Any, Any] = OrderedDict()
+        self._far_cache: OrderedDict[Any, Any] = OrderedDict()
+        #: motions taken from the hand-free cache (the hand moved, but stayed far)
+        self.motions_far = 0
         #: controller actions branch simulations asked for, and how many were integrated
         #: (the rest came from the motion cache or a twin in the same round)
         self.motions_requested = 0
@@ -304,34 +307,83 @@ class KinematicTaskSimulator:
 
     def _motions(self, requests: Sequence[MotionRequest]) -> list[Any]:
         """Outcomes of ``requests``: cached ones at once, each distinct rest integrated once
-        (side by side, :func:`flexhrc.action.batch.simulate_many`), then cached."""
+        (side by side, :func:`flexhrc.action.batch.simulate_many`), then cached.
+
+        Two caches: by :func:`~flexhrc.action.batch.motion_key` (the moving arms' joints, the
+        action, the target, the world), and — for a motion whose TCP path stayed beyond the
+        reach of the human hand's objective all along — by the same key without the hand: the
+        hand elsewhere, still beyond that reach of the whole path, gives the same motion (the
+        objective never acts), with the least distance to the new hand reported."""
         from flexhrc.action.batch import motion_key, rebase, simulate_many
 
         keys = [motion_key(self.sim, r) for r in requests]
-        todo: dict[Any, MotionRequest] = {}
-        for key, request in zip(keys, requests, strict=True):
-            if key is None or key in self._motion_cache:
+        outs: list[Any] = [None] * len(requests)
+        todo: dict[Any, list[int]] = {}
+        for i, (key, request) in enumerate(zip(keys, requests, strict=True)):
+            if key is not None and key in self._motion_cache:
+                self._motion_cache.move_to_end(key)
+                outs[i] = rebase(self._motion_cache[key], request)
                 continue
-            todo.setdefault(key, request)
+            if key is not None and key not in todo:
+                far = self._far_hit(request)
+                if far is not None:
+                    outs[i] = far
+                    continue
+            todo.setdefault(key if key is not None else ("unshared", i), []).append(i)
         self.motions_requested += len(requests)
         if todo:
-            fresh = simulate_many(self.sim, list(todo.values()))
+            firsts = [requests[idx[0]] for idx in todo.values()]
+            paths: list[Any] = []
+            fresh = simulate_many(self.sim, firsts, paths)
             self.motions_integrated += len(fresh)
             self.steps_integrated += sum(o.steps for o in fresh)
-            for key, out in zip(todo, fresh, strict=True):
-                self._motion_cache[key] = out
-                if len(self._motion_cache) > self.cache_size:
-                    self._motion_cache.popitem(last=False)
-        outs = []
-        for key, request in zip(keys, requests, strict=True):
-            if key is None:  # not representable: integrated on its own
-                outs.append(simulate_many(self.sim, [request])[0])
-                self.motions_integrated += 1
-                self.steps_integrated += outs[-1].steps
-                continue
-            self._motion_cache.move_to_end(key)
-            outs.append(rebase(self._motion_cache[key], request))
+            for (key, idx), request, out, path in zip(
+                todo.items(), firsts, fresh, paths, strict=True
+            ):
+                if keys[idx[0]] is not None:
+                    self._store(key, request, out, path)
+                for i in idx:
+                    outs[i] = rebase(out, requests[i])
         return outs
+
+    def _store(self, key: Any, request: MotionRequest, out: Any, path: Any) -> None:
+        from flexhrc.action.batch import far_key, hand_reach, least_distance
+
+        self._motion_cache[key] = out
+        if len(self._motion_cache) > self.cache_size:
+            self._motion_cache.popitem(last=False)
+        reach = hand_reach(self.sim, request)
+        if reach is None or path is None:
+            return
+        hand = request.human_hand
+        if hand is not None and least_distance(path, [(*hand, 0.0)]) < reach:
+            return  # the hand's objective may have acted: only this hand gives this motion
+        fkey = far_key(self.sim, request)
+        self._far_cache[fkey] = (out, path, least_distance(path, request.obstacles))
+        if len(self._far_cache) > self.cache_size:
+            self._far_cache.popitem(last=False)
+
+    def _far_hit(self, request: MotionRequest) -> Any:
+        """The motion of ``request`` from the hand-free cache, or None."""
+        from dataclasses import replace
+
+        from flexhrc.action.batch import far_key, hand_reach, least_distance, rebase
+
+        reach = hand_reach(self.sim, request)
+        if reach is None:
+            return None
+        fkey = far_key(self.sim, request)
+        entry = self._far_cache.get(fkey) if fkey is not None else None
+        if entry is None:
+            return None
+        out, path, obstacles_min = entry
+        hand = request.human_hand
+        hand_min = float("inf") if hand is None else least_distance(path, [(*hand, 0.0)])
+        if hand_min < reach:
+            return None
+        self._far_cache.move_to_end(fkey)
+        self.motions_far += 1
+        return replace(rebase(out, request), min_distance_m=min(obstacles_min, hand_min))
 
     def _branch(
         self,

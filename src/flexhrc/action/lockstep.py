@@ -158,9 +158,13 @@ def _signature(ctrl: TaskPriorityController) -> tuple[Any, ...] | None:
     return (ctrl.n, ctrl.lam2, ctrl.eta, tuple(levels))
 
 
-def run(sim: KinematicSimulator, lanes: Sequence[Lane]) -> list[ActionOutcome]:
-    """Integrate ``lanes`` (one signature) together; their outcomes, in order."""
-    return _Batch(sim, list(lanes)).run()
+def run(sim: KinematicSimulator, lanes: Sequence[Lane]) -> list[tuple[ActionOutcome, Array]]:
+    """Integrate ``lanes`` (one signature) together; their outcomes, in order, each with the
+    path of its TCP (one point per control step, the last step's included: where the scalar
+    integrator measures distances)."""
+    batch = _Batch(sim, list(lanes))
+    outcomes = batch.run()
+    return list(zip(outcomes, batch.paths, strict=True))
 
 
 class _Batch:
@@ -223,6 +227,10 @@ class _Batch:
         self.best_t = [0.0] * B
         self.tol_rot = lanes[0].tol_rot
         self.alive = list(range(B))  # lane positions still integrating
+        self.alive_idx = np.arange(B)
+        max_steps = math.ceil(sim.time_budget_s / sim.dt - 1e-9)
+        self.path = np.empty((max_steps + 1, B, 3))  # each lane's TCP, step by step
+        self.paths: list[Array] = [np.empty((0, 3))] * B
         self.out: list[ActionOutcome | None] = [None] * B
 
     # -- per-lane arrays leave together -------------------------------------------------
@@ -234,6 +242,7 @@ class _Batch:
         self.best_t = [self.best_t[i] for i in idx]
         self.models = [self.models[i] for i in idx]
         self.alive = [self.alive[i] for i in idx]
+        self.alive_idx = self.alive_idx[keep]
         for items in self.levels:
             for item in items:
                 for key in ("lo", "hi", "lo_w", "hi_w", "c", "p", "R", "g", "minsq"):
@@ -263,6 +272,7 @@ class _Batch:
                 P[i] = oMf.translation
                 Rm[i] = oMf.rotation
                 Jm[i] = pin.getFrameJacobian(model.model, model.data, model.tcp_frame, lwa)
+            self.path[step, self.alive_idx] = P
             levels, (e0, e1) = self._evaluate(P, Rm, Jm)
             rho = self._solve(levels)[:, :, 0]
             # stop rules, in the scalar order (floats: a handful of lanes)
@@ -349,6 +359,7 @@ class _Batch:
         if success and lane.spec.gripper == "close":
             duration += lane.spec.gripper_time_s
             state.holding[lane.arm] = True
+        self.paths[self.alive[i]] = self.path[: step + 1, self.alive[i]].copy()
         self.out[self.alive[i]] = sim._outcome(
             lane.spec, lane.arm, [lane.arm], state, success, reason, duration, q,
             min_dist, float(self.energy[i]), err, None, lane.t_wall, step,
