@@ -304,12 +304,12 @@ class _Batch:
             # TaskPriorityController.saturate: a lane too fast is scaled down (x 1.0 is exact
             # for the others); the joint-range guard only when a step would leave a range
             qdot = rho
-            ratio = (np.abs(qdot) * self.inv_v_max).max(axis=1)
-            if ratio.max() > 1.0:
+            ratio = _max(np.abs(qdot) * self.inv_v_max, axis=1)
+            if _max(ratio, axis=None) > 1.0:
                 qdot = qdot * (1.0 / np.maximum(ratio, 1.0))[:, None]
             q = self.q
             q_next = q + qdot * dt
-            if (q_next < self.q_min).any() or (q_next > self.q_max).any():
+            if _any(q_next < self.q_min) or _any(q_next > self.q_max):
                 qdot = np.minimum(
                     np.maximum(qdot, (self.q_min - q) * inv_dt), (self.q_max - q) * inv_dt
                 )
@@ -386,7 +386,7 @@ class _Batch:
                 kind = item["kind"]
                 o = item["obj"]
                 if kind == "jl":
-                    if not ((q < item["lo_w"]).any() or (q > item["hi_w"]).any()):
+                    if not (_any(q < item["lo_w"]) or _any(q > item["hi_w"])):
                         continue
                     lo, hi = item["lo"], item["hi"]
                     s_lo = np.clip((q - lo) / o.width, 0.0, 1.0)
@@ -403,11 +403,11 @@ class _Batch:
                     D = P[:, None, :] - item["c"]  # (B, K, 3)
                     sq = _dot(D, D)
                     np.minimum(item["minsq"], sq, out=item["minsq"])
-                    if not (sq < item["far2"]).any():
+                    if not _any(sq < item["far2"]):
                         continue  # every lane beyond the transition zone: inactive
                     nn = np.sqrt(sq)
                     d = nn - item["r"]
-                    if nn.min() < 1e-12:  # at a centre: Sphere.distance's convention
+                    if _min(nn, axis=None) < 1e-12:  # at a centre: Sphere.distance's convention
                         tiny = nn < 1e-12
                         d = np.where(tiny, -item["r"], d)
                         nrm = D / np.where(tiny, 1.0, nn)[:, :, None]
@@ -416,7 +416,7 @@ class _Batch:
                         nrm = D / nn[:, :, None]
                     s = np.clip((d - o.d_min) / o.width, 0.0, 1.0)
                     act = 0.5 * (1.0 + np.cos(np.pi * s))
-                    if not (act > 0.0).any():
+                    if not _any(act > 0.0):
                         continue
                     for b, k in zip(*np.nonzero(act > 0.0), strict=True):
                         avoid[b].append((nrm[b, k], float(act[b, k])))
@@ -428,7 +428,7 @@ class _Batch:
                     ep = np.sqrt(_dot(e, e))
                     v = o.gain * e
                     gep = o.gain * ep
-                    if gep.max() > o.max_speed:
+                    if _max(gep, axis=None) > o.max_speed:
                         fast = gep > o.max_speed
                         v[fast] *= (o.max_speed / gep[fast])[:, None]
                     if any(avoid):
@@ -439,7 +439,7 @@ class _Batch:
                     eo = np.sqrt(_dot(r, r))
                     w = o.angular_gain * r
                     geo = o.angular_gain * eo
-                    if geo.max() > o.max_angular_speed:
+                    if _max(geo, axis=None) > o.max_angular_speed:
                         fast = geo > o.max_angular_speed
                         w[fast] *= (o.max_angular_speed / geo[fast])[:, None]
                     e0 = ep if e0 is None else np.maximum(e0, ep)
@@ -449,12 +449,12 @@ class _Batch:
                     diff = item["g"] - q
                     ref = o.gain * diff
                     if o.max_speed is not None:
-                        m = np.abs(ref).max(axis=1)
+                        m = _max(np.abs(ref), axis=1)
                         fast = m > o.max_speed
-                        if fast.any():
+                        if _any(fast, axis=None):
                             ref[fast] *= (o.max_speed / m[fast])[:, None]
                     if o.is_goal:
-                        err = np.abs(diff).max(axis=1)
+                        err = _max(np.abs(diff), axis=1)
                         e1 = err if e1 is None else np.maximum(e1, err)
                     tasks.append((None, ref[:, :, None], None, False))
             out.append(tasks)
@@ -538,6 +538,15 @@ class _Batch:
         return _batched_solve(M, rhs)
 
 
+#: full and row reductions without ndarray's method wrappers
+_max = np.maximum.reduce
+_min = np.minimum.reduce
+
+
+def _any(a: Array, axis: Any = None) -> bool:
+    return bool(np.logical_or.reduce(a, axis=axis))
+
+
 def _einsum_dot(a: Array, b: Array) -> Array:
     return np.einsum("...i,...i->...", a, b)
 
@@ -574,9 +583,9 @@ def _rotation_logs(R: Array, B: int) -> Array:
     angle = np.arccos(cos)
     f = R.reshape(B, 9)
     w = f[:, _W_PLUS] - f[:, _W_MINUS]
-    if math.pi - angle.max() < 1e-6:  # a lane near a half turn: the scalar code's branch
+    if math.pi - _max(angle, axis=None) < 1e-6:  # a lane near a half turn: the scalar code's branch
         return np.array([rotation_log(R[b]) for b in range(B)])
-    if angle.min() >= 1e-9:  # the usual case
+    if _min(angle, axis=None) >= 1e-9:  # the usual case
         return (angle / (2.0 * np.sin(angle)))[:, None] * w
     small = angle < 1e-9  # no rotation left: rotation_log's first-order branch
     k = np.where(small, 0.5, angle / (2.0 * np.where(small, 1.0, np.sin(angle))))
