@@ -66,7 +66,14 @@ def motion_key(sim: KinematicSimulator, request: MotionRequest) -> tuple[Any, ..
         if spec is not None and not any(s.kind == "human" for s in spec.hierarchy):
             hand = None  # no human-hand objective: the hand changes nothing
         obstacles = tuple(tuple(float(v) for v in o) for o in request.obstacles)
-        key = (id(sim), request.arm, request.action, _text(spec), target, joints, obstacles, hand)
+        settings = (
+            sim.dt, sim.time_budget_s, sim.pos_tol, sim.rot_tol, sim.posture_tol, sim.stall_s,
+            sim.settle, sim.span_m, sim.joint_speed_limit,
+        )  # fmt: skip
+        key = (
+            id(sim), settings, request.arm, request.action, _text(spec), target, joints,
+            obstacles, hand,
+        )  # fmt: skip
         hash(key)
         return key
     except (KeyError, TypeError, ValueError):  # pragma: no cover - odd input: not shared

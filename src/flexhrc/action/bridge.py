@@ -30,6 +30,12 @@ without motion (``check``, ``none``), of a kind the registry has no motion for, 
 robot model has no arm for, or whose target does not resolve are timed by the analytic model,
 as the operator's actions are. :attr:`KinematicTaskSimulator.simulated` records how each
 action was simulated.
+
+The branches of one decision share their work (issue 23): :meth:`KinematicTaskSimulator.
+simulate_many` advances them together, takes a motion the same arm already made from the same
+joints in the same world from a cache (:func:`flexhrc.action.batch.motion_key`) and integrates
+the rest side by side (:mod:`flexhrc.action.lockstep`); the results are those of
+:meth:`~KinematicTaskSimulator.simulate` branch by branch.
 """
 
 from __future__ import annotations
@@ -61,7 +67,13 @@ Motion = list[tuple[str, "tuple[float, float, float] | None"]]
 
 
 class KinematicTaskSimulator:
-    """Task-Manager simulator and execution model backed by :mod:`flexhrc.action`."""
+    """Task-Manager simulator and execution model backed by :mod:`flexhrc.action`.
+
+    ``share`` (default): the branches of a decision share their motions
+    (:meth:`simulate_many`, a motion cache of ``cache_size`` entries kept across decisions,
+    lockstep integration); ``share=False`` integrates every motion of every branch on its own
+    (the path before issue 23, kept to compare against).
+    """
 
     def __init__(
         self,
@@ -242,7 +254,7 @@ class KinematicTaskSimulator:
         random numbers in branch order, so then the branches run one after another."""
         t0 = time.perf_counter()
         try:
-            if not self.share or self.human.failure_rate:
+            if not self.share or float(getattr(self.human, "failure_rate", 0.0) or 0.0) > 0:
                 return [self._simulate(s, kb, domain) for s in branches]
             return self._simulate_many(branches, kb, domain)
         finally:
@@ -360,7 +372,7 @@ class KinematicTaskSimulator:
             return  # the hand's objective may have acted: only this hand gives this motion
         fkey = far_key(self.sim, request)
         self._far_cache[fkey] = (out, path, least_distance(path, request.obstacles))
-        if len(self._far_cache) > self.cache_size:
+        if len(self._far_cache) > self.cache_size // 8:  # these keep a path each
             self._far_cache.popitem(last=False)
 
     def _far_hit(self, request: MotionRequest) -> Any:
