@@ -260,18 +260,20 @@ class _Batch:
         lwa = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
         pos_tol, tol_rot, stall_s = sim.pos_tol, self.tol_rot, sim.stall_s
         inv_dt = 1.0 / dt
-        P = np.empty((len(self.alive), 3))
-        Rm = np.empty((len(self.alive), 3, 3))
+        H = np.empty((len(self.alive), 4, 4))  # each lane's TCP pose (homogeneous)
         Jm = np.empty((len(self.alive), 6, 7))
+        frame = pin.computeFrameJacobian
+        place = pin.updateFramePlacement
         while self.alive:
             q = self.q
             for i, model in enumerate(self.models):
-                # ArmModel.kinematics without its copies: straight into the stacked arrays
-                pin.computeJointJacobians(model.model, model.data, q[i])
-                oMf = pin.updateFramePlacement(model.model, model.data, model.tcp_frame)
-                P[i] = oMf.translation
-                Rm[i] = oMf.rotation
-                Jm[i] = pin.getFrameJacobian(model.model, model.data, model.tcp_frame, lwa)
+                # ArmModel.kinematics in two calls (the TCP's Jacobian with the forward pass,
+                # then its placement), written straight into the stacked arrays
+                m, d, tcp = model.model, model.data, model.tcp_frame
+                Jm[i] = frame(m, d, q[i], tcp, lwa)
+                H[i] = place(m, d, tcp).homogeneous
+            P = H[:, :3, 3]
+            Rm = H[:, :3, :3]
             self.path[step, self.alive_idx] = P
             levels, (e0, e1) = self._evaluate(P, Rm, Jm)
             rho = self._solve(levels)[:, :, 0]
@@ -300,7 +302,7 @@ class _Batch:
                 rho = rho[keep]
                 if not self.alive:
                     break
-                P, Rm, Jm = P[keep], Rm[keep], Jm[keep]
+                H, Jm = H[keep], Jm[keep]
             # TaskPriorityController.saturate: a lane too fast is scaled down (x 1.0 is exact
             # for the others); the joint-range guard only when a step would leave a range
             qdot = rho
@@ -428,9 +430,10 @@ class _Batch:
                     ep = np.sqrt(_dot(e, e))
                     v = o.gain * e
                     gep = o.gain * ep
-                    if _max(gep, axis=None) > o.max_speed:
-                        fast = gep > o.max_speed
-                        v[fast] *= (o.max_speed / gep[fast])[:, None]
+                    if _max(gep, axis=None) > o.max_speed:  # x 1.0 for the slower lanes
+                        v *= np.divide(o.max_speed, gep, out=np.ones(B), where=gep > o.max_speed)[
+                            :, None
+                        ]
                     if any(avoid):
                         for b, entries in enumerate(avoid):
                             for nrm_b, a in entries:
@@ -439,9 +442,9 @@ class _Batch:
                     eo = np.sqrt(_dot(r, r))
                     w = o.angular_gain * r
                     geo = o.angular_gain * eo
-                    if _max(geo, axis=None) > o.max_angular_speed:
-                        fast = geo > o.max_angular_speed
-                        w[fast] *= (o.max_angular_speed / geo[fast])[:, None]
+                    top = o.max_angular_speed
+                    if _max(geo, axis=None) > top:
+                        w *= np.divide(top, geo, out=np.ones(B), where=geo > top)[:, None]
                     e0 = ep if e0 is None else np.maximum(e0, ep)
                     e1 = eo if e1 is None else np.maximum(e1, eo)
                     tasks.append((Jm, np.concatenate([v, w], axis=1)[:, :, None], None, False))
