@@ -238,3 +238,30 @@ def test_decision_trees_use_simulate_many_when_offered_and_simulate_otherwise():
     b = first_tree(AnalyticSimulator())
     assert len(a.branches) == 8
     assert [x.utility for x in a.branches] == [x.utility for x in b.branches]
+
+
+def test_a_motion_far_from_the_hand_serves_the_hand_elsewhere_and_only_then():
+    kin = KinematicTaskSimulator(KinematicSimulator(dt=0.04, cache_size=0))
+    sim = kin.sim
+    rest = sim.rest_state()
+    target = (0.45, 0.3, 0.02)
+
+    def fresh(hand):
+        return sim.simulate("left", "approach", target, start=rest, human_hand=hand, record=False)
+
+    kin._motions([MotionRequest("left", "approach", target, rest, (), (0.9, -0.5, 0.1))])
+    assert kin.motions_integrated == 1
+    for hand in [(0.2, -0.6, 0.3), None]:  # far from the whole path, or no hand at all
+        (out,) = kin._motions([MotionRequest("left", "approach", target, rest, (), hand)])
+        ref = fresh(hand)
+        assert kin.motions_integrated == 1
+        assert (out.steps, out.duration_s, out.reason) == (ref.steps, ref.duration_s, ref.reason)
+        assert out.min_distance_m == pytest.approx(ref.min_distance_m, abs=1e-12)
+        assert np.allclose(out.final_state.q["left"], ref.final_state.q["left"], rtol=0, atol=1e-9)
+    assert kin.motions_far == 2
+    # the hand right where the arm goes: its objective acts, the motion is integrated anew
+    near = (0.45, 0.3, 0.14)
+    (out,) = kin._motions([MotionRequest("left", "approach", target, rest, (), near)])
+    ref = fresh(near)
+    assert kin.motions_integrated == 2 and kin.motions_far == 2
+    assert (out.steps, out.success, out.reason) == (ref.steps, ref.success, ref.reason)

@@ -105,18 +105,26 @@ def hand_reach(sim: KinematicSimulator, request: MotionRequest) -> float | None:
     spec = _spec(sim, request)
     if spec is None:
         return None
-    for s in spec.hierarchy:
-        if s.kind == "human":
-            d_min = float(s.params.get("d_min", 0.05))
-            width = float(s.params.get("width", 0.04))
-            return (d_min + width) * (1.0 + 1e-9) + 1e-12
-    return None
+    hit = _REACH.get(id(spec))
+    if hit is None or hit[0] is not spec:
+        reach = None
+        for s in spec.hierarchy:
+            if s.kind == "human":
+                d_min = float(s.params.get("d_min", 0.05))
+                width = float(s.params.get("width", 0.04))
+                reach = (d_min + width) * (1.0 + 1e-9) + 1e-12
+                break
+        hit = _REACH[id(spec)] = (spec, reach)
+    return hit[1]
 
 
-def far_key(sim: KinematicSimulator, request: MotionRequest) -> tuple[Any, ...] | None:
-    """:func:`motion_key` without the hand: the motion where the hand stays beyond
-    :func:`hand_reach` of the TCP all along (the hand's objective never acts)."""
-    return motion_key(sim, replace(request, human_hand=None))
+_REACH: dict[int, tuple[Any, float | None]] = {}
+
+
+def far_key(key: tuple[Any, ...]) -> tuple[Any, ...]:
+    """A :func:`motion_key` without the hand (its last item): the key of the motion where the
+    hand stays beyond :func:`hand_reach` of the TCP all along (its objective never acts)."""
+    return (*key[:-1], None)
 
 
 def least_distance(path: np.ndarray, obstacles: Sequence[Sequence[float]]) -> float:

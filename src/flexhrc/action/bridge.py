@@ -336,8 +336,8 @@ class KinematicTaskSimulator:
                 self._motion_cache.move_to_end(key)
                 outs[i] = rebase(self._motion_cache[key], request)
                 continue
-            if key is not None and key not in todo:
-                far = self._far_hit(request)
+            if key is not None and key not in todo and self._far_cache:
+                far = self._far_hit(key, request)
                 if far is not None:
                     outs[i] = far
                     continue
@@ -370,13 +370,13 @@ class KinematicTaskSimulator:
         hand = request.human_hand
         if hand is not None and least_distance(path, [(*hand, 0.0)]) < reach:
             return  # the hand's objective may have acted: only this hand gives this motion
-        fkey = far_key(self.sim, request)
-        self._far_cache[fkey] = (out, path, least_distance(path, request.obstacles))
+        self._far_cache[far_key(key)] = (out, path, least_distance(path, request.obstacles))
         if len(self._far_cache) > self.cache_size // 8:  # these keep a path each
             self._far_cache.popitem(last=False)
 
-    def _far_hit(self, request: MotionRequest) -> Any:
-        """The motion of ``request`` from the hand-free cache, or None."""
+    def _far_hit(self, key: Any, request: MotionRequest) -> Any:
+        """The motion of ``request`` (of :func:`~flexhrc.action.batch.motion_key` ``key``)
+        from the hand-free cache, or None."""
         from dataclasses import replace
 
         from flexhrc.action.batch import far_key, hand_reach, least_distance, rebase
@@ -384,8 +384,8 @@ class KinematicTaskSimulator:
         reach = hand_reach(self.sim, request)
         if reach is None:
             return None
-        fkey = far_key(self.sim, request)
-        entry = self._far_cache.get(fkey) if fkey is not None else None
+        fkey = far_key(key)
+        entry = self._far_cache.get(fkey)
         if entry is None:
             return None
         out, path, obstacles_min = entry
