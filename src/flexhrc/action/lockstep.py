@@ -183,6 +183,8 @@ class _Batch:
         self.models = [lane.ctrl.arms[0] for lane in lanes]
         c = [lane.ctrl for lane in lanes]
         self.inv_v_max = np.stack([x._inv_v_max for x in c])
+        # the farthest a joint can move in one step, with a margin
+        self.max_step = float(np.max(1.0 / self.inv_v_max)) * sim.dt * 1.01 + 1e-9
         self.q_min = np.stack([x.q_min for x in c])
         self.q_max = np.stack([x.q_max for x in c])
         # the objectives, level by level: (kind, scalar params, per-lane arrays)
@@ -198,6 +200,7 @@ class _Batch:
                     item["hi"] = np.stack([x.hi for x in objs])
                     item["lo_w"] = np.stack([x._lo_w for x in objs])
                     item["hi_w"] = np.stack([x._hi_w for x in objs])
+                    item["skip"] = 0
                 elif isinstance(o, MinimumDistance):
                     item["kind"] = "md"
                     item["c"] = np.array(
@@ -388,7 +391,16 @@ class _Batch:
                 kind = item["kind"]
                 o = item["obj"]
                 if kind == "jl":
+                    if item["skip"] > 0:  # no joint can have reached its zone yet (below)
+                        item["skip"] -= 1
+                        continue
                     if not (_any(q < item["lo_w"]) or _any(q > item["hi_w"])):
+                        # a joint moves at most v_max dt a step (saturation; the range guard
+                        # only slows it): the zones stay out of reach for a few steps
+                        margin = min(
+                            _min(q - item["lo_w"], axis=None), _min(item["hi_w"] - q, axis=None)
+                        )
+                        item["skip"] = int(margin / self.max_step) - 1
                         continue
                     lo, hi = item["lo"], item["hi"]
                     s_lo = np.clip((q - lo) / o.width, 0.0, 1.0)
@@ -466,6 +478,19 @@ class _Batch:
 
     # -- the task-priority recursion (TaskPriorityController.solve, batched) -----------
     def _solve(self, levels: list[list[tuple[Any, ...]]]) -> Array:
+        active = [lv for lv in levels if lv]
+        if len(active) == 2 and len(active[0]) == 1 and len(active[1]) == 1:
+            (J, ref, act, inequality), (J2, ref2, act2, _) = active[0][0], active[1][0]
+            if J is not None and act is None and not inequality and J2 is None and act2 is None:
+                # the usual step: the end-effector pose, then the posture (no inequality
+                # near its bound) -- the recursion below for these two levels, inline
+                Xt = J.transpose(0, 2, 1)
+                M = Xt @ J
+                M += self.lam2_eye
+                Xp = _batched_solve(M, Xt)
+                rho = Xp @ ((J @ Xp) @ ref)
+                Q = self.eye - Xp @ J
+                return rho + (Q @ (ref2 - rho)) / (1.0 + self.lam2) ** 2
         if any(t[3] for lv in levels for t in lv):
             pre = self._recursion([[t for t in lv if not t[3]] for lv in levels])
             for lv in levels:
