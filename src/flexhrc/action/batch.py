@@ -164,8 +164,12 @@ def simulate_many(
     out: list[ActionOutcome | None] = [None] * len(requests)
     tcp: list[np.ndarray | None] = [None] * len(requests)
     groups: dict[Any, list[lockstep.Lane]] = {}
+    # a simulator that integrates its own way (a subclass) is asked one request at a time
+    own = type(sim).simulate is not KinematicSimulator.simulate or (
+        type(sim)._simulate is not KinematicSimulator._simulate
+    )
     for i, r in enumerate(requests):
-        lane = lockstep.prepare(sim, i, r) if lockstep_enabled else None
+        lane = lockstep.prepare(sim, i, r) if lockstep_enabled and not own else None
         if lane is None:
             out[i] = sim.simulate(
                 r.arm, r.action, r.target, start=r.start, obstacles=r.obstacles,
