@@ -30,13 +30,20 @@ without motion (``check``, ``none``), of a kind the registry has no motion for, 
 robot model has no arm for, or whose target does not resolve are timed by the analytic model,
 as the operator's actions are. :attr:`KinematicTaskSimulator.simulated` records how each
 action was simulated.
+
+The branches of one decision share their work (issue 23): :meth:`KinematicTaskSimulator.
+simulate_many` advances them together, takes a motion the same arm already made from the same
+joints in the same world from a cache (:func:`flexhrc.action.batch.motion_key`) and integrates
+the rest side by side (:mod:`flexhrc.action.lockstep`); the results are those of
+:meth:`~KinematicTaskSimulator.simulate` branch by branch.
 """
 
 from __future__ import annotations
 
 import time
-from collections.abc import Iterable, Mapping, Sequence
-from typing import Any
+from collections import OrderedDict
+from collections.abc import Generator, Iterable, Mapping, Sequence
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -53,11 +60,20 @@ from flexhrc.taskmanager.simulator import (
     simulated_record,
 )
 
+if TYPE_CHECKING:  # pragma: no cover
+    from flexhrc.action.batch import MotionRequest
+
 Motion = list[tuple[str, "tuple[float, float, float] | None"]]
 
 
 class KinematicTaskSimulator:
-    """Task-Manager simulator and execution model backed by :mod:`flexhrc.action`."""
+    """Task-Manager simulator and execution model backed by :mod:`flexhrc.action`.
+
+    ``share`` (default): the branches of a decision share their motions
+    (:meth:`simulate_many`, a motion cache of ``cache_size`` entries kept across decisions,
+    lockstep integration); ``share=False`` integrates every motion of every branch on its own
+    (the path before issue 23, kept to compare against).
+    """
 
     def __init__(
         self,
@@ -69,6 +85,8 @@ class KinematicTaskSimulator:
         hold_height_m: float = 0.10,
         dt: float = 0.04,
         timing: Timing | None = None,
+        share: bool = True,
+        cache_size: int = 4096,
     ):
         from flexhrc.action.execution import ExecutionManager
         from flexhrc.action.simulator import KinematicSimulator
@@ -94,6 +112,21 @@ class KinematicTaskSimulator:
         self.wall_s = 0.0
         self._simulated: dict[tuple[str, tuple[str, ...]], str] = {}
         self._scheduled: list[list[Any]] = []  # [action kind, nth, disturbance kwargs, seen]
+        #: branch simulations share their motions (False: each integrated as it comes, the
+        #: path before issue 23, kept to compare against)
+        self.share = share
+        self.cache_size = int(cache_size)
+        self._motion_cache: OrderedDict[Any, Any] = OrderedDict()
+        self._far_cache: OrderedDict[Any, Any] = OrderedDict()
+        #: motions taken from the hand-free cache (the hand moved, but stayed far)
+        self.motions_far = 0
+        #: controller actions branch simulations asked for, and how many were integrated
+        #: (the rest came from the motion cache or a twin in the same round)
+        self.motions_requested = 0
+        self.motions_integrated = 0
+        #: controller steps integrated for branch simulations (load-independent cost; an
+        #: outcome the simulator's own cache returned counts its steps again)
+        self.steps_integrated = 0
 
     @property
     def simulated(self) -> dict[str, str]:
@@ -206,9 +239,176 @@ class KinematicTaskSimulator:
         finally:
             self.wall_s += time.perf_counter() - t0
 
+    def simulate_many(
+        self, branches: Sequence[Sequence[GroundAction]], kb: KnowledgeBase, domain: Domain
+    ) -> list[SimulationResult]:
+        """:meth:`simulate` for every branch of one decision, their motions shared.
+
+        The branches advance together, one controller action each per round: the round's
+        motions are looked up in the motion cache (the same arm, from the same joints, towards
+        the same target in the same world is integrated once — whatever the other arm does,
+        which a one-arm controller never reads) and the rest are integrated side by side by
+        :func:`flexhrc.action.batch.simulate_many` (lockstep, vectorised over the branches).
+        Results are those of :meth:`simulate` branch by branch (``share=False`` runs exactly
+        that: the old path, for comparison). An analytic model with seeded failures draws its
+        random numbers in branch order, so then the branches run one after another."""
+        t0 = time.perf_counter()
+        try:
+            if not self.share or float(getattr(self.human, "failure_rate", 0.0) or 0.0) > 0:
+                return [self._simulate(s, kb, domain) for s in branches]
+            return self._simulate_many(branches, kb, domain)
+        finally:
+            self.wall_s += time.perf_counter() - t0
+
     def _simulate(
         self, steps: Sequence[GroundAction], kb: KnowledgeBase, domain: Domain
     ) -> SimulationResult:
+        branch = self._branch(steps, kb, domain)
+        try:
+            request = next(branch)
+            while True:
+                request = branch.send(self._motion(request))
+        except StopIteration as stop:
+            result: SimulationResult = stop.value
+            return result
+
+    def _simulate_many(
+        self, branches: Sequence[Sequence[GroundAction]], kb: KnowledgeBase, domain: Domain
+    ) -> list[SimulationResult]:
+        results: list[SimulationResult | None] = [None] * len(branches)
+        live: dict[int, tuple[Generator[MotionRequest, Any, SimulationResult], MotionRequest]]
+        live = {}
+        before = dict(self._simulated)
+        touched: list[list[tuple[str, tuple[str, ...]]]] = [[] for _ in branches]
+        for i, steps in enumerate(branches):
+            gen = self._branch(steps, kb, domain, touched[i])
+            try:
+                live[i] = (gen, next(gen))
+            except StopIteration as stop:
+                results[i] = stop.value
+        while live:
+            order = list(live)
+            outcomes = self._motions([live[i][1] for i in order])
+            for i, out in zip(order, outcomes, strict=True):
+                gen = live[i][0]
+                try:
+                    live[i] = (gen, gen.send(out))
+                except StopIteration as stop:
+                    results[i] = stop.value
+                    del live[i]
+        # the record of how actions were simulated, in the order branch by branch would give
+        for keys in touched:
+            for key in keys:
+                before[key] = self._simulated[key]
+        self._simulated = before
+        return [r for r in results if r is not None]
+
+    # -- motions: integrated once ---------------------------------------------------------
+    def _motion(self, request: MotionRequest) -> Any:
+        """One controller action: the old path (``share=False``) or through the cache."""
+        if not self.share:
+            out = self.sim.simulate(
+                request.arm, request.action, request.target, start=request.start,
+                obstacles=request.obstacles, human_hand=request.human_hand, record=False,
+            )  # fmt: skip
+            self.motions_requested += 1
+            self.motions_integrated += 1
+            self.steps_integrated += out.steps
+            return out
+        return self._motions([request])[0]
+
+    def _motions(self, requests: Sequence[MotionRequest]) -> list[Any]:
+        """Outcomes of ``requests``: cached ones at once, each distinct rest integrated once
+        (side by side, :func:`flexhrc.action.batch.simulate_many`), then cached.
+
+        Two caches: by :func:`~flexhrc.action.batch.motion_key` (the moving arms' joints, the
+        action, the target, the world), and — for a motion whose TCP path stayed beyond the
+        reach of the human hand's objective all along — by the same key without the hand: the
+        hand elsewhere, still beyond that reach of the whole path, gives the same motion (the
+        objective never acts), with the least distance to the new hand reported."""
+        from flexhrc.action.batch import motion_key, rebase, simulate_many
+
+        keys = [motion_key(self.sim, r) for r in requests]
+        outs: list[Any] = [None] * len(requests)
+        todo: dict[Any, list[int]] = {}
+        for i, (key, request) in enumerate(zip(keys, requests, strict=True)):
+            if key is not None and key in self._motion_cache:
+                self._motion_cache.move_to_end(key)
+                outs[i] = rebase(self._motion_cache[key], request)
+                continue
+            if key is not None and key not in todo and self._far_cache:
+                far = self._far_hit(key, request)
+                if far is not None:
+                    outs[i] = far
+                    continue
+            todo.setdefault(key if key is not None else ("unshared", i), []).append(i)
+        self.motions_requested += len(requests)
+        if todo:
+            firsts = [requests[idx[0]] for idx in todo.values()]
+            paths: list[Any] = []
+            fresh = simulate_many(self.sim, firsts, paths)
+            self.motions_integrated += len(fresh)
+            self.steps_integrated += sum(o.steps for o in fresh)
+            for (key, idx), request, out, path in zip(
+                todo.items(), firsts, fresh, paths, strict=True
+            ):
+                if keys[idx[0]] is not None:
+                    self._store(key, request, out, path)
+                for i in idx:
+                    outs[i] = rebase(out, requests[i])
+        return outs
+
+    def _store(self, key: Any, request: MotionRequest, out: Any, path: Any) -> None:
+        from flexhrc.action.batch import far_key, hand_reach, least_distance
+
+        self._motion_cache[key] = out
+        if len(self._motion_cache) > self.cache_size:
+            self._motion_cache.popitem(last=False)
+        reach = hand_reach(self.sim, request)
+        if reach is None or path is None:
+            return
+        hand = request.human_hand
+        if hand is not None and least_distance(path, [(*hand, 0.0)]) < reach:
+            return  # the hand's objective may have acted: only this hand gives this motion
+        self._far_cache[far_key(key)] = (out, path, least_distance(path, request.obstacles))
+        if len(self._far_cache) > self.cache_size // 8:  # these keep a path each
+            self._far_cache.popitem(last=False)
+
+    def _far_hit(self, key: Any, request: MotionRequest) -> Any:
+        """The motion of ``request`` (of :func:`~flexhrc.action.batch.motion_key` ``key``)
+        from the hand-free cache, or None."""
+        from dataclasses import replace
+
+        from flexhrc.action.batch import far_key, hand_reach, least_distance, rebase
+
+        reach = hand_reach(self.sim, request)
+        if reach is None:
+            return None
+        fkey = far_key(key)
+        entry = self._far_cache.get(fkey)
+        if entry is None:
+            return None
+        out, path, obstacles_min = entry
+        hand = request.human_hand
+        hand_min = float("inf") if hand is None else least_distance(path, [(*hand, 0.0)])
+        if hand_min < reach:
+            return None
+        self._far_cache.move_to_end(fkey)
+        self.motions_far += 1
+        return replace(rebase(out, request), min_distance_m=min(obstacles_min, hand_min))
+
+    def _branch(
+        self,
+        steps: Sequence[GroundAction],
+        kb: KnowledgeBase,
+        domain: Domain,
+        touched: list[tuple[str, tuple[str, ...]]] | None = None,
+    ) -> Generator[MotionRequest, Any, SimulationResult]:
+        """One branch, simulated: yields each controller action it needs integrated (a
+        :class:`~flexhrc.action.batch.MotionRequest`) and is sent its outcome back; the actions
+        it simulates are added to ``touched``."""
+        from flexhrc.action.batch import MotionRequest
+
         positions: dict[str, Vec3] = {}
         state = self.execution.state.copy()  # the robot as it is now
         durations: list[float] = []
@@ -218,6 +418,8 @@ class KinematicTaskSimulator:
         for action in steps:
             before = hands(action, positions, kb)
             _, motions = self.how(action, kb, positions, domain)
+            if touched is not None:
+                touched.append((action.name, action.args))
             if motions is None:
                 ok, dt, why = self.human.step(action, positions, kb, domain)
                 durations.append(dt)
@@ -238,10 +440,7 @@ class KinematicTaskSimulator:
             arm = self._arm(action)
             total, energy, min_d = 0.0, 0.0, float("inf")
             for kind, target in motions:
-                out = self.sim.simulate(
-                    arm, kind, target, start=state, obstacles=obstacles,
-                    human_hand=hand, record=False,
-                )  # fmt: skip
+                out = yield MotionRequest(arm, kind, target, state, obstacles, hand)
                 total += out.duration_s
                 energy += out.energy
                 min_d = min(min_d, out.min_distance_m)

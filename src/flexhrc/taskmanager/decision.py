@@ -231,10 +231,21 @@ class DecisionTree:
     ) -> Branch | None:
         """Simulate every branch; the best one (utility > 0), or None. ``score`` gives a
         simulated branch its terms under a shaped utility or an operator model (None, or no
-        ``score``: eq. 21)."""
-        for b in self.branches:
-            b.result = simulator.simulate(b.steps, kb, domain)
-            if score is not None:
+        ``score``: eq. 21).
+
+        A simulator that offers ``simulate_many(branches, kb, domain)`` (the kinematic one:
+        branches share their motions, issue 23) gets every branch at once; any other is asked
+        branch by branch (:class:`~flexhrc.taskmanager.simulator.Simulator`)."""
+        many = getattr(simulator, "simulate_many", None)
+        if many is not None and self.branches:
+            results = many([b.steps for b in self.branches], kb, domain)
+            for b, r in zip(self.branches, results, strict=True):
+                b.result = r
+        else:
+            for b in self.branches:
+                b.result = simulator.simulate(b.steps, kb, domain)
+        if score is not None:
+            for b in self.branches:
                 b.terms = score(b)
         best = None
         for b in self.branches:

@@ -50,7 +50,14 @@ class SimulationResult:
 
 
 class Simulator(Protocol):
-    """Anything that can tell success and durations of an action sequence."""
+    """Anything that can tell success and durations of an action sequence.
+
+    A simulator may also offer ``simulate_many(branches, kb, domain) -> list[SimulationResult]``
+    (every branch of one decision at once, in order, each result what :meth:`simulate` would
+    give): :meth:`DecisionTree.evaluate <flexhrc.taskmanager.decision.DecisionTree.evaluate>`
+    then uses it, so branches can share their work (the kinematic simulator does, issue 23).
+    It is optional: a simulator with ``simulate`` alone works as before.
+    """
 
     def simulate(
         self, steps: Sequence[GroundAction], kb: KnowledgeBase, domain: Domain
