@@ -11,7 +11,7 @@ import pytest
 from flexhrc.scenario import load_scenario, prepare
 
 pytest.importorskip("ortools")
-import flexhrc.planning  # noqa: E402,F401  (registers the lookahead policy)
+import flexhrc.planning  # noqa: F401  (registers the lookahead policy)
 
 ROOT = Path(__file__).resolve().parents[2]
 SHIPPED = sorted(str(p) for p in (ROOT / "examples" / "scenarios").glob("*.yaml"))

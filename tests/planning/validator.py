@@ -12,6 +12,7 @@ only actions it is able to do (agents(a) of eq. 20); the makespan is the last en
 from __future__ import annotations
 
 import re
+from itertools import pairwise
 from typing import Any
 
 EPS = 1e-6
@@ -73,7 +74,7 @@ def validate(scenario: Any, data: dict[str, Any]) -> list[str]:
         want = [_parse(a)[0] for a in arc.actions]
         if names != want:
             problems.append(f"{h}: actions {names}, A(h) is {want}")
-        for a, b in zip(entries, entries[1:], strict=False):
+        for a, b in pairwise(entries):
             if b["start_s"] < a["end_s"] - EPS:
                 problems.append(f"{h}: {b['action']} starts before {a['action']} ends")
         if entries:
@@ -132,7 +133,7 @@ def validate(scenario: Any, data: dict[str, Any]) -> list[str]:
             lanes.setdefault(a, []).append((e["start_s"], e["end_s"], e["action"]))
     for a, items in lanes.items():
         items.sort()
-        for (s0, e0, t0), (s1, e1, t1) in zip(items, items[1:], strict=False):
+        for (s0, e0, t0), (s1, e1, t1) in pairwise(items):
             if s1 < e0 - EPS and e1 - s1 > EPS and e0 - s0 > EPS:
                 problems.append(f"{a}: {t1} at {s1:g} overlaps {t0} (until {e0:g})")
     last = max((e["end_s"] for e in schedule), default=0.0)
