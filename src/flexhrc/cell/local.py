@@ -149,6 +149,7 @@ class LocalCell:
         answer_timeout: float | None = None,
         replies: Replies | None = None,
         store: Any = None,
+        policy: str | None = None,
     ) -> None:
         domain = scenario.domain
         if simulator is None:
@@ -183,6 +184,7 @@ class LocalCell:
             reaction=reaction,
             on_failure=on_failure,
             answer_timeout=answer_timeout,
+            policy=policy,
             realtime=realtime,
             ordered=True,
             observers=[self.events.append, *observers],

@@ -77,6 +77,7 @@ from flexhrc.taskmanager.manager import (
 )
 from flexhrc.taskmanager.operator import PROFILES, SimulatedOperator
 from flexhrc.taskmanager.physical import apply_physical
+from flexhrc.taskmanager.policy import DEFAULT_POLICY, check_policy, make_policy
 from flexhrc.taskmanager.simulator import Simulator
 from flexhrc.transport import Transport
 
@@ -140,6 +141,7 @@ class Cell:
         shared_model: bool = False,
         on_failure: str | None = None,
         answer_timeout: float | None = None,
+        policy: str | None = None,
     ) -> None:
         if not realtime >= 0 or realtime != realtime or realtime == float("inf"):
             raise FlexhrcError(f"--realtime must be a finite number >= 0, got {realtime}")
@@ -201,6 +203,9 @@ class Cell:
             on_failure=failure_policy(scenario, on_failure),
             utility=getattr(scenario, "utility", None),
         )
+        # the decision policy (``--policy``, the scenario's ``policy:``; paper: no advisor)
+        self.policy = decision_policy(scenario, policy)
+        self.tm.policy = make_policy(self.policy)
         self.agents = {
             a.name: AgentState(a.name, "human" if a.is_human else "robot")
             for a in self.domain.agents.values()
@@ -1062,6 +1067,11 @@ class Cell:
             self.started = True
             if "on_failure" in body:  # a resumed run goes on under the policy it began with
                 tm.on_failure = check_failure_policy(body["on_failure"], "stored start: on_failure")
+            # ... and under the decision policy it began with (no key: paper)
+            stored = check_policy(body.get("policy", DEFAULT_POLICY), "stored start: policy")
+            if stored != self.policy:
+                self.policy = stored
+                tm.policy = make_policy(stored, "stored start: policy")
             self.operators.update(body.get("operators") or {})
             self.scripted.update(body.get("scripted") or [])
             if "operator_model" in body:
@@ -2085,6 +2095,7 @@ class Cell:
                     "realtime": self.realtime,
                     "simulator": _simulator_name(self.tm.simulator),
                     "on_failure": self.tm.on_failure,
+                    **({"policy": self.policy} if self.policy != DEFAULT_POLICY else {}),
                     "operators": dict(self.operators),
                     **self._operator_model_input(),
                     **({"watchers": list(self.watchers)} if self.watchers else {}),
@@ -2205,6 +2216,9 @@ class Cell:
         data["outcome"], data["reason"] = tm["outcome"], tm["reason"]
         data["simulator"] = _simulator_name(self.tm.simulator)
         data["on_failure"] = self.tm.on_failure
+        if self.policy != DEFAULT_POLICY:  # the default keeps the JSON as it was
+            data["policy"] = self.policy
+            data["advice_s"] = _latency(self.tm.advice_s)
         data["decisions"] = tm["decisions"]
         data["branches_simulated"] = tm["branches_simulated"]
         data["timing"].update(tm["timing"])
@@ -2262,6 +2276,27 @@ def failure_policy(scenario: Any, given: str | None) -> str:
     if given is not None:
         return check_failure_policy(given, "--on-failure")
     return check_failure_policy(getattr(scenario, "on_failure", None) or FAILURE_POLICIES[0])
+
+
+def decision_policy(scenario: Any, given: str | None) -> str:
+    """The decision policy of a run: ``given`` (``--policy``), else the scenario's ``policy``
+    key, else ``paper`` (:mod:`flexhrc.taskmanager.policy`)."""
+    if given is not None:
+        return check_policy(given, "--policy")
+    return check_policy(getattr(scenario, "policy", None) or DEFAULT_POLICY, "policy")
+
+
+def _latency(samples: list[float]) -> dict[str, float | int]:
+    """How long the advisor took at its decisions: count, median and p95 (seconds)."""
+    if not samples:
+        return {"decisions": 0, "median_s": 0.0, "p95_s": 0.0}
+    ordered = sorted(samples)
+    p95 = ordered[min(len(ordered) - 1, round(0.95 * (len(ordered) - 1)))]
+    return {
+        "decisions": len(ordered),
+        "median_s": round(ordered[len(ordered) // 2], 6),
+        "p95_s": round(p95, 6),
+    }
 
 
 def _simulator_name(simulator: Any) -> str:
