@@ -271,7 +271,9 @@ def read_config(path: str | Path) -> ExperimentConfig:
         raise fail(
             "scenarios: is required (a list of shipped names, files or generate: entries)", 1
         )
-    scenarios = _scenarios(doc["scenarios"], path, line(doc, "scenarios"), fail, line)
+    scenarios = _scenarios(
+        doc["scenarios"], path, _item_lines(path, "scenarios", line(doc, "scenarios")), fail, line
+    )
     for key in ("name", "description"):
         if key in doc and not isinstance(doc[key], str):
             raise fail(f"{key} must be text", line(doc, key))
@@ -339,10 +341,28 @@ def _seeds(v: Any, fail: Callable[[str], FormatError]) -> tuple[int, ...]:
     )
 
 
+def _item_lines(path: Path, key: str, fallback: int | None) -> list[int | None]:
+    """The line of each item of the top-level list ``key`` (a mapping remembers its own lines;
+    a name in a list does not)."""
+    import yaml
+
+    from flexhrc.files import read_text
+
+    try:
+        node = yaml.compose(read_text(path), Loader=yaml.SafeLoader)
+    except yaml.YAMLError:
+        return []
+    if isinstance(node, yaml.MappingNode):
+        for k, v in node.value:
+            if getattr(k, "value", None) == key and isinstance(v, yaml.SequenceNode):
+                return [item.start_mark.line + 1 for item in v.value]
+    return [fallback]
+
+
 def _scenarios(
     v: Any,
     path: Path,
-    at: int | None,
+    at: list[int | None],
     fail: Callable[[str, int | None], FormatError],
     line: Callable[..., int | None],
 ) -> tuple[ScenarioEntry, ...]:
@@ -351,10 +371,13 @@ def _scenarios(
     from flexhrc.scenario.loader import SHIPPED
 
     if not isinstance(v, list) or not v:
-        raise fail("scenarios must be a non-empty list (shipped names, files, generate: ...)", at)
+        raise fail(
+            "scenarios must be a non-empty list (shipped names, files, generate: ...)",
+            at[0] if at else None,
+        )
     out: list[ScenarioEntry] = []
-    for item in v:
-        where = line(item) if isinstance(item, dict) else at
+    for i, item in enumerate(v):
+        where = line(item) if isinstance(item, dict) else at[i] if i < len(at) else None
         if isinstance(item, str):
             item = {"file": item}
         if not isinstance(item, dict):
@@ -379,7 +402,7 @@ def _scenarios(
             if not isinstance(src, str) or not src.strip():
                 raise fail(
                     f"scenarios: file must be a shipped name or a path, got {src!r}",
-                    line(item, "file"),
+                    line(item, "file") or where,
                 )
             if src in SHIPPED and not (path.parent / src).exists():
                 source = src
@@ -389,7 +412,7 @@ def _scenarios(
                     raise fail(
                         f"scenarios: {src!r} is no shipped scenario ({', '.join(SHIPPED)}) and "
                         f"no file ({p} not found)",
-                        line(item, "file") if "file" in item else where,
+                        line(item, "file") or where,
                     )
                 source = str(p)
             out.append(ScenarioEntry(label or Path(src).stem, source, None, where))
@@ -435,19 +458,36 @@ class RunTask:
     simulator: str | None
 
 
-_LOADED: dict[str, Any] = {}  # a worker's scenarios, loaded once per process
+_LOADED: dict[tuple[str, int | None], Any] = {}  # a worker's scenarios, loaded once
+_SEEDED: dict[str, bool] = {}
 
 
-def _scenario(source: str) -> Any:
-    from flexhrc import scenario as scenario_mod
-    from flexhrc.scenario.source import NAMES
+def _seed_matters(source: str) -> bool:
+    """Whether the run's seed changes the task itself (the bench of ``parallel_assembly``,
+    an older table file's legs): then each run loads it as ``flexhrc run`` does."""
+    if source not in _SEEDED:
+        from flexhrc.scenario.legacy import is_legacy, read_document
 
-    if source not in _LOADED:
-        if source in NAMES and not Path(source).exists():
-            _LOADED[source] = scenario_mod.load_scenario(source)
-        else:
-            _LOADED[source] = scenario_mod.load(source)
-    return _LOADED[source]
+        seeded = source == "parallel_assembly"
+        p = Path(source)
+        if not seeded and p.suffix.lower() in (".yaml", ".yml") and p.is_file():
+            try:
+                seeded = is_legacy(read_document(p))
+            except FlexhrcError:
+                seeded = False
+        _SEEDED[source] = seeded
+    return _SEEDED[source]
+
+
+def _scenario(source: str, seed: int = 0) -> Any:
+    """The scenario of a shipped name or a file, loaded once per process (and seed, where
+    the seed changes it)."""
+    from flexhrc.scenario.source import load_scenario
+
+    key = (source, seed if _seed_matters(source) else None)
+    if key not in _LOADED:
+        _LOADED[key] = load_scenario(source, seed=seed)
+    return _LOADED[key]
 
 
 def run_one(task: RunTask) -> dict[str, Any]:
@@ -466,17 +506,16 @@ def run_one(task: RunTask) -> dict[str, Any]:
     try:
         from flexhrc.app.run import RunConfig, run_scenario
 
-        sc = _scenario(task.source)  # who acts (the same for every seed)
-        given: Any = task.source  # as `flexhrc run SOURCE --seed S` (a table's legs: by seed)
+        sc = _scenario(task.source, task.seed)
+        # a task the seed changes goes as `flexhrc run SOURCE --seed S` takes it
+        given: Any = task.source if _seed_matters(task.source) else sc
         if task.utility_block is not None:
-            from flexhrc import scenario as scenario_mod
             from flexhrc.taskmanager.utility import parse_utility
 
             utility, problems = parse_utility(task.utility_block, sc.domain)
             if problems:
                 raise FlexhrcError(f"utility {task.utility}: {problems[0][0]}")
-            seeded = scenario_mod.load_scenario(task.source, seed=task.seed)
-            given = dataclasses.replace(seeded, utility=utility)
+            given = dataclasses.replace(sc, utility=utility)
         config = RunConfig(
             given,
             human=task.profile if sc.humans else None,

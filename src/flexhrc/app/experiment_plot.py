@@ -12,10 +12,26 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
-if TYPE_CHECKING:
-    from flexhrc.app.experiment import ExperimentConfig
+
+class Design(Protocol):
+    """What the plots read of an :class:`~flexhrc.app.experiment.ExperimentConfig` (which
+    imports this module)."""
+
+    @property
+    def name(self) -> str: ...
+    @property
+    def scenarios(self) -> Sequence[Any]: ...  # each with a ``label``
+    @property
+    def profiles(self) -> Sequence[str]: ...
+    @property
+    def policies(self) -> Sequence[str]: ...
+    @property
+    def utilities(self) -> Mapping[str, Any]: ...
+    @property
+    def seeds(self) -> Sequence[int]: ...
+
 
 #: a colour per policy (paper: the paper's greedy decision; lookahead: CP-SAT ahead)
 POLICY_COLOURS = {"paper": "#4c72b0", "lookahead": "#dd8452"}
@@ -24,7 +40,7 @@ OTHER_COLOURS = ("#55a868", "#c44e52", "#8172b2", "#937860")
 
 def plot_box(
     rows: Sequence[Mapping[str, Any]],
-    config: ExperimentConfig,
+    config: Design,
     reference: Mapping[str, Mapping[str, Any]],
     what: str,
     path: str | Path,
