@@ -183,6 +183,17 @@ class RunReport:
     signal: int | None = None
 
     @property
+    def decision_latency(self) -> dict[str, Any]:
+        """The Task Manager's decision latency in this run, measured in the engine (wall
+        seconds to answer each input that made a decision, :class:`~flexhrc.cell.supervisor.
+        Cell`): ``n``, ``median_s``, ``p95_s``, ``max_s`` (None when nothing was decided).
+        Not in :attr:`json`, which holds what the cooperation did, the same on every machine
+        but for its compute times."""
+        from flexhrc.cell.supervisor import latency_figures
+
+        return latency_figures(self.result.decision_latency_s)
+
+    @property
     def exit_code(self) -> int:
         """0 solved, 1 not solved, 130/143 stopped by SIGINT/SIGTERM."""
         if self.signal is not None:

@@ -215,6 +215,10 @@ class Cell:
                 st.alive = st.seen = True
         self.now = 0.0
         self.events: list[StoredEvent] = []
+        #: wall seconds the Task Manager took to answer each input that made a decision (the
+        #: decision latency, :func:`latency_figures`; not kept in the store: it is the
+        #: machine's, not the cooperation's)
+        self.decision_latencies_s: list[float] = []
         self.commands: dict[int, Command] = {}
         self.stored_commands: set[int] = set()
         self.acked: set[int] = set()
@@ -1054,7 +1058,10 @@ class Cell:
         if not self.replaying:
             self.now = max(self.now, self._clock())
         self._record(kind, body)  # committed before the manager acts on it
+        decided, t0 = self.tm.decisions, time.perf_counter()
         directives = self._feed(kind, body)
+        if not self.replaying and self.tm.decisions > decided:  # the decision latency
+            self.decision_latencies_s.append(time.perf_counter() - t0)
         self._handle(directives)
         self._settle()
         if not self.replaying:
@@ -2243,6 +2250,20 @@ class Cell:
             sub.cancel()
         if self.token is not None:
             self.token.undeclare()
+
+
+def latency_figures(samples: Sequence[float]) -> dict[str, Any]:
+    """The decision latency of a run from :attr:`Cell.decision_latencies_s`: how many inputs
+    made a decision (``n``) and the median, 95th percentile (nearest rank) and largest wall
+    seconds the Task Manager took to answer one; None for each figure when nothing was
+    decided."""
+    xs = sorted(samples)
+    if not xs:
+        return {"n": 0, "median_s": None, "p95_s": None, "max_s": None}
+    mid = len(xs) // 2
+    median = xs[mid] if len(xs) % 2 else (xs[mid - 1] + xs[mid]) / 2
+    p95 = xs[max(0, -(-95 * len(xs) // 100) - 1)]
+    return {"n": len(xs), "median_s": median, "p95_s": p95, "max_s": xs[-1]}
 
 
 def _answer_order(item: tuple[float, int, str, dict[str, Any]]) -> tuple[Any, ...]:

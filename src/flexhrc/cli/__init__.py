@@ -40,6 +40,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "scene",
     "cell",
     "learn",
+    "experiment",
     "agent",
     "certs",
     "panel",
