@@ -111,7 +111,8 @@ def main() -> int:
         print(
             f"{_short(name):<22} {statistics.median(optima):>9.3f} {'/'.join(sorted(statuses)):>8} "
             f"{med['paper']:>7.3f} {med['lookahead']:>9.3f} "
-            f"{statistics.median(spans['paper']):>8.3f} {statistics.median(spans['lookahead']):>8.3f}"
+            f"{statistics.median(spans['paper']):>8.3f} "
+            f"{statistics.median(spans['lookahead']):>8.3f}"
         )
     print(f"worst lookahead / optimum (median per scenario): {worst:.3f} -> target 1.05 "
           f"{'MET' if worst <= 1.05 else 'MISSED'}")  # fmt: skip
