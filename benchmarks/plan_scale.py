@@ -75,8 +75,8 @@ def main() -> int:
             print(
                 f"median: gap {med_gap:.1%}, solver {statistics.median(solver_s):.3f} s, "
                 f"whole call {statistics.median(call_s):.3f} s; {met}/{len(tasks)} seeds "
-                f"optimal or gap <= {TARGET_GAP:.0%} within {args.time_limit:g} s -> target (median) "
-                f"{'MET' if med_gap <= TARGET_GAP else 'MISSED'}"
+                f"optimal or gap <= {TARGET_GAP:.0%} within {args.time_limit:g} s -> target "
+                f"(median) {'MET' if med_gap <= TARGET_GAP else 'MISSED'}"
             )
     return 0
 
