@@ -197,7 +197,7 @@ def _steps_facts(steps: Sequence[GroundAction]) -> tuple[set[Fact], set[Fact], s
     return needs, state_del, state_add
 
 
-def _relaxed_kb(tm: TaskManager, hyperarcs: list[str]) -> Any:
+def _relaxed_kb(tm: Any, hyperarcs: list[str]) -> Any:
     """The knowledge base with every fact the task can make true added (deletes ignored), so
     that hyper-arcs of later steps ground (their children's formulas hold there)."""
     kb = tm.kb.copy()
@@ -221,9 +221,10 @@ def _relaxed_kb(tm: TaskManager, hyperarcs: list[str]) -> Any:
     return kb
 
 
-def build_task(tm: TaskManager, simulator: Any | None = None) -> Task:
+def build_task(tm: Any, simulator: Any | None = None) -> Task:
     """The task of ``tm``'s graph, domain and knowledge base (as it is now), every branch timed
-    by ``simulator`` (default: the manager's own)."""
+    by ``simulator`` (default: the manager's own). ``tm`` is a running
+    :class:`~flexhrc.taskmanager.TaskManager` or a scenario's read-only view (:class:`_Reader`)."""
     graph = tm.graph
     hierarchy = graph.hierarchy
     if len(hierarchy.graphs) != 1:
@@ -304,7 +305,7 @@ def build_task(tm: TaskManager, simulator: Any | None = None) -> Task:
     )
 
 
-def _process_options(tm: TaskManager, node: str, sim: Any) -> list[ProcessOption]:
+def _process_options(tm: Any, node: str, sim: Any) -> list[ProcessOption]:
     """Who may run ``node``'s first process: the arms of its type (a person only where no arm
     may), each with a round's simulated length."""
     from flexhrc.logic import apply_substitution, is_variable
@@ -839,13 +840,52 @@ def _extract(
 
 
 # ---------------------------------------------------------------------------- entry points --
-def _manager(scenario: Any, simulator: Any) -> TaskManager:
-    """A Task Manager of ``scenario`` that never starts: its grounding and graph, read only."""
-    from flexhrc.taskmanager.manager import TaskManager
+class _Reader:
+    """What :func:`build_task` reads of a Task Manager — the graph, the domain, the knowledge
+    base, the simulator, and each element's children, parent, actions, formula and processes —
+    for a scenario no manager runs (only the cell makes a Task Manager: the one loop)."""
 
-    return TaskManager(
-        scenario.online_graph(), scenario.domain, scenario.world(), simulator, log=None
-    )
+    def __init__(self, scenario: Any, simulator: Any) -> None:
+        self.graph = scenario.online_graph()
+        self.domain = scenario.domain
+        self.kb = scenario.world()
+        self.simulator = simulator
+
+    def _def(self, name: str) -> tuple[Any, str]:
+        return self.graph.definition_of(name), self.graph.local_name(name)
+
+    def _qualified(self, element: str, local: str) -> str:
+        prefix = self.graph.graph_of(element)
+        return f"{prefix}/{local}" if prefix else local
+
+    def children_of(self, hyperarc: str) -> list[str]:
+        g, local = self._def(hyperarc)
+        return [self._qualified(hyperarc, c) for c in g.hyperarcs[local].children]
+
+    def parent_of(self, hyperarc: str) -> str:
+        g, local = self._def(hyperarc)
+        return self._qualified(hyperarc, g.hyperarcs[local].parent)
+
+    def actions_of(self, hyperarc: str) -> tuple[str, ...]:
+        g, local = self._def(hyperarc)
+        return tuple(g.hyperarcs[local].actions)
+
+    def formula_of(self, node: str) -> tuple[Any, ...]:
+        g, local = self._def(node)
+        formula = g.nodes[local].formula
+        return tuple(formula) if formula is not None else ()
+
+    def processes_of(self, node: str) -> tuple[str, ...]:
+        g, local = self._def(node)
+        return tuple(g.nodes[local].processes)
+
+    def constraints_of(self, hyperarc: str) -> list[Any]:
+        return [lit for c in self.children_of(hyperarc) for lit in self.formula_of(c)]
+
+
+def _manager(scenario: Any, simulator: Any) -> Any:
+    """A read-only view of ``scenario`` as :func:`build_task` reads a Task Manager."""
+    return _Reader(scenario, simulator)
 
 
 def _simulator(scenario: Any, simulator: Any) -> Any:
