@@ -94,3 +94,11 @@ def test_a_resumed_lookahead_cell_ends_like_the_uninterrupted_run(tmp_path, cras
     assert data["timing"]["total_s"] == ref["timing"]["total_s"]
     assert data["knowledge"] == ref["knowledge"]
     assert data["solved_hyperarcs"] == ref["solved_hyperarcs"]
+
+
+def test_lookahead_on_a_hierarchy_decides_as_paper():
+    """A task the planner does not model (lower graph instances) gets no advice: paper."""
+    paper, _ = _log("kitchen_drawer", seed=1)
+    ahead, summary = _log("kitchen_drawer", seed=1, policy="lookahead")
+    assert summary["outcome"] == "solved" and summary["advice_s"]["decisions"] >= 1
+    assert paper[1:] == ahead[1:]  # the same run; only the start says which policy

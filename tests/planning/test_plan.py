@@ -137,3 +137,17 @@ def test_cli_bad_input_is_one_error_and_exit_2(args, said, capsys):
     assert main(["plan", *args]) == 2
     err = capsys.readouterr().err
     assert err.startswith("error:") and said in err and "Traceback" not in err
+
+
+def test_the_kinematic_simulator_times_the_plan():
+    pytest.importorskip("pinocchio")
+    sc = load_scenario("examples/scenarios/gearbox.yaml")
+    plan = solve(sc, simulator="kinematic", time_limit_s=10)
+    assert plan.status == "optimal" and validate(sc, plan.to_json()) == []
+    analytic = solve(sc, simulator="analytic", time_limit_s=10)
+    assert plan.makespan_s != analytic.makespan_s  # timed by the robot model, not the figures
+
+
+def test_a_hierarchy_of_graphs_is_refused_in_one_line(capsys):
+    assert main(["plan", "kitchen_drawer"]) == 2
+    assert "lower instances (a hierarchy) are not modelled yet" in capsys.readouterr().err
