@@ -32,6 +32,24 @@ def test_every_shipped_scenario_is_solved_to_optimality_and_the_schedule_is_vali
     assert validate(sc, plan.to_json()) == []
 
 
+@pytest.mark.parametrize("name", [*SHIPPED, "table_assembly", "parallel_assembly"])
+def test_with_the_hands_travel_every_shipped_scenario_is_optimal_and_valid(name):
+    sc = load_scenario(name)
+    plan = solve(sc, time_limit_s=20, travel=True)
+    assert plan.status == "optimal", (name, plan.status)
+    assert validate(sc, plan.to_json()) == []
+    # travel from where the last hyper-arc left a hand is never longer than from the start
+    assert plan.makespan_s <= solve(sc, time_limit_s=20).makespan_s + 1e-6
+
+
+def test_with_the_hands_travel_the_plan_times_steps_as_a_run_does():
+    # the operator picks the ball up, then drops it from where their hand is: the lookahead run
+    # of examples/scenarios/ball_in_box.yaml takes 3.663 s, as the plan with --travel says
+    sc = load_scenario("examples/scenarios/ball_in_box.yaml")
+    assert solve(sc, travel=True).makespan_s == pytest.approx(3.663, abs=1e-3)
+    assert solve(sc).makespan_s == pytest.approx(4.131, abs=1e-3)  # from the hand's start
+
+
 def test_the_optimum_solved_by_hand():
     # tests/data/planning/two_jobs.yaml: the operator does job a (2 s) while the arm does job b
     # (4 s), then the arm checks (1 s): 5 s; every other allocation takes 6 or 8 s.

@@ -36,6 +36,7 @@ class PlanConfig:
     plot: str | Path | None = None
     segments: str | None = None
     seed: int = 0
+    travel: bool = False
 
     def __post_init__(self) -> None:
         for option, value, choices in (
@@ -90,6 +91,7 @@ def plan_scenario(config: PlanConfig) -> PlanReport:
         simulator=config.simulator,
         human=config.human,
         seed=config.seed,
+        travel=config.travel,
     )
     title = f"{sc.name}: {config.objective} {_fmt(plan.objective)} s ({plan.status})"
     if config.plot is not None and plan.schedule:

@@ -49,6 +49,13 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
         default=None,
         help="the operators' profile (checked; the optimum is the same for every profile)",
     )
+    p.add_argument(
+        "--travel",
+        action="store_true",
+        help="model the hands' travel from one hyper-arc to the next (the order of each "
+        "agent's branches, for agents with at most 8; closer to a run's times on small tasks, "
+        "slower to prove on big ones)",
+    )
     p.add_argument("--seed", type=int, default=0, help="solver seed and generated tasks' seed")
     p.add_argument("--plot", metavar="GANTT.png", help="draw the Gantt chart (.png, .svg, .pdf)")
     add_segments_option(p)
@@ -68,6 +75,7 @@ def cmd_plan(args: argparse.Namespace) -> int:
         plot=args.plot,
         segments=args.segments,
         seed=args.seed,
+        travel=args.travel,
     )
     report = plan_scenario(config)
     emit(args, report.json, report.text)

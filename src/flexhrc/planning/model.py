@@ -39,6 +39,7 @@ finished run.
 
 from __future__ import annotations
 
+import itertools
 import time
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -58,6 +59,9 @@ STATUSES = ("optimal", "feasible", "infeasible", "unknown")
 SIMULATORS = ("analytic", "kinematic")
 #: model time unit: one millisecond
 MS = 1000
+#: the most branches of one agent whose order is modelled (a circuit; sequence-dependent
+#: travel): beyond it, the agent's branches are timed from where its hand is at the solve
+MAX_CIRCUIT = 8
 Fact = tuple[str, ...]
 
 
@@ -141,6 +145,12 @@ class Option:
     needs: frozenset[Fact]
     deletes: frozenset[Fact]
     adds: frozenset[Fact]
+    #: a number unique in its task (the travel tables' key)
+    id: int = 0
+    #: where each agent's hand is when the option ends (None: the option does not move it)
+    ends: tuple[tuple[str, Any], ...] = ()
+    #: the ground actions (to simulate the option again from elsewhere)
+    actions: tuple[GroundAction, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -173,6 +183,12 @@ class Task:
     humans: set[str]
     #: facts true at the start that some branch deletes and no branch adds: consumed once
     consumable: frozenset[Fact]
+    #: sequence-dependent travel (analytic simulator): agent -> option id -> where the
+    #: option leaves the agent's hand (None: it does not move it), and agent -> (that place,
+    #: option id) -> how much longer (ms, < 0: shorter) the option is from there than from
+    #: where the hand is at the solve
+    leaves_at: dict[str, dict[int, Any]] = field(default_factory=dict)
+    setup: dict[str, dict[tuple[Any, int], int]] = field(default_factory=dict)
 
 
 def _steps_facts(steps: Sequence[GroundAction]) -> tuple[set[Fact], set[Fact], set[Fact]]:
@@ -221,9 +237,12 @@ def _relaxed_kb(tm: Any, hyperarcs: list[str]) -> Any:
     return kb
 
 
-def build_task(tm: Any, simulator: Any | None = None) -> Task:
+def build_task(tm: Any, simulator: Any | None = None, *, travel: bool = False) -> Task:
     """The task of ``tm``'s graph, domain and knowledge base (as it is now), every branch timed
-    by ``simulator`` (default: the manager's own). ``tm`` is a running
+    by ``simulator`` (default: the manager's own). ``travel``: time each branch also from where
+    every other branch leaves its agents' hands (sequence-dependent travel, modelled for agents
+    with at most :data:`MAX_CIRCUIT` branches; off by default: it makes big tasks slow to
+    prove). ``tm`` is a running
     :class:`~flexhrc.taskmanager.TaskManager` or a scenario's read-only view (:class:`_Reader`)."""
     graph = tm.graph
     hierarchy = graph.hierarchy
@@ -244,6 +263,7 @@ def build_task(tm: Any, simulator: Any | None = None) -> Task:
     relaxed = _relaxed_kb(tm, hyperarcs)
     domain, kb = tm.domain, tm.kb
     options: dict[str, list[Option]] = {}
+    ids = itertools.count(1)
     for h in hyperarcs:
         actions = tm.actions_of(h)
         if not actions:
@@ -268,6 +288,11 @@ def build_task(tm: Any, simulator: Any | None = None) -> Task:
                 steps.append((str(step), tuple(step.agents), t, ms))
                 t += ms
             needs, deletes, adds = _steps_facts(b.steps)
+            ends: dict[str, Any] = dict.fromkeys(b.agents)
+            for detail in result.details:
+                paths: Any = detail.get("paths") or {}
+                for a, path in paths.items():
+                    ends[a] = tuple(path[1])
             opts.append(
                 Option(
                     h,
@@ -278,6 +303,9 @@ def build_task(tm: Any, simulator: Any | None = None) -> Task:
                     frozenset(needs),
                     frozenset(deletes),
                     frozenset(adds),
+                    next(ids),
+                    tuple(ends.items()),
+                    tuple(b.steps),
                 )
             )
         options[h] = opts
@@ -289,6 +317,7 @@ def build_task(tm: Any, simulator: Any | None = None) -> Task:
         raise FlexhrcError("plan: the graph has no root (the goal) to plan for")
     agents = list(domain.agents)
     humans = {a.name for a in domain.agents.values() if a.is_human}
+    leaves_at, setup = _travel(options, kb, domain, sim) if travel else ({}, {})
     return Task(
         root,
         nodes,
@@ -302,7 +331,41 @@ def build_task(tm: Any, simulator: Any | None = None) -> Task:
         agents,
         humans,
         frozenset((deleted & kb.facts) - added),
+        leaves_at,
+        setup,
     )
+
+
+def _travel(
+    options: Mapping[str, list[Option]], kb: Any, domain: Any, sim: Any
+) -> tuple[dict[str, dict[int, Any]], dict[str, dict[tuple[Any, int], int]]]:
+    """The sequence-dependent travel of the branches (:attr:`Task.setup`): each branch is
+    simulated again with one agent's hand where another branch leaves it."""
+    leaves_at: dict[str, dict[int, Any]] = {}
+    users: dict[str, list[Option]] = {}
+    for opts in options.values():
+        for o in opts:
+            for a, end in o.ends:
+                leaves_at.setdefault(a, {})[o.id] = end
+                users.setdefault(a, []).append(o)
+    setup: dict[str, dict[tuple[Any, int], int]] = {}
+    for a, using in users.items():
+        if a not in kb.objects:  # a hand the simulator does not place: no travel
+            continue
+        here = tuple(kb.position(a))
+        places = {p for p in leaves_at[a].values() if p is not None and p != here}
+        table: dict[tuple[Any, int], int] = {}
+        for place in sorted(places):
+            moved = kb.copy()
+            moved.move(a, place)
+            for o in using:
+                result = sim.simulate(list(o.actions), moved, domain)
+                if result.success:
+                    d = sum(max(0, round(x * MS)) for x in result.durations) - o.duration
+                    if d:
+                        table[place, o.id] = d
+        setup[a] = table
+    return leaves_at, setup
 
 
 def _process_options(tm: Any, node: str, sim: Any) -> list[ProcessOption]:
@@ -445,6 +508,20 @@ def solve_task(
     reach = {n: m.NewIntVar(0, big, f"reach[{n}]") for n in task.nodes}
     met = {n: m.NewIntVar(0, big, f"met[{n}]") for n in task.nodes}
     lanes: dict[str, list[Any]] = {a: [] for a in task.agents}
+    dvs: dict[int, Any] = {}  # option id -> how much its agents' travel changes it (ms)
+    # sequence-dependent travel where an agent's branches are few enough for a circuit
+    done = st.solved | set(st.running) | st.infeasible
+    count: dict[str, int] = {}
+    for h, opts in task.options.items():
+        if h not in done:
+            for o in opts:
+                for a in o.agents:
+                    count[a] = count.get(a, 0) + 1
+    circuit = {a for a, t in task.setup.items() if t and 2 <= count.get(a, 0) <= MAX_CIRCUIT}
+    delta_of: dict[int, list[int]] = {}  # option id -> its travel deltas, those agents
+    for a in circuit:
+        for (_, oid), d in task.setup[a].items():
+            delta_of.setdefault(oid, []).append(d)
     busy: dict[str, list[Any]] = {a: [] for a in task.agents}  # busy time terms per agent
     release = dict(st.release)
     ys: dict[str, list[tuple[Option, Any]]] = {}
@@ -477,9 +554,32 @@ def solve_task(
         y = [(o, m.NewBoolVar(f"y[{h}#{i}]")) for i, o in enumerate(opts)]
         ys[h] = y
         m.Add(sum(v for _, v in y) == x[h])
-        m.Add(e[h] == s[h] + sum(o.duration * v for o, v in y))
+        for o, v in y:
+            deltas = delta_of.get(o.id)
+            if deltas:
+                dv = dvs[o.id] = m.NewIntVar(min(0, *deltas), max(0, *deltas), f"dv[{o.id}]")
+                m.Add(dv == 0).OnlyEnforceIf(v.Not())
+        m.Add(
+            e[h]
+            == s[h]
+            + sum(o.duration * v for o, v in y)
+            + sum(dvs[o.id] for o, _ in y if o.id in dvs)
+        )
         m.Add(s[h] == 0).OnlyEnforceIf(x[h].Not())
         for o, v in y:
+            if o.id in dvs:  # a block per agent, as long as the hand's travel makes it
+                for a, (first, last) in _spans(o).items():
+                    size = m.NewIntVar(0, big, f"block[{o.id}@{a}]")
+                    m.Add(size == last - first + dvs[o.id])
+                    end = m.NewIntVar(0, 2 * big, f"block_end[{o.id}@{a}]")
+                    m.Add(end == s[h] + last + dvs[o.id])
+                    iv = m.NewOptionalIntervalVar(s[h] + first, size, end, v, f"{h}@{a}")
+                    lanes[a].append(iv)
+                    held = m.NewIntVar(0, big, f"busy[{o.id}@{a}]")
+                    m.Add(held == size).OnlyEnforceIf(v)
+                    m.Add(held == 0).OnlyEnforceIf(v.Not())
+                    busy[a].append(held)
+                continue
             for text, agents, off, d in o.steps:
                 if d <= 0:
                     continue
@@ -519,6 +619,8 @@ def solve_task(
         else:
             _leaf(m, task, n, r, reach, x, e, ys, facts)
         zs[n] = _process(m, task, st, n, r, reach, met, e, ys, lanes, busy, big)
+    if circuit:
+        _circuits(m, task, circuit, ys, s, dvs)
     for ivs in lanes.values():
         if len(ivs) > 1:
             m.AddNoOverlap(ivs)
@@ -539,7 +641,7 @@ def solve_task(
         m.Add(makespan >= t)
     # redundant bounds (the relaxation alone is weak across alternatives): the earliest a node
     # can be met and the least time from a met node to the goal, from the shortest branches
-    head, tail = _bounds(task, st, ys)
+    head, tail = _bounds(task, st, ys, delta_of)
     for n in task.nodes:
         if n in st.met:
             continue
@@ -595,12 +697,77 @@ def solve_task(
         bound = value
     return _extract(
         task, st, solver, objective, status, value, bound, spent, x, s, ys, makespan,
-        [(p, v, reach[n], met[n]) for n, z in zs.items() for p, v in z],
+        [(p, v, reach[n], met[n]) for n, z in zs.items() for p, v in z], dvs,
     )  # fmt: skip
 
 
+def _spans(o: Option) -> dict[str, tuple[int, int]]:
+    """Each agent of ``o``: from its first action's start to its last action's end (ms)."""
+    out: dict[str, tuple[int, int]] = {}
+    for _, agents, off, d in o.steps:
+        for a in agents:
+            first, last = out.get(a, (off, off + d))
+            out[a] = (min(first, off), max(last, off + d))
+    return out
+
+
+def _circuits(
+    m: Any,
+    task: Task,
+    agents: set[str],
+    ys: Mapping[str, list[tuple[Option, Any]]],
+    s: Mapping[str, Any],
+    dvs: Mapping[int, Any],
+) -> None:
+    """Sequence-dependent travel: per agent, the branches it takes part in form one circuit
+    from where its hand is now (the depot); a branch right after another starts after it and
+    is as much longer or shorter as the hand's travel from where the other left it makes it."""
+    into: dict[int, list[list[Any]]] = {}  # option id -> per agent: [delta * arc literal]
+    circuit_agents: dict[int, set[str]] = {}
+    for a in sorted(agents):
+        table = task.setup[a]
+        nodes = [(o, v) for y in ys.values() for o, v in y if a in o.agents]
+        if len(nodes) < 2:
+            continue
+        spans = {o.id: _spans(o)[a] for o, _ in nodes}
+        arcs: list[tuple[int, int, Any]] = [(0, 0, m.NewBoolVar(f"idle[{a}]"))]
+        terms: dict[int, list[Any]] = {o.id: [] for o, _ in nodes}
+        for i, (o, v) in enumerate(nodes, 1):
+            arcs.append((i, i, v.Not()))
+            arcs.append((0, i, m.NewBoolVar(f"first[{a}#{o.id}]")))
+            arcs.append((i, 0, m.NewBoolVar(f"last[{a}#{o.id}]")))
+        for i, (o1, _) in enumerate(nodes, 1):
+            place = task.leaves_at.get(a, {}).get(o1.id)
+            end1 = s[o1.hyperarc] + spans[o1.id][1] + dvs.get(o1.id, 0)
+            for j, (o2, _) in enumerate(nodes, 1):
+                if i == j or o1.hyperarc == o2.hyperarc:
+                    continue
+                lit = m.NewBoolVar(f"next[{a}#{o1.id}>{o2.id}]")
+                arcs.append((i, j, lit))
+                m.Add(s[o2.hyperarc] + spans[o2.id][0] >= end1).OnlyEnforceIf(lit)
+                d = table.get((place, o2.id), 0) if place is not None else 0
+                if d:
+                    terms[o2.id].append(d * lit)
+        m.AddCircuit(arcs)
+        for oid, ts in terms.items():
+            into.setdefault(oid, []).append(ts)
+            circuit_agents.setdefault(oid, set()).add(a)
+    for y in ys.values():
+        for o, _ in y:
+            dv = dvs.get(o.id)
+            if dv is None:
+                continue
+            for ts in into.get(o.id, []):
+                m.Add(dv >= sum(ts))  # the slowest hand sets a joint action's time
+            if set(o.agents) - circuit_agents.get(o.id, set()):
+                m.Add(dv >= 0)  # a hand from where it is now: as simulated
+
+
 def _bounds(
-    task: Task, st: State, ys: Mapping[str, list[tuple[Option, Any]]]
+    task: Task,
+    st: State,
+    ys: Mapping[str, list[tuple[Option, Any]]],
+    delta_of: Mapping[int, list[int]],
 ) -> tuple[dict[str, int], dict[str, int]]:
     """Lower bounds (ms): ``head[n]`` the earliest node n can be met, ``tail[n]`` the least
     time from n met to the goal met (shortest allowed branch of each hyper-arc, one round of a
@@ -611,8 +778,8 @@ def _bounds(
             shortest[h] = 0
         elif h in st.running:
             shortest[h] = st.running[h][1]
-        elif h in ys:
-            shortest[h] = min(o.duration for o, _ in ys[h])
+        elif h in ys:  # (a hand's travel from elsewhere may save time: the least it can take)
+            shortest[h] = min(o.duration + min([0, *delta_of.get(o.id, ())]) for o, _ in ys[h])
     held = {
         n: min(p.round_ms for p in ps) if not any(p.until for p in ps) else 0
         for n, ps in task.processes.items()
@@ -805,8 +972,10 @@ def _extract(
     ys: Mapping[str, list[tuple[Option, Any]]],
     makespan: Any,
     processes: Sequence[tuple[ProcessOption, Any, Any, Any]] = (),
+    dvs: Mapping[int, Any] | None = None,
 ) -> Plan:
     now = st.now_s
+    dvs = dvs or {}
     schedule: list[PlanEntry] = []
     by_agent = dict.fromkeys(task.agents, 0)
     chosen: dict[str, tuple[tuple[str, ...], dict[str, str]]] = {}
@@ -818,9 +987,13 @@ def _extract(
         chosen[h] = (o.agents, dict(o.grounding))
         for a in o.agents:
             by_agent[a] = by_agent.get(a, 0) + 1
-        for text, agents, off, d in o.steps:
-            t0 = now + (start + off) / MS
-            schedule.append(PlanEntry(text, agents, h, round(t0, 6), round(t0 + d / MS, 6)))
+        dv = solver.Value(dvs[o.id]) if o.id in dvs else 0
+        for k, (text, agents, off, d) in enumerate(o.steps):
+            # the travel a hand saves or adds falls in the option's first action
+            a0 = start + off + (dv if k else 0)
+            a1 = max(a0, start + off + d + dv)
+            t0, t1 = now + a0 / MS, now + a1 / MS
+            schedule.append(PlanEntry(text, agents, h, round(t0, 6), round(t1, 6)))
     for p, v, reach, met in processes:  # a node process: the node's name as its hyper-arc
         if solver.Value(v):
             t0, t1 = now + solver.Value(reach) / MS, now + solver.Value(met) / MS
@@ -918,18 +1091,20 @@ def solve(
     seed: int = 0,
     hint: Plan | None = None,
     workers: int = 1,
+    travel: bool = False,
 ) -> Plan:
     """The optimal plan of ``scenario`` from its start (see the module docstring).
 
     ``simulator`` ``analytic``, ``kinematic``, a simulator object, or None (the scenario's
     choice, as ``flexhrc run`` makes it); ``human`` an operator profile: the plan is the same
     for every profile (a profile changes what a person does on their own, not what they can
-    do); it is checked and kept for the report. ``hint`` warm-starts the solver."""
+    do); it is checked and kept for the report. ``hint`` warm-starts the solver. ``travel``:
+    model the hands' travel from one hyper-arc to the next (:func:`build_task`)."""
     _check(objective, time_limit_s, human)
     cp = _cp_model()  # before the work: a missing extra is one error
     del cp
     tm = _manager(scenario, _simulator(scenario, simulator))
-    task = build_task(tm)
+    task = build_task(tm, travel=travel)
     st = State(facts=tm.kb.facts)
     return solve_task(
         task,
@@ -1023,6 +1198,7 @@ def hindsight(
     time_limit_s: float = 10.0,
     simulator: Any = None,
     seed: int = 0,
+    travel: bool = False,
 ) -> Plan:
     """The hindsight optimum of a finished run of ``scenario``: the best schedule of the
     cooperation path the run took (its ``solved_hyperarcs``, as ``flexhrc run --json`` gives
@@ -1032,7 +1208,7 @@ def hindsight(
     _check(objective, time_limit_s, None)
     _cp_model()
     tm = _manager(scenario, _simulator(scenario, simulator))
-    task = build_task(tm)
+    task = build_task(tm, travel=travel)
     st = State(facts=tm.kb.facts, path=set())
     assert st.path is not None
     for item in solved:
