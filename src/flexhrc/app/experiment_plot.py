@@ -63,37 +63,40 @@ def plot_box(
     ncols = min(len(scenarios), 4)
     blocks = math.ceil(len(scenarios) / ncols)
     nrows = blocks * len(panels)
-    groups = [
-        (p, pol, u) for p in config.profiles for pol in config.policies for u in config.utilities
-    ]
+    # boxes side by side per policy, in groups per (profile, utility)
+    groups = [(p, u) for p in config.profiles for u in config.utilities]
+    npol = len(config.policies)
     colours = {
         pol: POLICY_COLOURS.get(pol, OTHER_COLOURS[i % len(OTHER_COLOURS)])
         for i, pol in enumerate(config.policies)
     }
-    per_panel = max(len(groups), 1)
+    per_panel = max(len(groups) * npol, 1)
     fig_w = max(4.0, min(4.5, 1.0 + 0.55 * per_panel) * ncols)
     fig, axes = plt.subplots(nrows, ncols, figsize=(fig_w, 3.4 * nrows), squeeze=False)
     for si, sc in enumerate(scenarios):
         block, col = divmod(si, ncols)
         for pi, (metric, ylabel) in enumerate(panels):
             ax = axes[block * len(panels) + pi][col]
-            data, labels, cols = [], [], []
-            for profile, policy, utility in groups:
-                xs = [
-                    float(r[metric])
-                    for r in rows
-                    if r["scenario"] == sc
-                    and r["profile"] == profile
-                    and r["policy"] == policy
-                    and r["utility"] == utility
-                    and r["outcome"] == "solved"
-                    and r.get(metric) is not None
-                ]
-                data.append(xs)
-                label = profile if len(config.utilities) == 1 else f"{profile}\n{utility}"
-                labels.append(label)
-                cols.append(colours[policy])
-            positions = list(range(1, len(data) + 1))
+            data, cols, positions = [], [], []
+            ticks, labels = [], []
+            for g, (profile, utility) in enumerate(groups):
+                left = 1 + g * (npol + 0.8)
+                ticks.append(left + (npol - 1) / 2)
+                labels.append(profile if len(config.utilities) == 1 else f"{profile}\n{utility}")
+                for k, policy in enumerate(config.policies):
+                    xs = [
+                        float(r[metric])
+                        for r in rows
+                        if r["scenario"] == sc
+                        and r["profile"] == profile
+                        and r["policy"] == policy
+                        and r["utility"] == utility
+                        and r["outcome"] == "solved"
+                        and r.get(metric) is not None
+                    ]
+                    data.append(xs)
+                    cols.append(colours[policy])
+                    positions.append(left + k)
             shown = [(p, d, c) for p, d, c in zip(positions, data, cols, strict=True) if d]
             if shown:
                 bp = ax.boxplot(
@@ -133,17 +136,20 @@ def plot_box(
                     fontsize=7,
                     color="#2ca02c",
                 )
-            ax.set_xticks(positions)
+            ax.set_xticks(ticks)
             ax.set_xticklabels(labels, fontsize=8)
-            ax.set_xlim(0.4, len(positions) + 0.6)
+            ax.set_xlim(positions[0] - 0.7, positions[-1] + 0.7)
+            values = [x for d in data for x in d] + ([ref] if ref is not None else [])
+            if values:  # the data and the optimum, with a margin (not from 0: a few % show)
+                lo, hi = min(values), max(values)
+                pad = max((hi - lo) * 0.12, abs(hi) * 0.03, 0.05)
+                ax.set_ylim(max(0.0, lo - pad) if lo >= 0 else lo - pad, hi + pad)
             if pi == 0:
                 ax.set_title(sc, fontsize=10)
             if col == 0:
                 ax.set_ylabel(ylabel, fontsize=9)
             ax.tick_params(axis="y", labelsize=8)
             ax.grid(axis="y", alpha=0.3)
-            lo, hi = ax.get_ylim()
-            ax.set_ylim(min(0.0, lo), hi * 1.05 if hi > 0 else 1.0)
     for k in range(len(scenarios), blocks * ncols):  # empty panels of the last block
         block, col = divmod(k, ncols)
         for pi in range(len(panels)):
