@@ -32,6 +32,7 @@ from flexhrc.errors import FlexhrcError
 COMMAND_MODULES: tuple[str, ...] = (
     "graph",
     "demo",
+    "plan",
     "scenario",
     "behave",
     "sim",

@@ -35,8 +35,10 @@ class LookaheadPolicy:
         self.time_limit_s = time_limit_s
         self.seed = seed
         self.last: Any = None  # the last plan (warm start)
-        self._key: Any = None
-        self._advice: Advice | None = None
+        self.task: Any = None  # the task as the solver sees it, made at the first decision
+        self.seen: dict[int, float] = {}  # command id -> when it was first seen (its start)
+        self.key: Any = None  # what the last advice was solved for
+        self.advice: Advice | None = None
         self.solves = 0
         self.fallbacks = 0
 

@@ -540,6 +540,18 @@ class TaskManager:
     def parent_of(self, hyperarc: str) -> str:
         return self._parent(hyperarc)
 
+    def children_of(self, hyperarc: str) -> list[str]:
+        """The hyper-arc's children (qualified names)."""
+        return list(self._children(hyperarc))
+
+    def formula_of(self, node: str) -> tuple[Literal, ...]:
+        """S(n): the node's state formula (empty: always holds)."""
+        return self._formulas.get(node, ())
+
+    def processes_of(self, node: str) -> tuple[str, ...]:
+        """P(n): the node's process invocations, in order."""
+        return self._node_processes.get(node, ())
+
     def has_processes(self, node: str) -> bool:
         """Whether reaching ``node`` starts processes P(n) (arms keep working on its parts)."""
         return bool(self._node_processes.get(node))
@@ -1202,6 +1214,13 @@ class TaskManager:
                 continue
             self._launch(name, best, cost, out)
             return True
+        if advice is not None and not (self.executions or self.busy or self.processes):
+            # the advice started nothing and nothing runs that could end: the paper decides
+            saved, self.policy = self.policy, None
+            try:
+                return self._start_next(out)
+            finally:
+                self.policy = saved
         return False
 
     @staticmethod
