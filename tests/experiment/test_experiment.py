@@ -186,6 +186,11 @@ def test_utilities_are_an_axis_of_the_design(tmp_path):
         ("experiment: 1\nscenarios: [ball_in_box, ball_in_box]\n", 2, "listed twice"),
         ("experiment: 1\nprofiles: [passive]\n", 1, "scenarios: is required"),
         (
+            "experiment: 1\nscenarios:\n  - {name: ../x, file: ball_in_box}\n",
+            3,
+            "name must be a word",
+        ),
+        (
             "experiment: 1\nscenarios: [ball_in_box]\nutilities:\n  x: {speed: 1}\n",
             4,
             "unknown key 'speed'",

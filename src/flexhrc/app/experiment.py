@@ -36,6 +36,7 @@ import io
 import json
 import math
 import os
+import re
 import sys
 import time
 import traceback
@@ -398,8 +399,14 @@ def _scenarios(
                 "scenarios: an entry has either file: (a name or a file) or generate:", where
             )
         label = item.get("name")
-        if label is not None and (not isinstance(label, str) or not label.strip()):
-            raise fail(f"scenarios: name must be a word, got {label!r}", line(item, "name"))
+        if label is not None and (
+            not isinstance(label, str) or not re.fullmatch(r"[A-Za-z0-9_.-]+", label)
+        ):
+            raise fail(
+                f"scenarios: name must be a word of letters, digits, _ . - (it names a file), "
+                f"got {label!r}",
+                line(item, "name") or where,
+            )
         if "file" in item:
             src = item["file"]
             if not isinstance(src, str) or not src.strip():
