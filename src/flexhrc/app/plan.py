@@ -117,8 +117,8 @@ def plan_text(plan: Plan, name: str) -> str:
     lines.append(
         f"{plan.goal} {_fmt(plan.objective)} s, proven bound {_fmt(plan.bound)} s"
         + (f" (gap {gap:.1%})" if gap is not None else "")
-        + f", makespan {_fmt(plan.makespan_s)} s; status {plan.status.upper()} "
-        f"in {plan.solve_s:.3f} s"
+        + (f", makespan {_fmt(plan.makespan_s)} s" if plan.goal != "makespan" else "")
+        + f"; status {plan.status.upper()} in {plan.solve_s:.3f} s"
     )
     return "\n".join(lines)
 

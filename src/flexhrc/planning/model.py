@@ -463,7 +463,10 @@ def solve_task(
                 release[a] = max(release.get(a, 0), end)
             continue
         opts = [o for o in task.options.get(h, []) if _allowed(task, st, o)]
-        if h in st.infeasible or not opts or (st.path is not None and h not in st.path):
+        # hindsight: off the run's path, but a hyper-arc without actions leaves no trace in
+        # a run's solved list: it stays free
+        off_path = st.path is not None and h not in st.path and any(o.steps for o in opts)
+        if h in st.infeasible or not opts or off_path:
             m.Add(x[h] == 0)
             m.Add(s[h] == 0)
             m.Add(e[h] == 0)
