@@ -91,8 +91,11 @@ def test_a_tiny_design_writes_every_file_with_its_columns(tiny_run):
 
 def test_a_row_is_what_flexhrc_run_reports(tiny_run):
     report, _, _ = tiny_run
-    row = next(r for r in report.rows if r["scenario"] == "ball_in_box" and r["seed"] == 1
-               and r["profile"] == "reluctant")  # fmt: skip
+    row = next(
+        r
+        for r in report.rows
+        if r["scenario"] == "ball_in_box" and r["seed"] == 1 and r["profile"] == "reluctant"
+    )
     same = run_scenario(RunConfig("ball_in_box", human="reluctant", seed=1, quiet=True))
     assert row["makespan_s"] == pytest.approx(same.json["timing"]["total_s"], abs=1e-6)
     assert row["decisions"] == same.json["decisions"]
@@ -183,6 +186,11 @@ def test_utilities_are_an_axis_of_the_design(tmp_path):
         ("experiment: 1\nscenarios: [ball_in_box, ball_in_box]\n", 2, "listed twice"),
         ("experiment: 1\nprofiles: [passive]\n", 1, "scenarios: is required"),
         (
+            "experiment: 1\nscenarios:\n  - {name: ../x, file: ball_in_box}\n",
+            3,
+            "name must be a word",
+        ),
+        (
             "experiment: 1\nscenarios: [ball_in_box]\nutilities:\n  x: {speed: 1}\n",
             4,
             "unknown key 'speed'",
@@ -249,7 +257,7 @@ def test_force_writes_into_a_folder_with_files(tmp_path, capsys):
     doc = json.loads(cap.out)
     assert doc["runs"] == 1 and doc["solved"] == 1
     assert (out / "notes.txt").read_text() == "mine"  # nothing else is touched
-    assert "runs [" in cap.err  # the progress bar, on stderr
+    assert "] 2/2 100%" in cap.err or "] 1/1 100%" in cap.err  # the progress bar, on stderr
 
 
 def test_the_shipped_example_is_a_valid_4x2x2x10_design():
@@ -277,3 +285,20 @@ def test_latency_figures():
     f = latency_figures([0.003, 0.001, 0.002, 0.004])
     assert f["n"] == 4 and f["median_s"] == pytest.approx(0.0025) and f["max_s"] == 0.004
     assert latency_figures([float(i) for i in range(1, 101)])["p95_s"] == 95.0
+
+
+@pytest.mark.skipif(not ex.can_solve(), reason="flexhrc.planning cannot solve (no OR-tools)")
+def test_the_cp_sat_optimum_is_the_reference_where_it_can_be_solved(tmp_path):
+    config = _write(tmp_path, "experiment: 1\nscenarios: [ball_in_box, kitchen_drawer]\n")
+    report = ex.run_experiment(config, tmp_path / "out", jobs=1)
+    ref = report.json["reference"]["ball_in_box"]
+    assert ref["status"] == "optimal" and ref["makespan_s"] > 0
+    assert ref["makespan_s"] == pytest.approx(ref["bound"])
+    cell = report.cells[0]
+    assert cell["optimum_s"] == pytest.approx(ref["makespan_s"], abs=1e-4)
+    assert cell["makespan_ratio"] == pytest.approx(
+        cell["makespan_s_median"] / ref["makespan_s"], abs=1e-3
+    )
+    # a scenario the planner cannot model has no line, and the notes say why
+    assert "kitchen_drawer" not in report.json["reference"]
+    assert any(n.startswith("kitchen_drawer: no CP-SAT optimum") for n in report.notes)

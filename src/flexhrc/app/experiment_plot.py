@@ -31,6 +31,8 @@ class Design(Protocol):
     def utilities(self) -> Mapping[str, Any]: ...
     @property
     def seeds(self) -> Sequence[int]: ...
+    @property
+    def objective(self) -> str: ...
 
 
 #: a colour per policy (paper: the paper's greedy decision; lookahead: CP-SAT ahead)
@@ -60,40 +62,46 @@ def plot_box(
         panels = [("makespan_s", "makespan (s)")]
     else:
         panels = [("arm_idle_s", "arm idle, mean (s)"), ("person_idle_s", "person idle, mean (s)")]
+    # the line is "the optimum" where the plan optimises what the plot shows
+    optimal = config.objective == ("makespan" if what == "makespan" else "idle")
+    ref_name = "CP-SAT optimum" if optimal else f"CP-SAT plan ({config.objective}-optimal)"
     ncols = min(len(scenarios), 4)
     blocks = math.ceil(len(scenarios) / ncols)
     nrows = blocks * len(panels)
-    groups = [
-        (p, pol, u) for p in config.profiles for pol in config.policies for u in config.utilities
-    ]
+    # boxes side by side per policy, in groups per (profile, utility)
+    groups = [(p, u) for p in config.profiles for u in config.utilities]
+    npol = len(config.policies)
     colours = {
         pol: POLICY_COLOURS.get(pol, OTHER_COLOURS[i % len(OTHER_COLOURS)])
         for i, pol in enumerate(config.policies)
     }
-    per_panel = max(len(groups), 1)
+    per_panel = max(len(groups) * npol, 1)
     fig_w = max(4.0, min(4.5, 1.0 + 0.55 * per_panel) * ncols)
     fig, axes = plt.subplots(nrows, ncols, figsize=(fig_w, 3.4 * nrows), squeeze=False)
     for si, sc in enumerate(scenarios):
         block, col = divmod(si, ncols)
         for pi, (metric, ylabel) in enumerate(panels):
             ax = axes[block * len(panels) + pi][col]
-            data, labels, cols = [], [], []
-            for profile, policy, utility in groups:
-                xs = [
-                    float(r[metric])
-                    for r in rows
-                    if r["scenario"] == sc
-                    and r["profile"] == profile
-                    and r["policy"] == policy
-                    and r["utility"] == utility
-                    and r["outcome"] == "solved"
-                    and r.get(metric) is not None
-                ]
-                data.append(xs)
-                label = profile if len(config.utilities) == 1 else f"{profile}\n{utility}"
-                labels.append(label)
-                cols.append(colours[policy])
-            positions = list(range(1, len(data) + 1))
+            data, cols, positions = [], [], []
+            ticks, labels = [], []
+            for g, (profile, utility) in enumerate(groups):
+                left = 1 + g * (npol + 0.8)
+                ticks.append(left + (npol - 1) / 2)
+                labels.append(profile if len(config.utilities) == 1 else f"{profile}\n{utility}")
+                for k, policy in enumerate(config.policies):
+                    xs = [
+                        float(r[metric])
+                        for r in rows
+                        if r["scenario"] == sc
+                        and r["profile"] == profile
+                        and r["policy"] == policy
+                        and r["utility"] == utility
+                        and r["outcome"] == "solved"
+                        and r.get(metric) is not None
+                    ]
+                    data.append(xs)
+                    cols.append(colours[policy])
+                    positions.append(left + k)
             shown = [(p, d, c) for p, d, c in zip(positions, data, cols, strict=True) if d]
             if shown:
                 bp = ax.boxplot(
@@ -125,25 +133,32 @@ def plot_box(
             if ref is not None:
                 ax.axhline(ref, color="#2ca02c", linestyle="--", linewidth=1.3, zorder=1)
                 ax.annotate(
-                    f"CP-SAT optimum {ref:.3g}",
-                    xy=(0.02, ref),
+                    f"{ref:.3g}",
+                    xy=(1.0, ref),
                     xycoords=("axes fraction", "data"),
-                    xytext=(0, 3),
+                    xytext=(-3, 2),
                     textcoords="offset points",
+                    ha="right",
+                    va="bottom",
                     fontsize=7,
                     color="#2ca02c",
+                    bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none", "alpha": 0.8},
+                    zorder=4,
                 )
-            ax.set_xticks(positions)
+            ax.set_xticks(ticks)
             ax.set_xticklabels(labels, fontsize=8)
-            ax.set_xlim(0.4, len(positions) + 0.6)
+            ax.set_xlim(positions[0] - 0.7, positions[-1] + 0.7)
+            values = [x for d in data for x in d] + ([ref] if ref is not None else [])
+            if values:  # the data and the optimum, with a margin (not from 0: a few % show)
+                lo, hi = min(values), max(values)
+                pad = max((hi - lo) * 0.12, abs(hi) * 0.03, 0.05)
+                ax.set_ylim(max(0.0, lo - pad) if lo >= 0 else lo - pad, hi + pad)
             if pi == 0:
                 ax.set_title(sc, fontsize=10)
             if col == 0:
                 ax.set_ylabel(ylabel, fontsize=9)
             ax.tick_params(axis="y", labelsize=8)
             ax.grid(axis="y", alpha=0.3)
-            lo, hi = ax.get_ylim()
-            ax.set_ylim(min(0.0, lo), hi * 1.05 if hi > 0 else 1.0)
     for k in range(len(scenarios), blocks * ncols):  # empty panels of the last block
         block, col = divmod(k, ncols)
         for pi in range(len(panels)):
@@ -154,7 +169,7 @@ def plot_box(
     if any(reference.get(sc) for sc in scenarios):
         from matplotlib.lines import Line2D
 
-        handles.append(Line2D([], [], color="#2ca02c", linestyle="--", label="CP-SAT optimum"))
+        handles.append(Line2D([], [], color="#2ca02c", linestyle="--", label=ref_name))
     n = len(config.seeds)
     title = "makespan" if what == "makespan" else "idle time"
     fig.suptitle(

@@ -51,8 +51,10 @@ def cmd_experiment(args: argparse.Namespace) -> int:
 
     config = read_config(args.config)
     optima = can_solve()
-    extra = f" and {len(config.scenarios)} CP-SAT optima" if optima else ""
-    print(f"{config.name}: {config.runs} runs ({design_words(config)}){extra}", file=sys.stderr)
+    n = len(config.scenarios)
+    extra = f" and {n} CP-SAT {'optimum' if n == 1 else 'optima'}" if optima else ""
+    runs = f"{config.runs} run{'s' * (config.runs != 1)}"
+    print(f"{config.name}: {runs} ({design_words(config)}){extra}", file=sys.stderr)
     bar = ProgressBar(sys.stderr, label="runs+optima" if optima else "runs")
     report = run_experiment(config, args.output, jobs=args.jobs, force=args.force, progress=bar)
     if args.json:
