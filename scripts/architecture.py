@@ -58,7 +58,8 @@ FLOORS: dict[str, int] = {
     "cell": 6,
     # the one type of a task, its files, the ready-made tasks (builtin), the simulator choice
     "scenario": 7,
-    # the front ends around the cell
+    # the front ends around the cell; planning ahead (CP-SAT) beside them, above the scenario
+    "planning": 8,
     "sensing": 8,
     "web": 8,
     "ros2": 8,

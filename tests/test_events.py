@@ -56,6 +56,7 @@ SPECIAL: dict[str, Any] = {
     "act": False,
     "answer": "no",
     "on_failure": "paper",
+    "policy": "lookahead",
     "reply": "decline",
 }
 BY_TYPE: dict[type, Any] = {str: "x", int: 2, float: 0.5, bool: False, list: ["a"], dict: {}}

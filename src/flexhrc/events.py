@@ -94,6 +94,16 @@ class FailurePolicy(StrEnum):
     PAPER = "paper"
 
 
+class DecisionPolicy(StrEnum):
+    """How the Task Manager picks what to start at a decision (``--policy``, the scenario key
+    ``policy``; the first is the default): ``paper`` is the paper's greedy choice (cheapest
+    feasible hyper-arc, best branch by eq. 21); ``lookahead`` follows a CP-SAT schedule of the
+    remaining task (:mod:`flexhrc.planning`), re-solved at each decision."""
+
+    PAPER = "paper"
+    LOOKAHEAD = "lookahead"
+
+
 class GraphEvent(StrEnum):
     """What the online AND/OR graph is told about an element (``representation.online``)."""
 
@@ -110,6 +120,7 @@ ACK_STATUSES: tuple[str, ...] = tuple(s.value for s in AckStatus if s is not Ack
 ACTION_STATUSES: tuple[str, ...] = tuple(s.value for s in AckStatus)
 SIMULATORS: tuple[str, ...] = tuple(s.value for s in SimulatorName)
 FAILURE_POLICIES: tuple[str, ...] = tuple(p.value for p in FailurePolicy)
+DECISION_POLICIES: tuple[str, ...] = tuple(p.value for p in DecisionPolicy)
 GRAPH_EVENTS: tuple[str, ...] = tuple(e.value for e in GraphEvent)
 
 # -- type tags -----------------------------------------------------------------------------------
@@ -397,6 +408,7 @@ _LOG_SCHEMAS = [
                       message="start: 'humans' must be a list of agent names"),
          simulator=OPT_NAME,
          on_failure=_one_of("start", "on_failure", FAILURE_POLICIES, required=False),
+         policy=_one_of("start", "policy", DECISION_POLICIES, required=False),
          profile=Field(S, True, message="start: 'profile' must be a string")),
     _log("query", "the Task Manager asked the representation", report=Field((dict,))),
     _log("decision", "a hyper-arc's branches simulated, one chosen", "replay trace store",

@@ -30,7 +30,7 @@ from typing import Any
 from flexhrc.cell.local import InjectedFailure, Observer, RunResult
 from flexhrc.cell.replay import PLOT_SUFFIXES, need_matplotlib
 from flexhrc.errors import FlexhrcError
-from flexhrc.events import PROFILES, TRACE_TYPES
+from flexhrc.events import DECISION_POLICIES, PROFILES, TRACE_TYPES
 from flexhrc.scenario.model import Scenario
 from flexhrc.scenario.simulators import CHOICES as SIMULATOR_CHOICES
 from flexhrc.scenario.simulators import TIMING_CHOICES, choose_simulator, resolve_simulator_name
@@ -101,7 +101,9 @@ class RunConfig:
     ``log`` streams the event log (JSON lines), ``plot`` draws the timeline; ``quiet`` drops
     the progress lines; ``realtime`` paces the simulated clock (SPEED times real time).
     ``operators`` is an operator model file (``flexhrc learn``, ``docs/operators.md``): the Task
-    Manager times each person's steps by what that person took before.
+    Manager times each person's steps by what that person took before. ``policy`` is how the
+    Task Manager decides (``paper``, ``lookahead``: :mod:`flexhrc.planning`; None: the
+    scenario's ``policy``, else ``paper``).
     """
 
     scenario: str | Path | Scenario | TableDemo = "table_assembly"
@@ -126,6 +128,7 @@ class RunConfig:
     quiet: bool = False
     realtime: float | None = None
     operators: str | Path | None = None
+    policy: str | None = None
 
     def __post_init__(self) -> None:
         for option, value, choices in (
@@ -136,6 +139,7 @@ class RunConfig:
             ("--timing", self.timing, (None, *TIMING_CHOICES)),
             ("--human-sensing", self.human_sensing, HUMAN_SENSING),
             ("--perception", self.perception, PERCEPTION),
+            ("--policy", self.policy, (None, *DECISION_POLICIES)),
         ):
             if value not in choices:
                 names = ", ".join(c for c in choices if c is not None)
@@ -157,6 +161,8 @@ class RunConfig:
                 "--har-model goes with --human-sensing har (har-real trains its own model on "
                 "other volunteers than those it replays)"
             )
+        if self.policy == "lookahead" and self.perception == "scene":
+            raise FlexhrcError("--policy lookahead goes with --perception given (not scene yet)")
         if self.repair and self.perception != "scene":
             raise FlexhrcError("--repair needs --perception scene (only perception notices)")
         if self.har_model and self.human_sensing == "injected":
@@ -175,6 +181,17 @@ class RunReport:
     result: RunResult
     warnings: list[str] = field(default_factory=list)
     signal: int | None = None
+
+    @property
+    def decision_latency(self) -> dict[str, Any]:
+        """The Task Manager's decision latency in this run, measured in the engine (wall
+        seconds to answer each input that made a decision, :class:`~flexhrc.cell.supervisor.
+        Cell`): ``n``, ``median_s``, ``p95_s``, ``max_s`` (None when nothing was decided).
+        Not in :attr:`json`, which holds what the cooperation did, the same on every machine
+        but for its compute times."""
+        from flexhrc.cell.supervisor import latency_figures
+
+        return latency_figures(self.result.decision_latency_s)
 
     @property
     def exit_code(self) -> int:
@@ -218,6 +235,8 @@ def run_scenario(
 
     job = _job(config)
     sc = job.scenario
+    import flexhrc.planning.policies  # noqa: F401  (registers the lookahead policy)
+
     takes = list(config.human_takes) if config.human_takes else None
     if not job.table:
         name = job.path or sc.name
@@ -280,6 +299,7 @@ def run_scenario(
             reaction=config.reaction,
             on_failure=config.on_failure,
             answer_timeout=config.answer_timeout,
+            policy=config.policy,
             trace=trace,
             sink=writer.write if writer is not None else None,
             failures=failures,

@@ -37,6 +37,7 @@ def what_if(
     ``plot`` both timelines one above the other (.png, .svg or .pdf; checked before any work,
     written atomically). ``scenario``: the stored run's scenario file or name (None: the one
     its ``start`` names), loaded with the stored seed."""
+    import flexhrc.planning.policies  # noqa: F401  (a stored lookahead run forks with it)
     from flexhrc.cell.fork import profiles_text
     from flexhrc.cell.replay import PLOT_SUFFIXES, need_matplotlib
     from flexhrc.files import atomic_output

@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 from flexhrc.cell.components import HumanAgent, Replies, RobotAgent, ScenarioLike
@@ -64,6 +64,9 @@ class RunResult:
     reason: str | None
     events: list[dict[str, Any]]
     summary: dict[str, Any]
+    #: wall seconds the Task Manager took to answer each input that made a decision
+    #: (:attr:`flexhrc.cell.supervisor.Cell.decision_latencies_s`)
+    decision_latency_s: list[float] = field(default_factory=list)
 
 
 class FailureInjection:
@@ -149,6 +152,7 @@ class LocalCell:
         answer_timeout: float | None = None,
         replies: Replies | None = None,
         store: Any = None,
+        policy: str | None = None,
     ) -> None:
         domain = scenario.domain
         if simulator is None:
@@ -183,6 +187,7 @@ class LocalCell:
             reaction=reaction,
             on_failure=on_failure,
             answer_timeout=answer_timeout,
+            policy=policy,
             realtime=realtime,
             ordered=True,
             observers=[self.events.append, *observers],
@@ -245,7 +250,13 @@ class LocalCell:
         if self.human_sensing is not None:
             summary["human_sensing"] = self.sensing_figures()
         add_world_record(summary, self.injection.inner)
-        return RunResult(self.cell.tm.outcome, self.cell.tm.reason, self.events, summary)
+        return RunResult(
+            self.cell.tm.outcome,
+            self.cell.tm.reason,
+            self.events,
+            summary,
+            list(self.cell.decision_latencies_s),
+        )
 
     def close(self) -> None:
         for agent in self.agents:

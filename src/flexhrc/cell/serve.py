@@ -35,7 +35,7 @@ from flexhrc.cell.components import (
     run_agent,
 )
 from flexhrc.cell.store import EventStore
-from flexhrc.cell.supervisor import Cell, answer_timeout_of, failure_policy
+from flexhrc.cell.supervisor import Cell, answer_timeout_of, decision_policy, failure_policy
 from flexhrc.errors import FlexhrcError
 from flexhrc.files import OutputPathError, atomic_write_text, check_output
 from flexhrc.taskmanager.operator import PROFILES, operator_seed
@@ -80,7 +80,9 @@ class CellConfig:
     event store; ``resume`` continues the cooperation kept there. ``realtime`` 0: as fast as the
     agents answer, else simulated seconds per wall second. ``simulator`` the branch simulator and
     the internal arms' world. ``on_failure`` ``retry`` or ``paper``: what a failed robot action
-    does to its hyper-arc (None: the scenario's ``on_failure``, else ``retry``). ``ready_file``:
+    does to its hyper-arc (None: the scenario's ``on_failure``, else ``retry``). ``policy``
+    ``paper`` or ``lookahead``: how the manager decides (None: the scenario's ``policy``, else
+    ``paper``; ``lookahead`` needs :mod:`flexhrc.planning` imported). ``ready_file``:
     once the cell listens, JSON with the endpoints as bound, the pid and the cell's name, written
     atomically. ``operators``: an operator model file (``flexhrc learn``, ``docs/operators.md``)
     the manager times each person's steps by, updated online as they act.
@@ -98,6 +100,7 @@ class CellConfig:
     simulator: str = "auto"
     on_failure: str | None = None
     answer_timeout: float | None = None
+    policy: str | None = None
     wait: float = 30.0
     human: str = "passive"
     ready_file: str | Path | None = None
@@ -110,6 +113,8 @@ class CellConfig:
         _choice("--simulator", self.simulator, SIMULATORS)
         if self.on_failure is not None:
             failure_policy(None, self.on_failure)
+        if self.policy is not None:
+            decision_policy(None, self.policy)
         answer_timeout_of(None, self.answer_timeout)
         _choice("--human", self.human, PROFILES)
         if not (math.isfinite(self.realtime) and self.realtime >= 0):
@@ -203,6 +208,7 @@ def serve_cell(
             shared_model=internal,  # the internal arms execute on the manager's model
             on_failure=config.on_failure,
             answer_timeout=config.answer_timeout,
+            policy=config.policy,
         )
         agents: list[Component] = []
         if internal:

@@ -77,6 +77,7 @@ from flexhrc.taskmanager.manager import (
 )
 from flexhrc.taskmanager.operator import PROFILES, SimulatedOperator
 from flexhrc.taskmanager.physical import apply_physical
+from flexhrc.taskmanager.policy import DEFAULT_POLICY, check_policy, make_policy
 from flexhrc.taskmanager.simulator import Simulator
 from flexhrc.transport import Transport
 
@@ -140,6 +141,7 @@ class Cell:
         shared_model: bool = False,
         on_failure: str | None = None,
         answer_timeout: float | None = None,
+        policy: str | None = None,
     ) -> None:
         if not realtime >= 0 or realtime != realtime or realtime == float("inf"):
             raise FlexhrcError(f"--realtime must be a finite number >= 0, got {realtime}")
@@ -201,6 +203,9 @@ class Cell:
             on_failure=failure_policy(scenario, on_failure),
             utility=getattr(scenario, "utility", None),
         )
+        # the decision policy (``--policy``, the scenario's ``policy:``; paper: no advisor)
+        self.policy = decision_policy(scenario, policy)
+        self.tm.policy = make_policy(self.policy)
         self.agents = {
             a.name: AgentState(a.name, "human" if a.is_human else "robot")
             for a in self.domain.agents.values()
@@ -210,6 +215,10 @@ class Cell:
                 st.alive = st.seen = True
         self.now = 0.0
         self.events: list[StoredEvent] = []
+        #: wall seconds the Task Manager took to answer each input that made a decision (the
+        #: decision latency, :func:`latency_figures`; not kept in the store: it is the
+        #: machine's, not the cooperation's)
+        self.decision_latencies_s: list[float] = []
         self.commands: dict[int, Command] = {}
         self.stored_commands: set[int] = set()
         self.acked: set[int] = set()
@@ -1049,7 +1058,10 @@ class Cell:
         if not self.replaying:
             self.now = max(self.now, self._clock())
         self._record(kind, body)  # committed before the manager acts on it
+        decided, t0 = self.tm.decisions, time.perf_counter()
         directives = self._feed(kind, body)
+        if not self.replaying and self.tm.decisions > decided:  # the decision latency
+            self.decision_latencies_s.append(time.perf_counter() - t0)
         self._handle(directives)
         self._settle()
         if not self.replaying:
@@ -1062,6 +1074,11 @@ class Cell:
             self.started = True
             if "on_failure" in body:  # a resumed run goes on under the policy it began with
                 tm.on_failure = check_failure_policy(body["on_failure"], "stored start: on_failure")
+            # ... and under the decision policy it began with (no key: paper)
+            stored = check_policy(body.get("policy", DEFAULT_POLICY), "stored start: policy")
+            if stored != self.policy:
+                self.policy = stored
+                tm.policy = make_policy(stored, "stored start: policy")
             self.operators.update(body.get("operators") or {})
             self.scripted.update(body.get("scripted") or [])
             if "operator_model" in body:
@@ -2087,6 +2104,7 @@ class Cell:
                     "realtime": self.realtime,
                     "simulator": _simulator_name(self.tm.simulator),
                     "on_failure": self.tm.on_failure,
+                    **({"policy": self.policy} if self.policy != DEFAULT_POLICY else {}),
                     "operators": dict(self.operators),
                     **self._operator_model_input(),
                     **({"watchers": list(self.watchers)} if self.watchers else {}),
@@ -2207,6 +2225,9 @@ class Cell:
         data["outcome"], data["reason"] = tm["outcome"], tm["reason"]
         data["simulator"] = _simulator_name(self.tm.simulator)
         data["on_failure"] = self.tm.on_failure
+        if self.policy != DEFAULT_POLICY:  # the default keeps the JSON as it was
+            data["policy"] = self.policy
+            data["advice_s"] = _latency(self.tm.advice_s)
         data["decisions"] = tm["decisions"]
         data["branches_simulated"] = tm["branches_simulated"]
         data["timing"].update(tm["timing"])
@@ -2231,6 +2252,20 @@ class Cell:
             sub.cancel()
         if self.token is not None:
             self.token.undeclare()
+
+
+def latency_figures(samples: Sequence[float]) -> dict[str, Any]:
+    """The decision latency of a run from :attr:`Cell.decision_latencies_s`: how many inputs
+    made a decision (``n``) and the median, 95th percentile (nearest rank) and largest wall
+    seconds the Task Manager took to answer one; None for each figure when nothing was
+    decided."""
+    xs = sorted(samples)
+    if not xs:
+        return {"n": 0, "median_s": None, "p95_s": None, "max_s": None}
+    mid = len(xs) // 2
+    median = xs[mid] if len(xs) % 2 else (xs[mid - 1] + xs[mid]) / 2
+    p95 = xs[max(0, -(-95 * len(xs) // 100) - 1)]
+    return {"n": len(xs), "median_s": median, "p95_s": p95, "max_s": xs[-1]}
 
 
 def _answer_order(item: tuple[float, int, str, dict[str, Any]]) -> tuple[Any, ...]:
@@ -2264,6 +2299,29 @@ def failure_policy(scenario: Any, given: str | None) -> str:
     if given is not None:
         return check_failure_policy(given, "--on-failure")
     return check_failure_policy(getattr(scenario, "on_failure", None) or FAILURE_POLICIES[0])
+
+
+def decision_policy(scenario: Any, given: str | None) -> str:
+    """The decision policy of a run: ``given`` (``--policy``), else the scenario's ``policy``
+    key, else ``paper`` (:mod:`flexhrc.taskmanager.policy`)."""
+    if given is not None:
+        return check_policy(given, "--policy")
+    return check_policy(getattr(scenario, "policy", None) or DEFAULT_POLICY, "policy")
+
+
+def _latency(samples: list[float]) -> dict[str, float | int]:
+    """How long the advisor took at its decisions (seconds): how many, the first (it prepares
+    the advisor: a planner builds its model), and the median and p95 of the others."""
+    if not samples:
+        return {"decisions": 0, "first_s": 0.0, "median_s": 0.0, "p95_s": 0.0}
+    rest = sorted(samples[1:]) or [samples[0]]
+    p95 = rest[min(len(rest) - 1, round(0.95 * (len(rest) - 1)))]
+    return {
+        "decisions": len(samples),
+        "first_s": round(samples[0], 6),
+        "median_s": round(rest[len(rest) // 2], 6),
+        "p95_s": round(p95, 6),
+    }
 
 
 def _simulator_name(simulator: Any) -> str:

@@ -32,6 +32,7 @@ from flexhrc.errors import FlexhrcError
 COMMAND_MODULES: tuple[str, ...] = (
     "graph",
     "demo",
+    "plan",
     "scenario",
     "behave",
     "sim",
@@ -39,6 +40,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "scene",
     "cell",
     "learn",
+    "experiment",
     "agent",
     "certs",
     "panel",

@@ -76,6 +76,7 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
 
 def cmd_cell(args: argparse.Namespace) -> int:
     quiet_library_logs()
+    import flexhrc.planning.policies  # noqa: F401  (registers --policy lookahead)
     from flexhrc.cell.serve import CellConfig, serve_cell, summary_line
     from flexhrc.cli.panel import run_cell
     from flexhrc.scenario import load_scenario
@@ -93,6 +94,7 @@ def cmd_cell(args: argparse.Namespace) -> int:
         simulator=args.simulator,
         on_failure=args.on_failure,
         answer_timeout=args.answer_timeout,
+        policy=args.policy,
         wait=args.wait,
         human=args.human,
         ready_file=args.ready_file,

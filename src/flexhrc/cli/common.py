@@ -28,6 +28,17 @@ ON_FAILURE_OPTION: dict[str, Any] = dict(
 )
 
 
+#: ``--policy`` of every command that runs a cooperation (``run``, ``demo table``, ``cell``,
+#: ``ros2 cell``): the field ``policy`` of its config.
+POLICY_OPTION: dict[str, Any] = dict(
+    choices=["paper", "lookahead"],
+    default=None,
+    help="how the Task Manager decides: paper (the paper's greedy choice, default) or "
+    "lookahead (follow a CP-SAT schedule of the remaining task, re-solved at each decision; "
+    "needs the plan extra, docs/planning.md); default: the scenario's policy, else paper",
+)
+
+
 def add_cell_options(
     p: argparse.ArgumentParser,
     *,
@@ -51,6 +62,7 @@ def add_cell_options(
     )
     add_simulator_option(p, simulator_help)
     p.add_argument("--on-failure", **ON_FAILURE_OPTION)
+    p.add_argument("--policy", **POLICY_OPTION)
     p.add_argument("--answer-timeout", **ANSWER_TIMEOUT_OPTION)
     p.add_argument(
         "--wait",

@@ -19,6 +19,7 @@ from typing import Any
 from flexhrc.cli.common import (
     ANSWER_TIMEOUT_OPTION,
     ON_FAILURE_OPTION,
+    POLICY_OPTION,
     add_json_flag,
     add_segments_option,
     emit,
@@ -99,6 +100,7 @@ RUN_OPTIONS: dict[str, dict[str, Any]] = {
         "(paper, V-B)",
     ),
     "--on-failure": ON_FAILURE_OPTION,
+    "--policy": POLICY_OPTION,
     "--answer-timeout": ANSWER_TIMEOUT_OPTION,
     "--simulator": dict(
         choices=["auto", "analytic", "kinematic"],

@@ -184,6 +184,7 @@ def panel_config(args: argparse.Namespace) -> Any:
 
 
 def cmd_panel(args: argparse.Namespace) -> int:
+    import flexhrc.planning.policies  # noqa: F401  (a stored lookahead run resumes with it)
     from flexhrc.web.local import serve_panel
 
     panel = serve_panel(panel_config(args))

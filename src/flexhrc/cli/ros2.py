@@ -134,6 +134,7 @@ def cmd_node(args: argparse.Namespace) -> int:
 
 
 def cmd_cell(args: argparse.Namespace) -> int:
+    import flexhrc.planning.policies  # noqa: F401  (registers --policy lookahead)
     from flexhrc.cell.serve import summary_line
     from flexhrc.cli.panel import run_cell
     from flexhrc.ros2.serve import Ros2CellConfig, serve_ros2_cell

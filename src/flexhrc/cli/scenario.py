@@ -1,11 +1,13 @@
-"""``flexhrc scenario validate FILE``, ``flexhrc scenario list``, ``flexhrc scenario new DIR``."""
+"""``flexhrc scenario validate FILE``, ``flexhrc scenario list``, ``flexhrc scenario new DIR``,
+``flexhrc scenario generate --actions N --agents M --width W --seed S [-o FILE]``."""
 
 from __future__ import annotations
 
 import argparse
 import sys
 
-from flexhrc.cli.common import add_json_flag, emit
+from flexhrc.cli.common import add_json_flag, emit, int_range
+from flexhrc.errors import FlexhrcError
 
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg, unused-ignore]
@@ -38,6 +40,47 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
     n.add_argument("dir", metavar="DIR", help="folder to create (or an empty one)")
     n.add_argument("--force", action="store_true", help="overwrite DIR/scenario.yaml")
     n.set_defaults(func=cmd_new)
+    g = ssub.add_parser(
+        "generate",
+        help="write a random task: N steps, M agents (arms and persons), width W",
+        description="Write a random, valid scenario (flexhrc: 1): an assembly of N steps with "
+        "alternatives (an arm's or a person's), joint actions of two arms, arm-only and "
+        "person-only steps, and parts some arms cannot reach. The same arguments give the same "
+        "file. Without -o the YAML goes to stdout (docs/scenarios.md#generated-tasks).",
+    )
+    whole = int_range()  # a whole number; the ranges are the library's (one message each)
+    g.add_argument(
+        "--actions",
+        type=whole,
+        required=True,
+        metavar="N",
+        help="steps of the task (every cooperation path has N actions)",
+    )
+    g.add_argument(
+        "--agents",
+        type=whole,
+        required=True,
+        metavar="M",
+        help="agents: robot arms and persons (at least 2)",
+    )
+    g.add_argument(
+        "--width",
+        type=whole,
+        required=True,
+        metavar="W",
+        help="the most steps that can be done at once (1..N)",
+    )
+    g.add_argument("--seed", type=whole, default=0, metavar="S", help="random seed (default 0)")
+    g.add_argument(
+        "--persons",
+        type=whole,
+        default=None,
+        metavar="P",
+        help="how many of the agents are persons (default: a quarter, at least 1)",
+    )
+    g.add_argument("-o", "--output", metavar="FILE", help="the scenario file to write (.yaml)")
+    g.add_argument("--force", action="store_true", help="overwrite FILE")
+    g.set_defaults(func=cmd_generate)
 
 
 def cmd_validate(args: argparse.Namespace) -> int:
@@ -70,6 +113,27 @@ def cmd_new(args: argparse.Namespace) -> int:
     from flexhrc.scenario.starter import write_starter
 
     target = write_starter(args.dir, force=args.force)
+    print(f"wrote {target}")
+    print(f"next: flexhrc scenario validate {target} && flexhrc run {target}")
+    return 0
+
+
+def cmd_generate(args: argparse.Namespace) -> int:
+    from flexhrc.scenario.generate import generate, write_generated
+
+    spec = dict(
+        actions=args.actions,
+        agents=args.agents,
+        width=args.width,
+        seed=args.seed,
+        persons=args.persons,
+    )
+    if args.output is None:
+        if args.force:
+            raise FlexhrcError("--force goes with -o FILE (without -o the YAML goes to stdout)")
+        sys.stdout.write(generate(**spec))
+        return 0
+    target = write_generated(args.output, force=args.force, **spec)
     print(f"wrote {target}")
     print(f"next: flexhrc scenario validate {target} && flexhrc run {target}")
     return 0

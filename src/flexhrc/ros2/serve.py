@@ -69,7 +69,8 @@ class Ros2CellConfig(Ros2NodeConfig):
     there. ``realtime`` 0 runs as fast as the agents answer; ``SPEED > 0`` makes actions take
     their simulated time divided by SPEED. ``simulator`` is the Task Manager's branch simulator
     (``auto``: the scenario's); ``on_failure`` ``retry`` or ``paper`` (None: the scenario's
-    ``on_failure``, else ``retry``); ``wait`` how long (s) to wait for the agent nodes to appear;
+    ``on_failure``, else ``retry``); ``policy`` ``paper`` or ``lookahead`` (None: the scenario's
+    ``policy``, else ``paper``); ``wait`` how long (s) to wait for the agent nodes to appear;
     ``markers_rate`` the rate of the ``MarkerArray`` (Hz).
     """
 
@@ -79,6 +80,7 @@ class Ros2CellConfig(Ros2NodeConfig):
     simulator: str = "auto"
     on_failure: str | None = None
     answer_timeout: float | None = None
+    policy: str | None = None
     wait: float = 60.0
     markers_rate: float = 2.0
 
@@ -95,6 +97,10 @@ class Ros2CellConfig(Ros2NodeConfig):
             from flexhrc.cell.supervisor import failure_policy
 
             failure_policy(None, self.on_failure)
+        if self.policy is not None:
+            from flexhrc.cell.supervisor import decision_policy
+
+            decision_policy(None, self.policy)
         if not (math.isfinite(self.wait) and self.wait > 0):
             raise FlexhrcError(f"--wait must be a positive number of seconds, got {self.wait}")
         if not (math.isfinite(self.markers_rate) and 0 < self.markers_rate <= 100):
@@ -195,6 +201,7 @@ def serve_ros2_cell(
             seed=config.seed,
             on_failure=config.on_failure,
             answer_timeout=config.answer_timeout,
+            policy=config.policy,
         )
         cell.agents_hint = (
             "start them with `flexhrc ros2 arm SCENARIO --arm NAME` and `flexhrc ros2 human "

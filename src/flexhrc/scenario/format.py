@@ -24,7 +24,7 @@ from pathlib import Path
 from typing import Any
 
 from flexhrc.errors import FlexhrcError, FormatError
-from flexhrc.events import FAILURE_POLICIES, WORKSPACE_M
+from flexhrc.events import DECISION_POLICIES, FAILURE_POLICIES, WORKSPACE_M
 from flexhrc.logic import Literal, parse_conjunction, parse_literal
 from flexhrc.representation import HierarchicalGraph
 from flexhrc.representation.graph import AndOrGraph
@@ -192,6 +192,7 @@ TOP_KEYS = {
     "robot",
     "simulator",
     "on_failure",
+    "policy",
     "answer_timeout",
     "timing",
     "utility",
@@ -398,6 +399,13 @@ def _build(doc: Any, c: _Checker) -> Scenario | None:
             _line(doc, "on_failure"),
         )
         on_failure = None
+    policy = doc.get("policy")
+    if policy is not None and policy not in DECISION_POLICIES:
+        c.error(
+            f"policy {show(policy)}: choose one of {', '.join(DECISION_POLICIES)}",
+            _line(doc, "policy"),
+        )
+        policy = None
     answer_timeout = doc.get("answer_timeout")
     if answer_timeout is not None and (
         isinstance(answer_timeout, bool)
@@ -446,6 +454,7 @@ def _build(doc: Any, c: _Checker) -> Scenario | None:
         path,
         tuple(str(f) for f in c.faults if f.severity == "warning"),
         on_failure=on_failure,
+        policy=policy,
         answer_timeout=None if answer_timeout is None else float(answer_timeout),
         timing=timing,
         utility=utility,

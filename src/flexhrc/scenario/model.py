@@ -87,6 +87,9 @@ class Scenario:
     #: how long a person may leave a request unanswered before it counts as declined
     #: (``answer_timeout:``, seconds; ``--answer-timeout``); None: the manager waits
     answer_timeout: float | None = None
+    #: how the Task Manager decides (``policy:``): ``paper`` or ``lookahead``
+    #: (:mod:`flexhrc.planning`); None: not said (``paper``, unless a run says otherwise)
+    policy: str | None = None
     #: how simulated actions are timed (:data:`flexhrc.taskmanager.kinds.TIMINGS`): ``default``,
     #: or ``paper`` (the paper's Baxter and operator, to set beside its Table I)
     timing: str = "default"

@@ -36,6 +36,7 @@ def prepare(
     max_time_s: float = 3600.0,
     on_failure: str | None = None,
     answer_timeout: float | None = None,
+    policy: str | None = None,
 ) -> LocalCell:
     """One run of ``scenario``, ready to go (call ``.run()`` on it).
 
@@ -43,7 +44,8 @@ def prepare(
     ``kinematic`` (a name) or a simulator object; it also plays the real world unless
     ``execution`` is given. ``sink`` and ``trace`` see every event of the log as it happens.
     ``on_failure`` (``retry`` or ``paper``) overrides the scenario's failure policy,
-    ``answer_timeout`` (seconds) the scenario's ``answer_timeout``.
+    ``answer_timeout`` (seconds) the scenario's ``answer_timeout``; ``policy`` (``paper`` or
+    ``lookahead``) the scenario's decision policy.
     """
     if profile is not None and profile not in PROFILES:
         raise FlexhrcError(
@@ -64,6 +66,7 @@ def prepare(
         reaction=reaction,
         on_failure=on_failure,
         answer_timeout=answer_timeout,
+        policy=policy,
         observers=observers,
         realtime=realtime,
         max_time_s=max_time_s,

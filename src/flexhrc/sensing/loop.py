@@ -439,7 +439,8 @@ class PerceivedCell:
         for ev in events:  # with the operator's nudges and the repairs in their places
             for observer in self.observers:
                 observer(ev)
-        return RunResult(summary["outcome"], summary["reason"], events, summary)
+        latencies = list(self.cell.decision_latencies_s)
+        return RunResult(summary["outcome"], summary["reason"], events, summary, latencies)
 
     def events(self) -> list[dict[str, Any]]:
         """The cell's stored events in log form, with what nobody reports (the operator's

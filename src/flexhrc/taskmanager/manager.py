@@ -89,6 +89,7 @@ from flexhrc.taskmanager.decision import (
 )
 from flexhrc.taskmanager.domain import Domain, GroundAction
 from flexhrc.taskmanager.kinds import action_targets
+from flexhrc.taskmanager.policy import Advice, Policy, Start
 from flexhrc.taskmanager.simulator import Simulator, default_simulator
 from flexhrc.taskmanager.utility import Utility
 
@@ -259,6 +260,7 @@ class TaskManager:
         max_process_rounds: int = 1000,
         on_failure: str = "retry",
         utility: Utility | None = None,
+        policy: Policy | None = None,
     ):
         if reaction not in REACTIONS:
             raise FlexhrcError(
@@ -269,6 +271,10 @@ class TaskManager:
         self.max_process_rounds = max_process_rounds
         # the scenario's ``utility:``; None: eq. (21) as the paper has it, no terms logged
         self.utility = utility
+        # an advisor asked at each decision (:mod:`.policy`); None: the paper's decision alone
+        self.policy = policy
+        #: the advisor's latency at each decision it was asked (seconds of compute)
+        self.advice_s: list[float] = []
         # each person's effort-weighted busy time the manager gave them (workload term)
         self.person_time: dict[str, float] = {}
         self.graph = graph
@@ -540,6 +546,18 @@ class TaskManager:
 
     def parent_of(self, hyperarc: str) -> str:
         return self._parent(hyperarc)
+
+    def children_of(self, hyperarc: str) -> list[str]:
+        """The hyper-arc's children (qualified names)."""
+        return list(self._children(hyperarc))
+
+    def formula_of(self, node: str) -> tuple[Literal, ...]:
+        """S(n): the node's state formula (empty: always holds)."""
+        return self._formulas.get(node, ())
+
+    def processes_of(self, node: str) -> tuple[str, ...]:
+        """P(n): the node's process invocations, in order."""
+        return self._node_processes.get(node, ())
 
     def has_processes(self, node: str) -> bool:
         """Whether reaching ``node`` starts processes P(n) (arms keep working on its parts)."""
@@ -1089,9 +1107,34 @@ class TaskManager:
             if self.domain.agent(a).is_human
         }
 
+    def _advice(self) -> Advice | None:
+        """The policy's advice at this decision (None: no policy, or no answer)."""
+        if self.policy is None:
+            return None
+        t0 = self._timer()
+        advice = self.policy.advise(self, self._now)
+        self.advice_s.append(self._timer() - t0)
+        return advice
+
+    @staticmethod
+    def _advised(
+        candidates: list[tuple[float, int, str]], advice: Advice
+    ) -> list[tuple[float, int, str]]:
+        """The candidates in the advice's order: its starts first, the held ones left out, the
+        rest (the advisor said nothing of them) after, cheapest first."""
+        by_name = {c[2]: c for c in candidates}
+        first = [by_name[s.element] for s in advice.start if s.element in by_name]
+        told = {s.element for s in advice.start} | advice.hold
+        return [*first, *(c for c in candidates if c[2] not in told)]
+
     def _start_next(self, out: list[Directive]) -> bool:
         """Start the cheapest startable element; True if something changed."""
         candidates = self._hyperarcs_by_cost()
+        advice = self._advice()
+        advised: dict[str, Start] = {}
+        if advice is not None:
+            candidates = self._advised(candidates, advice)
+            advised = {s.element: s for s in advice.start}
         robots_idle = self.idle_robots
         busy_humans = self._busy_humans()
         for cost, _, name in candidates:
@@ -1134,10 +1177,20 @@ class TaskManager:
             t0 = self._timer()
             best = tree.evaluate(self.simulator, self.kb, self.domain, self._score_fn())
             self.branches_simulated += len(tree.branches)
-            if best is not None and self._is_persons(best):
+            planned = self._planned_branch(tree, advised[name]) if name in advised else None
+            if planned is not None:  # the advisor's branch: its agents, its grounding
+                best = planned
+            elif name in advised and not any(
+                set(b.agents) == set(advised[name].agents) for b in tree.branches
+            ):
+                # the advised agents are not free (yet): wait for them, as the plan does
+                self.timing.simulator_s += self._timer() - t0
+                continue
+            if planned is None and best is not None and self._is_persons(best):
                 best = self._robot_if_as_good(tree, best)
             if (
-                best is not None
+                planned is None
+                and best is not None
                 and self._is_persons(best)
                 and self._robot_would_do_better(name, actions, constraints, reserved, best)
             ):
@@ -1168,7 +1221,27 @@ class TaskManager:
                 continue
             self._launch(name, best, cost, out)
             return True
+        if advice is not None and not (self.executions or self.busy or self.processes):
+            # the advice started nothing and nothing runs that could end: the paper decides
+            saved, self.policy = self.policy, None
+            try:
+                return self._start_next(out)
+            finally:
+                self.policy = saved
         return False
+
+    @staticmethod
+    def _planned_branch(tree: DecisionTree, start: Start) -> Branch | None:
+        """The simulated branch of ``tree`` an advisor's :class:`Start` names: the same agents
+        and (where it gives one) the same grounding, else the best with those agents; None
+        when none of them succeeds."""
+        agents = set(start.agents)
+        fits = [b for b in tree.branches if set(b.agents) == agents and b.utility > 0]
+        exact = [
+            b for b in fits if all(b.grounding.get(k) == v for k, v in start.grounding.items())
+        ]
+        pool = exact or fits
+        return max(pool, key=lambda b: b.utility) if pool else None
 
     def _is_persons(self, branch: Branch) -> bool:
         """A branch that needs a person (it would be a suggestion, not a command)."""
