@@ -167,3 +167,19 @@ def test_cli_checks_the_output_path_before_the_work(tmp_path, capsys, monkeypatc
     (tmp_path / "dir.yaml").mkdir()
     assert main([*argv, str(tmp_path / "dir.yaml")]) == 2
     assert "is a folder" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("profile", ["takeover", "random"])
+def test_several_people_who_take_steps_run_to_the_goal(tmp_path, profile):
+    """A takeover operator's step goes to that operator: eq. 21 over every person used to hand
+    it to another one, busy with a request of their own, and the run deadlocked (seed 5)."""
+    solved = 0
+    for seed in range(3, 8):
+        path = write_generated(
+            tmp_path / f"t{seed}.yaml", actions=20, agents=8, width=5, seed=seed, force=True
+        )
+        report = run_scenario(RunConfig(path, human=profile, seed=seed, quiet=True))
+        assert report.result.outcome == "solved", (seed, report.json["reason"])
+        people = {a for a, n in report.json["by_agent"].items() if a.startswith("op") and n}
+        solved += len(people) > 1
+    assert solved  # the people shared the work in some run, so the case was exercised
