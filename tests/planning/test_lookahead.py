@@ -102,3 +102,24 @@ def test_lookahead_on_a_hierarchy_decides_as_paper():
     ahead, summary = _log("kitchen_drawer", seed=1, policy="lookahead")
     assert summary["outcome"] == "solved" and summary["advice_s"]["decisions"] >= 1
     assert paper[1:] == ahead[1:]  # the same run; only the start says which policy
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_a_hold_stopped_as_its_arm_finishes_ends_once_in_the_stored_log(tmp_path, seed):
+    """On the gearbox, lookahead's timing stops the left arm's ``hold`` (a process) at the very
+    instant its arm acknowledges it: the manager ignores that ack, and the store read as a log
+    used to end the command twice, so ``flexhrc replay STORE`` (and ``--fork-at``) refused it."""
+    from flexhrc.cell.replay import replay
+    from flexhrc.cell.serve import CellConfig, serve_cell
+    from flexhrc.cell.store import store_log
+
+    path = tmp_path / "gearbox.db"
+    config = CellConfig(store=path, policy="lookahead", seed=seed)
+    scenario = load_scenario(str(ROOT / "examples" / "scenarios" / "gearbox.yaml"))
+    assert serve_cell(scenario, config)["outcome"] == "solved"
+    log = store_log(path)
+    assert any(ev["type"] == "ack_ignored" for ev in log)  # the case happened
+    ends = [ev["command"] for ev in log if ev["type"] == "action_end" and "command" in ev]
+    commands = [ev["id"] for ev in log if ev["type"] == "command"]
+    assert sorted(ends) == sorted(commands)  # every command ended exactly once
+    assert replay(path).json["outcome"] == "solved"

@@ -405,6 +405,7 @@ def _log_lines(events: list[StoredEvent]) -> list[tuple[int, dict[str, Any]]]:
     out: list[dict[str, Any]] = []
     seqs: list[int] = []
     commands: dict[int, tuple[float, dict[str, Any]]] = {}
+    ended: set[int] = set()  # commands whose action_end is out (by their ack or their stop)
     prev = 0  # the seq of the row the log events not yet numbered come from
     for ev in events:
         seqs.extend([prev] * (len(out) - len(seqs)))
@@ -427,6 +428,11 @@ def _log_lines(events: list[StoredEvent]) -> list[tuple[int, dict[str, Any]]]:
                 }
             )
         elif ev.kind == "ack":
+            if int(b["id"]) in ended:
+                # a process's hold stopped at the very instant its arm finished it: the manager
+                # ignored the ack (``ack_ignored``), and the command ended once, at its stop
+                continue
+            ended.add(int(b["id"]))
             start, cmd = commands.get(int(b["id"]), (ev.t, {"agents": [b.get("agent")]}))
             out.append(
                 {
@@ -456,7 +462,9 @@ def _log_lines(events: list[StoredEvent]) -> list[tuple[int, dict[str, Any]]]:
         elif ev.kind in REPLAY_TYPES:
             out.append({**b, "t": t, "type": ev.kind})
             stopped = commands.pop(int(b["id"]), None) if ev.kind == "stop" else None
-            if stopped is not None:  # the arm was busy until the stop (its ack never counts)
+            if stopped is not None and int(b["id"]) not in ended:
+                # the arm was busy until the stop (its ack never counts)
+                ended.add(int(b["id"]))
                 start, cmd = stopped
                 out.append(
                     {
