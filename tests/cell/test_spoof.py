@@ -467,3 +467,51 @@ def test_k09_two_arm_processes_started_at_once_one_is_refused_none_executes_twic
     led = [b["id"] for _, _, k, b in rows(store) if k == "command" and b["agents"][0] == "left"]
     assert executed(tmp_path / f"left{1 - refused}.err") == led
     assert executed(tmp_path / f"left{refused}.err") == []
+
+
+@zenoh_only
+def test_an_end_lost_on_the_way_is_said_again_until_every_agent_has_left(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The end is one message, sent as the manager closes: over ROS 2 a DDS writer deleted
+    before its readers acknowledged it loses it, and an arm node waited for ever (the
+    conformance test's ``ros2 arm`` process, under load). Here the first ``end`` never reaches
+    ``left``: the manager, seeing its token still alive, says the end again, and every agent
+    leaves — each closing its session as its process would."""
+    lost: list[dict[str, Any]] = []
+    on_state = components._Agent._on_state
+
+    def lossy(self: Any, data: Any) -> None:
+        end = isinstance(data, dict) and data.get("type") == "end"
+        if self.name == "left" and end and not lost:
+            lost.append(data)
+            return
+        on_state(self, data)
+
+    monkeypatch.setattr(components._Agent, "_on_state", lossy)
+    with _zenoh() as net:
+        scenario = load_scenario("table_assembly")
+        cell = Cell(scenario, net.manager, simulator=execution_model("analytic"), name="lostend")
+        agents: list[Any] = []
+        for a in scenario.domain.agents.values():
+            cls = HumanAgent if a.is_human else RobotAgent
+            agents.append(cls(a.name, scenario, net.peer(), execution=execution_model("analytic")))
+        gone: set[str] = set()
+
+        def pump(timeout: float) -> None:
+            for agent in agents:
+                if agent.name in gone:
+                    continue
+                agent.transport.flush()
+                agent.poll()
+                if agent.ended is not None:  # its process leaves: its token goes with it
+                    agent.transport.close()
+                    gone.add(agent.name)
+            net.manager.wait(timeout)
+            net.manager.flush()
+
+        data = cell.run(pump=pump, agents_timeout=60, max_wall_s=300)
+        cell.close()
+    assert data["outcome"] == "solved"
+    assert lost, "the first end never reached left"
+    assert {a.name: a.ended for a in agents} == {a.name: "solved" for a in agents}

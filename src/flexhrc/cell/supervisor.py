@@ -93,6 +93,8 @@ STALL_GRACE_S = 5.0
 #: How long a resumed cell whose run had already ended waits for agent processes to come back
 #: and hear the end (seconds).
 END_WAIT_S = 5.0
+#: How often a manager whose run has ended says so again while agent processes are still there.
+END_REPEAT_S = 0.5
 #: The ``source`` of an input that did not come over the bus (the panel's buttons, this process).
 HERE = "here"
 
@@ -2168,7 +2170,27 @@ class Cell:
             P.STATE_TOPIC, P.message("end", outcome=self.tm.outcome, run=self.run_id)
         )
         self._publish_state()
+        self._see_them_leave(pump)
         return summary
+
+    def _see_them_leave(self, pump: Callable[[float], None]) -> None:
+        """The end is one message, and a message sent just before its sender closes can be
+        lost on the way (a DDS writer deleted before its readers acknowledged the sample): an
+        agent process that missed it would wait for ever. So, over a transport with liveliness,
+        the manager stays until every agent's token is gone — each leaves at the end — and says
+        the end again every :data:`END_REPEAT_S`, for :data:`END_WAIT_S` at most (an agent that
+        stays, e.g. one of another run, must not keep the manager)."""
+        if self.token is None:  # one process: every agent has heard it
+            return
+        deadline = time.monotonic() + END_WAIT_S
+        said = time.monotonic()
+        while any(st.alive for st in self.agents.values()) and time.monotonic() < deadline:
+            pump(0.05)
+            if time.monotonic() - said >= END_REPEAT_S:
+                said = time.monotonic()
+                self.transport.publish(
+                    P.STATE_TOPIC, P.message("end", outcome=self.tm.outcome, run=self.run_id)
+                )
 
     def _pump(self, pump: Callable[[float], None]) -> None:
         """Let the transport deliver, and notice a stalled manager (probe K06).
