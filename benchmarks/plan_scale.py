@@ -38,6 +38,7 @@ def main() -> int:
     ap.add_argument("--width", type=int, default=8)
     ap.add_argument("--time-limit", type=float, default=1.0)
     ap.add_argument("--workers", type=int, nargs="+", default=[1, 4])
+    ap.add_argument("--travel", action="store_true", help="model the hands' travel (plan --travel)")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         tasks = []
@@ -49,7 +50,8 @@ def main() -> int:
             tasks.append((seed, load_scenario(path)))
         print(
             f"generated tasks: {args.actions} actions, {args.agents} agents, width {args.width}, "
-            f"seeds 0..{args.seeds - 1}; time limit {args.time_limit:g} s"
+            f"seeds 0..{args.seeds - 1}; time limit {args.time_limit:g} s; "
+            f"{'with' if args.travel else 'without'} --travel (the target is shown without)"
         )
         for workers in args.workers:
             print(f"\nCP-SAT, {workers} worker(s)")
@@ -58,7 +60,13 @@ def main() -> int:
             gaps, solver_s, call_s, met = [], [], [], 0
             for seed, sc in tasks:
                 t0 = time.perf_counter()
-                plan = solve(sc, time_limit_s=args.time_limit, workers=workers, seed=seed)
+                plan = solve(
+                    sc,
+                    time_limit_s=args.time_limit,
+                    workers=workers,
+                    seed=seed,
+                    travel=args.travel,
+                )
                 call = time.perf_counter() - t0
                 gap = plan.gap if plan.gap is not None else float("inf")
                 ok = plan.status == "optimal" or gap <= TARGET_GAP

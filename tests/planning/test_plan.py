@@ -173,3 +173,28 @@ def test_the_kinematic_simulator_times_the_plan():
 def test_a_hierarchy_of_graphs_is_refused_in_one_line(capsys):
     assert main(["plan", "kitchen_drawer"]) == 2
     assert "lower instances (a hierarchy) are not modelled yet" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    "name",
+    ["examples/scenarios/ball_in_box.yaml", "examples/scenarios/lid_task.yaml", "table_assembly"],
+)
+@pytest.mark.parametrize("seed", [0, 1])
+def test_no_passive_run_beats_the_optimum_with_the_hands_travel(name, seed):
+    # the --travel optimum is a lower bound of a run's times (issue 23): the hands' travel from
+    # one hyper-arc to the next in a circuit per agent, beyond MAX_CIRCUIT branches relaxed
+    # (each branch as if the hand came from where it is quickest)
+    from flexhrc.scenario import prepare
+
+    bound = solve(load_scenario(name, seed=seed), time_limit_s=20, travel=True)
+    assert bound.status == "optimal"
+    for policy in ("paper", "lookahead"):
+        sc = load_scenario(name, seed=seed)
+        total = (
+            prepare(sc, profile="passive", seed=seed, policy=policy)
+            .run()
+            .summary["timing"]["total_s"]
+        )
+        # whole milliseconds in the model: each action's time rounded, 0.5 ms at most
+        slack = 0.0005 * len(bound.schedule)
+        assert total >= bound.makespan_s - slack, (policy, total, bound.makespan_s)

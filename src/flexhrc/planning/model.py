@@ -519,9 +519,15 @@ def solve_task(
                     count[a] = count.get(a, 0) + 1
     circuit = {a for a, t in task.setup.items() if t and 2 <= count.get(a, 0) <= MAX_CIRCUIT}
     delta_of: dict[int, list[int]] = {}  # option id -> its travel deltas, those agents
-    for a in circuit:
+    # agents with too many branches for a circuit: a relaxation (each branch as if the hand
+    # came from where it is quickest), so the plan stays a lower bound of a run's times
+    relaxed = {a for a, t in task.setup.items() if t and count.get(a, 0) > MAX_CIRCUIT}
+    least: dict[tuple[str, int], int] = {}  # (agent, option id) -> its least travel delta
+    for a in sorted(circuit | relaxed):
         for (_, oid), d in task.setup[a].items():
             delta_of.setdefault(oid, []).append(d)
+            if a in relaxed:
+                least[a, oid] = min(0, d, least.get((a, oid), 0))
     busy: dict[str, list[Any]] = {a: [] for a in task.agents}  # busy time terms per agent
     release = dict(st.release)
     ys: dict[str, list[tuple[Option, Any]]] = {}
@@ -619,8 +625,8 @@ def solve_task(
         else:
             _leaf(m, task, n, r, reach, x, e, ys, facts)
         zs[n] = _process(m, task, st, n, r, reach, met, e, ys, lanes, busy, big)
-    if circuit:
-        _circuits(m, task, circuit, ys, s, dvs)
+    if circuit or relaxed:
+        _circuits(m, task, circuit, ys, s, dvs, least)
     for ivs in lanes.values():
         if len(ivs) > 1:
             m.AddNoOverlap(ivs)
@@ -718,6 +724,7 @@ def _circuits(
     ys: Mapping[str, list[tuple[Option, Any]]],
     s: Mapping[str, Any],
     dvs: Mapping[int, Any],
+    least: Mapping[tuple[str, int], int] | None = None,
 ) -> None:
     """Sequence-dependent travel: per agent, the branches it takes part in form one circuit
     from where its hand is now (the depot); a branch right after another starts after it and
@@ -759,8 +766,10 @@ def _circuits(
                 continue
             for ts in into.get(o.id, []):
                 m.Add(dv >= sum(ts))  # the slowest hand sets a joint action's time
-            if set(o.agents) - circuit_agents.get(o.id, set()):
-                m.Add(dv >= 0)  # a hand from where it is now: as simulated
+            for a in set(o.agents) - circuit_agents.get(o.id, set()):
+                # a hand without a circuit: from where it is now (as simulated), or, beyond
+                # MAX_CIRCUIT branches, the least its travel from anywhere can make it
+                m.Add(dv >= (least or {}).get((a, o.id), 0))
 
 
 def _bounds(
