@@ -6,7 +6,7 @@ backend to the moment the page has rendered the new state (the page's own ``Date
 rendering, on the same machine's clock). Every page is a real headless chromium tab.
 
     python benchmarks/panel_latency.py [--events 30] [--clients 20] [--cell-realtime 4]
-                                       [--cell-views operator,engineer] [--fps-seconds 2]
+                                       [--cell-views operator,engineer,station] [--fps-seconds 2]
 
 Two backends: ``flexhrc panel`` (the cell's loop in this process, simulated arms on the wall
 clock; events = the operator's stop and resume of an idle arm, sent from the benchmark) and the
@@ -150,9 +150,10 @@ def main() -> int:
     ap.add_argument("--fps-seconds", type=float, default=2.0, help="0: skip the 3D frame rate")
     ap.add_argument(
         "--cell-views",
-        default="operator,engineer",
+        default="operator,engineer,station",
         help="the live cell's pages, one run per view (operator: the 3D view draws the arms "
-        "moving in every page; engineer: no 3D)",
+        "moving in every page; engineer: no 3D; station: one operator page and the other "
+        "clients in the engineer's view, as a station with several viewers)",
     )
     args = ap.parse_args()
     from playwright.sync_api import sync_playwright
@@ -243,7 +244,8 @@ def _cell_run(args: argparse.Namespace, view: str) -> list[float]:
     """The live cell with the panel polled in its loop; per stored event, the latency to the
     slowest of ``args.clients`` pages showing ``view`` (ms). In the operator's view every page
     draws the arms moving in 3D: on one machine, twenty pages share its cores for that (software
-    WebGL), which twenty stations on a shop floor would not."""
+    WebGL), which twenty stations on a shop floor would not. ``station``: the first page in the
+    operator's view, the others in the engineer's (one operator, several viewers)."""
     import tempfile
     import threading
 
@@ -301,9 +303,10 @@ def _cell_run(args: argparse.Namespace, view: str) -> list[float]:
                 args=["--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage"],
             )
             pages = []
-            for _ in range(args.clients):
+            for i in range(args.clients):
                 page = browser.new_context(viewport={"width": 1280, "height": 900}).new_page()
-                page.goto(f"{server.url}?view={view}")
+                shown = view if view != "station" else ("operator" if i == 0 else "engineer")
+                page.goto(f"{server.url}?view={shown}")
                 page.wait_for_function("() => window.__panel.version >= 0")
                 pages.append(page)
             go.set()
