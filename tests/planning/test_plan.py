@@ -23,8 +23,8 @@ TWO_JOBS = ROOT / "tests" / "data" / "planning" / "two_jobs.yaml"
 KEYS = ["status", "objective", "bound", "makespan_s", "solve_s", "schedule", "by_agent"]
 
 
-#: `flexhrc scenario list`'s single-graph tasks besides (kitchen_drawer is a hierarchy: refused)
-LISTED = ["ball_in_box", "table_two_arms"]
+#: `flexhrc scenario list`'s tasks besides (kitchen_drawer: a hierarchy of three graph layers)
+LISTED = ["ball_in_box", "table_two_arms", "kitchen_drawer"]
 
 
 @pytest.mark.parametrize("name", [*SHIPPED, "table_assembly", "parallel_assembly", *LISTED])
@@ -36,7 +36,9 @@ def test_every_shipped_scenario_is_solved_to_optimality_and_the_schedule_is_vali
     assert validate(sc, plan.to_json()) == []
 
 
-@pytest.mark.parametrize("name", [*SHIPPED, "table_assembly", "parallel_assembly"])
+@pytest.mark.parametrize(
+    "name", [*SHIPPED, "table_assembly", "parallel_assembly", "kitchen_drawer"]
+)
 def test_with_the_hands_travel_every_shipped_scenario_is_optimal_and_valid(name):
     sc = load_scenario(name)
     plan = solve(sc, time_limit_s=20, travel=True)
@@ -170,14 +172,58 @@ def test_the_kinematic_simulator_times_the_plan():
     assert plan.makespan_s != analytic.makespan_s  # timed by the robot model, not the figures
 
 
-def test_a_hierarchy_of_graphs_is_refused_in_one_line(capsys):
-    assert main(["plan", "kitchen_drawer"]) == 2
-    assert "lower instances (a hierarchy) are not modelled yet" in capsys.readouterr().err
+def test_a_hierarchy_of_graphs_is_planned_through_its_lower_instances(capsys):
+    # kitchen_drawer: build_drawer is carried out by a DrawerAssembly instance, whose h1 is a
+    # DrawerFrontPlankConnectionsAssembly instance and h8, h9 two RollerAssembly instances;
+    # each instance is expanded in place of its hyper-arc, named under its path
+    assert main(["plan", "kitchen_drawer", "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert data["status"] == "optimal"
+    sc = load_scenario("kitchen_drawer")
+    assert validate(sc, data) == []
+    arcs = {e["hyperarc"] for e in data["schedule"]}
+    assert {"build_drawer/h1/h1", "build_drawer/h4", "build_drawer/h9/h4"} <= arcs
+    assert "build_drawer" not in arcs  # its lower instance does its work
+    # M1 (eq. 15): each RollerAssembly instance is bound to the slide the upper layer names
+    for instance, slide in (("build_drawer/h8/", "slide_1"), ("build_drawer/h9/", "slide_2")):
+        actions = [e["action"] for e in data["schedule"] if e["hyperarc"].startswith(instance)]
+        assert len(actions) == 5 and all(slide in a for a in actions), actions
+    # a roller screw is consumed once: six different screws for the two slides
+    screws = [e["action"].split(", ")[1] for e in data["schedule"] if "screw_slide" in e["action"]]
+    assert len(screws) == len(set(screws)) == 6
+    # an instance starts when its hyper-arc's children are met: h8's after h7 ended
+    end = {e["hyperarc"]: e["end_s"] for e in data["schedule"]}
+    start = {}
+    for e in data["schedule"]:
+        start.setdefault(e["hyperarc"], e["start_s"])
+    assert start["build_drawer/h8/h1"] >= end["build_drawer/h7"] - 1e-6
+    assert start["build_drawer/h9/h1"] >= end["build_drawer/h8/h4"] - 1e-6
+
+
+def test_the_validator_checks_the_instances_of_a_hierarchy():
+    sc = load_scenario("kitchen_drawer")
+    data = solve(sc).to_json()
+    assert validate(sc, data) == []
+    # a lower instance's step moved before the instance is active (h7 not done yet)
+    early = json.loads(json.dumps(data))
+    step = next(e for e in early["schedule"] if e["hyperarc"] == "build_drawer/h9/h1")
+    step["end_s"] -= step["start_s"]
+    step["start_s"] = 0.0
+    assert any("build_drawer/h9/h1" in p for p in validate(sc, early))
+    # an instance's step left out: its lower root is not reached
+    short = json.loads(json.dumps(data))
+    short["schedule"] = [e for e in short["schedule"] if e["hyperarc"] != "build_drawer/h8/h2"]
+    assert validate(sc, short)
 
 
 @pytest.mark.parametrize(
     "name",
-    ["examples/scenarios/ball_in_box.yaml", "examples/scenarios/lid_task.yaml", "table_assembly"],
+    [
+        "examples/scenarios/ball_in_box.yaml",
+        "examples/scenarios/lid_task.yaml",
+        "table_assembly",
+        "kitchen_drawer",
+    ],
 )
 @pytest.mark.parametrize("seed", [0, 1])
 def test_no_passive_run_beats_the_optimum_with_the_hands_travel(name, seed):

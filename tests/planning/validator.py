@@ -7,6 +7,12 @@ reached and leads to a reached node), a hyper-arc's actions are its A(h) in orde
 other; it starts after every child it needs is met (a node with a process: after the process);
 every agent does one action at a time; a joint action is on every agent it names; an agent does
 only actions it is able to do (agents(a) of eq. 20); the makespan is the last end.
+
+A hierarchy of graphs (paper 000, IV-B) is expanded here on its own terms: a hyper-arc with a
+lower graph stands for an instance of it, named ``HYPERARC/ELEMENT`` under the path of the
+hyper-arc that calls it; the instance's root is reached when that hyper-arc is taken, its leaves
+are met no earlier than the hyper-arc's children (the instance is active, eq. 17) and the
+hyper-arc is done when the instance's root is met (eq. 18).
 """
 
 from __future__ import annotations
@@ -28,7 +34,7 @@ def _parse(text: str) -> tuple[str, list[str]]:
 def validate(scenario: Any, data: dict[str, Any]) -> list[str]:
     """Every broken rule of the plan ``data`` (``Plan.to_json()``) as one line; [] if none."""
     problems: list[str] = []
-    g = scenario.graph.top_graph
+    g = _flat(scenario.graph)
     domain = scenario.domain
     schedule = data["schedule"]
     by_arc: dict[str, list[dict[str, Any]]] = {}
@@ -42,7 +48,11 @@ def validate(scenario: Any, data: dict[str, Any]) -> list[str]:
             problems.append(f"{e['hyperarc']}: neither a hyper-arc nor a node")
         if e["end_s"] < e["start_s"] - EPS:
             problems.append(f"{e['action']}: ends before it starts")
-    taken = set(by_arc) | {h for h, arc in g.hyperarcs.items() if not arc.actions}
+    taken = set(by_arc) | {
+        h for h, arc in g.hyperarcs.items() if not arc.actions and h not in g.lower
+    }
+    # a hyper-arc with a lower graph is taken when actions of its instance are scheduled
+    taken |= {h for h in g.lower if any(a.startswith(h + "/") for a in by_arc)}
     # zero-action hyper-arcs carry no entry: take those whose parent is needed (below)
     # -- one cooperation path ------------------------------------------------------------
     incoming: dict[str, list[str]] = {n: [] for n in g.nodes}
@@ -58,7 +68,8 @@ def validate(scenario: Any, data: dict[str, Any]) -> list[str]:
             problems.append(f"node {n}: reached by {len(into)} hyper-arcs taken ({into})")
         for h in into:
             path.add(h)
-            for c in g.hyperarcs[h].children:
+            below = [g.lower[h]] if h in g.lower else []
+            for c in [*g.hyperarcs[h].children, *below]:
                 if c not in reached:
                     reached.add(c)
                     todo.append(c)
@@ -68,6 +79,10 @@ def validate(scenario: Any, data: dict[str, Any]) -> list[str]:
     # -- each hyper-arc: its actions in order, after its children ----------------------------
     end_of: dict[str, float] = {}
     for h in path:
+        if h in g.lower:
+            if h in by_arc:
+                problems.append(f"{h}: actions of its own, but its lower graph carries it out")
+            continue
         arc = g.hyperarcs[h]
         entries = sorted(by_arc.get(h, []), key=lambda e: e["start_s"])
         names = [_parse(e["action"])[0] for e in entries]
@@ -85,7 +100,14 @@ def validate(scenario: Any, data: dict[str, Any]) -> list[str]:
         if n not in met_at:
             into = [h for h in incoming[n] if h in path]
             t = 0.0
-            if into:
+            up = g.activated_by.get(n)
+            if up is not None:  # a lower instance's leaf: met once the instance is active
+                t = max([0.0, *(met(c) for c in g.hyperarcs[up].children)])
+            if into and into[0] in g.lower:  # done by its lower instance
+                h = into[0]
+                t = met(g.lower[h])
+                end_of[h] = t
+            elif into:
                 h = into[0]
                 first = min((e["start_s"] for e in by_arc.get(h, [])), default=None)
                 start = (
@@ -93,7 +115,7 @@ def validate(scenario: Any, data: dict[str, Any]) -> list[str]:
                     if first is not None
                     else max([0.0, *(met(c) for c in g.hyperarcs[h].children)])
                 )
-                t = end_of.get(h, start)
+                t = max(t, end_of.get(h, start))
             for p in processes.get(n, []):
                 if p["start_s"] < t - EPS:
                     problems.append(f"process of {n} starts before {n} is reached")
@@ -102,6 +124,8 @@ def validate(scenario: Any, data: dict[str, Any]) -> list[str]:
         return met_at[n]
 
     for h in path:
+        if h in g.lower:
+            continue
         entries = by_arc.get(h, [])
         if not entries:
             continue
@@ -147,3 +171,47 @@ def validate(scenario: Any, data: dict[str, Any]) -> list[str]:
     if data["by_agent"] != count:
         problems.append(f"by_agent {data['by_agent']} is not {count}")
     return problems
+
+
+class _Arc:
+    def __init__(self, children: list[str], parent: str, actions: tuple[str, ...]) -> None:
+        self.children, self.parent, self.actions = children, parent, actions
+
+
+class _Flat:
+    """The hierarchy expanded: every node and hyper-arc of every instance, by qualified name."""
+
+    def __init__(self) -> None:
+        self.root = ""
+        self.nodes: dict[str, None] = {}
+        self.hyperarcs: dict[str, _Arc] = {}
+        self.lower: dict[str, str] = {}  # hyper-arc -> its instance's root
+        self.activated_by: dict[str, str] = {}  # instance leaf -> the hyper-arc calling it
+
+
+def _flat(hierarchy: Any) -> _Flat:
+    flat = _Flat()
+    flat.root = hierarchy.top_graph.root
+    todo: list[tuple[str, str, str | None]] = [("", hierarchy.top, None)]
+    while todo:
+        path, key, upper = todo.pop()
+        graph = hierarchy.graphs[key]
+
+        def q(name: str, path: str = path) -> str:
+            return f"{path}/{name}" if path else name
+
+        for n in graph.nodes:
+            flat.nodes[q(n)] = None
+        if upper is not None:
+            flat.lower[upper] = q(graph.root)
+            produced = {h.parent for h in graph.hyperarcs.values()}
+            for n in graph.nodes:
+                if n not in produced:
+                    flat.activated_by[q(n)] = upper
+        for h in graph.hyperarcs.values():
+            flat.hyperarcs[q(h.name)] = _Arc(
+                [q(c) for c in h.children], q(h.parent), tuple(h.actions)
+            )
+            if h.lower is not None:
+                todo.append((q(h.name), h.lower, q(h.name)))
+    return flat

@@ -189,6 +189,14 @@ class Task:
     #: where the hand is at the solve
     leaves_at: dict[str, dict[int, Any]] = field(default_factory=dict)
     setup: dict[str, dict[tuple[Any, int], int]] = field(default_factory=dict)
+    #: the hierarchy (transition T, eq. 14): a hyper-arc with a lower instance -> that
+    #: instance's root (the hyper-arc is solved when it is met, eq. 18)
+    lower: dict[str, str] = field(default_factory=dict)
+    #: a lower instance's root -> the hyper-arc that calls it
+    upper_of: dict[str, str] = field(default_factory=dict)
+    #: a lower instance's leaf -> the hyper-arc that calls the instance (the leaf is reached
+    #: no earlier than the instance is active: that hyper-arc's children met, eq. 17)
+    activated_by: dict[str, str] = field(default_factory=dict)
 
 
 def _steps_facts(steps: Sequence[GroundAction]) -> tuple[set[Fact], set[Fact], set[Fact]]:
@@ -213,7 +221,7 @@ def _steps_facts(steps: Sequence[GroundAction]) -> tuple[set[Fact], set[Fact], s
     return needs, state_del, state_add
 
 
-def _relaxed_kb(tm: Any, hyperarcs: list[str]) -> Any:
+def _relaxed_kb(tm: Any, hyperarcs: list[str], scopes: Mapping[str, Mapping[str, str]]) -> Any:
     """The knowledge base with every fact the task can make true added (deletes ignored), so
     that hyper-arcs of later steps ground (their children's formulas hold there)."""
     kb = tm.kb.copy()
@@ -224,7 +232,13 @@ def _relaxed_kb(tm: Any, hyperarcs: list[str]) -> Any:
             if not actions:
                 continue
             tree = DecisionTree.build(
-                h, actions, tm.constraints_of(h), tm.domain, kb, check_pre=False
+                h,
+                actions,
+                tm.constraints_of(h),
+                tm.domain,
+                kb,
+                check_pre=False,
+                binding=scopes.get(tm.graph.graph_of(h)) or None,
             )
             for b in tree.branches:
                 for step in b.steps:
@@ -246,11 +260,7 @@ def build_task(tm: Any, simulator: Any | None = None, *, travel: bool = False) -
     :class:`~flexhrc.taskmanager.TaskManager` or a scenario's read-only view (:class:`_Reader`)."""
     graph = tm.graph
     hierarchy = graph.hierarchy
-    if len(hierarchy.graphs) != 1:
-        raise FlexhrcError(
-            "plan: graphs with lower instances (a hierarchy) are not modelled yet; flatten the "
-            "task into one graph"
-        )
+    lower, upper_of, activated_by, scopes = _hierarchy(tm)
     sim = simulator if simulator is not None else tm.simulator
     names = graph.elements()
     nodes = [n for n in names if graph.kind(n) == "node"]
@@ -260,7 +270,7 @@ def build_task(tm: Any, simulator: Any | None = None, *, travel: bool = False) -
     incoming: dict[str, list[str]] = {n: [] for n in nodes}
     for h in hyperarcs:
         incoming[parent[h]].append(h)
-    relaxed = _relaxed_kb(tm, hyperarcs)
+    relaxed = _relaxed_kb(tm, hyperarcs, scopes)
     domain, kb = tm.domain, tm.kb
     options: dict[str, list[Option]] = {}
     ids = itertools.count(1)
@@ -270,9 +280,10 @@ def build_task(tm: Any, simulator: Any | None = None, *, travel: bool = False) -
             options[h] = [Option(h, {}, (), (), 0, frozenset(), frozenset(), frozenset())]
             continue
         found: dict[tuple[Any, ...], Any] = {}
+        scope = scopes.get(graph.graph_of(h)) or None  # a lower instance's binding (M1)
         for base in (kb, relaxed):  # as it is, and as the task can make it (later steps)
             tree = DecisionTree.build(
-                h, actions, tm.constraints_of(h), domain, base, check_pre=False
+                h, actions, tm.constraints_of(h), domain, base, check_pre=False, binding=scope
             )
             for b in tree.branches:
                 key = (tuple(sorted(b.grounding.items())), b.agents)
@@ -325,7 +336,7 @@ def build_task(tm: Any, simulator: Any | None = None, *, travel: bool = False) -
         children,
         parent,
         incoming,
-        {n: tuple(tm.formula_of(n)) for n in nodes},
+        {n: _formula(tm, n, scopes) for n in nodes},
         options,
         {n: p for n, p in processes.items() if p},
         agents,
@@ -333,7 +344,73 @@ def build_task(tm: Any, simulator: Any | None = None, *, travel: bool = False) -
         frozenset((deleted & kb.facts) - added),
         leaves_at,
         setup,
+        lower,
+        upper_of,
+        activated_by,
     )
+
+
+def _hierarchy(
+    tm: Any,
+) -> tuple[dict[str, str], dict[str, str], dict[str, str], dict[str, dict[str, str]]]:
+    """The lower instances of ``tm``'s graph, expanded in place of the hyper-arcs that call
+    them (paper 000, IV-B): each such hyper-arc -> its instance's root, that root -> the
+    hyper-arc, each instance leaf -> the hyper-arc, and each instance's binding (M1, eq. 15):
+    the lower variables its transition maps, valued as the Task Manager values them when the
+    instance starts — an object the upper layer names, or the upper hyper-arc's grounding, its
+    open variables bound by the first grounding of its children's formulas in the knowledge
+    base (at the solve: the plan grounds a hierarchy once, as a run does when it starts)."""
+    from flexhrc.logic import is_variable
+    from flexhrc.representation.hierarchy import qualify, split_qualified
+
+    hierarchy = tm.graph.hierarchy
+    lower: dict[str, str] = {}
+    upper_of: dict[str, str] = {}
+    activated_by: dict[str, str] = {}
+    scopes: dict[str, dict[str, str]] = {"": {}}
+    if len(hierarchy.graphs) == 1:
+        return lower, upper_of, activated_by, scopes
+    keys: dict[str, str] = {}
+    for info in hierarchy.instances():  # depth-first: an upper instance before its lowers
+        keys[info.path] = info.key
+        if info.upper is None:
+            continue
+        definition = hierarchy.graphs[info.key]
+        if definition.root is None:
+            raise FlexhrcError(f"plan: lower graph {info.key!r} has no root")
+        root = qualify(info.path, str(definition.root))
+        lower[info.upper] = root
+        upper_of[root] = info.upper
+        for leaf in definition.leaves():
+            activated_by[qualify(info.path, leaf)] = info.upper
+        upper_path, local = split_qualified(info.upper)
+        sigma = dict(scopes.get(upper_path, {}))
+        transfer = hierarchy.transfer(keys[upper_path], local)
+        scope: dict[str, str] = {}
+        if transfer:
+            terms = (*transfer.down.values(), *transfer.up.values())
+            if any(is_variable(t) and t not in sigma for t in terms):
+                first = next(tm.kb.iter_query(tm.constraints_of(info.upper), sigma), None)
+                if first is not None:
+                    sigma = dict(first)
+            for mapping in (transfer.down, transfer.up):
+                for lower_var, term in mapping.items():
+                    value = sigma.get(term) if is_variable(term) else term
+                    if value is not None:
+                        scope.setdefault(lower_var, value)
+        scopes[info.path] = scope
+    return lower, upper_of, activated_by, scopes
+
+
+def _formula(tm: Any, node: str, scopes: Mapping[str, Mapping[str, str]]) -> tuple[Any, ...]:
+    """S(n), under its instance's binding (M1)."""
+    from flexhrc.logic import apply_substitution
+
+    formula = tuple(tm.formula_of(node))
+    scope = scopes.get(tm.graph.graph_of(node)) if len(scopes) > 1 else None
+    if scope:
+        formula = tuple(apply_substitution(lit, scope) for lit in formula)
+    return formula
 
 
 def _travel(
@@ -565,12 +642,16 @@ def solve_task(
             if deltas:
                 dv = dvs[o.id] = m.NewIntVar(min(0, *deltas), max(0, *deltas), f"dv[{o.id}]")
                 m.Add(dv == 0).OnlyEnforceIf(v.Not())
-        m.Add(
-            e[h]
-            == s[h]
-            + sum(o.duration * v for o, v in y)
-            + sum(dvs[o.id] for o, _ in y if o.id in dvs)
-        )
+        if h in task.lower:  # carried out by its lower instance: done when its root is met
+            m.Add(e[h] == met[task.lower[h]]).OnlyEnforceIf(x[h])
+            m.Add(e[h] >= s[h])
+        else:
+            m.Add(
+                e[h]
+                == s[h]
+                + sum(o.duration * v for o, v in y)
+                + sum(dvs[o.id] for o, _ in y if o.id in dvs)
+            )
         m.Add(s[h] == 0).OnlyEnforceIf(x[h].Not())
         for o, v in y:
             if o.id in dvs:  # a block per agent, as long as the hand's travel makes it
@@ -611,7 +692,9 @@ def solve_task(
         for c in task.children[h]:
             used_by[c].append(h)
     for n in task.nodes:
-        if n != task.root:
+        if n in task.upper_of:  # a lower instance's root: reached iff its hyper-arc is taken
+            m.Add(r[n] == x[task.upper_of[n]])
+        elif n != task.root:
             m.AddBoolOr([x[h] for h in used_by[n]]).OnlyEnforceIf(r[n])
         if n in st.met:
             m.Add(reach[n] == 0)
@@ -623,7 +706,8 @@ def solve_task(
             for h in into:
                 m.Add(reach[n] == e[h]).OnlyEnforceIf(x[h])
         else:
-            _leaf(m, task, n, r, reach, x, e, ys, facts)
+            up = task.activated_by.get(n)
+            _leaf(m, task, n, r, reach, x, e, ys, facts, 0 if up is None else s[up])
         zs[n] = _process(m, task, st, n, r, reach, met, e, ys, lanes, busy, big)
     if circuit or relaxed:
         _circuits(m, task, circuit, ys, s, dvs, least)
@@ -802,10 +886,16 @@ def _bounds(
             return 0
         into = [h for h in task.incoming[n] if h in shortest]
         best = 0
+        up = task.activated_by.get(n)
+        if up is not None and up not in st.solved and up not in st.running and up in shortest:
+            # a lower instance's leaf: not before the instance is active
+            best = max([0, *(met_lb(c, depth + 1) for c in task.children[up])])
         if into:
             best = min(
                 (
-                    0
+                    met_lb(task.lower[h], depth + 1)  # done by its lower instance
+                    if h in task.lower and h not in st.solved
+                    else 0
                     if h in st.running
                     else max([0, *(met_lb(c, depth + 1) for c in task.children[h])])
                 )
@@ -822,6 +912,8 @@ def _bounds(
         if h in shortest and h not in st.solved:
             for c in task.children[h]:
                 consumers[c].append(h)
+            if h in task.lower:  # its instance's root met: h is solved (eq. 18)
+                consumers[task.lower[h]].append(h)
     tail: dict[str, int] = {task.root: 0}
 
     def tail_of(n: str, depth: int = 0) -> int | None:
@@ -855,19 +947,23 @@ def _leaf(
     e: Mapping[str, Any],
     ys: Mapping[str, list[tuple[Option, Any]]],
     facts: frozenset[Fact] | None,
+    active: Any = 0,
 ) -> None:
-    """A leaf node: it holds now (reached at 0) or when taken branches add what it misses."""
+    """A leaf node: it holds now (reached at 0) or when taken branches add what it misses;
+    a lower instance's leaf not before ``active`` (the instance is active: the start of the
+    hyper-arc that calls it, eq. 17)."""
     formula = task.formula[n]
     now = facts if facts is not None else frozenset()
     if not formula or holds(formula, now):
-        m.Add(reach[n] == 0)
+        m.Add(reach[n] == active)
         return
     missing = [
         lit.key() for lit in formula if lit.is_ground and not lit.negated and lit.key() not in now
     ]
     if not missing:  # (an open formula that does not hold: assume it holds when needed)
-        m.Add(reach[n] == 0)
+        m.Add(reach[n] == active)
         return
+    m.Add(reach[n] >= active)
     for f in missing:
         makers = [(h, v) for h, y in ys.items() for o, v in y if f in o.adds]
         if not makers:
@@ -1239,8 +1335,6 @@ def advise_from(policy: Any, tm: TaskManager, now: float) -> Advice | None:
     started, a person's step, a failure, an agent lost), else the last advice; the hyper-arcs
     the schedule starts now are advised with their agents, the others held back."""
     if policy.task is None:
-        if len(tm.graph.hierarchy.graphs) != 1:
-            return None
         policy.task = build_task(tm)
     for cmd in tm.busy.values():
         policy.seen.setdefault(cmd.id, now)
