@@ -1204,12 +1204,16 @@ def hands_of(tm: TaskManager, task: Task) -> dict[str, Any]:
                 break
     for a, table in task.setup.items():
         places = {p for p, _ in table}
-        o = running.get(a)
-        place = task.leaves_at.get(a, {}).get(o.id) if o is not None else None
+        mine = running.get(a)
+        place = task.leaves_at.get(a, {}).get(mine.id) if mine is not None else None
         if place is None and a in tm.kb.objects:
             pos = tuple(tm.kb.position(a))
             place = next(
-                (p for p in sorted(places) if max(abs(u - v) for u, v in zip(p, pos)) < 1e-6),
+                (
+                    p
+                    for p in sorted(places)
+                    if max(abs(u - v) for u, v in zip(p, pos, strict=True)) < 1e-6
+                ),
                 None,
             )
         if place in places:
@@ -1357,9 +1361,9 @@ def _follows(plan: Plan, base: Any, key: tuple[Any, ...], tm: TaskManager) -> bo
             return False
     graph = tm.graph
     for h in graph.elements():
-        if graph.kind(h) == "hyperarc" and graph.is_solved(h) and h not in plan.chosen:
-            if h not in base[8]:
-                return False
+        solved = graph.kind(h) == "hyperarc" and graph.is_solved(h)
+        if solved and h not in plan.chosen and h not in base[8]:
+            return False
     return True
 
 
