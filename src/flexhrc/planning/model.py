@@ -535,8 +535,8 @@ def solve_task(
     for a in sorted(circuit | relaxed):
         for (_, oid), d in task.setup[a].items():
             delta_of.setdefault(oid, []).append(d)
-            if a in relaxed:
-                least[a, oid] = min(0, d, least.get((a, oid), 0))
+        if a in relaxed:
+            least.update(_least_travel(task, a, done))
         if a in relaxed and a in st.hands:  # a decision: each branch from where the hand is
             for _, oid in task.setup[a]:
                 least[a, oid] = task.setup[a].get((st.hands[a], oid), 0)
@@ -717,6 +717,31 @@ def solve_task(
         task, st, solver, objective, status, value, bound, spent, x, s, ys, makespan,
         [(p, v, reach[n], met[n]) for n, z in zs.items() for p, v in z], dvs,
     )  # fmt: skip
+
+
+def _least_travel(task: Task, a: str, done: set[str]) -> dict[tuple[str, int], int]:
+    """Beyond :data:`MAX_CIRCUIT` branches, each of agent ``a``'s branches as short as the
+    hand's travel can make it: from where it is now (no change) or from where a branch of
+    *another* hyper-arc leaves it (one branch per hyper-arc: never one of its own), the least."""
+    table = task.setup[a]
+    ends = task.leaves_at.get(a, {})
+    places: dict[str, set[Any]] = {}  # hyper-arc -> where its branches leave the hand
+    for h, opts in task.options.items():
+        if h not in done:
+            for o in opts:
+                if a in o.agents and ends.get(o.id) is not None:
+                    places.setdefault(h, set()).add(ends[o.id])
+    out: dict[tuple[str, int], int] = {}
+    for h, opts in task.options.items():
+        if h in done:
+            continue
+        before = set().union(*(p for g, p in places.items() if g != h))
+        for o in opts:
+            if a in o.agents:
+                d = min([0, *(table.get((p, o.id), 0) for p in before)])
+                if d:
+                    out[a, o.id] = d
+    return out
 
 
 def _spans(o: Option) -> dict[str, tuple[int, int]]:
