@@ -73,7 +73,9 @@ def main() -> int:
     ap.add_argument("--generated", type=int, default=3, help="generated tasks (default 3)")
     ap.add_argument("--extra", nargs="*", default=[], metavar="FILE")
     ap.add_argument("--profiles", nargs="*", default=["takeover", "random"])
-    ap.add_argument("--time-limit", type=float, default=10.0, help="the optimum's solve limit")
+    ap.add_argument(
+        "--time-limit", type=float, default=30.0, help="the optimum's solve limit (default 30 s)"
+    )
     args = ap.parse_args()
     seeds = range(args.seeds)
     tmp = tempfile.TemporaryDirectory()

@@ -59,3 +59,22 @@ def test_travel_is_planned_on_small_tasks_and_shortens_the_gearbox():
 def test_a_task_with_many_branches_per_agent_is_planned_without_travel():
     _, advisor = _run("table_assembly")  # 50 branches per arm: beyond MAX_CIRCUIT
     assert not advisor.task.setup
+
+
+@pytest.mark.parametrize("name", ["parallel_assembly", "generated"])
+def test_no_passive_run_beats_the_travel_bound_beyond_max_circuit(name, tmp_path):
+    # agents with more than MAX_CIRCUIT branches (parallel_assembly's operators: 12): each
+    # branch as short as travel from the end of a branch of *another* hyper-arc makes it
+    from flexhrc.planning import solve
+
+    if name == "generated":
+        path = tmp_path / "generated.yaml"
+        path.write_text(generate(actions=20, agents=6, width=4, seed=1))
+        name = str(path)
+    bound = solve(load_scenario(name), time_limit_s=20, travel=True)
+    assert bound.status == "optimal" and bound.makespan_s is not None
+    slack = 0.0005 * len(bound.schedule)  # whole milliseconds in the model
+    for policy in ("paper", "lookahead"):
+        run = prepare(load_scenario(name), profile="passive", seed=0, policy=policy)
+        total = run.run().summary["timing"]["total_s"]
+        assert total >= bound.makespan_s - slack, (policy, total, bound.makespan_s)
