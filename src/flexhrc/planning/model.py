@@ -512,6 +512,9 @@ class State:
     agents_of: dict[str, tuple[str, ...]] = field(default_factory=dict)
     #: hindsight: agents (the persons) that take no hyper-arc beyond those fixed
     only_fixed: set[str] = field(default_factory=set)
+    #: travel at a decision: agent -> where its hand is when it is next free (a place of
+    #: :attr:`Task.leaves_at`; an agent not here: where it was when the task was made)
+    hands: dict[str, Any] = field(default_factory=dict)
 
 
 def _allowed(task: Task, st: State, o: Option) -> bool:
@@ -594,7 +597,13 @@ def solve_task(
             for o in opts:
                 for a in o.agents:
                     count[a] = count.get(a, 0) + 1
-    circuit = {a for a, t in task.setup.items() if t and 2 <= count.get(a, 0) <= MAX_CIRCUIT}
+    # an agent whose hand moved since the task was made: a circuit from where it is now even
+    # for one branch (its travel from there)
+    circuit = {
+        a
+        for a, t in task.setup.items()
+        if t and (1 if a in st.hands else 2) <= count.get(a, 0) <= MAX_CIRCUIT
+    }
     delta_of: dict[int, list[int]] = {}  # option id -> its travel deltas, those agents
     # agents with too many branches for a circuit: a relaxation (each branch as if the hand
     # came from where it is quickest), so the plan stays a lower bound of a run's times
@@ -603,8 +612,11 @@ def solve_task(
     for a in sorted(circuit | relaxed):
         for (_, oid), d in task.setup[a].items():
             delta_of.setdefault(oid, []).append(d)
-            if a in relaxed:
-                least[a, oid] = min(0, d, least.get((a, oid), 0))
+        if a in relaxed:
+            least.update(_least_travel(task, a, done))
+        if a in relaxed and a in st.hands:  # a decision: each branch from where the hand is
+            for _, oid in task.setup[a]:
+                least[a, oid] = task.setup[a].get((st.hands[a], oid), 0)
     busy: dict[str, list[Any]] = {a: [] for a in task.agents}  # busy time terms per agent
     release = dict(st.release)
     ys: dict[str, list[tuple[Option, Any]]] = {}
@@ -710,7 +722,7 @@ def solve_task(
             _leaf(m, task, n, r, reach, x, e, ys, facts, 0 if up is None else s[up])
         zs[n] = _process(m, task, st, n, r, reach, met, e, ys, lanes, busy, big)
     if circuit or relaxed:
-        _circuits(m, task, circuit, ys, s, dvs, least)
+        _circuits(m, task, circuit, ys, s, dvs, least, st.hands)
     for ivs in lanes.values():
         if len(ivs) > 1:
             m.AddNoOverlap(ivs)
@@ -791,6 +803,31 @@ def solve_task(
     )  # fmt: skip
 
 
+def _least_travel(task: Task, a: str, done: set[str]) -> dict[tuple[str, int], int]:
+    """Beyond :data:`MAX_CIRCUIT` branches, each of agent ``a``'s branches as short as the
+    hand's travel can make it: from where it is now (no change) or from where a branch of
+    *another* hyper-arc leaves it (one branch per hyper-arc: never one of its own), the least."""
+    table = task.setup[a]
+    ends = task.leaves_at.get(a, {})
+    places: dict[str, set[Any]] = {}  # hyper-arc -> where its branches leave the hand
+    for h, opts in task.options.items():
+        if h not in done:
+            for o in opts:
+                if a in o.agents and ends.get(o.id) is not None:
+                    places.setdefault(h, set()).add(ends[o.id])
+    out: dict[tuple[str, int], int] = {}
+    for h, opts in task.options.items():
+        if h in done:
+            continue
+        before = set().union(*(p for g, p in places.items() if g != h))
+        for o in opts:
+            if a in o.agents:
+                d = min([0, *(table.get((p, o.id), 0) for p in before)])
+                if d:
+                    out[a, o.id] = d
+    return out
+
+
 def _spans(o: Option) -> dict[str, tuple[int, int]]:
     """Each agent of ``o``: from its first action's start to its last action's end (ms)."""
     out: dict[str, tuple[int, int]] = {}
@@ -809,6 +846,7 @@ def _circuits(
     s: Mapping[str, Any],
     dvs: Mapping[int, Any],
     least: Mapping[tuple[str, int], int] | None = None,
+    hands: Mapping[str, Any] | None = None,
 ) -> None:
     """Sequence-dependent travel: per agent, the branches it takes part in form one circuit
     from where its hand is now (the depot); a branch right after another starts after it and
@@ -818,14 +856,19 @@ def _circuits(
     for a in sorted(agents):
         table = task.setup[a]
         nodes = [(o, v) for y in ys.values() for o, v in y if a in o.agents]
-        if len(nodes) < 2:
+        here = (hands or {}).get(a)  # the depot: where the hand is now (None: as simulated)
+        if len(nodes) < (1 if here is not None else 2):
             continue
         spans = {o.id: _spans(o)[a] for o, _ in nodes}
         arcs: list[tuple[int, int, Any]] = [(0, 0, m.NewBoolVar(f"idle[{a}]"))]
         terms: dict[int, list[Any]] = {o.id: [] for o, _ in nodes}
         for i, (o, v) in enumerate(nodes, 1):
             arcs.append((i, i, v.Not()))
-            arcs.append((0, i, m.NewBoolVar(f"first[{a}#{o.id}]")))
+            first = m.NewBoolVar(f"first[{a}#{o.id}]")
+            arcs.append((0, i, first))
+            d0 = table.get((here, o.id), 0) if here is not None else 0
+            if d0:
+                terms[o.id].append(d0 * first)
             arcs.append((i, 0, m.NewBoolVar(f"last[{a}#{o.id}]")))
         for i, (o1, _) in enumerate(nodes, 1):
             place = task.leaves_at.get(a, {}).get(o1.id)
@@ -844,7 +887,7 @@ def _circuits(
             into.setdefault(oid, []).append(ts)
             circuit_agents.setdefault(oid, set()).add(a)
     for y in ys.values():
-        for o, _ in y:
+        for o, v in y:
             dv = dvs.get(o.id)
             if dv is None:
                 continue
@@ -853,7 +896,7 @@ def _circuits(
             for a in set(o.agents) - circuit_agents.get(o.id, set()):
                 # a hand without a circuit: from where it is now (as simulated), or, beyond
                 # MAX_CIRCUIT branches, the least its travel from anywhere can make it
-                m.Add(dv >= (least or {}).get((a, o.id), 0))
+                m.Add(dv >= (least or {}).get((a, o.id), 0)).OnlyEnforceIf(v)
 
 
 def _bounds(
@@ -1266,6 +1309,39 @@ def state_of(tm: TaskManager, now: float, seen: Mapping[int, float] | None = Non
     return st
 
 
+def hands_of(tm: TaskManager, task: Task) -> dict[str, Any]:
+    """Where each hand of ``task``'s travel tables is when its agent is next free, as a place
+    of :attr:`Task.leaves_at`: where the branch it runs leaves it, else where it is now;
+    left out where that is no such place (the hand is where it was when the task was made, or
+    somewhere the tables do not know: timed as from there)."""
+    out: dict[str, Any] = {}
+    running: dict[str, Option] = {}
+    for h, ex in tm.executions.items():
+        grounding = dict(ex.branch.grounding)
+        for o in task.options.get(h, ()):
+            if set(o.agents) == set(ex.agents) and dict(o.grounding) == grounding:
+                for a in o.agents:
+                    running[a] = o
+                break
+    for a, table in task.setup.items():
+        places = {p for p, _ in table}
+        mine = running.get(a)
+        place = task.leaves_at.get(a, {}).get(mine.id) if mine is not None else None
+        if place is None and a in tm.kb.objects:
+            pos = tuple(tm.kb.position(a))
+            place = next(
+                (
+                    p
+                    for p in sorted(places)
+                    if max(abs(u - v) for u, v in zip(p, pos, strict=True)) < 1e-6
+                ),
+                None,
+            )
+        if place in places:
+            out[a] = place
+    return out
+
+
 def solve_remaining(
     tm: TaskManager,
     now: float,
@@ -1283,6 +1359,8 @@ def solve_remaining(
     ``task`` the task made once (:func:`build_task`)."""
     task = task if task is not None else build_task(tm)
     st = state_of(tm, now, seen)
+    if task.setup:  # the task models travel: each circuit starts where the hand is now
+        st.hands = hands_of(tm, task)
     return solve_task(
         task,
         st,
@@ -1330,17 +1408,30 @@ def hindsight(
 
 # ------------------------------------------------------------------------------ the policy --
 def advise_from(policy: Any, tm: TaskManager, now: float) -> Advice | None:
-    """The ``lookahead`` advice (:class:`~flexhrc.planning.policies.LookaheadPolicy`): the
-    remaining task re-solved when the cooperation moved on (something solved, met, given up,
-    started, a person's step, a failure, an agent lost), else the last advice; the hyper-arcs
-    the schedule starts now are advised with their agents, the others held back."""
+    """The ``lookahead`` advice (:class:`~flexhrc.planning.policies.LookaheadPolicy`): while
+    the cell follows the last plan (only the hyper-arcs it chose were started, with its agents,
+    and solved; nothing failed, declined, given up or lost) the plan is kept and each agent's
+    hyper-arcs start in its order, as soon as the ones it planned before them on the same
+    agents are solved; on any deviation the remaining task is re-solved and the hyper-arcs the
+    new schedule starts now are advised with their agents, the others held back."""
     if policy.task is None:
-        policy.task = build_task(tm)
+        task = build_task(tm)
+        if policy.travel and _few_branches(task):
+            task.leaves_at, task.setup = _travel(task.options, tm.kb, tm.domain, tm.simulator)
+        policy.task = task
     for cmd in tm.busy.values():
         policy.seen.setdefault(cmd.id, now)
     key = _key(tm)
     if key == policy.key:
         return policy.advice
+    last = policy.last
+    if last is not None and last.status == "optimal" and _follows(last, policy.base, key, tm):
+        advice = _advice(last, tm, now, in_order=True)
+        if advice.start or tm.executions:
+            policy.key = key
+            policy.advice = advice
+            policy.reused += 1
+            return advice
     plan = solve_remaining(
         tm,
         now,
@@ -1351,26 +1442,80 @@ def advise_from(policy: Any, tm: TaskManager, now: float) -> Advice | None:
         seen=policy.seen,
     )
     policy.solves += 1
-    policy.key = key
+    policy.key = policy.base = key
     if plan.status not in ("optimal", "feasible"):
         policy.fallbacks += 1
         policy.advice = None
+        policy.last = None
         return None
     policy.last = plan
+    policy.advice = _advice(plan, tm, now, in_order=False)
+    return policy.advice
+
+
+def _few_branches(task: Task) -> bool:
+    """Whether every agent takes part in at most :data:`MAX_CIRCUIT` branches (travel is then
+    modelled exactly, by circuits, and a decision's solve stays quick)."""
+    count: dict[str, int] = {}
+    for opts in task.options.values():
+        for o in opts:
+            for a in o.agents:
+                count[a] = count.get(a, 0) + 1
+    return max(count.values(), default=0) <= MAX_CIRCUIT
+
+
+def _follows(plan: Plan, base: Any, key: tuple[Any, ...], tm: TaskManager) -> bool:
+    """Whether the cell went on as ``plan`` (solved at key ``base``) says: the same things
+    given up, failed, declined, impossible and away; every hyper-arc running or solved since
+    is one the plan chose, with the plan's agents."""
+    if base is None or key[3:8] != base[3:8]:
+        return False
+    for h, ex in tm.executions.items():
+        if h not in plan.chosen or set(plan.chosen[h][0]) != set(ex.agents):
+            return False
+    for node, run in tm.processes.items():  # a node process on the plan's agents
+        agents = set(run.command.agents) if run.command is not None else set()
+        planned = [set(e.agents) for e in plan.schedule if e.hyperarc == node]
+        if agents and planned and agents not in planned:
+            return False
+    graph = tm.graph
+    for h in graph.elements():
+        solved = graph.kind(h) == "hyperarc" and graph.is_solved(h)
+        if solved and h not in plan.chosen and h not in base[8]:
+            return False
+    return True
+
+
+def _advice(plan: Plan, tm: TaskManager, now: float, *, in_order: bool) -> Advice:
+    """The advice of ``plan``: the feasible hyper-arcs it starts now (``in_order``: those whose
+    predecessors on their agents in the plan are all solved), the other feasible ones held."""
     feasible = tm.feasible_hyperarcs()
     first: dict[str, float] = {}
     for entry in plan.schedule:
-        if entry.hyperarc in feasible:
+        if entry.hyperarc in plan.chosen:
             first[entry.hyperarc] = min(first.get(entry.hyperarc, entry.start_s), entry.start_s)
     eps = 1e-3
+    graph = tm.graph
+
+    def ready(h: str, t: float) -> bool:
+        if h not in feasible or h in tm.executions:
+            return False
+        if not in_order:
+            return t <= now + eps
+        agents = set(plan.chosen[h][0])
+        return all(
+            graph.is_solved(g)
+            for g, tg in first.items()
+            if g != h and tg < t and agents & set(plan.chosen[g][0])
+        )
+
     starts = tuple(
         Start(h, plan.chosen[h][0], _objects(tm, plan.chosen[h][1]))
         for h, t in sorted(first.items(), key=lambda kv: (kv[1], kv[0]))
-        if t <= now + eps and h not in tm.executions
+        if ready(h, t)
     )
     hold = frozenset(h for h in feasible if h not in {s.element for s in starts})
-    policy.advice = Advice(starts, hold)
-    return policy.advice
+    return Advice(starts, hold)
 
 
 def _objects(tm: TaskManager, grounding: Mapping[str, str]) -> dict[str, str]:
@@ -1395,4 +1540,9 @@ def _key(tm: TaskManager) -> tuple[Any, ...]:
         tuple(sorted(tm.unavailable)),
         tuple(sorted((h, tuple(sorted(w))) for h, w in tm.declined.items())),
         tuple(sorted((h, tuple(sorted(w))) for h, w in tm.cannot.items())),
+        frozenset(
+            h
+            for h in tm.graph.elements()
+            if tm.graph.kind(h) == "hyperarc" and tm.graph.is_solved(h)
+        ),
     )

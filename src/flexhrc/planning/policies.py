@@ -31,16 +31,22 @@ class LookaheadPolicy:
 
     name = "lookahead"
 
-    def __init__(self, *, time_limit_s: float = DECISION_TIME_LIMIT_S, seed: int = 0) -> None:
+    def __init__(
+        self, *, time_limit_s: float = DECISION_TIME_LIMIT_S, seed: int = 0, travel: bool = True
+    ) -> None:
         self.time_limit_s = time_limit_s
         self.seed = seed
+        #: plan with the hands' travel from one hyper-arc to the next (``plan --travel``)
+        self.travel = travel
         self.last: Any = None  # the last plan (warm start)
         self.task: Any = None  # the task as the solver sees it, made at the first decision
         self.seen: dict[int, float] = {}  # command id -> when it was first seen (its start)
-        self.key: Any = None  # what the last advice was solved for
+        self.key: Any = None  # what the last advice was given for
+        self.base: Any = None  # what the last plan was solved for
         self.advice: Advice | None = None
         self.solves = 0
         self.fallbacks = 0
+        self.reused = 0  # decisions that kept the last plan (the cell followed it)
 
     def advise(self, tm: TaskManager, now: float) -> Advice | None:
         from flexhrc.planning.model import advise_from
