@@ -1,9 +1,10 @@
 """The ``lookahead`` policy against the paper's greedy one and the CP-SAT optimum (issue 23,
 acceptance "Quality" and the decision latency).
 
-Scenarios: the shipped ones (``examples/scenarios/*.yaml``, ``table_assembly``), the wide
-``parallel_assembly``, ``--generated N`` tasks of ``flexhrc scenario generate`` (default 3:
-20 actions, 6 agents, width 4, seeds 0..N-1) and any ``--extra FILE ...``. Every run is
+Scenarios: the shipped ones (``examples/scenarios/*.yaml``, ``table_assembly``,
+``table_two_arms``, ``kitchen_drawer``), the wide ``parallel_assembly``, ``--generated N``
+tasks of ``flexhrc scenario generate`` (default 3: 20 actions, 6 agents, width 4, seeds
+0..N-1) and any ``--extra FILE ...``. Every run is
 ``flexhrc run SCENARIO --policy P --human PROFILE --seed S`` on the analytic simulator (the
 scenario's, as ``flexhrc run`` picks it), ``--seeds`` seeds (default 10).
 
@@ -46,6 +47,8 @@ ROOT = Path(__file__).resolve().parents[1]
 SHIPPED = [
     *sorted(str(p) for p in (ROOT / "examples" / "scenarios").glob("*.yaml")),
     "table_assembly",
+    "table_two_arms",
+    "kitchen_drawer",
 ]
 POLICIES = ("paper", "lookahead")
 
