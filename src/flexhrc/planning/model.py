@@ -41,7 +41,7 @@ from __future__ import annotations
 
 import itertools
 import time
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence, Set
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -591,12 +591,7 @@ def solve_task(
     dvs: dict[int, Any] = {}  # option id -> how much its agents' travel changes it (ms)
     # sequence-dependent travel where an agent's branches are few enough for a circuit
     done = st.solved | set(st.running) | st.infeasible
-    count: dict[str, int] = {}
-    for h, opts in task.options.items():
-        if h not in done:
-            for o in opts:
-                for a in o.agents:
-                    count[a] = count.get(a, 0) + 1
+    count = _branch_counts(task, done)
     # an agent whose hand moved since the task was made: a circuit from where it is now even
     # for one branch (its travel from there)
     circuit = {
@@ -1456,12 +1451,18 @@ def advise_from(policy: Any, tm: TaskManager, now: float) -> Advice | None:
 def _few_branches(task: Task) -> bool:
     """Whether every agent takes part in at most :data:`MAX_CIRCUIT` branches (travel is then
     modelled exactly, by circuits, and a decision's solve stays quick)."""
+    return max(_branch_counts(task).values(), default=0) <= MAX_CIRCUIT
+
+
+def _branch_counts(task: Task, done: Set[str] = frozenset()) -> dict[str, int]:
+    """How many branches of the hyper-arcs not ``done`` each agent takes part in."""
     count: dict[str, int] = {}
-    for opts in task.options.values():
-        for o in opts:
-            for a in o.agents:
-                count[a] = count.get(a, 0) + 1
-    return max(count.values(), default=0) <= MAX_CIRCUIT
+    for h, opts in task.options.items():
+        if h not in done:
+            for o in opts:
+                for a in o.agents:
+                    count[a] = count.get(a, 0) + 1
+    return count
 
 
 def _follows(plan: Plan, base: Any, key: tuple[Any, ...], tm: TaskManager) -> bool:
@@ -1478,12 +1479,8 @@ def _follows(plan: Plan, base: Any, key: tuple[Any, ...], tm: TaskManager) -> bo
         planned = [set(e.agents) for e in plan.schedule if e.hyperarc == node]
         if agents and planned and agents not in planned:
             return False
-    graph = tm.graph
-    for h in graph.elements():
-        solved = graph.kind(h) == "hyperarc" and graph.is_solved(h)
-        if solved and h not in plan.chosen and h not in base[8]:
-            return False
-    return True
+    solved = key[8]  # the hyper-arcs solved now (_key)
+    return all(h in plan.chosen or h in base[8] for h in solved)
 
 
 def _advice(plan: Plan, tm: TaskManager, now: float, *, in_order: bool) -> Advice:
