@@ -2166,9 +2166,7 @@ class Cell:
             self._pump(pump)
         summary = self.summary()
         self._record("summary", summary)
-        self.transport.publish(
-            P.STATE_TOPIC, P.message("end", outcome=self.tm.outcome, run=self.run_id)
-        )
+        self._say_end()
         self._publish_state()
         self._see_them_leave(pump)
         return summary
@@ -2188,9 +2186,13 @@ class Cell:
             pump(0.05)
             if time.monotonic() - said >= END_REPEAT_S:
                 said = time.monotonic()
-                self.transport.publish(
-                    P.STATE_TOPIC, P.message("end", outcome=self.tm.outcome, run=self.run_id)
-                )
+                self._say_end()
+
+    def _say_end(self) -> None:
+        """The run's end, on the state topic (every agent process leaves when it hears it)."""
+        self.transport.publish(
+            P.STATE_TOPIC, P.message("end", outcome=self.tm.outcome, run=self.run_id)
+        )
 
     def _pump(self, pump: Callable[[float], None]) -> None:
         """Let the transport deliver, and notice a stalled manager (probe K06).
@@ -2228,13 +2230,13 @@ class Cell:
     def _tell_the_end(self, pump: Callable[[float], None], timeout: float) -> None:
         """The stored run had ended (the manager died after its end, before the agents heard
         of it): agent processes that kept running learn it once they are back, so wait a
-        little for them (they re-dial within a second) — and not longer, for none may be left."""
+        little for them (they re-dial within a second) — and not longer, for none may be left —
+        then say it as at the end of a run (:meth:`_see_them_leave`)."""
         deadline = time.monotonic() + min(timeout, END_WAIT_S)
         while self.token is not None and self._missing() and time.monotonic() < deadline:
             pump(0.05)
-        self.transport.publish(
-            P.STATE_TOPIC, P.message("end", outcome=self.tm.outcome, run=self.run_id)
-        )
+        self._say_end()
+        self._see_them_leave(pump)
 
     def summary(self) -> dict[str, Any]:
         """The keys of ``flexhrc run --json`` (counted from the stored events), plus the cell's
