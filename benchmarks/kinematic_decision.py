@@ -5,11 +5,13 @@ each, integrated with the task-priority controller at 40 ms steps, the outcome c
 simulator off) is timed with the old path — each branch simulated on its own, each motion
 integrated by the scalar controller (``KinematicTaskSimulator(share=False)``) — and with the new
 one — the branches advance together, repeated motions come from the motion cache and the rest
-are integrated in lockstep (:mod:`flexhrc.action.batch`, :mod:`flexhrc.action.lockstep`). Old
-and new alternate within one run (median of N each), so both see the same machine load; the
-load average is printed beside them. It checks that both choose the same branch with the same
-utility J (eq. 21) within 1e-6, and counts the controller steps each integrated (a figure that
-does not depend on the load).
+are integrated by the compiled control loop (:mod:`flexhrc.action.batch`,
+:mod:`flexhrc.action.lockstep`, :mod:`flexhrc.action.kernel`; numba) — and, between them, the
+same sharing with the numpy lockstep (the path taken without numba). The three alternate within
+one run (median of N each), so all see the same machine load; the load average is printed
+beside them, and the one-off compile (or load from numba's cache) of the kernel is timed apart.
+It checks that all choose the same branch with the same utility J (eq. 21) within 1e-6, and
+counts the controller steps each integrated (a figure that does not depend on the load).
 
     python benchmarks/kinematic_decision.py [--runs 15] [--seed 0] [--assemblies 3]
 
@@ -36,10 +38,12 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))
 TARGET_S = 0.025
 
 
-def first_decision(share: bool, seed: int) -> tuple[float, float, Any, Any]:
+def first_decision(share: bool, seed: int, compiled: bool = True) -> tuple[float, float, Any, Any]:
     """The simulator's time of the first decision (wall clock, and this thread's CPU time),
-    its tree, and the simulator."""
-    from flexhrc.action import KinematicTaskSimulator
+    its tree, and the simulator; ``compiled=False``: the numpy lockstep instead of the kernel."""
+    from flexhrc.action import KinematicTaskSimulator, kernel
+
+    kernel.enabled = compiled
     from flexhrc.action.simulator import KinematicSimulator
     from flexhrc.scenario.builtin.table import table_assembly
     from flexhrc.taskmanager import TaskManager
@@ -61,7 +65,9 @@ def first_decision(share: bool, seed: int) -> tuple[float, float, Any, Any]:
 
 
 def assembly(share: bool, seed: int) -> tuple[float, int, list[Any]]:
-    from flexhrc.action import KinematicTaskSimulator
+    from flexhrc.action import KinematicTaskSimulator, kernel
+
+    kernel.enabled = True
     from flexhrc.cell.local import LocalCell
     from flexhrc.scenario.builtin.table import table_assembly
 
@@ -89,30 +95,40 @@ def main() -> int:
     except ImportError:
         print("kinematic simulator not installed: pip install 'flexhrc[sim]'")
         return 0
+    from flexhrc.action import kernel
+
+    t0 = time.perf_counter()
+    warm = kernel.warm_up()  # the kernel compiled, or loaded from numba's cache, once
     first_decision(True, args.seed)  # warm up: imports, the robot model
     first_decision(False, args.seed)
-    times: dict[bool, list[float]] = {False: [], True: []}
-    cpus: dict[bool, list[float]] = {False: [], True: []}
+    first_decision(True, args.seed, compiled=False)
+    warm_all = time.perf_counter() - t0
+    # True: shared + compiled; False: the old path; "numpy": shared + the numpy lockstep
+    variants: tuple[Any, ...] = (False, "numpy", True)
+    times: dict[Any, list[float]] = {v: [] for v in variants}
+    cpus: dict[Any, list[float]] = {v: [] for v in variants}
     load = [os.getloadavg()[0]]
     agree = True
     worst_dj = 0.0
     steps = {}
     for _ in range(args.runs):
         trees = {}
-        for share in (False, True):
-            t, cpu, tree, kin = first_decision(share, args.seed)
-            times[share].append(t)
-            cpus[share].append(cpu)
-            trees[share] = tree
-            steps[share] = (kin.steps_integrated, kin.motions_integrated, kin.motions_requested)
-        old, new = trees[False], trees[True]
+        for v in variants:
+            t, cpu, tree, kin = first_decision(v is not False, args.seed, compiled=v is True)
+            times[v].append(t)
+            cpus[v].append(cpu)
+            trees[v] = tree
+            steps[v] = (kin.steps_integrated, kin.motions_integrated, kin.motions_requested)
+        old = trees[False]
         best_old = max(old.branches, key=lambda b: b.utility)
-        best_new = max(new.branches, key=lambda b: b.utility)
-        agree = agree and best_old.grounding == best_new.grounding
-        for a, b in zip(old.branches, new.branches, strict=True):
-            worst_dj = max(worst_dj, abs(a.utility - b.utility))
+        for v in ("numpy", True):
+            best_new = max(trees[v].branches, key=lambda b: b.utility)
+            agree = agree and best_old.grounding == best_new.grounding
+            for a, b in zip(old.branches, trees[v].branches, strict=True):
+                worst_dj = max(worst_dj, abs(a.utility - b.utility))
     load.append(os.getloadavg()[0])
     m_old, m_new = statistics.median(times[False]), statistics.median(times[True])
+    m_np = statistics.median(times["numpy"])
     n_branches = len(trees[True].branches)
     print(
         f"first decision of the 4-leg table (seed {args.seed}, {n_branches} branches), "
@@ -120,17 +136,27 @@ def main() -> int:
         f"on {os.cpu_count()} cores"
     )
     c_old, c_new = statistics.median(cpus[False]), statistics.median(cpus[True])
-    print("                             simulator (wall)         CPU of this thread")
+    c_np = statistics.median(cpus["numpy"])
+    print("                               simulator (wall)         CPU of this thread")
     print(
-        f"  old (share=False, scalar)  {m_old * 1e3:8.1f} ms (min {min(times[False]) * 1e3:5.1f})"
+        f"  old (share=False, scalar)    {m_old * 1e3:8.1f} ms (min {min(times[False]) * 1e3:5.1f})"
         f"   {c_old * 1e3:8.1f} ms"
     )
     print(
-        f"  new (shared, lockstep)     {m_new * 1e3:8.1f} ms (min {min(times[True]) * 1e3:5.1f})"
+        f"  shared, numpy lockstep       {m_np * 1e3:8.1f} ms "
+        f"(min {min(times['numpy']) * 1e3:5.1f})   {c_np * 1e3:8.1f} ms"
+    )
+    name = "new (shared, compiled)" if kernel.available() else "new (no numba: numpy)"
+    print(
+        f"  {name:<28} {m_new * 1e3:8.1f} ms (min {min(times[True]) * 1e3:5.1f})"
         f"   {c_new * 1e3:8.1f} ms"
     )
+    gap = " " * 16
+    print(f"  ratio old/new                {m_old / m_new:8.2f} x{gap}{c_old / c_new:8.2f} x")
+    print(f"  ratio numpy lockstep/new     {m_np / m_new:8.2f} x{gap}{c_np / c_new:8.2f} x")
     print(
-        f"  ratio old/new              {m_old / m_new:8.2f} x                {c_old / c_new:8.2f} x"
+        f"  once per process, not in the figures: the kernel's compile or cache load "
+        f"{warm:.2f} s (all warm-up runs {warm_all:.2f} s)"
     )
     so, sn = steps[False], steps[True]
     print(

@@ -1,6 +1,6 @@
 """Branch simulations that share their work (issue 23, item 3): the old path and the new give the
-same decisions; the lockstep integrator gives the scalar one's outcomes; the motion cache is keyed
-on the moving arm only."""
+same decisions; the lockstep integrator — the compiled loop (numba) and the numpy one — gives the
+scalar one's outcomes; the motion cache is keyed on the moving arm only."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ import pytest
 
 pytest.importorskip("pinocchio")
 
-from flexhrc.action import KinematicTaskSimulator
+from flexhrc.action import KinematicTaskSimulator, kernel
 from flexhrc.action import batch as batch_module
 from flexhrc.action.batch import MotionRequest, motion_key, simulate_many
 from flexhrc.action.simulator import KinematicSimulator, RobotState
@@ -23,6 +23,34 @@ from flexhrc.taskmanager import AnalyticSimulator, TaskManager
 from flexhrc.taskmanager.decision import DecisionTree
 
 GEARBOX = Path(__file__).resolve().parents[2] / "examples" / "scenarios" / "gearbox.yaml"
+
+#: the two ways lanes are integrated: compiled (where numba is installed) and numpy
+INTEGRATORS = [
+    pytest.param(True, id="compiled", marks=pytest.mark.skipif(
+        not kernel.available(), reason="numba is not installed")),
+    pytest.param(False, id="numpy"),
+]  # fmt: skip
+
+
+@pytest.fixture
+def integrator(request: Any, monkeypatch: pytest.MonkeyPatch) -> Any:
+    """Lanes integrated by the compiled loop or by the numpy lockstep; counts the compiled
+    lanes so a test can check the loop it asked for ran."""
+    compiled = bool(request.param)
+    monkeypatch.setattr(kernel, "enabled", compiled)
+    calls = {"n": 0}
+    real = kernel.integrate
+
+    def counted(*args: Any) -> Any:
+        calls["n"] += 1
+        return real(*args)
+
+    monkeypatch.setattr(kernel, "integrate", counted)
+    yield calls if compiled else None
+    if compiled:
+        assert calls["n"] > 0, "the compiled loop never ran"
+    else:
+        assert calls["n"] == 0
 
 
 def decisions(scenario: Any, share: bool, **kw: Any) -> tuple[list[dict[str, Any]], Any]:
@@ -82,7 +110,8 @@ def first_tree(simulator: Any) -> DecisionTree:
     return trees[0]
 
 
-def test_the_first_decision_of_the_table_old_and_new():
+@pytest.mark.parametrize("integrator", INTEGRATORS, indirect=True)
+def test_the_first_decision_of_the_table_old_and_new(integrator):
     kin_old = KinematicTaskSimulator(KinematicSimulator(dt=0.04, cache_size=0), share=False)
     kin_new = KinematicTaskSimulator(KinematicSimulator(dt=0.04, cache_size=0), share=True)
     a, b = first_tree(kin_old), first_tree(kin_new)
@@ -143,7 +172,8 @@ def _requests(sim: KinematicSimulator) -> list[MotionRequest]:
     return reqs
 
 
-def test_lockstep_outcomes_are_the_scalar_integrators():
+@pytest.mark.parametrize("integrator", INTEGRATORS, indirect=True)
+def test_lockstep_outcomes_are_the_scalar_integrators(integrator):
     sim = KinematicSimulator(dt=0.04, cache_size=0)
     reqs = _requests(sim)
     together = simulate_many(sim, reqs)
@@ -166,6 +196,75 @@ def test_lockstep_outcomes_are_the_scalar_integrators():
     assert {o.success for o in together} == {True, False}
     assert any("stalled" in o.reason for o in together)
     assert any(0.0 < o.min_distance_m < 0.2 for o in together)  # a minimum distance was active
+
+
+def test_the_compiled_loop_is_the_numpy_lockstep_step_by_step(monkeypatch):
+    """Both integrators of a lane give the same outcome and the same TCP path, point by point."""
+    if not kernel.available():
+        pytest.skip("numba is not installed")
+    sim = KinematicSimulator(dt=0.04, cache_size=0)
+    reqs = _requests(sim)
+    runs = {}
+    for compiled in (True, False):
+        monkeypatch.setattr(kernel, "enabled", compiled)
+        paths: list[Any] = []
+        runs[compiled] = (simulate_many(sim, reqs, paths), paths)
+    (a, pa), (b, pb) = runs[True], runs[False]
+    lanes = 0
+    for x, y, px, py in zip(a, b, pa, pb, strict=True):
+        assert (x.success, x.steps, x.reason) == (y.success, y.steps, y.reason)
+        assert x.duration_s == pytest.approx(y.duration_s, abs=1e-9)
+        if px is not None:
+            lanes += 1
+            assert px.shape == py.shape and np.allclose(px, py, rtol=0, atol=1e-9)
+    assert lanes >= len(reqs) - 6  # all but the two-arm, too-far and unsupported requests
+
+
+def test_the_kernel_refuses_what_it_cannot_integrate():
+    """A chain that is not revolute joints about principal axes, or an objective the kernel
+    does not know, is left to the numpy lockstep (None), never integrated wrongly."""
+
+    class Joint:
+        def __init__(self, name: str):
+            self.name, self.idx_q = name, 0
+
+        def shortname(self) -> str:
+            return self.name
+
+    from types import SimpleNamespace
+
+    model = SimpleNamespace(
+        nq=1, nv=1, njoints=2, parents=[0, 0],
+        joints=[Joint("JointModelRZ"), Joint("JointModelPZ")],  # a prismatic joint
+        frames=[SimpleNamespace(parentJoint=1)],
+    )  # fmt: skip
+    assert kernel.chain_of(SimpleNamespace(model=model, tcp_frame=0)) is None
+    assert kernel.objectives_of(SimpleNamespace(n=7, levels=[[object()]])) is None
+
+
+def test_without_numba_the_numpy_lockstep_runs(tmp_path):
+    """FLEXHRC_JIT=0 (as without numba): the kernel is not available and a decision is still
+    simulated, by the numpy lockstep."""
+    import subprocess
+    import sys
+
+    code = (
+        "from flexhrc.action import kernel, lockstep\n"
+        "from flexhrc.action.batch import MotionRequest, simulate_many\n"
+        "from flexhrc.action.simulator import KinematicSimulator\n"
+        "assert not kernel.available()\n"
+        "sim = KinematicSimulator(dt=0.04, cache_size=0)\n"
+        "r = MotionRequest('left', 'approach', (0.45, 0.3, 0.02), sim.rest_state())\n"
+        "out = simulate_many(sim, [r])\n"
+        "assert out[0].success, out[0].reason\n"
+        "print('ok', out[0].steps)\n"
+    )
+    env = dict(__import__("os").environ, FLEXHRC_JIT="0")
+    done = subprocess.run(
+        [sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=300
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.startswith("ok ")
 
 
 def test_lockstep_can_be_switched_off(monkeypatch):
