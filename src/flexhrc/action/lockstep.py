@@ -192,9 +192,12 @@ def _compiled(sim: KinematicSimulator, lanes: Sequence[Lane]) -> list[Any] | Non
     for lane, chain, objectives in work:
         c = lane.ctrl
         path = np.empty((max_steps + 1, 3))
+        # every argument of the one compiled signature (an int where a float is expected, or
+        # a strided array, would compile another specialisation: seconds, once)
         how, step, e0, e1, energy, min_dist, q = kernel.integrate(
-            lane.q, *chain, c._inv_v_max, c.q_min, c.q_max, *objectives, c.lam2, c.eta, dt,
-            max_steps, sim.pos_tol, lane.tol_rot, sim.stall_s, path,
+            _f64(lane.q), *chain, _f64(c._inv_v_max), _f64(c.q_min), _f64(c.q_max), *objectives,
+            float(c.lam2), float(c.eta), float(dt), int(max_steps), float(sim.pos_tol),
+            float(lane.tol_rot), float(sim.stall_s), path,
         )  # fmt: skip
         outcome = _finish(
             sim, lane, ("reached", "stalled", "timed out")[how], step * dt, step, (e0, e1),
@@ -202,6 +205,10 @@ def _compiled(sim: KinematicSimulator, lanes: Sequence[Lane]) -> list[Any] | Non
         )  # fmt: skip
         out.append((outcome, path[: step + 1].copy()))
     return out
+
+
+def _f64(a: Array) -> Array:
+    return np.ascontiguousarray(a, dtype=np.float64)
 
 
 def _finish(
