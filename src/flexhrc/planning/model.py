@@ -40,6 +40,7 @@ finished run.
 from __future__ import annotations
 
 import itertools
+import math
 import time
 from collections.abc import Iterable, Mapping, Sequence, Set
 from dataclasses import dataclass, field, replace
@@ -189,6 +190,13 @@ class Task:
     #: where the hand is at the solve
     leaves_at: dict[str, dict[int, Any]] = field(default_factory=dict)
     setup: dict[str, dict[tuple[Any, int], int]] = field(default_factory=dict)
+    #: a joint branch's travel (its hands move together; it lasts as long as the slowest, so
+    #: one hand's delta alone is no bound): option id -> (its agents with travel, and places
+    #: one per agent — None: where the hand is at the start — -> delta ms; None: too many
+    #: places to simulate, the branch may then take any time down to nothing)
+    joint: dict[int, tuple[tuple[str, ...], dict[tuple[Any, ...], int] | None]] = field(
+        default_factory=dict
+    )
     #: the hierarchy (transition T, eq. 14): a hyper-arc with a lower instance -> that
     #: instance's root (the hyper-arc is solved when it is met, eq. 18)
     lower: dict[str, str] = field(default_factory=dict)
@@ -328,7 +336,7 @@ def build_task(tm: Any, simulator: Any | None = None, *, travel: bool = False) -
         raise FlexhrcError("plan: the graph has no root (the goal) to plan for")
     agents = list(domain.agents)
     humans = {a.name for a in domain.agents.values() if a.is_human}
-    leaves_at, setup = _travel(options, kb, domain, sim) if travel else ({}, {})
+    leaves_at, setup, joint = _travel(options, kb, domain, sim) if travel else ({}, {}, {})
     return Task(
         root,
         nodes,
@@ -344,9 +352,10 @@ def build_task(tm: Any, simulator: Any | None = None, *, travel: bool = False) -
         frozenset((deleted & kb.facts) - added),
         leaves_at,
         setup,
-        lower,
-        upper_of,
-        activated_by,
+        joint=joint,
+        lower=lower,
+        upper_of=upper_of,
+        activated_by=activated_by,
     )
 
 
@@ -413,11 +422,21 @@ def _formula(tm: Any, node: str, scopes: Mapping[str, Mapping[str, str]]) -> tup
     return formula
 
 
-def _travel(
-    options: Mapping[str, list[Option]], kb: Any, domain: Any, sim: Any
-) -> tuple[dict[str, dict[int, Any]], dict[str, dict[tuple[Any, int], int]]]:
+#: the most combinations of its hands' places a joint branch is simulated from (beyond: its
+#: travel is left open down to no time at all, a valid but weak bound)
+MAX_JOINT_PLACES = 512
+
+
+def _travel(options: Mapping[str, list[Option]], kb: Any, domain: Any, sim: Any) -> tuple[
+    dict[str, dict[int, Any]],
+    dict[str, dict[tuple[Any, int], int]],
+    dict[int, tuple[tuple[str, ...], dict[tuple[Any, ...], int] | None]],
+]:  # fmt: skip
     """The sequence-dependent travel of the branches (:attr:`Task.setup`): each branch is
-    simulated again with one agent's hand where another branch leaves it."""
+    simulated again with one agent's hand where another branch leaves it; a joint branch
+    (:attr:`Task.joint`) with its hands at every combination of such places (a joint action
+    lasts as long as its slowest hand: both hands nearer can make it shorter than either
+    one alone does)."""
     leaves_at: dict[str, dict[int, Any]] = {}
     users: dict[str, list[Option]] = {}
     for opts in options.values():
@@ -426,6 +445,7 @@ def _travel(
                 leaves_at.setdefault(a, {})[o.id] = end
                 users.setdefault(a, []).append(o)
     setup: dict[str, dict[tuple[Any, int], int]] = {}
+    spots: dict[str, list[Any]] = {}  # agent -> the places its hand is left at (not the start)
     for a, using in users.items():
         if a not in kb.objects:  # a hand the simulator does not place: no travel
             continue
@@ -442,7 +462,33 @@ def _travel(
                     if d:
                         table[place, o.id] = d
         setup[a] = table
-    return leaves_at, setup
+        spots[a] = sorted(places)
+    joint: dict[int, tuple[tuple[str, ...], dict[tuple[Any, ...], int] | None]] = {}
+    for opts in options.values():
+        for o in opts:
+            moving = tuple(a for a in o.agents if a in spots)
+            if len(moving) < 2:
+                continue
+            choices = [[None, *spots[a]] for a in moving]
+            if math.prod(map(len, choices)) > MAX_JOINT_PLACES:
+                joint[o.id] = (moving, None)
+                continue
+            deltas: dict[tuple[Any, ...], int] = {}
+            for combo in itertools.product(*choices):
+                if all(p is None for p in combo):
+                    continue
+                moved = kb.copy()
+                for a, place in zip(moving, combo, strict=True):
+                    if place is not None:
+                        moved.move(a, place)
+                result = sim.simulate(list(o.actions), moved, domain)
+                deltas[combo] = 0  # (every combination kept: its places are the known ones)
+                if result.success:
+                    deltas[combo] = (
+                        sum(max(0, round(x * MS)) for x in result.durations) - o.duration
+                    )
+            joint[o.id] = (moving, deltas)
+    return leaves_at, setup, joint
 
 
 def _process_options(tm: Any, node: str, sim: Any) -> list[ProcessOption]:
@@ -610,12 +656,17 @@ def solve_task(
     least: dict[tuple[str, int], int] = {}  # (agent, option id) -> its least travel delta
     for a in sorted(circuit | relaxed):
         for (_, oid), d in task.setup[a].items():
-            delta_of.setdefault(oid, []).append(d)
+            if oid not in task.joint:
+                delta_of.setdefault(oid, []).append(d)
         if a in relaxed:
             least.update(_least_travel(task, a, done))
         if a in relaxed and a in st.hands:  # a decision: each branch from where the hand is
             for _, oid in task.setup[a]:
                 least[a, oid] = task.setup[a].get((st.hands[a], oid), 0)
+    duration = {o.id: o.duration for opts in task.options.values() for o in opts}
+    for oid, (moving, together) in task.joint.items():  # a joint branch: its hands together
+        if any(a in circuit or a in relaxed for a in moving):
+            delta_of[oid] = [-duration[oid]] if together is None else [0, *together.values()]
     busy: dict[str, list[Any]] = {a: [] for a in task.agents}  # busy time terms per agent
     release = dict(st.release)
     ys: dict[str, list[tuple[Option, Any]]] = {}
@@ -721,7 +772,8 @@ def solve_task(
             _leaf(m, task, n, r, reach, x, e, ys, facts, 0 if up is None else s[up])
         zs[n] = _process(m, task, st, n, r, reach, met, e, ys, lanes, busy, big)
     if circuit or relaxed:
-        _circuits(m, task, circuit, ys, s, dvs, least, st.hands)
+        preds = _circuits(m, task, circuit, ys, s, dvs, least, st.hands)
+        _joint_travel(m, task, st, ys, dvs, preds, relaxed, done)
     for ivs in lanes.values():
         if len(ivs) > 1:
             m.AddNoOverlap(ivs)
@@ -846,12 +898,15 @@ def _circuits(
     dvs: Mapping[int, Any],
     least: Mapping[tuple[str, int], int] | None = None,
     hands: Mapping[str, Any] | None = None,
-) -> None:
+) -> dict[tuple[int, str], list[tuple[Any, Any]]]:
     """Sequence-dependent travel: per agent, the branches it takes part in form one circuit
     from where its hand is now (the depot); a branch right after another starts after it and
-    is as much longer or shorter as the hand's travel from where the other left it makes it."""
+    is as much longer or shorter as the hand's travel from where the other left it makes it
+    (a joint branch: :func:`_joint_travel`, from what this answers: (option id, agent) -> the
+    arcs into the option on the agent's circuit, each with where it leaves the hand)."""
     into: dict[int, list[list[Any]]] = {}  # option id -> per agent: [delta * arc literal]
     circuit_agents: dict[int, set[str]] = {}
+    preds: dict[tuple[int, str], list[tuple[Any, Any]]] = {}
     for a in sorted(agents):
         table = task.setup[a]
         nodes = [(o, v) for y in ys.values() for o, v in y if a in o.agents]
@@ -865,6 +920,7 @@ def _circuits(
             arcs.append((i, i, v.Not()))
             first = m.NewBoolVar(f"first[{a}#{o.id}]")
             arcs.append((0, i, first))
+            preds.setdefault((o.id, a), []).append((here, first))
             d0 = table.get((here, o.id), 0) if here is not None else 0
             if d0:
                 terms[o.id].append(d0 * first)
@@ -878,6 +934,7 @@ def _circuits(
                 lit = m.NewBoolVar(f"next[{a}#{o1.id}>{o2.id}]")
                 arcs.append((i, j, lit))
                 m.Add(s[o2.hyperarc] + spans[o2.id][0] >= end1).OnlyEnforceIf(lit)
+                preds.setdefault((o2.id, a), []).append((place, lit))
                 d = table.get((place, o2.id), 0) if place is not None else 0
                 if d:
                     terms[o2.id].append(d * lit)
@@ -888,7 +945,7 @@ def _circuits(
     for y in ys.values():
         for o, v in y:
             dv = dvs.get(o.id)
-            if dv is None:
+            if dv is None or o.id in task.joint:  # (a joint branch: _joint_travel)
                 continue
             for ts in into.get(o.id, []):
                 m.Add(dv >= sum(ts))  # the slowest hand sets a joint action's time
@@ -896,6 +953,76 @@ def _circuits(
                 # a hand without a circuit: from where it is now (as simulated), or, beyond
                 # MAX_CIRCUIT branches, the least its travel from anywhere can make it
                 m.Add(dv >= (least or {}).get((a, o.id), 0)).OnlyEnforceIf(v)
+    return preds
+
+
+def _joint_travel(
+    m: Any,
+    task: Task,
+    st: State,
+    ys: Mapping[str, list[tuple[Option, Any]]],
+    dvs: Mapping[int, Any],
+    preds: Mapping[tuple[int, str], list[tuple[Any, Any]]],
+    relaxed: Set[str],
+    done: Set[str],
+) -> None:
+    """A joint branch's travel (:attr:`Task.joint`): from where each of its hands is when it
+    starts — on a circuit, where the branch before it on that agent's circuit left it (one
+    literal per place); at a decision without a circuit, where the hand is now; relaxed
+    (beyond the circuits' limit), the quickest of where a branch of another hyper-arc or the
+    start leaves it; else the start — the least delta over what is left open."""
+    for y in ys.values():
+        for o, v in y:
+            dv = dvs.get(o.id)
+            if dv is None or o.id not in task.joint:
+                continue
+            moving, deltas = task.joint[o.id]
+            if deltas is None:  # too many places: left open (dv's domain)
+                continue
+            known = {a: {p for c in deltas for p in (c[i],)} for i, a in enumerate(moving)}
+
+            def norm(a: str, p: Any, known: dict[str, set[Any]] = known) -> Any:
+                return p if p in known[a] else None
+
+            fixed: list[list[tuple[Any, Any]]] = []  # per agent: (place, literal or None)
+            for a in moving:
+                arcs = preds.get((o.id, a))
+                if arcs:
+                    by_place: dict[Any, list[Any]] = {}
+                    for place, lit in arcs:
+                        by_place.setdefault(norm(a, place), []).append(lit)
+                    choice = []
+                    for place, lits in sorted(by_place.items(), key=lambda kv: repr(kv[0])):
+                        if len(lits) == 1:
+                            q = lits[0]
+                        else:
+                            q = m.NewBoolVar(f"from[{a}#{o.id}]")
+                            m.Add(sum(lits) == q)  # (at most one arc into a node is taken)
+                        choice.append((place, q))
+                    fixed.append(choice)
+                elif a in st.hands:
+                    fixed.append([(norm(a, st.hands[a]), None)])
+                elif a in relaxed:
+                    places = {
+                        norm(a, task.leaves_at.get(a, {}).get(g.id))
+                        for h, gs in task.options.items()
+                        if h not in done and h != o.hyperarc
+                        for g in gs
+                        if a in g.agents
+                    }
+                    fixed.append([(p, None) for p in sorted(places | {None}, key=repr)])
+                else:
+                    fixed.append([(None, None)])
+            # per combination of the circuits' places: the least over the places left open
+            best: dict[tuple[int, ...], int] = {}
+            for combo in itertools.product(*(range(len(c)) for c in fixed)):
+                key = tuple(k for i, k in enumerate(combo) if fixed[i][k][1] is not None)
+                d = deltas.get(tuple(fixed[i][k][0] for i, k in enumerate(combo)), 0)
+                best[key] = min(best.get(key, d), d)
+            circuits = [i for i, c in enumerate(fixed) if c[0][1] is not None]
+            for key, d in best.items():
+                lits = [fixed[i][k][1] for i, k in zip(circuits, key, strict=True)]
+                m.Add(dv >= d).OnlyEnforceIf([*lits, v])
 
 
 def _bounds(
@@ -1312,7 +1439,8 @@ def solve_exact_travel(
     kw: dict[str, Any] = {"objective": objective, "seed": seed, "workers": workers}
     start: Plan | None = None  # a schedule of the exact model (the warm start's)
     if hint is None:
-        plain = solve_task(replace(task, leaves_at={}, setup={}), st, time_limit_s=left(0.25), **kw)
+        bare = replace(task, leaves_at={}, setup={}, joint={})  # no travel
+        plain = solve_task(bare, st, time_limit_s=left(0.25), **kw)
         hint = plain if plain.chosen else None
         if hint is not None:
             fixed = replace(
@@ -1324,9 +1452,12 @@ def solve_exact_travel(
             if found.status in ("optimal", "feasible"):
                 hint = start = found  # the full solve starts from it
     plan = solve_task(task, st, time_limit_s=left(), hint=hint, max_circuit=None, **kw)
-    if start is not None and start.objective is not None:
-        if plan.objective is None or start.objective < plan.objective:  # (kept the better)
-            plan = replace(start, status="feasible", bound=plan.bound)
+    if (
+        start is not None
+        and start.objective is not None
+        and (plan.objective is None or start.objective < plan.objective)
+    ):  # (kept the better)
+        plan = replace(start, status="feasible", bound=plan.bound)
     if plan.status == "feasible" and objective == "makespan":
         relaxed = solve_task(task, st, time_limit_s=left(), **kw)
         if relaxed.status in ("optimal", "feasible") and relaxed.bound is not None:
@@ -1489,7 +1620,8 @@ def advise_from(policy: Any, tm: TaskManager, now: float) -> Advice | None:
     if policy.task is None:
         task = build_task(tm)
         if policy.travel and _few_branches(task):
-            task.leaves_at, task.setup = _travel(task.options, tm.kb, tm.domain, tm.simulator)
+            travel = _travel(task.options, tm.kb, tm.domain, tm.simulator)
+            task.leaves_at, task.setup, task.joint = travel
         policy.task = task
     for cmd in tm.busy.values():
         policy.seen.setdefault(cmd.id, now)
