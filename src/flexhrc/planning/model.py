@@ -616,6 +616,7 @@ def solve_task(
     left_shift: bool = False,
     workers: int = 1,
     max_circuit: int | None = MAX_CIRCUIT,
+    improve: bool = False,
 ) -> Plan:
     """The CP-SAT model of ``task`` from state ``st`` (see the module docstring), solved.
 
@@ -623,7 +624,10 @@ def solve_task(
     replays with the same answers); ``left_shift``: every hyper-arc as early as the optimum
     allows (a small second term of the objective: what a policy dispatches now);
     ``max_circuit``: the most branches of an agent whose travel is a circuit (None: every
-    agent's, the exact travel model; beyond it, :func:`_least_travel`'s relaxation)."""
+    agent's, the exact travel model; beyond it, :func:`_least_travel`'s relaxation);
+    ``improve``: only improve the ``hint`` (CP-SAT's large-neighbourhood search, at least two
+    workers interleaved on one thread — deterministic —, no proof: status ``feasible`` at
+    best)."""
     cap = max_circuit if max_circuit is not None else sum(map(len, task.options.values()))
     if objective not in OBJECTIVES:
         raise FlexhrcError(f"--objective {objective!r}: choose one of {', '.join(OBJECTIVES)}")
@@ -827,6 +831,11 @@ def solve_task(
     solver = cp_model.CpSolver()
     p = solver.parameters
     p.num_workers = max(1, workers)
+    if improve:  # improve the hint only: neighbourhood search, workers interleaved (in turn
+        # on one thread: deterministic), no proof
+        p.num_workers = max(2, workers)
+        p.interleave_search = True
+        p.use_lns_only = True
     p.random_seed = int(seed)
     if deterministic:
         p.max_deterministic_time = float(time_limit_s)
@@ -1413,30 +1422,45 @@ def solve_exact_travel(
     seed: int = 0,
     hint: Plan | None = None,
     workers: int = 1,
+    deterministic: bool = False,
+    left_shift: bool = False,
+    prove: bool = True,
 ) -> Plan:
     """The travel model with a circuit for every agent (no relaxation beyond
     :data:`MAX_CIRCUIT`): the exact optimum of the durations model with the hands' travel, or
     a feasible schedule with a proven bound. Circuits of many branches are hard to start from
-    nothing (a generated task of 20 actions: 40.298 s found in 60 s, optimum 29.314 s), so
+    nothing (a generated task of 20 actions: 40.298 s found in 60 s, 1 worker), so
     the solve is warm-started: the plan without travel (a quarter of the limit at most), then
     the travel model with that plan's hyper-arcs and agents fixed (a quarter at most; quick:
     only the orders are open) — a feasible schedule of the exact model —, which hints the
-    full solve (the rest of the limit). When that is not proven optimal and the objective is
-    the makespan, the relaxed travel model (:func:`_least_travel`, its proven bound: a lower
-    bound of this model's optimum) is solved too, within the same limit, and the higher of the
-    two bounds is kept. ``solve_s``: all of it. Every agent within :data:`MAX_CIRCUIT`: the
-    plain travel solve (already exact)."""
+    full solve (the rest of the limit); when that finds nothing better, the warm start's
+    schedule is answered (status ``feasible``, the full solve's bound). ``prove`` False (the
+    lookahead policy's first plan): instead of the full solve, the rest of the limit improves
+    the warm start by neighbourhood search only (``solve_task(..., improve=True)``, no
+    proof). ``solve_s``: all of it. Every agent within :data:`MAX_CIRCUIT`: the plain travel
+    solve (already exact). ``deterministic``, ``left_shift``: as
+    :func:`solve_task`'s (deterministic: each stage its share of the limit in the solver's
+    deterministic time, none of what is left — a stored run replays with the same plan)."""
+    kw: dict[str, Any] = {
+        "objective": objective,
+        "seed": seed,
+        "workers": workers,
+        "deterministic": deterministic,
+        "left_shift": left_shift,
+    }
     if max(_branch_counts(task).values(), default=0) <= MAX_CIRCUIT or not task.setup:
-        return solve_task(
-            task, st, objective=objective, time_limit_s=time_limit_s, seed=seed, hint=hint,
-            workers=workers,
-        )  # fmt: skip
+        return solve_task(task, st, time_limit_s=time_limit_s, hint=hint, **kw)
     t0 = time.perf_counter()
+    spent = 0.0  # deterministic: the shares given so far
 
     def left(share: float = 1.0) -> float:
+        nonlocal spent
+        if deterministic:
+            give = min(share, 1.0 - spent) * time_limit_s
+            spent += share
+            return max(0.01, give)
         return max(0.01, min(share * time_limit_s, time_limit_s - (time.perf_counter() - t0)))
 
-    kw: dict[str, Any] = {"objective": objective, "seed": seed, "workers": workers}
     start: Plan | None = None  # a schedule of the exact model (the warm start's)
     if hint is None:
         bare = replace(task, leaves_at={}, setup={}, joint={})  # no travel
@@ -1451,6 +1475,8 @@ def solve_exact_travel(
             found = solve_task(task, fixed, time_limit_s=left(0.25), max_circuit=None, **kw)
             if found.status in ("optimal", "feasible"):
                 hint = start = found  # the full solve starts from it
+    if not prove and start is not None:
+        kw["improve"] = True
     plan = solve_task(task, st, time_limit_s=left(), hint=hint, max_circuit=None, **kw)
     if (
         start is not None
@@ -1458,12 +1484,6 @@ def solve_exact_travel(
         and (plan.objective is None or start.objective < plan.objective)
     ):  # (kept the better)
         plan = replace(start, status="feasible", bound=plan.bound)
-    if plan.status == "feasible" and objective == "makespan":
-        relaxed = solve_task(task, st, time_limit_s=left(), **kw)
-        if relaxed.status in ("optimal", "feasible") and relaxed.bound is not None:
-            plan.bound = max(plan.bound or 0.0, relaxed.bound)
-            if plan.objective is not None and plan.bound >= plan.objective:
-                plan.bound, plan.status = plan.objective, "optimal"
     plan.solve_s = time.perf_counter() - t0
     return plan
 
@@ -1617,19 +1637,42 @@ def advise_from(policy: Any, tm: TaskManager, now: float) -> Advice | None:
     hyper-arcs start in its order, as soon as the ones it planned before them on the same
     agents are solved; on any deviation the remaining task is re-solved and the hyper-arcs the
     new schedule starts now are advised with their agents, the others held back."""
+    travel_task: Task | None = None
     if policy.task is None:
         task = build_task(tm)
-        if policy.travel and _few_branches(task):
+        if policy.travel and (_few_branches(task) or policy.first_time_limit_s > 0):
+            travel_task = replace(task)
             travel = _travel(task.options, tm.kb, tm.domain, tm.simulator)
-            task.leaves_at, task.setup, task.joint = travel
+            travel_task.leaves_at, travel_task.setup, travel_task.joint = travel
+            if _few_branches(task):  # every decision plans the travel: circuits, quick
+                task, travel_task = travel_task, None
         policy.task = task
     for cmd in tm.busy.values():
         policy.seen.setdefault(cmd.id, now)
     key = _key(tm)
     if key == policy.key:
         return policy.advice
+    if travel_task is not None:  # the first plan: the hands' travel for every agent
+        st = state_of(tm, now, policy.seen)
+        st.hands = hands_of(tm, travel_task)
+        plan = solve_exact_travel(
+            travel_task,
+            st,
+            time_limit_s=policy.first_time_limit_s,
+            seed=policy.seed,
+            deterministic=True,
+            left_shift=True,
+            prove=False,
+        )
+        policy.solves += 1
+        if plan.status in ("optimal", "feasible"):
+            policy.key = policy.base = key
+            policy.last = policy.first = plan
+            policy.advice = _advice(plan, tm, now, in_order=False)
+            return policy.advice
     last = policy.last
-    if last is not None and last.status == "optimal" and _follows(last, policy.base, key, tm):
+    keep = last is not None and (last.status == "optimal" or last is policy.first)
+    if keep and _follows(last, policy.base, key, tm):
         advice = _advice(last, tm, now, in_order=True)
         if advice.start or tm.executions:
             policy.key = key
