@@ -1029,9 +1029,22 @@ def _joint_travel(
                 d = deltas.get(tuple(fixed[i][k][0] for i, k in enumerate(combo)), 0)
                 best[key] = min(best.get(key, d), d)
             circuits = [i for i, c in enumerate(fixed) if c[0][1] is not None]
+            floor = min(best.values())  # (the least of all: one constraint)
+            if floor:
+                m.Add(dv >= floor).OnlyEnforceIf(v)
             for key, d in best.items():
-                lits = [fixed[i][k][1] for i, k in zip(circuits, key, strict=True)]
-                m.Add(dv >= d).OnlyEnforceIf([*lits, v])
+                if d > floor:
+                    lits = [fixed[i][k][1] for i, k in zip(circuits, key, strict=True)]
+                    m.Add(dv >= d).OnlyEnforceIf([*lits, v])
+            # and, linear (what the LP relaxation sees): per circuit agent, the least delta
+            # its hand's place allows whatever the others' are
+            for j, i in enumerate(circuits):
+                least_at: dict[int, int] = {}
+                for key, d in best.items():
+                    least_at[key[j]] = min(least_at.get(key[j], d), d)
+                terms = [d * fixed[i][k][1] for k, d in least_at.items() if d]
+                if terms:
+                    m.Add(dv >= sum(terms))
 
 
 def _bounds(
