@@ -1029,9 +1029,8 @@ def _joint_travel(
                 d = deltas.get(tuple(fixed[i][k][0] for i, k in enumerate(combo)), 0)
                 best[key] = min(best.get(key, d), d)
             circuits = [i for i, c in enumerate(fixed) if c[0][1] is not None]
-            floor = min(best.values())  # (the least of all: one constraint)
-            if floor:
-                m.Add(dv >= floor).OnlyEnforceIf(v)
+            floor = min(best.values())  # the least of all: one constraint (dv's domain may
+            m.Add(dv >= floor).OnlyEnforceIf(v)  # go lower: it has every place's delta)
             for key, d in best.items():
                 if d > floor:
                     lits = [fixed[i][k][1] for i, k in zip(circuits, key, strict=True)]
