@@ -668,9 +668,31 @@ def solve_task(
             for _, oid in task.setup[a]:
                 least[a, oid] = task.setup[a].get((st.hands[a], oid), 0)
     duration = {o.id: o.duration for opts in task.options.values() for o in opts}
+    hyperarc_of = {o.id: h for h, opts in task.options.items() for o in opts}
+    left_by: dict[str, dict[str, set[Any]]] = {}  # agent -> hyper-arc -> where it leaves it
+    for h, opts in task.options.items():
+        if h not in done:
+            for o in opts:
+                for a, end in o.ends:
+                    left_by.setdefault(a, {}).setdefault(h, set()).add(end)
     for oid, (moving, together) in task.joint.items():  # a joint branch: its hands together
         if any(a in circuit or a in relaxed for a in moving):
-            delta_of[oid] = [-duration[oid]] if together is None else [0, *together.values()]
+            if together is None:
+                delta_of[oid] = [-duration[oid]]
+                continue
+            # only where a hand can come from: the start, where it is now, or where a branch
+            # of another hyper-arc leaves it (never its own)
+            h = hyperarc_of[oid]
+            come = [
+                {None, st.hands.get(a)}
+                | {p for g, ps in left_by.get(a, {}).items() if g != h for p in ps}
+                for a in moving
+            ]
+            delta_of[oid] = [0] + [
+                d
+                for combo, d in together.items()
+                if all(p in c for p, c in zip(combo, come, strict=True))
+            ]
     busy: dict[str, list[Any]] = {a: [] for a in task.agents}  # busy time terms per agent
     release = dict(st.release)
     ys: dict[str, list[tuple[Option, Any]]] = {}
