@@ -37,6 +37,7 @@ class PlanConfig:
     segments: str | None = None
     seed: int = 0
     travel: bool = False
+    exact_travel: bool = False
 
     def __post_init__(self) -> None:
         for option, value, choices in (
@@ -92,6 +93,7 @@ def plan_scenario(config: PlanConfig) -> PlanReport:
         human=config.human,
         seed=config.seed,
         travel=config.travel,
+        exact_travel=config.exact_travel,
     )
     title = f"{sc.name}: {config.objective} {_fmt(plan.objective)} s ({plan.status})"
     if config.plot is not None and plan.schedule:

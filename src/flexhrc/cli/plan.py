@@ -54,7 +54,14 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
         action="store_true",
         help="model the hands' travel from one hyper-arc to the next (the order of each "
         "agent's branches, for agents with at most 8; closer to a run's times on small tasks, "
-        "slower to prove on big ones)",
+        "slower to prove on big ones; beyond 8, each branch as short as travel from anywhere "
+        "could make it: a lower bound)",
+    )
+    p.add_argument(
+        "--exact-travel",
+        action="store_true",
+        help="--travel with the order of every agent's branches however many (warm-started "
+        "from the plan without travel): the optimum of a run's times, slow on big tasks",
     )
     p.add_argument("--seed", type=int, default=0, help="solver seed and generated tasks' seed")
     p.add_argument("--plot", metavar="GANTT.png", help="draw the Gantt chart (.png, .svg, .pdf)")
@@ -76,6 +83,7 @@ def cmd_plan(args: argparse.Namespace) -> int:
         segments=args.segments,
         seed=args.seed,
         travel=args.travel,
+        exact_travel=args.exact_travel,
     )
     report = plan_scenario(config)
     emit(args, report.json, report.text)

@@ -40,9 +40,10 @@ finished run.
 from __future__ import annotations
 
 import itertools
+import math
 import time
 from collections.abc import Iterable, Mapping, Sequence, Set
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
 from flexhrc.errors import FlexhrcError
@@ -189,6 +190,13 @@ class Task:
     #: where the hand is at the solve
     leaves_at: dict[str, dict[int, Any]] = field(default_factory=dict)
     setup: dict[str, dict[tuple[Any, int], int]] = field(default_factory=dict)
+    #: a joint branch's travel (its hands move together; it lasts as long as the slowest, so
+    #: one hand's delta alone is no bound): option id -> (its agents with travel, and places
+    #: one per agent — None: where the hand is at the start — -> delta ms; None: too many
+    #: places to simulate, the branch may then take any time down to nothing)
+    joint: dict[int, tuple[tuple[str, ...], dict[tuple[Any, ...], int] | None]] = field(
+        default_factory=dict
+    )
     #: the hierarchy (transition T, eq. 14): a hyper-arc with a lower instance -> that
     #: instance's root (the hyper-arc is solved when it is met, eq. 18)
     lower: dict[str, str] = field(default_factory=dict)
@@ -328,7 +336,7 @@ def build_task(tm: Any, simulator: Any | None = None, *, travel: bool = False) -
         raise FlexhrcError("plan: the graph has no root (the goal) to plan for")
     agents = list(domain.agents)
     humans = {a.name for a in domain.agents.values() if a.is_human}
-    leaves_at, setup = _travel(options, kb, domain, sim) if travel else ({}, {})
+    leaves_at, setup, joint = _travel(options, kb, domain, sim) if travel else ({}, {}, {})
     return Task(
         root,
         nodes,
@@ -344,9 +352,10 @@ def build_task(tm: Any, simulator: Any | None = None, *, travel: bool = False) -
         frozenset((deleted & kb.facts) - added),
         leaves_at,
         setup,
-        lower,
-        upper_of,
-        activated_by,
+        joint=joint,
+        lower=lower,
+        upper_of=upper_of,
+        activated_by=activated_by,
     )
 
 
@@ -413,11 +422,21 @@ def _formula(tm: Any, node: str, scopes: Mapping[str, Mapping[str, str]]) -> tup
     return formula
 
 
-def _travel(
-    options: Mapping[str, list[Option]], kb: Any, domain: Any, sim: Any
-) -> tuple[dict[str, dict[int, Any]], dict[str, dict[tuple[Any, int], int]]]:
+#: the most combinations of its hands' places a joint branch is simulated from (beyond: its
+#: travel is left open down to no time at all, a valid but weak bound)
+MAX_JOINT_PLACES = 512
+
+
+def _travel(options: Mapping[str, list[Option]], kb: Any, domain: Any, sim: Any) -> tuple[
+    dict[str, dict[int, Any]],
+    dict[str, dict[tuple[Any, int], int]],
+    dict[int, tuple[tuple[str, ...], dict[tuple[Any, ...], int] | None]],
+]:  # fmt: skip
     """The sequence-dependent travel of the branches (:attr:`Task.setup`): each branch is
-    simulated again with one agent's hand where another branch leaves it."""
+    simulated again with one agent's hand where another branch leaves it; a joint branch
+    (:attr:`Task.joint`) with its hands at every combination of such places (a joint action
+    lasts as long as its slowest hand: both hands nearer can make it shorter than either
+    one alone does)."""
     leaves_at: dict[str, dict[int, Any]] = {}
     users: dict[str, list[Option]] = {}
     for opts in options.values():
@@ -426,6 +445,7 @@ def _travel(
                 leaves_at.setdefault(a, {})[o.id] = end
                 users.setdefault(a, []).append(o)
     setup: dict[str, dict[tuple[Any, int], int]] = {}
+    spots: dict[str, list[Any]] = {}  # agent -> the places its hand is left at (not the start)
     for a, using in users.items():
         if a not in kb.objects:  # a hand the simulator does not place: no travel
             continue
@@ -442,7 +462,33 @@ def _travel(
                     if d:
                         table[place, o.id] = d
         setup[a] = table
-    return leaves_at, setup
+        spots[a] = sorted(places)
+    joint: dict[int, tuple[tuple[str, ...], dict[tuple[Any, ...], int] | None]] = {}
+    for opts in options.values():
+        for o in opts:
+            moving = tuple(a for a in o.agents if a in spots)
+            if len(moving) < 2:
+                continue
+            choices = [[None, *spots[a]] for a in moving]
+            if math.prod(map(len, choices)) > MAX_JOINT_PLACES:
+                joint[o.id] = (moving, None)
+                continue
+            deltas: dict[tuple[Any, ...], int] = {}
+            for combo in itertools.product(*choices):
+                if all(p is None for p in combo):
+                    continue
+                moved = kb.copy()
+                for a, place in zip(moving, combo, strict=True):
+                    if place is not None:
+                        moved.move(a, place)
+                result = sim.simulate(list(o.actions), moved, domain)
+                deltas[combo] = 0  # (every combination kept: its places are the known ones)
+                if result.success:
+                    deltas[combo] = (
+                        sum(max(0, round(x * MS)) for x in result.durations) - o.duration
+                    )
+            joint[o.id] = (moving, deltas)
+    return leaves_at, setup, joint
 
 
 def _process_options(tm: Any, node: str, sim: Any) -> list[ProcessOption]:
@@ -569,12 +615,20 @@ def solve_task(
     deterministic: bool = False,
     left_shift: bool = False,
     workers: int = 1,
+    max_circuit: int | None = MAX_CIRCUIT,
+    improve: bool = False,
 ) -> Plan:
     """The CP-SAT model of ``task`` from state ``st`` (see the module docstring), solved.
 
     ``deterministic``: the time limit counts the solver's deterministic time (a stored run
     replays with the same answers); ``left_shift``: every hyper-arc as early as the optimum
-    allows (a small second term of the objective: what a policy dispatches now)."""
+    allows (a small second term of the objective: what a policy dispatches now);
+    ``max_circuit``: the most branches of an agent whose travel is a circuit (None: every
+    agent's, the exact travel model; beyond it, :func:`_least_travel`'s relaxation);
+    ``improve``: only improve the ``hint`` (CP-SAT's large-neighbourhood search, at least two
+    workers interleaved on one thread — deterministic —, no proof: status ``feasible`` at
+    best)."""
+    cap = max_circuit if max_circuit is not None else sum(map(len, task.options.values()))
     if objective not in OBJECTIVES:
         raise FlexhrcError(f"--objective {objective!r}: choose one of {', '.join(OBJECTIVES)}")
     cp_model = _cp_model()
@@ -597,21 +651,48 @@ def solve_task(
     circuit = {
         a
         for a, t in task.setup.items()
-        if t and (1 if a in st.hands else 2) <= count.get(a, 0) <= MAX_CIRCUIT
+        if t and (1 if a in st.hands else 2) <= count.get(a, 0) <= cap
     }
     delta_of: dict[int, list[int]] = {}  # option id -> its travel deltas, those agents
     # agents with too many branches for a circuit: a relaxation (each branch as if the hand
     # came from where it is quickest), so the plan stays a lower bound of a run's times
-    relaxed = {a for a, t in task.setup.items() if t and count.get(a, 0) > MAX_CIRCUIT}
+    relaxed = {a for a, t in task.setup.items() if t and count.get(a, 0) > cap}
     least: dict[tuple[str, int], int] = {}  # (agent, option id) -> its least travel delta
     for a in sorted(circuit | relaxed):
         for (_, oid), d in task.setup[a].items():
-            delta_of.setdefault(oid, []).append(d)
+            if oid not in task.joint:
+                delta_of.setdefault(oid, []).append(d)
         if a in relaxed:
             least.update(_least_travel(task, a, done))
         if a in relaxed and a in st.hands:  # a decision: each branch from where the hand is
             for _, oid in task.setup[a]:
                 least[a, oid] = task.setup[a].get((st.hands[a], oid), 0)
+    duration = {o.id: o.duration for opts in task.options.values() for o in opts}
+    hyperarc_of = {o.id: h for h, opts in task.options.items() for o in opts}
+    left_by: dict[str, dict[str, set[Any]]] = {}  # agent -> hyper-arc -> where it leaves it
+    for h, opts in task.options.items():
+        if h not in done:
+            for o in opts:
+                for a, end in o.ends:
+                    left_by.setdefault(a, {}).setdefault(h, set()).add(end)
+    for oid, (moving, together) in task.joint.items():  # a joint branch: its hands together
+        if any(a in circuit or a in relaxed for a in moving):
+            if together is None:
+                delta_of[oid] = [-duration[oid]]
+                continue
+            # only where a hand can come from: the start, where it is now, or where a branch
+            # of another hyper-arc leaves it (never its own)
+            h = hyperarc_of[oid]
+            come = [
+                {None, st.hands.get(a)}
+                | {p for g, ps in left_by.get(a, {}).items() if g != h for p in ps}
+                for a in moving
+            ]
+            delta_of[oid] = [0] + [
+                d
+                for combo, d in together.items()
+                if all(p in c for p, c in zip(combo, come, strict=True))
+            ]
     busy: dict[str, list[Any]] = {a: [] for a in task.agents}  # busy time terms per agent
     release = dict(st.release)
     ys: dict[str, list[tuple[Option, Any]]] = {}
@@ -717,7 +798,8 @@ def solve_task(
             _leaf(m, task, n, r, reach, x, e, ys, facts, 0 if up is None else s[up])
         zs[n] = _process(m, task, st, n, r, reach, met, e, ys, lanes, busy, big)
     if circuit or relaxed:
-        _circuits(m, task, circuit, ys, s, dvs, least, st.hands)
+        preds = _circuits(m, task, circuit, ys, s, dvs, least, st.hands)
+        _joint_travel(m, task, st, ys, dvs, preds, relaxed, done)
     for ivs in lanes.values():
         if len(ivs) > 1:
             m.AddNoOverlap(ivs)
@@ -771,6 +853,11 @@ def solve_task(
     solver = cp_model.CpSolver()
     p = solver.parameters
     p.num_workers = max(1, workers)
+    if improve:  # improve the hint only: neighbourhood search, workers interleaved (in turn
+        # on one thread: deterministic), no proof
+        p.num_workers = max(2, workers)
+        p.interleave_search = True
+        p.use_lns_only = True
     p.random_seed = int(seed)
     if deterministic:
         p.max_deterministic_time = float(time_limit_s)
@@ -842,12 +929,15 @@ def _circuits(
     dvs: Mapping[int, Any],
     least: Mapping[tuple[str, int], int] | None = None,
     hands: Mapping[str, Any] | None = None,
-) -> None:
+) -> dict[tuple[int, str], list[tuple[Any, Any]]]:
     """Sequence-dependent travel: per agent, the branches it takes part in form one circuit
     from where its hand is now (the depot); a branch right after another starts after it and
-    is as much longer or shorter as the hand's travel from where the other left it makes it."""
+    is as much longer or shorter as the hand's travel from where the other left it makes it
+    (a joint branch: :func:`_joint_travel`, from what this answers: (option id, agent) -> the
+    arcs into the option on the agent's circuit, each with where it leaves the hand)."""
     into: dict[int, list[list[Any]]] = {}  # option id -> per agent: [delta * arc literal]
     circuit_agents: dict[int, set[str]] = {}
+    preds: dict[tuple[int, str], list[tuple[Any, Any]]] = {}
     for a in sorted(agents):
         table = task.setup[a]
         nodes = [(o, v) for y in ys.values() for o, v in y if a in o.agents]
@@ -861,6 +951,7 @@ def _circuits(
             arcs.append((i, i, v.Not()))
             first = m.NewBoolVar(f"first[{a}#{o.id}]")
             arcs.append((0, i, first))
+            preds.setdefault((o.id, a), []).append((here, first))
             d0 = table.get((here, o.id), 0) if here is not None else 0
             if d0:
                 terms[o.id].append(d0 * first)
@@ -874,6 +965,7 @@ def _circuits(
                 lit = m.NewBoolVar(f"next[{a}#{o1.id}>{o2.id}]")
                 arcs.append((i, j, lit))
                 m.Add(s[o2.hyperarc] + spans[o2.id][0] >= end1).OnlyEnforceIf(lit)
+                preds.setdefault((o2.id, a), []).append((place, lit))
                 d = table.get((place, o2.id), 0) if place is not None else 0
                 if d:
                     terms[o2.id].append(d * lit)
@@ -884,7 +976,7 @@ def _circuits(
     for y in ys.values():
         for o, v in y:
             dv = dvs.get(o.id)
-            if dv is None:
+            if dv is None or o.id in task.joint:  # (a joint branch: _joint_travel)
                 continue
             for ts in into.get(o.id, []):
                 m.Add(dv >= sum(ts))  # the slowest hand sets a joint action's time
@@ -892,6 +984,88 @@ def _circuits(
                 # a hand without a circuit: from where it is now (as simulated), or, beyond
                 # MAX_CIRCUIT branches, the least its travel from anywhere can make it
                 m.Add(dv >= (least or {}).get((a, o.id), 0)).OnlyEnforceIf(v)
+    return preds
+
+
+def _joint_travel(
+    m: Any,
+    task: Task,
+    st: State,
+    ys: Mapping[str, list[tuple[Option, Any]]],
+    dvs: Mapping[int, Any],
+    preds: Mapping[tuple[int, str], list[tuple[Any, Any]]],
+    relaxed: Set[str],
+    done: Set[str],
+) -> None:
+    """A joint branch's travel (:attr:`Task.joint`): from where each of its hands is when it
+    starts — on a circuit, where the branch before it on that agent's circuit left it (one
+    literal per place); at a decision without a circuit, where the hand is now; relaxed
+    (beyond the circuits' limit), the quickest of where a branch of another hyper-arc or the
+    start leaves it; else the start — the least delta over what is left open."""
+    for y in ys.values():
+        for o, v in y:
+            dv = dvs.get(o.id)
+            if dv is None or o.id not in task.joint:
+                continue
+            moving, deltas = task.joint[o.id]
+            if deltas is None:  # too many places: left open (dv's domain)
+                continue
+            known = {a: {p for c in deltas for p in (c[i],)} for i, a in enumerate(moving)}
+
+            def norm(a: str, p: Any, known: dict[str, set[Any]] = known) -> Any:
+                return p if p in known[a] else None
+
+            fixed: list[list[tuple[Any, Any]]] = []  # per agent: (place, literal or None)
+            for a in moving:
+                arcs = preds.get((o.id, a))
+                if arcs:
+                    by_place: dict[Any, list[Any]] = {}
+                    for place, lit in arcs:
+                        by_place.setdefault(norm(a, place), []).append(lit)
+                    choice = []
+                    for place, lits in sorted(by_place.items(), key=lambda kv: repr(kv[0])):
+                        if len(lits) == 1:
+                            q = lits[0]
+                        else:
+                            q = m.NewBoolVar(f"from[{a}#{o.id}]")
+                            m.Add(sum(lits) == q)  # (at most one arc into a node is taken)
+                        choice.append((place, q))
+                    fixed.append(choice)
+                elif a in st.hands:
+                    fixed.append([(norm(a, st.hands[a]), None)])
+                elif a in relaxed:
+                    places = {
+                        norm(a, task.leaves_at.get(a, {}).get(g.id))
+                        for h, gs in task.options.items()
+                        if h not in done and h != o.hyperarc
+                        for g in gs
+                        if a in g.agents
+                    }
+                    fixed.append([(p, None) for p in sorted(places | {None}, key=repr)])
+                else:
+                    fixed.append([(None, None)])
+            # per combination of the circuits' places: the least over the places left open
+            best: dict[tuple[int, ...], int] = {}
+            for combo in itertools.product(*(range(len(c)) for c in fixed)):
+                key = tuple(k for i, k in enumerate(combo) if fixed[i][k][1] is not None)
+                d = deltas.get(tuple(fixed[i][k][0] for i, k in enumerate(combo)), 0)
+                best[key] = min(best.get(key, d), d)
+            circuits = [i for i, c in enumerate(fixed) if c[0][1] is not None]
+            floor = min(best.values())  # the least of all: one constraint (dv's domain may
+            m.Add(dv >= floor).OnlyEnforceIf(v)  # go lower: it has every place's delta)
+            for key, d in best.items():
+                if d > floor:
+                    lits = [fixed[i][k][1] for i, k in zip(circuits, key, strict=True)]
+                    m.Add(dv >= d).OnlyEnforceIf([*lits, v])
+            # and, linear (what the LP relaxation sees): per circuit agent, the least delta
+            # its hand's place allows whatever the others' are
+            for j, i in enumerate(circuits):
+                least_at: dict[int, int] = {}
+                for key, d in best.items():
+                    least_at[key[j]] = min(least_at.get(key[j], d), d)
+                terms = [d * fixed[i][k][1] for k, d in least_at.items() if d]
+                if terms:
+                    m.Add(dv >= sum(terms))
 
 
 def _bounds(
@@ -1235,6 +1409,7 @@ def solve(
     hint: Plan | None = None,
     workers: int = 1,
     travel: bool = False,
+    exact_travel: bool = False,
 ) -> Plan:
     """The optimal plan of ``scenario`` from its start (see the module docstring).
 
@@ -1242,13 +1417,25 @@ def solve(
     choice, as ``flexhrc run`` makes it); ``human`` an operator profile: the plan is the same
     for every profile (a profile changes what a person does on their own, not what they can
     do); it is checked and kept for the report. ``hint`` warm-starts the solver. ``travel``:
-    model the hands' travel from one hyper-arc to the next (:func:`build_task`)."""
+    model the hands' travel from one hyper-arc to the next (:func:`build_task`);
+    ``exact_travel`` (implies ``travel``): a circuit for every agent, however many branches it
+    has, warm-started (:func:`solve_exact_travel`)."""
     _check(objective, time_limit_s, human)
     cp = _cp_model()  # before the work: a missing extra is one error
     del cp
     tm = _manager(scenario, _simulator(scenario, simulator))
-    task = build_task(tm, travel=travel)
+    task = build_task(tm, travel=travel or exact_travel)
     st = State(facts=tm.kb.facts)
+    if exact_travel:
+        return solve_exact_travel(
+            task,
+            st,
+            objective=objective,
+            time_limit_s=time_limit_s,
+            seed=seed,
+            hint=hint,
+            workers=workers,
+        )
     return solve_task(
         task,
         st,
@@ -1258,6 +1445,81 @@ def solve(
         hint=hint,
         workers=workers,
     )
+
+
+def solve_exact_travel(
+    task: Task,
+    st: State,
+    *,
+    objective: str = "makespan",
+    time_limit_s: float = 10.0,
+    seed: int = 0,
+    hint: Plan | None = None,
+    workers: int = 1,
+    deterministic: bool = False,
+    left_shift: bool = False,
+    prove: bool = True,
+) -> Plan:
+    """The travel model with a circuit for every agent (no relaxation beyond
+    :data:`MAX_CIRCUIT`): the exact optimum of the durations model with the hands' travel, or
+    a feasible schedule with a proven bound. Circuits of many branches are hard to start from
+    nothing (a generated task of 20 actions: 40.298 s found in 60 s, 1 worker), so
+    the solve is warm-started: the plan without travel (a quarter of the limit at most), then
+    the travel model with that plan's hyper-arcs and agents fixed (a quarter at most; quick:
+    only the orders are open) — a feasible schedule of the exact model —, which hints the
+    full solve (the rest of the limit); when that finds nothing better, the warm start's
+    schedule is answered (status ``feasible``, the full solve's bound). ``prove`` False (the
+    lookahead policy's first plan): instead of the full solve, the rest of the limit improves
+    the warm start by neighbourhood search only (``solve_task(..., improve=True)``, no
+    proof). ``solve_s``: all of it. Every agent within :data:`MAX_CIRCUIT`: the plain travel
+    solve (already exact). ``deterministic``, ``left_shift``: as
+    :func:`solve_task`'s (deterministic: each stage its share of the limit in the solver's
+    deterministic time, none of what is left — a stored run replays with the same plan)."""
+    kw: dict[str, Any] = {
+        "objective": objective,
+        "seed": seed,
+        "workers": workers,
+        "deterministic": deterministic,
+        "left_shift": left_shift,
+    }
+    if max(_branch_counts(task).values(), default=0) <= MAX_CIRCUIT or not task.setup:
+        return solve_task(task, st, time_limit_s=time_limit_s, hint=hint, **kw)
+    t0 = time.perf_counter()
+    spent = 0.0  # deterministic: the shares given so far
+
+    def left(share: float = 1.0) -> float:
+        nonlocal spent
+        if deterministic:
+            give = min(share, 1.0 - spent) * time_limit_s
+            spent += share
+            return max(0.01, give)
+        return max(0.01, min(share * time_limit_s, time_limit_s - (time.perf_counter() - t0)))
+
+    start: Plan | None = None  # a schedule of the exact model (the warm start's)
+    if hint is None:
+        bare = replace(task, leaves_at={}, setup={}, joint={})  # no travel
+        plain = solve_task(bare, st, time_limit_s=left(0.25), **kw)
+        hint = plain if plain.chosen else None
+        if hint is not None:
+            fixed = replace(
+                st,
+                path=set(hint.chosen),
+                agents_of={h: agents for h, (agents, _) in hint.chosen.items()},
+            )
+            found = solve_task(task, fixed, time_limit_s=left(0.25), max_circuit=None, **kw)
+            if found.status in ("optimal", "feasible"):
+                hint = start = found  # the full solve starts from it
+    if not prove and start is not None:
+        kw["improve"] = True
+    plan = solve_task(task, st, time_limit_s=left(), hint=hint, max_circuit=None, **kw)
+    if (
+        start is not None
+        and start.objective is not None
+        and (plan.objective is None or start.objective < plan.objective)
+    ):  # (kept the better)
+        plan = replace(start, status="feasible", bound=plan.bound)
+    plan.solve_s = time.perf_counter() - t0
+    return plan
 
 
 def state_of(tm: TaskManager, now: float, seen: Mapping[int, float] | None = None) -> State:
@@ -1409,18 +1671,42 @@ def advise_from(policy: Any, tm: TaskManager, now: float) -> Advice | None:
     hyper-arcs start in its order, as soon as the ones it planned before them on the same
     agents are solved; on any deviation the remaining task is re-solved and the hyper-arcs the
     new schedule starts now are advised with their agents, the others held back."""
+    travel_task: Task | None = None
     if policy.task is None:
         task = build_task(tm)
-        if policy.travel and _few_branches(task):
-            task.leaves_at, task.setup = _travel(task.options, tm.kb, tm.domain, tm.simulator)
+        if policy.travel and (_few_branches(task) or policy.first_time_limit_s > 0):
+            travel_task = replace(task)
+            travel = _travel(task.options, tm.kb, tm.domain, tm.simulator)
+            travel_task.leaves_at, travel_task.setup, travel_task.joint = travel
+            if _few_branches(task):  # every decision plans the travel: circuits, quick
+                task, travel_task = travel_task, None
         policy.task = task
     for cmd in tm.busy.values():
         policy.seen.setdefault(cmd.id, now)
     key = _key(tm)
     if key == policy.key:
         return policy.advice
+    if travel_task is not None:  # the first plan: the hands' travel for every agent
+        st = state_of(tm, now, policy.seen)
+        st.hands = hands_of(tm, travel_task)
+        plan = solve_exact_travel(
+            travel_task,
+            st,
+            time_limit_s=policy.first_time_limit_s,
+            seed=policy.seed,
+            deterministic=True,
+            left_shift=True,
+            prove=False,
+        )
+        policy.solves += 1
+        if plan.status in ("optimal", "feasible"):
+            policy.key = policy.base = key
+            policy.last = policy.first = plan
+            policy.advice = _advice(plan, tm, now, in_order=False)
+            return policy.advice
     last = policy.last
-    if last is not None and last.status == "optimal" and _follows(last, policy.base, key, tm):
+    keep = last is not None and (last.status == "optimal" or last is policy.first)
+    if keep and _follows(last, policy.base, key, tm):
         advice = _advice(last, tm, now, in_order=True)
         if advice.start or tm.executions:
             policy.key = key

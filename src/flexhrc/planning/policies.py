@@ -24,6 +24,11 @@ if TYPE_CHECKING:
 #: how long (deterministic solver seconds, about wall seconds on one core) one decision's
 #: solve may take before the paper's decision is taken instead
 DECISION_TIME_LIMIT_S = 0.05
+#: the first decision of a task with more than ``MAX_CIRCUIT`` branches for some agent: how
+#: long its plan with every hand's travel (:func:`flexhrc.planning.model.solve_exact_travel`)
+#: may take (deterministic seconds; 0: plan that task without travel, as every later
+#: decision that re-plans does)
+FIRST_PLAN_TIME_LIMIT_S = 1.0
 
 
 class LookaheadPolicy:
@@ -32,13 +37,20 @@ class LookaheadPolicy:
     name = "lookahead"
 
     def __init__(
-        self, *, time_limit_s: float = DECISION_TIME_LIMIT_S, seed: int = 0, travel: bool = True
+        self,
+        *,
+        time_limit_s: float = DECISION_TIME_LIMIT_S,
+        seed: int = 0,
+        travel: bool = True,
+        first_time_limit_s: float = FIRST_PLAN_TIME_LIMIT_S,
     ) -> None:
         self.time_limit_s = time_limit_s
+        self.first_time_limit_s = first_time_limit_s
         self.seed = seed
         #: plan with the hands' travel from one hyper-arc to the next (``plan --travel``)
         self.travel = travel
         self.last: Any = None  # the last plan (warm start)
+        self.first: Any = None  # the first plan, with every hand's travel (kept if followed)
         self.task: Any = None  # the task as the solver sees it, made at the first decision
         self.seen: dict[int, float] = {}  # command id -> when it was first seen (its start)
         self.key: Any = None  # what the last advice was given for
