@@ -386,26 +386,9 @@ def _build(doc: Any, c: _Checker) -> Scenario | None:
     domain, domain_doc, domain_src = _domain(doc, c)
     world = _world(doc.get("world"), c, _line(doc, "world"))
     humans = _humans(doc.get("humans"), c, _line(doc, "humans"), domain)
-    simulator = doc.get("simulator", "analytic")
-    if not isinstance(simulator, str) or simulator not in SIMULATORS:
-        c.error(
-            f"simulator {show(simulator)}: choose one of {', '.join(SIMULATORS)}",
-            _line(doc, "simulator"),
-        )
-    on_failure = doc.get("on_failure")
-    if on_failure is not None and on_failure not in FAILURE_POLICIES:
-        c.error(
-            f"on_failure {show(on_failure)}: choose one of {', '.join(FAILURE_POLICIES)}",
-            _line(doc, "on_failure"),
-        )
-        on_failure = None
-    policy = doc.get("policy")
-    if policy is not None and policy not in DECISION_POLICIES:
-        c.error(
-            f"policy {show(policy)}: choose one of {', '.join(DECISION_POLICIES)}",
-            _line(doc, "policy"),
-        )
-        policy = None
+    simulator = _one_of(doc, "simulator", SIMULATORS, "analytic", c)
+    on_failure = _one_of(doc, "on_failure", FAILURE_POLICIES, None, c)
+    policy = _one_of(doc, "policy", DECISION_POLICIES, None, c)
     answer_timeout = doc.get("answer_timeout")
     if answer_timeout is not None and (
         isinstance(answer_timeout, bool)
@@ -417,10 +400,7 @@ def _build(doc: Any, c: _Checker) -> Scenario | None:
             _line(doc, "answer_timeout"),
         )
         answer_timeout = None
-    timing = doc.get("timing", "default")
-    if not isinstance(timing, str) or timing not in TIMINGS:
-        c.error(f"timing {show(timing)}: choose one of {', '.join(TIMINGS)}", _line(doc, "timing"))
-        timing = "default"
+    timing = _one_of(doc, "timing", TIMINGS, "default", c)
     utility, problems = parse_utility(doc.get("utility"), domain)
     block = doc.get("utility")
     for message, spot in problems:
@@ -459,6 +439,16 @@ def _build(doc: Any, c: _Checker) -> Scenario | None:
         timing=timing,
         utility=utility,
     )
+
+
+def _one_of(doc: Any, key: str, choices: Iterable[str], default: Any, c: _Checker) -> Any:
+    """The value of an optional key that names one of ``choices``; ``default`` (after an error
+    at the key's line) when it names none of them."""
+    value = doc.get(key, default)
+    if (value is None and default is None) or (isinstance(value, str) and value in choices):
+        return value
+    c.error(f"{key} {show(value)}: choose one of {', '.join(choices)}", _line(doc, key))
+    return default
 
 
 def _graph(doc: Any, c: _Checker) -> HierarchicalGraph | None:
@@ -819,22 +809,31 @@ def _attach_actions(graph: HierarchicalGraph, spec: Any, c: _Checker, line: int 
         return
     for pattern, actions in spec.items():
         ln = _line(spec, pattern)
-        gpat, _, hpat = str(pattern).rpartition("/")
-        if not gpat:
-            gpat = "*"
         if not isinstance(actions, list) or not all(isinstance(a, str) for a in actions):
             c.error(f"hyperarc_actions {pattern!r}: a list of actions such as 'screw(?a, ?b)'", ln)
             continue
         hits = 0
-        for key, g in graph.graphs.items():
-            if not (fnmatch.fnmatchcase(key, gpat) or fnmatch.fnmatchcase(g.name, gpat)):
-                continue
-            for hname, h in list(g.hyperarcs.items()):
-                if fnmatch.fnmatchcase(hname, hpat):
-                    g.hyperarcs[hname] = replace(h, actions=tuple(actions), line=h.line)
-                    hits += 1
+        for hyperarcs, hname in _matching(graph, str(pattern), "hyperarcs"):
+            h = hyperarcs[hname]
+            hyperarcs[hname] = replace(h, actions=tuple(actions), line=h.line)
+            hits += 1
         if not hits:
             c.error(f"hyperarc_actions {pattern!r} matches no hyper-arc of the graph", ln)
+
+
+def _matching(graph: HierarchicalGraph, pattern: str, elements: str) -> list[tuple[Any, str]]:
+    """The (table, name) of every hyper-arc or node (``elements``) a ``GRAPH/NAME`` glob pattern
+    matches; GRAPH is a graph's key or name, ``*`` when the pattern has no ``/``."""
+    gpat, _, epat = pattern.rpartition("/")
+    gpat = gpat or "*"
+    return [
+        (table, name)
+        for key, g in graph.graphs.items()
+        if fnmatch.fnmatchcase(key, gpat) or fnmatch.fnmatchcase(g.name, gpat)
+        for table in (getattr(g, elements),)
+        for name in table
+        if fnmatch.fnmatchcase(name, epat)
+    ]
 
 
 def _attach_states(graph: HierarchicalGraph, spec: Any, c: _Checker, line: int | None) -> None:
@@ -848,9 +847,6 @@ def _attach_states(graph: HierarchicalGraph, spec: Any, c: _Checker, line: int |
     changed = False
     for pattern, text in spec.items():
         ln = _line(spec, pattern)
-        gpat, _, npat = str(pattern).rpartition("/")
-        if not gpat:
-            gpat = "*"
         if not isinstance(text, str):
             c.error(f"node_states {pattern!r}: a formula such as 'loose(?s) & spare(?s)'", ln)
             continue
@@ -860,13 +856,9 @@ def _attach_states(graph: HierarchicalGraph, spec: Any, c: _Checker, line: int |
             c.error(f"node_states {pattern!r}: {e.message}", ln)
             continue
         hits = 0
-        for key, g in graph.graphs.items():
-            if not (fnmatch.fnmatchcase(key, gpat) or fnmatch.fnmatchcase(g.name, gpat)):
-                continue
-            for nname, node in list(g.nodes.items()):
-                if fnmatch.fnmatchcase(nname, npat):
-                    g.nodes[nname] = replace(node, formula=formula, line=node.line)
-                    hits += 1
+        for nodes, nname in _matching(graph, str(pattern), "nodes"):
+            nodes[nname] = replace(nodes[nname], formula=formula, line=nodes[nname].line)
+            hits += 1
         if not hits:
             c.error(f"node_states {pattern!r} matches no node of the graph", ln)
         changed = changed or bool(hits)
