@@ -468,6 +468,19 @@ class RunTask:
     seed: int
     simulator: str | None
 
+    def row(self) -> dict[str, Any]:
+        """A row of :data:`RUN_COLUMNS`, empty but for the run's identity."""
+        row: dict[str, Any] = {c: None for c in RUN_COLUMNS}
+        row.update(
+            run=self.run,
+            scenario=self.scenario,
+            profile=self.profile,
+            policy=self.policy,
+            utility=self.utility,
+            seed=self.seed,
+        )
+        return row
+
 
 _LOADED: dict[tuple[str, int | None], Any] = {}  # a worker's scenarios, loaded once
 _SEEDED: dict[str, bool] = {}
@@ -504,15 +517,7 @@ def _scenario(source: str, seed: int = 0) -> Any:
 def run_one(task: RunTask) -> dict[str, Any]:
     """One run (the pool's worker: top level, so it can be pickled by name): a row of
     :data:`RUN_COLUMNS`. Whatever goes wrong is the row's ``error``, never an exception."""
-    row: dict[str, Any] = {c: None for c in RUN_COLUMNS}
-    row.update(
-        run=task.run,
-        scenario=task.scenario,
-        profile=task.profile,
-        policy=task.policy,
-        utility=task.utility,
-        seed=task.seed,
-    )
+    row = task.row()
     t0 = time.perf_counter()
     try:
         from flexhrc.app.run import RunConfig, run_scenario
@@ -1087,17 +1092,8 @@ def _execute(
 def _lost(item: RunTask | ReferenceTask, exc: BaseException) -> dict[str, Any]:
     if isinstance(item, ReferenceTask):
         return {"scenario": item.scenario, "error": f"{type(exc).__name__}: {exc}"}
-    row: dict[str, Any] = {c: None for c in RUN_COLUMNS}
-    row.update(
-        run=item.run,
-        scenario=item.scenario,
-        profile=item.profile,
-        policy=item.policy,
-        utility=item.utility,
-        seed=item.seed,
-        outcome="error",
-        error=f"the worker process died: {type(exc).__name__}: {exc}",
-    )
+    row = item.row()
+    row.update(outcome="error", error=f"the worker process died: {type(exc).__name__}: {exc}")
     return row
 
 
