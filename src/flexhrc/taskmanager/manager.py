@@ -71,7 +71,7 @@ from __future__ import annotations
 import copy
 import itertools
 import time
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -636,22 +636,22 @@ class TaskManager:
             self.outcome, self.reason = outcome, reason
             self._emit("outcome", outcome=outcome, reason=reason)
 
-    def _collect_formulas(self) -> dict[str, tuple[Literal, ...]]:
-        out: dict[str, tuple[Literal, ...]] = {}
+    def _node_definitions(self) -> Iterator[tuple[str, Any]]:
+        """Every node's name and its definition."""
         for name in self.graph.elements():
             if self.graph.kind(name) == "node":
-                node = self.graph.definition_of(name).nodes[self.graph.local_name(name)]
-                out[name] = node.formula if node.formula is not None else ()
-        return out
+                yield name, self.graph.definition_of(name).nodes[self.graph.local_name(name)]
+
+    def _collect_formulas(self) -> dict[str, tuple[Literal, ...]]:
+        return {
+            name: node.formula if node.formula is not None else ()
+            for name, node in self._node_definitions()
+        }
 
     def _collect_processes(self) -> dict[str, tuple[str, ...]]:
-        out: dict[str, tuple[str, ...]] = {}
-        for name in self.graph.elements():
-            if self.graph.kind(name) == "node":
-                node = self.graph.definition_of(name).nodes[self.graph.local_name(name)]
-                if node.processes:
-                    out[name] = tuple(node.processes)
-        return out
+        return {
+            name: tuple(node.processes) for name, node in self._node_definitions() if node.processes
+        }
 
     def _collect_transfers(self) -> None:
         hierarchy = self.graph.hierarchy
@@ -755,24 +755,24 @@ class TaskManager:
             return "node", tuple(g.nodes[local].processes)
         return "hyperarc", tuple(g.hyperarcs[local].actions)
 
+    def _hyperarc(self, element: str) -> tuple[Any, str]:
+        """Hyper-arc ``element``'s definition and the path of its instance."""
+        g = self.graph.definition_of(element)
+        return g.hyperarcs[self.graph.local_name(element)], self.graph.graph_of(element)
+
     def _children(self, element: str) -> list[str]:
         """The hyper-arc's children (kept: read only)."""
         found = self._children_of.get(element)
         if found is None:
-            g = self.graph.definition_of(element)
-            h = g.hyperarcs[self.graph.local_name(element)]
-            prefix = self.graph.graph_of(element)
-            found = [f"{prefix}/{c}" if prefix else c for c in h.children]
-            self._children_of[element] = found
+            h, path = self._hyperarc(element)
+            found = self._children_of[element] = [qualify(path, c) for c in h.children]
         return found
 
     def _parent(self, element: str) -> str:
         found = self._parent_of.get(element)
         if found is None:
-            g = self.graph.definition_of(element)
-            h = g.hyperarcs[self.graph.local_name(element)]
-            prefix = self.graph.graph_of(element)
-            found = self._parent_of[element] = f"{prefix}/{h.parent}" if prefix else h.parent
+            h, path = self._hyperarc(element)
+            found = self._parent_of[element] = qualify(path, h.parent)
         return found
 
     # -- deciding -------------------------------------------------------------------------
@@ -1149,7 +1149,7 @@ class TaskManager:
             available = list(robots_idle) + [
                 h for h in self._humans() if h not in busy_humans and h not in excluded
             ]
-            reserved = set().union(*(ex.objects for ex in self.executions.values()))
+            reserved = self.reserved_objects()
             constraints = self._constraints(name)
             tree = self._tree(
                 name, actions, constraints, available_agents=available, reserved=reserved
@@ -1169,10 +1169,7 @@ class TaskManager:
                         pruned=[b.to_dict() for b in tree.pruned],
                         chosen=None,
                     )
-                self.infeasible[name] = reason
-                self._emit("infeasible", element=name, reason=reason)
-                self._update_graph(infeasible=[name])
-                self._meet_nodes()
+                self._mark_infeasible(name, reason)
                 return True
             t0 = self._timer()
             best = tree.evaluate(self.simulator, self.kb, self.domain, self._score_fn())
@@ -1213,10 +1210,7 @@ class TaskManager:
             if best is None:
                 self.failed.setdefault(name, []).extend(dict(b.grounding) for b in tree.branches)
                 if not self._could_run_later(name, actions, constraints, reserved):
-                    self.infeasible[name] = "every branch scores 0"
-                    self._emit("infeasible", element=name, reason=self.infeasible[name])
-                    self._update_graph(infeasible=[name])
-                    self._meet_nodes()
+                    self._mark_infeasible(name, "every branch scores 0")
                     return True
                 continue
             self._launch(name, best, cost, out)
@@ -1481,32 +1475,29 @@ class TaskManager:
                 # what failed changes no fact, nor does anything after it (an arm that could not
                 # go to rest), or its part is fixed in place (a gripper that did not open on a
                 # screwed leg): the hyper-arc's result holds; redoing it would undo nothing
-                self._emit(
-                    "action_failed",
-                    element=ex.element,
-                    grounding=ex.branch.grounding,
-                    status=ack.status,
-                    reason=ack.reason,
-                    kept=True,
-                )
+                self._emit_failed(ex, ack, kept=True)
                 ex.next_index = len(ex.branch.steps) - 1
                 self._progress(ex, cmd.agents[0])
             elif ex is not None:
                 self.failed.setdefault(ex.element, []).append(dict(ex.branch.grounding))
                 policy = self._failure_policy(cmd)
-                self._emit(
-                    "action_failed",
-                    element=ex.element,
-                    grounding=ex.branch.grounding,
-                    status=ack.status,
-                    reason=ack.reason,
-                    policy=policy,
-                )
+                self._emit_failed(ex, ack, policy=policy)
                 self._abort(ex, out, reason=f"{cmd.action} {ack.status}")
                 if policy == "paper":
                     self._give_up(ex.element, f"{cmd.action} {ack.status} (failure policy paper)")
         out += self._plan()
         return out
+
+    def _emit_failed(self, ex: Execution, ack: Ack, **extra: Any) -> None:
+        """The ``action_failed`` event of ``ex``'s command that ``ack`` answered."""
+        self._emit(
+            "action_failed",
+            element=ex.element,
+            grounding=ex.branch.grounding,
+            status=ack.status,
+            reason=ack.reason,
+            **extra,
+        )
 
     def _failure_policy(self, cmd: Command) -> str:
         """The policy a failed command falls under: :attr:`on_failure`, except for a command
@@ -1522,6 +1513,10 @@ class TaskManager:
         cooperation fails, section IV)."""
         if not self.graph.is_feasible(element):
             return  # meanwhile an alternative was solved: nothing left to give up
+        self._mark_infeasible(element, reason)
+
+    def _mark_infeasible(self, element: str, reason: str) -> None:
+        """``element`` can never be done: said, and marked in the graph."""
         self.infeasible[element] = reason
         self._emit("infeasible", element=element, reason=reason)
         self._update_graph(infeasible=[element])
@@ -1669,11 +1664,10 @@ class TaskManager:
                 self._stop_every_robot(out, f"human did {action} (not suggested)")
         if ex is None:
             self._emit("human_action_unmatched", action=str(action))
-            out += self._plan()
-            return out
-        step = ex.branch.steps[ex.next_index]
-        self._apply_effects(step)
-        self._progress(ex, self._human_of(step))
+        else:
+            step = ex.branch.steps[ex.next_index]
+            self._apply_effects(step)
+            self._progress(ex, self._human_of(step))
         out += self._plan()
         return out
 
