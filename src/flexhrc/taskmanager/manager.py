@@ -145,11 +145,7 @@ class Suggest:
     @property
     def agents(self) -> tuple[str, ...]:
         """The human(s) asked (several operators: the one the branch chose)."""
-        seen: dict[str, None] = {}
-        for a in self.actions:
-            for name in a.agents:
-                seen.setdefault(name, None)
-        return tuple(seen)
+        return tuple(dict.fromkeys(name for a in self.actions for name in a.agents))
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -312,8 +308,11 @@ class TaskManager:
         self._children_of: dict[str, list[str]] = {}
         self._parent_of: dict[str, str] = {}
         self._constraints_of: dict[str, list[Literal]] = {}
-        self._formulas = self._collect_formulas()
-        self._node_processes = self._collect_processes()
+        nodes = list(self._node_definitions())
+        self._formulas: dict[str, tuple[Literal, ...]] = {
+            name: node.formula if node.formula is not None else () for name, node in nodes
+        }
+        self._node_processes = {name: tuple(n.processes) for name, n in nodes if n.processes}
         # groundings through the hierarchy (M1/M2): instance path -> (its transfer, the upper
         # hyper-arc that created it), only where something passes (empty: a single graph)
         self._transfers: dict[str, tuple[Transfer, str]] = {}
@@ -431,12 +430,7 @@ class TaskManager:
         simulator and the domain): nothing here changes and nothing is logged — a panel asks
         before it stores a person's report."""
         events: list[dict[str, Any]] = []
-        memo: dict[int, Any] = {
-            id(self.simulator): self.simulator,
-            id(self.domain): self.domain,
-            id(self._log): events.append,
-        }
-        copy.deepcopy(self, memo).on_human_action(now, action)
+        self._twin(events.append).on_human_action(now, action)
         return not any(ev.get("type") == "human_action_unmatched" for ev in events)
 
     def what_if(
@@ -450,12 +444,7 @@ class TaskManager:
         A take that is not possible raises :class:`TakeRefused`, as :meth:`operator_takes`."""
         if (action is None) == (take is None):
             raise FlexhrcError("what_if: give exactly one of action= or take=")
-        memo: dict[int, Any] = {
-            id(self.simulator): self.simulator,
-            id(self.domain): self.domain,
-            id(self._log): lambda event: None,
-        }
-        twin: TaskManager = copy.deepcopy(self, memo)
+        twin = self._twin(lambda event: None)
         out: list[Directive] = []
         if take is not None:
             out += twin.operator_takes(now, take, record=False)
@@ -465,6 +454,15 @@ class TaskManager:
         elif action is not None:
             out += twin.on_human_action(now, action)
         return [d for d in out if isinstance(d, Command)], twin
+
+    def _twin(self, log: Callable[[dict[str, Any]], None]) -> TaskManager:
+        """A copy of this manager that shares its simulator and domain and logs to ``log``."""
+        memo: dict[int, Any] = {
+            id(self.simulator): self.simulator,
+            id(self.domain): self.domain,
+            id(self._log): log,
+        }
+        return copy.deepcopy(self, memo)
 
     def check_take(self, element: str, agent: str | None = None) -> tuple[DecisionTree, float]:
         """Whether an operator (``agent``, when given) can take ``element`` now: its operators'
@@ -641,17 +639,6 @@ class TaskManager:
         for name in self.graph.elements():
             if self.graph.kind(name) == "node":
                 yield name, self.graph.definition_of(name).nodes[self.graph.local_name(name)]
-
-    def _collect_formulas(self) -> dict[str, tuple[Literal, ...]]:
-        return {
-            name: node.formula if node.formula is not None else ()
-            for name, node in self._node_definitions()
-        }
-
-    def _collect_processes(self) -> dict[str, tuple[str, ...]]:
-        return {
-            name: tuple(node.processes) for name, node in self._node_definitions() if node.processes
-        }
 
     def _collect_transfers(self) -> None:
         hierarchy = self.graph.hierarchy
@@ -1636,19 +1623,18 @@ class TaskManager:
             if ex.owner == "robot" and ex.objects & moved:
                 self._abort(ex, out, reason=f"{', '.join(sorted(ex.objects & moved))} moved")
             elif ex.owner == "human" and ex.objects & wrong:
-                self.executions.pop(ex.element, None)
+                self._drop_human(ex, "human report retracted")
                 row = self.table.rows.get(ex.element)
                 if row:
                     row.status = "feasible"
                     row.done_by = [None] * len(row.actions)
-                self._emit(
-                    "abort",
-                    element=ex.element,
-                    reason="human report retracted",
-                    agents=list(ex.branch.agents),
-                )
         out += self._plan()
         return out
+
+    def _drop_human(self, ex: Execution, reason: str) -> None:
+        """A person's execution ends, its hyper-arc not done."""
+        self.executions.pop(ex.element, None)
+        self._emit("abort", element=ex.element, reason=reason, agents=list(ex.agents))
 
     # -- the human ------------------------------------------------------------------------
     def _handle_human(self, action: HumanAction) -> list[Directive]:
@@ -1777,9 +1763,18 @@ class TaskManager:
         fixed = {**self._child_binding(name), **binding}
         if any(self._child_binding(name).get(k, v) != v for k, v in binding.items()):
             return None  # the human's objects are not those the children were reached with
-        constraints = self._constraints(name)
 
-        def pick(tree: DecisionTree) -> Branch | None:
+        def pick(constraints: list[Literal]) -> Branch | None:
+            tree = DecisionTree.build(
+                name,
+                actions,
+                constraints,
+                self.domain,
+                self.kb,
+                available_agents=self._humans(),
+                from_index=index,
+                binding=fixed,
+            )
             for b in tree.branches:
                 if all(b.grounding.get(k, v) == v for k, v in binding.items()) and (
                     index == 0 or self._already_done(b.steps[:index])
@@ -1788,29 +1783,10 @@ class TaskManager:
             return None
 
         # the action already happened: check the state it started from, with its binding
-        tree = DecisionTree.build(
-            name,
-            actions,
-            constraints if index == 0 else [],
-            self.domain,
-            self.kb,
-            available_agents=self._humans(),
-            from_index=index,
-            binding=fixed,
-        )
-        branch = pick(tree)
+        branch = pick(self._constraints(name) if index == 0 else [])
         if branch is None and index == 0:
             # the children's state may already be consumed by the action's own effect
-            tree = DecisionTree.build(
-                name,
-                actions,
-                [],
-                self.domain,
-                self.kb,
-                available_agents=self._humans(),
-                binding=fixed,
-            )
-            branch = pick(tree)
+            branch = pick([])
         if branch is not None:
             branch.grounding.update(binding)
         return branch
@@ -1827,13 +1803,7 @@ class TaskManager:
             uses_object = bool(other.objects & objects)
             if other.element == name or shared or uses_object:
                 if other.owner == "human":
-                    self.executions.pop(other.element, None)
-                    self._emit(
-                        "abort",
-                        element=other.element,
-                        reason="human changed plan",
-                        agents=list(other.agents),
-                    )
+                    self._drop_human(other, "human changed plan")
                 else:
                     self._abort(other, out, reason=f"human does {name}")
 
