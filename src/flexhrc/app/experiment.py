@@ -33,6 +33,7 @@ from __future__ import annotations
 import csv
 import dataclasses
 import io
+import itertools
 import json
 import math
 import os
@@ -562,6 +563,10 @@ def _union(intervals: Iterable[tuple[float, float]]) -> float:
     return total
 
 
+def _mean(xs: Sequence[float]) -> float | None:
+    return round(sum(xs) / len(xs), 6) if xs else None
+
+
 def metrics(
     summary: Mapping[str, Any],
     events: Sequence[Mapping[str, Any]],
@@ -583,9 +588,6 @@ def metrics(
     arms = [a for a in agents if not agents[a].is_human]
     persons = [a for a in agents if agents[a].is_human]
 
-    def mean(xs: Sequence[float]) -> float | None:
-        return round(sum(xs) / len(xs), 6) if xs else None
-
     all_busy = sum(busy.values())
     count = {t: sum(1 for e in events if e.get("type") == t) for t in (*REPLAN_EVENTS, "stop")}
     ms = {
@@ -598,10 +600,10 @@ def metrics(
         "makespan_s": round(makespan, 6),
         "arms": len(arms),
         "persons": len(persons),
-        "arm_busy_s": mean([busy[a] for a in arms]),
-        "arm_idle_s": mean([idle[a] for a in arms]),
-        "person_busy_s": mean([busy[a] for a in persons]),
-        "person_idle_s": mean([idle[a] for a in persons]),
+        "arm_busy_s": _mean([busy[a] for a in arms]),
+        "arm_idle_s": _mean([idle[a] for a in arms]),
+        "person_busy_s": _mean([busy[a] for a in persons]),
+        "person_idle_s": _mean([idle[a] for a in persons]),
         "idle_share": round(sum(idle.values()) / (len(agents) * makespan), 6)
         if makespan > 0 and agents
         else None,
@@ -651,8 +653,7 @@ def solve_one(task: ReferenceTask) -> dict[str, Any]:
         if idle is not None:
             agents = sc.domain.agents
             for key, human in (("arm_idle_s", False), ("person_idle_s", True)):
-                xs = [v for a, v in idle.items() if agents[a].is_human == human]
-                out[key] = round(sum(xs) / len(xs), 6) if xs else None
+                out[key] = _mean([v for a, v in idle.items() if agents[a].is_human == human])
             out["idle_by_agent"] = idle
     except Exception as exc:
         out["error"] = f"{type(exc).__name__}: {exc}".replace("\n", " ")
@@ -696,30 +697,28 @@ def summarise(
     """One row per cell of the design: runs, solved, errors, median and quartiles of each
     :data:`SUMMARY_METRICS` over the solved runs, the optimum and the median's ratio to it."""
     out = []
-    for sc in config.scenarios:
-        for profile in config.profiles:
-            for policy in config.policies:
-                for utility in config.utilities:
-                    key = (sc.label, profile, policy, utility)
-                    mine = [r for r in rows if tuple(r[k] for k in CELL_KEYS) == key]
-                    solved = [r for r in mine if r["outcome"] == "solved"]
-                    cell: dict[str, Any] = dict(zip(CELL_KEYS, key, strict=True))
-                    cell.update(
-                        runs=len(mine),
-                        solved=len(solved),
-                        errors=sum(1 for r in mine if r["outcome"] == "error"),
-                    )
-                    for m in SUMMARY_METRICS:
-                        xs = [float(r[m]) for r in solved if r.get(m) is not None]
-                        q1, med, q3 = _quartiles(xs) if xs else (None, None, None)
-                        cell[f"{m}_median"] = _round(med)
-                        cell[f"{m}_q1"] = _round(q1)
-                        cell[f"{m}_q3"] = _round(q3)
-                    opt = reference.get(sc.label, {}).get("makespan_s")
-                    cell["optimum_s"] = _round(opt)
-                    med = cell["makespan_s_median"]
-                    cell["makespan_ratio"] = _round(med / opt) if med is not None and opt else None
-                    out.append(cell)
+    design = (config.scenarios, config.profiles, config.policies, config.utilities)
+    for sc, profile, policy, utility in itertools.product(*design):
+        key = (sc.label, profile, policy, utility)
+        mine = [r for r in rows if tuple(r[k] for k in CELL_KEYS) == key]
+        solved = [r for r in mine if r["outcome"] == "solved"]
+        cell: dict[str, Any] = dict(zip(CELL_KEYS, key, strict=True))
+        cell.update(
+            runs=len(mine),
+            solved=len(solved),
+            errors=sum(1 for r in mine if r["outcome"] == "error"),
+        )
+        for m in SUMMARY_METRICS:
+            xs = [float(r[m]) for r in solved if r.get(m) is not None]
+            q1, med, q3 = _quartiles(xs) if xs else (None, None, None)
+            cell[f"{m}_median"] = _round(med)
+            cell[f"{m}_q1"] = _round(q1)
+            cell[f"{m}_q3"] = _round(q3)
+        opt = reference.get(sc.label, {}).get("makespan_s")
+        cell["optimum_s"] = _round(opt)
+        med = cell["makespan_s_median"]
+        cell["makespan_ratio"] = _round(med / opt) if med is not None and opt else None
+        out.append(cell)
     return out
 
 
@@ -894,26 +893,14 @@ def run_experiment(
     sources = _load_sources(config)  # a scenario that cannot be loaded: its config line
     folder.mkdir(exist_ok=True)
     sources.update(_write_generated(config, folder))
+    design = itertools.product(
+        config.scenarios, config.profiles, config.policies, config.utilities.items(), config.seeds
+    )
     tasks = [
         RunTask(
-            i + 1,
-            sc.label,
-            sources[sc.label],
-            profile,
-            policy,
-            uname,
-            ublock,
-            seed,
-            config.simulator,
+            i, sc.label, sources[sc.label], profile, policy, uname, ublock, seed, config.simulator
         )
-        for i, (sc, profile, policy, (uname, ublock), seed) in enumerate(
-            (sc, p, pol, u, s)
-            for sc in config.scenarios
-            for p in config.profiles
-            for pol in config.policies
-            for u in config.utilities.items()
-            for s in config.seeds
-        )
+        for i, (sc, profile, policy, (uname, ublock), seed) in enumerate(design, 1)
     ]
     solvable = can_solve()
     refs = [
