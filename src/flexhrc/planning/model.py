@@ -1003,7 +1003,7 @@ def _joint_travel(
             moving, deltas = task.joint[o.id]
             if deltas is None:  # too many places: left open (dv's domain)
                 continue
-            known = {a: {p for c in deltas for p in (c[i],)} for i, a in enumerate(moving)}
+            known = {a: {c[i] for c in deltas} for i, a in enumerate(moving)}
 
             def norm(a: str, p: Any, known: dict[str, set[Any]] = known) -> Any:
                 return p if p in known[a] else None
