@@ -42,7 +42,7 @@ from __future__ import annotations
 import itertools
 import math
 import time
-from collections.abc import Callable, Iterable, Mapping, Sequence, Set
+from collections.abc import Callable, Container, Iterable, Mapping, Sequence, Set
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
@@ -1259,10 +1259,7 @@ def _hint(
 ) -> None:
     """A warm start from the last plan: its hyper-arcs, their agents and (shifted to now)
     their start times."""
-    starts: dict[str, float] = {}
-    for entry in hint.schedule:
-        if entry.hyperarc in x:
-            starts[entry.hyperarc] = min(starts.get(entry.hyperarc, entry.start_s), entry.start_s)
+    starts = _first_starts(hint, x)
     for h, (agents, _) in hint.chosen.items():
         if h not in ys:
             continue
@@ -1271,6 +1268,15 @@ def _hint(
             m.AddHint(s[h], max(0, round((starts[h] - now_s) * MS)))
         for o, v in ys[h]:
             m.AddHint(v, 1 if set(o.agents) == set(agents) else 0)
+
+
+def _first_starts(plan: Plan, among: Container[str]) -> dict[str, float]:
+    """When each hyper-arc of ``among`` first starts in ``plan``'s schedule (s)."""
+    first: dict[str, float] = {}
+    for entry in plan.schedule:
+        if entry.hyperarc in among:
+            first[entry.hyperarc] = min(first.get(entry.hyperarc, entry.start_s), entry.start_s)
+    return first
 
 
 def _extract(
@@ -1546,9 +1552,7 @@ def state_of(tm: TaskManager, now: float, seen: Mapping[int, float] | None = Non
             st.process_running[node] = (agents, end)
     st.release = release
     st.unavailable = set(tm.unavailable)
-    for h, who in tm.declined.items():
-        st.barred.setdefault(h, set()).update(who)
-    for h, who in tm.cannot.items():
+    for h, who in [*tm.declined.items(), *tm.cannot.items()]:
         st.barred.setdefault(h, set()).update(who)
     st.failed = {h: [dict(g) for g in gs] for h, gs in tm.failed.items()}
     return st
@@ -1761,10 +1765,7 @@ def _advice(plan: Plan, tm: TaskManager, now: float, *, in_order: bool) -> Advic
     """The advice of ``plan``: the feasible hyper-arcs it starts now (``in_order``: those whose
     predecessors on their agents in the plan are all solved), the other feasible ones held."""
     feasible = tm.feasible_hyperarcs()
-    first: dict[str, float] = {}
-    for entry in plan.schedule:
-        if entry.hyperarc in plan.chosen:
-            first[entry.hyperarc] = min(first.get(entry.hyperarc, entry.start_s), entry.start_s)
+    first = _first_starts(plan, plan.chosen)
     eps = 1e-3
     graph = tm.graph
 
