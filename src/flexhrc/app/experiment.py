@@ -183,9 +183,7 @@ def read_config(path: str | Path) -> ExperimentConfig:
 
     if not isinstance(doc, dict):
         raise fail("an experiment config must be a mapping (experiment: 1, scenarios: ...)", 1)
-    for key in doc:
-        if key not in TOP_KEYS:
-            raise fail(f"unknown key {key!r} (keys: {', '.join(TOP_KEYS)})", line(doc, key))
+    _known_keys(doc, TOP_KEYS, "", fail, line)
     if doc.get("experiment") != FORMAT_VERSION:
         raise fail(
             f"experiment: {FORMAT_VERSION} is required (the config format), got "
@@ -245,12 +243,7 @@ def read_config(path: str | Path) -> ExperimentConfig:
             raise fail(
                 "reference must be a mapping {objective, time_limit_s}", line(doc, "reference")
             )
-        for key in ref:
-            if key not in REFERENCE_KEYS:
-                raise fail(
-                    f"reference: unknown key {key!r} (keys: {', '.join(REFERENCE_KEYS)})",
-                    line(ref, key),
-                )
+        _known_keys(ref, REFERENCE_KEYS, "reference: ", fail, line)
         objective = ref.get("objective", objective)
         if objective not in ("makespan", "idle", "workload"):
             raise fail(
@@ -325,6 +318,19 @@ def can_solve() -> bool:
     return importlib.util.find_spec("ortools") is not None
 
 
+def _known_keys(
+    d: Mapping[Any, Any],
+    keys: Sequence[str],
+    what: str,
+    fail: Callable[[str, int | None], FormatError],
+    line: Callable[..., int | None],
+) -> None:
+    """Every key of ``d`` is one of ``keys``, else one error (``what``: where, as its prefix)."""
+    for key in d:
+        if key not in keys:
+            raise fail(f"{what}unknown key {key!r} (keys: {', '.join(keys)})", line(d, key))
+
+
 def _seeds(v: Any, fail: Callable[[str], FormatError]) -> tuple[int, ...]:
     """``seeds: N`` (0 .. N-1) or a list of seeds."""
     from flexhrc.app.run import MAX_SEED
@@ -389,12 +395,7 @@ def _scenarios(
             raise fail(
                 f"scenarios: an entry must be a name, a file or a mapping, got {item!r}", where
             )
-        for key in item:
-            if key not in SCENARIO_KEYS:
-                raise fail(
-                    f"scenarios: unknown key {key!r} (keys: {', '.join(SCENARIO_KEYS)})",
-                    line(item, key),
-                )
+        _known_keys(item, SCENARIO_KEYS, "scenarios: ", fail, line)
         if ("file" in item) == ("generate" in item):
             raise fail(
                 "scenarios: an entry has either file: (a name or a file) or generate:", where
@@ -433,12 +434,7 @@ def _scenarios(
         gl = line(item, "generate")
         if not isinstance(gen, dict):
             raise fail("scenarios: generate must be a mapping {actions, agents, width, seed}", gl)
-        for key in gen:
-            if key not in GENERATE_KEYS:
-                raise fail(
-                    f"scenarios: generate: unknown key {key!r} (keys: {', '.join(GENERATE_KEYS)})",
-                    line(gen, key),
-                )
+        _known_keys(gen, GENERATE_KEYS, "scenarios: generate: ", fail, line)
         missing = [k for k in ("actions", "agents", "width") if k not in gen]
         if missing:
             raise fail(f"scenarios: generate needs {', '.join(missing)}", gl)
