@@ -587,16 +587,13 @@ def _intent(m: Mapping[str, Any]) -> str | None:
 
 
 def _options_steps(m: Mapping[str, Any]) -> str | None:
-    def branch_ok(b: Any) -> bool:
-        return isinstance(b, list) and bool(b) and all(isinstance(x, str) for x in b)
-
     def arc_ok(a: Any) -> bool:
         return (
             isinstance(a, dict)
             and isinstance(a.get("hyperarc"), str)
             and isinstance(a.get("cost"), NUM)
             and isinstance(a.get("branches"), list)
-            and all(branch_ok(b) for b in a["branches"])
+            and all(_strings(b) for b in a["branches"])
         )
 
     for st in m["steps"]:
