@@ -868,12 +868,16 @@ class TaskManager:
                 f"preempted by process {ground} (priority {ground.schema.priority} > "
                 f"{cmd.action.schema.priority})"
             )
-            for a in cmd.agents:
-                if self.busy.get(a) is cmd:
-                    self.busy.pop(a)
-                    self._extra.append(Stop(a, cmd.id, why))
-                    self._emit("stop", agent=a, command=cmd.id, reason=why)
+            self._stop_round(cmd, why)
         return True
+
+    def _stop_round(self, cmd: Command, why: str) -> None:
+        """Stop a process round's command on every arm it still holds."""
+        for a in cmd.agents:
+            if self.busy.get(a) is cmd:
+                self.busy.pop(a)
+                self._extra.append(Stop(a, cmd.id, why))
+                self._emit("stop", agent=a, command=cmd.id, reason=why)
 
     def _ground_process(self, run: ProcessRun) -> GroundAction | None:
         schema, terms = self.domain.invocation(run.invocations[run.index], process=True)
@@ -940,11 +944,7 @@ class TaskManager:
     def _end_process(self, run: ProcessRun, ground: GroundAction, why: str) -> None:
         cmd = run.command
         if cmd is not None:  # still running: its end condition came true meanwhile
-            for a in cmd.agents:
-                if self.busy.get(a) is cmd:
-                    self.busy.pop(a)
-                    self._extra.append(Stop(a, cmd.id, f"process {ground} ended"))
-                    self._emit("stop", agent=a, command=cmd.id, reason=f"process {ground} ended")
+            self._stop_round(cmd, f"process {ground} ended")
             self._process_of.pop(cmd.id, None)
         if run.asked is not None:  # a person still at it: their coming report is no new round
             self._let_go.add((self._human_of(run.asked), str(run.asked)))
@@ -966,15 +966,7 @@ class TaskManager:
             self._emit("human_action", action=said)
             run.asked = None
             self._apply_effects(asked)
-            until = [apply_substitution(lit, asked.binding) for lit in asked.schema.until]
-            if not until or holds(until, self.kb.facts):
-                self._end_process(run, asked, "its end condition holds" if until else "done")
-            elif run.rounds >= self.max_process_rounds:
-                self._finish(
-                    "failed",
-                    f"process {asked} of {run.node}: end condition {' & '.join(map(str, until))} "
-                    f"still false after {run.rounds} rounds",
-                )
+            self._round_done(run, asked)
             return self._plan()
         for who, process in list(self._let_go):
             if process == said and who in action.args:
@@ -992,22 +984,28 @@ class TaskManager:
         ground = cmd.action
         if ack.status == "done":
             self._apply_effects(ground)
-            until = [apply_substitution(lit, ground.binding) for lit in ground.schema.until]
-            if not until or holds(until, self.kb.facts):
-                why = "its end condition holds" if until else "done"
-                # what the behaviour observed (e.g. a push undone) is part of why it ended
-                self._end_process(run, ground, f"{why}; {ack.reason}" if ack.reason else why)
-            elif run.rounds >= self.max_process_rounds:
-                self._finish(
-                    "failed",
-                    f"process {ground} of {node}: end condition {' & '.join(map(str, until))} "
-                    f"still false after {run.rounds} rounds",
-                )
+            # what the behaviour observed (e.g. a push undone) is part of why it ended
+            self._round_done(run, ground, ack.reason)
         else:
             run.failures += 1
             self._emit("process_failed", node=node, process=str(ground), reason=ack.reason)
             if run.failures >= 3:
                 self._finish("failed", f"process {ground} of {node} failed 3 times: {ack.reason}")
+
+    def _round_done(self, run: ProcessRun, ground: GroundAction, said: str | None = None) -> None:
+        """A round of ``run``'s process ``ground`` is done (its effects applied): the process
+        ends if its ``until`` holds (``said``: what was observed, part of why), the run fails
+        after too many rounds, else it goes on."""
+        until = [apply_substitution(lit, ground.binding) for lit in ground.schema.until]
+        if not until or holds(until, self.kb.facts):
+            why = "its end condition holds" if until else "done"
+            self._end_process(run, ground, f"{why}; {said}" if said else why)
+        elif run.rounds >= self.max_process_rounds:
+            self._finish(
+                "failed",
+                f"process {ground} of {run.node}: end condition {' & '.join(map(str, until))} "
+                f"still false after {run.rounds} rounds",
+            )
 
     def _plan(self) -> list[Directive]:
         out: list[Directive] = []
