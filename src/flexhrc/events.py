@@ -248,29 +248,16 @@ class Field:
                 self._say(kind, value, data)
                 or f"{kind}: field {name!r} must be {want}, not {value!r:.40}"
             )
-        if (
-            isinstance(value, int | float)
-            and not isinstance(value, bool)
-            and not finite_number(value)
-        ):
-            return self._say(kind, value, data) or f"{kind}: field {name!r} must be finite"
-        if (
-            self.minimum is not None
-            and isinstance(value, int | float)
-            and not isinstance(value, bool)
-            and value < self.minimum
-        ):
-            return (
-                self._say(kind, value, data)
-                or f"{kind}: field {name!r} must be >= 0, not {value!r:.40}"
-            )
-        if (
-            self.maximum is not None
-            and isinstance(value, int | float)
-            and not isinstance(value, bool)
-            and value > self.maximum
-        ):
-            return f"{kind}: field {name!r} must be <= {self.maximum:g}, not {value!r:.40}"
+        if isinstance(value, int | float) and not isinstance(value, bool):  # a number
+            if not finite_number(value):
+                return self._say(kind, value, data) or f"{kind}: field {name!r} must be finite"
+            if self.minimum is not None and value < self.minimum:
+                return (
+                    self._say(kind, value, data)
+                    or f"{kind}: field {name!r} must be >= 0, not {value!r:.40}"
+                )
+            if self.maximum is not None and value > self.maximum:
+                return f"{kind}: field {name!r} must be <= {self.maximum:g}, not {value!r:.40}"
         if self.check is not None and not self.check(value):
             return self._say(kind, value, data) or f"{kind}: field {name!r} is not valid"
         return None
@@ -528,22 +515,24 @@ def _ack_status(m: Mapping[str, Any]) -> str | None:
     return None
 
 
+def _position_problem(kind: str, positions: Mapping[Any, Any], what: str) -> str | None:
+    """The first of ``positions`` (object -> ``[x, y, z]``) that is not a position, said."""
+    for obj, p in positions.items():
+        if position_problem(p) is not None:  # (the name is formatted only then)
+            return f"{kind}: {position_problem(p, f'{what} of {obj!r}')}"
+    return None
+
+
 def _positions(kind: str) -> Rule:
     def rule(m: Mapping[str, Any]) -> str | None:
-        for obj, p in m.get("positions", {}).items():
-            if position_problem(p) is not None:  # (the name is formatted only then)
-                return f"{kind}: {position_problem(p, f'position of {obj!r}')}"
-        return None
+        return _position_problem(kind, m.get("positions", {}), "position")
 
     return rule
 
 
-def _fact(f: Any) -> bool:
-    return type(f) is list and bool(f) and all(type(x) is str and x for x in f)
-
-
 def _all_facts(facts: list[Any]) -> bool:
-    """Every item is a :func:`_fact` (loops, not generators: every command's world has tens)."""
+    """Every item is a non-empty list of non-empty strings (loops, not generators: every
+    command's world has tens)."""
     for f in facts:
         if type(f) is not list or not f:
             return False
@@ -564,9 +553,9 @@ def _world(kind: str) -> Rule:
         positions = world.get("positions", {})
         if not isinstance(positions, dict):
             return f"{kind}: world 'positions' must be an object of [x, y, z] positions"
-        for obj, p in positions.items():
-            if position_problem(p) is not None:  # (the name is formatted only then)
-                return f"{kind}: {position_problem(p, f'world position of {obj!r}')}"
+        said = _position_problem(kind, positions, "world position")
+        if said is not None:
+            return said
         facts = world.get("facts", [])
         if not isinstance(facts, list) or not _all_facts(facts):
             return f"{kind}: world 'facts' must be a list of facts, each a list of names"
@@ -598,16 +587,13 @@ def _intent(m: Mapping[str, Any]) -> str | None:
 
 
 def _options_steps(m: Mapping[str, Any]) -> str | None:
-    def branch_ok(b: Any) -> bool:
-        return isinstance(b, list) and bool(b) and all(isinstance(x, str) for x in b)
-
     def arc_ok(a: Any) -> bool:
         return (
             isinstance(a, dict)
             and isinstance(a.get("hyperarc"), str)
             and isinstance(a.get("cost"), NUM)
             and isinstance(a.get("branches"), list)
-            and all(branch_ok(b) for b in a["branches"])
+            and all(_strings(b) for b in a["branches"])
         )
 
     for st in m["steps"]:
@@ -761,48 +747,39 @@ MESSAGES: Mapping[str, EventSchema] = MappingProxyType({s.type: s for s in _MESS
 
 
 # -- store kinds ---------------------------------------------------------------------------------
-def _stored_records() -> list[StoreKindSpec]:
-    out = [StoreKindSpec(t, "record", LOG_EVENTS[t].doc) for t in sorted(STORED_LOG_TYPES)]
-    out.append(StoreKindSpec("fixed", "record", LOG_EVENTS["fixed"].doc))
-    out.append(StoreKindSpec("summary", "record", LOG_EVENTS["summary"].doc))
-    return out
-
-
+#: The Task Manager's inputs (replayed into a fresh one on resume), by kind.
+_INPUTS = {
+    "start": "the run begins (run id, agents, humans, scenario, its fingerprint, seed, realtime, "
+    "the --operators model as `operator_model`, ...); every row carries the run id as `run`",
+    "ack": "an ack message",
+    "human_action": "a human_action message",
+    "percept": "a percept message",
+    "agent_up": "an agent came up (or was resumed)",
+    "agent_down": "an agent went down (or was stopped)",
+    "operator": "an operator message",
+    "intent": "an intent message",
+    "human_take": "the operator takes a hyper-arc",
+    "begin": "the watchers have looked: the first decision",
+    "operator_answers": "an answer message (a repair question)",
+    "human_reply": "a reply message (decline, cannot, start, give_back) "
+    "or an unanswered suggestion's timeout (`why: timeout`)",
+    "utility": "a what-if's new branch utility from this event on (`flexhrc replay --fork-at K "
+    "--utility FILE`): `utility`, the block as the scenario key `utility:` takes it",
+}
+#: What the Task Manager sent, by kind.
+_OUTPUTS = {
+    "command": "a command message sent",
+    "suggestion": "a suggestion message sent",
+    "stop": "a stop message sent",
+    "options": "an options message sent",
+}
 _STORE_SPECS = [
-    StoreKindSpec(
-        "start",
-        "input",
-        "the run begins (run id, agents, humans, scenario, its "
-        "fingerprint, seed, realtime, the --operators model as `operator_model`, ...); every "
-        "row carries the run id as `run`",
+    *(StoreKindSpec(kind, "input", doc) for kind, doc in _INPUTS.items()),
+    *(StoreKindSpec(kind, "output", doc) for kind, doc in _OUTPUTS.items()),
+    *(
+        StoreKindSpec(kind, "record", LOG_EVENTS[kind].doc)
+        for kind in [*sorted(STORED_LOG_TYPES), "fixed", "summary"]
     ),
-    StoreKindSpec("ack", "input", "an ack message"),
-    StoreKindSpec("human_action", "input", "a human_action message"),
-    StoreKindSpec("percept", "input", "a percept message"),
-    StoreKindSpec("agent_up", "input", "an agent came up (or was resumed)"),
-    StoreKindSpec("agent_down", "input", "an agent went down (or was stopped)"),
-    StoreKindSpec("operator", "input", "an operator message"),
-    StoreKindSpec("intent", "input", "an intent message"),
-    StoreKindSpec("human_take", "input", "the operator takes a hyper-arc"),
-    StoreKindSpec("begin", "input", "the watchers have looked: the first decision"),
-    StoreKindSpec("operator_answers", "input", "an answer message (a repair question)"),
-    StoreKindSpec(
-        "human_reply",
-        "input",
-        "a reply message (decline, cannot, start, give_back) "
-        "or an unanswered suggestion's timeout (`why: timeout`)",
-    ),
-    StoreKindSpec(
-        "utility",
-        "input",
-        "a what-if's new branch utility from this event on (`flexhrc replay --fork-at K "
-        "--utility FILE`): `utility`, the block as the scenario key `utility:` takes it",
-    ),
-    StoreKindSpec("command", "output", "a command message sent"),
-    StoreKindSpec("suggestion", "output", "a suggestion message sent"),
-    StoreKindSpec("stop", "output", "a stop message sent"),
-    StoreKindSpec("options", "output", "an options message sent"),
-    *_stored_records(),
 ]
 #: Every kind of the cell's store, by name.
 STORE_KINDS: Mapping[str, StoreKindSpec] = MappingProxyType({s.kind: s for s in _STORE_SPECS})

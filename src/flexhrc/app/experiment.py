@@ -33,6 +33,7 @@ from __future__ import annotations
 import csv
 import dataclasses
 import io
+import itertools
 import json
 import math
 import os
@@ -182,9 +183,7 @@ def read_config(path: str | Path) -> ExperimentConfig:
 
     if not isinstance(doc, dict):
         raise fail("an experiment config must be a mapping (experiment: 1, scenarios: ...)", 1)
-    for key in doc:
-        if key not in TOP_KEYS:
-            raise fail(f"unknown key {key!r} (keys: {', '.join(TOP_KEYS)})", line(doc, key))
+    _known_keys(doc, TOP_KEYS, "", fail, line)
     if doc.get("experiment") != FORMAT_VERSION:
         raise fail(
             f"experiment: {FORMAT_VERSION} is required (the config format), got "
@@ -244,12 +243,7 @@ def read_config(path: str | Path) -> ExperimentConfig:
             raise fail(
                 "reference must be a mapping {objective, time_limit_s}", line(doc, "reference")
             )
-        for key in ref:
-            if key not in REFERENCE_KEYS:
-                raise fail(
-                    f"reference: unknown key {key!r} (keys: {', '.join(REFERENCE_KEYS)})",
-                    line(ref, key),
-                )
+        _known_keys(ref, REFERENCE_KEYS, "reference: ", fail, line)
         objective = ref.get("objective", objective)
         if objective not in ("makespan", "idle", "workload"):
             raise fail(
@@ -324,6 +318,19 @@ def can_solve() -> bool:
     return importlib.util.find_spec("ortools") is not None
 
 
+def _known_keys(
+    d: Mapping[Any, Any],
+    keys: Sequence[str],
+    what: str,
+    fail: Callable[[str, int | None], FormatError],
+    line: Callable[..., int | None],
+) -> None:
+    """Every key of ``d`` is one of ``keys``, else one error (``what``: where, as its prefix)."""
+    for key in d:
+        if key not in keys:
+            raise fail(f"{what}unknown key {key!r} (keys: {', '.join(keys)})", line(d, key))
+
+
 def _seeds(v: Any, fail: Callable[[str], FormatError]) -> tuple[int, ...]:
     """``seeds: N`` (0 .. N-1) or a list of seeds."""
     from flexhrc.app.run import MAX_SEED
@@ -388,12 +395,7 @@ def _scenarios(
             raise fail(
                 f"scenarios: an entry must be a name, a file or a mapping, got {item!r}", where
             )
-        for key in item:
-            if key not in SCENARIO_KEYS:
-                raise fail(
-                    f"scenarios: unknown key {key!r} (keys: {', '.join(SCENARIO_KEYS)})",
-                    line(item, key),
-                )
+        _known_keys(item, SCENARIO_KEYS, "scenarios: ", fail, line)
         if ("file" in item) == ("generate" in item):
             raise fail(
                 "scenarios: an entry has either file: (a name or a file) or generate:", where
@@ -432,12 +434,7 @@ def _scenarios(
         gl = line(item, "generate")
         if not isinstance(gen, dict):
             raise fail("scenarios: generate must be a mapping {actions, agents, width, seed}", gl)
-        for key in gen:
-            if key not in GENERATE_KEYS:
-                raise fail(
-                    f"scenarios: generate: unknown key {key!r} (keys: {', '.join(GENERATE_KEYS)})",
-                    line(gen, key),
-                )
+        _known_keys(gen, GENERATE_KEYS, "scenarios: generate: ", fail, line)
         missing = [k for k in ("actions", "agents", "width") if k not in gen]
         if missing:
             raise fail(f"scenarios: generate needs {', '.join(missing)}", gl)
@@ -467,6 +464,19 @@ class RunTask:
     utility_block: Mapping[str, Any] | None
     seed: int
     simulator: str | None
+
+    def row(self) -> dict[str, Any]:
+        """A row of :data:`RUN_COLUMNS`, empty but for the run's identity."""
+        row: dict[str, Any] = {c: None for c in RUN_COLUMNS}
+        row.update(
+            run=self.run,
+            scenario=self.scenario,
+            profile=self.profile,
+            policy=self.policy,
+            utility=self.utility,
+            seed=self.seed,
+        )
+        return row
 
 
 _LOADED: dict[tuple[str, int | None], Any] = {}  # a worker's scenarios, loaded once
@@ -504,15 +514,7 @@ def _scenario(source: str, seed: int = 0) -> Any:
 def run_one(task: RunTask) -> dict[str, Any]:
     """One run (the pool's worker: top level, so it can be pickled by name): a row of
     :data:`RUN_COLUMNS`. Whatever goes wrong is the row's ``error``, never an exception."""
-    row: dict[str, Any] = {c: None for c in RUN_COLUMNS}
-    row.update(
-        run=task.run,
-        scenario=task.scenario,
-        profile=task.profile,
-        policy=task.policy,
-        utility=task.utility,
-        seed=task.seed,
-    )
+    row = task.row()
     t0 = time.perf_counter()
     try:
         from flexhrc.app.run import RunConfig, run_scenario
@@ -557,6 +559,10 @@ def _union(intervals: Iterable[tuple[float, float]]) -> float:
     return total
 
 
+def _mean(xs: Sequence[float]) -> float | None:
+    return round(sum(xs) / len(xs), 6) if xs else None
+
+
 def metrics(
     summary: Mapping[str, Any],
     events: Sequence[Mapping[str, Any]],
@@ -578,9 +584,6 @@ def metrics(
     arms = [a for a in agents if not agents[a].is_human]
     persons = [a for a in agents if agents[a].is_human]
 
-    def mean(xs: Sequence[float]) -> float | None:
-        return round(sum(xs) / len(xs), 6) if xs else None
-
     all_busy = sum(busy.values())
     count = {t: sum(1 for e in events if e.get("type") == t) for t in (*REPLAN_EVENTS, "stop")}
     ms = {
@@ -593,10 +596,10 @@ def metrics(
         "makespan_s": round(makespan, 6),
         "arms": len(arms),
         "persons": len(persons),
-        "arm_busy_s": mean([busy[a] for a in arms]),
-        "arm_idle_s": mean([idle[a] for a in arms]),
-        "person_busy_s": mean([busy[a] for a in persons]),
-        "person_idle_s": mean([idle[a] for a in persons]),
+        "arm_busy_s": _mean([busy[a] for a in arms]),
+        "arm_idle_s": _mean([idle[a] for a in arms]),
+        "person_busy_s": _mean([busy[a] for a in persons]),
+        "person_idle_s": _mean([idle[a] for a in persons]),
         "idle_share": round(sum(idle.values()) / (len(agents) * makespan), 6)
         if makespan > 0 and agents
         else None,
@@ -646,8 +649,7 @@ def solve_one(task: ReferenceTask) -> dict[str, Any]:
         if idle is not None:
             agents = sc.domain.agents
             for key, human in (("arm_idle_s", False), ("person_idle_s", True)):
-                xs = [v for a, v in idle.items() if agents[a].is_human == human]
-                out[key] = round(sum(xs) / len(xs), 6) if xs else None
+                out[key] = _mean([v for a, v in idle.items() if agents[a].is_human == human])
             out["idle_by_agent"] = idle
     except Exception as exc:
         out["error"] = f"{type(exc).__name__}: {exc}".replace("\n", " ")
@@ -691,30 +693,28 @@ def summarise(
     """One row per cell of the design: runs, solved, errors, median and quartiles of each
     :data:`SUMMARY_METRICS` over the solved runs, the optimum and the median's ratio to it."""
     out = []
-    for sc in config.scenarios:
-        for profile in config.profiles:
-            for policy in config.policies:
-                for utility in config.utilities:
-                    key = (sc.label, profile, policy, utility)
-                    mine = [r for r in rows if tuple(r[k] for k in CELL_KEYS) == key]
-                    solved = [r for r in mine if r["outcome"] == "solved"]
-                    cell: dict[str, Any] = dict(zip(CELL_KEYS, key, strict=True))
-                    cell.update(
-                        runs=len(mine),
-                        solved=len(solved),
-                        errors=sum(1 for r in mine if r["outcome"] == "error"),
-                    )
-                    for m in SUMMARY_METRICS:
-                        xs = [float(r[m]) for r in solved if r.get(m) is not None]
-                        q1, med, q3 = _quartiles(xs) if xs else (None, None, None)
-                        cell[f"{m}_median"] = _round(med)
-                        cell[f"{m}_q1"] = _round(q1)
-                        cell[f"{m}_q3"] = _round(q3)
-                    opt = reference.get(sc.label, {}).get("makespan_s")
-                    cell["optimum_s"] = _round(opt)
-                    med = cell["makespan_s_median"]
-                    cell["makespan_ratio"] = _round(med / opt) if med is not None and opt else None
-                    out.append(cell)
+    design = (config.scenarios, config.profiles, config.policies, config.utilities)
+    for sc, profile, policy, utility in itertools.product(*design):
+        key = (sc.label, profile, policy, utility)
+        mine = [r for r in rows if tuple(r[k] for k in CELL_KEYS) == key]
+        solved = [r for r in mine if r["outcome"] == "solved"]
+        cell: dict[str, Any] = dict(zip(CELL_KEYS, key, strict=True))
+        cell.update(
+            runs=len(mine),
+            solved=len(solved),
+            errors=sum(1 for r in mine if r["outcome"] == "error"),
+        )
+        for m in SUMMARY_METRICS:
+            xs = [float(r[m]) for r in solved if r.get(m) is not None]
+            q1, med, q3 = _quartiles(xs) if xs else (None, None, None)
+            cell[f"{m}_median"] = _round(med)
+            cell[f"{m}_q1"] = _round(q1)
+            cell[f"{m}_q3"] = _round(q3)
+        opt = reference.get(sc.label, {}).get("makespan_s")
+        cell["optimum_s"] = _round(opt)
+        med = cell["makespan_s_median"]
+        cell["makespan_ratio"] = _round(med / opt) if med is not None and opt else None
+        out.append(cell)
     return out
 
 
@@ -889,26 +889,14 @@ def run_experiment(
     sources = _load_sources(config)  # a scenario that cannot be loaded: its config line
     folder.mkdir(exist_ok=True)
     sources.update(_write_generated(config, folder))
+    design = itertools.product(
+        config.scenarios, config.profiles, config.policies, config.utilities.items(), config.seeds
+    )
     tasks = [
         RunTask(
-            i + 1,
-            sc.label,
-            sources[sc.label],
-            profile,
-            policy,
-            uname,
-            ublock,
-            seed,
-            config.simulator,
+            i, sc.label, sources[sc.label], profile, policy, uname, ublock, seed, config.simulator
         )
-        for i, (sc, profile, policy, (uname, ublock), seed) in enumerate(
-            (sc, p, pol, u, s)
-            for sc in config.scenarios
-            for p in config.profiles
-            for pol in config.policies
-            for u in config.utilities.items()
-            for s in config.seeds
-        )
+        for i, (sc, profile, policy, (uname, ublock), seed) in enumerate(design, 1)
     ]
     solvable = can_solve()
     refs = [
@@ -1087,17 +1075,8 @@ def _execute(
 def _lost(item: RunTask | ReferenceTask, exc: BaseException) -> dict[str, Any]:
     if isinstance(item, ReferenceTask):
         return {"scenario": item.scenario, "error": f"{type(exc).__name__}: {exc}"}
-    row: dict[str, Any] = {c: None for c in RUN_COLUMNS}
-    row.update(
-        run=item.run,
-        scenario=item.scenario,
-        profile=item.profile,
-        policy=item.policy,
-        utility=item.utility,
-        seed=item.seed,
-        outcome="error",
-        error=f"the worker process died: {type(exc).__name__}: {exc}",
-    )
+    row = item.row()
+    row.update(outcome="error", error=f"the worker process died: {type(exc).__name__}: {exc}")
     return row
 
 

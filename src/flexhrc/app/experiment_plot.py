@@ -184,16 +184,8 @@ def plot_box(
     plt.close(fig)
 
 
-def _reference(
-    ref: Mapping[str, Any] | None,
-    metric: str,
-) -> float | None:
+def _reference(ref: Mapping[str, Any] | None, metric: str) -> float | None:
     """The optimum's figure for ``metric``: the makespan, or the mean idle time of the arms
     or the persons in the optimal schedule."""
-    if not ref:
-        return None
-    if metric == "makespan_s":
-        v = ref.get("makespan_s")
-        return float(v) if isinstance(v, int | float) else None
-    v = ref.get(metric)  # arm_idle_s, person_idle_s: the optimal schedule's means
+    v = ref.get(metric) if ref else None
     return float(v) if isinstance(v, int | float) else None

@@ -42,12 +42,12 @@ from __future__ import annotations
 import itertools
 import math
 import time
-from collections.abc import Iterable, Mapping, Sequence, Set
+from collections.abc import Callable, Container, Iterable, Mapping, Sequence, Set
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
 from flexhrc.errors import FlexhrcError
-from flexhrc.events import PROFILES
+from flexhrc.events import PROFILES, SIMULATORS
 from flexhrc.taskmanager.decision import DecisionTree, holds
 from flexhrc.taskmanager.domain import GroundAction
 from flexhrc.taskmanager.policy import Advice, Start
@@ -57,7 +57,6 @@ if TYPE_CHECKING:
 
 OBJECTIVES = ("makespan", "idle", "workload")
 STATUSES = ("optimal", "feasible", "infeasible", "unknown")
-SIMULATORS = ("analytic", "kinematic")
 #: model time unit: one millisecond
 MS = 1000
 #: the most branches of one agent whose order is modelled (a circuit; sequence-dependent
@@ -456,11 +455,9 @@ def _travel(options: Mapping[str, list[Option]], kb: Any, domain: Any, sim: Any)
             moved = kb.copy()
             moved.move(a, place)
             for o in using:
-                result = sim.simulate(list(o.actions), moved, domain)
-                if result.success:
-                    d = sum(max(0, round(x * MS)) for x in result.durations) - o.duration
-                    if d:
-                        table[place, o.id] = d
+                d = _delta(o, moved, domain, sim)
+                if d:
+                    table[place, o.id] = d
         setup[a] = table
         spots[a] = sorted(places)
     joint: dict[int, tuple[tuple[str, ...], dict[tuple[Any, ...], int] | None]] = {}
@@ -481,14 +478,19 @@ def _travel(options: Mapping[str, list[Option]], kb: Any, domain: Any, sim: Any)
                 for a, place in zip(moving, combo, strict=True):
                     if place is not None:
                         moved.move(a, place)
-                result = sim.simulate(list(o.actions), moved, domain)
-                deltas[combo] = 0  # (every combination kept: its places are the known ones)
-                if result.success:
-                    deltas[combo] = (
-                        sum(max(0, round(x * MS)) for x in result.durations) - o.duration
-                    )
+                # (every combination kept: its places are the known ones)
+                deltas[combo] = _delta(o, moved, domain, sim)
             joint[o.id] = (moving, deltas)
     return leaves_at, setup, joint
+
+
+def _delta(o: Option, moved: Any, domain: Any, sim: Any) -> int:
+    """How much longer (ms) branch ``o`` lasts with the hands where ``moved`` has them (0 where
+    it fails from there)."""
+    result = sim.simulate(list(o.actions), moved, domain)
+    if not result.success:
+        return 0
+    return sum(max(0, round(x * MS)) for x in result.durations) - o.duration
 
 
 def _process_options(tm: Any, node: str, sim: Any) -> list[ProcessOption]:
@@ -750,10 +752,7 @@ def solve_task(
                     m.Add(end == s[h] + last + dvs[o.id])
                     iv = m.NewOptionalIntervalVar(s[h] + first, size, end, v, f"{h}@{a}")
                     lanes[a].append(iv)
-                    held = m.NewIntVar(0, big, f"busy[{o.id}@{a}]")
-                    m.Add(held == size).OnlyEnforceIf(v)
-                    m.Add(held == 0).OnlyEnforceIf(v.Not())
-                    busy[a].append(held)
+                    busy[a].append(_held(m, size, v, big, f"busy[{o.id}@{a}]"))
                 continue
             for text, agents, off, d in o.steps:
                 if d <= 0:
@@ -832,13 +831,10 @@ def solve_task(
     n_agents = len(task.agents)
     if objective == "makespan":
         primary: Any = makespan
-        top = big
     elif objective == "idle":
         primary = n_agents * makespan - sum(sum(b) for b in busy.values())
-        top = n_agents * big
     else:  # workload: the persons' busy time
         primary = sum(sum(busy[a]) for a in task.humans if a in busy)
-        top = max(1, len(task.humans)) * big
     secondary: Any = 0
     second_top = 0
     if objective != "makespan":
@@ -871,14 +867,11 @@ def solve_task(
         cp_model.FEASIBLE: "feasible",
         cp_model.INFEASIBLE: "infeasible",
     }.get(code, "unknown")
-    del top
     if status not in ("optimal", "feasible"):
         return Plan(status, None, None, None, spent, goal=objective)
     value = solver.Value(primary) if not isinstance(primary, int) else primary
     raw_bound = solver.BestObjectiveBound()
     bound = value if status == "optimal" else (raw_bound // weight if second_top else raw_bound)
-    if status == "optimal" and second_top:
-        bound = value
     return _extract(
         task, st, solver, objective, status, value, bound, spent, x, s, ys, makespan,
         [(p, v, reach[n], met[n]) for n, z in zs.items() for p, v in z], dvs,
@@ -1010,7 +1003,7 @@ def _joint_travel(
             moving, deltas = task.joint[o.id]
             if deltas is None:  # too many places: left open (dv's domain)
                 continue
-            known = {a: {p for c in deltas for p in (c[i],)} for i, a in enumerate(moving)}
+            known = {a: {c[i] for c in deltas} for i, a in enumerate(moving)}
 
             def norm(a: str, p: Any, known: dict[str, set[Any]] = known) -> Any:
                 return p if p in known[a] else None
@@ -1228,12 +1221,17 @@ def _process(
         for a in p.agents:
             iv = m.NewOptionalIntervalVar(reach[n], size, met[n], v, f"{p.action}@{a}")
             lanes[a].append(iv)
-            part = m.NewIntVar(0, big, f"held[{n}@{a}]")
-            m.Add(part == size).OnlyEnforceIf(v)
-            m.Add(part == 0).OnlyEnforceIf(v.Not())
-            busy[a].append(part)
+            busy[a].append(_held(m, size, v, big, f"held[{n}@{a}]"))
         _until(m, met, n, p.until, e, ys)
     return z
+
+
+def _held(m: Any, size: Any, v: Any, big: int, name: str) -> Any:
+    """An agent's busy time in a block: ``size`` when ``v`` (its option is taken), else 0."""
+    held = m.NewIntVar(0, big, name)
+    m.Add(held == size).OnlyEnforceIf(v)
+    m.Add(held == 0).OnlyEnforceIf(v.Not())
+    return held
 
 
 def _until(
@@ -1261,10 +1259,7 @@ def _hint(
 ) -> None:
     """A warm start from the last plan: its hyper-arcs, their agents and (shifted to now)
     their start times."""
-    starts: dict[str, float] = {}
-    for entry in hint.schedule:
-        if entry.hyperarc in x:
-            starts[entry.hyperarc] = min(starts.get(entry.hyperarc, entry.start_s), entry.start_s)
+    starts = _first_starts(hint, x)
     for h, (agents, _) in hint.chosen.items():
         if h not in ys:
             continue
@@ -1273,6 +1268,15 @@ def _hint(
             m.AddHint(s[h], max(0, round((starts[h] - now_s) * MS)))
         for o, v in ys[h]:
             m.AddHint(v, 1 if set(o.agents) == set(agents) else 0)
+
+
+def _first_starts(plan: Plan, among: Container[str]) -> dict[str, float]:
+    """When each hyper-arc of ``among`` first starts in ``plan``'s schedule (s)."""
+    first: dict[str, float] = {}
+    for entry in plan.schedule:
+        if entry.hyperarc in among:
+            first[entry.hyperarc] = min(first.get(entry.hyperarc, entry.start_s), entry.start_s)
+    return first
 
 
 def _extract(
@@ -1421,22 +1425,12 @@ def solve(
     ``exact_travel`` (implies ``travel``): a circuit for every agent, however many branches it
     has, warm-started (:func:`solve_exact_travel`)."""
     _check(objective, time_limit_s, human)
-    cp = _cp_model()  # before the work: a missing extra is one error
-    del cp
+    _cp_model()  # before the work: a missing extra is one error
     tm = _manager(scenario, _simulator(scenario, simulator))
     task = build_task(tm, travel=travel or exact_travel)
     st = State(facts=tm.kb.facts)
-    if exact_travel:
-        return solve_exact_travel(
-            task,
-            st,
-            objective=objective,
-            time_limit_s=time_limit_s,
-            seed=seed,
-            hint=hint,
-            workers=workers,
-        )
-    return solve_task(
+    solver: Callable[..., Plan] = solve_exact_travel if exact_travel else solve_task
+    return solver(
         task,
         st,
         objective=objective,
@@ -1482,7 +1476,7 @@ def solve_exact_travel(
         "deterministic": deterministic,
         "left_shift": left_shift,
     }
-    if max(_branch_counts(task).values(), default=0) <= MAX_CIRCUIT or not task.setup:
+    if _few_branches(task) or not task.setup:
         return solve_task(task, st, time_limit_s=time_limit_s, hint=hint, **kw)
     t0 = time.perf_counter()
     spent = 0.0  # deterministic: the shares given so far
@@ -1558,9 +1552,7 @@ def state_of(tm: TaskManager, now: float, seen: Mapping[int, float] | None = Non
             st.process_running[node] = (agents, end)
     st.release = release
     st.unavailable = set(tm.unavailable)
-    for h, who in tm.declined.items():
-        st.barred.setdefault(h, set()).update(who)
-    for h, who in tm.cannot.items():
+    for h, who in [*tm.declined.items(), *tm.cannot.items()]:
         st.barred.setdefault(h, set()).update(who)
     st.failed = {h: [dict(g) for g in gs] for h, gs in tm.failed.items()}
     return st
@@ -1773,10 +1765,7 @@ def _advice(plan: Plan, tm: TaskManager, now: float, *, in_order: bool) -> Advic
     """The advice of ``plan``: the feasible hyper-arcs it starts now (``in_order``: those whose
     predecessors on their agents in the plan are all solved), the other feasible ones held."""
     feasible = tm.feasible_hyperarcs()
-    first: dict[str, float] = {}
-    for entry in plan.schedule:
-        if entry.hyperarc in plan.chosen:
-            first[entry.hyperarc] = min(first.get(entry.hyperarc, entry.start_s), entry.start_s)
+    first = _first_starts(plan, plan.chosen)
     eps = 1e-3
     graph = tm.graph
 

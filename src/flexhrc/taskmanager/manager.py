@@ -71,7 +71,7 @@ from __future__ import annotations
 import copy
 import itertools
 import time
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -145,11 +145,7 @@ class Suggest:
     @property
     def agents(self) -> tuple[str, ...]:
         """The human(s) asked (several operators: the one the branch chose)."""
-        seen: dict[str, None] = {}
-        for a in self.actions:
-            for name in a.agents:
-                seen.setdefault(name, None)
-        return tuple(seen)
+        return tuple(dict.fromkeys(name for a in self.actions for name in a.agents))
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -312,8 +308,11 @@ class TaskManager:
         self._children_of: dict[str, list[str]] = {}
         self._parent_of: dict[str, str] = {}
         self._constraints_of: dict[str, list[Literal]] = {}
-        self._formulas = self._collect_formulas()
-        self._node_processes = self._collect_processes()
+        nodes = list(self._node_definitions())
+        self._formulas: dict[str, tuple[Literal, ...]] = {
+            name: node.formula if node.formula is not None else () for name, node in nodes
+        }
+        self._node_processes = {name: tuple(n.processes) for name, n in nodes if n.processes}
         # groundings through the hierarchy (M1/M2): instance path -> (its transfer, the upper
         # hyper-arc that created it), only where something passes (empty: a single graph)
         self._transfers: dict[str, tuple[Transfer, str]] = {}
@@ -431,12 +430,7 @@ class TaskManager:
         simulator and the domain): nothing here changes and nothing is logged — a panel asks
         before it stores a person's report."""
         events: list[dict[str, Any]] = []
-        memo: dict[int, Any] = {
-            id(self.simulator): self.simulator,
-            id(self.domain): self.domain,
-            id(self._log): events.append,
-        }
-        copy.deepcopy(self, memo).on_human_action(now, action)
+        self._twin(events.append).on_human_action(now, action)
         return not any(ev.get("type") == "human_action_unmatched" for ev in events)
 
     def what_if(
@@ -450,12 +444,7 @@ class TaskManager:
         A take that is not possible raises :class:`TakeRefused`, as :meth:`operator_takes`."""
         if (action is None) == (take is None):
             raise FlexhrcError("what_if: give exactly one of action= or take=")
-        memo: dict[int, Any] = {
-            id(self.simulator): self.simulator,
-            id(self.domain): self.domain,
-            id(self._log): lambda event: None,
-        }
-        twin: TaskManager = copy.deepcopy(self, memo)
+        twin = self._twin(lambda event: None)
         out: list[Directive] = []
         if take is not None:
             out += twin.operator_takes(now, take, record=False)
@@ -465,6 +454,15 @@ class TaskManager:
         elif action is not None:
             out += twin.on_human_action(now, action)
         return [d for d in out if isinstance(d, Command)], twin
+
+    def _twin(self, log: Callable[[dict[str, Any]], None]) -> TaskManager:
+        """A copy of this manager that shares its simulator and domain and logs to ``log``."""
+        memo: dict[int, Any] = {
+            id(self.simulator): self.simulator,
+            id(self.domain): self.domain,
+            id(self._log): log,
+        }
+        return copy.deepcopy(self, memo)
 
     def check_take(self, element: str, agent: str | None = None) -> tuple[DecisionTree, float]:
         """Whether an operator (``agent``, when given) can take ``element`` now: its operators'
@@ -636,22 +634,11 @@ class TaskManager:
             self.outcome, self.reason = outcome, reason
             self._emit("outcome", outcome=outcome, reason=reason)
 
-    def _collect_formulas(self) -> dict[str, tuple[Literal, ...]]:
-        out: dict[str, tuple[Literal, ...]] = {}
+    def _node_definitions(self) -> Iterator[tuple[str, Any]]:
+        """Every node's name and its definition."""
         for name in self.graph.elements():
             if self.graph.kind(name) == "node":
-                node = self.graph.definition_of(name).nodes[self.graph.local_name(name)]
-                out[name] = node.formula if node.formula is not None else ()
-        return out
-
-    def _collect_processes(self) -> dict[str, tuple[str, ...]]:
-        out: dict[str, tuple[str, ...]] = {}
-        for name in self.graph.elements():
-            if self.graph.kind(name) == "node":
-                node = self.graph.definition_of(name).nodes[self.graph.local_name(name)]
-                if node.processes:
-                    out[name] = tuple(node.processes)
-        return out
+                yield name, self.graph.definition_of(name).nodes[self.graph.local_name(name)]
 
     def _collect_transfers(self) -> None:
         hierarchy = self.graph.hierarchy
@@ -755,24 +742,24 @@ class TaskManager:
             return "node", tuple(g.nodes[local].processes)
         return "hyperarc", tuple(g.hyperarcs[local].actions)
 
+    def _hyperarc(self, element: str) -> tuple[Any, str]:
+        """Hyper-arc ``element``'s definition and the path of its instance."""
+        g = self.graph.definition_of(element)
+        return g.hyperarcs[self.graph.local_name(element)], self.graph.graph_of(element)
+
     def _children(self, element: str) -> list[str]:
         """The hyper-arc's children (kept: read only)."""
         found = self._children_of.get(element)
         if found is None:
-            g = self.graph.definition_of(element)
-            h = g.hyperarcs[self.graph.local_name(element)]
-            prefix = self.graph.graph_of(element)
-            found = [f"{prefix}/{c}" if prefix else c for c in h.children]
-            self._children_of[element] = found
+            h, path = self._hyperarc(element)
+            found = self._children_of[element] = [qualify(path, c) for c in h.children]
         return found
 
     def _parent(self, element: str) -> str:
         found = self._parent_of.get(element)
         if found is None:
-            g = self.graph.definition_of(element)
-            h = g.hyperarcs[self.graph.local_name(element)]
-            prefix = self.graph.graph_of(element)
-            found = self._parent_of[element] = f"{prefix}/{h.parent}" if prefix else h.parent
+            h, path = self._hyperarc(element)
+            found = self._parent_of[element] = qualify(path, h.parent)
         return found
 
     # -- deciding -------------------------------------------------------------------------
@@ -881,12 +868,16 @@ class TaskManager:
                 f"preempted by process {ground} (priority {ground.schema.priority} > "
                 f"{cmd.action.schema.priority})"
             )
-            for a in cmd.agents:
-                if self.busy.get(a) is cmd:
-                    self.busy.pop(a)
-                    self._extra.append(Stop(a, cmd.id, why))
-                    self._emit("stop", agent=a, command=cmd.id, reason=why)
+            self._stop_round(cmd, why)
         return True
+
+    def _stop_round(self, cmd: Command, why: str) -> None:
+        """Stop a process round's command on every arm it still holds."""
+        for a in cmd.agents:
+            if self.busy.get(a) is cmd:
+                self.busy.pop(a)
+                self._extra.append(Stop(a, cmd.id, why))
+                self._emit("stop", agent=a, command=cmd.id, reason=why)
 
     def _ground_process(self, run: ProcessRun) -> GroundAction | None:
         schema, terms = self.domain.invocation(run.invocations[run.index], process=True)
@@ -953,11 +944,7 @@ class TaskManager:
     def _end_process(self, run: ProcessRun, ground: GroundAction, why: str) -> None:
         cmd = run.command
         if cmd is not None:  # still running: its end condition came true meanwhile
-            for a in cmd.agents:
-                if self.busy.get(a) is cmd:
-                    self.busy.pop(a)
-                    self._extra.append(Stop(a, cmd.id, f"process {ground} ended"))
-                    self._emit("stop", agent=a, command=cmd.id, reason=f"process {ground} ended")
+            self._stop_round(cmd, f"process {ground} ended")
             self._process_of.pop(cmd.id, None)
         if run.asked is not None:  # a person still at it: their coming report is no new round
             self._let_go.add((self._human_of(run.asked), str(run.asked)))
@@ -979,15 +966,7 @@ class TaskManager:
             self._emit("human_action", action=said)
             run.asked = None
             self._apply_effects(asked)
-            until = [apply_substitution(lit, asked.binding) for lit in asked.schema.until]
-            if not until or holds(until, self.kb.facts):
-                self._end_process(run, asked, "its end condition holds" if until else "done")
-            elif run.rounds >= self.max_process_rounds:
-                self._finish(
-                    "failed",
-                    f"process {asked} of {run.node}: end condition {' & '.join(map(str, until))} "
-                    f"still false after {run.rounds} rounds",
-                )
+            self._round_done(run, asked)
             return self._plan()
         for who, process in list(self._let_go):
             if process == said and who in action.args:
@@ -1005,22 +984,28 @@ class TaskManager:
         ground = cmd.action
         if ack.status == "done":
             self._apply_effects(ground)
-            until = [apply_substitution(lit, ground.binding) for lit in ground.schema.until]
-            if not until or holds(until, self.kb.facts):
-                why = "its end condition holds" if until else "done"
-                # what the behaviour observed (e.g. a push undone) is part of why it ended
-                self._end_process(run, ground, f"{why}; {ack.reason}" if ack.reason else why)
-            elif run.rounds >= self.max_process_rounds:
-                self._finish(
-                    "failed",
-                    f"process {ground} of {node}: end condition {' & '.join(map(str, until))} "
-                    f"still false after {run.rounds} rounds",
-                )
+            # what the behaviour observed (e.g. a push undone) is part of why it ended
+            self._round_done(run, ground, ack.reason)
         else:
             run.failures += 1
             self._emit("process_failed", node=node, process=str(ground), reason=ack.reason)
             if run.failures >= 3:
                 self._finish("failed", f"process {ground} of {node} failed 3 times: {ack.reason}")
+
+    def _round_done(self, run: ProcessRun, ground: GroundAction, said: str | None = None) -> None:
+        """A round of ``run``'s process ``ground`` is done (its effects applied): the process
+        ends if its ``until`` holds (``said``: what was observed, part of why), the run fails
+        after too many rounds, else it goes on."""
+        until = [apply_substitution(lit, ground.binding) for lit in ground.schema.until]
+        if not until or holds(until, self.kb.facts):
+            why = "its end condition holds" if until else "done"
+            self._end_process(run, ground, f"{why}; {said}" if said else why)
+        elif run.rounds >= self.max_process_rounds:
+            self._finish(
+                "failed",
+                f"process {ground} of {run.node}: end condition {' & '.join(map(str, until))} "
+                f"still false after {run.rounds} rounds",
+            )
 
     def _plan(self) -> list[Directive]:
         out: list[Directive] = []
@@ -1149,7 +1134,7 @@ class TaskManager:
             available = list(robots_idle) + [
                 h for h in self._humans() if h not in busy_humans and h not in excluded
             ]
-            reserved = set().union(*(ex.objects for ex in self.executions.values()))
+            reserved = self.reserved_objects()
             constraints = self._constraints(name)
             tree = self._tree(
                 name, actions, constraints, available_agents=available, reserved=reserved
@@ -1169,10 +1154,7 @@ class TaskManager:
                         pruned=[b.to_dict() for b in tree.pruned],
                         chosen=None,
                     )
-                self.infeasible[name] = reason
-                self._emit("infeasible", element=name, reason=reason)
-                self._update_graph(infeasible=[name])
-                self._meet_nodes()
+                self._mark_infeasible(name, reason)
                 return True
             t0 = self._timer()
             best = tree.evaluate(self.simulator, self.kb, self.domain, self._score_fn())
@@ -1213,10 +1195,7 @@ class TaskManager:
             if best is None:
                 self.failed.setdefault(name, []).extend(dict(b.grounding) for b in tree.branches)
                 if not self._could_run_later(name, actions, constraints, reserved):
-                    self.infeasible[name] = "every branch scores 0"
-                    self._emit("infeasible", element=name, reason=self.infeasible[name])
-                    self._update_graph(infeasible=[name])
-                    self._meet_nodes()
+                    self._mark_infeasible(name, "every branch scores 0")
                     return True
                 continue
             self._launch(name, best, cost, out)
@@ -1481,32 +1460,29 @@ class TaskManager:
                 # what failed changes no fact, nor does anything after it (an arm that could not
                 # go to rest), or its part is fixed in place (a gripper that did not open on a
                 # screwed leg): the hyper-arc's result holds; redoing it would undo nothing
-                self._emit(
-                    "action_failed",
-                    element=ex.element,
-                    grounding=ex.branch.grounding,
-                    status=ack.status,
-                    reason=ack.reason,
-                    kept=True,
-                )
+                self._emit_failed(ex, ack, kept=True)
                 ex.next_index = len(ex.branch.steps) - 1
                 self._progress(ex, cmd.agents[0])
             elif ex is not None:
                 self.failed.setdefault(ex.element, []).append(dict(ex.branch.grounding))
                 policy = self._failure_policy(cmd)
-                self._emit(
-                    "action_failed",
-                    element=ex.element,
-                    grounding=ex.branch.grounding,
-                    status=ack.status,
-                    reason=ack.reason,
-                    policy=policy,
-                )
+                self._emit_failed(ex, ack, policy=policy)
                 self._abort(ex, out, reason=f"{cmd.action} {ack.status}")
                 if policy == "paper":
                     self._give_up(ex.element, f"{cmd.action} {ack.status} (failure policy paper)")
         out += self._plan()
         return out
+
+    def _emit_failed(self, ex: Execution, ack: Ack, **extra: Any) -> None:
+        """The ``action_failed`` event of ``ex``'s command that ``ack`` answered."""
+        self._emit(
+            "action_failed",
+            element=ex.element,
+            grounding=ex.branch.grounding,
+            status=ack.status,
+            reason=ack.reason,
+            **extra,
+        )
 
     def _failure_policy(self, cmd: Command) -> str:
         """The policy a failed command falls under: :attr:`on_failure`, except for a command
@@ -1522,6 +1498,10 @@ class TaskManager:
         cooperation fails, section IV)."""
         if not self.graph.is_feasible(element):
             return  # meanwhile an alternative was solved: nothing left to give up
+        self._mark_infeasible(element, reason)
+
+    def _mark_infeasible(self, element: str, reason: str) -> None:
+        """``element`` can never be done: said, and marked in the graph."""
         self.infeasible[element] = reason
         self._emit("infeasible", element=element, reason=reason)
         self._update_graph(infeasible=[element])
@@ -1641,19 +1621,18 @@ class TaskManager:
             if ex.owner == "robot" and ex.objects & moved:
                 self._abort(ex, out, reason=f"{', '.join(sorted(ex.objects & moved))} moved")
             elif ex.owner == "human" and ex.objects & wrong:
-                self.executions.pop(ex.element, None)
+                self._drop_human(ex, "human report retracted")
                 row = self.table.rows.get(ex.element)
                 if row:
                     row.status = "feasible"
                     row.done_by = [None] * len(row.actions)
-                self._emit(
-                    "abort",
-                    element=ex.element,
-                    reason="human report retracted",
-                    agents=list(ex.branch.agents),
-                )
         out += self._plan()
         return out
+
+    def _drop_human(self, ex: Execution, reason: str) -> None:
+        """A person's execution ends, its hyper-arc not done."""
+        self.executions.pop(ex.element, None)
+        self._emit("abort", element=ex.element, reason=reason, agents=list(ex.agents))
 
     # -- the human ------------------------------------------------------------------------
     def _handle_human(self, action: HumanAction) -> list[Directive]:
@@ -1669,11 +1648,10 @@ class TaskManager:
                 self._stop_every_robot(out, f"human did {action} (not suggested)")
         if ex is None:
             self._emit("human_action_unmatched", action=str(action))
-            out += self._plan()
-            return out
-        step = ex.branch.steps[ex.next_index]
-        self._apply_effects(step)
-        self._progress(ex, self._human_of(step))
+        else:
+            step = ex.branch.steps[ex.next_index]
+            self._apply_effects(step)
+            self._progress(ex, self._human_of(step))
         out += self._plan()
         return out
 
@@ -1783,9 +1761,18 @@ class TaskManager:
         fixed = {**self._child_binding(name), **binding}
         if any(self._child_binding(name).get(k, v) != v for k, v in binding.items()):
             return None  # the human's objects are not those the children were reached with
-        constraints = self._constraints(name)
 
-        def pick(tree: DecisionTree) -> Branch | None:
+        def pick(constraints: list[Literal]) -> Branch | None:
+            tree = DecisionTree.build(
+                name,
+                actions,
+                constraints,
+                self.domain,
+                self.kb,
+                available_agents=self._humans(),
+                from_index=index,
+                binding=fixed,
+            )
             for b in tree.branches:
                 if all(b.grounding.get(k, v) == v for k, v in binding.items()) and (
                     index == 0 or self._already_done(b.steps[:index])
@@ -1794,29 +1781,10 @@ class TaskManager:
             return None
 
         # the action already happened: check the state it started from, with its binding
-        tree = DecisionTree.build(
-            name,
-            actions,
-            constraints if index == 0 else [],
-            self.domain,
-            self.kb,
-            available_agents=self._humans(),
-            from_index=index,
-            binding=fixed,
-        )
-        branch = pick(tree)
+        branch = pick(self._constraints(name) if index == 0 else [])
         if branch is None and index == 0:
             # the children's state may already be consumed by the action's own effect
-            tree = DecisionTree.build(
-                name,
-                actions,
-                [],
-                self.domain,
-                self.kb,
-                available_agents=self._humans(),
-                binding=fixed,
-            )
-            branch = pick(tree)
+            branch = pick([])
         if branch is not None:
             branch.grounding.update(binding)
         return branch
@@ -1833,13 +1801,7 @@ class TaskManager:
             uses_object = bool(other.objects & objects)
             if other.element == name or shared or uses_object:
                 if other.owner == "human":
-                    self.executions.pop(other.element, None)
-                    self._emit(
-                        "abort",
-                        element=other.element,
-                        reason="human changed plan",
-                        agents=list(other.agents),
-                    )
+                    self._drop_human(other, "human changed plan")
                 else:
                     self._abort(other, out, reason=f"human does {name}")
 

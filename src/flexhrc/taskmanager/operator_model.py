@@ -96,13 +96,12 @@ class ActionEstimate:
         }
 
 
-@dataclass
-class AnswerCounts:
-    """How many requests with one action a person got, declined and could not do."""
+class _Answered:
+    """The rates of a person's answers (:class:`AnswerCounts`, :class:`PersonModel`)."""
 
-    suggestions: int = 0
-    declined: int = 0
-    cannot: int = 0
+    suggestions: int
+    declined: int
+    cannot: int
 
     @property
     def decline_rate(self) -> float:
@@ -112,7 +111,7 @@ class AnswerCounts:
     def cannot_rate(self) -> float:
         return self.cannot / self.suggestions if self.suggestions else 0.0
 
-    def to_dict(self) -> dict[str, Any]:
+    def _answers_dict(self) -> dict[str, Any]:
         return {
             "suggestions": self.suggestions,
             "declined": self.declined,
@@ -123,7 +122,19 @@ class AnswerCounts:
 
 
 @dataclass
-class PersonModel:
+class AnswerCounts(_Answered):
+    """How many requests with one action a person got, declined and could not do."""
+
+    suggestions: int = 0
+    declined: int = 0
+    cannot: int = 0
+
+    def to_dict(self) -> dict[str, Any]:
+        return self._answers_dict()
+
+
+@dataclass
+class PersonModel(_Answered):
     """One person: an estimate per action name; how many suggestions they got, declined and
     answered with "I can't" (the rates are 0 until such answers are stored), in all and per
     action name (``answers``: the requests that held an action of that name)."""
@@ -151,22 +162,10 @@ class PersonModel:
             return counts.decline_rate, counts.cannot_rate
         return self.decline_rate, self.cannot_rate
 
-    @property
-    def decline_rate(self) -> float:
-        return self.declined / self.suggestions if self.suggestions else 0.0
-
-    @property
-    def cannot_rate(self) -> float:
-        return self.cannot / self.suggestions if self.suggestions else 0.0
-
     def to_dict(self) -> dict[str, Any]:
         return {
             "actions": {a: e.to_dict() for a, e in sorted(self.actions.items())},
-            "suggestions": self.suggestions,
-            "declined": self.declined,
-            "cannot": self.cannot,
-            "decline_rate": round(self.decline_rate, 4),
-            "cannot_rate": round(self.cannot_rate, 4),
+            **self._answers_dict(),
             **(
                 {"answers": {a: c.to_dict() for a, c in sorted(self.answers.items())}}
                 if self.answers

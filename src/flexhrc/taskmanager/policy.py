@@ -79,9 +79,9 @@ def register_policy(name: str, factory: PolicyFactory) -> None:
     _REGISTRY[name] = factory
 
 
-def registered_policies() -> tuple[str, ...]:
-    """The names registered now, in registration order."""
-    return tuple(_REGISTRY)
+def _unknown(option: str, value: object) -> FlexhrcError:
+    choices = ", ".join(dict.fromkeys([*DECISION_POLICIES, *_REGISTRY]))
+    return FlexhrcError(f"{option} {value!r}: choose one of {choices}")
 
 
 def make_policy(name: str, option: str = "--policy") -> Policy | None:
@@ -94,8 +94,7 @@ def make_policy(name: str, option: str = "--policy") -> Policy | None:
                 f"{option} {name}: the policy is not loaded; import flexhrc.planning first "
                 "(it needs the plan extra: pip install 'flexhrc[plan]')"
             )
-        choices = ", ".join(dict.fromkeys([*DECISION_POLICIES, *_REGISTRY]))
-        raise FlexhrcError(f"{option} {name!r}: choose one of {choices}")
+        raise _unknown(option, name)
     return factory()
 
 
@@ -103,8 +102,7 @@ def check_policy(value: object, option: str = "--policy") -> str:
     """``value`` if it names a policy (built in, or registered), else one error."""
     if isinstance(value, str) and (value in DECISION_POLICIES or value in _REGISTRY):
         return value
-    choices = ", ".join(dict.fromkeys([*DECISION_POLICIES, *_REGISTRY]))
-    raise FlexhrcError(f"{option} {value!r}: choose one of {choices}")
+    raise _unknown(option, value)
 
 
 register_policy(DEFAULT_POLICY, lambda: None)

@@ -149,6 +149,10 @@ def parse_utility(
     is), the key None for the block itself. Names in ``prefer``/``effort`` are checked against
     the domain when there is one."""
     problems: list[tuple[str, str | None]] = []
+
+    def fault(message: str, key: str) -> None:
+        problems.append((message, key))
+
     if block is None:
         return None, problems
     if not isinstance(block, Mapping):
@@ -157,15 +161,13 @@ def parse_utility(
         ]
     for key in block:
         if key not in UTILITY_KEYS:
-            problems.append(
-                (f"utility: unknown key {key!r}; choose among {', '.join(UTILITY_KEYS)}", str(key))
-            )
+            fault(f"utility: unknown key {key!r}; choose among {', '.join(UTILITY_KEYS)}", str(key))
     kw: dict[str, Any] = {}
     for key in WEIGHTS:
         if key in block:
             v = block[key]
             if not _number(v) or v < 0:
-                problems.append((f"utility: {key} must be a number >= 0, got {v!r}", key))
+                fault(f"utility: {key} must be a number >= 0, got {v!r}", key)
             else:
                 kw[key] = float(v)
     agents = set(AGENT_KINDS)
@@ -177,65 +179,51 @@ def parse_utility(
     prefer: dict[str, float | dict[str, float]] = {}
     raw = block.get("prefer", {}) or {}
     if not isinstance(raw, Mapping):
-        problems.append(
-            ("utility: prefer must be a mapping (agent: value or action: {agent: value})", "prefer")
+        fault(
+            "utility: prefer must be a mapping (agent: value or action: {agent: value})", "prefer"
         )
         raw = {}
     for key, value in raw.items():
         key = str(key)
         if isinstance(value, Mapping):
             if domain is not None and key not in actions:
-                problems.append(
-                    (f"utility: prefer: {key!r} is not an action of the domain", "prefer")
-                )
+                fault(f"utility: prefer: {key!r} is not an action of the domain", "prefer")
                 continue
             inner: dict[str, float] = {}
             for ak, av in value.items():
                 if domain is not None and str(ak) not in agents:
-                    problems.append(
-                        (f"utility: prefer: {key}: {ak!r} names no agent or agent type", "prefer")
-                    )
+                    fault(f"utility: prefer: {key}: {ak!r} names no agent or agent type", "prefer")
                 elif not _number(av):
-                    problems.append(
-                        (f"utility: prefer: {key}: {ak} must be a number, got {av!r}", "prefer")
-                    )
+                    fault(f"utility: prefer: {key}: {ak} must be a number, got {av!r}", "prefer")
                 else:
                     inner[str(ak)] = float(av)
             prefer[key] = inner
         elif _number(value):
             if domain is not None and key not in agents:
-                problems.append(
-                    (
-                        f"utility: prefer: {key!r} names no agent or agent type"
-                        " (an action takes a mapping agent: value)",
-                        "prefer",
-                    )
+                fault(
+                    f"utility: prefer: {key!r} names no agent or agent type"
+                    " (an action takes a mapping agent: value)",
+                    "prefer",
                 )
                 continue
             prefer[key] = float(value)
         else:
-            problems.append(
-                (f"utility: prefer: {key} must be a number or a mapping, got {value!r}", "prefer")
-            )
+            fault(f"utility: prefer: {key} must be a number or a mapping, got {value!r}", "prefer")
     effort: dict[str, float] = {}
     raw = block.get("effort", {}) or {}
     if not isinstance(raw, Mapping):
-        problems.append(("utility: effort must be a mapping action: weight", "effort"))
+        fault("utility: effort must be a mapping action: weight", "effort")
         raw = {}
     for key, value in raw.items():
         if domain is not None and str(key) not in actions:
-            problems.append((f"utility: effort: {key!r} is not an action of the domain", "effort"))
+            fault(f"utility: effort: {key!r} is not an action of the domain", "effort")
         elif not _number(value) or value < 0:
-            problems.append(
-                (f"utility: effort: {key} must be a number >= 0, got {value!r}", "effort")
-            )
+            fault(f"utility: effort: {key} must be a number >= 0, got {value!r}", "effort")
         else:
             effort[str(key)] = float(value)
     cap = block.get("max_workload")
     if cap is not None and (not _number(cap) or not 0 <= cap <= 1):
-        problems.append(
-            (f"utility: max_workload must be a share between 0 and 1, got {cap!r}", "max_workload")
-        )
+        fault(f"utility: max_workload must be a share between 0 and 1, got {cap!r}", "max_workload")
         cap = None
     if problems:
         return None, problems

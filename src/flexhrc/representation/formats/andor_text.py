@@ -492,16 +492,12 @@ def _find_listed(
             return None
         # references usually omit the extension; a link or a device: let stat and realpath
         # judge
-        kind = entries.get(with_suffix)
-        if kind == _REGULAR:
-            return f"{folder}{sep}{with_suffix}"
-        if kind == _OTHER:
-            return None
-        kind = entries.get(last)
-        if kind == _REGULAR:
-            return f"{folder}{sep}{last}"
-        if kind == _OTHER:
-            return None
+        for name in (with_suffix, last):
+            kind = entries.get(name)
+            if kind == _REGULAR:
+                return f"{folder}{sep}{name}"
+            if kind == _OTHER:
+                return None
     return None
 
 
