@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import math
 import sys
@@ -139,6 +140,16 @@ def add_segments_option(parser: argparse.ArgumentParser) -> None:
         "(both arms place it), legs (the legs fix, paper Figs. 9-12), check (the operator's); "
         "e.g. --segments legs",
     )
+
+
+def config_from_args(cls: Any, args: argparse.Namespace, **given: Any) -> Any:
+    """The config (a dataclass) the arguments describe: each field not ``given`` is the option of
+    the same name, a repeated option's list as a tuple (a config is frozen)."""
+    for f in dataclasses.fields(cls):
+        if f.name not in given:
+            value = getattr(args, f.name)
+            given[f.name] = tuple(value) if isinstance(value, list) else value
+    return cls(**given)
 
 
 def emit(args: argparse.Namespace, data: Any, text: Callable[[], str] | str | None = None) -> None:

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-from dataclasses import fields
 from typing import Any
 
 from flexhrc.cli.common import (
@@ -22,6 +21,7 @@ from flexhrc.cli.common import (
     POLICY_OPTION,
     add_json_flag,
     add_segments_option,
+    config_from_args,
     emit,
     float_range,
     int_range,
@@ -267,17 +267,6 @@ def _trace_printer(args: argparse.Namespace) -> Any:
     return trace
 
 
-def _config(args: argparse.Namespace, scenario: Any) -> Any:
-    """The :class:`~flexhrc.app.RunConfig` of ``run``'s and ``demo``'s options (same names)."""
-    from flexhrc.app import RunConfig
-
-    kw: dict[str, Any] = {}
-    for f in fields(RunConfig)[1:]:
-        v = getattr(args, f.name)
-        kw[f.name] = tuple(v) if isinstance(v, list) else v
-    return RunConfig(scenario, **kw)
-
-
 def cmd_demo_table(args: argparse.Namespace) -> int:
     from flexhrc.app import TableDemo
 
@@ -288,9 +277,10 @@ def cmd_demo_table(args: argparse.Namespace) -> int:
 
 
 def cmd_run(args: argparse.Namespace, scenario: Any = None) -> int:
-    from flexhrc.app import run_scenario
+    from flexhrc.app import RunConfig, run_scenario
 
-    config = _config(args, args.scenario if scenario is None else scenario)
+    scenario = args.scenario if scenario is None else scenario
+    config = config_from_args(RunConfig, args, scenario=scenario)
     report = run_scenario(config, trace=_trace_printer(args), progress=progress)
     for warning in report.warnings:
         progress(warning)
