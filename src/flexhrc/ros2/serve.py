@@ -344,7 +344,8 @@ def _serve_agent(
 ) -> tuple[Any, dict[str, Any]]:
     """Check the agent's name, make it on a transport of its own and serve the cell until it
     ends; the agent and the transport are closed whatever happens."""
-    from flexhrc.cell.components import check_agent_name, run_agent
+    from flexhrc.cell.components import check_agent_name
+    from flexhrc.cell.serve import serve_until_end
     from flexhrc.ros2.transport import ros_topic
 
     scenario = _scenario(config)
@@ -357,17 +358,11 @@ def _serve_agent(
             progress(f"[{name}] {line}")
 
     transport = _transport(config, f"{'arm' if kind == 'robot' else 'human'}_{name}")
-    agent: Any = None
-    try:
-        agent = make(scenario, transport, say)
-        where = f", commands on {transport.ros_name('cmd/' + name)}" if kind == "robot" else ""
-        say(f"ready: cell {config.cell!r}, ROS domain {transport.domain_id}{where}")
-        outcome = run_agent(agent, transport, until=until)
-        say(f"cell ended: {outcome}")
-    finally:
-        if agent is not None:
-            agent.close()
-        transport.close()
+    where = f", commands on {transport.ros_name('cmd/' + name)}" if kind == "robot" else ""
+    ready = f"ready: cell {config.cell!r}, ROS domain {transport.domain_id}{where}"
+    agent, outcome = serve_until_end(
+        lambda: make(scenario, transport, say), transport, say=say, ready=ready, until=until
+    )
     return agent, {
         "agent": name,
         "outcome": outcome,
