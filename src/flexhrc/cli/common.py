@@ -169,6 +169,22 @@ def log(args: argparse.Namespace, message: str) -> None:
     print(message, file=stream, flush=True)
 
 
+def trace_printer(
+    args: argparse.Namespace, words: Callable[[dict[str, Any]], str | None]
+) -> Callable[[dict[str, Any]], None] | None:
+    """The live trace: each event's line (``words``; None: not shown) as :func:`log` prints it;
+    None under ``--quiet``."""
+    if args.quiet:
+        return None
+
+    def trace(ev: dict[str, Any]) -> None:
+        line = words(ev)
+        if line is not None:
+            log(args, line)
+
+    return trace
+
+
 def progress(message: str) -> None:
     """A progress line ("training ...", "scene 3/10"): always stderr, so stdout holds results."""
     print(message, file=sys.stderr, flush=True)

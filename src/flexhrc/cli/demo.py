@@ -28,6 +28,7 @@ from flexhrc.cli.common import (
     progress,
     quiet_library_logs,
     seed_type,
+    trace_printer,
 )
 from flexhrc.errors import FlexhrcError
 from flexhrc.events import PROFILES
@@ -251,22 +252,6 @@ def _run_options(p: argparse.ArgumentParser, first: dict[str, dict[str, Any]]) -
     add_json_flag(p)
 
 
-def _trace_printer(args: argparse.Namespace) -> Any:
-    """The live trace (:func:`flexhrc.app.run.trace_line`): stdout, or stderr under ``--json``."""
-    from flexhrc.app.run import trace_line
-
-    if args.quiet:
-        return None
-    stream = sys.stderr if args.json else sys.stdout
-
-    def trace(ev: dict[str, Any]) -> None:
-        line = trace_line(ev)
-        if line is not None:
-            print(line, file=stream, flush=True)
-
-    return trace
-
-
 def cmd_demo_table(args: argparse.Namespace) -> int:
     from flexhrc.app import TableDemo
 
@@ -278,10 +263,11 @@ def cmd_demo_table(args: argparse.Namespace) -> int:
 
 def cmd_run(args: argparse.Namespace, scenario: Any = None) -> int:
     from flexhrc.app import RunConfig, run_scenario
+    from flexhrc.app.run import trace_line
 
     scenario = args.scenario if scenario is None else scenario
     config = config_from_args(RunConfig, args, scenario=scenario)
-    report = run_scenario(config, trace=_trace_printer(args), progress=progress)
+    report = run_scenario(config, trace=trace_printer(args, trace_line), progress=progress)
     for warning in report.warnings:
         progress(warning)
     emit(args, report.json, report.text)
