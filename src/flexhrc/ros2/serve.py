@@ -85,24 +85,9 @@ class Ros2CellConfig(Ros2NodeConfig):
     markers_rate: float = 2.0
 
     def __post_init__(self) -> None:
-        from flexhrc.scenario.simulators import CHOICES
+        from flexhrc.cell.serve import check_manager_options
 
-        if not (math.isfinite(self.realtime) and self.realtime >= 0):
-            raise FlexhrcError(f"--realtime must be a finite number >= 0, got {self.realtime}")
-        if self.simulator not in CHOICES:
-            raise FlexhrcError(
-                f"--simulator {self.simulator!r}: choose one of {', '.join(CHOICES)}"
-            )
-        if self.on_failure is not None:
-            from flexhrc.cell.supervisor import failure_policy
-
-            failure_policy(None, self.on_failure)
-        if self.policy is not None:
-            from flexhrc.cell.supervisor import decision_policy
-
-            decision_policy(None, self.policy)
-        if not (math.isfinite(self.wait) and self.wait > 0):
-            raise FlexhrcError(f"--wait must be a positive number of seconds, got {self.wait}")
+        check_manager_options(self)
         if not (math.isfinite(self.markers_rate) and 0 < self.markers_rate <= 100):
             raise FlexhrcError(f"--markers-rate must be in (0, 100] Hz, got {self.markers_rate}")
         if self.resume and not self.store:
