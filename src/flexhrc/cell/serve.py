@@ -259,10 +259,7 @@ def serve_cell(
         if zenoh:
             time.sleep(0.2)  # let the end message leave before the session closes
     finally:
-        if store is not None:
-            store.close()
-        if transport is not None:
-            transport.close()
+        close_made(store, transport)
     return data
 
 
@@ -478,7 +475,12 @@ def serve_until_end(
         outcome = run_agent(agent, transport, until=until)
         say(f"cell ended: {outcome}")
     finally:
-        if agent is not None:
-            agent.close()
-        transport.close()
+        close_made(agent, transport)
     return agent, outcome
+
+
+def close_made(*parts: Any) -> None:
+    """Close, in order, each of ``parts`` that was made (None: not made, nothing to close)."""
+    for part in parts:
+        if part is not None:
+            part.close()

@@ -12,7 +12,7 @@ from flexhrc.cli.common import (
     add_segments_option,
     add_simulator_option,
     add_transport_options,
-    config_from_args,
+    config_of,
     emit,
     progress,
     quiet_library_logs,
@@ -82,7 +82,7 @@ def cmd_agent(args: argparse.Namespace) -> int:
     from flexhrc.scenario import load_scenario
 
     robot = args.agent_kind == "robot"
-    config = config_from_args(
+    config = config_of(
         AgentConfig,
         args,
         kind=args.agent_kind,

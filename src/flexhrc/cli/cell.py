@@ -11,7 +11,7 @@ from flexhrc.cli.common import (
     add_seed_option,
     add_segments_option,
     add_transport_options,
-    config_from_args,
+    config_of,
     emit,
     progress,
     quiet_library_logs,
@@ -82,7 +82,7 @@ def cmd_cell(args: argparse.Namespace) -> int:
     from flexhrc.cli.panel import run_cell
     from flexhrc.scenario import load_scenario
 
-    config = config_from_args(CellConfig, args)
+    config = config_of(CellConfig, args)
 
     def start(trace: Any, attach: list[Any], servers: list[Any]) -> dict[str, Any]:
         scenario = load_scenario(args.scenario, seed=args.seed, segments=args.segments)

@@ -142,7 +142,7 @@ def add_segments_option(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def config_from_args(cls: Any, args: argparse.Namespace, **given: Any) -> Any:
+def config_of(cls: Any, args: argparse.Namespace, **given: Any) -> Any:
     """The config (a dataclass) the arguments describe: each field not ``given`` is the option of
     the same name, a repeated option's list as a tuple (a config is frozen)."""
     for f in dataclasses.fields(cls):

@@ -21,7 +21,7 @@ from flexhrc.cli.common import (
     POLICY_OPTION,
     add_json_flag,
     add_segments_option,
-    config_from_args,
+    config_of,
     emit,
     float_range,
     int_range,
@@ -266,7 +266,7 @@ def cmd_run(args: argparse.Namespace, scenario: Any = None) -> int:
     from flexhrc.app.run import trace_line
 
     scenario = args.scenario if scenario is None else scenario
-    config = config_from_args(RunConfig, args, scenario=scenario)
+    config = config_of(RunConfig, args, scenario=scenario)
     report = run_scenario(config, trace=trace_printer(args, trace_line), progress=progress)
     for warning in report.warnings:
         progress(warning)

@@ -4,13 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from flexhrc.cli.common import (
-    add_json_flag,
-    add_segments_option,
-    config_from_args,
-    emit,
-    float_range,
-)
+from flexhrc.cli.common import add_json_flag, add_segments_option, config_of, emit, float_range
 
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg, unused-ignore]
@@ -79,6 +73,6 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
 def cmd_plan(args: argparse.Namespace) -> int:
     from flexhrc.app.plan import PlanConfig, plan_scenario
 
-    report = plan_scenario(config_from_args(PlanConfig, args))
+    report = plan_scenario(config_of(PlanConfig, args))
     emit(args, report.json, report.text)
     return report.exit_code

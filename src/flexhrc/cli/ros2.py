@@ -26,7 +26,7 @@ from flexhrc.cli.common import (
     add_json_flag,
     add_seed_option,
     add_segments_option,
-    config_from_args,
+    config_of,
     emit,
     progress,
 )
@@ -122,7 +122,7 @@ def cmd_node(args: argparse.Namespace) -> int:
         "human": (serve.Ros2HumanConfig, serve.serve_ros2_human),
     }
     config_type, run = nodes[args.ros2_command]
-    data = run(config_from_args(config_type, args), progress=_progress(args), until=TermFlag())
+    data = run(config_of(config_type, args), progress=_progress(args), until=TermFlag())
     if args.json:
         emit(args, data)
     return 0
@@ -134,7 +134,7 @@ def cmd_cell(args: argparse.Namespace) -> int:
     from flexhrc.cli.panel import run_cell
     from flexhrc.ros2.serve import Ros2CellConfig, serve_ros2_cell
 
-    config = config_from_args(Ros2CellConfig, args)
+    config = config_of(Ros2CellConfig, args)
 
     def start(trace: Any, attach: list[Any], servers: list[Any]) -> dict[str, Any]:
         return serve_ros2_cell(config, trace=trace, progress=_progress(args), attach=attach)

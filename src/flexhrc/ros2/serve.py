@@ -156,6 +156,7 @@ def serve_ros2_cell(
     from flexhrc.cell import Cell, EventStore
     from flexhrc.cell import protocol as P
     from flexhrc.cell.components import execution_model
+    from flexhrc.cell.serve import close_made
     from flexhrc.ros2.extras import ManagerInterfaces
 
     scenario = _scenario(config)
@@ -244,10 +245,7 @@ def serve_ros2_cell(
         cell.close()
         # (closing the transport waits until the end message is acknowledged)
     finally:
-        if store is not None:
-            store.close()
-        if transport is not None:
-            transport.close()
+        close_made(store, transport)
     return data
 
 
