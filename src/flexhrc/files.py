@@ -118,7 +118,7 @@ def check_output(
                     raise OutputPathError(
                         f"{where}: is an input of this command; refusing to overwrite it"
                     )
-    parent = p.parent if str(p.parent) else Path(".")
+    parent = p.parent  # "." for a bare file name
     if not parent.exists():
         raise OutputPathError(f"{where}: folder {parent} does not exist")
     if not parent.is_dir():
@@ -144,8 +144,7 @@ def atomic_output(path: str | Path) -> Iterator[Path]:
     temporary file is removed and ``path`` is left as it was.
     """
     p = Path(path)
-    parent = p.parent if str(p.parent) else Path(".")
-    fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=p.suffix, dir=parent)
+    fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=p.suffix, dir=p.parent)
     os.close(fd)
     tmp_path = Path(tmp)
     try:

@@ -179,11 +179,11 @@ def test_flexhrc_cell_takes_on_failure(capsys):
 
 
 def test_ros2_cell_takes_on_failure():
-    from flexhrc.cli.ros2 import _config
+    from flexhrc.cli.common import config_of
     from flexhrc.ros2.serve import Ros2CellConfig
 
     args = build_parser().parse_args(["ros2", "cell", "table_assembly", "--on-failure", "paper"])
-    assert _config(Ros2CellConfig, args).on_failure == "paper"
+    assert config_of(Ros2CellConfig, args).on_failure == "paper"
     with pytest.raises(FlexhrcError, match="--on-failure 'sometimes'"):
         Ros2CellConfig("table_assembly", on_failure="sometimes")
 

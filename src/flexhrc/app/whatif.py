@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from flexhrc.cell.components import ScenarioLike
-from flexhrc.cell.fork import ForkReport, fork_store
+from flexhrc.cell.fork import ForkReport, fork_store, profiles_text
 from flexhrc.errors import FlexhrcError, UnknownNameError
 from flexhrc.files import check_output
 
@@ -38,7 +38,6 @@ def what_if(
     written atomically). ``scenario``: the stored run's scenario file or name (None: the one
     its ``start`` names), loaded with the stored seed."""
     import flexhrc.planning.policies  # noqa: F401  (a stored lookahead run forks with it)
-    from flexhrc.cell.fork import profiles_text
     from flexhrc.cell.replay import PLOT_SUFFIXES, need_matplotlib
     from flexhrc.files import atomic_output
 
@@ -94,10 +93,6 @@ def read_utility(path: str | Path) -> dict[str, Any]:
         line = _line(block, key) if key is not None else _line(block)
         raise FlexhrcError(f"--utility {path}{f':{line}' if line else ''}: {message}")
     return dict(block)
-
-
-def profiles_text(profiles: dict[str, str]) -> str:
-    return ", ".join(f"{h}: {p}" for h, p in sorted(profiles.items())) or "no operator"
 
 
 def _load(source: str | Path, given: str | Path | None, name: str, seed: int) -> ScenarioLike:

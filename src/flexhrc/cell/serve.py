@@ -65,6 +65,21 @@ def _check_cell_name(name: str) -> None:
         raise FlexhrcError(f"--cell {name!r}: letters, digits, '_' and '-' only")
 
 
+def check_manager_options(config: Any) -> None:
+    """The options of a cell's manager that ``flexhrc cell`` and ``flexhrc ros2 cell`` share
+    (the fields of their configs), checked in the words of the command's options."""
+    _choice("--simulator", config.simulator, SIMULATORS)
+    if config.on_failure is not None:
+        failure_policy(None, config.on_failure)
+    if config.policy is not None:
+        decision_policy(None, config.policy)
+    answer_timeout_of(None, config.answer_timeout)
+    if not (math.isfinite(config.realtime) and config.realtime >= 0):
+        raise FlexhrcError(f"--realtime must be a finite number >= 0, got {config.realtime}")
+    if not (math.isfinite(config.wait) and config.wait > 0):
+        raise FlexhrcError(f"--wait must be a positive number of seconds, got {config.wait}")
+
+
 @dataclass(frozen=True)
 class CellConfig:
     """What :func:`serve_cell` runs: the options of ``flexhrc cell``, with its defaults.
@@ -110,17 +125,8 @@ class CellConfig:
     def __post_init__(self) -> None:
         _choice("--transport", self.transport, ("inprocess", "zenoh"))
         _choice("--agents", self.agents, ("internal", "external"))
-        _choice("--simulator", self.simulator, SIMULATORS)
-        if self.on_failure is not None:
-            failure_policy(None, self.on_failure)
-        if self.policy is not None:
-            decision_policy(None, self.policy)
-        answer_timeout_of(None, self.answer_timeout)
         _choice("--human", self.human, PROFILES)
-        if not (math.isfinite(self.realtime) and self.realtime >= 0):
-            raise FlexhrcError(f"--realtime must be a finite number >= 0, got {self.realtime}")
-        if not (math.isfinite(self.wait) and self.wait > 0):
-            raise FlexhrcError(f"--wait must be a positive number of seconds, got {self.wait}")
+        check_manager_options(self)
         if self.agents == "external" and self.transport != "zenoh":
             raise FlexhrcError("--agents external needs --transport zenoh")
         if self.transport == "inprocess" and (self.listen or self.connect):
@@ -253,10 +259,7 @@ def serve_cell(
         if zenoh:
             time.sleep(0.2)  # let the end message leave before the session closes
     finally:
-        if store is not None:
-            store.close()
-        if transport is not None:
-            transport.close()
+        close_made(store, transport)
     return data
 
 
@@ -472,7 +475,12 @@ def serve_until_end(
         outcome = run_agent(agent, transport, until=until)
         say(f"cell ended: {outcome}")
     finally:
-        if agent is not None:
-            agent.close()
-        transport.close()
+        close_made(agent, transport)
     return agent, outcome
+
+
+def close_made(*parts: Any) -> None:
+    """Close, in order, each of ``parts`` that was made (None: not made, nothing to close)."""
+    for part in parts:
+        if part is not None:
+            part.close()

@@ -12,6 +12,7 @@ from flexhrc.cli.common import (
     add_segments_option,
     add_simulator_option,
     add_transport_options,
+    config_of,
     emit,
     progress,
     quiet_library_logs,
@@ -81,17 +82,14 @@ def cmd_agent(args: argparse.Namespace) -> int:
     from flexhrc.scenario import load_scenario
 
     robot = args.agent_kind == "robot"
-    config = AgentConfig(
+    config = config_of(
+        AgentConfig,
+        args,
         kind=args.agent_kind,
         name=args.arm if robot else args.name,
-        seed=args.seed,
-        connect=tuple(args.connect),
-        listen=tuple(args.listen),
-        cell=args.cell,
         simulator=args.simulator if robot else "auto",
         journal=args.journal if robot else None,
         profile="passive" if robot else args.profile,
-        zenoh_config=args.zenoh_config,
     )
     scenario = load_scenario(args.scenario, seed=args.seed, segments=args.segments)
     data = join_cell(

@@ -11,6 +11,7 @@ from flexhrc.cli.common import (
     add_seed_option,
     add_segments_option,
     add_transport_options,
+    config_of,
     emit,
     progress,
     quiet_library_logs,
@@ -81,26 +82,7 @@ def cmd_cell(args: argparse.Namespace) -> int:
     from flexhrc.cli.panel import run_cell
     from flexhrc.scenario import load_scenario
 
-    config = CellConfig(
-        seed=args.seed,
-        transport=args.transport,
-        agents=args.agents,
-        listen=tuple(args.listen),
-        connect=tuple(args.connect),
-        cell=args.cell,
-        store=args.store,
-        resume=args.resume,
-        realtime=args.realtime,
-        simulator=args.simulator,
-        on_failure=args.on_failure,
-        answer_timeout=args.answer_timeout,
-        policy=args.policy,
-        wait=args.wait,
-        human=args.human,
-        ready_file=args.ready_file,
-        zenoh_config=args.zenoh_config,
-        operators=args.operators,
-    )
+    config = config_of(CellConfig, args)
 
     def start(trace: Any, attach: list[Any], servers: list[Any]) -> dict[str, Any]:
         scenario = load_scenario(args.scenario, seed=args.seed, segments=args.segments)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import math
 import sys
@@ -141,6 +142,16 @@ def add_segments_option(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def config_of(cls: Any, args: argparse.Namespace, **given: Any) -> Any:
+    """The config (a dataclass) the arguments describe: each field not ``given`` is the option of
+    the same name, a repeated option's list as a tuple (a config is frozen)."""
+    for f in dataclasses.fields(cls):
+        if f.name not in given:
+            value = getattr(args, f.name)
+            given[f.name] = tuple(value) if isinstance(value, list) else value
+    return cls(**given)
+
+
 def emit(args: argparse.Namespace, data: Any, text: Callable[[], str] | str | None = None) -> None:
     """Print ``data`` as JSON when ``--json`` was given, else the human-readable ``text``."""
     if getattr(args, "json", False) or text is None:
@@ -156,6 +167,22 @@ def log(args: argparse.Namespace, message: str) -> None:
     """A progress/trace line: stderr under ``--json`` (stdout stays pure JSON), else stdout."""
     stream = sys.stderr if getattr(args, "json", False) else sys.stdout
     print(message, file=stream, flush=True)
+
+
+def trace_printer(
+    args: argparse.Namespace, words: Callable[[dict[str, Any]], str | None]
+) -> Callable[[dict[str, Any]], None] | None:
+    """The live trace: each event's line (``words``; None: not shown) as :func:`log` prints it;
+    None under ``--quiet``."""
+    if args.quiet:
+        return None
+
+    def trace(ev: dict[str, Any]) -> None:
+        line = words(ev)
+        if line is not None:
+            log(args, line)
+
+    return trace
 
 
 def progress(message: str) -> None:

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-from dataclasses import fields
 from typing import Any
 
 from flexhrc.cli.common import (
@@ -22,12 +21,14 @@ from flexhrc.cli.common import (
     POLICY_OPTION,
     add_json_flag,
     add_segments_option,
+    config_of,
     emit,
     float_range,
     int_range,
     progress,
     quiet_library_logs,
     seed_type,
+    trace_printer,
 )
 from flexhrc.errors import FlexhrcError
 from flexhrc.events import PROFILES
@@ -251,33 +252,6 @@ def _run_options(p: argparse.ArgumentParser, first: dict[str, dict[str, Any]]) -
     add_json_flag(p)
 
 
-def _trace_printer(args: argparse.Namespace) -> Any:
-    """The live trace (:func:`flexhrc.app.run.trace_line`): stdout, or stderr under ``--json``."""
-    from flexhrc.app.run import trace_line
-
-    if args.quiet:
-        return None
-    stream = sys.stderr if args.json else sys.stdout
-
-    def trace(ev: dict[str, Any]) -> None:
-        line = trace_line(ev)
-        if line is not None:
-            print(line, file=stream, flush=True)
-
-    return trace
-
-
-def _config(args: argparse.Namespace, scenario: Any) -> Any:
-    """The :class:`~flexhrc.app.RunConfig` of ``run``'s and ``demo``'s options (same names)."""
-    from flexhrc.app import RunConfig
-
-    kw: dict[str, Any] = {}
-    for f in fields(RunConfig)[1:]:
-        v = getattr(args, f.name)
-        kw[f.name] = tuple(v) if isinstance(v, list) else v
-    return RunConfig(scenario, **kw)
-
-
 def cmd_demo_table(args: argparse.Namespace) -> int:
     from flexhrc.app import TableDemo
 
@@ -288,10 +262,12 @@ def cmd_demo_table(args: argparse.Namespace) -> int:
 
 
 def cmd_run(args: argparse.Namespace, scenario: Any = None) -> int:
-    from flexhrc.app import run_scenario
+    from flexhrc.app import RunConfig, run_scenario
+    from flexhrc.app.run import trace_line
 
-    config = _config(args, args.scenario if scenario is None else scenario)
-    report = run_scenario(config, trace=_trace_printer(args), progress=progress)
+    scenario = args.scenario if scenario is None else scenario
+    config = config_of(RunConfig, args, scenario=scenario)
+    report = run_scenario(config, trace=trace_printer(args, trace_line), progress=progress)
     for warning in report.warnings:
         progress(warning)
     emit(args, report.json, report.text)

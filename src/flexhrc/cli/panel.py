@@ -19,6 +19,7 @@ from flexhrc.cli.common import (
     add_segments_option,
     add_simulator_option,
     emit,
+    trace_printer,
 )
 from flexhrc.errors import FlexhrcError
 
@@ -69,15 +70,9 @@ def run_cell(
     ``--web``/``--token`` are checked before ``start``; the panel gets the last state, then
     stops."""
     from flexhrc.cell.serve import trace_line
-    from flexhrc.cli.common import log
 
     web = check_web(args)  # a non-loopback --web without --token is refused before any work
     servers: list[Any] = []
-
-    def trace(ev: dict[str, Any]) -> None:
-        line = trace_line(ev)
-        if line:
-            log(args, line)
 
     def panel(cell: Any) -> Any:  # polled by the cell's loop like an agent
         from flexhrc.web.live import CellPanel
@@ -90,7 +85,7 @@ def run_cell(
         return backend
 
     try:
-        return start(None if args.quiet else trace, [panel] if web else [], servers)
+        return start(trace_printer(args, trace_line), [panel] if web else [], servers)
     finally:
         for server in servers:
             server.stop(grace=0.3)  # the page gets the last state first

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from flexhrc.cli.common import add_json_flag, add_segments_option, emit, float_range
+from flexhrc.cli.common import add_json_flag, add_segments_option, config_of, emit, float_range
 
 
 def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg, unused-ignore]
@@ -73,18 +73,6 @@ def register(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg,
 def cmd_plan(args: argparse.Namespace) -> int:
     from flexhrc.app.plan import PlanConfig, plan_scenario
 
-    config = PlanConfig(
-        scenario=args.scenario,
-        objective=args.objective,
-        time_limit=args.time_limit,
-        simulator=args.simulator,
-        human=args.human,
-        plot=args.plot,
-        segments=args.segments,
-        seed=args.seed,
-        travel=args.travel,
-        exact_travel=args.exact_travel,
-    )
-    report = plan_scenario(config)
+    report = plan_scenario(config_of(PlanConfig, args))
     emit(args, report.json, report.text)
     return report.exit_code

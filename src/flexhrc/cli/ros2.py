@@ -17,7 +17,6 @@ rclpy is imported only when a command runs, so ``flexhrc --help`` works without 
 from __future__ import annotations
 
 import argparse
-import dataclasses
 from collections.abc import Callable
 from typing import Any
 
@@ -27,6 +26,7 @@ from flexhrc.cli.common import (
     add_json_flag,
     add_seed_option,
     add_segments_option,
+    config_of,
     emit,
     progress,
 )
@@ -109,11 +109,6 @@ def _arm_options(arm: argparse.ArgumentParser) -> None:
     )
 
 
-def _config(cls: type, args: argparse.Namespace) -> Any:
-    """The config the arguments describe: each field is the option of the same name."""
-    return cls(**{f.name: getattr(args, f.name) for f in dataclasses.fields(cls)})
-
-
 def _progress(args: argparse.Namespace) -> Callable[[str], None] | None:
     return None if args.quiet else progress
 
@@ -127,7 +122,7 @@ def cmd_node(args: argparse.Namespace) -> int:
         "human": (serve.Ros2HumanConfig, serve.serve_ros2_human),
     }
     config_type, run = nodes[args.ros2_command]
-    data = run(_config(config_type, args), progress=_progress(args), until=TermFlag())
+    data = run(config_of(config_type, args), progress=_progress(args), until=TermFlag())
     if args.json:
         emit(args, data)
     return 0
@@ -139,7 +134,7 @@ def cmd_cell(args: argparse.Namespace) -> int:
     from flexhrc.cli.panel import run_cell
     from flexhrc.ros2.serve import Ros2CellConfig, serve_ros2_cell
 
-    config = _config(Ros2CellConfig, args)
+    config = config_of(Ros2CellConfig, args)
 
     def start(trace: Any, attach: list[Any], servers: list[Any]) -> dict[str, Any]:
         return serve_ros2_cell(config, trace=trace, progress=_progress(args), attach=attach)

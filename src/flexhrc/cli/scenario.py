@@ -113,9 +113,7 @@ def cmd_new(args: argparse.Namespace) -> int:
     from flexhrc.scenario.starter import write_starter
 
     target = write_starter(args.dir, force=args.force)
-    print(f"wrote {target}")
-    print(f"next: flexhrc scenario validate {target} && flexhrc run {target}")
-    return 0
+    return _wrote(target)
 
 
 def cmd_generate(args: argparse.Namespace) -> int:
@@ -134,6 +132,11 @@ def cmd_generate(args: argparse.Namespace) -> int:
         sys.stdout.write(generate(**spec))
         return 0
     target = write_generated(args.output, force=args.force, **spec)
+    return _wrote(target)
+
+
+def _wrote(target: object) -> int:
+    """Say where the new scenario is and what to do with it next."""
     print(f"wrote {target}")
     print(f"next: flexhrc scenario validate {target} && flexhrc run {target}")
     return 0

@@ -85,24 +85,9 @@ class Ros2CellConfig(Ros2NodeConfig):
     markers_rate: float = 2.0
 
     def __post_init__(self) -> None:
-        from flexhrc.scenario.simulators import CHOICES
+        from flexhrc.cell.serve import check_manager_options
 
-        if not (math.isfinite(self.realtime) and self.realtime >= 0):
-            raise FlexhrcError(f"--realtime must be a finite number >= 0, got {self.realtime}")
-        if self.simulator not in CHOICES:
-            raise FlexhrcError(
-                f"--simulator {self.simulator!r}: choose one of {', '.join(CHOICES)}"
-            )
-        if self.on_failure is not None:
-            from flexhrc.cell.supervisor import failure_policy
-
-            failure_policy(None, self.on_failure)
-        if self.policy is not None:
-            from flexhrc.cell.supervisor import decision_policy
-
-            decision_policy(None, self.policy)
-        if not (math.isfinite(self.wait) and self.wait > 0):
-            raise FlexhrcError(f"--wait must be a positive number of seconds, got {self.wait}")
+        check_manager_options(self)
         if not (math.isfinite(self.markers_rate) and 0 < self.markers_rate <= 100):
             raise FlexhrcError(f"--markers-rate must be in (0, 100] Hz, got {self.markers_rate}")
         if self.resume and not self.store:
@@ -171,6 +156,7 @@ def serve_ros2_cell(
     from flexhrc.cell import Cell, EventStore
     from flexhrc.cell import protocol as P
     from flexhrc.cell.components import execution_model
+    from flexhrc.cell.serve import close_made
     from flexhrc.ros2.extras import ManagerInterfaces
 
     scenario = _scenario(config)
@@ -259,10 +245,7 @@ def serve_ros2_cell(
         cell.close()
         # (closing the transport waits until the end message is acknowledged)
     finally:
-        if store is not None:
-            store.close()
-        if transport is not None:
-            transport.close()
+        close_made(store, transport)
     return data
 
 
@@ -344,7 +327,8 @@ def _serve_agent(
 ) -> tuple[Any, dict[str, Any]]:
     """Check the agent's name, make it on a transport of its own and serve the cell until it
     ends; the agent and the transport are closed whatever happens."""
-    from flexhrc.cell.components import check_agent_name, run_agent
+    from flexhrc.cell.components import check_agent_name
+    from flexhrc.cell.serve import serve_until_end
     from flexhrc.ros2.transport import ros_topic
 
     scenario = _scenario(config)
@@ -357,17 +341,11 @@ def _serve_agent(
             progress(f"[{name}] {line}")
 
     transport = _transport(config, f"{'arm' if kind == 'robot' else 'human'}_{name}")
-    agent: Any = None
-    try:
-        agent = make(scenario, transport, say)
-        where = f", commands on {transport.ros_name('cmd/' + name)}" if kind == "robot" else ""
-        say(f"ready: cell {config.cell!r}, ROS domain {transport.domain_id}{where}")
-        outcome = run_agent(agent, transport, until=until)
-        say(f"cell ended: {outcome}")
-    finally:
-        if agent is not None:
-            agent.close()
-        transport.close()
+    where = f", commands on {transport.ros_name('cmd/' + name)}" if kind == "robot" else ""
+    ready = f"ready: cell {config.cell!r}, ROS domain {transport.domain_id}{where}"
+    agent, outcome = serve_until_end(
+        lambda: make(scenario, transport, say), transport, say=say, ready=ready, until=until
+    )
     return agent, {
         "agent": name,
         "outcome": outcome,

@@ -30,7 +30,7 @@ import threading
 from collections.abc import Callable, Iterator, Mapping
 from concurrent.futures import Future
 from concurrent.futures import TimeoutError as FutureTimeout
-from typing import Any
+from typing import Any, TypeVar
 
 from flexhrc.cell import protocol as P
 from flexhrc.cell.components import ground, unknown_name
@@ -140,17 +140,9 @@ class CellPanel:
             ) from None
 
     # -- on the cell's thread ---------------------------------------------------------------
-    def _queued(self) -> Iterator[tuple[str, Any, Future[dict[str, Any]]]]:
-        """The inputs queued so far, taken off the inbox one by one."""
-        while True:
-            try:
-                yield self._inbox.get_nowait()
-            except queue.Empty:
-                return
-
     def poll(self) -> None:
         """Carry out queued inputs; refresh the snapshot if the cell moved on (cell thread)."""
-        for kind, arg, answer in self._queued():
+        for kind, arg, answer in drained(self._inbox):
             try:
                 answer.set_result(self._apply(kind, arg))
             except PanelInputError as exc:
@@ -182,7 +174,7 @@ class CellPanel:
     def close(self) -> None:
         """Answer what is still queued (the cell has ended), drop the operator's tokens."""
         self.refresh(force=True)
-        for _, _, answer in self._queued():
+        for _, _, answer in drained(self._inbox):
             answer.set_exception(
                 PanelInputError(f"the cooperation has ended ({self.cell.tm.outcome})", 409)
             )
@@ -224,10 +216,7 @@ class CellPanel:
         c.human_reply(reply, human, reason=reason)  # stored and fed by the cell's own loop
         if len(c.dropped) > before:
             raise PanelInputError(c.dropped[-1], 409)
-        if not c.ordered:  # on the wall clock: handled now, as a report is
-            while c.pending and c.step():
-                pass
-        self.refresh(force=True)
+        self._handle_now()
         return {"ok": True, "reply": reply, "outcome": c.tm.outcome}
 
     def _human_action(self, text: str) -> dict[str, Any]:
@@ -250,13 +239,17 @@ class CellPanel:
                 409,
             )
         c.human_input(str(action), people[0])  # stored and fed by the cell's own loop
+        self._handle_now()
+        return {"ok": True, "action": str(action), "outcome": c.tm.outcome}
+
+    def _handle_now(self) -> None:
+        """On the wall clock the loop handles inputs as they arrive: now, so the answer and the
+        page already show the input's effect (the ordered loop waits for its time)."""
+        c = self.cell
         if not c.ordered:
-            # on the wall clock the loop handles inputs as they arrive: now, so the answer and
-            # the page already show its effect (the ordered loop waits for its time)
             while c.pending and c.step():
                 pass
         self.refresh(force=True)
-        return {"ok": True, "action": str(action), "outcome": c.tm.outcome}
 
     def _already_done(self, action: str, agent: str) -> bool:
         """Is ``action`` the operator's report of a step already recorded — the latest
@@ -611,6 +604,18 @@ class CellPanel:
                 "dropped": len(c.dropped),
             }
         )
+
+
+_Item = TypeVar("_Item")
+
+
+def drained(inbox: queue.SimpleQueue[_Item]) -> Iterator[_Item]:
+    """What ``inbox`` holds so far, taken off one by one (never blocks)."""
+    while True:
+        try:
+            yield inbox.get_nowait()
+        except queue.Empty:
+            return
 
 
 def _step_path(tm: TaskManager, cmd: Command, robot: str) -> list[list[float] | None] | None:

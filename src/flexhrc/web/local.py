@@ -33,7 +33,7 @@ from pathlib import Path
 from typing import Any, TypeVar
 
 from flexhrc.errors import FlexhrcError
-from flexhrc.web.live import CellPanel
+from flexhrc.web.live import CellPanel, drained
 from flexhrc.web.server import DEFAULT_HOST, DEFAULT_PORT, PanelServer, check_bind
 from flexhrc.web.snapshot import TIMELINE_LIMIT
 
@@ -284,11 +284,7 @@ class LocalPanel:
         self._serve_calls()
 
     def _serve_calls(self) -> None:
-        while True:
-            try:
-                fn, answer = self._calls.get_nowait()
-            except queue.Empty:
-                return
+        for fn, answer in drained(self._calls):
             try:
                 answer.set_result(fn())
             except Exception as exc:
