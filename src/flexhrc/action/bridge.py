@@ -58,6 +58,7 @@ from flexhrc.taskmanager.simulator import (
     hand_paths,
     hands,
     simulated_record,
+    step_detail,
 )
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -423,14 +424,7 @@ class KinematicTaskSimulator:
             if motions is None:
                 ok, dt, why = self.human.step(action, positions, kb, domain)
                 durations.append(dt)
-                details.append(
-                    {
-                        "action": str(action),
-                        "agents": list(action.agents),
-                        "t": dt,
-                        **hand_paths(before, positions),
-                    }
-                )
+                details.append(step_detail(action, dt, before, positions))
                 if not ok:
                     return SimulationResult(False, durations, why, details)
                 continue

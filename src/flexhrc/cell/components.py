@@ -336,6 +336,22 @@ class _Agent:
         self.trace(f"{msg['type']} {msg.get('id')} is for another process (session {theirs})")
         return False
 
+    def _receive(
+        self,
+        data: Any,
+        expect: str | tuple[str, ...],
+        handle: Callable[[dict[str, Any]], None],
+    ) -> None:
+        """Count a message, check it, and hand it to ``handle`` unless it is for another
+        process (:meth:`_for_me`); a malformed or refused one is dropped (:meth:`_bad`)."""
+        self.received += 1
+        try:
+            msg = P.parse(data, expect=expect)
+            if self._for_me(msg):
+                handle(msg)
+        except FlexhrcError as exc:
+            self._bad(data, exc)
+
     def _bad(self, data: Any, exc: Exception) -> None:
         self.dropped += 1
         log.warning("%s: dropped a malformed message: %s", self.name, exc)
@@ -491,17 +507,13 @@ class RobotAgent(_Agent):
             self.journal.close()
 
     def _on_message(self, data: Any) -> None:
-        self.received += 1
-        try:
-            msg = P.parse(data, expect=("command", "stop"))
-            if not self._for_me(msg):
-                return
-            if msg["type"] == "stop":
-                self._stop(msg)
-            else:
-                self._command(msg)
-        except FlexhrcError as exc:
-            self._bad(data, exc)
+        self._receive(data, ("command", "stop"), self._command_or_stop)
+
+    def _command_or_stop(self, msg: dict[str, Any]) -> None:
+        if msg["type"] == "stop":
+            self._stop(msg)
+        else:
+            self._command(msg)
 
     def _stop(self, msg: dict[str, Any]) -> None:
         cid = int(msg["id"])
@@ -742,13 +754,7 @@ class HumanAgent(_Agent):
             self._announce_profile()
 
     def _on_options(self, data: Any) -> None:
-        self.received += 1
-        try:
-            msg = P.parse(data, expect="options")
-            if self._for_me(msg):
-                self._options(msg)
-        except FlexhrcError as exc:
-            self._bad(data, exc)
+        self._receive(data, "options", self._options)
 
     def _options(self, msg: dict[str, Any]) -> None:
         """Decide, once per step, whether to act on it alone (:meth:`SimulatedOperator.decide`)
@@ -804,13 +810,7 @@ class HumanAgent(_Agent):
         self.transport.publish(P.INTENT_TOPIC, intent)
 
     def _on_message(self, data: Any) -> None:
-        self.received += 1
-        try:
-            msg = P.parse(data, expect="suggestion")
-            if self._for_me(msg):
-                self._suggestion(msg)
-        except FlexhrcError as exc:
-            self._bad(data, exc)
+        self._receive(data, "suggestion", self._suggestion)
 
     def _suggestion(self, msg: dict[str, Any]) -> None:
         """Carry out step ``step`` of a suggestion in the world the message carries; the manager

@@ -57,7 +57,14 @@ from typing import Any
 from flexhrc.cell import identity
 from flexhrc.cell import protocol as P
 from flexhrc.cell.components import ScenarioLike, ground, unknown_name, world_of
-from flexhrc.cell.store import EventStore, StoredEvent, check_events, log_events
+from flexhrc.cell.store import (
+    EventStore,
+    StoredEvent,
+    action_end,
+    action_start,
+    check_events,
+    log_events,
+)
 from flexhrc.errors import FlexhrcError, FormatError
 from flexhrc.events import STORED_LOG_TYPES  # the manager records the store keeps
 from flexhrc.knowledge import Inconsistency
@@ -558,7 +565,7 @@ class Cell:
             self._drop(f"ack for command {cid} of another run ({msg['run']})")
         elif cmd is None:
             self._drop(f"ack for unknown command {cid}")
-        elif cid in self.acked or any(k == "ack" and b["id"] == cid for *_, k, b in self.pending):
+        elif cid in self.acked or self._queued("ack", cid):
             self._drop(f"duplicate ack for command {cid}")
         elif msg["agent"] not in cmd.agents:
             self._drop(f"ack for command {cid} from {msg['agent']}, not {'+'.join(cmd.agents)}")
@@ -621,9 +628,7 @@ class Cell:
         if not self.started:  # nothing was asked yet: a report of another cell's request
             self._drop(f"human_action {msg['id']} before the cooperation started")
             return
-        if msg["id"] in self.human_ids or any(
-            k == "human_action" and b["id"] == msg["id"] for *_, k, b in self.pending
-        ):
+        if msg["id"] in self.human_ids or self._queued("human_action", msg["id"]):
             self._drop(f"duplicate human_action {msg['id']}")
             return
         if self._repeated_report(str(msg["agent"]), action):
@@ -643,9 +648,7 @@ class Cell:
             raise P.ProtocolError(f"reply {msg['id']} of another run ({msg['run']})")
         if not self.started:
             raise P.ProtocolError(f"reply {msg['id']} before the cooperation started")
-        if msg["id"] in self.reply_ids or any(
-            k == "human_reply" and b["id"] == msg["id"] for *_, k, b in self.pending
-        ):
+        if msg["id"] in self.reply_ids or self._queued("human_reply", msg["id"]):
             raise P.ProtocolError(f"duplicate reply {msg['id']}")
         if msg.get("suggestion") is None and msg.get("element") is None:
             # it answers the person's open request (a panel's or a pendant's button)
@@ -870,14 +873,16 @@ class Cell:
             return
         if self._other_run(msg):
             self._drop(f"intent {msg['id']} of another run ({msg['run']})")
-        elif msg["id"] in self.intent_ids or any(
-            k == "intent" and b["id"] == msg["id"] for *_, k, b in self.pending
-        ):
+        elif msg["id"] in self.intent_ids or self._queued("intent", msg["id"]):
             self._drop(f"duplicate intent {msg['id']}")
         elif self.awaiting.get(agent) != msg["options"]:
             self._drop(f"intent for options {msg['options']}, which {agent} was not asked")
         else:
             self._arrive(msg["t"], "intent", _body(msg))
+
+    def _queued(self, kind: str, ident: Any) -> bool:
+        """An input of ``kind`` with the id ``ident`` is already queued (:attr:`pending`)."""
+        return any(k == kind and b["id"] == ident for *_, k, b in self.pending)
 
     def _arrive(self, t: float, kind: str, body: dict[str, Any]) -> None:
         self._arrivals += 1
@@ -960,48 +965,32 @@ class Cell:
         b, t = ev.body, round(ev.t, 6)
         if ev.kind == "command":
             self._command_start[int(b["id"])] = ev.t
-            return [
-                {
-                    "t": t,
-                    "type": "action_start",
-                    "agents": b["agents"],
-                    "action": b["action"],
-                    "command": b["id"],
-                    "element": b.get("element"),
-                }
-            ]
+            return [action_start(t, b)]
         if ev.kind in ("ack", "stop"):
             cid = int(b["id"])
             cmd = self.commands.get(cid)
             if cmd is None or cid not in self._command_start:
                 return []
             status = "stopped" if ev.kind == "stop" else b["status"]
+            start = self._command_start.pop(cid)
             return [
-                {
-                    "t": t,
-                    "type": "action_end",
-                    "agents": list(cmd.agents),
-                    "action": str(cmd.action),
-                    "command": cid,
-                    "status": status,
-                    "start": round(self._command_start.pop(cid), 6),
-                    "reason": b.get("reason"),
-                    "element": cmd.element,
-                }
+                action_end(
+                    t,
+                    list(cmd.agents),
+                    str(cmd.action),
+                    status,
+                    start,
+                    command=cid,
+                    reason=b.get("reason"),
+                    element=cmd.element,
+                )
             ]
         if ev.kind == "human_action":
             sensed = b.get("sensed")
             done = str(sensed.get("action", b["action"])) if sensed else b["action"]
-            out = [
-                {
-                    "t": t,
-                    "type": "action_end",
-                    "agents": [b.get("agent")],
-                    "action": done,  # what the person did (the sensor may say otherwise)
-                    "status": "done",
-                    "start": round(min(float(b.get("start", ev.t)), ev.t), 6),
-                }
-            ]
+            start = min(float(b.get("start", ev.t)), ev.t)
+            # the action is what the person did (the sensor may say otherwise)
+            out = [action_end(t, [b.get("agent")], done, "done", start)]
             if sensed:  # what the wrist sensor made of it
                 body = {k: v for k, v in sensed.items() if k not in ("t", "outcome")}
                 out.append({"t": t, "type": "human_sensed", **body})
@@ -1478,17 +1467,10 @@ class Cell:
         self.now = max(self.now, float(t))
         obj = next((a for a in action.args if a in self.kb.objects and a != human), None)
         if self.observers and not self.replaying:
-            start = round(min(float(body.get("start", t)), float(t)), 6)
+            start = min(float(body.get("start", t)), float(t))
+            why = f"{obj} already held by {holder}"
             self._observe(
-                {
-                    "t": round(self.now, 6),
-                    "type": "action_end",
-                    "agents": [human],
-                    "action": body["action"],
-                    "status": "failed",
-                    "start": start,
-                    "reason": f"{obj} already held by {holder}",
-                }
+                action_end(round(self.now, 6), [human], body["action"], "failed", start, reason=why)
             )
         self._record("human_gives_up", {"object": obj, "holder": holder, "agent": human})
         if self.active_suggestion.get(human) == body.get("suggestion"):
