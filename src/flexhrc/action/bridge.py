@@ -458,11 +458,7 @@ class KinematicTaskSimulator:
         return SimulationResult(True, durations, None, details)
 
     def _follow(
-        self,
-        action: GroundAction,
-        motions: Motion,
-        positions: dict[str, Vec3],
-        kb: KnowledgeBase,
+        self, action: GroundAction, motions: Motion, positions: dict[str, Vec3], kb: KnowledgeBase
     ) -> None:
         """Where things are after the action, in knowledge-base terms (objects on places): the
         hands at the last target they aimed at, a carried object on its place."""
@@ -476,11 +472,7 @@ class KinematicTaskSimulator:
 
     # -- ExecutionModel protocol ----------------------------------------------------------
     def execute(
-        self,
-        action: GroundAction,
-        positions: dict[str, Vec3],
-        kb: KnowledgeBase,
-        domain: Domain,
+        self, action: GroundAction, positions: dict[str, Vec3], kb: KnowledgeBase, domain: Domain
     ) -> StepReport:
         _, motions = self.how(action, kb, positions, domain)
         if motions is None:

@@ -363,6 +363,12 @@ class _Agent:
         else:
             self._timers.append((time.monotonic() + delay, fn))
 
+    def _paced(self, msg: dict[str, Any], seconds: float, fn: Callable[[], None]) -> None:
+        """``fn`` after ``seconds`` of cell time at the pace ``msg`` asks (``realtime``; none:
+        at once)."""
+        speed = float(msg.get("realtime", 0.0))
+        self._later(seconds / speed if speed > 0 else 0.0, fn)
+
     def poll(self) -> None:
         """Run what is due (answers paced in real time)."""
         if not self._timers:
@@ -636,8 +642,7 @@ class RobotAgent(_Agent):
             self.transport.publish(P.ACK_TOPIC, ack)
             self.trace(f"cmd {cid} {status}")
 
-        speed = float(msg.get("realtime", 0.0))
-        self._later(duration / speed if speed > 0 else 0.0, finish)
+        self._paced(msg, duration, finish)
 
 
 class HumanAgent(_Agent):
@@ -880,8 +885,7 @@ class HumanAgent(_Agent):
             self.transport.publish(P.HUMAN_TOPIC, rep)
             self.trace(f"did {rep['action']}")
 
-        speed = float(msg.get("realtime", 0.0))
-        self._later(dt / speed if speed > 0 else 0.0, send)
+        self._paced(msg, dt, send)
 
     def _answer(self, msg: dict[str, Any], k: int) -> tuple[str, str | None] | None:
         """What this operator answers to step ``k`` of a request other than doing it (its
@@ -920,11 +924,7 @@ class HumanAgent(_Agent):
             self.transport.publish(P.HUMAN_TOPIC, reply)
             return False
         self.replied[(run, sid, k)] = reply
-        speed = float(msg.get("realtime", 0.0))
-        self._later(
-            REPLY_S / speed if speed > 0 else 0.0,
-            lambda: self.transport.publish(P.HUMAN_TOPIC, reply),
-        )
+        self._paced(msg, REPLY_S, lambda: self.transport.publish(P.HUMAN_TOPIC, reply))
         return True
 
     def sensing_figures(self) -> dict[str, int]:

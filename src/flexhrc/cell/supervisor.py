@@ -317,13 +317,8 @@ class Cell:
         agents = {}
         for name, st in self.agents.items():
             cmd = busy.get(name)
-            status = "lost" if not st.available else ("busy" if cmd else "idle")
-            if st.kind == "human":
-                status = (
-                    "lost"
-                    if not st.available
-                    else ("busy" if name in self.active_suggestion else "idle")
-                )
+            busy_now = name in self.active_suggestion if st.kind == "human" else bool(cmd)
+            status = "lost" if not st.available else ("busy" if busy_now else "idle")
             agents[name] = {
                 **st.to_dict(),
                 "status": status,
