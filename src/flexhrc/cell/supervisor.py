@@ -85,7 +85,7 @@ from flexhrc.taskmanager.manager import (
 from flexhrc.taskmanager.operator import PROFILES, SimulatedOperator
 from flexhrc.taskmanager.physical import apply_physical
 from flexhrc.taskmanager.policy import DEFAULT_POLICY, check_policy, make_policy
-from flexhrc.taskmanager.simulator import Simulator
+from flexhrc.taskmanager.simulator import Simulator, simulator_name
 from flexhrc.transport import Transport
 
 log = logging.getLogger("flexhrc.cell")
@@ -2081,7 +2081,7 @@ class Cell:
                     "fingerprint": self.fingerprint,
                     "seed": self.seed,
                     "realtime": self.realtime,
-                    "simulator": _simulator_name(self.tm.simulator),
+                    "simulator": simulator_name(self.tm.simulator),
                     "on_failure": self.tm.on_failure,
                     **({"policy": self.policy} if self.policy != DEFAULT_POLICY else {}),
                     "operators": dict(self.operators),
@@ -2224,7 +2224,7 @@ class Cell:
         data = summarise_log(log_form)
         tm = self.tm.summary()
         data["outcome"], data["reason"] = tm["outcome"], tm["reason"]
-        data["simulator"] = _simulator_name(self.tm.simulator)
+        data["simulator"] = simulator_name(self.tm.simulator)
         data["on_failure"] = self.tm.on_failure
         if self.policy != DEFAULT_POLICY:  # the default keeps the JSON as it was
             data["policy"] = self.policy
@@ -2323,12 +2323,6 @@ def _latency(samples: list[float]) -> dict[str, float | int]:
         "median_s": round(rest[len(rest) // 2], 6),
         "p95_s": round(p95, 6),
     }
-
-
-def _simulator_name(simulator: Any) -> str:
-    from flexhrc.taskmanager.simulator import simulator_name
-
-    return simulator_name(simulator)
 
 
 def _percept_of(body: dict[str, Any]) -> dict[str, Any]:
