@@ -617,23 +617,19 @@ class Cell:
         except FlexhrcError as exc:
             self._drop(f"human_action: {exc}")
             return
+        replaced = self.superseded.get(str(msg.get("suggestion")))
         if self._other_run(msg):
             self._drop(f"human_action {msg['id']} of another run ({msg['run']})")
-            return
-        if not self.started:  # nothing was asked yet: a report of another cell's request
+        elif not self.started:  # nothing was asked yet: a report of another cell's request
             self._drop(f"human_action {msg['id']} before the cooperation started")
-            return
-        if msg["id"] in self.human_ids or self._queued("human_action", msg["id"]):
+        elif msg["id"] in self.human_ids or self._queued("human_action", msg["id"]):
             self._drop(f"duplicate human_action {msg['id']}")
-            return
-        if self._repeated_report(str(msg["agent"]), action):
+        elif self._repeated_report(str(msg["agent"]), action):
             self._drop(f"human_action {msg['id']}: {_REPEATED.format(action=action)}")
-            return
-        replaced = self.superseded.get(str(msg.get("suggestion")))
-        if replaced is not None and self.ordered and float(msg["t"]) > replaced:
+        elif replaced is not None and self.ordered and float(msg["t"]) > replaced:
             log.info("human_action %s of a replaced request: ignored", msg["id"])
-            return
-        self._arrive(msg["t"], "human_action", _body(msg))
+        else:
+            self._arrive(msg["t"], "human_action", _body(msg))
 
     def _on_reply(self, msg: dict[str, Any]) -> None:
         """A person's ``reply`` (checked: its agent is a person of this cell, its process the
@@ -796,24 +792,21 @@ class Cell:
         if msg["type"] == "looked":
             self._on_looked(msg)
             return
+        rec = self.kb.objects.get(msg["object"])
         if msg["id"] in self.percept_ids:
             self._drop(f"duplicate percept {msg['id']}")
-            return
-        if not self.started:
+        elif not self.started:
             self._drop(f"percept {msg['id']} before the cooperation started")
-            return
-        rec = self.kb.objects.get(msg["object"])
-        if rec is None:  # the world knows its objects (P31): a percept does not add one
+        elif rec is None:  # the world knows its objects (P31): a percept does not add one
             self._drop(f"percept {msg['id']}: no object {msg['object']!r} in this cell's world")
-            return
-        if not self.kb.compatible(rec.type, msg["object_type"]):
+        elif not self.kb.compatible(rec.type, msg["object_type"]):
             # not a contradiction to wait on: no look can make a tabletop a leg (P21)
             self._drop(
                 f"percept {msg['id']}: {rec.id} is a {rec.type} in this cell's world, "
                 f"not a {msg['object_type']}"
             )
-            return
-        self._input("percept", _body(msg))  # at the cell's time: a percept never moves the clock
+        else:  # at the cell's time: a percept never moves the clock
+            self._input("percept", _body(msg))
 
     def _on_looked(self, msg: dict[str, Any]) -> None:
         """A watcher has looked at the state ``upto``; ``at``: it looks again then, by itself
