@@ -228,12 +228,9 @@ class ActionKind:
         motion) — for a trajectory's or a marker's goal."""
         obj, place = action_targets(action, kb)
         found = None
-        for step in self.motion:
-            for role in step.target:
-                name = obj if role == "object" else place
-                if name is not None:
-                    found = name
-                    break
+        for step in self.motion:  # the last step that aims somewhere: its first role known
+            names = (obj if role == "object" else place for role in step.target)
+            found = next((n for n in names if n is not None), found)
         return found
 
 
@@ -397,11 +394,7 @@ def _model(value: TimingModel | float | None) -> TimingModel | None:
     seconds = float(value)
     if not 0.0 <= seconds < 1e6:
         raise FlexhrcError(f"a kind's time must be seconds in [0, 1e6), got {value!r}")
-
-    def fixed(_: StepContext) -> StepTime:
-        return True, seconds, None
-
-    return fixed
+    return lambda _: (True, seconds, None)
 
 
 def _go(ctx: StepContext, role: Role, what: str, overhead: float) -> StepTime:
