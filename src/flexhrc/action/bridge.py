@@ -58,6 +58,7 @@ from flexhrc.taskmanager.simulator import (
     hand_paths,
     hands,
     simulated_record,
+    step_detail,
 )
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -423,14 +424,7 @@ class KinematicTaskSimulator:
             if motions is None:
                 ok, dt, why = self.human.step(action, positions, kb, domain)
                 durations.append(dt)
-                details.append(
-                    {
-                        "action": str(action),
-                        "agents": list(action.agents),
-                        "t": dt,
-                        **hand_paths(before, positions),
-                    }
-                )
+                details.append(step_detail(action, dt, before, positions))
                 if not ok:
                     return SimulationResult(False, durations, why, details)
                 continue
@@ -464,11 +458,7 @@ class KinematicTaskSimulator:
         return SimulationResult(True, durations, None, details)
 
     def _follow(
-        self,
-        action: GroundAction,
-        motions: Motion,
-        positions: dict[str, Vec3],
-        kb: KnowledgeBase,
+        self, action: GroundAction, motions: Motion, positions: dict[str, Vec3], kb: KnowledgeBase
     ) -> None:
         """Where things are after the action, in knowledge-base terms (objects on places): the
         hands at the last target they aimed at, a carried object on its place."""
@@ -482,11 +472,7 @@ class KinematicTaskSimulator:
 
     # -- ExecutionModel protocol ----------------------------------------------------------
     def execute(
-        self,
-        action: GroundAction,
-        positions: dict[str, Vec3],
-        kb: KnowledgeBase,
-        domain: Domain,
+        self, action: GroundAction, positions: dict[str, Vec3], kb: KnowledgeBase, domain: Domain
     ) -> StepReport:
         _, motions = self.how(action, kb, positions, domain)
         if motions is None:

@@ -739,14 +739,9 @@ def regularised_pinv(
     ``act=None`` means ``A = I``; ``Q=None`` drops the control-direction term (``Q = I``).
     """
     n = X.shape[1]
-    if act is None:
-        XtA = X.T
-        M = XtA @ X
-        rhs = XtA
-    else:
-        XtA = X.T * act
-        M = XtA @ X
-        rhs = XtA * act
+    XtA = X.T if act is None else X.T * act
+    M = XtA @ X
+    rhs = XtA if act is None else XtA * act
     M.flat[:: n + 1] += lam2
     if Q is not None:
         IQ = np.eye(n) - Q

@@ -316,10 +316,9 @@ class ExecutionManager:
             status, reason, observed = self._check_object(cmd, out)
         if status == "done":
             self._update_objects(cmd, arms)
-        else:
-            for a in arms:  # a failed grasp holds nothing
-                if cmd.action == "grasp":
-                    self.state.holding[a] = False
+        elif cmd.action == "grasp":  # a failed grasp holds nothing
+            for a in arms:
+                self.state.holding[a] = False
         self.time_s += out.duration_s
         self.disturbances = [d for d in self.disturbances if not (d.once and d.affects(arms))]
         report = ExecutionReport(

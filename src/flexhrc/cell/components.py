@@ -336,6 +336,22 @@ class _Agent:
         self.trace(f"{msg['type']} {msg.get('id')} is for another process (session {theirs})")
         return False
 
+    def _receive(
+        self,
+        data: Any,
+        expect: str | tuple[str, ...],
+        handle: Callable[[dict[str, Any]], None],
+    ) -> None:
+        """Count a message, check it, and hand it to ``handle`` unless it is for another
+        process (:meth:`_for_me`); a malformed or refused one is dropped (:meth:`_bad`)."""
+        self.received += 1
+        try:
+            msg = P.parse(data, expect=expect)
+            if self._for_me(msg):
+                handle(msg)
+        except FlexhrcError as exc:
+            self._bad(data, exc)
+
     def _bad(self, data: Any, exc: Exception) -> None:
         self.dropped += 1
         log.warning("%s: dropped a malformed message: %s", self.name, exc)
@@ -346,6 +362,12 @@ class _Agent:
             fn()
         else:
             self._timers.append((time.monotonic() + delay, fn))
+
+    def _paced(self, msg: dict[str, Any], seconds: float, fn: Callable[[], None]) -> None:
+        """``fn`` after ``seconds`` of cell time at the pace ``msg`` asks (``realtime``; none:
+        at once)."""
+        speed = float(msg.get("realtime", 0.0))
+        self._later(seconds / speed if speed > 0 else 0.0, fn)
 
     def poll(self) -> None:
         """Run what is due (answers paced in real time)."""
@@ -491,17 +513,13 @@ class RobotAgent(_Agent):
             self.journal.close()
 
     def _on_message(self, data: Any) -> None:
-        self.received += 1
-        try:
-            msg = P.parse(data, expect=("command", "stop"))
-            if not self._for_me(msg):
-                return
-            if msg["type"] == "stop":
-                self._stop(msg)
-            else:
-                self._command(msg)
-        except FlexhrcError as exc:
-            self._bad(data, exc)
+        self._receive(data, ("command", "stop"), self._command_or_stop)
+
+    def _command_or_stop(self, msg: dict[str, Any]) -> None:
+        if msg["type"] == "stop":
+            self._stop(msg)
+        else:
+            self._command(msg)
 
     def _stop(self, msg: dict[str, Any]) -> None:
         cid = int(msg["id"])
@@ -624,8 +642,7 @@ class RobotAgent(_Agent):
             self.transport.publish(P.ACK_TOPIC, ack)
             self.trace(f"cmd {cid} {status}")
 
-        speed = float(msg.get("realtime", 0.0))
-        self._later(duration / speed if speed > 0 else 0.0, finish)
+        self._paced(msg, duration, finish)
 
 
 class HumanAgent(_Agent):
@@ -742,13 +759,7 @@ class HumanAgent(_Agent):
             self._announce_profile()
 
     def _on_options(self, data: Any) -> None:
-        self.received += 1
-        try:
-            msg = P.parse(data, expect="options")
-            if self._for_me(msg):
-                self._options(msg)
-        except FlexhrcError as exc:
-            self._bad(data, exc)
+        self._receive(data, "options", self._options)
 
     def _options(self, msg: dict[str, Any]) -> None:
         """Decide, once per step, whether to act on it alone (:meth:`SimulatedOperator.decide`)
@@ -804,13 +815,7 @@ class HumanAgent(_Agent):
         self.transport.publish(P.INTENT_TOPIC, intent)
 
     def _on_message(self, data: Any) -> None:
-        self.received += 1
-        try:
-            msg = P.parse(data, expect="suggestion")
-            if self._for_me(msg):
-                self._suggestion(msg)
-        except FlexhrcError as exc:
-            self._bad(data, exc)
+        self._receive(data, "suggestion", self._suggestion)
 
     def _suggestion(self, msg: dict[str, Any]) -> None:
         """Carry out step ``step`` of a suggestion in the world the message carries; the manager
@@ -880,8 +885,7 @@ class HumanAgent(_Agent):
             self.transport.publish(P.HUMAN_TOPIC, rep)
             self.trace(f"did {rep['action']}")
 
-        speed = float(msg.get("realtime", 0.0))
-        self._later(dt / speed if speed > 0 else 0.0, send)
+        self._paced(msg, dt, send)
 
     def _answer(self, msg: dict[str, Any], k: int) -> tuple[str, str | None] | None:
         """What this operator answers to step ``k`` of a request other than doing it (its
@@ -920,11 +924,7 @@ class HumanAgent(_Agent):
             self.transport.publish(P.HUMAN_TOPIC, reply)
             return False
         self.replied[(run, sid, k)] = reply
-        speed = float(msg.get("realtime", 0.0))
-        self._later(
-            REPLY_S / speed if speed > 0 else 0.0,
-            lambda: self.transport.publish(P.HUMAN_TOPIC, reply),
-        )
+        self._paced(msg, REPLY_S, lambda: self.transport.publish(P.HUMAN_TOPIC, reply))
         return True
 
     def sensing_figures(self) -> dict[str, int]:

@@ -79,11 +79,7 @@ class FailureInjection:
         self.counts: dict[int, int] = {}
 
     def execute(
-        self,
-        action: GroundAction,
-        positions: dict[str, Any],
-        kb: KnowledgeBase,
-        domain: Domain,
+        self, action: GroundAction, positions: dict[str, Any], kb: KnowledgeBase, domain: Domain
     ) -> StepReport:
         report = self.inner.execute(action, positions, kb, domain)
         for i, f in enumerate(self.failures):

@@ -94,13 +94,6 @@ def parse(data: Any, *, expect: str | tuple[str, ...] | None = None) -> dict[str
     return data
 
 
-def from_run(msg: dict[str, Any], run: Any) -> bool:
-    """``msg`` may belong to the run ``run``: true unless both name a run and they differ (a
-    message without a run id, or a receiver that knows none yet, cannot tell)."""
-    theirs = msg.get("run")
-    return run is None or theirs is None or theirs == run
-
-
 def parse_end(data: Any, *, run: Any = None) -> dict[str, Any]:
     """An ``end`` an agent may obey: a well-formed ``end`` of this protocol version (an agent
     never leaves on ``{"v": 99, "type": "end"}``) of the agent's run ``run`` once it knows one

@@ -108,19 +108,13 @@ class EventStore:
         try:
             fcntl.flock(self._lock_fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:
-            os.close(self._lock_fd)
-            raise StoreError(
-                f"{option} {self.path}: in use by another running cell (the file is locked)"
-            ) from None
+            raise self._refuse("in use by another running cell (the file is locked)") from None
         had_wal = _has_wal(self.path)  # before SQLite makes one
         try:
             self._db = sqlite3.connect(self.path, isolation_level=None, check_same_thread=False)
             if resume and not _has_events_table(self._db):  # never add a table to such a file
-                self._db.close()
-                os.close(self._lock_fd)
-                raise StoreError(
-                    f"{option} {self.path}: not a flexhrc event store (no events table)"
-                    + wal_hint(self.path, had_wal)
+                raise self._refuse(
+                    "not a flexhrc event store (no events table)" + wal_hint(self.path, had_wal)
                 )
             self._db.execute("PRAGMA journal_mode=WAL")
             # NORMAL in WAL mode: a committed event survives the process being killed (the
@@ -129,37 +123,32 @@ class EventStore:
             self._db.execute(SCHEMA)
             row = self._db.execute("SELECT COALESCE(MAX(seq), 0), COUNT(*) FROM events").fetchone()
         except (sqlite3.DatabaseError, UnicodeDecodeError) as exc:
-            if hasattr(self, "_db"):
-                self._db.close()
-            os.close(self._lock_fd)
-            raise StoreError(
-                f"{option} {self.path}: not a flexhrc event store ({_sqlite_why(exc)})"
-            ) from None
+            raise self._refuse(f"not a flexhrc event store ({_sqlite_why(exc)})") from None
         if resume and not row[1]:
-            self._db.close()
-            os.close(self._lock_fd)
-            raise StoreError(
-                f"{option} {self.path}: nothing to resume (the store holds no events)"
-                + wal_hint(self.path, had_wal)
+            raise self._refuse(
+                "nothing to resume (the store holds no events)" + wal_hint(self.path, had_wal)
             )
         if type(row[0]) is not int:  # a table without types keeps a text or blob seq as is
-            self._db.close()
-            os.close(self._lock_fd)
-            raise StoreError(
-                f"{option} {self.path}: not a flexhrc event store (its last seq is "
-                f"{row[0]!r:.40}, not a whole number)"
+            raise self._refuse(
+                f"not a flexhrc event store (its last seq is {row[0]!r:.40}, not a whole number)"
             )
         self.last_seq = row[0]
         if int(row[1]) != self.last_seq:
-            self._db.close()  # a refused store is let go: a corrected file opens at once
-            os.close(self._lock_fd)
-            raise StoreError(f"{option} {self.path}: seq has gaps ({row[1]} rows, last {row[0]})")
+            raise self._refuse(f"seq has gaps ({row[1]} rows, last {row[0]})")
         self._inode = os.fstat(self._lock_fd).st_ino
         self._crash_after = crash_after()
         #: Why the file is no longer the store (deleted or replaced while the cell ran), once
         #: an append noticed it; ``on_lost`` is called with it then, once.
         self.lost: str | None = None
         self.on_lost: Callable[[str], None] | None = None
+
+    def _refuse(self, why: str) -> StoreError:
+        """The error saying why the file is refused, once it is let go (the lock, and the
+        database if open): a corrected file opens at once."""
+        if hasattr(self, "_db"):
+            self._db.close()
+        os.close(self._lock_fd)
+        return StoreError(f"{self.option} {self.path}: {why}")
 
     def append(self, kind: str, body: dict[str, Any], t: float) -> int:
         """Commit one event; returns its ``seq`` (the previous one + 1)."""
@@ -400,6 +389,36 @@ def log_events(events: list[StoredEvent]) -> list[dict[str, Any]]:
     return [ev for _, ev in _log_lines(events)]
 
 
+def action_start(t: float, command: dict[str, Any]) -> dict[str, Any]:
+    """The log's ``action_start`` of a ``command`` (its body) at ``t``."""
+    return {
+        "t": t,
+        "type": "action_start",
+        "agents": command["agents"],
+        "action": command["action"],
+        "command": command["id"],
+        "element": command.get("element"),
+    }
+
+
+def action_end(
+    t: float, agents: Any, action: Any, status: str, start: float, command: Any = None, **more: Any
+) -> dict[str, Any]:
+    """The log's ``action_end`` at ``t`` of an action started at ``start``: of a robot
+    ``command`` (its id; None for an operator's action), then ``more`` (``reason``,
+    ``element``), in the log's key order."""
+    return {
+        "t": t,
+        "type": "action_end",
+        "agents": agents,
+        "action": action,
+        **({"command": command} if command is not None else {}),
+        "status": status,
+        "start": round(start, 6),
+        **more,
+    }
+
+
 def _log_lines(events: list[StoredEvent]) -> list[tuple[int, dict[str, Any]]]:
     """:func:`log_events`, each log event with the ``seq`` of the row it comes from."""
     out: list[dict[str, Any]] = []
@@ -417,16 +436,7 @@ def _log_lines(events: list[StoredEvent]) -> list[tuple[int, dict[str, Any]]]:
         elif ev.kind == "command":
             commands[int(b["id"])] = (ev.t, b)
             out.append({**b, "t": t, "type": "command"})
-            out.append(
-                {
-                    "t": t,
-                    "type": "action_start",
-                    "agents": b["agents"],
-                    "action": b["action"],
-                    "command": b["id"],
-                    "element": b.get("element"),
-                }
-            )
+            out.append(action_start(t, b))
         elif ev.kind == "ack":
             if int(b["id"]) in ended:
                 # a process's hold stopped at the very instant its arm finished it: the manager
@@ -435,30 +445,20 @@ def _log_lines(events: list[StoredEvent]) -> list[tuple[int, dict[str, Any]]]:
             ended.add(int(b["id"]))
             start, cmd = commands.get(int(b["id"]), (ev.t, {"agents": [b.get("agent")]}))
             out.append(
-                {
-                    "t": t,
-                    "type": "action_end",
-                    "agents": cmd["agents"],
-                    "action": cmd.get("action", "?"),
-                    "command": b["id"],
-                    "status": b["status"],
-                    "start": round(min(start, ev.t), 6),
-                    "reason": b.get("reason"),
-                    "element": cmd.get("element"),
-                }
+                action_end(
+                    t,
+                    cmd["agents"],
+                    cmd.get("action", "?"),
+                    b["status"],
+                    min(start, ev.t),
+                    command=b["id"],
+                    reason=b.get("reason"),
+                    element=cmd.get("element"),
+                )
             )
         elif ev.kind == "human_action":
             start = min(float(b.get("start", ev.t)), ev.t)
-            out.append(
-                {
-                    "t": t,
-                    "type": "action_end",
-                    "agents": [b.get("agent", "human")],
-                    "action": b["action"],
-                    "status": "done",
-                    "start": round(start, 6),
-                }
-            )
+            out.append(action_end(t, [b.get("agent", "human")], b["action"], "done", start))
         elif ev.kind in REPLAY_TYPES:
             out.append({**b, "t": t, "type": ev.kind})
             stopped = commands.pop(int(b["id"]), None) if ev.kind == "stop" else None
@@ -467,16 +467,15 @@ def _log_lines(events: list[StoredEvent]) -> list[tuple[int, dict[str, Any]]]:
                 ended.add(int(b["id"]))
                 start, cmd = stopped
                 out.append(
-                    {
-                        "t": t,
-                        "type": "action_end",
-                        "agents": cmd["agents"],
-                        "action": cmd.get("action", "?"),
-                        "command": b["id"],
-                        "status": "stopped",
-                        "start": round(min(start, ev.t), 6),
-                        "reason": b.get("reason"),
-                    }
+                    action_end(
+                        t,
+                        cmd["agents"],
+                        cmd.get("action", "?"),
+                        "stopped",
+                        min(start, ev.t),
+                        command=b["id"],
+                        reason=b.get("reason"),
+                    )
                 )
     seqs.extend([prev] * (len(out) - len(seqs)))
     return list(zip(seqs, out, strict=True))

@@ -57,7 +57,14 @@ from typing import Any
 from flexhrc.cell import identity
 from flexhrc.cell import protocol as P
 from flexhrc.cell.components import ScenarioLike, ground, unknown_name, world_of
-from flexhrc.cell.store import EventStore, StoredEvent, check_events, log_events
+from flexhrc.cell.store import (
+    EventStore,
+    StoredEvent,
+    action_end,
+    action_start,
+    check_events,
+    log_events,
+)
 from flexhrc.errors import FlexhrcError, FormatError
 from flexhrc.events import STORED_LOG_TYPES  # the manager records the store keeps
 from flexhrc.knowledge import Inconsistency
@@ -78,7 +85,7 @@ from flexhrc.taskmanager.manager import (
 from flexhrc.taskmanager.operator import PROFILES, SimulatedOperator
 from flexhrc.taskmanager.physical import apply_physical
 from flexhrc.taskmanager.policy import DEFAULT_POLICY, check_policy, make_policy
-from flexhrc.taskmanager.simulator import Simulator
+from flexhrc.taskmanager.simulator import Simulator, simulator_name
 from flexhrc.transport import Transport
 
 log = logging.getLogger("flexhrc.cell")
@@ -310,13 +317,8 @@ class Cell:
         agents = {}
         for name, st in self.agents.items():
             cmd = busy.get(name)
-            status = "lost" if not st.available else ("busy" if cmd else "idle")
-            if st.kind == "human":
-                status = (
-                    "lost"
-                    if not st.available
-                    else ("busy" if name in self.active_suggestion else "idle")
-                )
+            busy_now = name in self.active_suggestion if st.kind == "human" else bool(cmd)
+            status = "lost" if not st.available else ("busy" if busy_now else "idle")
             agents[name] = {
                 **st.to_dict(),
                 "status": status,
@@ -558,7 +560,7 @@ class Cell:
             self._drop(f"ack for command {cid} of another run ({msg['run']})")
         elif cmd is None:
             self._drop(f"ack for unknown command {cid}")
-        elif cid in self.acked or any(k == "ack" and b["id"] == cid for *_, k, b in self.pending):
+        elif cid in self.acked or self._queued("ack", cid):
             self._drop(f"duplicate ack for command {cid}")
         elif msg["agent"] not in cmd.agents:
             self._drop(f"ack for command {cid} from {msg['agent']}, not {'+'.join(cmd.agents)}")
@@ -615,25 +617,19 @@ class Cell:
         except FlexhrcError as exc:
             self._drop(f"human_action: {exc}")
             return
+        replaced = self.superseded.get(str(msg.get("suggestion")))
         if self._other_run(msg):
             self._drop(f"human_action {msg['id']} of another run ({msg['run']})")
-            return
-        if not self.started:  # nothing was asked yet: a report of another cell's request
+        elif not self.started:  # nothing was asked yet: a report of another cell's request
             self._drop(f"human_action {msg['id']} before the cooperation started")
-            return
-        if msg["id"] in self.human_ids or any(
-            k == "human_action" and b["id"] == msg["id"] for *_, k, b in self.pending
-        ):
+        elif msg["id"] in self.human_ids or self._queued("human_action", msg["id"]):
             self._drop(f"duplicate human_action {msg['id']}")
-            return
-        if self._repeated_report(str(msg["agent"]), action):
+        elif self._repeated_report(str(msg["agent"]), action):
             self._drop(f"human_action {msg['id']}: {_REPEATED.format(action=action)}")
-            return
-        replaced = self.superseded.get(str(msg.get("suggestion")))
-        if replaced is not None and self.ordered and float(msg["t"]) > replaced:
+        elif replaced is not None and self.ordered and float(msg["t"]) > replaced:
             log.info("human_action %s of a replaced request: ignored", msg["id"])
-            return
-        self._arrive(msg["t"], "human_action", _body(msg))
+        else:
+            self._arrive(msg["t"], "human_action", _body(msg))
 
     def _on_reply(self, msg: dict[str, Any]) -> None:
         """A person's ``reply`` (checked: its agent is a person of this cell, its process the
@@ -643,9 +639,7 @@ class Cell:
             raise P.ProtocolError(f"reply {msg['id']} of another run ({msg['run']})")
         if not self.started:
             raise P.ProtocolError(f"reply {msg['id']} before the cooperation started")
-        if msg["id"] in self.reply_ids or any(
-            k == "human_reply" and b["id"] == msg["id"] for *_, k, b in self.pending
-        ):
+        if msg["id"] in self.reply_ids or self._queued("human_reply", msg["id"]):
             raise P.ProtocolError(f"duplicate reply {msg['id']}")
         if msg.get("suggestion") is None and msg.get("element") is None:
             # it answers the person's open request (a panel's or a pendant's button)
@@ -798,24 +792,21 @@ class Cell:
         if msg["type"] == "looked":
             self._on_looked(msg)
             return
+        rec = self.kb.objects.get(msg["object"])
         if msg["id"] in self.percept_ids:
             self._drop(f"duplicate percept {msg['id']}")
-            return
-        if not self.started:
+        elif not self.started:
             self._drop(f"percept {msg['id']} before the cooperation started")
-            return
-        rec = self.kb.objects.get(msg["object"])
-        if rec is None:  # the world knows its objects (P31): a percept does not add one
+        elif rec is None:  # the world knows its objects (P31): a percept does not add one
             self._drop(f"percept {msg['id']}: no object {msg['object']!r} in this cell's world")
-            return
-        if not self.kb.compatible(rec.type, msg["object_type"]):
+        elif not self.kb.compatible(rec.type, msg["object_type"]):
             # not a contradiction to wait on: no look can make a tabletop a leg (P21)
             self._drop(
                 f"percept {msg['id']}: {rec.id} is a {rec.type} in this cell's world, "
                 f"not a {msg['object_type']}"
             )
-            return
-        self._input("percept", _body(msg))  # at the cell's time: a percept never moves the clock
+        else:  # at the cell's time: a percept never moves the clock
+            self._input("percept", _body(msg))
 
     def _on_looked(self, msg: dict[str, Any]) -> None:
         """A watcher has looked at the state ``upto``; ``at``: it looks again then, by itself
@@ -870,14 +861,16 @@ class Cell:
             return
         if self._other_run(msg):
             self._drop(f"intent {msg['id']} of another run ({msg['run']})")
-        elif msg["id"] in self.intent_ids or any(
-            k == "intent" and b["id"] == msg["id"] for *_, k, b in self.pending
-        ):
+        elif msg["id"] in self.intent_ids or self._queued("intent", msg["id"]):
             self._drop(f"duplicate intent {msg['id']}")
         elif self.awaiting.get(agent) != msg["options"]:
             self._drop(f"intent for options {msg['options']}, which {agent} was not asked")
         else:
             self._arrive(msg["t"], "intent", _body(msg))
+
+    def _queued(self, kind: str, ident: Any) -> bool:
+        """An input of ``kind`` with the id ``ident`` is already queued (:attr:`pending`)."""
+        return any(k == kind and b["id"] == ident for *_, k, b in self.pending)
 
     def _arrive(self, t: float, kind: str, body: dict[str, Any]) -> None:
         self._arrivals += 1
@@ -960,48 +953,32 @@ class Cell:
         b, t = ev.body, round(ev.t, 6)
         if ev.kind == "command":
             self._command_start[int(b["id"])] = ev.t
-            return [
-                {
-                    "t": t,
-                    "type": "action_start",
-                    "agents": b["agents"],
-                    "action": b["action"],
-                    "command": b["id"],
-                    "element": b.get("element"),
-                }
-            ]
+            return [action_start(t, b)]
         if ev.kind in ("ack", "stop"):
             cid = int(b["id"])
             cmd = self.commands.get(cid)
             if cmd is None or cid not in self._command_start:
                 return []
             status = "stopped" if ev.kind == "stop" else b["status"]
+            start = self._command_start.pop(cid)
             return [
-                {
-                    "t": t,
-                    "type": "action_end",
-                    "agents": list(cmd.agents),
-                    "action": str(cmd.action),
-                    "command": cid,
-                    "status": status,
-                    "start": round(self._command_start.pop(cid), 6),
-                    "reason": b.get("reason"),
-                    "element": cmd.element,
-                }
+                action_end(
+                    t,
+                    list(cmd.agents),
+                    str(cmd.action),
+                    status,
+                    start,
+                    command=cid,
+                    reason=b.get("reason"),
+                    element=cmd.element,
+                )
             ]
         if ev.kind == "human_action":
             sensed = b.get("sensed")
             done = str(sensed.get("action", b["action"])) if sensed else b["action"]
-            out = [
-                {
-                    "t": t,
-                    "type": "action_end",
-                    "agents": [b.get("agent")],
-                    "action": done,  # what the person did (the sensor may say otherwise)
-                    "status": "done",
-                    "start": round(min(float(b.get("start", ev.t)), ev.t), 6),
-                }
-            ]
+            start = min(float(b.get("start", ev.t)), ev.t)
+            # the action is what the person did (the sensor may say otherwise)
+            out = [action_end(t, [b.get("agent")], done, "done", start)]
             if sensed:  # what the wrist sensor made of it
                 body = {k: v for k, v in sensed.items() if k not in ("t", "outcome")}
                 out.append({"t": t, "type": "human_sensed", **body})
@@ -1478,17 +1455,10 @@ class Cell:
         self.now = max(self.now, float(t))
         obj = next((a for a in action.args if a in self.kb.objects and a != human), None)
         if self.observers and not self.replaying:
-            start = round(min(float(body.get("start", t)), float(t)), 6)
+            start = min(float(body.get("start", t)), float(t))
+            why = f"{obj} already held by {holder}"
             self._observe(
-                {
-                    "t": round(self.now, 6),
-                    "type": "action_end",
-                    "agents": [human],
-                    "action": body["action"],
-                    "status": "failed",
-                    "start": start,
-                    "reason": f"{obj} already held by {holder}",
-                }
+                action_end(round(self.now, 6), [human], body["action"], "failed", start, reason=why)
             )
         self._record("human_gives_up", {"object": obj, "holder": holder, "agent": human})
         if self.active_suggestion.get(human) == body.get("suggestion"):
@@ -2104,7 +2074,7 @@ class Cell:
                     "fingerprint": self.fingerprint,
                     "seed": self.seed,
                     "realtime": self.realtime,
-                    "simulator": _simulator_name(self.tm.simulator),
+                    "simulator": simulator_name(self.tm.simulator),
                     "on_failure": self.tm.on_failure,
                     **({"policy": self.policy} if self.policy != DEFAULT_POLICY else {}),
                     "operators": dict(self.operators),
@@ -2247,7 +2217,7 @@ class Cell:
         data = summarise_log(log_form)
         tm = self.tm.summary()
         data["outcome"], data["reason"] = tm["outcome"], tm["reason"]
-        data["simulator"] = _simulator_name(self.tm.simulator)
+        data["simulator"] = simulator_name(self.tm.simulator)
         data["on_failure"] = self.tm.on_failure
         if self.policy != DEFAULT_POLICY:  # the default keeps the JSON as it was
             data["policy"] = self.policy
@@ -2346,12 +2316,6 @@ def _latency(samples: list[float]) -> dict[str, float | int]:
         "median_s": round(rest[len(rest) // 2], 6),
         "p95_s": round(p95, 6),
     }
-
-
-def _simulator_name(simulator: Any) -> str:
-    from flexhrc.taskmanager.simulator import simulator_name
-
-    return simulator_name(simulator)
 
 
 def _percept_of(body: dict[str, Any]) -> dict[str, Any]:

@@ -213,11 +213,7 @@ def physical_effect(
     if len(action.agents) > 1:
         # a joint action (the tabletop in both hands, Fig. 8): a part here has one holder, so
         # only where the domain puts it counts — picking, turning and letting go move nothing
-        if carries and moves_to:
-            part = world.nearest(believed(carries), within=0.05)
-            if part is not None:
-                world.relocate(part.name, believed(moves_to))
-        return
+        kind = "joint"
     if kind == "grasp":
         world.grasp(agent, believed(args[1]))
     elif kind == "transport":

@@ -379,6 +379,11 @@ def _schema(
     if not isinstance(sd, Mapping):
         raise FormatError(f"{what} {name!r} must be a mapping", source)
     line = _line(sd)
+
+    def error(key: str, why: str) -> FormatError:
+        """The entry's error at the line of its ``key``."""
+        return FormatError(f"{what} {name!r}: {why}", source, _line(sd, key))
+
     for key in sd:
         if str(key) not in SCHEMA_KEYS:
             near = difflib.get_close_matches(str(key), SCHEMA_KEYS, n=1)
@@ -392,19 +397,11 @@ def _schema(
             )
     raw_params = sd.get("parameters") or {}
     if not isinstance(raw_params, Mapping):
-        raise FormatError(
-            f"{what} {name!r}: parameters must be a mapping {{?var: type}}",
-            source,
-            _line(sd, "parameters"),
-        )
+        raise error("parameters", "parameters must be a mapping {?var: type}")
     params = tuple((str(v), str(t)) for v, t in raw_params.items())
     for v, _ in params:
         if not v.startswith("?"):
-            raise FormatError(
-                f"{what} {name!r}: parameter {v!r} must start with '?'",
-                source,
-                _line(sd, "parameters"),
-            )
+            raise error("parameters", f"parameter {v!r} must start with '?'")
     spec = _agent_spec(name, sd.get("agents"), params, agents, source, _line(sd, "agents"))
     duration = sd.get("duration")
     if duration is not None:
@@ -413,35 +410,26 @@ def _schema(
         except (TypeError, ValueError):
             duration = float("nan")
         if not (0.0 <= duration < 1e6):
-            raise FormatError(
-                f"{what} {name!r}: duration must be a number of seconds in [0, 1e6), "
-                f"got {sd.get('duration')!r}",
-                source,
-                _line(sd, "duration"),
+            raise error(
+                "duration",
+                f"duration must be a number of seconds in [0, 1e6), got {sd.get('duration')!r}",
             )
     priority = sd.get("priority", 0)
     if "priority" in sd and what != "process":
-        raise FormatError(
-            f"{what} {name!r}: priority is a key of processes (which process wins an arm)",
-            source,
-            _line(sd, "priority"),
-        )
+        raise error("priority", "priority is a key of processes (which process wins an arm)")
     if isinstance(priority, bool) or not isinstance(priority, int) or abs(priority) > 1_000_000:
-        raise FormatError(
-            f"{what} {name!r}: priority must be a whole number (the larger wins an arm), "
-            f"got {priority!r}",
-            source,
-            _line(sd, "priority"),
+        raise error(
+            "priority",
+            f"priority must be a whole number (the larger wins an arm), got {priority!r}",
         )
     roles: dict[str, str | None] = {}
     for key in ("moves_to", "carries", "fixes"):
         value = sd.get(key)
         if value is not None and str(value) not in dict(params):
-            raise FormatError(
-                f"{what} {name!r}: {key} {value!r} is not one of its parameters "
+            raise error(
+                key,
+                f"{key} {value!r} is not one of its parameters "
                 f"({', '.join(v for v, _ in params) or 'none'})",
-                source,
-                _line(sd, key),
             )
         roles[key] = None if value is None else str(value)
     moves_to = roles["moves_to"]
@@ -449,7 +437,7 @@ def _schema(
     if "kind" in sd:
         why = _kind_check(kind)
         if why:
-            raise FormatError(f"{what} {name!r}: {why}", source, _line(sd, "kind"))
+            raise error("kind", why)
     raw_target = sd.get("target")
     target: tuple[str, ...] = ()
     if raw_target is not None:
@@ -462,11 +450,10 @@ def _schema(
         )
         bad = [v for v in target if v not in dict(params)]
         if not target or len(target) > 2 or bad:
-            raise FormatError(
-                f"{what} {name!r}: target must be one or two of its parameters "
+            raise error(
+                "target",
+                "target must be one or two of its parameters "
                 f"({', '.join(v for v, _ in params) or 'none'}), got {raw_target!r}",
-                source,
-                _line(sd, "target"),
             )
     return ActionSchema(
         name,

@@ -228,12 +228,9 @@ class ActionKind:
         motion) — for a trajectory's or a marker's goal."""
         obj, place = action_targets(action, kb)
         found = None
-        for step in self.motion:
-            for role in step.target:
-                name = obj if role == "object" else place
-                if name is not None:
-                    found = name
-                    break
+        for step in self.motion:  # the last step that aims somewhere: its first role known
+            names = (obj if role == "object" else place for role in step.target)
+            found = next((n for n in names if n is not None), found)
         return found
 
 
@@ -397,11 +394,7 @@ def _model(value: TimingModel | float | None) -> TimingModel | None:
     seconds = float(value)
     if not 0.0 <= seconds < 1e6:
         raise FlexhrcError(f"a kind's time must be seconds in [0, 1e6), got {value!r}")
-
-    def fixed(_: StepContext) -> StepTime:
-        return True, seconds, None
-
-    return fixed
+    return lambda _: (True, seconds, None)
 
 
 def _go(ctx: StepContext, role: Role, what: str, overhead: float) -> StepTime:
@@ -426,12 +419,16 @@ def _approach(ctx: StepContext) -> StepTime:
     return _go(ctx, "object", "target", ctx.timing.approach_overhead)
 
 
-def _grasp(ctx: StepContext) -> StepTime:
-    return True, ctx.timing.grasp, None
-
-
 def _transport(ctx: StepContext) -> StepTime:
     return _go(ctx, "place", "place", ctx.timing.transport_overhead)
+
+
+def _timed(seconds: Callable[[Timing], float]) -> TimingModel:
+    """A time of the profile's (``seconds`` of the :class:`Timing`), wherever the hand is."""
+    return lambda ctx: (True, seconds(ctx.timing), None)
+
+
+_release = _timed(lambda t: t.ungrasp)
 
 
 def _then(first: TimingModel, seconds: Callable[[Timing], float]) -> TimingModel:
@@ -453,22 +450,10 @@ def _robot_screw(ctx: StepContext) -> StepTime:
     return True, ctx.timing.robot_screw, None
 
 
-def _release(ctx: StepContext) -> StepTime:
-    return True, ctx.timing.ungrasp, None
-
-
 def _rest(ctx: StepContext) -> StepTime:
     d = math.dist(ctx.hand, ctx.rest)
     ctx.positions[ctx.agent.name] = ctx.rest
     return True, d / ctx.speed, None
-
-
-def _place_tabletop(ctx: StepContext) -> StepTime:
-    return True, ctx.timing.place_tabletop, None
-
-
-def _reorient(ctx: StepContext) -> StepTime:
-    return True, ctx.timing.reorient, None
 
 
 def _human_pick_up(ctx: StepContext) -> StepTime:
@@ -478,10 +463,6 @@ def _human_pick_up(ctx: StepContext) -> StepTime:
     p = ctx.pos(obj) if obj else hand
     ctx.positions[name] = p
     return True, ctx.timing.human_pick_up + math.dist(hand, p) / ctx.timing.human_speed, None
-
-
-def _human_put_down(ctx: StepContext) -> StepTime:
-    return True, ctx.timing.human_put_down, None
 
 
 def _human_screw(ctx: StepContext) -> StepTime:
@@ -522,8 +503,8 @@ register_action_kind(
     aims_at=_OBJ, colour="#9ecae1",
 )  # fmt: skip
 register_action_kind(
-    "grasp", phrase="grasp {object}", robot_time=_grasp, motion=[_GRASP], aims_at=_OBJ,
-    colour="#6baed6",
+    "grasp", phrase="grasp {object}", robot_time=_timed(lambda t: t.grasp), motion=[_GRASP],
+    aims_at=_OBJ, colour="#6baed6",
 )  # fmt: skip
 register_action_kind(
     "transport", phrase="carry {object} to {place}", robot_time=_transport,
@@ -566,7 +547,7 @@ register_action_kind("none", phrase="{name}", moves=False, colour="#f0f0f0")
 # the table's words that are not the generic ones
 register_action_kind(
     "place_tabletop", phrase="place {object} at {place} (both arms)",
-    robot_time=_place_tabletop, fallible=False,
+    robot_time=_timed(lambda t: t.place_tabletop), fallible=False,
     motion=[
         _TO_OBJECT, MotionStep("grasp", _OBJ), MotionStep("transport", ("place", "object")),
         _RELEASE,
@@ -575,7 +556,7 @@ register_action_kind(
 )  # fmt: skip
 # Fig. 8 (d): the tabletop, held in both hands, turned flat on its way from the stand
 register_action_kind(
-    "reorient", phrase="turn {object} flat", robot_time=_reorient,
+    "reorient", phrase="turn {object} flat", robot_time=_timed(lambda t: t.reorient),
     motion=[MotionStep("reorient")], aims_at=_OBJ, colour="#3182bd",
 )  # fmt: skip
 register_action_kind(
@@ -583,8 +564,8 @@ register_action_kind(
     human_time=_human_pick_up, motion=[_TO_OBJECT, _GRASP], aims_at=_OBJ, colour="#fd8d3c",
 )  # fmt: skip
 register_action_kind(
-    "put_down", phrase="put {object} down", robot_time=_release, human_time=_human_put_down,
-    motion=[_RELEASE], colour="#fdae6b",
+    "put_down", phrase="put {object} down", robot_time=_release,
+    human_time=_timed(lambda t: t.human_put_down), motion=[_RELEASE], colour="#fdae6b",
 )  # fmt: skip
 
 #: The kinds flexhrc ships (the generic set, then the table's own words; ``ungrasp`` is an

@@ -79,11 +79,7 @@ class ExecutionModel(Protocol):
     are; the model updates it with the physical outcome of the action."""
 
     def execute(
-        self,
-        action: GroundAction,
-        positions: dict[str, Vec3],
-        kb: KnowledgeBase,
-        domain: Domain,
+        self, action: GroundAction, positions: dict[str, Vec3], kb: KnowledgeBase, domain: Domain
     ) -> StepReport: ...
 
 
@@ -121,11 +117,7 @@ class AnalyticSimulator:
 
     # -- one action -----------------------------------------------------------------------
     def step(
-        self,
-        action: GroundAction,
-        positions: dict[str, Vec3],
-        kb: KnowledgeBase,
-        domain: Domain,
+        self, action: GroundAction, positions: dict[str, Vec3], kb: KnowledgeBase, domain: Domain
     ) -> tuple[bool, float, str | None]:
         """Simulate one action from ``positions`` (updated in place): success, time, reason.
 
@@ -145,11 +137,7 @@ class AnalyticSimulator:
         return ok, dt, why
 
     def _step(
-        self,
-        action: GroundAction,
-        positions: dict[str, Vec3],
-        kb: KnowledgeBase,
-        domain: Domain,
+        self, action: GroundAction, positions: dict[str, Vec3], kb: KnowledgeBase, domain: Domain
     ) -> tuple[bool, float, str | None]:
         """:meth:`step` without the profile's per-action overheads."""
         kind = kind_of(action.schema)
@@ -172,11 +160,7 @@ class AnalyticSimulator:
         return True, longest, None
 
     def _declared_step(
-        self,
-        action: GroundAction,
-        positions: dict[str, Vec3],
-        kb: KnowledgeBase,
-        domain: Domain,
+        self, action: GroundAction, positions: dict[str, Vec3], kb: KnowledgeBase, domain: Domain
     ) -> tuple[bool, float, str | None]:
         """An action whose domain declares ``duration`` and/or ``moves_to``: each agent's hand
         travels to the ``moves_to`` object or place at its speed (a robot arm's ``speed``,
@@ -211,10 +195,8 @@ class AnalyticSimulator:
         kb: KnowledgeBase,
     ) -> tuple[bool, float, str | None]:
         params: Mapping[str, object] = agent.params
-        if agent.is_human:
-            speed = float(params.get("speed", self.timing.human_speed))  # type: ignore[arg-type]
-        else:
-            speed = float(params.get("speed", self.timing.robot_speed))  # type: ignore[arg-type]
+        default = self.timing.human_speed if agent.is_human else self.timing.robot_speed
+        speed = float(params.get("speed", default))  # type: ignore[arg-type]
         here = positions.get(agent.name) or (
             kb.position(agent.name) if agent.name in kb.objects else None
         )
@@ -240,11 +222,7 @@ class AnalyticSimulator:
         return True, math.dist(here, target) / max(speed, 1e-6), None
 
     def execute(
-        self,
-        action: GroundAction,
-        positions: dict[str, Vec3],
-        kb: KnowledgeBase,
-        domain: Domain,
+        self, action: GroundAction, positions: dict[str, Vec3], kb: KnowledgeBase, domain: Domain
     ) -> StepReport:
         """As an :class:`ExecutionModel`: the same model plays the real world."""
         ok, duration, why = self.step(action, positions, kb, domain)
@@ -261,14 +239,7 @@ class AnalyticSimulator:
             before = hands(action, positions, kb)
             ok, dt, why = self.step(action, positions, kb, domain)
             durations.append(dt)
-            details.append(
-                {
-                    "action": str(action),
-                    "agents": list(action.agents),
-                    "t": dt,
-                    **hand_paths(before, positions),
-                }
-            )
+            details.append(step_detail(action, dt, before, positions))
             if not ok:
                 return SimulationResult(False, durations, why, details)
         return SimulationResult(True, durations, None, details)
@@ -313,6 +284,19 @@ def hands(
         if p is not None:
             out[a] = p
     return out
+
+
+def step_detail(
+    action: GroundAction, t: float, before: Mapping[str, Vec3], positions: Mapping[str, Vec3]
+) -> dict[str, object]:
+    """One step of a :class:`SimulationResult`'s ``details``: the action, its agents, its time
+    and the paths of the hands it moved (:func:`hand_paths`)."""
+    return {
+        "action": str(action),
+        "agents": list(action.agents),
+        "t": t,
+        **hand_paths(before, positions),
+    }
 
 
 def hand_paths(before: Mapping[str, Vec3], positions: Mapping[str, Vec3]) -> dict[str, object]:
