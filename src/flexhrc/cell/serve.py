@@ -25,6 +25,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Protocol, TypeVar
 
+from flexhrc import events
 from flexhrc.cell.components import (
     HumanAgent,
     RobotAgent,
@@ -44,7 +45,8 @@ from flexhrc.transport import InProcessBus, Transport
 
 #: Where a cell listens over Zenoh when given neither ``listen`` nor ``connect``.
 DEFAULT_LISTEN = "tcp/127.0.0.1:7447"
-SIMULATORS = ("auto", "analytic", "kinematic")
+#: What ``--simulator`` may name: ``auto`` (the scenario's own) or a simulator of the catalogue.
+SIMULATORS = ("auto", *events.SIMULATORS)
 
 
 class Component(Protocol):
