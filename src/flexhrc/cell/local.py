@@ -28,7 +28,7 @@ from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from flexhrc.cell.components import HumanAgent, Replies, RobotAgent, ScenarioLike
+from flexhrc.cell.components import HumanAgent, OnExecuted, Replies, RobotAgent, ScenarioLike
 from flexhrc.cell.supervisor import Cell
 from flexhrc.errors import FlexhrcError
 from flexhrc.knowledge import KnowledgeBase
@@ -125,6 +125,12 @@ class LocalCell:
     ``execution`` the simulated real world (by default the simulator, when it can execute);
     ``store`` an :class:`~flexhrc.cell.store.EventStore` to keep every event in (new, not
     resumed), as ``flexhrc cell --store`` does.
+
+    What other in-process configurations add (perception in the loop,
+    :class:`flexhrc.sensing.loop.PerceivedCell`): ``watchers`` and ``publish_state`` — agents the
+    cell waits for and the states they watch (see :class:`Cell`); ``on_executed`` — every agent
+    reports what it carried out (to a simulated truth); ``human_execution`` — the operators'
+    execution model, if not ``execution``; ``name`` — the cell's name in its messages.
     """
 
     def __init__(
@@ -141,7 +147,7 @@ class LocalCell:
         reaction: str = "conflicts",
         observers: Iterable[Observer] = (),
         realtime: float = 0.0,
-        max_time_s: float = 3600.0,
+        max_time_s: float | None = 3600.0,
         timeout_factor: float = 3.0,
         human_sensing: Any = None,
         on_failure: str | None = None,
@@ -149,6 +155,11 @@ class LocalCell:
         replies: Replies | None = None,
         store: Any = None,
         policy: str | None = None,
+        watchers: Iterable[str] = (),
+        publish_state: bool = False,
+        on_executed: OnExecuted | None = None,
+        human_execution: ExecutionModel | None = None,
+        name: str = "default",
     ) -> None:
         domain = scenario.domain
         if simulator is None:
@@ -171,6 +182,7 @@ class LocalCell:
         self.simulator_name = simulator_name(simulator)
         self.profiles = pairs
         self.human_sensing = human_sensing  # the wrist sensor: what the manager learns
+        self.watchers = list(watchers)
         self.injection = FailureInjection(execution, list(failures))
         self.events: list[dict[str, Any]] = []
         self.bus = InProcessBus()
@@ -189,7 +201,9 @@ class LocalCell:
             observers=[self.events.append, *observers],
             max_time_s=max_time_s,
             idle_s=0.0,  # every agent is in this process: nothing can come later
-            publish_state=False,
+            publish_state=publish_state,
+            watchers=self.watchers,
+            name=name,
             quiescent=self._quiescent,
             shared_model=execution is simulator,  # the arms execute on the manager's model
             store=store,
@@ -197,7 +211,12 @@ class LocalCell:
         arm_model: ExecutionModel = self.injection
         self.agents: list[RobotAgent | HumanAgent] = [
             RobotAgent(
-                a.name, scenario, self.bus, execution=arm_model, timeout_factor=timeout_factor
+                a.name,
+                scenario,
+                self.bus,
+                execution=arm_model,
+                timeout_factor=timeout_factor,
+                on_executed=on_executed,
             )
             for a in domain.agents.values()
             if not a.is_human
@@ -211,18 +230,20 @@ class LocalCell:
                     self.bus,
                     profile=prof,
                     seed=operator_seed(seed, i),
-                    execution=execution,
+                    execution=human_execution if human_execution is not None else execution,
                     takes=takes if i == 0 else None,
+                    on_executed=on_executed,
                     sensing=human_sensing,
                     replies=replies if i == 0 else None,
                 )
             )
-        self.bus.flush()  # the operators' profiles reach the cell before it starts
+        if not self.watchers:  # watchers subscribe after this; their maker flushes then
+            self.bus.flush()  # the operators' profiles reach the cell before it starts
 
     def _quiescent(self) -> bool:
         return not self.bus.pending() and all(a.next_due() is None for a in self.agents)
 
-    def _pump(self, timeout: float) -> None:
+    def pump(self, timeout: float) -> None:
         """Deliver what is on the bus and let every agent act (paced agents: wait for the
         next one due, at most ``timeout``)."""
         if not self.bus.pending():
@@ -237,10 +258,10 @@ class LocalCell:
         """End the run at the next turn of the loop with the outcome ``interrupted``."""
         self.cell.request_stop(reason)
 
-    def run(self) -> RunResult:
-        """Run the cooperation to its end."""
+    def run(self, max_wall_s: float = 3600.0) -> RunResult:
+        """Run the cooperation to its end (at most ``max_wall_s`` seconds of wall time)."""
         try:
-            summary = self.cell.run(pump=self._pump)
+            summary = self.cell.run(pump=self.pump, max_wall_s=max_wall_s)
         finally:
             self.close()
         if self.human_sensing is not None:

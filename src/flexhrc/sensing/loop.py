@@ -36,8 +36,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from flexhrc.cell import protocol as P
-from flexhrc.cell.components import HumanAgent, RobotAgent
-from flexhrc.cell.local import FailureInjection, InjectedFailure, RunResult, add_world_record
+from flexhrc.cell.local import InjectedFailure, LocalCell, RunResult, add_world_record
 from flexhrc.errors import FlexhrcError
 from flexhrc.knowledge import KnowledgeBase
 from flexhrc.scenario.model import Scenario, WorldSpec
@@ -49,7 +48,6 @@ from flexhrc.sensing.truth import (
 )
 from flexhrc.sensing.world import SimulatedWorkspace
 from flexhrc.taskmanager.domain import Domain, GroundAction
-from flexhrc.taskmanager.operator import operator_seed
 from flexhrc.transport import InProcessBus
 
 
@@ -319,9 +317,7 @@ class PerceivedCell:
         max_wall_s: float = 3600.0,
         name: str = "perceived",
     ) -> None:
-        from flexhrc.cell import Cell
         from flexhrc.sensing.agent import PerceptionAgent
-        from flexhrc.taskmanager.operator import PROFILES
         from flexhrc.taskmanager.simulator import AnalyticSimulator, default_simulator
 
         false_reports = list(false_reports)
@@ -333,10 +329,6 @@ class PerceivedCell:
                 )
         if not (math.isfinite(confirm_s) and confirm_s >= 0):
             raise FlexhrcError(f"confirm_s must be a finite number >= 0, got {confirm_s!r}")
-        if human_profile not in PROFILES:
-            raise FlexhrcError(
-                f"unknown human profile {human_profile!r}; choose one of {', '.join(PROFILES)}"
-            )
         wanted = list(types) if types is not None else None
         world, names = SimulatedWorkspace.from_knowledge(
             truth, types=wanted, destinations=destinations
@@ -353,7 +345,6 @@ class PerceivedCell:
         if execution is None:  # the simulator plays the real world too, when it can
             execution = self.simulator if hasattr(self.simulator, "execute") else None
         self.execution = execution if execution is not None else AnalyticSimulator()
-        self.injection = FailureInjection(self.execution, list(failures))
         hier = getattr(graph, "hierarchy", graph)
         # the scenario the cell and its agents load: the task, with the manager's belief as its
         # world (each call a fresh copy: every agent keeps its own)
@@ -366,41 +357,18 @@ class PerceivedCell:
         # who sees the log, in this order (a streamed log first: what was shown was also stored)
         self.observers = [f for f in (sink, trace) if f is not None] + list(observers)
         self.max_wall_s = max_wall_s
-        self.bus = InProcessBus()
-        self._log: list[dict[str, Any]] = []  # the cooperation log, as it happens
-        self.cell = Cell(
-            scenario, self.bus, liveliness=False, simulator=self.simulator, seed=seed,
-            watchers=["perception"], name=name, realtime=realtime, ordered=True,
-            reaction=reaction, on_failure=on_failure, observers=[self._log.append], idle_s=0.0,
-            quiescent=self._quiescent, shared_model=self.execution is self.simulator,
+        # the cell's in-process configuration, with the camera as a watcher of its states and
+        # every agent's execution applied to the truth; the operators' reports say where their
+        # hand is
+        self.local = LocalCell(
+            scenario, simulator=self.simulator, execution=self.execution, profile=human_profile,
+            humans=humans, seed=seed, failures=failures, human_takes=human_takes,
+            reaction=reaction, realtime=realtime, max_time_s=None, timeout_factor=timeout_factor,
+            human_sensing=human_sensing, on_failure=on_failure, watchers=["perception"],
+            publish_state=True, on_executed=self.truth.on_executed, name=name,
+            human_execution=_ReportedHand(self.execution, world.hand),
         )  # fmt: skip
-        pairs = (
-            list(humans)
-            if humans is not None
-            else [(a.name, human_profile) for a in domain.agents.values() if a.is_human]
-        )
-        self.agents: list[Any] = []
-        for a in domain.agents.values():
-            if not a.is_human:
-                self.agents.append(
-                    RobotAgent(
-                        a.name, scenario, self.bus, execution=self.injection,
-                        timeout_factor=timeout_factor, on_executed=self.truth.on_executed,
-                    )
-                )  # fmt: skip
-        self.humans: list[HumanAgent] = []
-        for i, (who, prof) in enumerate(pairs):
-            if not domain.agent(who).is_human:
-                raise FlexhrcError(f"operator {who!r} is not a human agent of the domain")
-            h = HumanAgent(
-                who, scenario, self.bus, profile=prof, seed=operator_seed(seed, i),
-                takes=list(human_takes) if human_takes is not None and i == 0 else None,
-                execution=_ReportedHand(self.execution, world.hand),
-                on_executed=self.truth.on_executed, sensing=human_sensing,
-            )  # fmt: skip
-            self.humans.append(h)
-            self.agents.append(h)
-        self.operators = pairs
+        self.bus, self.cell, self.injection = self.local.bus, self.local.cell, self.local.injection
         self.human_sensing = human_sensing
         self.eye = PerceptionAgent(
             scenario, self.bus, truth=self.truth, camera=camera, belief=self.belief.copy(),
@@ -416,18 +384,10 @@ class PerceivedCell:
         """End the run at the next turn of the loop with ``interrupted`` (signal-safe)."""
         self.cell.request_stop(reason)
 
-    def _quiescent(self) -> bool:
-        return not self.bus.pending() and all(a.next_due() is None for a in self.agents)
-
-    def _pump(self, timeout: float) -> None:
-        self.bus.flush()
-        for a in self.agents:
-            a.poll()
-
     def run(self) -> RunResult:
         """Run the cooperation to its end."""
         try:
-            summary = self.cell.run(pump=self._pump, max_wall_s=self.max_wall_s)
+            summary = self.cell.run(pump=self.local.pump, max_wall_s=self.max_wall_s)
             self.bus.flush()
         finally:
             self.close()
@@ -445,7 +405,7 @@ class PerceivedCell:
     def events(self) -> list[dict[str, Any]]:
         """The cell's stored events in log form, with what nobody reports (the operator's
         nudges, the false reports) put in at their times."""
-        log = self._log
+        log = self.local.events
         # (what the wrist sensor made of each action is in the cell's log already)
         extra = self.truth.events + self.false.events
         if self.repair is not None:
@@ -475,10 +435,7 @@ class PerceivedCell:
 
     def human_figures(self) -> dict[str, int]:
         """``human_sensing``: what the wrist sensor made of the operators' actions."""
-        out = {"performed": 0, "recognised": 0, "missed": 0, "false_reports": 0, "uncovered": 0}
-        for h in self.humans:
-            for k, n in h.sensing_figures().items():
-                out[k] += n
+        out = self.local.sensing_figures()
         if self.human_sensing is None:
             done = sum(1 for ev in self.cell.events if ev.kind == "human_action"
                        and not str(ev.body.get("id", "")).startswith("false:"))  # fmt: skip
@@ -487,26 +444,21 @@ class PerceivedCell:
         return out
 
     def operator_profiles(self) -> list[tuple[str, str]]:
-        return list(self.operators)
+        return self.local.operator_profiles()
 
     def unfired_failures(self) -> list[InjectedFailure]:
         """Injected failures whose N-th execution never came (e.g. ``transport:99``)."""
-        return self.injection.unfired()
+        return self.local.unfired_failures()
 
     def executions_of(self, action: str) -> int:
-        return sum(
-            1 for ev in self.cell.events
-            if ev.kind == "command" and str(ev.body["action"]).split("(", 1)[0] == action
-        )  # fmt: skip
+        return self.local.executions_of(action)
 
     def close(self) -> None:
         if self.repair is not None:
             self.repair.close()
         self.false.close()
         self.eye.close()
-        for a in self.agents:
-            a.close()
-        self.cell.close()
+        self.local.close()
 
 
 __all__ = [
