@@ -256,6 +256,7 @@ def test_cli_run_table_assembly_perception_scene():
     assert out.returncode == 0, out.stderr
     data = json.loads(out.stdout)
     assert data["scenario"] == "table_assembly" and data["outcome"] == "solved"
+    assert data["cell"]["name"] == "table_assembly"  # the cell takes the scenario's name
     p = data["perception"]
     for key in ("frames", "anchored", "new_objects", "missing", "inconsistencies", "repaired"):
         assert key in p

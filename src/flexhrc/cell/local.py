@@ -171,13 +171,13 @@ class LocalCell:
             if humans is not None
             else [(a.name, profile) for a in domain.agents.values() if a.is_human]
         )
-        for name, prof in pairs:
+        for who, prof in pairs:
             if prof not in PROFILES:
                 raise FlexhrcError(
                     f"unknown human profile {prof!r}; choose one of {', '.join(PROFILES)}"
                 )
-            if name not in domain.agents or not domain.agent(name).is_human:
-                raise FlexhrcError(f"operator {name!r} is not a human agent of the domain")
+            if who not in domain.agents or not domain.agent(who).is_human:
+                raise FlexhrcError(f"operator {who!r} is not a human agent of the domain")
         self.scenario = scenario
         self.simulator_name = simulator_name(simulator)
         self.profiles = pairs
@@ -222,10 +222,10 @@ class LocalCell:
             if not a.is_human
         ]
         takes = list(human_takes) if human_takes is not None else None
-        for i, (name, prof) in enumerate(pairs):
+        for i, (who, prof) in enumerate(pairs):
             self.agents.append(
                 HumanAgent(
-                    name,
+                    who,
                     scenario,
                     self.bus,
                     profile=prof,
