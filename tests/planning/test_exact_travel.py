@@ -23,6 +23,7 @@ from flexhrc.planning.model import (
     _manager,
     _simulator,
     build_task,
+    solve_exact_travel,
     solve_task,
 )
 
@@ -128,6 +129,23 @@ def test_cli_exact_travel_json(tmp_path, capsys):
     assert out["makespan_s"] == pytest.approx(
         solve(load_scenario(name), time_limit_s=30, exact_travel=True).makespan_s
     )
+
+
+def test_a_solve_with_no_schedule_in_its_time_still_reports_the_bound_it_proved(tmp_path):
+    # 20 actions, 6 agents, every hand's circuit: nothing is found in 1e-4 deterministic
+    # seconds, but what CP-SAT proved is a lower bound all the same (it used to be null)
+    sc = load_scenario(_generated(tmp_path, actions=20, agents=6, width=4, seed=0))
+    tm = _manager(sc, _simulator(sc, None))
+    task, st = build_task(tm, travel=True), State(facts=tm.kb.facts)
+    none = solve_task(task, st, time_limit_s=1e-4, deterministic=True, max_circuit=None)
+    assert none.status == "unknown" and none.objective is None and not none.schedule
+    assert none.bound is not None and none.gap is None and none.to_json()["bound"] >= 0.0
+    # the exact travel plan answers the warm start's schedule when the full solve finds nothing
+    # better: with the full solve's bound, so its gap is known
+    exact = solve_exact_travel(task, st, time_limit_s=2.0, deterministic=True)
+    assert exact.status == "feasible" and exact.objective is not None
+    assert exact.bound is not None and none.bound <= exact.bound <= exact.objective
+    assert exact.gap is not None and 0.0 <= exact.gap < 1.0
 
 
 def test_lookahead_plans_every_hand_s_travel_first_on_a_big_task(tmp_path):

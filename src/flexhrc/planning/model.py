@@ -867,11 +867,17 @@ def solve_task(
         cp_model.FEASIBLE: "feasible",
         cp_model.INFEASIBLE: "infeasible",
     }.get(code, "unknown")
-    if status not in ("optimal", "feasible"):
-        return Plan(status, None, None, None, spent, goal=objective)
-    value = solver.Value(primary) if not isinstance(primary, int) else primary
     raw_bound = solver.BestObjectiveBound()
-    bound = value if status == "optimal" else (raw_bound // weight if second_top else raw_bound)
+    # the objective is primary * weight + secondary with 0 <= secondary < weight: a lower bound
+    # of the whole, floor-divided by weight, is a lower bound of the (integer) primary
+    bound = raw_bound // weight if second_top else raw_bound
+    if status not in ("optimal", "feasible"):
+        # no schedule in the time, but what CP-SAT proved holds: a bound without a plan
+        known = round(bound / MS, 6) if status == "unknown" and math.isfinite(bound) else None
+        return Plan(status, None, known, None, spent, goal=objective)
+    value = solver.Value(primary) if not isinstance(primary, int) else primary
+    if status == "optimal":
+        bound = value
     return _extract(
         task, st, solver, objective, status, value, bound, spent, x, s, ys, makespan,
         [(p, v, reach[n], met[n]) for n, z in zs.items() for p, v in z], dvs,
