@@ -6,8 +6,8 @@
 Each figure is measured in fresh processes of each tree, the two trees taking turns (old, new,
 old, new, ...) so that a machine that gets busier or quieter during the run weighs on both
 alike. Each tree runs its own ``benchmarks/scenarios.py::per_decision`` (compute of the Task
-Manager, task representation and simulator per decision tree, median over every shipped
-scenario x the four operator profiles x ``--runs`` seeds, analytic simulator) and its own
+Manager, task representation and simulator per decision tree, median over every scenario
+both trees ship x the four operator profiles x ``--runs`` seeds, analytic simulator) and its own
 ``benchmarks/cell.py::round_trip`` (a command -> its ack between two processes over Zenoh on
 loopback, median of ``--commands``). The report is the median of the rounds' medians for each
 tree and the ratio new / old (the issue's bound: <= 1.1).
@@ -22,6 +22,7 @@ import statistics
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
 NEW = Path(__file__).resolve().parents[1]
 
@@ -31,13 +32,20 @@ spec = importlib.util.spec_from_file_location("bench_scenarios", sys.argv[1])
 mod = importlib.util.module_from_spec(spec); spec.loader.exec_module(mod)
 from flexhrc import scenario
 runs = int(sys.argv[2])
+names = sys.argv[3].split(",") if len(sys.argv) > 3 else scenario.SHIPPED
 values = []
-for name in scenario.SHIPPED:
+for name in names:
     sc = scenario.load(name)
     mod.per_decision(sc, "passive", 0)  # warm caches
     for profile in mod.PROFILES:
         values += [mod.per_decision(sc, profile, s) for s in range(runs)]
 print(json.dumps({"median_s": statistics.median(values)}))
+"""
+
+SHIPPED = """
+import json
+from flexhrc import scenario
+print(json.dumps({"shipped": list(scenario.SHIPPED)}))
 """
 
 ROUND_TRIP = """
@@ -48,11 +56,11 @@ print(json.dumps({"median_s": mod.round_trip(int(sys.argv[2]))["median_ms"] / 1e
 """
 
 
-def measure(tree: Path, code: str, script: str, arg: int) -> float:
+def _python(tree: Path, code: str, *argv: str) -> dict[str, Any]:
     env = dict(os.environ)
     env["PYTHONPATH"] = str(tree / "src")
     out = subprocess.run(
-        [sys.executable, "-c", code, str(tree / "benchmarks" / script), str(arg)],
+        [sys.executable, "-c", code, *argv],
         env=env,
         cwd=tree,
         capture_output=True,
@@ -60,7 +68,14 @@ def measure(tree: Path, code: str, script: str, arg: int) -> float:
         check=True,
         timeout=1800,
     ).stdout
-    return float(json.loads(out.strip().splitlines()[-1])["median_s"])
+    result: dict[str, Any] = json.loads(out.strip().splitlines()[-1])
+    return result
+
+
+def measure(tree: Path, code: str, script: str, arg: int, *extra: str) -> float:
+    return float(
+        _python(tree, code, str(tree / "benchmarks" / script), str(arg), *extra)["median_s"]
+    )
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -73,16 +88,22 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     if not (args.old / "src" / "flexhrc").is_dir():
         ap.error(f"--old {args.old}: not a flexhrc tree (no src/flexhrc)")
-    figures = {
-        "per decision": (PER_DECISION, "scenarios.py", args.runs, 1e3, "ms"),
-        "cell round trip": (ROUND_TRIP, "cell.py", args.commands, 1e3, "ms"),
+    # per decision over the scenarios both trees ship: the same work (a scenario only one tree
+    # has would weigh on its median alone)
+    new_shipped = _python(NEW, SHIPPED)["shipped"]
+    old_shipped = set(_python(args.old, SHIPPED)["shipped"])
+    common = [name for name in new_shipped if name in old_shipped]
+    print(f"per decision over the scenarios both ship: {', '.join(common)}", file=sys.stderr)
+    figures: dict[str, tuple[str, str, int, tuple[str, ...], float, str]] = {
+        "per decision": (PER_DECISION, "scenarios.py", args.runs, (",".join(common),), 1e3, "ms"),
+        "cell round trip": (ROUND_TRIP, "cell.py", args.commands, (), 1e3, "ms"),
     }
-    results: dict[str, dict[str, float]] = {}
-    for label, (code, script, arg, scale, unit) in figures.items():
+    results: dict[str, dict[str, Any]] = {}
+    for label, (code, script, arg, extra, scale, unit) in figures.items():
         got: dict[str, list[float]] = {"old": [], "new": []}
         for i in range(args.rounds):
             for which, tree in (("old", args.old), ("new", NEW)):
-                got[which].append(measure(tree, code, script, arg))
+                got[which].append(measure(tree, code, script, arg, *extra))
             print(f"{label}: round {i + 1}/{args.rounds}", file=sys.stderr)
         old, new = statistics.median(got["old"]), statistics.median(got["new"])
         results[label] = {
