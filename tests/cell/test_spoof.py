@@ -383,8 +383,14 @@ def test_a_join_lost_on_the_way_is_asked_for_and_the_cell_runs(
     with _zenoh() as net:
         data, cell, agents = _play(net)
     left = next(a for a in agents if a.name == "left")
-    assert asked and asked[0] == ["left"], asked
-    assert cell.sessions["left"] == left.session
+    # the lost join was asked for. Another agent may be named with it: its token can reach the
+    # cell before its join (two messages, no order between them), and on a loaded machine the
+    # first ask may come in between (ci66) — it joins all the same: every agent holds its name
+    assert asked and "left" in asked[0], asked
+    assert set(asked[0]) <= {a.name for a in agents}, asked
+    assert {a.name: cell.sessions.get(a.name) for a in agents} == {
+        a.name: a.session for a in agents
+    }
     assert left.executed == [
         e.body["id"] for e in cell.events if e.kind == "command" and e.body["agents"][0] == "left"
     ]
