@@ -104,6 +104,15 @@ class FailureInjection:
         return [f for i, f in enumerate(self.failures) if self.counts.get(i, 0) < f.nth]
 
 
+def real_world(simulator: Any, execution: ExecutionModel | None = None) -> ExecutionModel:
+    """The simulated real world the agents execute on: ``execution`` if given, else the
+    manager's ``simulator`` when it can execute (one model: branches and world agree), else the
+    analytic model."""
+    if execution is not None:
+        return execution
+    return simulator if hasattr(simulator, "execute") else AnalyticSimulator()
+
+
 def add_world_record(summary: dict[str, Any], world: object) -> None:
     """Add to a summary's ``simulated`` how the arms' simulated world played each action (the
     manager's simulator says how it scored them; in one process they are often one object)."""
@@ -164,18 +173,18 @@ class LocalCell:
         domain = scenario.domain
         if simulator is None:
             simulator = scenario.make_simulator(None)  # the scenario's own choice
-        if execution is None:  # the simulator plays the real world too, when it can
-            execution = simulator if hasattr(simulator, "execute") else AnalyticSimulator()
+        execution = real_world(simulator, execution)
         pairs = (
             list(humans)
             if humans is not None
             else [(a.name, profile) for a in domain.agents.values() if a.is_human]
         )
-        for who, prof in pairs:
+        for prof in [profile, *(p for _, p in pairs)]:  # a bad ``profile`` even when unused
             if prof not in PROFILES:
                 raise FlexhrcError(
                     f"unknown human profile {prof!r}; choose one of {', '.join(PROFILES)}"
                 )
+        for who, _ in pairs:
             if who not in domain.agents or not domain.agent(who).is_human:
                 raise FlexhrcError(f"operator {who!r} is not a human agent of the domain")
         self.scenario = scenario
@@ -258,10 +267,10 @@ class LocalCell:
         """End the run at the next turn of the loop with the outcome ``interrupted``."""
         self.cell.request_stop(reason)
 
-    def run(self, max_wall_s: float = 3600.0) -> RunResult:
-        """Run the cooperation to its end (at most ``max_wall_s`` seconds of wall time)."""
+    def run(self) -> RunResult:
+        """Run the cooperation to its end."""
         try:
-            summary = self.cell.run(pump=self.pump, max_wall_s=max_wall_s)
+            summary = self.cell.run(pump=self.pump)
         finally:
             self.close()
         if self.human_sensing is not None:

@@ -36,7 +36,13 @@ from dataclasses import dataclass
 from typing import Any
 
 from flexhrc.cell import protocol as P
-from flexhrc.cell.local import InjectedFailure, LocalCell, RunResult, add_world_record
+from flexhrc.cell.local import (
+    InjectedFailure,
+    LocalCell,
+    RunResult,
+    add_world_record,
+    real_world,
+)
 from flexhrc.errors import FlexhrcError
 from flexhrc.knowledge import KnowledgeBase
 from flexhrc.scenario.model import Scenario, WorldSpec
@@ -318,7 +324,7 @@ class PerceivedCell:
         name: str = "perceived",
     ) -> None:
         from flexhrc.sensing.agent import PerceptionAgent
-        from flexhrc.taskmanager.simulator import AnalyticSimulator, default_simulator
+        from flexhrc.taskmanager.simulator import default_simulator
 
         false_reports = list(false_reports)
         for fr in false_reports:
@@ -342,9 +348,7 @@ class PerceivedCell:
         self.world = world
         self.truth = WorkspaceTruth(world, nudges)
         self.simulator = simulator if simulator is not None else default_simulator()
-        if execution is None:  # the simulator plays the real world too, when it can
-            execution = self.simulator if hasattr(self.simulator, "execute") else None
-        self.execution = execution if execution is not None else AnalyticSimulator()
+        self.execution = real_world(self.simulator, execution)  # the operators' hand wraps it
         hier = getattr(graph, "hierarchy", graph)
         # the scenario the cell and its agents load: the task, with the manager's belief as its
         # world (each call a fresh copy: every agent keeps its own)
